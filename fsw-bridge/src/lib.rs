@@ -1,0 +1,17 @@
+//! The wire protocol between the RAD750-proxy target and the host harness.
+//!
+//! Both sides compile this crate: the firmware for `powerpc-unknown-linux-gnu` (no_std, no heap),
+//! the host natively. It holds the message set ([`messages`]), the frame codec ([`codec`]: postcard
+//! payload, CRC-32, COBS framing) and the plain types the autonomy core sees ([`types`]).
+#![no_std]
+#![forbid(unsafe_code)]
+
+pub mod codec;
+pub mod messages;
+pub mod types;
+
+pub use messages::{HostToTarget, LinkCounters, TargetToHost, TelemetryEvent};
+pub use types::*;
+
+/// Version of the message set. Both sides refuse a peer that speaks another version.
+pub const PROTOCOL_VERSION: u16 = 1;

@@ -1,0 +1,155 @@
+//! Message set v1 ([`crate::PROTOCOL_VERSION`]), one enum per direction so that neither side
+//! can be handed a message meant for the other.
+//!
+//! Every capacity is a named constant; every message fits in one frame
+//! ([`crate::codec::MAX_PAYLOAD_LEN`]), which the codec tests check for the largest instance of
+//! each variant.
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+use crate::types::{
+    CommandArgs, CommandStatus, MissionTimeUs, Opcode, ResetCause, ResetKind, StateKey, StateValue,
+};
+
+/// Bytes of defmt-encoded log data carried by one Log frame.
+pub const LOG_CHUNK_MAX: usize = 96;
+/// Bytes of task-network uplink carried by one UplinkChunk frame.
+pub const UPLINK_CHUNK_MAX: usize = 128;
+/// Bytes of source path kept in a Panic report (the tail of the path is kept).
+pub const PANIC_FILE_MAX: usize = 64;
+/// Length of the firmware build identifier (a hash of the image, set at build time).
+pub const BUILD_ID_LEN: usize = 8;
+
+/// Counters kept by a frame decoder; the target reports its own in every Pong.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct LinkCounters {
+    /// Frames decoded and accepted.
+    pub frames_ok: u32,
+    /// Frames whose CRC-32 did not match.
+    pub crc_errors: u32,
+    /// Byte runs longer than the largest frame before a delimiter.
+    pub oversize: u32,
+    /// Frames with a valid CRC but a message type this side does not know.
+    pub unknown_type: u32,
+    /// Frames too short to hold a CRC, bad COBS, or a payload that ended early.
+    pub truncated: u32,
+    /// Frames with a valid CRC and type whose fields did not decode (bad field value, trailing
+    /// bytes).
+    pub malformed: u32,
+}
+
+impl LinkCounters {
+    /// Every rejected frame, whatever the reason.
+    pub fn errors(&self) -> u32 {
+        self.crc_errors
+            .saturating_add(self.oversize)
+            .saturating_add(self.unknown_type)
+            .saturating_add(self.truncated)
+            .saturating_add(self.malformed)
+    }
+}
+
+/// Messages the host (harness, simulated spacecraft, ground) sends to the target.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum HostToTarget {
+    /// Liveness probe; the target answers Pong with the same sequence number.
+    Ping { seq: u32 },
+    /// Lockstep time driver: the target may run its schedule up to mission time `until`,
+    /// then reports FrameDone for `frame`.
+    TimeGrant {
+        frame: u32,
+        now: MissionTimeUs,
+        until: MissionTimeUs,
+    },
+    /// A state-buffer entry changed (published by a simulated or real subsystem).
+    StateUpdate {
+        key: StateKey,
+        value: StateValue,
+        timestamp: MissionTimeUs,
+    },
+    /// Reply to a CommandDispatch with the same `id`.
+    CommandResponse {
+        id: u32,
+        status: CommandStatus,
+        data: Option<i64>,
+    },
+    /// One piece of a binary task-network uplink; `seq` counts from 0 to `total - 1`.
+    UplinkChunk {
+        seq: u16,
+        total: u16,
+        bytes: Vec<u8, UPLINK_CHUNK_MAX>,
+    },
+    /// Ask the target to reset itself.
+    ResetRequest { kind: ResetKind },
+}
+
+/// Messages the target sends to the host.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum TargetToHost {
+    /// Sent once on every boot, before anything else.
+    Hello {
+        protocol_version: u16,
+        build_id: [u8; BUILD_ID_LEN],
+        reset_cause: ResetCause,
+        /// Boots since the warm-restart area was last initialised (power-on counts as 1).
+        boot_count: u32,
+    },
+    /// Answer to Ping, with the target's decoder counters.
+    Pong { seq: u32, link: LinkCounters },
+    /// The target finished the frame granted by TimeGrant `frame`. `next_wakeup` is the earliest
+    /// mission time at which it needs to run again (None: only when input arrives).
+    FrameDone {
+        frame: u32,
+        next_wakeup: Option<MissionTimeUs>,
+        /// Guest timebase ticks the frame's work took (a duration, never an absolute value).
+        busy_ticks: u32,
+    },
+    /// The executive asks a subsystem to carry out a command.
+    CommandDispatch {
+        id: u32,
+        opcode: Opcode,
+        args: CommandArgs,
+    },
+    /// defmt-encoded log bytes, decoded on the host against the firmware ELF.
+    Log { bytes: Vec<u8, LOG_CHUNK_MAX> },
+    /// Something the autonomy or the kernel did.
+    Telemetry(TelemetryEvent),
+    /// Uplink chunk `seq` was stored.
+    UplinkAck { seq: u16 },
+    /// Uplink chunk `seq` (or the whole uplink) was refused; `reason` is a validation code.
+    UplinkNak { seq: u16, reason: u16 },
+    /// The target panicked at `file:line`; it resets itself (cause HealthMonitor) right after.
+    Panic {
+        file: Vec<u8, PANIC_FILE_MAX>,
+        line: u32,
+    },
+}
+
+/// Events reported as telemetry. New kinds are appended at the end (postcard encodes the
+/// variant index), and a change that is not append-only bumps the protocol version.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum TelemetryEvent {
+    /// A task of the executive changed state (codes defined by the autonomy core).
+    TaskTransition {
+        task: u16,
+        from: u8,
+        to: u8,
+        at: MissionTimeUs,
+    },
+    /// The planner modified the plan (kind codes defined by the autonomy core).
+    PlanModification {
+        kind: u8,
+        task: u16,
+        template: u16,
+        at: MissionTimeUs,
+    },
+    /// The kernel's health monitor handled an error.
+    HealthMonitor {
+        partition: u8,
+        kind: u8,
+        address: u32,
+        action: u8,
+    },
+    /// A named measurement (ids defined by the firmware; values in the unit the id names).
+    Metric { id: u16, value: u64 },
+}

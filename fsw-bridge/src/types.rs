@@ -1,0 +1,92 @@
+//! Plain data types shared by the target, the host and the autonomy core.
+//!
+//! Time is always an integer with its unit in the name: mission time in microseconds
+//! ([`MissionTimeUs`]), guest CPU time in timebase ticks ([`Ticks`]).
+use serde::{Deserialize, Serialize};
+
+/// Mission time in microseconds since the scenario's epoch.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+pub struct MissionTimeUs(pub u64);
+
+impl MissionTimeUs {
+    pub const ZERO: Self = Self(0);
+    pub const MAX: Self = Self(u64::MAX);
+
+    pub const fn from_secs(secs: u64) -> Self {
+        Self(secs * 1_000_000)
+    }
+
+    pub const fn from_mins(mins: u64) -> Self {
+        Self(mins * 60_000_000)
+    }
+
+    pub const fn saturating_add(self, us: u64) -> Self {
+        Self(self.0.saturating_add(us))
+    }
+}
+
+/// Guest CPU time in timebase ticks (16.6 MHz on g3beige; under `-icount shift=2` one
+/// instruction is 4 ns of virtual time).
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+pub struct Ticks(pub u64);
+
+/// Identifies one entry of the spacecraft state buffer (attitude, battery energy, ...).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct StateKey(pub u16);
+
+/// A state-buffer value. Enumerated states (attitude NADIR, TURNING, ...) are small codes
+/// whose names live in the task network; quantities are integers in the unit of their key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum StateValue {
+    /// The owner of this state cannot vouch for it (for example attitude after a reset).
+    Unknown,
+    Bool(bool),
+    Enum(u16),
+    Int(i64),
+}
+
+/// Command opcode understood by a simulated (or real) subsystem.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct Opcode(pub u16);
+
+/// Most arguments one command carries.
+pub const MAX_COMMAND_ARGS: usize = 4;
+
+/// Arguments of a dispatched command.
+pub type CommandArgs = heapless::Vec<i32, MAX_COMMAND_ARGS>;
+
+/// Outcome of a dispatched command, as reported by the subsystem.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum CommandStatus {
+    /// Completed as commanded.
+    Ok,
+    /// The subsystem tried and failed; the code is subsystem-specific.
+    Failed(u16),
+    /// The subsystem refused the command (bad arguments, wrong mode).
+    Rejected,
+}
+
+/// Why the target (re)started. Reported in every Hello.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ResetCause {
+    /// RAM contents were not trusted: first boot of this QEMU process or of the board.
+    PowerOn,
+    /// A reset with RAM kept, requested from outside (QMP `system_reset`, the host's
+    /// ResetRequest, a reset line).
+    Warm,
+    /// The kernel's watchdog expired.
+    Watchdog,
+    /// The health monitor (or a panic) decided to reset the module.
+    HealthMonitor,
+}
+
+/// How the host asks the target to reset itself.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum ResetKind {
+    /// Restart from the reset vector, RAM kept (warm-restart area survives).
+    Warm,
+}
