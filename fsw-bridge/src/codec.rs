@@ -17,7 +17,12 @@ const CRC_LEN: usize = 4;
 /// Bytes between the two delimiters at most: COBS adds one byte per 254 plus one.
 const MAX_STUFFED_LEN: usize = MAX_FRAME_LEN - 2;
 
-const _: () = assert!(MAX_PAYLOAD_LEN + CRC_LEN + (MAX_PAYLOAD_LEN + CRC_LEN) / 254 + 1 <= MAX_STUFFED_LEN);
+/// Most bytes [`cobs_encode`] writes for `raw_len` input bytes.
+const fn max_stuffed_len(raw_len: usize) -> usize {
+    raw_len + raw_len / 254 + 1
+}
+
+const _: () = assert!(max_stuffed_len(MAX_PAYLOAD_LEN + CRC_LEN) <= MAX_STUFFED_LEN);
 
 /// The CRC used on the link (CRC-32, as in Ethernet and zlib).
 pub const LINK_CRC: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
@@ -53,7 +58,8 @@ pub enum DecodeError {
     BadCrc,
     /// More than [`MAX_FRAME_LEN`] bytes arrived without a delimiter.
     Oversize,
-    /// The CRC matched but the message type tag is not one this side knows.
+    /// The CRC matched but the message type tag is not one this side knows (tags above 255 are
+    /// reported as 255).
     UnknownType(u8),
     /// Too short for a CRC, invalid COBS, or the payload ended inside a field.
     Truncated,
@@ -71,7 +77,7 @@ pub fn encode<M: Serialize>(msg: &M, out: &mut [u8]) -> Result<usize, EncodeErro
     raw[payload_len..payload_len + CRC_LEN].copy_from_slice(&crc.to_le_bytes());
     let raw = &raw[..payload_len + CRC_LEN];
 
-    let needed = raw.len() + raw.len() / 254 + 1 + 2;
+    let needed = max_stuffed_len(raw.len()) + 2;
     if out.len() < needed {
         return Err(EncodeError::OutputTooSmall);
     }
@@ -219,16 +225,194 @@ impl FrameDecoder {
         if LINK_CRC.checksum(payload) != u32::from_le_bytes(crc_bytes) {
             return Err(DecodeError::BadCrc);
         }
-        // The tag is a varint; every tag we know fits in its first byte.
-        let tag = payload[0];
-        if tag >= M::VARIANT_COUNT {
-            return Err(DecodeError::UnknownType(tag));
+        // postcard writes the variant index as a varint u32, exactly as it writes a u32 field,
+        // so read it the same way: a tag of 128 or more spans several bytes, and a peer may send
+        // a non-canonical (padded) varint, which postcard accepts for known tags as well.
+        let (tag, _) = postcard::take_from_bytes::<u32>(payload).map_err(postcard_error)?;
+        if tag >= u32::from(M::VARIANT_COUNT) {
+            return Err(DecodeError::UnknownType(
+                u8::try_from(tag).unwrap_or(u8::MAX),
+            ));
         }
         match postcard::take_from_bytes::<M>(payload) {
             Ok((msg, [])) => Ok(msg),
             Ok(_) => Err(DecodeError::Malformed),
-            Err(postcard::Error::DeserializeUnexpectedEnd) => Err(DecodeError::Truncated),
-            Err(_) => Err(DecodeError::Malformed),
+            Err(e) => Err(postcard_error(e)),
+        }
+    }
+}
+
+/// Classify a postcard error on a frame whose CRC matched.
+fn postcard_error(e: postcard::Error) -> DecodeError {
+    match e {
+        postcard::Error::DeserializeUnexpectedEnd => DecodeError::Truncated,
+        _ => DecodeError::Malformed,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    //! COBS edge cases. The codec functions are private and no message is long enough to reach a
+    //! 254-byte run through `encode`, so they are tested directly against known vectors and a
+    //! textbook decoder.
+    use super::*;
+    use proptest::prelude::*;
+    use std::vec;
+    use std::vec::Vec;
+
+    fn stuff(src: &[u8]) -> Vec<u8> {
+        let mut dst = vec![0xAA; max_stuffed_len(src.len())];
+        let n = cobs_encode(src, &mut dst);
+        assert!(n <= dst.len());
+        dst.truncate(n);
+        dst
+    }
+
+    fn unstuff(stuffed: &[u8]) -> Option<Vec<u8>> {
+        let mut buf = stuffed.to_vec();
+        let n = cobs_decode_in_place(&mut buf, stuffed.len())?;
+        buf.truncate(n);
+        Some(buf)
+    }
+
+    /// Textbook COBS decoder (Cheshire & Baker), written independently of the one under test.
+    fn reference_unstuff(src: &[u8]) -> Option<Vec<u8>> {
+        let mut out = Vec::new();
+        let mut i = 0;
+        while i < src.len() {
+            let code = src[i] as usize;
+            if code == 0 || i + code > src.len() {
+                return None;
+            }
+            let block = &src[i + 1..i + code];
+            if block.contains(&0) {
+                return None;
+            }
+            out.extend_from_slice(block);
+            i += code;
+            if code < 0xff && i < src.len() {
+                out.push(0);
+            }
+        }
+        Some(out)
+    }
+
+    fn run(from: u8, len: usize) -> Vec<u8> {
+        (0..len)
+            .map(|i| ((from as usize - 1 + i) % 255 + 1) as u8)
+            .collect()
+    }
+
+    fn cat(parts: &[&[u8]]) -> Vec<u8> {
+        parts.concat()
+    }
+
+    #[test]
+    fn known_vectors() {
+        // (raw, stuffed) pairs; the encoder closes a full 254-byte block with a code byte of its
+        // own, so an input ending exactly on such a block carries a trailing 0x01.
+        let cases: Vec<(Vec<u8>, Vec<u8>)> = vec![
+            (vec![], vec![0x01]),
+            (vec![0x00], vec![0x01, 0x01]),
+            (vec![0x00, 0x00], vec![0x01, 0x01, 0x01]),
+            (vec![0x00, 0x11, 0x00], vec![0x01, 0x02, 0x11, 0x01]),
+            (
+                vec![0x11, 0x22, 0x00, 0x33],
+                vec![0x03, 0x11, 0x22, 0x02, 0x33],
+            ),
+            (
+                vec![0x11, 0x22, 0x33, 0x44],
+                vec![0x05, 0x11, 0x22, 0x33, 0x44],
+            ),
+            (
+                vec![0x11, 0x00, 0x00, 0x00],
+                vec![0x02, 0x11, 0x01, 0x01, 0x01],
+            ),
+            // 253-byte run: one block, no split.
+            (run(1, 253), cat(&[&[0xfe], &run(1, 253)])),
+            // 254-byte run: a full block, then an empty final block.
+            (run(1, 254), cat(&[&[0xff], &run(1, 254), &[0x01]])),
+            // 255-byte run: full block, then a block of one.
+            (run(1, 255), cat(&[&[0xff], &run(1, 254), &[0x02, 0xff]])),
+            // Zero then a 254-byte run.
+            (
+                cat(&[&[0x00], &run(1, 254)]),
+                cat(&[&[0x01, 0xff], &run(1, 254), &[0x01]]),
+            ),
+            // 254-byte run then a zero: the zero after a full block needs its own block.
+            (
+                cat(&[&run(2, 254), &[0x00]]),
+                cat(&[&[0xff], &run(2, 254), &[0x01, 0x01]]),
+            ),
+            // 253-byte run, zero, one byte.
+            (
+                cat(&[&run(3, 253), &[0x00, 0x01]]),
+                cat(&[&[0xfe], &run(3, 253), &[0x02, 0x01]]),
+            ),
+            // Two full blocks.
+            (
+                run(1, 508),
+                cat(&[&[0xff], &run(1, 254), &[0xff], &run(255, 254), &[0x01]]),
+            ),
+        ];
+        for (raw, stuffed) in &cases {
+            assert_eq!(&stuff(raw), stuffed, "encoding {raw:02x?}");
+            assert_eq!(
+                unstuff(stuffed).as_ref(),
+                Some(raw),
+                "decoding {stuffed:02x?}"
+            );
+        }
+    }
+
+    #[test]
+    fn decodes_full_block_at_end_without_trailing_code() {
+        // Other COBS encoders end a 254-byte run with the 0xff block itself; that is valid too,
+        // and must not gain a zero at the end.
+        let stuffed = cat(&[&[0xff], &run(1, 254)]);
+        assert_eq!(unstuff(&stuffed), Some(run(1, 254)));
+        let stuffed = cat(&[&[0x01, 0xff], &run(1, 254)]);
+        assert_eq!(unstuff(&stuffed), Some(cat(&[&[0x00], &run(1, 254)])));
+    }
+
+    #[test]
+    fn rejects_invalid_stuffing() {
+        assert_eq!(unstuff(&[0x05, 0x01, 0x02]), None, "code past the end");
+        assert_eq!(unstuff(&[0x02]), None, "code past the end");
+        assert_eq!(
+            unstuff(&[0x01, 0x03, 0x01]),
+            None,
+            "second code past the end"
+        );
+        assert_eq!(unstuff(&[0x03, 0x00, 0x01]), None, "zero inside a block");
+        assert_eq!(unstuff(&[0x00]), None, "zero code");
+        assert_eq!(
+            unstuff(&cat(&[&[0xff], &run(1, 253)])),
+            None,
+            "short full block"
+        );
+    }
+
+    fn runny_bytes(max: usize) -> impl Strategy<Value = Vec<u8>> {
+        // Mostly non-zero so that 254-byte runs and splits actually happen.
+        proptest::collection::vec(prop_oneof![20 => 1u8..=255, 1 => Just(0u8)], 0..max)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(512))]
+
+        #[test]
+        fn stuffing_round_trips(raw in runny_bytes(1100)) {
+            let stuffed = stuff(&raw);
+            prop_assert!(!stuffed.contains(&0));
+            prop_assert!(stuffed.len() <= max_stuffed_len(raw.len()));
+            prop_assert_eq!(unstuff(&stuffed), Some(raw.clone()));
+            prop_assert_eq!(reference_unstuff(&stuffed), Some(raw));
+        }
+
+        #[test]
+        fn decoder_agrees_with_reference(stuffed in runny_bytes(600)) {
+            prop_assert_eq!(unstuff(&stuffed), reference_unstuff(&stuffed));
         }
     }
 }

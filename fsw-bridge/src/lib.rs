@@ -6,6 +6,10 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
+// Unit tests use std (Vec, proptest); the library itself never does.
+#[cfg(test)]
+extern crate std;
+
 pub mod codec;
 pub mod messages;
 pub mod types;

@@ -1,0 +1,309 @@
+//! Every variant of both message enums survives encode -> decode, the largest instance of each
+//! fits in a frame, the wire format is exactly `0, COBS(postcard ++ CRC-32 LE), 0`, and
+//! `WireMessage::VARIANT_COUNT` is the real number of variants.
+mod common;
+
+use common::*;
+use fsw_bridge::codec::{
+    encode, EncodeError, FrameDecoder, WireMessage, MAX_FRAME_LEN, MAX_PAYLOAD_LEN,
+};
+use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
+use fsw_bridge::{
+    CommandStatus, HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, ResetKind,
+    StateKey, StateValue, TargetToHost, TelemetryEvent, MAX_COMMAND_ARGS,
+};
+use proptest::prelude::*;
+
+/// Declaration index of each variant. Exhaustive on purpose: adding a variant breaks the build
+/// here, which is the reminder to bump VARIANT_COUNT and extend these tests.
+fn h2t_index(m: &HostToTarget) -> usize {
+    match m {
+        HostToTarget::Ping { .. } => 0,
+        HostToTarget::TimeGrant { .. } => 1,
+        HostToTarget::StateUpdate { .. } => 2,
+        HostToTarget::CommandResponse { .. } => 3,
+        HostToTarget::UplinkChunk { .. } => 4,
+        HostToTarget::ResetRequest { .. } => 5,
+    }
+}
+
+fn t2h_index(m: &TargetToHost) -> usize {
+    match m {
+        TargetToHost::Hello { .. } => 0,
+        TargetToHost::Pong { .. } => 1,
+        TargetToHost::FrameDone { .. } => 2,
+        TargetToHost::CommandDispatch { .. } => 3,
+        TargetToHost::Log { .. } => 4,
+        TargetToHost::Telemetry(_) => 5,
+        TargetToHost::UplinkAck { .. } => 6,
+        TargetToHost::UplinkNak { .. } => 7,
+        TargetToHost::Panic { .. } => 8,
+    }
+}
+
+fn full<const N: usize>(byte: u8) -> heapless::Vec<u8, N> {
+    heapless::Vec::from_slice(&[byte; N]).unwrap()
+}
+
+/// The largest instance of variant `i`: every varint at its longest (u*::MAX, i*::MIN), every
+/// Vec full, every Option Some, the longest inner variant.
+fn largest_h2t(i: usize) -> HostToTarget {
+    match i {
+        0 => HostToTarget::Ping { seq: u32::MAX },
+        1 => HostToTarget::TimeGrant {
+            frame: u32::MAX,
+            now: MissionTimeUs::MAX,
+            until: MissionTimeUs::MAX,
+        },
+        2 => HostToTarget::StateUpdate {
+            key: StateKey(u16::MAX),
+            value: StateValue::Int(i64::MIN),
+            timestamp: MissionTimeUs::MAX,
+        },
+        3 => HostToTarget::CommandResponse {
+            id: u32::MAX,
+            status: CommandStatus::Failed(u16::MAX),
+            data: Some(i64::MIN),
+        },
+        4 => HostToTarget::UplinkChunk {
+            seq: u16::MAX,
+            total: u16::MAX,
+            bytes: full::<UPLINK_CHUNK_MAX>(0xff),
+        },
+        5 => HostToTarget::ResetRequest {
+            kind: ResetKind::Warm,
+        },
+        _ => panic!("HostToTarget has no variant {i}"),
+    }
+}
+
+fn largest_t2h(i: usize) -> TargetToHost {
+    match i {
+        0 => TargetToHost::Hello {
+            protocol_version: u16::MAX,
+            build_id: [0xff; 8],
+            reset_cause: ResetCause::HealthMonitor,
+            boot_count: u32::MAX,
+        },
+        1 => TargetToHost::Pong {
+            seq: u32::MAX,
+            link: LinkCounters {
+                frames_ok: u32::MAX,
+                crc_errors: u32::MAX,
+                oversize: u32::MAX,
+                unknown_type: u32::MAX,
+                truncated: u32::MAX,
+                malformed: u32::MAX,
+            },
+        },
+        2 => TargetToHost::FrameDone {
+            frame: u32::MAX,
+            next_wakeup: Some(MissionTimeUs::MAX),
+            busy_ticks: u32::MAX,
+        },
+        3 => TargetToHost::CommandDispatch {
+            id: u32::MAX,
+            opcode: Opcode(u16::MAX),
+            args: heapless::Vec::from_slice(&[i32::MIN; MAX_COMMAND_ARGS]).unwrap(),
+        },
+        4 => TargetToHost::Log {
+            bytes: full::<LOG_CHUNK_MAX>(0xff),
+        },
+        5 => TargetToHost::Telemetry(TelemetryEvent::PlanModification {
+            kind: u8::MAX,
+            task: u16::MAX,
+            template: u16::MAX,
+            at: MissionTimeUs::MAX,
+        }),
+        6 => TargetToHost::UplinkAck { seq: u16::MAX },
+        7 => TargetToHost::UplinkNak {
+            seq: u16::MAX,
+            reason: u16::MAX,
+        },
+        8 => TargetToHost::Panic {
+            file: full::<PANIC_FILE_MAX>(0xff),
+            line: u32::MAX,
+        },
+        _ => panic!("TargetToHost has no variant {i}"),
+    }
+}
+
+fn assert_round_trip<M>(msg: &M)
+where
+    M: WireMessage + PartialEq + Clone + core::fmt::Debug,
+{
+    let f = frame(msg);
+    assert!(f.len() <= MAX_FRAME_LEN);
+    // Exact wire format, against an independent COBS and the CRC computed here.
+    assert_eq!(f, raw_frame(&postcard_bytes(msg)), "wire format of {msg:?}");
+    let mut dec = FrameDecoder::new();
+    let out = feed::<M>(&mut dec, &f);
+    assert_eq!(out, vec![Ok(msg.clone())]);
+    assert_eq!(
+        dec.counters(),
+        LinkCounters {
+            frames_ok: 1,
+            ..Default::default()
+        }
+    );
+}
+
+macro_rules! round_trip_props {
+    ($($name:ident: $strategy:expr;)*) => {
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(64))]
+            $(
+                #[test]
+                fn $name(msg in $strategy) {
+                    assert_round_trip(&msg);
+                }
+            )*
+        }
+    };
+}
+
+round_trip_props! {
+    round_trip_ping: ping();
+    round_trip_time_grant: time_grant();
+    round_trip_state_update: state_update();
+    round_trip_command_response: command_response();
+    round_trip_uplink_chunk: uplink_chunk();
+    round_trip_reset_request: reset_request();
+    round_trip_hello: hello();
+    round_trip_pong: pong();
+    round_trip_frame_done: frame_done();
+    round_trip_command_dispatch: command_dispatch();
+    round_trip_log: log();
+    round_trip_telemetry: telemetry();
+    round_trip_uplink_ack: uplink_ack();
+    round_trip_uplink_nak: uplink_nak();
+    round_trip_panic: panic_report();
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Back-to-back frames on one decoder all come out, in order.
+    #[test]
+    fn streams_round_trip(
+        h2t in proptest::collection::vec(host_to_target(), 0..12),
+        t2h in proptest::collection::vec(target_to_host(), 0..12),
+    ) {
+        let bytes: Vec<u8> = h2t.iter().flat_map(frame).collect();
+        let (out, dec) = decode_all::<HostToTarget>(&bytes);
+        prop_assert_eq!(out, h2t.iter().cloned().map(Ok).collect::<Vec<_>>());
+        prop_assert_eq!(dec.counters().frames_ok as usize, h2t.len());
+        prop_assert_eq!(dec.counters().errors(), 0);
+
+        let bytes: Vec<u8> = t2h.iter().flat_map(frame).collect();
+        let (out, dec) = decode_all::<TargetToHost>(&bytes);
+        prop_assert_eq!(out, t2h.iter().cloned().map(Ok).collect::<Vec<_>>());
+        prop_assert_eq!(dec.counters().frames_ok as usize, t2h.len());
+        prop_assert_eq!(dec.counters().errors(), 0);
+    }
+
+    /// The hand-built "largest" instances really are the largest of their variant.
+    #[test]
+    fn no_instance_exceeds_the_largest(h in host_to_target(), t in target_to_host()) {
+        let largest = largest_h2t(h2t_index(&h));
+        prop_assert!(postcard_bytes(&h).len() <= postcard_bytes(&largest).len(), "{:?}", h);
+        let largest = largest_t2h(t2h_index(&t));
+        prop_assert!(postcard_bytes(&t).len() <= postcard_bytes(&largest).len(), "{:?}", t);
+    }
+}
+
+#[test]
+fn largest_instances_fit_in_a_frame() {
+    fn check<M: WireMessage + PartialEq + Clone + core::fmt::Debug>(msg: M) {
+        let payload = postcard_bytes(&msg);
+        assert!(
+            payload.len() <= MAX_PAYLOAD_LEN,
+            "{msg:?}: {} bytes",
+            payload.len()
+        );
+        let mut buf = [0u8; MAX_FRAME_LEN];
+        let n = encode(&msg, &mut buf).unwrap_or_else(|e| panic!("{msg:?}: {e:?}"));
+        assert!(n <= MAX_FRAME_LEN);
+        assert_round_trip(&msg);
+    }
+    for i in 0..usize::from(HostToTarget::VARIANT_COUNT) {
+        check(largest_h2t(i));
+    }
+    for i in 0..usize::from(TargetToHost::VARIANT_COUNT) {
+        check(largest_t2h(i));
+    }
+    // The biggest message today; a change here is a change of the frame budget.
+    assert_eq!(
+        postcard_bytes(&largest_h2t(4)).len(),
+        1 + 3 + 3 + 2 + UPLINK_CHUNK_MAX
+    );
+}
+
+/// VARIANT_COUNT against the declaration order: the instance of variant i is tagged i, and the
+/// last one is tagged VARIANT_COUNT - 1.
+#[test]
+fn variant_count_matches_declared_variants() {
+    fn check<M: WireMessage + core::fmt::Debug>(
+        largest: impl Fn(usize) -> M,
+        index: impl Fn(&M) -> usize,
+    ) {
+        let n = usize::from(M::VARIANT_COUNT);
+        for i in 0..n {
+            let msg = largest(i);
+            assert_eq!(index(&msg), i);
+            assert_eq!(usize::from(postcard_bytes(&msg)[0]), i, "tag of {msg:?}");
+        }
+        let last = largest(n - 1);
+        assert_eq!(postcard_bytes(&last)[0], M::VARIANT_COUNT - 1);
+    }
+    check(largest_h2t, h2t_index);
+    check(largest_t2h, t2h_index);
+}
+
+/// VARIANT_COUNT against what serde actually accepts, independent of any list kept here: tag
+/// VARIANT_COUNT - 1 followed by zeros decodes (all-zero fields are valid), tag VARIANT_COUNT is
+/// refused by the derived Deserialize.
+#[test]
+fn variant_count_matches_serde() {
+    fn check<M: WireMessage>() {
+        let n = M::VARIANT_COUNT;
+        let mut payload = [0u8; 64];
+        payload[0] = n - 1;
+        assert!(
+            postcard::take_from_bytes::<M>(&payload).is_ok(),
+            "tag {} refused",
+            n - 1
+        );
+        payload[0] = n;
+        assert_eq!(
+            postcard::take_from_bytes::<M>(&payload).err(),
+            Some(postcard::Error::SerdeDeCustom),
+            "tag {n} accepted: VARIANT_COUNT is too small"
+        );
+    }
+    check::<HostToTarget>();
+    check::<TargetToHost>();
+}
+
+#[test]
+fn encode_reports_small_output_and_large_payload() {
+    let msg = largest_t2h(4);
+    let f = frame(&msg);
+    let mut exact = vec![0u8; f.len()];
+    assert_eq!(encode(&msg, &mut exact), Ok(f.len()));
+    assert_eq!(exact, f);
+    let mut short = vec![0u8; f.len() - 1];
+    assert_eq!(encode(&msg, &mut short), Err(EncodeError::OutputTooSmall));
+
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = encode(&RawPayload(vec![0x5a; MAX_PAYLOAD_LEN]), &mut buf).unwrap();
+    assert!(n <= MAX_FRAME_LEN);
+    assert_eq!(
+        encode(&RawPayload(vec![0x5a; MAX_PAYLOAD_LEN + 1]), &mut buf),
+        Err(EncodeError::PayloadTooLarge)
+    );
+    // The largest payload of zeros (every byte stuffed) still fits too.
+    let n = encode(&RawPayload(vec![0; MAX_PAYLOAD_LEN]), &mut buf).unwrap();
+    assert!(n <= MAX_FRAME_LEN);
+    assert_eq!(buf[..n].to_vec(), raw_frame(&[0; MAX_PAYLOAD_LEN]));
+}
