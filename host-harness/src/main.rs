@@ -1,1 +1,155 @@
-fn main() {}
+//! `hil`: the host harness of the RAD750 proxy. See README.md.
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use hil::firmware::{self, build_id_hex, FirmwareImage};
+use hil::qemu::QemuProfile;
+use hil::run::{run_scenario, summary, RunOptions};
+use hil::scenario;
+
+#[derive(Parser)]
+#[command(
+    name = "hil",
+    version,
+    about = "Hardware-in-the-loop harness for the RAD750-proxy target"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scenario: boot the target under QEMU (or use --serial), drive it, report.
+    Run {
+        /// Scenario file (TOML), e.g. scenarios/smoke.toml
+        scenario: PathBuf,
+        /// Talk to a real target on this serial device instead of launching QEMU.
+        #[arg(long, value_name = "DEVICE")]
+        serial: Option<String>,
+        /// Baud rate for --serial.
+        #[arg(long)]
+        baud: Option<u32>,
+        /// Firmware ELF (default: build firmware/image). With --serial, used to decode logs.
+        #[arg(long, value_name = "ELF")]
+        firmware: Option<PathBuf>,
+        /// Pace guest time by the wall clock (icount align=on) instead of lockstep.
+        #[arg(long)]
+        realtime: bool,
+        /// Write the JSON report here.
+        #[arg(long, value_name = "FILE")]
+        report: Option<PathBuf>,
+        /// Do not print the target's log lines.
+        #[arg(long)]
+        no_logs: bool,
+    },
+    /// Benchmarks (wall-time numbers depend on the host; they never fail a build).
+    Bench {
+        #[command(subcommand)]
+        what: BenchWhat,
+    },
+    /// Build the firmware image and print its path and build id.
+    Build,
+}
+
+#[derive(Subcommand)]
+enum BenchWhat {
+    /// Boot-to-Hello time, ping round trips and frames per second on the link.
+    Link {
+        /// Number of pings (sequential, then the same number pipelined).
+        #[arg(long, default_value_t = 1000)]
+        pings: u32,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match execute(cli.command) {
+        Ok(code) => code,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn execute(command: Command) -> Result<ExitCode, String> {
+    match command {
+        Command::Run {
+            scenario: path,
+            serial,
+            baud,
+            firmware,
+            realtime,
+            report,
+            no_logs,
+        } => {
+            let scenario = scenario::load(&path).map_err(|e| e.to_string())?;
+            println!("hil run {} — {}", scenario.name, scenario.description);
+            let options = RunOptions {
+                serial,
+                baud,
+                firmware,
+                realtime,
+                echo_logs: !no_logs,
+                verbose: true,
+            };
+            let result = run_scenario(&scenario, &options, &mut |line| println!("  {line}"))
+                .map_err(|e| e.to_string())?;
+            println!("{}", summary(&result));
+            if let Some(out) = report {
+                let json = serde_json::to_string_pretty(&result).map_err(|e| e.to_string())?;
+                std::fs::write(&out, json)
+                    .map_err(|e| format!("cannot write report {}: {e}", out.display()))?;
+                println!("report: {}", out.display());
+            }
+            Ok(if result.passed {
+                ExitCode::SUCCESS
+            } else {
+                ExitCode::FAILURE
+            })
+        }
+        Command::Bench {
+            what: BenchWhat::Link { pings, json },
+        } => {
+            if pings == 0 {
+                return Err("--pings must be at least 1".into());
+            }
+            let fw = firmware::build().map_err(|e| e.to_string())?;
+            let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
+            let bench = hil::bench::link(&profile, &fw, pings).map_err(|e| e.to_string())?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&bench).unwrap());
+            } else {
+                println!("link benchmark (wall time; depends on the host)");
+                println!("  boot to Hello        {:>10.1} ms", bench.boot_to_hello_ms);
+                println!(
+                    "  ping round trip      median {} us, p99 {} us, max {} us over {} pings",
+                    bench.pings.median_us,
+                    bench.pings.p99_us,
+                    bench.pings.max_us,
+                    bench.pings.count
+                );
+                println!(
+                    "  frames per second    {:>10.0} (both directions, {} pings, 8 in flight)",
+                    bench.frames_per_second, bench.burst
+                );
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Build => {
+            let fw = firmware::build().map_err(|e| e.to_string())?;
+            let fw = FirmwareImage::open(&fw.elf).map_err(|e| e.to_string())?;
+            println!(
+                "{} (build {})",
+                fw.elf.display(),
+                build_id_hex(&fw.build_id)
+            );
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}

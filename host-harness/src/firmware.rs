@@ -1,0 +1,109 @@
+//! Building and identifying the target image.
+//!
+//! `hil` builds `firmware/image` with cargo for `powerpc-unknown-linux-gnu` (cargo does nothing
+//! when it is up to date) into `target/firmware`, and reads the build id the image carries
+//! (symbol `FIRMWARE_BUILD_ID`) to check the target runs what was built.
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use object::{Object, ObjectSection, ObjectSymbol};
+
+use crate::repo_root;
+
+#[derive(Debug, thiserror::Error)]
+pub enum FirmwareError {
+    #[error("could not run cargo to build the firmware: {0}")]
+    Cargo(std::io::Error),
+    #[error("building the firmware failed (cargo exit {status}):\n{stderr}\nhint: `rustup target add powerpc-unknown-linux-gnu` if the target is missing")]
+    Build { status: String, stderr: String },
+    #[error("cannot read firmware image {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path} is not a RAD750-proxy firmware image: {why}")]
+    NotFirmware { path: PathBuf, why: String },
+}
+
+/// A firmware ELF and the build id stamped into it.
+#[derive(Clone, Debug)]
+pub struct FirmwareImage {
+    pub elf: PathBuf,
+    pub build_id: [u8; 8],
+}
+
+impl FirmwareImage {
+    /// Identify an existing image.
+    pub fn open(elf: &Path) -> Result<Self, FirmwareError> {
+        let bytes = std::fs::read(elf).map_err(|source| FirmwareError::Read {
+            path: elf.to_path_buf(),
+            source,
+        })?;
+        let build_id = read_build_id(&bytes).map_err(|why| FirmwareError::NotFirmware {
+            path: elf.to_path_buf(),
+            why,
+        })?;
+        Ok(Self {
+            elf: elf.to_path_buf(),
+            build_id,
+        })
+    }
+}
+
+/// Where `build` puts its output.
+pub fn target_dir() -> PathBuf {
+    repo_root().join("target/firmware")
+}
+
+/// Build the firmware image (release profile) if needed and identify it.
+pub fn build() -> Result<FirmwareImage, FirmwareError> {
+    let root = repo_root();
+    let image_dir = root.join("firmware/image");
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let output = Command::new(cargo)
+        .current_dir(&image_dir)
+        .args(["build", "--release", "--quiet"])
+        .env("CARGO_TARGET_DIR", target_dir())
+        // Settings of an outer cargo invocation (a test run) must not leak into this build.
+        .env_remove("CARGO_ENCODED_RUSTFLAGS")
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET")
+        .output()
+        .map_err(FirmwareError::Cargo)?;
+    if !output.status.success() {
+        return Err(FirmwareError::Build {
+            status: output.status.to_string(),
+            stderr: String::from_utf8_lossy(&output.stderr).into_owned(),
+        });
+    }
+    FirmwareImage::open(&target_dir().join("powerpc-unknown-linux-gnu/release/rad750-firmware"))
+}
+
+/// Read the 8-byte `FIRMWARE_BUILD_ID` symbol's contents from the ELF.
+pub fn read_build_id(elf: &[u8]) -> Result<[u8; 8], String> {
+    let file = object::File::parse(elf).map_err(|e| format!("not an ELF file: {e}"))?;
+    let symbol = file
+        .symbols()
+        .find(|s| s.name() == Ok("FIRMWARE_BUILD_ID"))
+        .ok_or("no FIRMWARE_BUILD_ID symbol")?;
+    let section = symbol
+        .section_index()
+        .and_then(|i| file.section_by_index(i).ok())
+        .ok_or("FIRMWARE_BUILD_ID is not in a section")?;
+    let data = section.data().map_err(|e| e.to_string())?;
+    let offset = symbol
+        .address()
+        .checked_sub(section.address())
+        .ok_or("bad FIRMWARE_BUILD_ID address")? as usize;
+    let bytes = data
+        .get(offset..offset + 8)
+        .ok_or("FIRMWARE_BUILD_ID outside its section")?;
+    let mut id = [0u8; 8];
+    id.copy_from_slice(bytes);
+    Ok(id)
+}
+
+/// Hex form of a build id, as printed everywhere.
+pub fn build_id_hex(id: &[u8; 8]) -> String {
+    id.iter().map(|b| format!("{b:02x}")).collect()
+}

@@ -1,0 +1,222 @@
+//! The host end of the framed link: a serial device (QEMU's pty or a real `/dev/tty*`), a reader
+//! thread that decodes frames as they arrive, and a transcript of every frame in both
+//! directions, in order.
+use std::io::{Read, Write};
+use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, MAX_FRAME_LEN};
+use fsw_bridge::{HostToTarget, LinkCounters, TargetToHost};
+
+/// Baud rate asked of a real serial port (QEMU's pty ignores it).
+pub const DEFAULT_BAUD: u32 = 115_200;
+
+#[derive(Debug, thiserror::Error)]
+pub enum LinkError {
+    #[error("cannot open serial device {path}: {source}")]
+    Open {
+        path: String,
+        source: serialport::Error,
+    },
+    #[error("serial write failed: {0}")]
+    Write(std::io::Error),
+    #[error("the serial device closed: {0}")]
+    Closed(String),
+    #[error("timed out after {0:?} waiting for the target")]
+    Timeout(Duration),
+}
+
+/// One entry of the transcript.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum TranscriptEntry {
+    /// Frame bytes the host sent (exactly as written).
+    Sent(Vec<u8>),
+    /// A message the host received and decoded.
+    Received(TargetToHost),
+    /// A frame the host rejected.
+    Rejected(DecodeError),
+}
+
+/// What the reader thread hands over.
+#[derive(Debug)]
+enum Rx {
+    Message(TargetToHost),
+    Rejected(DecodeError),
+    Closed(String),
+}
+
+/// A framed link to one target.
+pub struct HostLink {
+    writer: Box<dyn serialport::SerialPort>,
+    rx: Receiver<Rx>,
+    reader: Option<JoinHandle<()>>,
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    transcript: Arc<Mutex<Vec<TranscriptEntry>>>,
+    host_counters: Arc<Mutex<LinkCounters>>,
+    bytes_received: Arc<std::sync::atomic::AtomicU64>,
+    closed: Option<String>,
+}
+
+impl HostLink {
+    /// Open a serial device (a pty of QEMU, or a real port) in raw mode.
+    pub fn open(path: &str, baud: u32) -> Result<Self, LinkError> {
+        let port = serialport::new(path, baud)
+            .timeout(Duration::from_millis(50))
+            .open()
+            .map_err(|source| LinkError::Open {
+                path: path.to_string(),
+                source,
+            })?;
+        let reader_port = port.try_clone().map_err(|source| LinkError::Open {
+            path: path.to_string(),
+            source,
+        })?;
+        let (tx, rx) = mpsc::channel();
+        let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let transcript = Arc::new(Mutex::new(Vec::new()));
+        let host_counters = Arc::new(Mutex::new(LinkCounters::default()));
+        let bytes_received = Arc::new(std::sync::atomic::AtomicU64::new(0));
+        let reader = {
+            let (stop, transcript, counters, bytes) = (
+                stop.clone(),
+                transcript.clone(),
+                host_counters.clone(),
+                bytes_received.clone(),
+            );
+            std::thread::Builder::new()
+                .name("hil-link-rx".into())
+                .spawn(move || read_loop(reader_port, tx, stop, transcript, counters, bytes))
+                .expect("spawn link reader thread")
+        };
+        Ok(Self {
+            writer: port,
+            rx,
+            reader: Some(reader),
+            stop,
+            transcript,
+            host_counters,
+            bytes_received,
+            closed: None,
+        })
+    }
+
+    /// Encode and send one message.
+    pub fn send(&mut self, msg: &HostToTarget) -> Result<(), LinkError> {
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let len = encode(msg, &mut frame).expect("every HostToTarget fits in a frame");
+        self.send_raw(&frame[..len])
+    }
+
+    /// Send bytes as they are (used to inject corrupted frames).
+    pub fn send_raw(&mut self, bytes: &[u8]) -> Result<(), LinkError> {
+        self.transcript
+            .lock()
+            .unwrap()
+            .push(TranscriptEntry::Sent(bytes.to_vec()));
+        self.writer.write_all(bytes).map_err(LinkError::Write)?;
+        self.writer.flush().map_err(LinkError::Write)
+    }
+
+    /// The next message from the target, waiting up to `timeout`. Frames the host rejects are
+    /// counted (see [`HostLink::host_counters`]) and skipped.
+    pub fn recv(&mut self, timeout: Duration) -> Result<TargetToHost, LinkError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            if let Some(why) = &self.closed {
+                return Err(LinkError::Closed(why.clone()));
+            }
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.rx.recv_timeout(left) {
+                Ok(Rx::Message(msg)) => return Ok(msg),
+                Ok(Rx::Rejected(_)) => continue,
+                Ok(Rx::Closed(why)) => self.closed = Some(why),
+                Err(RecvTimeoutError::Timeout) => return Err(LinkError::Timeout(timeout)),
+                Err(RecvTimeoutError::Disconnected) => {
+                    self.closed = Some("reader thread ended".into())
+                }
+            }
+        }
+    }
+
+    /// Counters of the host's own decoder (frames from the target it accepted and rejected).
+    pub fn host_counters(&self) -> LinkCounters {
+        *self.host_counters.lock().unwrap()
+    }
+
+    /// Raw bytes received from the target so far.
+    pub fn bytes_received(&self) -> u64 {
+        self.bytes_received
+            .load(std::sync::atomic::Ordering::Relaxed)
+    }
+
+    /// A copy of the transcript so far.
+    pub fn transcript(&self) -> Vec<TranscriptEntry> {
+        self.transcript.lock().unwrap().clone()
+    }
+}
+
+impl Drop for HostLink {
+    fn drop(&mut self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        if let Some(reader) = self.reader.take() {
+            let _ = reader.join();
+        }
+    }
+}
+
+fn read_loop(
+    mut port: Box<dyn serialport::SerialPort>,
+    tx: mpsc::Sender<Rx>,
+    stop: Arc<std::sync::atomic::AtomicBool>,
+    transcript: Arc<Mutex<Vec<TranscriptEntry>>>,
+    counters: Arc<Mutex<LinkCounters>>,
+    bytes_received: Arc<std::sync::atomic::AtomicU64>,
+) {
+    let mut decoder = FrameDecoder::new();
+    let mut buf = [0u8; 4096];
+    while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+        let n = match port.read(&mut buf) {
+            Ok(0) => continue,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => continue,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => {
+                let _ = tx.send(Rx::Closed(e.to_string()));
+                return;
+            }
+        };
+        bytes_received.fetch_add(n as u64, std::sync::atomic::Ordering::Relaxed);
+        for &byte in &buf[..n] {
+            let Some(result) = decoder.push::<TargetToHost>(byte) else {
+                continue;
+            };
+            *counters.lock().unwrap() = decoder.counters();
+            let (entry, rx) = match result {
+                Ok(msg) => (TranscriptEntry::Received(msg.clone()), Rx::Message(msg)),
+                Err(e) => (TranscriptEntry::Rejected(e), Rx::Rejected(e)),
+            };
+            transcript.lock().unwrap().push(entry);
+            if tx.send(rx).is_err() {
+                return;
+            }
+        }
+    }
+}
+
+/// A frame that carries `msg` with bit `bit` of its payload flipped (taken modulo the payload's
+/// bits), properly COBS-stuffed and delimited: the receiver must reject it as a CRC error.
+pub fn corrupted_frame(msg: &HostToTarget, bit: usize) -> Vec<u8> {
+    let mut raw = postcard::to_stdvec(msg).expect("HostToTarget serializes");
+    let crc = fsw_bridge::codec::LINK_CRC.checksum(&raw);
+    raw.extend_from_slice(&crc.to_le_bytes());
+    let payload_bits = (raw.len() - 4) * 8;
+    let bit = bit % payload_bits;
+    raw[bit / 8] ^= 1 << (bit % 8);
+    let mut frame = vec![0u8; cobs::max_encoding_length(raw.len()) + 2];
+    let n = cobs::encode(&raw, &mut frame[1..]);
+    frame.truncate(n + 1);
+    frame.push(0);
+    frame
+}

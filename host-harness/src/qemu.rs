@@ -1,0 +1,392 @@
+//! Launching the emulated target: a QEMU profile from `qemu/`, the process started paused with
+//! a pty serial port and a QMP socket, and a guard that ends that process by its PID whatever
+//! happens (normal return, error, panic, Ctrl-C or SIGTERM, or `hil` itself being killed).
+use std::collections::BTreeSet;
+use std::io::{BufRead, BufReader, Write};
+use std::os::unix::net::UnixStream;
+use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::{Mutex, Once};
+use std::time::{Duration, Instant};
+
+use serde::Deserialize;
+use serde_json::{json, Value};
+
+use crate::repo_root;
+
+/// A machine profile (`qemu/<name>.toml`).
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct QemuProfile {
+    pub name: String,
+    pub binary: String,
+    pub machine: String,
+    pub cpu: String,
+    pub memory_mib: u32,
+    pub icount_lockstep: String,
+    pub icount_realtime: String,
+    #[serde(default)]
+    pub extra_args: Vec<String>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum QemuError {
+    #[error("cannot read QEMU profile {path}: {source}")]
+    ProfileRead {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    ProfileInvalid { path: PathBuf, message: String },
+    #[error("`{binary}` was not found on PATH.\nhint: install QEMU for PowerPC, e.g. `sudo apt-get install -y qemu-system-ppc` (Debian/Ubuntu)")]
+    Missing { binary: String },
+    #[error("could not start `{binary}`: {source}")]
+    Spawn {
+        binary: String,
+        source: std::io::Error,
+    },
+    #[error("QEMU exited during start-up ({status}); its output (in {log}):\n{tail}")]
+    ExitedEarly {
+        status: String,
+        log: PathBuf,
+        tail: String,
+    },
+    #[error("QMP: {0}")]
+    Qmp(String),
+    #[error("I/O error with QEMU: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+impl QemuProfile {
+    /// Load `qemu/<name>.toml` from the repository, or a path to a profile file.
+    pub fn load(name_or_path: &str) -> Result<Self, QemuError> {
+        let path = if name_or_path.ends_with(".toml") {
+            PathBuf::from(name_or_path)
+        } else {
+            repo_root()
+                .join("qemu")
+                .join(format!("{name_or_path}.toml"))
+        };
+        let text = std::fs::read_to_string(&path).map_err(|source| QemuError::ProfileRead {
+            path: path.clone(),
+            source,
+        })?;
+        toml::from_str(&text).map_err(|e| QemuError::ProfileInvalid {
+            path: path.clone(),
+            message: e.to_string(),
+        })
+    }
+}
+
+/// How to start one target.
+#[derive(Clone, Debug, Default)]
+pub struct LaunchOptions {
+    /// Pace virtual time by the wall clock (`align=on`) instead of lockstep icount.
+    pub realtime: bool,
+    /// File backing the emulated non-volatile memory (survives QEMU restarts).
+    pub nv_file: Option<PathBuf>,
+    /// Size of the non-volatile memory in bytes (power of two, 1 MiB when unset).
+    pub nv_size: Option<u64>,
+}
+
+/// PIDs of every QEMU this process started and has not yet ended.
+static CHILDREN: Mutex<BTreeSet<u32>> = Mutex::new(BTreeSet::new());
+static SIGNAL_HANDLER: Once = Once::new();
+
+fn kill_pid(pid: u32) {
+    // SAFETY: kill(2) with a PID we spawned and have not reaped (it stays a zombie until we
+    // wait, so the PID cannot have been reused).
+    unsafe {
+        libc::kill(pid as libc::pid_t, libc::SIGKILL);
+    }
+}
+
+/// On Ctrl-C or SIGTERM: end every QEMU we started, by PID, then exit 130.
+fn install_signal_handler() {
+    SIGNAL_HANDLER.call_once(|| {
+        let _ = ctrlc::set_handler(|| {
+            if let Ok(children) = CHILDREN.lock() {
+                for &pid in children.iter() {
+                    kill_pid(pid);
+                }
+            }
+            eprintln!("hil: interrupted; ended the QEMU processes it had started");
+            std::process::exit(130);
+        });
+    });
+}
+
+/// Where a running QEMU's files are: its output log and QMP socket.
+#[derive(Clone, Debug)]
+pub struct RunFiles {
+    pub dir: PathBuf,
+    pub log: PathBuf,
+    pub qmp_socket: PathBuf,
+}
+
+impl RunFiles {
+    fn new() -> std::io::Result<Self> {
+        static COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+        let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        // Short path: a Unix socket path must stay under 108 bytes.
+        let dir = std::env::temp_dir().join(format!("hil-{}-{n}", std::process::id()));
+        std::fs::create_dir_all(&dir)?;
+        Ok(Self {
+            log: dir.join("qemu.log"),
+            qmp_socket: dir.join("qmp.sock"),
+            dir,
+        })
+    }
+}
+
+/// A running (initially paused) QEMU. Dropping it ends the process by PID.
+pub struct Qemu {
+    child: Child,
+    qmp: Qmp,
+    pty: PathBuf,
+    files: RunFiles,
+}
+
+impl Qemu {
+    /// Start QEMU paused (`-S`) with `firmware` as its ROM. Call [`Qemu::resume`] after the pty
+    /// is open so that no byte the target sends is lost.
+    pub fn launch(
+        profile: &QemuProfile,
+        firmware: &Path,
+        options: &LaunchOptions,
+    ) -> Result<Self, QemuError> {
+        let binary = find_on_path(&profile.binary).ok_or_else(|| QemuError::Missing {
+            binary: profile.binary.clone(),
+        })?;
+        install_signal_handler();
+        let files = RunFiles::new()?;
+        let log = std::fs::File::create(&files.log)?;
+        let mut cmd = Command::new(&binary);
+        cmd.arg("-M")
+            .arg(&profile.machine)
+            .arg("-cpu")
+            .arg(&profile.cpu)
+            .arg("-m")
+            .arg(profile.memory_mib.to_string())
+            .arg("-bios")
+            .arg(firmware)
+            .arg("-icount")
+            .arg(if options.realtime {
+                &profile.icount_realtime
+            } else {
+                &profile.icount_lockstep
+            })
+            .args(["-S", "-chardev", "pty,id=s0", "-serial", "chardev:s0"])
+            .arg("-qmp")
+            .arg(format!(
+                "unix:{},server=on,wait=off",
+                files.qmp_socket.display()
+            ))
+            .args(&profile.extra_args);
+        if let Some(nv) = &options.nv_file {
+            let size = options.nv_size.unwrap_or(1 << 20);
+            cmd.arg("-object")
+                .arg(format!(
+                    "memory-backend-file,id=nv,size={size},mem-path={},share=on",
+                    nv.display()
+                ))
+                .args(["-device", "ivshmem-plain,memdev=nv"]);
+        }
+        cmd.stdin(Stdio::null())
+            .stdout(log.try_clone()?)
+            .stderr(log);
+        // SAFETY: only async-signal-safe calls between fork and exec.
+        unsafe {
+            cmd.pre_exec(|| {
+                // Die with `hil`, even if it is killed with SIGKILL.
+                libc::prctl(libc::PR_SET_PDEATHSIG, libc::SIGKILL);
+                // Own process group: a terminal's Ctrl-C reaches `hil`, which ends QEMU by PID.
+                libc::setpgid(0, 0);
+                Ok(())
+            });
+        }
+        let mut child = cmd.spawn().map_err(|source| QemuError::Spawn {
+            binary: binary.display().to_string(),
+            source,
+        })?;
+        CHILDREN.lock().unwrap().insert(child.id());
+
+        let qmp = match Qmp::connect(&files.qmp_socket, &mut child, &files.log) {
+            Ok(qmp) => qmp,
+            Err(e) => {
+                end_child(&mut child);
+                return Err(e);
+            }
+        };
+        let mut qemu = Self {
+            child,
+            qmp,
+            pty: PathBuf::new(),
+            files,
+        };
+        qemu.pty = qemu.find_pty()?;
+        Ok(qemu)
+    }
+
+    fn find_pty(&mut self) -> Result<PathBuf, QemuError> {
+        let chardevs = self.qmp.execute("query-chardev", json!({}))?;
+        chardevs
+            .as_array()
+            .into_iter()
+            .flatten()
+            .find(|c| c["label"] == "s0")
+            .and_then(|c| c["filename"].as_str())
+            .and_then(|f| f.strip_prefix("pty:"))
+            .map(PathBuf::from)
+            .ok_or_else(|| QemuError::Qmp(format!("no pty chardev s0 in {chardevs}")))
+    }
+
+    /// The host end of the target's serial port.
+    pub fn pty(&self) -> &Path {
+        &self.pty
+    }
+
+    pub fn pid(&self) -> u32 {
+        self.child.id()
+    }
+
+    pub fn files(&self) -> &RunFiles {
+        &self.files
+    }
+
+    /// Start (or continue) the guest CPU.
+    pub fn resume(&mut self) -> Result<(), QemuError> {
+        self.qmp.execute("cont", json!({})).map(drop)
+    }
+
+    /// Pause the guest CPU.
+    pub fn pause(&mut self) -> Result<(), QemuError> {
+        self.qmp.execute("stop", json!({})).map(drop)
+    }
+
+    /// Warm reset: QMP `system_reset`. RAM is kept; the target restarts at its reset vector.
+    pub fn system_reset(&mut self) -> Result<(), QemuError> {
+        self.qmp.execute("system_reset", json!({})).map(drop)
+    }
+
+    /// QMP events received so far (RESET, STOP, ...), in arrival order.
+    pub fn events(&self) -> &[Value] {
+        &self.qmp.events
+    }
+
+    /// True while the QEMU process is running.
+    pub fn is_running(&mut self) -> bool {
+        matches!(self.child.try_wait(), Ok(None))
+    }
+
+    /// End the process now (power off), by PID.
+    pub fn kill(mut self) {
+        end_child(&mut self.child);
+    }
+}
+
+impl Drop for Qemu {
+    fn drop(&mut self) {
+        end_child(&mut self.child);
+        let _ = std::fs::remove_file(&self.files.qmp_socket);
+    }
+}
+
+fn end_child(child: &mut Child) {
+    let pid = child.id();
+    if matches!(child.try_wait(), Ok(None)) {
+        kill_pid(pid);
+    }
+    let _ = child.wait();
+    if let Ok(mut children) = CHILDREN.lock() {
+        children.remove(&pid);
+    }
+}
+
+fn find_on_path(binary: &str) -> Option<PathBuf> {
+    if binary.contains('/') {
+        let p = PathBuf::from(binary);
+        return p.is_file().then_some(p);
+    }
+    std::env::var_os("PATH").and_then(|paths| {
+        std::env::split_paths(&paths)
+            .map(|dir| dir.join(binary))
+            .find(|p| p.is_file())
+    })
+}
+
+fn log_tail(log: &Path) -> String {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    let lines: Vec<&str> = text.lines().collect();
+    lines[lines.len().saturating_sub(20)..].join("\n")
+}
+
+/// A QMP connection: one command at a time, events kept in arrival order.
+struct Qmp {
+    reader: BufReader<UnixStream>,
+    writer: UnixStream,
+    events: Vec<Value>,
+}
+
+impl Qmp {
+    fn connect(socket: &Path, child: &mut Child, log: &Path) -> Result<Self, QemuError> {
+        let deadline = Instant::now() + Duration::from_secs(20);
+        let stream = loop {
+            if let Ok(Some(status)) = child.try_wait() {
+                return Err(QemuError::ExitedEarly {
+                    status: status.to_string(),
+                    log: log.to_path_buf(),
+                    tail: log_tail(log),
+                });
+            }
+            match UnixStream::connect(socket) {
+                Ok(s) => break s,
+                Err(_) if Instant::now() < deadline => {
+                    std::thread::sleep(Duration::from_millis(20))
+                }
+                Err(e) => {
+                    return Err(QemuError::Qmp(format!(
+                        "no QMP socket at {} after 20 s: {e}",
+                        socket.display()
+                    )))
+                }
+            }
+        };
+        stream.set_read_timeout(Some(Duration::from_secs(20)))?;
+        let mut qmp = Self {
+            reader: BufReader::new(stream.try_clone()?),
+            writer: stream,
+            events: Vec::new(),
+        };
+        let greeting = qmp.read_message()?;
+        if greeting.get("QMP").is_none() {
+            return Err(QemuError::Qmp(format!("unexpected greeting {greeting}")));
+        }
+        qmp.execute("qmp_capabilities", json!({}))?;
+        Ok(qmp)
+    }
+
+    fn read_message(&mut self) -> Result<Value, QemuError> {
+        let mut line = String::new();
+        if self.reader.read_line(&mut line)? == 0 {
+            return Err(QemuError::Qmp("QEMU closed the QMP socket".into()));
+        }
+        serde_json::from_str(&line).map_err(|e| QemuError::Qmp(format!("bad JSON {line:?}: {e}")))
+    }
+
+    fn execute(&mut self, command: &str, arguments: Value) -> Result<Value, QemuError> {
+        let request = json!({"execute": command, "arguments": arguments});
+        writeln!(self.writer, "{request}")?;
+        loop {
+            let msg = self.read_message()?;
+            if msg.get("event").is_some() {
+                self.events.push(msg);
+            } else if let Some(ret) = msg.get("return") {
+                return Ok(ret.clone());
+            } else if let Some(err) = msg.get("error") {
+                return Err(QemuError::Qmp(format!("{command}: {err}")));
+            }
+        }
+    }
+}

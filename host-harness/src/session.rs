@@ -1,0 +1,243 @@
+//! A session with one target: the target itself (a QEMU we started, or a real board on a serial
+//! port), its link, and its decoded logs. Higher-level steps (handshake, ping, resets) live here
+//! so that `hil run`, `hil bench` and the integration tests share them.
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+use fsw_bridge::{
+    HostToTarget, LinkCounters, ResetCause, ResetKind, TargetToHost, PROTOCOL_VERSION,
+};
+
+use crate::defmt_log::{LogDecoder, LogLine};
+use crate::firmware::{build_id_hex, FirmwareImage};
+use crate::link::{HostLink, LinkError};
+use crate::qemu::{LaunchOptions, Qemu, QemuError, QemuProfile};
+
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    #[error(transparent)]
+    Qemu(#[from] QemuError),
+    #[error(transparent)]
+    Link(#[from] LinkError),
+    #[error("the target said nothing it could be understood by within {waited:?} ({detail})")]
+    Silent { waited: Duration, detail: String },
+    #[error("protocol mismatch: the target speaks protocol v{target}, this hil speaks v{host}; build the firmware and hil from the same revision")]
+    ProtocolMismatch { target: u16, host: u16 },
+    #[error("firmware mismatch: the target runs build {target}, but the image given is build {expected}")]
+    BuildMismatch { target: String, expected: String },
+    #[error("expected {expected}, got {got}")]
+    Unexpected { expected: String, got: String },
+    #[error("the target panicked at {file}:{line}")]
+    TargetPanic { file: String, line: u32 },
+    #[error("this needs a QEMU target (not a serial device)")]
+    NotQemu,
+}
+
+/// What a Hello said.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Hello {
+    pub build_id: [u8; 8],
+    pub reset_cause: ResetCause,
+    pub boot_count: u32,
+}
+
+/// One target under test.
+pub struct Session {
+    pub qemu: Option<Qemu>,
+    pub link: HostLink,
+    firmware: Option<FirmwareImage>,
+    log: Option<LogDecoder>,
+    /// Every decoded log line, in order.
+    pub logs: Vec<LogLine>,
+    /// Print log lines as they arrive.
+    pub echo_logs: bool,
+    /// Messages that arrived while a step waited for something else (telemetry, ...).
+    pub unsolicited: Vec<TargetToHost>,
+    /// Wall time from QEMU start (or port open) to now is measured from here.
+    pub started: Instant,
+    /// Human-readable name of the target, for messages.
+    pub describe: String,
+}
+
+impl Session {
+    /// Start QEMU paused, open its pty, then let the CPU run: no byte is lost.
+    pub fn boot_qemu(
+        profile: &QemuProfile,
+        firmware: &FirmwareImage,
+        options: &LaunchOptions,
+    ) -> Result<Self, SessionError> {
+        let started = Instant::now();
+        let mut qemu = Qemu::launch(profile, &firmware.elf, options)?;
+        let link = HostLink::open(&qemu.pty().display().to_string(), crate::link::DEFAULT_BAUD)?;
+        qemu.resume()?;
+        let describe = format!(
+            "{} (QEMU pid {}, pty {}, log {})",
+            profile.name,
+            qemu.pid(),
+            qemu.pty().display(),
+            qemu.files().log.display()
+        );
+        Ok(Self {
+            qemu: Some(qemu),
+            link,
+            log: LogDecoder::new(&firmware.elf).ok(),
+            firmware: Some(firmware.clone()),
+            logs: Vec::new(),
+            echo_logs: false,
+            unsolicited: Vec::new(),
+            started,
+            describe,
+        })
+    }
+
+    /// Talk to a real target on a serial device. With `firmware`, its logs are decoded and its
+    /// build id is checked.
+    pub fn open_serial(
+        path: &str,
+        baud: u32,
+        firmware: Option<&FirmwareImage>,
+    ) -> Result<Self, SessionError> {
+        let link = HostLink::open(path, baud)?;
+        Ok(Self {
+            qemu: None,
+            link,
+            log: firmware.and_then(|f| LogDecoder::new(&f.elf).ok()),
+            firmware: firmware.cloned(),
+            logs: Vec::new(),
+            echo_logs: false,
+            unsolicited: Vec::new(),
+            started: Instant::now(),
+            describe: format!("serial device {path}"),
+        })
+    }
+
+    /// The QEMU log file, when the target is emulated.
+    pub fn qemu_log(&self) -> Option<PathBuf> {
+        self.qemu.as_ref().map(|q| q.files().log.clone())
+    }
+
+    /// The next message that is not a log frame (logs are decoded and kept on the way).
+    pub fn recv(&mut self, timeout: Duration) -> Result<TargetToHost, SessionError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.link.recv(left)? {
+                TargetToHost::Log { bytes } => self.take_log(&bytes),
+                TargetToHost::Panic { file, line } => {
+                    return Err(SessionError::TargetPanic {
+                        file: String::from_utf8_lossy(&file).into_owned(),
+                        line,
+                    })
+                }
+                other => return Ok(other),
+            }
+        }
+    }
+
+    fn take_log(&mut self, bytes: &[u8]) {
+        let Some(decoder) = self.log.as_mut() else {
+            return;
+        };
+        for line in decoder.feed(bytes) {
+            if self.echo_logs {
+                println!("  target: {line}");
+            }
+            self.logs.push(line);
+        }
+    }
+
+    /// Wait for a Hello; refuse a protocol or firmware mismatch by name.
+    pub fn expect_hello(&mut self, timeout: Duration) -> Result<Hello, SessionError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let msg = match self.recv(left) {
+                Ok(msg) => msg,
+                Err(SessionError::Link(LinkError::Timeout(_))) => {
+                    return Err(self.silent(timeout));
+                }
+                Err(e) => return Err(e),
+            };
+            if let TargetToHost::Hello {
+                protocol_version,
+                build_id,
+                reset_cause,
+                boot_count,
+            } = msg
+            {
+                if protocol_version != PROTOCOL_VERSION {
+                    return Err(SessionError::ProtocolMismatch {
+                        target: protocol_version,
+                        host: PROTOCOL_VERSION,
+                    });
+                }
+                if let Some(fw) = &self.firmware {
+                    if fw.build_id != build_id {
+                        return Err(SessionError::BuildMismatch {
+                            target: build_id_hex(&build_id),
+                            expected: build_id_hex(&fw.build_id),
+                        });
+                    }
+                }
+                return Ok(Hello {
+                    build_id,
+                    reset_cause,
+                    boot_count,
+                });
+            }
+            self.unsolicited.push(msg);
+        }
+    }
+
+    fn silent(&self, waited: Duration) -> SessionError {
+        let counters = self.link.host_counters();
+        let mut detail = format!(
+            "{} bytes received, {} frames decoded, {} rejected",
+            self.link.bytes_received(),
+            counters.frames_ok,
+            counters.errors()
+        );
+        if let Some(log) = self.qemu_log() {
+            detail.push_str(&format!("; QEMU output is in {}", log.display()));
+        }
+        detail.push_str(&format!("; target: {}", self.describe));
+        SessionError::Silent { waited, detail }
+    }
+
+    /// One ping round trip: returns the wall-clock round-trip time and the target's counters.
+    pub fn ping(
+        &mut self,
+        seq: u32,
+        timeout: Duration,
+    ) -> Result<(Duration, LinkCounters), SessionError> {
+        let sent = Instant::now();
+        self.link.send(&HostToTarget::Ping { seq })?;
+        let deadline = sent + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.recv(left)? {
+                TargetToHost::Pong { seq: s, link } if s == seq => {
+                    return Ok((sent.elapsed(), link))
+                }
+                other => self.unsolicited.push(other),
+            }
+        }
+    }
+
+    /// Warm reset through QMP `system_reset` (QEMU targets only).
+    pub fn warm_reset_qmp(&mut self) -> Result<(), SessionError> {
+        self.qemu
+            .as_mut()
+            .ok_or(SessionError::NotQemu)?
+            .system_reset()?;
+        Ok(())
+    }
+
+    /// Ask the target to reset itself over the link.
+    pub fn request_reset(&mut self) -> Result<(), SessionError> {
+        self.link.send(&HostToTarget::ResetRequest {
+            kind: ResetKind::Warm,
+        })?;
+        Ok(())
+    }
+}
