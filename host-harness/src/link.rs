@@ -43,7 +43,8 @@ pub enum TranscriptEntry {
 #[derive(Debug)]
 enum Rx {
     Message(TargetToHost),
-    Rejected(DecodeError),
+    /// A frame the host rejected (already counted and in the transcript).
+    Rejected,
     Closed(String),
 }
 
@@ -130,7 +131,7 @@ impl HostLink {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.rx.recv_timeout(left) {
                 Ok(Rx::Message(msg)) => return Ok(msg),
-                Ok(Rx::Rejected(_)) => continue,
+                Ok(Rx::Rejected) => continue,
                 Ok(Rx::Closed(why)) => self.closed = Some(why),
                 Err(RecvTimeoutError::Timeout) => return Err(LinkError::Timeout(timeout)),
                 Err(RecvTimeoutError::Disconnected) => {
@@ -195,7 +196,7 @@ fn read_loop(
             *counters.lock().unwrap() = decoder.counters();
             let (entry, rx) = match result {
                 Ok(msg) => (TranscriptEntry::Received(msg.clone()), Rx::Message(msg)),
-                Err(e) => (TranscriptEntry::Rejected(e), Rx::Rejected(e)),
+                Err(e) => (TranscriptEntry::Rejected(e), Rx::Rejected),
             };
             transcript.lock().unwrap().push(entry);
             if tx.send(rx).is_err() {

@@ -1,1 +1,66 @@
-//! Integration tests live in tests/tests/.
+//! Shared set-up for the integration tests in `tests/tests/`: the firmware is built once per
+//! test process, and a pty pair stands in for a serial-attached board when a test plays target.
+use std::ffi::CStr;
+use std::fs::File;
+use std::os::fd::FromRawFd;
+use std::sync::OnceLock;
+use std::time::Duration;
+
+use hil::firmware::{self, FirmwareImage};
+use hil::qemu::{LaunchOptions, QemuProfile};
+use hil::session::Session;
+
+/// Generous liveness timeout (wall time) for anything the target must send: a bound that only
+/// trips when something is broken, never a performance assertion.
+pub const PATIENCE: Duration = Duration::from_secs(30);
+
+/// The firmware image, built once per test process.
+pub fn firmware() -> &'static FirmwareImage {
+    static FW: OnceLock<FirmwareImage> = OnceLock::new();
+    FW.get_or_init(|| firmware::build().unwrap_or_else(|e| panic!("firmware build failed: {e}")))
+}
+
+pub fn profile() -> QemuProfile {
+    QemuProfile::load("rad750-proxy").expect("qemu/rad750-proxy.toml")
+}
+
+/// Boot the RAD750 proxy under QEMU and wait for nothing yet.
+pub fn boot() -> Session {
+    Session::boot_qemu(&profile(), firmware(), &LaunchOptions::default())
+        .unwrap_or_else(|e| panic!("cannot boot the target: {e}"))
+}
+
+/// A pseudo-terminal pair: the test writes the "target" side on `master`; a `Session` opens
+/// `slave_path` as if it were a serial device.
+pub struct PtyPair {
+    pub master: File,
+    pub slave_path: String,
+    _slave: File,
+}
+
+pub fn pty_pair() -> PtyPair {
+    let (mut master, mut slave) = (0, 0);
+    // SAFETY: openpty writes two valid descriptors on success; we own both afterwards.
+    let rc = unsafe {
+        libc::openpty(
+            &mut master,
+            &mut slave,
+            std::ptr::null_mut(),
+            std::ptr::null(),
+            std::ptr::null(),
+        )
+    };
+    assert_eq!(rc, 0, "openpty failed");
+    // SAFETY: `slave` is a valid descriptor from openpty; ptsname_r-free path via ttyname.
+    let name = unsafe { CStr::from_ptr(libc::ttyname(slave)) }
+        .to_string_lossy()
+        .into_owned();
+    // SAFETY: both descriptors are valid and owned by nobody else.
+    unsafe {
+        PtyPair {
+            master: File::from_raw_fd(master),
+            slave_path: name,
+            _slave: File::from_raw_fd(slave),
+        }
+    }
+}

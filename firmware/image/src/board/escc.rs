@@ -31,6 +31,14 @@ impl EsccChannelA {
             mmio_write8(CHANNEL_A_CONTROL, reg);
             mmio_write8(CHANNEL_A_CONTROL, value);
         }
+        // QEMU stops polling the host side of the serial port while RX is disabled (as it is
+        // after every reset) and only starts again when the guest reads the data register.
+        // Enabling RX through WR3 does not wake it, so without this read the first byte from the
+        // host waits for an unrelated QEMU timer (about 1 s at power-on, indefinitely after a
+        // system_reset). Nothing can be pending yet: the host sends only after our Hello.
+        if mmio_read8(CHANNEL_A_CONTROL) & RR0_RX_AVAILABLE == 0 {
+            let _ = mmio_read8(CHANNEL_A_DATA);
+        }
         Self(())
     }
 
