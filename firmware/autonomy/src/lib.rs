@@ -1,2 +1,42 @@
-//! MEXEC-style autonomy core (placeholder until the autonomy-core issue lands).
+//! MEXEC-style onboard autonomy core: task networks, timelines, planner, executive and
+//! warm-restart checkpoints (seed 003; seed 000 section IV.A).
+//!
+//! `no_std`, heap-free, integer time in microseconds ([`MissionTimeUs`]), fixed capacities named
+//! in [`capacity`]. The same code runs natively (host tests, Monte Carlo) and on the RAD750-proxy
+//! target; decisions are bit-identical on both because nothing here uses floating point,
+//! hashing, randomness or platform-sized integers in a way that changes results.
+//!
+//! Start at [`Autonomy`]: it owns the task network, the planner and the executive and runs them in
+//! order. Uplinks arrive as bytes ([`TaskNetwork::validate_uplink`], [`Autonomy::load_uplink`]);
+//! everything the core decides leaves through the [`Outputs`] trait as command dispatches and
+//! [`TelemetryEvent`]s whose codes are defined in [`telemetry`].
 #![no_std]
+#![forbid(unsafe_code)]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+pub mod autonomy;
+pub mod capacity;
+pub mod checkpoint;
+pub mod condition;
+pub mod executive;
+pub mod model;
+pub mod plan;
+pub mod planner;
+pub mod telemetry;
+pub mod timeline;
+pub mod uplink;
+
+pub use autonomy::{Autonomy, LoadError, Outputs, StepBudget, StepReport};
+pub use capacity::*;
+pub use checkpoint::{CheckpointError, RestoreInfo, WarmRestartArea};
+pub use fsw_bridge::{
+    CommandArgs, CommandStatus, MissionTimeUs, Opcode, StateKey, StateValue, TelemetryEvent,
+};
+pub use model::*;
+pub use telemetry::{FailureKind, PlanModificationKind, TaskState};
+pub use uplink::{ErrorSite, TaskField, ValidationCode, ValidationError};

@@ -1,0 +1,351 @@
+//! The integration API: [`Autonomy`] owns the task network, the planner, the executive and the
+//! core's copy of the state buffer, and runs them in order on every [`Autonomy::step`].
+//!
+//! Wiring for the firmware (and the host harness):
+//! 1. Place one `Autonomy` statically (`Autonomy::new()` is `const`). It holds every byte of
+//!    plan and execution state; nothing is allocated.
+//! 2. On boot, offer it the warm-restart area: [`Autonomy::restore_from`]. `Ok` means the task
+//!    network, the plan and the executive state are back as of the last checkpoint; `Err` means
+//!    a cold start (wait for an uplink).
+//! 3. Feed it inputs as they arrive: [`Autonomy::load_uplink`] for a whole task-network uplink
+//!    (on `Err`, send `UplinkNak { reason: err.code.code() }`; the running plan is untouched),
+//!    [`Autonomy::on_state_update`] for every state-buffer value (after a restore, publish the
+//!    whole current state buffer before the first step), [`Autonomy::on_command_response`] for
+//!    every command response.
+//! 4. Once per frame call [`Autonomy::step`] with the granted mission time, a planner budget and
+//!    an [`Outputs`] sink: it dispatches commands and emits telemetry through the sink.
+//! 5. After the step, [`Autonomy::checkpoint_to`] the warm-restart area, and report
+//!    [`Autonomy::next_wakeup`] to the time driver.
+//!
+//! Partitioned later: the planner ([`crate::planner::Planner`]) and the executive
+//! ([`crate::executive::Executive`]) only exchange [`crate::planner::Commit`]s (planner to
+//! executive) and [`crate::planner::TaskReport`]s (executive to planner), so each can run in its
+//! own partition with its own copy of the network; this wrapper just passes them directly.
+use crate::checkpoint::{CheckpointError, RestoreInfo, WarmRestartArea};
+use crate::condition::{state_value_to_i64, StateTable};
+use crate::executive::Executive;
+use crate::model::*;
+use crate::plan::PlanEntry;
+use crate::planner::{Planner, TaskReport};
+use crate::telemetry::PlanModificationKind;
+use crate::uplink::{self, ValidationError};
+use fsw_bridge::{CommandArgs, CommandStatus, MissionTimeUs, Opcode, StateKey, StateValue, TelemetryEvent};
+
+/// Where the core's decisions go. The firmware forwards them on the link
+/// (`TargetToHost::CommandDispatch` and `TargetToHost::Telemetry`); tests record them.
+pub trait Outputs {
+    /// Send command `opcode(args)` with correlation id `id`; its response must come back through
+    /// [`Autonomy::on_command_response`] with the same id.
+    fn dispatch(&mut self, id: u32, opcode: Opcode, args: &CommandArgs);
+    /// Report a decision (task transition or plan modification; codes in [`crate::telemetry`]).
+    fn telemetry(&mut self, event: TelemetryEvent);
+}
+
+/// How much planning one step may do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StepBudget {
+    /// Validity checks the planner may spend (see [`crate::planner`]); the job in progress
+    /// when the budget runs out finishes, then the planner yields.
+    pub planner_checks: u32,
+}
+
+impl StepBudget {
+    /// Run the planner cycle to completion.
+    pub const UNLIMITED: Self = Self {
+        planner_checks: u32::MAX,
+    };
+}
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StepReport {
+    pub planner_checks: u32,
+    /// The planner stopped on its budget: call `step` again soon (`next_wakeup` says now).
+    pub planner_pending: bool,
+}
+
+/// Why a network could not be loaded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LoadError {
+    /// The uplink failed validation (nothing changed).
+    Invalid(ValidationError),
+    /// The executive still owns tasks of the running plan; load when it is idle.
+    Busy,
+}
+
+/// The autonomy core: task network + planner + executive + state buffer copy.
+pub struct Autonomy {
+    network: TaskNetwork,
+    planner: Planner,
+    executive: Executive,
+    states: StateTable,
+    now: MissionTimeUs,
+    loaded: bool,
+    /// Emit a `Restored` plan modification at the next step.
+    restored: Option<u32>,
+    /// Counts state updates whose value does not fit the timeline's kind.
+    pub state_type_mismatches: u32,
+}
+
+impl Default for Autonomy {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Autonomy {
+    /// An empty core (no network). `const`, so it can live in a `static`.
+    pub const fn new() -> Self {
+        Self {
+            network: TaskNetwork::EMPTY,
+            planner: Planner::new(),
+            executive: Executive::new(),
+            states: StateTable::new(),
+            now: MissionTimeUs::ZERO,
+            loaded: false,
+            restored: None,
+            state_type_mismatches: 0,
+        }
+    }
+
+    /// Loads a validated network and starts a new plan from its requested tasks (scheduled at
+    /// the next step). Refused while the executive still owns tasks.
+    pub fn load_network(&mut self, network: TaskNetwork) -> Result<(), LoadError> {
+        if !self.executive.entries().is_empty() {
+            return Err(LoadError::Busy);
+        }
+        self.network = network;
+        self.after_load();
+        Ok(())
+    }
+
+    /// Validates and loads a binary uplink ([`crate::uplink`] format). On any error nothing
+    /// changes; `err.code.code()` is the reason to report to the ground.
+    pub fn load_uplink(&mut self, bytes: &[u8]) -> Result<(), LoadError> {
+        uplink::validate_uplink(bytes).map_err(LoadError::Invalid)?;
+        if !self.executive.entries().is_empty() {
+            return Err(LoadError::Busy);
+        }
+        uplink::decode_into(&mut self.network, bytes).map_err(LoadError::Invalid)?;
+        self.after_load();
+        Ok(())
+    }
+
+    fn after_load(&mut self) {
+        self.planner.load(&self.network);
+        self.loaded = true;
+        // Re-apply what the state buffer already told us to the new timelines.
+        let states = self.states.clone();
+        for e in states.entries() {
+            if let Some(t) = self.network.timeline_of_key(e.key) {
+                let v = self.timeline_value(t, e.value);
+                self.planner.on_measurement(t, v, e.at);
+            }
+        }
+    }
+
+    /// The loaded network.
+    pub fn network(&self) -> &TaskNetwork {
+        &self.network
+    }
+
+    /// The plan (every instance the planner still holds).
+    pub fn plan(&self) -> &[PlanEntry] {
+        self.planner.entries()
+    }
+
+    pub fn planner(&self) -> &Planner {
+        &self.planner
+    }
+
+    pub fn planner_mut(&mut self) -> (&TaskNetwork, &mut Planner) {
+        (&self.network, &mut self.planner)
+    }
+
+    pub fn executive(&self) -> &Executive {
+        &self.executive
+    }
+
+    pub fn states(&self) -> &StateTable {
+        &self.states
+    }
+
+    /// Mission time of the last step.
+    pub fn now(&self) -> MissionTimeUs {
+        self.now
+    }
+
+    fn timeline_value(&mut self, timeline: u8, value: StateValue) -> i64 {
+        let Some(spec) = self.network.timeline(timeline) else {
+            return VALUE_UNKNOWN;
+        };
+        let fits = match (spec.kind, value) {
+            (_, StateValue::Unknown) => true,
+            (TimelineKind::State { value_count, .. }, StateValue::Enum(v)) => v < u16::from(value_count),
+            (TimelineKind::State { value_count, .. }, StateValue::Bool(_)) => value_count >= 2,
+            (TimelineKind::Cumulative { .. } | TimelineKind::Claimable, StateValue::Int(_) | StateValue::Bool(_)) => true,
+            _ => false,
+        };
+        if fits {
+            state_value_to_i64(value)
+        } else {
+            self.state_type_mismatches = self.state_type_mismatches.saturating_add(1);
+            VALUE_UNKNOWN
+        }
+    }
+
+    /// Records a state-buffer value (measured at `at`). Values of the wrong type for their
+    /// timeline are taken as unknown and counted in `state_type_mismatches`.
+    pub fn on_state_update(&mut self, key: StateKey, value: StateValue, at: MissionTimeUs) {
+        self.states.update(key, value, at);
+        if let Some(t) = self.network.timeline_of_key(key) {
+            let v = self.timeline_value(t, value);
+            self.planner.on_measurement(t, v, at);
+        }
+    }
+
+    /// Records the response to command `id`; processed at the next step, in arrival order.
+    pub fn on_command_response(&mut self, id: u32, status: CommandStatus) {
+        self.executive.on_command_response(id, status);
+    }
+
+    /// Runs one step at `now`: the executive (responses, state checks, timeouts, completions),
+    /// the planner (reports and contingencies, then its cycle within `budget`, then commits),
+    /// and the executive again so that tasks committed for `now` start at once.
+    pub fn step(&mut self, now: MissionTimeUs, budget: StepBudget, out: &mut impl Outputs) -> StepReport {
+        self.now = now;
+        if let Some(seq) = self.restored.take() {
+            out.telemetry(TelemetryEvent::PlanModification {
+                kind: PlanModificationKind::Restored as u8,
+                task: 0,
+                template: seq as u16,
+                at: now,
+            });
+        }
+        if !self.loaded {
+            return StepReport::default();
+        }
+        let Self {
+            network,
+            planner,
+            executive,
+            states,
+            ..
+        } = self;
+        executive.step(network, states, now, out, &mut |r: TaskReport| planner.on_report(r));
+        let report = planner.step(
+            network,
+            now,
+            budget.planner_checks,
+            &mut |c| executive.has_room() && executive.accept(network, c),
+            out,
+        );
+        executive.step(network, states, now, out, &mut |r: TaskReport| planner.on_report(r));
+        StepReport {
+            planner_checks: report.checks,
+            planner_pending: report.work_pending,
+        }
+    }
+
+    /// The earliest mission time at which `step` must run again (if no input arrives first),
+    /// or `None` when only input can create work.
+    pub fn next_wakeup(&self) -> Option<MissionTimeUs> {
+        if !self.loaded {
+            return None;
+        }
+        if self.executive.work_pending() || self.restored.is_some() {
+            return Some(self.now);
+        }
+        let a = self.planner.next_wakeup(&self.network, self.now);
+        let b = self.executive.next_wakeup(&self.network).map(|t| t.max(self.now));
+        match (a, b) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        }
+    }
+
+    /// Writes the whole plan and execution state as a new record in `area` (the slot not
+    /// holding the newest record). Returns the record's sequence number.
+    pub fn checkpoint_to(&self, area: &mut WarmRestartArea<'_>) -> Result<u32, CheckpointError> {
+        let (_, seq) = area.write(|buf| self.encode_image(buf))?;
+        Ok(seq)
+    }
+
+    fn encode_image(&self, buf: &mut [u8]) -> Option<usize> {
+        let mut len = 0usize;
+        let meta = ImageMeta {
+            loaded: self.loaded,
+            now: self.now,
+            state_type_mismatches: self.state_type_mismatches,
+        };
+        len += postcard::to_slice(&meta, buf.get_mut(len..)?).ok()?.len();
+        // Network length prefix, then the network in uplink format.
+        let prefix_at = len;
+        len += 4;
+        let net_len = self.network.encode(buf.get_mut(len..)?).ok()?;
+        buf.get_mut(prefix_at..prefix_at + 4)?
+            .copy_from_slice(&u32::try_from(net_len).ok()?.to_be_bytes());
+        len += net_len;
+        len += postcard::to_slice(&self.planner, buf.get_mut(len..)?).ok()?.len();
+        len += postcard::to_slice(&self.executive, buf.get_mut(len..)?).ok()?.len();
+        len += postcard::to_slice(&self.states, buf.get_mut(len..)?).ok()?.len();
+        Some(len)
+    }
+
+    /// Restores the state saved by the newest whole record in `area`. On success the next
+    /// [`Autonomy::step`] (after the current state buffer has been published with
+    /// `on_state_update`) checks every task against the present state, aborts what no longer
+    /// holds, applies contingencies and repairs the plan. On error `self` is a cold, empty core.
+    pub fn restore_from(&mut self, area: &WarmRestartArea<'_>) -> Result<RestoreInfo, CheckpointError> {
+        let (slot, sequence, payload) = area.latest().ok_or(CheckpointError::NoValidRecord)?;
+        let result = self.decode_image(payload);
+        if result.is_none() {
+            *self = Self::new();
+            return Err(CheckpointError::BadPayload);
+        }
+        self.planner.after_restore();
+        self.executive.after_restore();
+        self.restored = Some(sequence);
+        Ok(RestoreInfo {
+            slot,
+            sequence,
+            payload_len: payload.len() as u32,
+        })
+    }
+
+    fn decode_image(&mut self, payload: &[u8]) -> Option<()> {
+        let (meta, rest): (ImageMeta, _) = postcard::take_from_bytes(payload).ok()?;
+        let net_len = usize::try_from(u32::from_be_bytes(rest.get(..4)?.try_into().ok()?)).ok()?;
+        let net_bytes = rest.get(4..4 + net_len)?;
+        uplink::decode_into(&mut self.network, net_bytes).ok()?;
+        let rest = rest.get(4 + net_len..)?;
+        let (planner, rest): (Planner, _) = postcard::take_from_bytes(rest).ok()?;
+        self.planner = planner;
+        let (executive, rest): (Executive, _) = postcard::take_from_bytes(rest).ok()?;
+        self.executive = executive;
+        let (states, rest): (StateTable, _) = postcard::take_from_bytes(rest).ok()?;
+        self.states = states;
+        if !rest.is_empty() {
+            return None;
+        }
+        // The plan must refer to the network it came with.
+        let defs = self.network.tasks().len();
+        let plan_ok = self.planner.entries().iter().all(|e| usize::from(e.def) < defs)
+            && self.executive.entries().iter().all(|e| usize::from(e.def) < defs)
+            && self.planner.anchors().len() == self.network.timelines().len();
+        if !plan_ok {
+            return None;
+        }
+        self.loaded = meta.loaded;
+        self.now = meta.now;
+        self.state_type_mismatches = meta.state_type_mismatches;
+        Some(())
+    }
+}
+
+#[derive(serde::Serialize, serde::Deserialize)]
+struct ImageMeta {
+    loaded: bool,
+    now: MissionTimeUs,
+    state_type_mismatches: u32,
+}

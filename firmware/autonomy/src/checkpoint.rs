@@ -1,0 +1,166 @@
+//! Warm-restart area: double-buffered (A/B) checkpoint records with sequence numbers and
+//! CRC-32s over a caller-provided byte region that survives a warm reset.
+//!
+//! The region is split into two equal slots. A record is a 20-byte big-endian header
+//! (`magic, format, reserved, sequence, length, crc`) followed by the payload; the CRC covers
+//! the first 16 header bytes and the payload. A write always goes to the slot that does not
+//! hold the newest whole record, and the header is written last, so a reset at any instant
+//! leaves at least one whole record. Reading takes the whole record with the highest sequence
+//! number; a truncated or corrupted one is ignored and the other slot is used.
+use crc::{Crc, CRC_32_ISO_HDLC};
+
+const MAGIC: u32 = 0x4D58_4350; // "MXCP"
+/// Version of the checkpoint payload layout; a record of another version is ignored.
+pub const CHECKPOINT_FORMAT: u16 = 1;
+/// Bytes of each record header.
+pub const RECORD_HEADER_LEN: usize = 20;
+
+const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+
+/// Why a checkpoint could not be written or restored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CheckpointError {
+    /// The payload does not fit in one slot (half the area minus the header).
+    AreaTooSmall,
+    /// Neither slot holds a whole record of this format.
+    NoValidRecord,
+    /// A whole record was found but its payload does not decode or validate (a firmware whose
+    /// layout changed without bumping [`CHECKPOINT_FORMAT`]).
+    BadPayload,
+}
+
+/// What a restore found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RestoreInfo {
+    /// 0 for slot A, 1 for slot B.
+    pub slot: u8,
+    pub sequence: u32,
+    pub payload_len: u32,
+}
+
+/// The warm-restart region, split into slots A and B.
+pub struct WarmRestartArea<'a> {
+    bytes: &'a mut [u8],
+}
+
+fn be_u32(b: &[u8], at: usize) -> Option<u32> {
+    let s = b.get(at..at + 4)?;
+    Some(u32::from_be_bytes([*s.first()?, *s.get(1)?, *s.get(2)?, *s.get(3)?]))
+}
+
+fn be_u16(b: &[u8], at: usize) -> Option<u16> {
+    let s = b.get(at..at + 2)?;
+    Some(u16::from_be_bytes([*s.first()?, *s.get(1)?]))
+}
+
+impl<'a> WarmRestartArea<'a> {
+    /// Wraps the region. Its contents are kept: that is the point.
+    pub fn new(bytes: &'a mut [u8]) -> Self {
+        Self { bytes }
+    }
+
+    fn slot_len(&self) -> usize {
+        self.bytes.len() / 2
+    }
+
+    /// Largest payload one record can hold.
+    pub fn payload_capacity(&self) -> usize {
+        self.slot_len().saturating_sub(RECORD_HEADER_LEN)
+    }
+
+    fn slot(&self, index: u8) -> &[u8] {
+        let n = self.slot_len();
+        let start = usize::from(index) * n;
+        self.bytes.get(start..start + n).unwrap_or(&[])
+    }
+
+    fn slot_mut(&mut self, index: u8) -> &mut [u8] {
+        let n = self.slot_len();
+        let start = usize::from(index) * n;
+        self.bytes.get_mut(start..start + n).unwrap_or(&mut [])
+    }
+
+    /// The whole record in slot `index`, as (sequence, payload).
+    fn record(&self, index: u8) -> Option<(u32, &[u8])> {
+        let slot = self.slot(index);
+        if be_u32(slot, 0)? != MAGIC || be_u16(slot, 4)? != CHECKPOINT_FORMAT {
+            return None;
+        }
+        let sequence = be_u32(slot, 8)?;
+        let len = usize::try_from(be_u32(slot, 12)?).ok()?;
+        let crc = be_u32(slot, 16)?;
+        let payload = slot.get(RECORD_HEADER_LEN..RECORD_HEADER_LEN.checked_add(len)?)?;
+        let mut digest = CRC32.digest();
+        digest.update(slot.get(..16)?);
+        digest.update(payload);
+        (digest.finalize() == crc).then_some((sequence, payload))
+    }
+
+    /// The newest whole record: (slot, sequence, payload).
+    pub fn latest(&self) -> Option<(u8, u32, &[u8])> {
+        match (self.record(0), self.record(1)) {
+            (Some((sa, pa)), Some((sb, pb))) => {
+                // Sequence numbers compare with wrap-around.
+                if (sb.wrapping_sub(sa) as i32) > 0 {
+                    Some((1, sb, pb))
+                } else {
+                    Some((0, sa, pa))
+                }
+            }
+            (Some((sa, pa)), None) => Some((0, sa, pa)),
+            (None, Some((sb, pb))) => Some((1, sb, pb)),
+            (None, None) => None,
+        }
+    }
+
+    /// Writes a new record whose payload `fill` produces into the given buffer (returning its
+    /// length). Returns the slot and sequence number written.
+    pub fn write(&mut self, fill: impl FnOnce(&mut [u8]) -> Option<usize>) -> Result<(u8, u32), CheckpointError> {
+        let (slot, sequence) = match self.latest() {
+            Some((s, seq, _)) => (1 - s, seq.wrapping_add(1)),
+            None => (0, 1),
+        };
+        let capacity = self.payload_capacity();
+        let target = self.slot_mut(slot);
+        // Break the old record in this slot first, so a torn write is never taken as whole.
+        if let Some(m) = target.get_mut(..4) {
+            m.copy_from_slice(&[0; 4]);
+        }
+        let payload_area = target
+            .get_mut(RECORD_HEADER_LEN..RECORD_HEADER_LEN + capacity)
+            .ok_or(CheckpointError::AreaTooSmall)?;
+        let len = fill(payload_area).ok_or(CheckpointError::AreaTooSmall)?;
+        if len > capacity {
+            return Err(CheckpointError::AreaTooSmall);
+        }
+        let len32 = u32::try_from(len).map_err(|_| CheckpointError::AreaTooSmall)?;
+        let mut header = [0u8; RECORD_HEADER_LEN];
+        header[0..4].copy_from_slice(&MAGIC.to_be_bytes());
+        header[4..6].copy_from_slice(&CHECKPOINT_FORMAT.to_be_bytes());
+        header[8..12].copy_from_slice(&sequence.to_be_bytes());
+        header[12..16].copy_from_slice(&len32.to_be_bytes());
+        let mut digest = CRC32.digest();
+        digest.update(&header[..16]);
+        digest.update(target.get(RECORD_HEADER_LEN..RECORD_HEADER_LEN + len).unwrap_or(&[]));
+        header[16..20].copy_from_slice(&digest.finalize().to_be_bytes());
+        // Header last: until it is complete the record does not count.
+        target
+            .get_mut(4..RECORD_HEADER_LEN)
+            .ok_or(CheckpointError::AreaTooSmall)?
+            .copy_from_slice(header.get(4..).unwrap_or(&[]));
+        target
+            .get_mut(..4)
+            .ok_or(CheckpointError::AreaTooSmall)?
+            .copy_from_slice(&MAGIC.to_be_bytes());
+        Ok((slot, sequence))
+    }
+
+    /// Erases both records (cold start).
+    pub fn invalidate(&mut self) {
+        for s in 0..2 {
+            if let Some(m) = self.slot_mut(s).get_mut(..4) {
+                m.copy_from_slice(&[0; 4]);
+            }
+        }
+    }
+}

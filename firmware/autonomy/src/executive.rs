@@ -1,0 +1,425 @@
+//! The executive (seed 000 IV.A.4, seed 003 "controller"): one state machine per committed task.
+//! Wait for the start time, then for the PRE constraints and the start condition (up to the
+//! wait timeout: flexible execution's task push), dispatch the command, await its response (up
+//! to the response timeout, with automatic retries where the task allows), monitor MAINTAIN
+//! constraints and the maintain condition, complete after the duration. A violated MAINTAIN
+//! constraint aborts the task cleanly. Every transition is reported as telemetry and, as a
+//! [`TaskReport`], to the planner.
+//!
+//! The executive sees the spacecraft only through the state buffer ([`StateTable`]): constraints
+//! on internal timelines (requests, claims) are the planner's business.
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+use crate::autonomy::Outputs;
+use crate::capacity::*;
+use crate::condition::{evaluate, measured_value, StateTable};
+use crate::model::*;
+use crate::planner::{Commit, ReportKind, TaskReport};
+use crate::telemetry::{FailureKind, TaskState};
+use crate::timeline::shift;
+use fsw_bridge::{CommandStatus, MissionTimeUs, TelemetryEvent};
+
+/// One task owned by the executive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ExecEntry {
+    pub instance: u16,
+    pub def: u8,
+    pub state: TaskState,
+    pub planned_start: MissionTimeUs,
+    pub duration_us: u64,
+    /// When the task started (dispatch, or no-op start).
+    pub started_at: MissionTimeUs,
+    /// `started_at + duration_us`.
+    pub end_at: MissionTimeUs,
+    pub command_id: u32,
+    pub dispatched_at: MissionTimeUs,
+    pub retries_left: u8,
+}
+
+/// Counters for reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ExecutiveStats {
+    pub dispatches: u32,
+    pub dropped_commits: u32,
+    pub dropped_responses: u32,
+    pub unmatched_responses: u32,
+}
+
+/// Executive state; all of it is saved in checkpoints.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Executive {
+    entries: Vec<ExecEntry, MAX_COMMITTED>,
+    responses: Vec<(u32, CommandStatus), MAX_PENDING_RESPONSES>,
+    next_command_id: u32,
+    pub stats: ExecutiveStats,
+}
+
+/// Command ids skipped after a restore, so that a response to a command sent after the last
+/// checkpoint cannot be taken for one sent after the restore.
+pub const RESTORE_COMMAND_ID_GAP: u32 = 1 << 16;
+
+impl Executive {
+    pub const fn new() -> Self {
+        Self {
+            entries: Vec::new(),
+            responses: Vec::new(),
+            next_command_id: 1,
+            stats: ExecutiveStats {
+                dispatches: 0,
+                dropped_commits: 0,
+                dropped_responses: 0,
+                unmatched_responses: 0,
+            },
+        }
+    }
+
+    /// The tasks the executive owns, in commit order.
+    pub fn entries(&self) -> &[ExecEntry] {
+        &self.entries
+    }
+
+    /// Whether the executive can take another commit.
+    pub fn has_room(&self) -> bool {
+        !self.entries.is_full()
+    }
+
+    /// Takes ownership of a committed task. Returns false (and counts it) when full.
+    pub fn accept(&mut self, network: &TaskNetwork, commit: Commit) -> bool {
+        let retries = network.task(commit.def).map(|t| t.control.max_retries).unwrap_or(0);
+        let entry = ExecEntry {
+            instance: commit.instance,
+            def: commit.def,
+            state: TaskState::Committed,
+            planned_start: commit.start,
+            duration_us: commit.end.0.saturating_sub(commit.start.0),
+            started_at: commit.start,
+            end_at: commit.end,
+            command_id: 0,
+            dispatched_at: MissionTimeUs::ZERO,
+            retries_left: retries,
+        };
+        if self.entries.push(entry).is_err() {
+            self.stats.dropped_commits = self.stats.dropped_commits.saturating_add(1);
+            return false;
+        }
+        true
+    }
+
+    /// Queues a command response; it is processed at the next step, in arrival order.
+    pub fn on_command_response(&mut self, id: u32, status: CommandStatus) {
+        if self.responses.push((id, status)).is_err() {
+            self.stats.dropped_responses = self.stats.dropped_responses.saturating_add(1);
+        }
+    }
+
+    pub(crate) fn after_restore(&mut self) {
+        self.next_command_id = self.next_command_id.wrapping_add(RESTORE_COMMAND_ID_GAP).max(1);
+    }
+
+    /// Whether responses are waiting to be processed.
+    pub fn work_pending(&self) -> bool {
+        !self.responses.is_empty()
+    }
+
+    /// The earliest time a task needs attention (start, wait or response timeout, end, the
+    /// start of MAINTAIN monitoring).
+    pub fn next_wakeup(&self, network: &TaskNetwork) -> Option<MissionTimeUs> {
+        let mut next: Option<MissionTimeUs> = None;
+        let mut consider = |t: MissionTimeUs| next = Some(next.map_or(t, |n| n.min(t)));
+        for e in &self.entries {
+            let Some(spec) = network.task(e.def) else {
+                continue;
+            };
+            match e.state {
+                TaskState::Committed => consider(e.planned_start),
+                TaskState::WaitingPre => {
+                    consider(e.planned_start.saturating_add(spec.control.pre_wait_timeout_us))
+                }
+                TaskState::Dispatched | TaskState::Running => {
+                    if e.state == TaskState::Dispatched {
+                        consider(e.dispatched_at.saturating_add(spec.control.response_timeout_us));
+                    }
+                    consider(e.end_at);
+                    for c in spec.constraints.iter().filter(|c| c.when == ConstraintWhen::Maintain) {
+                        let from = shift(e.started_at, c.start_offset_us);
+                        if from > e.started_at {
+                            consider(from);
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        next
+    }
+
+    /// Runs every task state machine once at `now`. Reports go to `report` (for the planner).
+    pub fn step(
+        &mut self,
+        network: &TaskNetwork,
+        states: &StateTable,
+        now: MissionTimeUs,
+        out: &mut impl Outputs,
+        report: &mut impl FnMut(TaskReport),
+    ) {
+        // Responses, in arrival order.
+        let responses = core::mem::take(&mut self.responses);
+        for &(id, status) in &responses {
+            let Some(i) = self
+                .entries
+                .iter()
+                .position(|e| e.command_id == id && e.state == TaskState::Dispatched)
+            else {
+                self.stats.unmatched_responses = self.stats.unmatched_responses.saturating_add(1);
+                continue;
+            };
+            match status {
+                CommandStatus::Ok => self.transition(i, TaskState::Running, now, out),
+                CommandStatus::Failed(_) => self.command_failed(network, states, i, FailureKind::CommandFailed, now, out, report),
+                CommandStatus::Rejected => self.command_failed(network, states, i, FailureKind::CommandRejected, now, out, report),
+            }
+        }
+        // Tasks, by planned start then instance id.
+        let mut order: Vec<(MissionTimeUs, u16), MAX_COMMITTED> = Vec::new();
+        for e in &self.entries {
+            let _ = order.push((e.planned_start, e.instance));
+        }
+        order.sort_unstable();
+        for &(_, instance) in &order {
+            let Some(i) = self.entries.iter().position(|e| e.instance == instance) else {
+                continue;
+            };
+            self.advance(network, states, i, now, out, report);
+        }
+        self.entries.retain(|e| !e.state.is_terminal());
+    }
+
+    fn entry(&self, i: usize) -> Option<ExecEntry> {
+        self.entries.get(i).copied()
+    }
+
+    fn transition(&mut self, i: usize, to: TaskState, now: MissionTimeUs, out: &mut impl Outputs) {
+        if let Some(e) = self.entries.get_mut(i) {
+            let from = e.state;
+            e.state = to;
+            out.telemetry(TelemetryEvent::TaskTransition {
+                task: e.instance,
+                from: from.code(),
+                to: to.code(),
+                at: now,
+            });
+        }
+    }
+
+    fn advance(
+        &mut self,
+        network: &TaskNetwork,
+        states: &StateTable,
+        i: usize,
+        now: MissionTimeUs,
+        out: &mut impl Outputs,
+        report: &mut impl FnMut(TaskReport),
+    ) {
+        let Some(e) = self.entry(i) else {
+            return;
+        };
+        let Some(spec) = network.task(e.def) else {
+            return;
+        };
+        match e.state {
+            TaskState::Committed | TaskState::WaitingPre => {
+                if now < e.planned_start {
+                    return;
+                }
+                if e.state == TaskState::Committed {
+                    let skip = spec
+                        .control
+                        .skip_condition
+                        .and_then(|c| network.condition(c))
+                        .is_some_and(|c| evaluate(network, c, states));
+                    if skip {
+                        self.transition(i, TaskState::Skipped, now, out);
+                        report(TaskReport {
+                            instance: e.instance,
+                            kind: ReportKind::Skipped,
+                            at: now,
+                        });
+                        return;
+                    }
+                }
+                if pre_conditions_hold(network, spec, states) {
+                    self.start(network, i, now, out, report);
+                } else if now >= e.planned_start.saturating_add(spec.control.pre_wait_timeout_us) {
+                    self.fail(network, i, FailureKind::PreTimeout, false, now, out, report);
+                } else if e.state == TaskState::Committed {
+                    self.transition(i, TaskState::WaitingPre, now, out);
+                }
+            }
+            TaskState::Dispatched | TaskState::Running => {
+                if e.state == TaskState::Running && now >= e.end_at {
+                    self.transition(i, TaskState::Completed, now, out);
+                    report(TaskReport {
+                        instance: e.instance,
+                        kind: ReportKind::Completed,
+                        at: now,
+                    });
+                    return;
+                }
+                if !maintain_conditions_hold(network, spec, states, &e, now) {
+                    self.fail(network, i, FailureKind::MaintainViolation, true, now, out, report);
+                    return;
+                }
+                if e.state == TaskState::Dispatched
+                    && now >= e.dispatched_at.saturating_add(spec.control.response_timeout_us)
+                {
+                    self.command_failed(network, states, i, FailureKind::ResponseTimeout, now, out, report);
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// Dispatches the command (or starts a no-op task).
+    fn start(
+        &mut self,
+        network: &TaskNetwork,
+        i: usize,
+        now: MissionTimeUs,
+        out: &mut impl Outputs,
+        report: &mut impl FnMut(TaskReport),
+    ) {
+        let Some(e) = self.entry(i) else {
+            return;
+        };
+        let Some(spec) = network.task(e.def) else {
+            return;
+        };
+        let first_start = !matches!(e.state, TaskState::WaitingPre) || e.command_id == 0;
+        let command_id = match &spec.command {
+            Some(command) => {
+                let id = self.next_command_id;
+                self.next_command_id = self.next_command_id.wrapping_add(1).max(1);
+                self.stats.dispatches = self.stats.dispatches.saturating_add(1);
+                out.dispatch(id, command.opcode, &command.args);
+                id
+            }
+            None => 0,
+        };
+        if let Some(x) = self.entries.get_mut(i) {
+            x.command_id = command_id;
+            x.dispatched_at = now;
+            x.started_at = now;
+            x.end_at = now.saturating_add(x.duration_us);
+        }
+        let to = if spec.command.is_some() {
+            TaskState::Dispatched
+        } else {
+            TaskState::Running
+        };
+        self.transition(i, to, now, out);
+        if first_start {
+            report(TaskReport {
+                instance: e.instance,
+                kind: ReportKind::Started,
+                at: now,
+            });
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn command_failed(
+        &mut self,
+        network: &TaskNetwork,
+        states: &StateTable,
+        i: usize,
+        kind: FailureKind,
+        now: MissionTimeUs,
+        out: &mut impl Outputs,
+        report: &mut impl FnMut(TaskReport),
+    ) {
+        let Some(e) = self.entry(i) else {
+            return;
+        };
+        if e.retries_left > 0 {
+            if let Some(x) = self.entries.get_mut(i) {
+                x.retries_left -= 1;
+            }
+            self.transition(i, TaskState::WaitingPre, now, out);
+            let pre_ok = network
+                .task(e.def)
+                .is_some_and(|spec| pre_conditions_hold(network, spec, states));
+            if pre_ok {
+                self.start(network, i, now, out, report);
+            }
+            return;
+        }
+        self.fail(network, i, kind, true, now, out, report);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn fail(
+        &mut self,
+        network: &TaskNetwork,
+        i: usize,
+        kind: FailureKind,
+        started: bool,
+        now: MissionTimeUs,
+        out: &mut impl Outputs,
+        report: &mut impl FnMut(TaskReport),
+    ) {
+        let Some(e) = self.entry(i) else {
+            return;
+        };
+        self.transition(i, TaskState::Failed(kind), now, out);
+        if let Some(command) = network.task(e.def).and_then(|s| s.control.on_failure_command.as_ref()) {
+            let id = self.next_command_id;
+            self.next_command_id = self.next_command_id.wrapping_add(1).max(1);
+            out.dispatch(id, command.opcode, &command.args);
+        }
+        report(TaskReport {
+            instance: e.instance,
+            kind: ReportKind::Failed { kind, started },
+            at: now,
+        });
+    }
+}
+
+/// PRE constraints on measured timelines, and the start condition.
+fn pre_conditions_hold(network: &TaskNetwork, spec: &TaskSpec, states: &StateTable) -> bool {
+    let constraints_ok = spec
+        .constraints
+        .iter()
+        .filter(|c| c.when == ConstraintWhen::Pre)
+        .all(|c| match measured_value(network, c.timeline, states) {
+            Some(v) => c.require.accepts(v),
+            None => true, // internal timeline: the planner's business
+        });
+    let condition_ok = spec
+        .control
+        .start_condition
+        .and_then(|c| network.condition(c))
+        .is_none_or(|c| evaluate(network, c, states));
+    constraints_ok && condition_ok
+}
+
+/// MAINTAIN constraints on measured timelines that cover `now`, and the maintain condition.
+fn maintain_conditions_hold(network: &TaskNetwork, spec: &TaskSpec, states: &StateTable, e: &ExecEntry, now: MissionTimeUs) -> bool {
+    let constraints_ok = spec
+        .constraints
+        .iter()
+        .filter(|c| c.when == ConstraintWhen::Maintain)
+        .filter(|c| {
+            now >= shift(e.started_at, c.start_offset_us) && now < shift(e.end_at, c.end_offset_us)
+        })
+        .all(|c| match measured_value(network, c.timeline, states) {
+            Some(v) => c.require.accepts(v),
+            None => true,
+        });
+    let condition_ok = spec
+        .control
+        .maintain_condition
+        .and_then(|c| network.condition(c))
+        .is_none_or(|c| evaluate(network, c, states));
+    constraints_ok && condition_ok
+}

@@ -1,0 +1,450 @@
+//! The task network model (seed 000 IV.A.1, seed 003 "Constraints and Impacts"): timelines,
+//! tasks with constraints, impacts, control conditions, timeouts, contingencies and
+//! permissions, templates, and temporal constraints between tasks.
+//!
+//! [`NetworkSpec`] is the plain, unchecked form (what the ground builds and the uplink carries).
+//! [`TaskNetwork`] is the validated form: it can only be made by [`TaskNetwork::from_spec`] or
+//! the uplink decoder, both of which run [`crate::uplink`]'s validator, so every index it holds
+//! refers to something that exists and every value fits its timeline.
+use heapless::{String, Vec};
+use serde::{Deserialize, Serialize};
+
+use crate::capacity::*;
+use fsw_bridge::{CommandArgs, MissionTimeUs, Opcode, StateKey};
+
+/// A short name (task, timeline) kept for reports and for the ground tools.
+pub type Name = String<MAX_NAME_LEN>;
+
+/// Value a timeline holds when its owner cannot vouch for it ([`fsw_bridge::StateValue::Unknown`]).
+/// No requirement is satisfied by it.
+pub const VALUE_UNKNOWN: i64 = i64::MIN;
+
+/// Version of the binary task-network format; the decoder refuses any other.
+pub const UPLINK_FORMAT_VERSION: u16 = 1;
+
+/// The windows of the planner cycle (seed 000 IV.A.3), all durations in µs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PlannerConfig {
+    /// Scheduled tasks starting before `now + commit_window_us` are committed to the executive.
+    pub commit_window_us: u64,
+    /// Unscheduled tasks whose earliest start is before `now + scheduling_window_us` are scheduled.
+    pub scheduling_window_us: u64,
+    /// Tasks are placed to start before `now + plan_horizon_us`.
+    pub plan_horizon_us: u64,
+    /// A planner cycle runs at least this often even when nothing changed.
+    pub plan_process_interval_us: u64,
+}
+
+impl PlannerConfig {
+    /// Windows that suit the flyby scenario: commit 60 s ahead, schedule 6 h ahead, plan 12 h
+    /// ahead, cycle at least every 5 min.
+    pub const DEFAULT: Self = Self {
+        commit_window_us: 60_000_000,
+        scheduling_window_us: 6 * 3_600_000_000,
+        plan_horizon_us: 12 * 3_600_000_000,
+        plan_process_interval_us: 300_000_000,
+    };
+}
+
+/// What kind of value a timeline holds and how impacts combine on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum TimelineKind {
+    /// Enumerated state (attitude NADIR, TURNING, ...): values `0..value_count`; changed only by
+    /// `Assign` impacts at PRE or POST.
+    State { value_count: u8, initial: u16 },
+    /// Binary semaphore: MAINTAIN `Claim` impacts may not overlap.
+    Claimable,
+    /// Cumulative or depletable quantity (energy, data volume, coverage): `Assign`, `Add` and
+    /// `Rate` (change per second) impacts; the value must stay in `[min, max]`.
+    Cumulative { initial: i64, min: i64, max: i64 },
+}
+
+/// One timeline of the network.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TimelineSpec {
+    pub name: Name,
+    pub kind: TimelineKind,
+    /// State-buffer entry that measures this timeline; `None` for internal timelines that only
+    /// the planner projects (requests, claims).
+    pub state_key: Option<StateKey>,
+}
+
+/// When a constraint must hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ConstraintWhen {
+    /// Just before the task starts (at `start + start_offset_us`, before the task's own impacts).
+    Pre,
+    /// From `start + start_offset_us` (inclusive) to `end + end_offset_us` (exclusive).
+    Maintain,
+}
+
+/// The values a constraint accepts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Requirement {
+    /// State timelines: bit `v` set accepts value `v`.
+    OneOf { mask: u32 },
+    /// Cumulative and claimable timelines: `min <= value <= max`.
+    Range { min: i64, max: i64 },
+}
+
+impl Requirement {
+    /// Whether `value` satisfies this requirement ([`VALUE_UNKNOWN`] never does).
+    pub fn accepts(&self, value: i64) -> bool {
+        if value == VALUE_UNKNOWN {
+            return false;
+        }
+        match *self {
+            Requirement::OneOf { mask } => {
+                (0..32).contains(&value) && (mask >> (value as u32)) & 1 == 1
+            }
+            Requirement::Range { min, max } => min <= value && value <= max,
+        }
+    }
+}
+
+/// A PRE or MAINTAIN constraint on one timeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ConstraintSpec {
+    pub when: ConstraintWhen,
+    /// Index into [`NetworkSpec::timelines`].
+    pub timeline: u8,
+    pub require: Requirement,
+    pub start_offset_us: i64,
+    /// MAINTAIN only.
+    pub end_offset_us: i64,
+}
+
+/// When an impact happens.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ImpactWhen {
+    /// At `start + start_offset_us`.
+    Pre,
+    /// From `start + start_offset_us` to `end + end_offset_us` (undone at the end).
+    Maintain,
+    /// At `end + end_offset_us` (only if the task completes).
+    Post,
+}
+
+/// What an impact does to its timeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Effect {
+    /// Set the value (state index, or cumulative value). PRE or POST only.
+    Assign(i64),
+    /// Add a change (MAINTAIN: added at the start, removed at the end).
+    Add(i64),
+    /// Change the rate, in value units per second (MAINTAIN: for the interval).
+    Rate(i64),
+    /// Hold the semaphore (claimable timelines, MAINTAIN only).
+    Claim,
+}
+
+/// A PRE, MAINTAIN or POST impact on one timeline.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ImpactSpec {
+    pub when: ImpactWhen,
+    pub timeline: u8,
+    pub effect: Effect,
+    pub start_offset_us: i64,
+    pub end_offset_us: i64,
+}
+
+/// The command a task dispatches.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct CommandSpec {
+    pub opcode: Opcode,
+    pub args: CommandArgs,
+}
+
+/// Executive-side control of one task (seed 000 IV.A.4, seed 003 "controller").
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ControlSpec {
+    /// Extra condition that must hold (with the PRE constraints) before dispatch.
+    pub start_condition: Option<u8>,
+    /// Extra condition monitored (with the MAINTAIN constraints) while the task runs.
+    pub maintain_condition: Option<u8>,
+    /// When true at the start time, the task is skipped (no command, no impacts).
+    pub skip_condition: Option<u8>,
+    /// How long after its start time the task may wait for its PRE constraints ("task push").
+    pub pre_wait_timeout_us: u64,
+    /// How long after dispatch the command response may take.
+    pub response_timeout_us: u64,
+    /// Automatic re-dispatches after a failed or timed-out command.
+    pub max_retries: u8,
+    /// Fire-and-forget command the executive sends when the task fails or is aborted.
+    pub on_failure_command: Option<CommandSpec>,
+}
+
+/// Whether the ground asked for this task or only allows the planner to add it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum TaskRole {
+    /// In the plan from the start.
+    Requested,
+    /// Added by the planner only, when a permission and a conflict call for it.
+    Template,
+}
+
+/// What the planner does when a task fails.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ContingencyAction {
+    /// Schedule a new instance of the task from now on, keeping its latest end (it is shortened
+    /// if need be, down to its minimum duration); add permitted templates to enable it.
+    Restart,
+    /// Schedule a new instance with its full duration at the earliest valid time.
+    Move,
+    /// Add an instance of the template with this task id, as early as valid.
+    AddTemplate(u16),
+    /// Give the task up (the plan is repaired without it).
+    Delete,
+}
+
+/// A contingency: on one of the failure kinds in `on` (bit `FailureKind as u8`), do `action`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Contingency {
+    pub on: u8,
+    pub action: ContingencyAction,
+}
+
+/// What the planner may do to this task and on its behalf.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Permissions {
+    /// May be moved within its window while not committed.
+    pub may_move: bool,
+    /// May be deleted when it cannot be scheduled or repaired.
+    pub may_delete: bool,
+    /// Templates (task ids) the planner may add to satisfy this task's constraints, to restore
+    /// timelines this task impacts, or to enable its restart.
+    pub may_add: Vec<u16, MAX_ADD_PERMISSIONS_PER_TASK>,
+}
+
+/// One task definition: a requested task or a template.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TaskSpec {
+    /// Ground id, unique, below [`FIRST_INSTANCE_ID`]; the requested instance carries it too.
+    pub id: u16,
+    pub name: Name,
+    /// Higher schedules first among tasks with the same earliest start.
+    pub priority: u8,
+    pub role: TaskRole,
+    /// `None`: a no-op task (it runs for its duration without dispatching).
+    pub command: Option<CommandSpec>,
+    pub duration_us: u64,
+    /// Shortest useful duration when the task must end by `latest_end`.
+    pub min_duration_us: u64,
+    pub earliest_start: MissionTimeUs,
+    pub latest_start: MissionTimeUs,
+    /// The task ends at `min(start + duration_us, latest_end)`.
+    pub latest_end: MissionTimeUs,
+    pub constraints: Vec<ConstraintSpec, MAX_CONSTRAINTS_PER_TASK>,
+    pub impacts: Vec<ImpactSpec, MAX_IMPACTS_PER_TASK>,
+    pub control: ControlSpec,
+    pub contingencies: Vec<Contingency, MAX_CONTINGENCIES_PER_TASK>,
+    pub permissions: Permissions,
+}
+
+impl TaskSpec {
+    /// Duration of an instance that starts at `start` (shortened to end by `latest_end`), or
+    /// `None` when less than `min_duration_us` would remain.
+    pub fn duration_from(&self, start: MissionTimeUs) -> Option<u64> {
+        let room = self.latest_end.0.checked_sub(start.0)?;
+        let duration = self.duration_us.min(room);
+        (duration >= self.min_duration_us).then_some(duration)
+    }
+
+    /// The contingency action for a failure of `kind`, if any.
+    pub fn contingency_for(&self, kind: crate::telemetry::FailureKind) -> Option<ContingencyAction> {
+        let bit = 1u8 << (kind as u8);
+        self.contingencies
+            .iter()
+            .find(|c| c.on & bit != 0)
+            .map(|c| c.action)
+    }
+}
+
+/// Relational operator of a condition term.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RelOp {
+    Eq,
+    Ne,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+}
+
+/// What a condition term reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Operand {
+    /// A state-buffer entry (Bool as 0/1, Enum as its code, Int as is).
+    State(StateKey),
+    /// The measured value of a timeline (the timeline must have a state key).
+    Timeline(u8),
+}
+
+/// One node of a condition in postfix order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CondNode {
+    /// `operand op value`; false when the operand is unknown.
+    Term { operand: Operand, op: RelOp, value: i64 },
+    /// Pops two, pushes their conjunction.
+    And,
+    /// Pops two, pushes their disjunction.
+    Or,
+    /// Pops one, pushes its negation.
+    Not,
+}
+
+/// A boolean expression tree in postfix order, at most [`MAX_CONDITION_TERMS`] nodes and
+/// [`MAX_CONDITION_DEPTH`] deep.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ConditionSpec {
+    pub nodes: Vec<CondNode, MAX_CONDITION_TERMS>,
+}
+
+/// Which point of a task a temporal constraint names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum TaskPoint {
+    Start,
+    End,
+}
+
+/// `to_point(to) - from_point(from)` must lie in `[min_us, max_us]` (seed 003: "{start,end} of A
+/// must occur {before,after} the {start,end} of B by [min,max]"). Applies to the requested
+/// instances of the two tasks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TemporalConstraint {
+    pub from_task: u16,
+    pub from_point: TaskPoint,
+    pub to_task: u16,
+    pub to_point: TaskPoint,
+    pub min_us: i64,
+    pub max_us: i64,
+}
+
+/// The fixed part at the head of an uplink.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct NetworkHeader {
+    pub format_version: u16,
+    /// Ground-assigned identifier of this network (echoed in reports).
+    pub network_id: u32,
+    pub config: PlannerConfig,
+}
+
+/// A task network as the ground builds it, not yet validated.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct NetworkSpec {
+    pub header: NetworkHeader,
+    pub timelines: Vec<TimelineSpec, MAX_TIMELINES>,
+    pub conditions: Vec<ConditionSpec, MAX_CONDITIONS>,
+    pub tasks: Vec<TaskSpec, MAX_TASKS>,
+    pub temporal: Vec<TemporalConstraint, MAX_TEMPORAL_CONSTRAINTS>,
+}
+
+impl NetworkSpec {
+    /// An empty network with the given id and planner windows.
+    pub const fn new(network_id: u32, config: PlannerConfig) -> Self {
+        Self {
+            header: NetworkHeader {
+                format_version: UPLINK_FORMAT_VERSION,
+                network_id,
+                config,
+            },
+            timelines: Vec::new(),
+            conditions: Vec::new(),
+            tasks: Vec::new(),
+            temporal: Vec::new(),
+        }
+    }
+}
+
+/// A validated task network. Every index it holds is in range and every value fits its
+/// timeline; see [`crate::uplink`] for the checks.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TaskNetwork {
+    pub(crate) spec: NetworkSpec,
+}
+
+impl TaskNetwork {
+    /// The empty network (no timelines, no tasks) the core holds before the first uplink.
+    pub const EMPTY: Self = Self {
+        spec: NetworkSpec::new(0, PlannerConfig::DEFAULT),
+    };
+
+    /// Validate `spec` and wrap it. The same checks run on the target for binary uplinks.
+    pub fn from_spec(spec: NetworkSpec) -> Result<Self, crate::uplink::ValidationError> {
+        crate::uplink::validate_spec(&spec)?;
+        Ok(Self { spec })
+    }
+
+    /// The validated contents.
+    pub fn spec(&self) -> &NetworkSpec {
+        &self.spec
+    }
+
+    pub fn config(&self) -> &PlannerConfig {
+        &self.spec.header.config
+    }
+
+    pub fn network_id(&self) -> u32 {
+        self.spec.header.network_id
+    }
+
+    pub fn timelines(&self) -> &[TimelineSpec] {
+        &self.spec.timelines
+    }
+
+    pub fn tasks(&self) -> &[TaskSpec] {
+        &self.spec.tasks
+    }
+
+    pub fn task(&self, def: u8) -> Option<&TaskSpec> {
+        self.spec.tasks.get(usize::from(def))
+    }
+
+    pub fn timeline(&self, index: u8) -> Option<&TimelineSpec> {
+        self.spec.timelines.get(usize::from(index))
+    }
+
+    pub fn condition(&self, index: u8) -> Option<&ConditionSpec> {
+        self.spec.conditions.get(usize::from(index))
+    }
+
+    pub fn temporal(&self) -> &[TemporalConstraint] {
+        &self.spec.temporal
+    }
+
+    /// Index of the task definition with ground id `id`.
+    pub fn def_of_id(&self, id: u16) -> Option<u8> {
+        self.spec
+            .tasks
+            .iter()
+            .position(|t| t.id == id)
+            .and_then(|i| u8::try_from(i).ok())
+    }
+
+    /// Index of the timeline measured by state-buffer entry `key`.
+    pub fn timeline_of_key(&self, key: StateKey) -> Option<u8> {
+        self.spec
+            .timelines
+            .iter()
+            .position(|t| t.state_key == Some(key))
+            .and_then(|i| u8::try_from(i).ok())
+    }
+
+    /// Index of the timeline called `name`.
+    pub fn timeline_by_name(&self, name: &str) -> Option<u8> {
+        self.spec
+            .timelines
+            .iter()
+            .position(|t| t.name.as_str() == name)
+            .and_then(|i| u8::try_from(i).ok())
+    }
+
+    /// Index of the task definition called `name`.
+    pub fn def_by_name(&self, name: &str) -> Option<u8> {
+        self.spec
+            .tasks
+            .iter()
+            .position(|t| t.name.as_str() == name)
+            .and_then(|i| u8::try_from(i).ok())
+    }
+}

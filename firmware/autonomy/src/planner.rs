@@ -1,0 +1,1249 @@
+//! The planner (seed 000 IV.A.3, seed 003): every cycle it takes in execution reports and
+//! applies contingencies, consolidates the past, schedules unscheduled tasks into valid
+//! intervals (adding permitted templates to enable them), repairs conflicts with the permitted
+//! modifiers (move, add, delete) and commits tasks in the commit window to the executive.
+//!
+//! It is anytime: [`Planner::step`] is given a budget of validity checks; a scheduling or repair
+//! job that starts finishes, but no new job starts once the budget is spent, and the next call
+//! resumes the cycle where it stopped. Commits happen on every call, whatever the budget.
+//!
+//! Valid intervals follow seed 003 by construction: the validity of a placement only changes
+//! where one of the task's relative instants (start or end plus an offset) meets an event or a
+//! constraint boundary of another task, so checking each such critical start and the instant
+//! after it gives the exact valid intervals for state, claimable and cumulative (step)
+//! timelines. With rate impacts the same candidates are used and the chosen placement is still
+//! checked exactly, but a window that opens between candidates may be missed.
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+use crate::autonomy::Outputs;
+use crate::capacity::*;
+use crate::model::*;
+use crate::plan::{Origin, PlanEntry};
+use crate::telemetry::{FailureKind, PlanModificationKind, TaskState};
+use crate::timeline::{
+    constraint_holds, constraint_span, consolidate, shift, Anchors, Candidate, Measurement,
+    PlanView, TimelineAnchor,
+};
+use fsw_bridge::{MissionTimeUs, TelemetryEvent};
+
+/// A task handed from the planner to the executive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Commit {
+    pub instance: u16,
+    pub def: u8,
+    pub start: MissionTimeUs,
+    pub end: MissionTimeUs,
+}
+
+/// What happened to a committed task, sent from the executive to the planner.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ReportKind {
+    /// The task started (command accepted, or no-op begun).
+    Started,
+    Completed,
+    Skipped,
+    /// The task failed; `started` says whether its impacts had begun.
+    Failed { kind: FailureKind, started: bool },
+}
+
+/// One execution report.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TaskReport {
+    pub instance: u16,
+    pub kind: ReportKind,
+    pub at: MissionTimeUs,
+}
+
+/// A constraint that does not hold in the projected plan.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Conflict {
+    pub instance: u16,
+    pub constraint: u8,
+    /// Violated from `from` until `to` (exclusive).
+    pub from: MissionTimeUs,
+    pub to: MissionTimeUs,
+}
+
+/// A closed interval of valid start times `[start, end]`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ValidInterval {
+    pub start: MissionTimeUs,
+    pub end: MissionTimeUs,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+enum Phase {
+    Idle,
+    Consolidate,
+    Schedule,
+    Repair,
+}
+
+/// Counters for benchmarks and reports.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PlannerStats {
+    pub cycles: u32,
+    pub validity_checks: u32,
+    pub candidate_overflows: u32,
+    pub dropped_reports: u32,
+    pub plan_full: u32,
+}
+
+/// Result of one [`Planner::step`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PlannerStepReport {
+    /// Validity checks spent.
+    pub checks: u32,
+    /// True when the cycle stopped on the budget and wants to run again at once.
+    pub work_pending: bool,
+}
+
+const MAX_SCHEDULE_PASSES: u8 = 3;
+
+/// Planner state. Everything but the scratch buffer is saved in checkpoints.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Planner {
+    entries: Vec<PlanEntry, MAX_PLAN_ENTRIES>,
+    anchors: Anchors,
+    next_instance: u16,
+    phase: Phase,
+    dirty: bool,
+    last_cycle_at: Option<MissionTimeUs>,
+    /// Instances already attempted in the current scheduling pass.
+    attempted: Vec<u16, MAX_PLAN_ENTRIES>,
+    placed_in_pass: bool,
+    passes: u8,
+    /// (instance, constraint) conflicts already worked on this cycle.
+    tried: Vec<(u16, u8), MAX_REPAIRS_PER_CYCLE>,
+    reports: Vec<TaskReport, MAX_TASK_REPORTS>,
+    pub stats: PlannerStats,
+    #[serde(skip)]
+    scratch: Scratch,
+}
+
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    candidates: Vec<u64, MAX_CANDIDATES>,
+}
+
+impl Default for Planner {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The context every placement helper needs.
+struct Ctx<'a> {
+    network: &'a TaskNetwork,
+    now: MissionTimeUs,
+}
+
+impl Planner {
+    pub const fn new() -> Self {
+        Self {
+            entries: Vec::new(),
+            anchors: Vec::new(),
+            next_instance: FIRST_INSTANCE_ID,
+            phase: Phase::Idle,
+            dirty: false,
+            last_cycle_at: None,
+            attempted: Vec::new(),
+            placed_in_pass: false,
+            passes: 0,
+            tried: Vec::new(),
+            reports: Vec::new(),
+            stats: PlannerStats {
+                cycles: 0,
+                validity_checks: 0,
+                candidate_overflows: 0,
+                dropped_reports: 0,
+                plan_full: 0,
+            },
+            scratch: Scratch {
+                candidates: Vec::new(),
+            },
+        }
+    }
+
+    /// Forgets the plan and starts from `network`'s requested tasks, all unscheduled.
+    pub fn load(&mut self, network: &TaskNetwork) {
+        *self = Self::new();
+        for t in network.timelines() {
+            let _ = self.anchors.push(TimelineAnchor::initial(t));
+        }
+        for (i, t) in network.tasks().iter().enumerate() {
+            if t.role != TaskRole::Requested {
+                continue;
+            }
+            let _ = self.entries.push(PlanEntry {
+                instance: t.id,
+                def: i as u8,
+                state: TaskState::Unscheduled,
+                start: t.earliest_start,
+                end: t.earliest_start,
+                earliest_start: t.earliest_start,
+                latest_start: t.latest_start,
+                started: false,
+                persistent: true,
+                origin: Origin::Requested,
+            });
+        }
+        self.dirty = true;
+    }
+
+    /// The plan's instances, in the order they were created.
+    pub fn entries(&self) -> &[PlanEntry] {
+        &self.entries
+    }
+
+    /// The timeline anchors (consolidated past and measurements).
+    pub fn anchors(&self) -> &[TimelineAnchor] {
+        &self.anchors
+    }
+
+    /// A view of the whole plan, for projections.
+    pub fn view<'a>(&'a self, network: &'a TaskNetwork) -> PlanView<'a> {
+        PlanView::new(network, &self.entries, &self.anchors)
+    }
+
+    /// Records a state-buffer value for the timeline it measures.
+    pub fn on_measurement(&mut self, timeline: u8, value: i64, at: MissionTimeUs) {
+        if let Some(a) = self.anchors.get_mut(usize::from(timeline)) {
+            let newer = a.measured.is_none_or(|m| at >= m.at);
+            if newer {
+                if a.measured.is_none_or(|m| m.value != value) {
+                    self.dirty = true;
+                }
+                a.measured = Some(Measurement { value, at });
+            }
+        }
+    }
+
+    /// Queues an execution report from the executive (processed at the next step, in order).
+    pub fn on_report(&mut self, report: TaskReport) {
+        if self.reports.push(report).is_err() {
+            self.stats.dropped_reports = self.stats.dropped_reports.saturating_add(1);
+        }
+        self.dirty = true;
+    }
+
+    /// Whether a cycle is in progress (stopped on its budget).
+    pub fn work_pending(&self) -> bool {
+        self.phase != Phase::Idle || !self.reports.is_empty()
+    }
+
+    /// The earliest time the planner needs to run: now if work is pending, else the next
+    /// commit or the next periodic cycle.
+    pub fn next_wakeup(&self, network: &TaskNetwork, now: MissionTimeUs) -> Option<MissionTimeUs> {
+        if self.work_pending() || self.dirty {
+            return Some(now);
+        }
+        let config = network.config();
+        let mut next: Option<MissionTimeUs> = None;
+        let mut consider = |t: MissionTimeUs| next = Some(next.map_or(t, |n| n.min(t)));
+        for e in &self.entries {
+            match e.state {
+                TaskState::Scheduled => consider(MissionTimeUs(
+                    e.start.0.saturating_sub(config.commit_window_us).max(now.0),
+                )),
+                TaskState::Unscheduled if e.persistent => consider(MissionTimeUs(
+                    e.earliest_start
+                        .0
+                        .saturating_sub(config.scheduling_window_us)
+                        .max(now.0),
+                )),
+                _ => {}
+            }
+        }
+        if self.entries.iter().any(|e| !e.state.is_terminal()) {
+            if let Some(last) = self.last_cycle_at {
+                consider(last.saturating_add(config.plan_process_interval_us).max(now));
+            }
+        }
+        next
+    }
+
+    /// Runs the planner up to `budget` validity checks: intake, then the cycle (resumed or
+    /// started), then commits. Commits go to `commits`; decisions to `out` as telemetry.
+    pub fn step(
+        &mut self,
+        network: &TaskNetwork,
+        now: MissionTimeUs,
+        budget: u32,
+        commits: &mut impl FnMut(Commit) -> bool,
+        out: &mut impl Outputs,
+    ) -> PlannerStepReport {
+        let ctx = Ctx { network, now };
+        let start_checks = self.stats.validity_checks;
+        self.intake(&ctx, out);
+        self.expire(&ctx, out);
+        let periodic = self.last_cycle_at.is_none_or(|l| {
+            now >= l.saturating_add(network.config().plan_process_interval_us)
+        });
+        if self.phase == Phase::Idle && (self.dirty || periodic) {
+            self.phase = Phase::Consolidate;
+            self.dirty = false;
+            self.tried.clear();
+            self.attempted.clear();
+            self.placed_in_pass = false;
+            self.passes = 0;
+            self.stats.cycles = self.stats.cycles.saturating_add(1);
+        }
+        let spent = |p: &Self| p.stats.validity_checks.wrapping_sub(start_checks);
+        loop {
+            match self.phase {
+                Phase::Idle => break,
+                Phase::Consolidate => {
+                    consolidate(network, &mut self.entries, &mut self.anchors, now);
+                    self.phase = Phase::Schedule;
+                }
+                Phase::Schedule => {
+                    if spent(self) >= budget {
+                        break;
+                    }
+                    match self.next_to_schedule(&ctx) {
+                        Some(instance) => {
+                            let _ = self.attempted.push(instance);
+                            if self.schedule(&ctx, instance, false, out) {
+                                self.placed_in_pass = true;
+                            }
+                        }
+                        None => {
+                            let retry = self.placed_in_pass
+                                && self.passes + 1 < MAX_SCHEDULE_PASSES
+                                && self
+                                    .entries
+                                    .iter()
+                                    .any(|e| e.state == TaskState::Unscheduled && e.persistent);
+                            if retry {
+                                self.passes += 1;
+                                self.attempted.clear();
+                                self.placed_in_pass = false;
+                            } else {
+                                self.phase = Phase::Repair;
+                            }
+                        }
+                    }
+                }
+                Phase::Repair => {
+                    if spent(self) >= budget {
+                        break;
+                    }
+                    let conflict = if self.tried.is_full() {
+                        None
+                    } else {
+                        self.first_conflict(&ctx, true)
+                    };
+                    match conflict {
+                        Some(c) => {
+                            let _ = self.tried.push((c.instance, c.constraint));
+                            self.repair(&ctx, c, out);
+                        }
+                        None => {
+                            self.phase = Phase::Idle;
+                            self.last_cycle_at = Some(now);
+                        }
+                    }
+                }
+            }
+        }
+        self.commit(&ctx, commits, out);
+        PlannerStepReport {
+            checks: spent(self),
+            work_pending: self.phase != Phase::Idle,
+        }
+    }
+
+    fn emit_transition(out: &mut impl Outputs, instance: u16, from: TaskState, to: TaskState, at: MissionTimeUs) {
+        out.telemetry(TelemetryEvent::TaskTransition {
+            task: instance,
+            from: from.code(),
+            to: to.code(),
+            at,
+        });
+    }
+
+    fn emit_modification(out: &mut impl Outputs, kind: PlanModificationKind, instance: u16, template: u16, at: MissionTimeUs) {
+        out.telemetry(TelemetryEvent::PlanModification {
+            kind: kind as u8,
+            task: instance,
+            template,
+            at,
+        });
+    }
+
+    fn entry_index(&self, instance: u16) -> Option<usize> {
+        self.entries.iter().position(|e| e.instance == instance)
+    }
+
+    fn new_instance_id(&mut self) -> u16 {
+        let id = self.next_instance;
+        self.next_instance = self.next_instance.checked_add(1).unwrap_or(FIRST_INSTANCE_ID);
+        id
+    }
+
+    /// Applies queued execution reports in arrival order, with contingencies.
+    fn intake(&mut self, ctx: &Ctx<'_>, out: &mut impl Outputs) {
+        let reports = core::mem::take(&mut self.reports);
+        for r in &reports {
+            let Some(i) = self.entry_index(r.instance) else {
+                continue;
+            };
+            let Some(e) = self.entries.get_mut(i) else {
+                continue;
+            };
+            match r.kind {
+                ReportKind::Started => {
+                    let duration = e.end.0.saturating_sub(e.start.0);
+                    e.start = r.at;
+                    e.end = r.at.saturating_add(duration);
+                    e.started = true;
+                    e.state = TaskState::Running;
+                }
+                ReportKind::Completed => {
+                    e.end = r.at;
+                    e.state = TaskState::Completed;
+                }
+                ReportKind::Skipped => e.state = TaskState::Skipped,
+                ReportKind::Failed { kind, started } => {
+                    e.started = started;
+                    if started {
+                        e.end = r.at;
+                    }
+                    e.state = TaskState::Failed(kind);
+                    let entry = *e;
+                    self.apply_contingency(ctx, entry, kind, out);
+                }
+            }
+        }
+    }
+
+    /// Gives up requested tasks whose window has closed without a placement.
+    fn expire(&mut self, ctx: &Ctx<'_>, out: &mut impl Outputs) {
+        let mut i = 0;
+        while let Some(e) = self.entries.get(i).copied() {
+            i += 1;
+            if e.state == TaskState::Unscheduled && e.latest_start < ctx.now {
+                let kind = FailureKind::Unschedulable;
+                if let Some(x) = self.entries.get_mut(i - 1) {
+                    x.state = TaskState::Failed(kind);
+                }
+                Self::emit_transition(out, e.instance, TaskState::Unscheduled, TaskState::Failed(kind), ctx.now);
+                self.apply_contingency(ctx, e, kind, out);
+            }
+        }
+    }
+
+    fn add_entry(&mut self, entry: PlanEntry) -> bool {
+        if self.entries.push(entry).is_err() {
+            self.stats.plan_full = self.stats.plan_full.saturating_add(1);
+            return false;
+        }
+        self.dirty = true;
+        true
+    }
+
+    fn apply_contingency(&mut self, ctx: &Ctx<'_>, failed: PlanEntry, kind: FailureKind, out: &mut impl Outputs) {
+        let Some(spec) = ctx.network.task(failed.def) else {
+            return;
+        };
+        // An instance that failed to be scheduled is not restarted (that would loop).
+        let Some(action) = spec.contingency_for(kind) else {
+            return;
+        };
+        match action {
+            ContingencyAction::Restart | ContingencyAction::Move => {
+                if kind == FailureKind::Unschedulable {
+                    return;
+                }
+                let instance = self.new_instance_id();
+                let earliest = spec.earliest_start.max(ctx.now);
+                let latest_start = if action == ContingencyAction::Move {
+                    MissionTimeUs::MAX
+                } else {
+                    spec.latest_start
+                };
+                if self.add_entry(PlanEntry {
+                    instance,
+                    def: failed.def,
+                    state: TaskState::Unscheduled,
+                    start: earliest,
+                    end: earliest,
+                    earliest_start: earliest,
+                    latest_start,
+                    started: false,
+                    persistent: false,
+                    origin: Origin::Restarted {
+                        of_instance: failed.instance,
+                    },
+                }) {
+                    Self::emit_modification(out, PlanModificationKind::Restart, instance, spec.id, ctx.now);
+                }
+            }
+            ContingencyAction::AddTemplate(id) => {
+                let Some(def) = ctx.network.def_of_id(id) else {
+                    return;
+                };
+                let instance = self.new_instance_id();
+                if self.add_entry(PlanEntry {
+                    instance,
+                    def,
+                    state: TaskState::Unscheduled,
+                    start: ctx.now,
+                    end: ctx.now,
+                    earliest_start: ctx.now,
+                    latest_start: MissionTimeUs::MAX,
+                    started: false,
+                    persistent: false,
+                    origin: Origin::Added {
+                        for_instance: failed.instance,
+                    },
+                }) {
+                    Self::emit_modification(out, PlanModificationKind::Add, instance, id, ctx.now);
+                }
+            }
+            ContingencyAction::Delete => {
+                Self::emit_modification(out, PlanModificationKind::Delete, failed.instance, spec.id, ctx.now);
+            }
+        }
+    }
+
+    /// The next unscheduled instance in the scheduling window: earliest start first, then
+    /// higher priority, then lower instance id.
+    fn next_to_schedule(&self, ctx: &Ctx<'_>) -> Option<u16> {
+        let horizon = ctx.now.saturating_add(ctx.network.config().scheduling_window_us);
+        self.entries
+            .iter()
+            .filter(|e| e.state == TaskState::Unscheduled && !self.attempted.contains(&e.instance))
+            .filter(|e| e.earliest_start <= horizon)
+            .min_by_key(|e| {
+                let priority = ctx.network.task(e.def).map(|t| t.priority).unwrap_or(0);
+                (e.earliest_start, u8::MAX - priority, e.instance)
+            })
+            .map(|e| e.instance)
+    }
+
+    /// The end of an instance of `def` starting at `start`.
+    fn end_for(network: &TaskNetwork, entry: &PlanEntry, start: MissionTimeUs) -> Option<MissionTimeUs> {
+        let spec = network.task(entry.def)?;
+        let duration = match entry.origin {
+            Origin::Restarted { .. } if entry.latest_start == MissionTimeUs::MAX => Some(spec.duration_us),
+            _ => spec.duration_from(start),
+        }?;
+        Some(start.saturating_add(duration))
+    }
+
+    /// The window of start times for `entry`: its own window, the plan horizon, and the
+    /// temporal constraints with other requested tasks.
+    fn start_window(&self, ctx: &Ctx<'_>, entry: &PlanEntry) -> Option<(MissionTimeUs, MissionTimeUs)> {
+        let spec = ctx.network.task(entry.def)?;
+        let lo = entry.earliest_start.max(ctx.now);
+        let mut hi = entry
+            .latest_start
+            .min(ctx.now.saturating_add(ctx.network.config().plan_horizon_us));
+        if entry.latest_start != MissionTimeUs::MAX || entry.origin == Origin::Requested {
+            hi = hi.min(MissionTimeUs(spec.latest_end.0.saturating_sub(spec.min_duration_us)));
+        }
+        let (lo, hi) = if entry.origin == Origin::Requested {
+            let (tlo, thi) = temporal_window(ctx.network, &self.entries, entry)?;
+            (lo.max(tlo), hi.min(thi))
+        } else {
+            (lo, hi)
+        };
+        (lo <= hi).then_some((lo, hi))
+    }
+
+    /// Places instance `instance` at its earliest valid start, adding permitted templates to
+    /// enable it if need be. Returns whether it was placed.
+    fn schedule(&mut self, ctx: &Ctx<'_>, instance: u16, is_move: bool, out: &mut impl Outputs) -> bool {
+        let Some(entry) = self.entry_index(instance).and_then(|i| self.entries.get(i)).copied() else {
+            return false;
+        };
+        if let Some(start) = self.earliest_valid(ctx, &entry) {
+            self.place(ctx, instance, start, is_move, out);
+            return true;
+        }
+        if self.enable(ctx, &entry, is_move, out) {
+            return true;
+        }
+        if !entry.persistent && !is_move {
+            let kind = FailureKind::Unschedulable;
+            if let Some(e) = self.entry_index(instance).and_then(|i| self.entries.get_mut(i)) {
+                e.state = TaskState::Failed(kind);
+            }
+            Self::emit_transition(out, instance, TaskState::Unscheduled, TaskState::Failed(kind), ctx.now);
+        }
+        false
+    }
+
+    fn earliest_valid(&mut self, ctx: &Ctx<'_>, entry: &PlanEntry) -> Option<MissionTimeUs> {
+        let (lo, hi) = self.start_window(ctx, entry)?;
+        self.fill_candidates(ctx, entry, lo, hi);
+        let candidates = core::mem::take(&mut self.scratch.candidates);
+        let mut found = None;
+        for &c in &candidates {
+            let start = MissionTimeUs(c);
+            if self.placement_valid(ctx, entry, start) {
+                found = Some(start);
+                break;
+            }
+        }
+        self.scratch.candidates = candidates;
+        found
+    }
+
+    fn place(&mut self, ctx: &Ctx<'_>, instance: u16, start: MissionTimeUs, is_move: bool, out: &mut impl Outputs) {
+        let Some(i) = self.entry_index(instance) else {
+            return;
+        };
+        let Some(entry) = self.entries.get(i).copied() else {
+            return;
+        };
+        let Some(end) = Self::end_for(ctx.network, &entry, start) else {
+            return;
+        };
+        if let Some(e) = self.entries.get_mut(i) {
+            e.start = start;
+            e.end = end;
+            e.state = TaskState::Scheduled;
+        }
+        if is_move {
+            let template = entry.template_id(ctx.network);
+            Self::emit_modification(out, PlanModificationKind::Move, instance, template, ctx.now);
+        } else {
+            Self::emit_transition(out, instance, TaskState::Unscheduled, TaskState::Scheduled, ctx.now);
+        }
+    }
+
+    /// Tries permitted templates that impact the timeline of a constraint `entry` cannot meet.
+    fn enable(&mut self, ctx: &Ctx<'_>, entry: &PlanEntry, is_move: bool, out: &mut impl Outputs) -> bool {
+        let Some(spec) = ctx.network.task(entry.def) else {
+            return false;
+        };
+        let Some((_, hi)) = self.start_window(ctx, entry) else {
+            return false;
+        };
+        for constraint in spec.constraints.iter() {
+            for &template_id in spec.permissions.may_add.iter() {
+                let Some(tdef) = ctx.network.def_of_id(template_id) else {
+                    continue;
+                };
+                let Some(tspec) = ctx.network.task(tdef) else {
+                    continue;
+                };
+                if !tspec.impacts.iter().any(|i| i.timeline == constraint.timeline) {
+                    continue;
+                }
+                let helper = PlanEntry {
+                    instance: self.next_instance,
+                    def: tdef,
+                    state: TaskState::Unscheduled,
+                    start: ctx.now,
+                    end: ctx.now,
+                    earliest_start: ctx.now,
+                    latest_start: hi,
+                    started: false,
+                    persistent: false,
+                    origin: Origin::Added {
+                        for_instance: entry.instance,
+                    },
+                };
+                let Some(helper_start) = self.earliest_valid(ctx, &helper) else {
+                    continue;
+                };
+                let Some(helper_end) = Self::end_for(ctx.network, &helper, helper_start) else {
+                    continue;
+                };
+                let placed = PlanEntry {
+                    state: TaskState::Scheduled,
+                    start: helper_start,
+                    end: helper_end,
+                    ..helper
+                };
+                if self.entries.push(placed).is_err() {
+                    self.stats.plan_full = self.stats.plan_full.saturating_add(1);
+                    return false;
+                }
+                if let Some(start) = self.earliest_valid(ctx, entry) {
+                    let helper_id = self.new_instance_id();
+                    Self::emit_modification(out, PlanModificationKind::Add, helper_id, template_id, ctx.now);
+                    Self::emit_transition(out, helper_id, TaskState::Unscheduled, TaskState::Scheduled, ctx.now);
+                    self.place(ctx, entry.instance, start, is_move, out);
+                    return true;
+                }
+                self.entries.pop();
+            }
+        }
+        false
+    }
+
+    /// Exact validity check of `entry` placed at `start` against the rest of the plan
+    /// (seed 003 validity checks), counting one budget step.
+    fn placement_valid(&mut self, ctx: &Ctx<'_>, entry: &PlanEntry, start: MissionTimeUs) -> bool {
+        self.stats.validity_checks = self.stats.validity_checks.saturating_add(1);
+        let Some(end) = Self::end_for(ctx.network, entry, start) else {
+            return false;
+        };
+        placement_valid(ctx.network, &self.entries, &self.anchors, entry, start, end, ctx.now)
+    }
+
+    /// Collects the critical start times of `entry` in `[lo, hi]`, sorted and unique.
+    fn fill_candidates(&mut self, ctx: &Ctx<'_>, entry: &PlanEntry, lo: MissionTimeUs, hi: MissionTimeUs) {
+        let candidates = &mut self.scratch.candidates;
+        candidates.clear();
+        let Some(spec) = ctx.network.task(entry.def) else {
+            return;
+        };
+        let mut overflow = false;
+        let mut push = |t: u64| {
+            if t >= lo.0 && t <= hi.0 && candidates.push(t).is_err() {
+                overflow = true;
+            }
+        };
+        push(lo.0);
+        push(hi.0);
+        let mut start_offsets: Vec<i64, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> = Vec::new();
+        let mut end_offsets: Vec<i64, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> = Vec::new();
+        let mut timelines: Vec<u8, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> = Vec::new();
+        let mut impacted: Vec<u8, MAX_IMPACTS_PER_TASK> = Vec::new();
+        for c in &spec.constraints {
+            let _ = start_offsets.push(c.start_offset_us);
+            if c.when == ConstraintWhen::Maintain {
+                let _ = end_offsets.push(c.end_offset_us);
+            }
+            if !timelines.contains(&c.timeline) {
+                let _ = timelines.push(c.timeline);
+            }
+        }
+        for i in &spec.impacts {
+            match i.when {
+                ImpactWhen::Pre => {
+                    let _ = start_offsets.push(i.start_offset_us);
+                }
+                ImpactWhen::Post => {
+                    let _ = end_offsets.push(i.end_offset_us);
+                }
+                ImpactWhen::Maintain => {
+                    let _ = start_offsets.push(i.start_offset_us);
+                    let _ = end_offsets.push(i.end_offset_us);
+                }
+            }
+            if !timelines.contains(&i.timeline) {
+                let _ = timelines.push(i.timeline);
+            }
+            if !impacted.contains(&i.timeline) {
+                let _ = impacted.push(i.timeline);
+            }
+        }
+        let duration = spec.duration_us;
+        let latest_end = spec.latest_end;
+        let mut from_instant = |t: MissionTimeUs| {
+            for &o in &start_offsets {
+                let s = t.0.saturating_add_signed(o.saturating_neg());
+                push(s);
+                push(s.saturating_add(1));
+            }
+            for &o in &end_offsets {
+                let s = t.0.saturating_add_signed(o.saturating_neg()).saturating_sub(duration);
+                push(s);
+                push(s.saturating_add(1));
+            }
+        };
+        from_instant(ctx.now);
+        if latest_end != MissionTimeUs::MAX {
+            for &o in end_offsets.clone().iter() {
+                from_instant(shift(latest_end, o));
+            }
+            let s = latest_end.0.saturating_sub(duration);
+            from_instant(MissionTimeUs(s));
+        }
+        let view = PlanView::new(ctx.network, &self.entries, &self.anchors).without(entry.instance);
+        for &tl in &timelines {
+            view.for_each_event(tl, |e| from_instant(e.at));
+        }
+        for other in self.entries.iter().filter(|e| e.instance != entry.instance && is_live(e)) {
+            let Some(ospec) = ctx.network.task(other.def) else {
+                continue;
+            };
+            for c in ospec.constraints.iter().filter(|c| impacted.contains(&c.timeline)) {
+                let (a, b) = constraint_span(c, other.start, other.end);
+                from_instant(a);
+                from_instant(b);
+            }
+        }
+        if overflow {
+            self.stats.candidate_overflows = self.stats.candidate_overflows.saturating_add(1);
+        }
+        let candidates = &mut self.scratch.candidates;
+        candidates.sort_unstable();
+        let mut w = 0usize;
+        for r in 0..candidates.len() {
+            let (Some(&v), prev) = (candidates.get(r), w.checked_sub(1).and_then(|p| candidates.get(p)).copied()) else {
+                continue;
+            };
+            if prev != Some(v) {
+                if let Some(slot) = candidates.get_mut(w) {
+                    *slot = v;
+                }
+                w += 1;
+            }
+        }
+        candidates.truncate(w);
+    }
+
+    /// Valid start intervals of `instance` within its window (seed 003 valid intervals).
+    pub fn valid_intervals(
+        &mut self,
+        network: &TaskNetwork,
+        now: MissionTimeUs,
+        instance: u16,
+    ) -> Vec<ValidInterval, MAX_VALID_INTERVALS> {
+        let ctx = Ctx { network, now };
+        let mut out: Vec<ValidInterval, MAX_VALID_INTERVALS> = Vec::new();
+        let Some(entry) = self.entry_index(instance).and_then(|i| self.entries.get(i)).copied() else {
+            return out;
+        };
+        let Some((lo, hi)) = self.start_window(&ctx, &entry) else {
+            return out;
+        };
+        self.fill_candidates(&ctx, &entry, lo, hi);
+        let candidates = core::mem::take(&mut self.scratch.candidates);
+        let mut open: Option<ValidInterval> = None;
+        for (j, &c) in candidates.iter().enumerate() {
+            let piece_end = candidates.get(j + 1).map(|n| n - 1).unwrap_or(hi.0);
+            if self.placement_valid(&ctx, &entry, MissionTimeUs(c)) {
+                open = Some(match open {
+                    Some(iv) => ValidInterval {
+                        end: MissionTimeUs(piece_end),
+                        ..iv
+                    },
+                    None => ValidInterval {
+                        start: MissionTimeUs(c),
+                        end: MissionTimeUs(piece_end),
+                    },
+                });
+            } else if let Some(iv) = open.take() {
+                let _ = out.push(iv);
+            }
+        }
+        if let Some(iv) = open {
+            let _ = out.push(iv);
+        }
+        self.scratch.candidates = candidates;
+        out
+    }
+
+    /// Exact validity check of `instance` placed at `start`, for tests and tools.
+    pub fn is_valid_placement(&mut self, network: &TaskNetwork, now: MissionTimeUs, instance: u16, start: MissionTimeUs) -> bool {
+        let ctx = Ctx { network, now };
+        let Some(entry) = self.entry_index(instance).and_then(|i| self.entries.get(i)).copied() else {
+            return false;
+        };
+        match self.start_window(&ctx, &entry) {
+            Some((lo, hi)) if start >= lo && start <= hi => self.placement_valid(&ctx, &entry, start),
+            _ => false,
+        }
+    }
+
+    /// The first constraint that does not hold in the projected plan, scanning placed and
+    /// executing instances by start time. With `skip_tried`, conflicts already worked on in
+    /// this cycle are passed over.
+    fn first_conflict(&self, ctx: &Ctx<'_>, skip_tried: bool) -> Option<Conflict> {
+        let view = PlanView::new(ctx.network, &self.entries, &self.anchors);
+        let mut best: Option<(MissionTimeUs, u16, Conflict)> = None;
+        for e in self.entries.iter().filter(|e| is_live(e)) {
+            let Some(spec) = ctx.network.task(e.def) else {
+                continue;
+            };
+            for (k, c) in spec.constraints.iter().enumerate() {
+                let k = k as u8;
+                if skip_tried && self.tried.contains(&(e.instance, k)) {
+                    continue;
+                }
+                if constraint_holds(&view, e.instance, c, e.start, e.end, ctx.now) {
+                    continue;
+                }
+                let (a, b) = constraint_span(c, e.start, e.end);
+                let a = a.max(ctx.now);
+                let (from, to) = match c.when {
+                    ConstraintWhen::Pre => (a, b),
+                    ConstraintWhen::Maintain => view.first_violation(c.timeline, &c.require, a, b).unwrap_or((a, b)),
+                };
+                let conflict = Conflict {
+                    instance: e.instance,
+                    constraint: k,
+                    from,
+                    to,
+                };
+                if best.is_none_or(|(s, i, _)| (e.start, e.instance) < (s, i)) {
+                    best = Some((e.start, e.instance, conflict));
+                }
+                break;
+            }
+        }
+        best.map(|(_, _, c)| c)
+    }
+
+    /// Every constraint that does not hold in the projected plan (tests, reports).
+    pub fn conflicts(&self, network: &TaskNetwork, now: MissionTimeUs) -> Vec<Conflict, MAX_PLAN_ENTRIES> {
+        let ctx = Ctx { network, now };
+        let view = PlanView::new(network, &self.entries, &self.anchors);
+        let mut out = Vec::new();
+        for e in self.entries.iter().filter(|e| is_live(e)) {
+            let Some(spec) = network.task(e.def) else {
+                continue;
+            };
+            for (k, c) in spec.constraints.iter().enumerate() {
+                if !constraint_holds(&view, e.instance, c, e.start, e.end, ctx.now) {
+                    let (a, b) = constraint_span(c, e.start, e.end);
+                    let _ = out.push(Conflict {
+                        instance: e.instance,
+                        constraint: k as u8,
+                        from: a,
+                        to: b,
+                    });
+                }
+            }
+        }
+        out
+    }
+
+    /// Repairs one conflict: move the task (if permitted and uncommitted), else add a permitted
+    /// template that restores the timeline, else delete the task (if permitted and uncommitted).
+    fn repair(&mut self, ctx: &Ctx<'_>, conflict: Conflict, out: &mut impl Outputs) {
+        let Some(i) = self.entry_index(conflict.instance) else {
+            return;
+        };
+        let Some(entry) = self.entries.get(i).copied() else {
+            return;
+        };
+        let Some(spec) = ctx.network.task(entry.def) else {
+            return;
+        };
+        let uncommitted = entry.state == TaskState::Scheduled;
+        if uncommitted && spec.permissions.may_move {
+            if let Some(e) = self.entries.get_mut(i) {
+                e.state = TaskState::Unscheduled;
+            }
+            if self.schedule(ctx, entry.instance, true, out) {
+                return;
+            }
+            // Put it back where it was and try the other modifiers.
+            if let Some(e) = self.entry_index(entry.instance).and_then(|i| self.entries.get_mut(i)) {
+                e.state = TaskState::Scheduled;
+                e.start = entry.start;
+                e.end = entry.end;
+            }
+        }
+        if self.add_for_conflict(ctx, &entry, conflict, out) {
+            return;
+        }
+        if uncommitted && spec.permissions.may_delete {
+            if let Some(e) = self.entries.get_mut(i) {
+                e.state = TaskState::Deleted;
+            }
+            Self::emit_modification(out, PlanModificationKind::Delete, entry.instance, spec.id, ctx.now);
+            Self::emit_transition(out, entry.instance, TaskState::Scheduled, TaskState::Deleted, ctx.now);
+        }
+    }
+
+    /// Templates permitted for a conflict on `timeline`: those the constrained task may add,
+    /// then those any task impacting the timeline may add (in plan order), without repeats.
+    fn permitted_templates(&self, network: &TaskNetwork, owner: &PlanEntry, timeline: u8) -> Vec<u16, MAX_TASKS> {
+        let mut out: Vec<u16, MAX_TASKS> = Vec::new();
+        let mut add_from = |def: u8| {
+            if let Some(s) = network.task(def) {
+                for &id in &s.permissions.may_add {
+                    if !out.contains(&id) {
+                        let _ = out.push(id);
+                    }
+                }
+            }
+        };
+        add_from(owner.def);
+        for e in &self.entries {
+            let impacts = network
+                .task(e.def)
+                .is_some_and(|s| s.impacts.iter().any(|i| i.timeline == timeline));
+            if impacts {
+                add_from(e.def);
+            }
+        }
+        out
+    }
+
+    fn add_for_conflict(&mut self, ctx: &Ctx<'_>, owner: &PlanEntry, conflict: Conflict, out: &mut impl Outputs) -> bool {
+        let Some(constraint) = ctx
+            .network
+            .task(owner.def)
+            .and_then(|s| s.constraints.get(usize::from(conflict.constraint)))
+            .copied()
+        else {
+            return false;
+        };
+        let templates = self.permitted_templates(ctx.network, owner, constraint.timeline);
+        for &template_id in &templates {
+            let Some(tdef) = ctx.network.def_of_id(template_id) else {
+                continue;
+            };
+            let Some(tspec) = ctx.network.task(tdef) else {
+                continue;
+            };
+            if !tspec.impacts.iter().any(|i| i.timeline == constraint.timeline) {
+                continue;
+            }
+            let helper = PlanEntry {
+                instance: self.next_instance,
+                def: tdef,
+                state: TaskState::Unscheduled,
+                start: conflict.from,
+                end: conflict.from,
+                earliest_start: ctx.now,
+                latest_start: conflict.from,
+                started: false,
+                persistent: false,
+                origin: Origin::Added {
+                    for_instance: owner.instance,
+                },
+            };
+            // First try covering the violation exactly (a MAINTAIN impact filling a gap), then
+            // the earliest valid placement that ends its changes before the violation.
+            let gap = conflict.to.0.saturating_sub(conflict.from.0);
+            let cover_duration = gap.max(tspec.min_duration_us).min(tspec.duration_us);
+            let mut trials: Vec<(MissionTimeUs, MissionTimeUs), 2> = Vec::new();
+            if conflict.from >= ctx.now {
+                let _ = trials.push((conflict.from, conflict.from.saturating_add(cover_duration)));
+            }
+            if let Some(s) = self.earliest_valid(ctx, &helper) {
+                if let Some(end) = Self::end_for(ctx.network, &helper, s) {
+                    let _ = trials.push((s, end));
+                }
+            }
+            for (start, end) in trials {
+                self.stats.validity_checks = self.stats.validity_checks.saturating_add(1);
+                if !placement_valid(ctx.network, &self.entries, &self.anchors, &helper, start, end, ctx.now) {
+                    continue;
+                }
+                let placed = PlanEntry {
+                    state: TaskState::Scheduled,
+                    start,
+                    end,
+                    earliest_start: start,
+                    latest_start: start,
+                    ..helper
+                };
+                if self.entries.push(placed).is_err() {
+                    self.stats.plan_full = self.stats.plan_full.saturating_add(1);
+                    return false;
+                }
+                // Progress: the constraint now holds at the instant the violation started.
+                let view = PlanView::new(ctx.network, &self.entries, &self.anchors);
+                let fixed = match constraint.when {
+                    ConstraintWhen::Pre => constraint_holds(&view, owner.instance, &constraint, owner.start, owner.end, ctx.now),
+                    ConstraintWhen::Maintain => view.holds_over(
+                        constraint.timeline,
+                        &constraint.require,
+                        conflict.from,
+                        MissionTimeUs(conflict.from.0.saturating_add(1)),
+                    ),
+                };
+                if fixed {
+                    let id = self.new_instance_id();
+                    Self::emit_modification(out, PlanModificationKind::Add, id, template_id, ctx.now);
+                    Self::emit_transition(out, id, TaskState::Unscheduled, TaskState::Scheduled, ctx.now);
+                    // The owner's constraint may still fail later on: look again.
+                    self.tried.retain(|&(i, k)| !(i == owner.instance && k == conflict.constraint));
+                    return true;
+                }
+                self.entries.pop();
+            }
+        }
+        false
+    }
+
+    /// Commits every scheduled instance starting within the commit window, earliest first.
+    fn commit(&mut self, ctx: &Ctx<'_>, commits: &mut impl FnMut(Commit) -> bool, out: &mut impl Outputs) {
+        let window_end = ctx.now.saturating_add(ctx.network.config().commit_window_us);
+        loop {
+            let next = self
+                .entries
+                .iter()
+                .enumerate()
+                .filter(|(_, e)| e.state == TaskState::Scheduled && e.start <= window_end)
+                .min_by_key(|(_, e)| (e.start, e.instance))
+                .map(|(i, _)| i);
+            let Some(i) = next else {
+                break;
+            };
+            let Some(e) = self.entries.get_mut(i) else {
+                break;
+            };
+            let commit = Commit {
+                instance: e.instance,
+                def: e.def,
+                start: e.start,
+                end: e.end,
+            };
+            // The executive is full: try again at the next step.
+            if !commits(commit) {
+                break;
+            }
+            e.state = TaskState::Committed;
+            Self::emit_transition(out, commit.instance, TaskState::Scheduled, TaskState::Committed, ctx.now);
+        }
+    }
+
+    /// Restores the scratch buffers after a checkpoint restore (they are not saved).
+    pub(crate) fn after_restore(&mut self) {
+        self.scratch = Scratch::default();
+        self.dirty = true;
+    }
+}
+
+/// Instances whose constraints the planner still watches: placed and not finished.
+fn is_live(e: &PlanEntry) -> bool {
+    !e.state.is_terminal() && e.state != TaskState::Unscheduled
+}
+
+/// Exact validity check (seed 003): the candidate's own constraints hold; no constraint of
+/// another live instance that held now fails; no timeline the candidate impacts leaves its
+/// bounds where it did not before. Instants before `now` are not checked.
+pub fn placement_valid(
+    network: &TaskNetwork,
+    entries: &[PlanEntry],
+    anchors: &[TimelineAnchor],
+    entry: &PlanEntry,
+    start: MissionTimeUs,
+    end: MissionTimeUs,
+    now: MissionTimeUs,
+) -> bool {
+    let Some(spec) = network.task(entry.def) else {
+        return false;
+    };
+    let x = Candidate {
+        instance: entry.instance,
+        def: entry.def,
+        start,
+        end,
+    };
+    let base = PlanView::new(network, entries, anchors).without(entry.instance);
+    let with = base.with(x);
+    for c in &spec.constraints {
+        if !constraint_holds(&with, x.instance, c, start, end, now) {
+            return false;
+        }
+    }
+    for (n, impact) in spec.impacts.iter().enumerate() {
+        let tl = impact.timeline;
+        if spec.impacts.iter().take(n).any(|i| i.timeline == tl) {
+            continue;
+        }
+        for other in entries.iter().filter(|e| e.instance != entry.instance && is_live(e)) {
+            let Some(ospec) = network.task(other.def) else {
+                continue;
+            };
+            for c in ospec.constraints.iter().filter(|c| c.timeline == tl) {
+                if !constraint_holds(&with, other.instance, c, other.start, other.end, now)
+                    && constraint_holds(&base, other.instance, c, other.start, other.end, now)
+                {
+                    return false;
+                }
+            }
+        }
+        let mut first = None::<MissionTimeUs>;
+        crate::timeline::impact_events(spec, x.instance, x.contribution(), tl, &mut |e| {
+            first = Some(first.map_or(e.at, |f| f.min(e.at)));
+        });
+        let from = first.unwrap_or(now).max(now);
+        let mut ok = with.within_bounds_at(tl, from) || !base.within_bounds_at(tl, from);
+        with.for_each_event(tl, |e| {
+            if ok && e.at >= from {
+                ok = with.within_bounds_at(tl, e.at) || !base.within_bounds_at(tl, e.at);
+            }
+        });
+        if !ok {
+            return false;
+        }
+    }
+    true
+}
+
+/// Bounds on the start of requested instance `entry` implied by the temporal constraints and
+/// the placed requested instances: shortest paths (Bellman-Ford) on the temporal constraint
+/// graph whose nodes are a zero point and the start and end of each requested task. `None` when
+/// the constraints cannot be met.
+pub fn temporal_window(network: &TaskNetwork, entries: &[PlanEntry], entry: &PlanEntry) -> Option<(MissionTimeUs, MissionTimeUs)> {
+    let me = network.task(entry.def)?.id;
+    if !network.temporal().iter().any(|t| t.from_task == me || t.to_task == me) {
+        return Some((MissionTimeUs::ZERO, MissionTimeUs::MAX));
+    }
+    const NODES: usize = 1 + 2 * MAX_TASKS;
+    let node = |def: usize, point: TaskPoint| 1 + 2 * def + usize::from(point == TaskPoint::End);
+    let tasks = network.tasks();
+    // Calls f(from, to, weight) for every edge: to - from <= weight.
+    let edges = |f: &mut dyn FnMut(usize, usize, i64)| {
+        for tc in network.temporal() {
+            let (Some(a), Some(b)) = (network.def_of_id(tc.from_task), network.def_of_id(tc.to_task)) else {
+                continue;
+            };
+            let (u, v) = (node(usize::from(a), tc.from_point), node(usize::from(b), tc.to_point));
+            f(u, v, tc.max_us);
+            f(v, u, tc.min_us.saturating_neg());
+        }
+        for (d, t) in tasks.iter().enumerate() {
+            if t.role != TaskRole::Requested {
+                continue;
+            }
+            let (s, e) = (node(d, TaskPoint::Start), node(d, TaskPoint::End));
+            f(s, e, t.duration_us as i64);
+            f(e, s, (t.min_duration_us as i64).saturating_neg());
+            let placed = entries.iter().find(|p| {
+                p.def as usize == d && p.origin == Origin::Requested && p.instance != entry.instance
+                    && p.state != TaskState::Unscheduled
+            });
+            if let Some(p) = placed {
+                for (n, at) in [(s, p.start), (e, p.end)] {
+                    let at = at.0.min(MAX_MISSION_TIME_US) as i64;
+                    f(0, n, at);
+                    f(n, 0, at.saturating_neg());
+                }
+            }
+        }
+    };
+    // Shortest distances from the zero node, forward (upper bounds) and backward (lower bounds).
+    let shortest = |reverse: bool| -> Option<[i64; NODES]> {
+        let mut dist = [i64::MAX; NODES];
+        *dist.get_mut(0)? = 0;
+        for round in 0..=NODES {
+            let mut changed = false;
+            edges(&mut |u, v, w| {
+                let (u, v) = if reverse { (v, u) } else { (u, v) };
+                let du = dist.get(u).copied().unwrap_or(i64::MAX);
+                if du == i64::MAX {
+                    return;
+                }
+                let cand = du.saturating_add(w);
+                if let Some(dv) = dist.get_mut(v) {
+                    if cand < *dv {
+                        *dv = cand;
+                        changed = true;
+                    }
+                }
+            });
+            if !changed {
+                return Some(dist);
+            }
+            if round == NODES {
+                return None; // negative cycle: inconsistent
+            }
+        }
+        Some(dist)
+    };
+    let start_node = node(usize::from(entry.def), TaskPoint::Start);
+    let upper = shortest(false)?.get(start_node).copied().unwrap_or(i64::MAX);
+    let lower = shortest(true)?.get(start_node).copied().unwrap_or(i64::MAX);
+    let hi = if upper == i64::MAX { u64::MAX } else { upper.max(0) as u64 };
+    let lo = if lower == i64::MAX { 0 } else { lower.saturating_neg().max(0) as u64 };
+    Some((MissionTimeUs(lo), MissionTimeUs(hi)))
+}

@@ -1,0 +1,135 @@
+//! Codes the autonomy core puts in [`fsw_bridge::TelemetryEvent`]s. They are part of the
+//! interface with the host: append new codes, never renumber.
+//!
+//! * `TaskTransition { task, from, to, at }`: `task` is the instance id (the ground id for a
+//!   requested task, [`crate::FIRST_INSTANCE_ID`] and up for instances the planner added or
+//!   restarted), `from`/`to` are [`TaskState::code`]s, `at` the mission time of the decision.
+//! * `PlanModification { kind, task, template, at }`: `kind` is a [`PlanModificationKind`] code,
+//!   `task` the instance concerned, `template` the ground id of its task definition, `at` the
+//!   mission time of the decision.
+use serde::{Deserialize, Serialize};
+
+/// Why a task failed. The code is `FailureKind as u8`; contingencies select kinds with the bit
+/// `1 << code`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[repr(u8)]
+pub enum FailureKind {
+    /// PRE constraints or the start condition did not hold within the wait timeout.
+    PreTimeout = 0,
+    /// The command response did not arrive within the response timeout.
+    ResponseTimeout = 1,
+    /// The subsystem answered `Failed`.
+    CommandFailed = 2,
+    /// The subsystem answered `Rejected`.
+    CommandRejected = 3,
+    /// A MAINTAIN constraint or the maintain condition stopped holding: the task was aborted.
+    MaintainViolation = 4,
+    /// The planner found no valid interval for it (and had no permitted repair).
+    Unschedulable = 5,
+}
+
+impl FailureKind {
+    /// Contingency mask selecting every failure kind.
+    pub const ANY: u8 = 0x3f;
+
+    pub const fn bit(self) -> u8 {
+        1 << (self as u8)
+    }
+
+    pub fn from_code(code: u8) -> Option<Self> {
+        Some(match code {
+            0 => Self::PreTimeout,
+            1 => Self::ResponseTimeout,
+            2 => Self::CommandFailed,
+            3 => Self::CommandRejected,
+            4 => Self::MaintainViolation,
+            5 => Self::Unschedulable,
+            _ => return None,
+        })
+    }
+}
+
+/// Life cycle of a task instance, shared by the planner (first three) and the executive.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum TaskState {
+    /// Known to the planner, not placed. Code 0.
+    Unscheduled,
+    /// Placed by the planner. Code 1.
+    Scheduled,
+    /// Handed to the executive (the planner may no longer change it). Code 2.
+    Committed,
+    /// Start time reached; waiting for PRE constraints and the start condition. Code 3.
+    WaitingPre,
+    /// Command sent; waiting for its response. Code 4.
+    Dispatched,
+    /// Started (response Ok, or a no-op task); MAINTAIN constraints monitored. Code 5.
+    Running,
+    /// Ran for its duration with every MAINTAIN constraint holding. Code 6.
+    Completed,
+    /// Skip condition held at the start time. Code 7.
+    Skipped,
+    /// Removed from the plan by the planner. Code 8.
+    Deleted,
+    /// Failed; code `0x10 + FailureKind` (0x14 is the clean abort on a MAINTAIN violation).
+    Failed(FailureKind),
+}
+
+impl TaskState {
+    pub const fn code(self) -> u8 {
+        match self {
+            Self::Unscheduled => 0,
+            Self::Scheduled => 1,
+            Self::Committed => 2,
+            Self::WaitingPre => 3,
+            Self::Dispatched => 4,
+            Self::Running => 5,
+            Self::Completed => 6,
+            Self::Skipped => 7,
+            Self::Deleted => 8,
+            Self::Failed(kind) => 0x10 + kind as u8,
+        }
+    }
+
+    pub fn from_code(code: u8) -> Option<Self> {
+        Some(match code {
+            0 => Self::Unscheduled,
+            1 => Self::Scheduled,
+            2 => Self::Committed,
+            3 => Self::WaitingPre,
+            4 => Self::Dispatched,
+            5 => Self::Running,
+            6 => Self::Completed,
+            7 => Self::Skipped,
+            8 => Self::Deleted,
+            c if c >= 0x10 => Self::Failed(FailureKind::from_code(c - 0x10)?),
+            _ => return None,
+        })
+    }
+
+    /// Whether the instance is finished (no further transitions).
+    pub const fn is_terminal(self) -> bool {
+        matches!(
+            self,
+            Self::Completed | Self::Skipped | Self::Deleted | Self::Failed(_)
+        )
+    }
+}
+
+/// Plan modifications reported in `PlanModification.kind`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[repr(u8)]
+pub enum PlanModificationKind {
+    /// A template instance was added (repair, enabling a task, or an AddTemplate contingency).
+    Add = 1,
+    /// A task was deleted.
+    Delete = 2,
+    /// An uncommitted task was moved to a new start time.
+    Move = 3,
+    /// A failed task was restarted as a new instance (contingency Restart or Move).
+    Restart = 4,
+    /// A network was loaded; `task` is 0, `template` the low 16 bits of the network id.
+    NetworkLoaded = 5,
+    /// The plan was restored from a warm-restart checkpoint; `task` is 0, `template` the low 16
+    /// bits of the checkpoint sequence number.
+    Restored = 6,
+}

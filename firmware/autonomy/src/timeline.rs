@@ -1,0 +1,472 @@
+//! Timeline library (seed 003 "MEXEC Planner and Controller", seed 000 IV.A.2): projects the
+//! impacts of placed task instances onto state, claimable and cumulative timelines, answers
+//! "what is the value at t", checks constraints over intervals, and consolidates the past.
+//!
+//! A timeline's value at `t` is its anchor (the consolidated past, or the latest measurement
+//! from the state buffer, whichever is newer) followed by the impacts of the instances still in
+//! the plan. A measurement overrides projections: assignments and changes at or before the
+//! measurement time are taken as already reflected in it (rates keep integrating). Events at the
+//! same time apply in a fixed order (instance id, impact index), so projections are
+//! deterministic. No sorting and no scratch memory: each query is a scan over the plan.
+use heapless::Vec;
+use serde::{Deserialize, Serialize};
+
+use crate::capacity::*;
+use crate::model::*;
+use crate::plan::{Contribution, PlanEntry};
+use fsw_bridge::MissionTimeUs;
+
+/// `t + offset`, saturating.
+pub fn shift(t: MissionTimeUs, offset_us: i64) -> MissionTimeUs {
+    MissionTimeUs(t.0.saturating_add_signed(offset_us))
+}
+
+/// A measurement taken from the state buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Measurement {
+    pub value: i64,
+    pub at: MissionTimeUs,
+}
+
+/// Where a timeline's projection starts: the consolidated value and rate at `at`, and the
+/// latest measurement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TimelineAnchor {
+    pub value: i64,
+    /// Value units per second (cumulative timelines).
+    pub rate: i64,
+    pub at: MissionTimeUs,
+    pub measured: Option<Measurement>,
+}
+
+impl TimelineAnchor {
+    /// The anchor of a freshly loaded timeline.
+    pub fn initial(spec: &TimelineSpec) -> Self {
+        let value = match spec.kind {
+            TimelineKind::State { initial, .. } => i64::from(initial),
+            TimelineKind::Claimable => 0,
+            TimelineKind::Cumulative { initial, .. } => initial,
+        };
+        Self {
+            value,
+            rate: 0,
+            at: MissionTimeUs::ZERO,
+            measured: None,
+        }
+    }
+}
+
+/// The anchors of every timeline of the loaded network.
+pub type Anchors = Vec<TimelineAnchor, MAX_TIMELINES>;
+
+/// What an event does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EventKind {
+    Assign(i64),
+    Add(i64),
+    Rate(i64),
+}
+
+/// One change of a timeline at one instant, with its tie-break key.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Event {
+    pub at: MissionTimeUs,
+    pub seq: u32,
+    pub kind: EventKind,
+}
+
+impl Event {
+    fn key(&self) -> (MissionTimeUs, u32) {
+        (self.at, self.seq)
+    }
+}
+
+fn effect_kind(effect: Effect, sign: i64) -> EventKind {
+    match effect {
+        Effect::Assign(v) => EventKind::Assign(v),
+        Effect::Add(d) => EventKind::Add(d.saturating_mul(sign)),
+        Effect::Rate(r) => EventKind::Rate(r.saturating_mul(sign)),
+        Effect::Claim => EventKind::Add(sign),
+    }
+}
+
+/// Calls `f` for every event the impacts of `spec`, applied over `c`, put on `timeline`.
+pub fn impact_events(
+    spec: &TaskSpec,
+    instance: u16,
+    c: Contribution,
+    timeline: u8,
+    f: &mut impl FnMut(Event),
+) {
+    for (i, impact) in spec.impacts.iter().enumerate() {
+        if impact.timeline != timeline {
+            continue;
+        }
+        let seq = (u32::from(instance) << 4) | ((i as u32 & 7) << 1);
+        match impact.when {
+            ImpactWhen::Pre => f(Event {
+                at: shift(c.start, impact.start_offset_us),
+                seq,
+                kind: effect_kind(impact.effect, 1),
+            }),
+            ImpactWhen::Post => {
+                if c.post {
+                    f(Event {
+                        at: shift(c.end, impact.end_offset_us),
+                        seq,
+                        kind: effect_kind(impact.effect, 1),
+                    })
+                }
+            }
+            ImpactWhen::Maintain => {
+                let a = shift(c.start, impact.start_offset_us);
+                let b = shift(c.end, impact.end_offset_us);
+                if a < b {
+                    f(Event {
+                        at: a,
+                        seq,
+                        kind: effect_kind(impact.effect, 1),
+                    });
+                    f(Event {
+                        at: b,
+                        seq: seq | 1,
+                        kind: effect_kind(impact.effect, -1),
+                    });
+                }
+            }
+        }
+    }
+}
+
+/// A hypothetical placement of one instance (the one being scheduled).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Candidate {
+    pub instance: u16,
+    pub def: u8,
+    pub start: MissionTimeUs,
+    pub end: MissionTimeUs,
+}
+
+impl Candidate {
+    pub fn contribution(&self) -> Contribution {
+        Contribution {
+            start: self.start,
+            end: self.end,
+            post: true,
+        }
+    }
+}
+
+/// The plan as the timelines see it: the placed instances, minus up to two excluded ones,
+/// plus at most one hypothetical placement.
+#[derive(Clone, Copy)]
+pub struct PlanView<'a> {
+    pub network: &'a TaskNetwork,
+    pub entries: &'a [PlanEntry],
+    pub anchors: &'a [TimelineAnchor],
+    pub exclude: [Option<u16>; 2],
+    pub extra: Option<Candidate>,
+}
+
+impl<'a> PlanView<'a> {
+    pub fn new(network: &'a TaskNetwork, entries: &'a [PlanEntry], anchors: &'a [TimelineAnchor]) -> Self {
+        Self {
+            network,
+            entries,
+            anchors,
+            exclude: [None, None],
+            extra: None,
+        }
+    }
+
+    /// This view without instance `instance`.
+    pub fn without(mut self, instance: u16) -> Self {
+        if self.exclude[0].is_none() {
+            self.exclude[0] = Some(instance);
+        } else {
+            self.exclude[1] = Some(instance);
+        }
+        self
+    }
+
+    /// This view with the hypothetical placement `c`.
+    pub fn with(mut self, c: Candidate) -> Self {
+        self.extra = Some(c);
+        self
+    }
+
+    /// Calls `f` for every event on `timeline`, in no particular order.
+    pub fn for_each_event(&self, timeline: u8, mut f: impl FnMut(Event)) {
+        for e in self.entries {
+            if self.exclude.contains(&Some(e.instance)) {
+                continue;
+            }
+            if let (Some(c), Some(spec)) = (e.contribution(), self.network.task(e.def)) {
+                impact_events(spec, e.instance, c, timeline, &mut f);
+            }
+        }
+        if let Some(x) = self.extra {
+            if let Some(spec) = self.network.task(x.def) {
+                impact_events(spec, x.instance, x.contribution(), timeline, &mut f);
+            }
+        }
+    }
+
+    fn has_rates(&self, timeline: u8) -> bool {
+        let mut any = self.anchors.get(usize::from(timeline)).is_some_and(|a| a.rate != 0);
+        self.for_each_event(timeline, |e| any |= matches!(e.kind, EventKind::Rate(_)));
+        any
+    }
+
+    /// Projected value of `timeline` at `t` (after every event at or before `t`).
+    pub fn value_at(&self, timeline: u8, t: MissionTimeUs) -> i64 {
+        let Some(anchor) = self.anchors.get(usize::from(timeline)) else {
+            return VALUE_UNKNOWN;
+        };
+        let (mut base_value, mut base_at) = (anchor.value, anchor.at);
+        let filter_at = anchor.measured.map(|m| m.at);
+        if let Some(m) = anchor.measured {
+            if m.at >= anchor.at {
+                base_value = m.value;
+                base_at = m.at;
+            }
+        }
+        let passes = |e: &Event| e.at <= t && filter_at.is_none_or(|m| e.at > m);
+        // The last assignment at or before t replaces the base.
+        let mut last_assign: Option<Event> = None;
+        self.for_each_event(timeline, |e| {
+            if let EventKind::Assign(_) = e.kind {
+                if passes(&e) && last_assign.is_none_or(|l| e.key() > l.key()) {
+                    last_assign = Some(e);
+                }
+            }
+        });
+        let mut after: Option<(MissionTimeUs, u32)> = None;
+        if let Some(Event {
+            kind: EventKind::Assign(v),
+            at,
+            seq,
+        }) = last_assign
+        {
+            base_value = v;
+            base_at = base_at.max(at);
+            after = Some((at, seq));
+        }
+        let mut value = i128::from(base_value);
+        let mut integral: i128 = i128::from(anchor.rate) * i128::from(t.0.saturating_sub(base_at.0));
+        self.for_each_event(timeline, |e| match e.kind {
+            EventKind::Add(d) => {
+                if passes(&e) && after.is_none_or(|k| e.key() > k) {
+                    value += i128::from(d);
+                }
+            }
+            EventKind::Rate(r) => {
+                if e.at <= t {
+                    let from = e.at.max(base_at);
+                    integral += i128::from(r) * i128::from(t.0.saturating_sub(from.0));
+                }
+            }
+            EventKind::Assign(_) => {}
+        });
+        if base_value == VALUE_UNKNOWN {
+            return VALUE_UNKNOWN;
+        }
+        value += integral / 1_000_000;
+        value.clamp(i128::from(VALUE_UNKNOWN + 1), i128::from(i64::MAX)) as i64
+    }
+
+    /// Calls `f` with each instant at which the value on `[a, b)` must be checked: `a`, every
+    /// event in `(a, b)`, and with rates also the instant before each event and `b - 1`.
+    /// Stops early when `f` returns false; returns false then.
+    fn for_each_check_point(
+        &self,
+        timeline: u8,
+        a: MissionTimeUs,
+        b: MissionTimeUs,
+        mut f: impl FnMut(MissionTimeUs) -> bool,
+    ) -> bool {
+        if a >= b {
+            return true;
+        }
+        if !f(a) {
+            return false;
+        }
+        let rates = self.has_rates(timeline);
+        let mut ok = true;
+        self.for_each_event(timeline, |e| {
+            if !ok {
+                return;
+            }
+            if e.at > a && e.at < b {
+                ok = f(e.at);
+            }
+            if ok && rates && e.at > a && e.at <= b {
+                ok = f(MissionTimeUs(e.at.0 - 1));
+            }
+        });
+        if ok && rates {
+            ok = f(MissionTimeUs(b.0 - 1));
+        }
+        ok
+    }
+
+    /// Whether `require` holds on `timeline` at every instant of `[a, b)`.
+    pub fn holds_over(&self, timeline: u8, require: &Requirement, a: MissionTimeUs, b: MissionTimeUs) -> bool {
+        self.for_each_check_point(timeline, a, b, |t| require.accepts(self.value_at(timeline, t)))
+    }
+
+    /// The first sub-interval of `[a, b)` on which `require` does not hold, as
+    /// `[violation start, next instant where it holds again or b)`.
+    pub fn first_violation(
+        &self,
+        timeline: u8,
+        require: &Requirement,
+        a: MissionTimeUs,
+        b: MissionTimeUs,
+    ) -> Option<(MissionTimeUs, MissionTimeUs)> {
+        let mut first: Option<MissionTimeUs> = None;
+        self.for_each_check_point(timeline, a, b, |t| {
+            if first.is_none_or(|f| t < f) && !require.accepts(self.value_at(timeline, t)) {
+                first = Some(t);
+            }
+            true
+        });
+        let start = first?;
+        let mut end = b;
+        self.for_each_check_point(timeline, start, b, |t| {
+            if t > start && t < end && require.accepts(self.value_at(timeline, t)) {
+                end = t;
+            }
+            true
+        });
+        Some((start, end))
+    }
+
+    /// Whether the timeline stays within its own bounds (cumulative min/max, claim count 0..=1)
+    /// at `t`.
+    pub fn within_bounds_at(&self, timeline: u8, t: MissionTimeUs) -> bool {
+        let Some(spec) = self.network.timeline(timeline) else {
+            return true;
+        };
+        let v = self.value_at(timeline, t);
+        match spec.kind {
+            TimelineKind::State { .. } => true,
+            TimelineKind::Claimable => (0..=1).contains(&v),
+            TimelineKind::Cumulative { min, max, .. } => v == VALUE_UNKNOWN || (min..=max).contains(&v),
+        }
+    }
+}
+
+/// The instant a PRE constraint is checked, or the interval a MAINTAIN constraint covers, for
+/// an instance placed over `[start, end)`.
+pub fn constraint_span(c: &ConstraintSpec, start: MissionTimeUs, end: MissionTimeUs) -> (MissionTimeUs, MissionTimeUs) {
+    let a = shift(start, c.start_offset_us);
+    match c.when {
+        ConstraintWhen::Pre => (a, MissionTimeUs(a.0.saturating_add(1))),
+        ConstraintWhen::Maintain => (a, shift(end, c.end_offset_us)),
+    }
+}
+
+/// Whether constraint `c` of instance `instance` placed over `[start, end)` holds in `view`
+/// (which must contain the instance for MAINTAIN checks), considering only instants at or after
+/// `from`. PRE constraints are evaluated without the instance's own impacts.
+pub fn constraint_holds(
+    view: &PlanView<'_>,
+    instance: u16,
+    c: &ConstraintSpec,
+    start: MissionTimeUs,
+    end: MissionTimeUs,
+    from: MissionTimeUs,
+) -> bool {
+    let (a, b) = constraint_span(c, start, end);
+    let a = a.max(from);
+    if a >= b {
+        return true;
+    }
+    match c.when {
+        ConstraintWhen::Pre => {
+            let mut v = *view;
+            if v.extra.is_some_and(|x| x.instance == instance) {
+                v.extra = None;
+            }
+            let v = v.without(instance);
+            c.require.accepts(v.value_at(c.timeline, a))
+        }
+        ConstraintWhen::Maintain => view.holds_over(c.timeline, &c.require, a, b),
+    }
+}
+
+/// Consolidation (seed 000 IV.A.3): folds finished instances whose impacts all lie at or before
+/// the fold time into the anchors and removes them from `entries`. The fold time is `now`,
+/// pulled back to the first impact of any instance that stays, so that no remaining event
+/// precedes an anchor. Returns the number of instances folded.
+pub fn consolidate(network: &TaskNetwork, entries: &mut Vec<PlanEntry, MAX_PLAN_ENTRIES>, anchors: &mut Anchors, now: MissionTimeUs) -> usize {
+    let first_last = |e: &PlanEntry| -> Option<(MissionTimeUs, MissionTimeUs)> {
+        let c = e.contribution()?;
+        let spec = network.task(e.def)?;
+        let mut span: Option<(MissionTimeUs, MissionTimeUs)> = None;
+        for t in 0..network.timelines().len() {
+            impact_events(spec, e.instance, c, t as u8, &mut |ev: Event| {
+                span = Some(match span {
+                    None => (ev.at, ev.at),
+                    Some((lo, hi)) => (lo.min(ev.at), hi.max(ev.at)),
+                });
+            });
+        }
+        span
+    };
+    // Find the fold time: shrink until every instance is either wholly before it or after it.
+    let mut fold_at = now;
+    loop {
+        let mut changed = false;
+        for e in entries.iter() {
+            let foldable = e.state.is_terminal() && first_last(e).is_none_or(|(_, last)| last <= fold_at);
+            if !foldable {
+                if let Some((first, _)) = first_last(e) {
+                    if first < fold_at {
+                        fold_at = first;
+                        changed = true;
+                    }
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    let foldable = |e: &PlanEntry| e.state.is_terminal() && first_last(e).is_none_or(|(_, last)| last <= fold_at);
+    if !entries.iter().any(foldable) {
+        return 0;
+    }
+    // New anchors: the value at the fold time seen through the folded instances only.
+    let mut folded_only: Vec<PlanEntry, MAX_PLAN_ENTRIES> = Vec::new();
+    for e in entries.iter().filter(|e| foldable(e)) {
+        let _ = folded_only.push(*e);
+    }
+    let mut new_anchors: Anchors = Vec::new();
+    for t in 0..anchors.len() {
+        let tl = t as u8;
+        let view = PlanView::new(network, &folded_only, anchors);
+        let value = view.value_at(tl, fold_at);
+        let mut rate = anchors.get(t).map(|a| a.rate).unwrap_or(0);
+        view.for_each_event(tl, |e| {
+            if let EventKind::Rate(r) = e.kind {
+                if e.at <= fold_at {
+                    rate = rate.saturating_add(r);
+                }
+            }
+        });
+        let measured = anchors.get(t).and_then(|a| a.measured);
+        let at = anchors.get(t).map(|a| a.at.max(fold_at)).unwrap_or(fold_at);
+        let _ = new_anchors.push(TimelineAnchor {
+            value,
+            rate,
+            at,
+            measured,
+        });
+    }
+    *anchors = new_anchors;
+    let before = entries.len();
+    entries.retain(|e| !foldable(e));
+    before - entries.len()
+}
