@@ -1,0 +1,344 @@
+//! The flight application's side of the lockstep protocol, independent of where it runs.
+//!
+//! [`FlightApp`] takes the host's messages (state-buffer updates, command responses, uplink
+//! chunks, time grants), drives the [`autonomy::Autonomy`] core, and sends back what the core
+//! decided (command dispatches, telemetry) followed by `FrameDone`. After every granted frame it
+//! checkpoints the whole plan into the warm-restart area (RAM kept across a warm reset) and, when
+//! there is one, into non-volatile memory (kept across a power cycle). On boot it restores from
+//! whichever holds the newer whole checkpoint.
+//!
+//! The firmware runs it inside its partitions; `hil`'s native target runs the very same code in
+//! the host process, which is what makes the native-versus-emulated comparison meaningful.
+#![no_std]
+#![forbid(unsafe_code)]
+
+use autonomy::{Autonomy, Outputs, RestoreInfo, StepBudget, WarmRestartArea};
+use fsw_bridge::messages::UPLINK_CHUNK_MAX;
+use fsw_bridge::{
+    CommandArgs, HostToTarget, MissionTimeUs, Opcode, TargetToHost, TelemetryEvent,
+};
+
+/// Largest task-network uplink the application accepts, in bytes.
+pub const MAX_UPLINK_BYTES: usize = 16 * 1024;
+
+/// `UplinkNak` reasons of the transfer itself (validation failures use the autonomy core's
+/// `ValidationCode::code()`, which stay below 0xff00).
+pub mod uplink_reason {
+    /// A chunk arrived out of order (or a continuation without a first chunk).
+    pub const OUT_OF_SEQUENCE: u16 = 0xff01;
+    /// The announced or accumulated size exceeds [`super::MAX_UPLINK_BYTES`].
+    pub const TOO_LARGE: u16 = 0xff02;
+    /// The executive still owns tasks of the running plan; uplink again when it is idle.
+    pub const BUSY: u16 = 0xff03;
+    /// `total` was zero, or changed in the middle of a transfer.
+    pub const BAD_TOTAL: u16 = 0xff04;
+}
+
+/// Ids of the `TelemetryEvent::Metric` records this application emits (values in timebase
+/// ticks of the CPU that runs it; the native target reports 0).
+pub mod metric {
+    /// Ticks the autonomy step of one frame took.
+    pub const STEP_TICKS: u16 = 0x0100;
+    /// Ticks one checkpoint write took (both areas).
+    pub const CHECKPOINT_TICKS: u16 = 0x0101;
+    /// Ticks the restore at boot took.
+    pub const RESTORE_TICKS: u16 = 0x0102;
+    /// Ticks from the first grant after a restore to the end of that frame's step: the
+    /// recovery (violations detected, aborts, contingencies, repair).
+    pub const RECOVERY_TICKS: u16 = 0x0103;
+    /// Sequence number of the checkpoint restored at boot.
+    pub const RESTORED_SEQUENCE: u16 = 0x0104;
+    /// Checkpoint writes that failed in one frame (a plan image larger than an area's slot).
+    pub const CHECKPOINT_WRITE_FAILURES: u16 = 0x0105;
+}
+
+/// Planner work allowed per granted frame.
+pub const DEFAULT_STEP_BUDGET: StepBudget = StepBudget {
+    planner_checks: 20_000,
+};
+
+/// Where the application's messages go.
+pub trait Downlink {
+    fn send(&mut self, msg: TargetToHost);
+}
+
+impl<F: FnMut(TargetToHost)> Downlink for F {
+    fn send(&mut self, msg: TargetToHost) {
+        self(msg)
+    }
+}
+
+/// A CPU clock for cost accounting (the timebase on the target, 0 natively).
+pub trait CpuClock {
+    fn ticks(&mut self) -> u64;
+}
+
+/// A clock that always reads 0: the native target counts no cycles.
+pub struct NoClock;
+
+impl CpuClock for NoClock {
+    fn ticks(&mut self) -> u64 {
+        0
+    }
+}
+
+/// The memories the application checkpoints into.
+pub struct Memories<'a> {
+    /// Warm-restart area: survives a warm reset.
+    pub warm: &'a mut [u8],
+    /// Non-volatile memory: survives a power cycle (None where there is none).
+    pub nv: Option<&'a mut [u8]>,
+}
+
+/// How the application came up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BootOutcome {
+    /// No whole checkpoint anywhere: waiting for an uplink.
+    Cold,
+    /// Restored from the warm-restart area.
+    RestoredWarm(RestoreInfo),
+    /// Restored from non-volatile memory.
+    RestoredNv(RestoreInfo),
+}
+
+/// Sends the core's decisions down the link.
+struct Decisions<'d, D: Downlink> {
+    downlink: &'d mut D,
+}
+
+impl<D: Downlink> Outputs for Decisions<'_, D> {
+    fn dispatch(&mut self, id: u32, opcode: Opcode, args: &CommandArgs) {
+        self.downlink.send(TargetToHost::CommandDispatch {
+            id,
+            opcode,
+            args: args.clone(),
+        });
+    }
+
+    fn telemetry(&mut self, event: TelemetryEvent) {
+        self.downlink.send(TargetToHost::Telemetry(event));
+    }
+}
+
+/// The flight application: the autonomy core plus the lockstep and uplink protocol around it.
+pub struct FlightApp {
+    autonomy: Autonomy,
+    uplink: [u8; MAX_UPLINK_BYTES],
+    uplink_len: usize,
+    /// (next expected sequence number, announced total) of the transfer in progress.
+    uplink_progress: Option<(u16, u16)>,
+    budget: StepBudget,
+    /// Set after a restore until the first granted frame has been stepped.
+    recovering: bool,
+}
+
+impl Default for FlightApp {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FlightApp {
+    /// `const` so it can be placed in a partition's static memory.
+    pub const fn new() -> Self {
+        Self {
+            autonomy: Autonomy::new(),
+            uplink: [0; MAX_UPLINK_BYTES],
+            uplink_len: 0,
+            uplink_progress: None,
+            budget: DEFAULT_STEP_BUDGET,
+            recovering: false,
+        }
+    }
+
+    pub fn autonomy(&self) -> &Autonomy {
+        &self.autonomy
+    }
+
+    pub fn set_budget(&mut self, budget: StepBudget) {
+        self.budget = budget;
+    }
+
+    /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories.
+    pub fn boot(
+        &mut self,
+        memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> BootOutcome {
+        let t0 = clock.ticks();
+        let warm_seq = WarmRestartArea::new(memories.warm)
+            .latest()
+            .map(|(_, seq, _)| seq);
+        let nv_seq = memories
+            .nv
+            .as_deref_mut()
+            .and_then(|nv| WarmRestartArea::new(nv).latest().map(|(_, seq, _)| seq));
+        let prefer_nv = match (warm_seq, nv_seq) {
+            (Some(w), Some(n)) => n > w,
+            (None, Some(_)) => true,
+            _ => false,
+        };
+        let mut outcome = BootOutcome::Cold;
+        if !prefer_nv && warm_seq.is_some() {
+            if let Ok(info) = self.autonomy.restore_from(&WarmRestartArea::new(memories.warm)) {
+                outcome = BootOutcome::RestoredWarm(info);
+            }
+        }
+        if outcome == BootOutcome::Cold {
+            if let Some(nv) = memories.nv.as_deref_mut() {
+                if let Ok(info) = self.autonomy.restore_from(&WarmRestartArea::new(nv)) {
+                    outcome = BootOutcome::RestoredNv(info);
+                }
+            }
+        }
+        if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
+            self.recovering = true;
+            let ticks = clock.ticks().wrapping_sub(t0);
+            downlink.send(metric_event(metric::RESTORE_TICKS, ticks));
+            downlink.send(metric_event(
+                metric::RESTORED_SEQUENCE,
+                u64::from(info.sequence),
+            ));
+        }
+        outcome
+    }
+
+    /// Handle one message from the host. Returns false for messages that are not the
+    /// application's (Ping, ResetRequest: the I/O layer answers those).
+    pub fn handle(
+        &mut self,
+        msg: &HostToTarget,
+        memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> bool {
+        match msg {
+            HostToTarget::StateUpdate {
+                key,
+                value,
+                timestamp,
+            } => self.autonomy.on_state_update(*key, *value, *timestamp),
+            HostToTarget::CommandResponse { id, status, .. } => {
+                self.autonomy.on_command_response(*id, *status)
+            }
+            HostToTarget::UplinkChunk { seq, total, bytes } => {
+                self.uplink_chunk(*seq, *total, bytes, downlink)
+            }
+            HostToTarget::TimeGrant { frame, now, until } => {
+                self.frame(*frame, *now, *until, memories, clock, downlink)
+            }
+            HostToTarget::Ping { .. } | HostToTarget::ResetRequest { .. } => return false,
+        }
+        true
+    }
+
+    fn uplink_chunk(
+        &mut self,
+        seq: u16,
+        total: u16,
+        bytes: &heapless::Vec<u8, UPLINK_CHUNK_MAX>,
+        downlink: &mut impl Downlink,
+    ) {
+        let mut nak = |reason| {
+            downlink.send(TargetToHost::UplinkNak { seq, reason });
+        };
+        if seq == 0 {
+            self.uplink_len = 0;
+            self.uplink_progress = Some((0, total));
+        }
+        let Some((expected, announced)) = self.uplink_progress else {
+            return nak(uplink_reason::OUT_OF_SEQUENCE);
+        };
+        if total == 0 || total != announced {
+            self.uplink_progress = None;
+            return nak(uplink_reason::BAD_TOTAL);
+        }
+        if seq != expected {
+            self.uplink_progress = None;
+            return nak(uplink_reason::OUT_OF_SEQUENCE);
+        }
+        let end = self.uplink_len + bytes.len();
+        let Some(slot) = self.uplink.get_mut(self.uplink_len..end) else {
+            self.uplink_progress = None;
+            return nak(uplink_reason::TOO_LARGE);
+        };
+        slot.copy_from_slice(bytes);
+        self.uplink_len = end;
+        downlink.send(TargetToHost::UplinkAck { seq });
+        if seq + 1 < total {
+            self.uplink_progress = Some((seq + 1, total));
+            return;
+        }
+        self.uplink_progress = None;
+        let image = self.uplink.get(..self.uplink_len).unwrap_or(&[]);
+        match self.autonomy.load_uplink(image) {
+            // The whole network was accepted: acknowledged with seq == total.
+            Ok(()) => downlink.send(TargetToHost::UplinkAck { seq: total }),
+            Err(autonomy::LoadError::Invalid(e)) => downlink.send(TargetToHost::UplinkNak {
+                seq: total,
+                reason: e.code.code(),
+            }),
+            Err(autonomy::LoadError::Busy) => downlink.send(TargetToHost::UplinkNak {
+                seq: total,
+                reason: uplink_reason::BUSY,
+            }),
+        }
+    }
+
+    fn frame(
+        &mut self,
+        frame: u32,
+        now: MissionTimeUs,
+        _until: MissionTimeUs,
+        memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) {
+        let t0 = clock.ticks();
+        let report = self.autonomy.step(now, self.budget, &mut Decisions { downlink });
+        let t1 = clock.ticks();
+        if core::mem::replace(&mut self.recovering, false) {
+            downlink.send(metric_event(metric::RECOVERY_TICKS, t1.wrapping_sub(t0)));
+        }
+        let mut failures = 0;
+        if self
+            .autonomy
+            .checkpoint_to(&mut WarmRestartArea::new(memories.warm))
+            .is_err()
+        {
+            failures += 1;
+        }
+        if let Some(nv) = memories.nv.as_deref_mut() {
+            if self
+                .autonomy
+                .checkpoint_to(&mut WarmRestartArea::new(nv))
+                .is_err()
+            {
+                failures += 1;
+            }
+        }
+        let t2 = clock.ticks();
+        if failures > 0 {
+            downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
+        }
+        if t2 != t0 {
+            downlink.send(metric_event(metric::STEP_TICKS, t1.wrapping_sub(t0)));
+            downlink.send(metric_event(metric::CHECKPOINT_TICKS, t2.wrapping_sub(t1)));
+        }
+        let next_wakeup = if report.planner_pending {
+            Some(now)
+        } else {
+            self.autonomy.next_wakeup()
+        };
+        downlink.send(TargetToHost::FrameDone {
+            frame,
+            next_wakeup,
+            busy_ticks: u32::try_from(t2.wrapping_sub(t0)).unwrap_or(u32::MAX),
+        });
+    }
+}
+
+fn metric_event(id: u16, value: u64) -> TargetToHost {
+    TargetToHost::Telemetry(TelemetryEvent::Metric { id, value })
+}
