@@ -29,7 +29,9 @@ use crate::plan::PlanEntry;
 use crate::planner::{Planner, TaskReport};
 use crate::telemetry::PlanModificationKind;
 use crate::uplink::{self, ValidationError};
-use fsw_bridge::{CommandArgs, CommandStatus, MissionTimeUs, Opcode, StateKey, StateValue, TelemetryEvent};
+use fsw_bridge::{
+    CommandArgs, CommandStatus, MissionTimeUs, Opcode, StateKey, StateValue, TelemetryEvent,
+};
 
 /// Where the core's decisions go. The firmware forwards them on the link
 /// (`TargetToHost::CommandDispatch` and `TargetToHost::Telemetry`); tests record them.
@@ -181,9 +183,14 @@ impl Autonomy {
         };
         let fits = match (spec.kind, value) {
             (_, StateValue::Unknown) => true,
-            (TimelineKind::State { value_count, .. }, StateValue::Enum(v)) => v < u16::from(value_count),
+            (TimelineKind::State { value_count, .. }, StateValue::Enum(v)) => {
+                v < u16::from(value_count)
+            }
             (TimelineKind::State { value_count, .. }, StateValue::Bool(_)) => value_count >= 2,
-            (TimelineKind::Cumulative { .. } | TimelineKind::Claimable, StateValue::Int(_) | StateValue::Bool(_)) => true,
+            (
+                TimelineKind::Cumulative { .. } | TimelineKind::Claimable,
+                StateValue::Int(_) | StateValue::Bool(_),
+            ) => true,
             _ => false,
         };
         if fits {
@@ -212,7 +219,12 @@ impl Autonomy {
     /// Runs one step at `now`: the executive (responses, state checks, timeouts, completions),
     /// the planner (reports and contingencies, then its cycle within `budget`, then commits),
     /// and the executive again so that tasks committed for `now` start at once.
-    pub fn step(&mut self, now: MissionTimeUs, budget: StepBudget, out: &mut impl Outputs) -> StepReport {
+    pub fn step(
+        &mut self,
+        now: MissionTimeUs,
+        budget: StepBudget,
+        out: &mut impl Outputs,
+    ) -> StepReport {
         self.now = now;
         if let Some(seq) = self.restored.take() {
             out.telemetry(TelemetryEvent::PlanModification {
@@ -232,7 +244,9 @@ impl Autonomy {
             states,
             ..
         } = self;
-        executive.step(network, states, now, out, &mut |r: TaskReport| planner.on_report(r));
+        executive.step(network, states, now, out, &mut |r: TaskReport| {
+            planner.on_report(r)
+        });
         let report = planner.step(
             network,
             now,
@@ -240,7 +254,9 @@ impl Autonomy {
             &mut |c| executive.has_room() && executive.accept(network, c),
             out,
         );
-        executive.step(network, states, now, out, &mut |r: TaskReport| planner.on_report(r));
+        executive.step(network, states, now, out, &mut |r: TaskReport| {
+            planner.on_report(r)
+        });
         StepReport {
             planner_checks: report.checks,
             planner_pending: report.work_pending,
@@ -257,7 +273,10 @@ impl Autonomy {
             return Some(self.now);
         }
         let a = self.planner.next_wakeup(&self.network, self.now);
-        let b = self.executive.next_wakeup(&self.network).map(|t| t.max(self.now));
+        let b = self
+            .executive
+            .next_wakeup(&self.network, self.now)
+            .map(|t| t.max(self.now));
         match (a, b) {
             (Some(a), Some(b)) => Some(a.min(b)),
             (a, b) => a.or(b),
@@ -286,9 +305,15 @@ impl Autonomy {
         buf.get_mut(prefix_at..prefix_at + 4)?
             .copy_from_slice(&u32::try_from(net_len).ok()?.to_be_bytes());
         len += net_len;
-        len += postcard::to_slice(&self.planner, buf.get_mut(len..)?).ok()?.len();
-        len += postcard::to_slice(&self.executive, buf.get_mut(len..)?).ok()?.len();
-        len += postcard::to_slice(&self.states, buf.get_mut(len..)?).ok()?.len();
+        len += postcard::to_slice(&self.planner, buf.get_mut(len..)?)
+            .ok()?
+            .len();
+        len += postcard::to_slice(&self.executive, buf.get_mut(len..)?)
+            .ok()?
+            .len();
+        len += postcard::to_slice(&self.states, buf.get_mut(len..)?)
+            .ok()?
+            .len();
         Some(len)
     }
 
@@ -296,7 +321,10 @@ impl Autonomy {
     /// [`Autonomy::step`] (after the current state buffer has been published with
     /// `on_state_update`) checks every task against the present state, aborts what no longer
     /// holds, applies contingencies and repairs the plan. On error `self` is a cold, empty core.
-    pub fn restore_from(&mut self, area: &WarmRestartArea<'_>) -> Result<RestoreInfo, CheckpointError> {
+    pub fn restore_from(
+        &mut self,
+        area: &WarmRestartArea<'_>,
+    ) -> Result<RestoreInfo, CheckpointError> {
         let (slot, sequence, payload) = area.latest().ok_or(CheckpointError::NoValidRecord)?;
         let result = self.decode_image(payload);
         if result.is_none() {
@@ -330,8 +358,16 @@ impl Autonomy {
         }
         // The plan must refer to the network it came with.
         let defs = self.network.tasks().len();
-        let plan_ok = self.planner.entries().iter().all(|e| usize::from(e.def) < defs)
-            && self.executive.entries().iter().all(|e| usize::from(e.def) < defs)
+        let plan_ok = self
+            .planner
+            .entries()
+            .iter()
+            .all(|e| usize::from(e.def) < defs)
+            && self
+                .executive
+                .entries()
+                .iter()
+                .all(|e| usize::from(e.def) < defs)
             && self.planner.anchors().len() == self.network.timelines().len();
         if !plan_ok {
             return None;

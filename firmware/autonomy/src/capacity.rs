@@ -25,7 +25,7 @@ pub const MAX_CONDITION_DEPTH: usize = 4;
 /// Temporal constraints between requested tasks in one task network.
 pub const MAX_TEMPORAL_CONSTRAINTS: usize = 16;
 /// Bytes of a task or timeline name.
-pub const MAX_NAME_LEN: usize = 24;
+pub const MAX_NAME_LEN: usize = 32;
 /// Task instances the planner holds at once (requested, added, restarted; finished ones are
 /// consolidated away).
 pub const MAX_PLAN_ENTRIES: usize = 48;

@@ -45,7 +45,12 @@ pub struct WarmRestartArea<'a> {
 
 fn be_u32(b: &[u8], at: usize) -> Option<u32> {
     let s = b.get(at..at + 4)?;
-    Some(u32::from_be_bytes([*s.first()?, *s.get(1)?, *s.get(2)?, *s.get(3)?]))
+    Some(u32::from_be_bytes([
+        *s.first()?,
+        *s.get(1)?,
+        *s.get(2)?,
+        *s.get(3)?,
+    ]))
 }
 
 fn be_u16(b: &[u8], at: usize) -> Option<u16> {
@@ -115,7 +120,10 @@ impl<'a> WarmRestartArea<'a> {
 
     /// Writes a new record whose payload `fill` produces into the given buffer (returning its
     /// length). Returns the slot and sequence number written.
-    pub fn write(&mut self, fill: impl FnOnce(&mut [u8]) -> Option<usize>) -> Result<(u8, u32), CheckpointError> {
+    pub fn write(
+        &mut self,
+        fill: impl FnOnce(&mut [u8]) -> Option<usize>,
+    ) -> Result<(u8, u32), CheckpointError> {
         let (slot, sequence) = match self.latest() {
             Some((s, seq, _)) => (1 - s, seq.wrapping_add(1)),
             None => (0, 1),
@@ -141,7 +149,11 @@ impl<'a> WarmRestartArea<'a> {
         header[12..16].copy_from_slice(&len32.to_be_bytes());
         let mut digest = CRC32.digest();
         digest.update(&header[..16]);
-        digest.update(target.get(RECORD_HEADER_LEN..RECORD_HEADER_LEN + len).unwrap_or(&[]));
+        digest.update(
+            target
+                .get(RECORD_HEADER_LEN..RECORD_HEADER_LEN + len)
+                .unwrap_or(&[]),
+        );
         header[16..20].copy_from_slice(&digest.finalize().to_be_bytes());
         // Header last: until it is complete the record does not count.
         target

@@ -86,7 +86,10 @@ impl Executive {
 
     /// Takes ownership of a committed task. Returns false (and counts it) when full.
     pub fn accept(&mut self, network: &TaskNetwork, commit: Commit) -> bool {
-        let retries = network.task(commit.def).map(|t| t.control.max_retries).unwrap_or(0);
+        let retries = network
+            .task(commit.def)
+            .map(|t| t.control.max_retries)
+            .unwrap_or(0);
         let entry = ExecEntry {
             instance: commit.instance,
             def: commit.def,
@@ -114,7 +117,10 @@ impl Executive {
     }
 
     pub(crate) fn after_restore(&mut self) {
-        self.next_command_id = self.next_command_id.wrapping_add(RESTORE_COMMAND_ID_GAP).max(1);
+        self.next_command_id = self
+            .next_command_id
+            .wrapping_add(RESTORE_COMMAND_ID_GAP)
+            .max(1);
     }
 
     /// Whether responses are waiting to be processed.
@@ -124,28 +130,40 @@ impl Executive {
 
     /// The earliest time a task needs attention (start, wait or response timeout, end, the
     /// start of MAINTAIN monitoring).
-    pub fn next_wakeup(&self, network: &TaskNetwork) -> Option<MissionTimeUs> {
+    pub fn next_wakeup(&self, network: &TaskNetwork, now: MissionTimeUs) -> Option<MissionTimeUs> {
         let mut next: Option<MissionTimeUs> = None;
-        let mut consider = |t: MissionTimeUs| next = Some(next.map_or(t, |n| n.min(t)));
+        // Anything due at or before `now` was handled by the last step; what remains due then
+        // waits for input (a state update, a response), which brings its own step.
+        let mut consider = |t: MissionTimeUs| {
+            if t > now {
+                next = Some(next.map_or(t, |n| n.min(t)));
+            }
+        };
         for e in &self.entries {
             let Some(spec) = network.task(e.def) else {
                 continue;
             };
             match e.state {
                 TaskState::Committed => consider(e.planned_start),
-                TaskState::WaitingPre => {
-                    consider(e.planned_start.saturating_add(spec.control.pre_wait_timeout_us))
-                }
+                TaskState::WaitingPre => consider(
+                    e.planned_start
+                        .saturating_add(spec.control.pre_wait_timeout_us),
+                ),
                 TaskState::Dispatched | TaskState::Running => {
                     if e.state == TaskState::Dispatched {
-                        consider(e.dispatched_at.saturating_add(spec.control.response_timeout_us));
+                        consider(
+                            e.dispatched_at
+                                .saturating_add(spec.control.response_timeout_us),
+                        );
                     }
                     consider(e.end_at);
-                    for c in spec.constraints.iter().filter(|c| c.when == ConstraintWhen::Maintain) {
+                    for c in spec
+                        .constraints
+                        .iter()
+                        .filter(|c| c.when == ConstraintWhen::Maintain)
+                    {
                         let from = shift(e.started_at, c.start_offset_us);
-                        if from > e.started_at {
-                            consider(from);
-                        }
+                        consider(from);
                     }
                 }
                 _ => {}
@@ -176,8 +194,24 @@ impl Executive {
             };
             match status {
                 CommandStatus::Ok => self.transition(i, TaskState::Running, now, out),
-                CommandStatus::Failed(_) => self.command_failed(network, states, i, FailureKind::CommandFailed, now, out, report),
-                CommandStatus::Rejected => self.command_failed(network, states, i, FailureKind::CommandRejected, now, out, report),
+                CommandStatus::Failed(_) => self.command_failed(
+                    network,
+                    states,
+                    i,
+                    FailureKind::CommandFailed,
+                    now,
+                    out,
+                    report,
+                ),
+                CommandStatus::Rejected => self.command_failed(
+                    network,
+                    states,
+                    i,
+                    FailureKind::CommandRejected,
+                    now,
+                    out,
+                    report,
+                ),
             }
         }
         // Tasks, by planned start then instance id.
@@ -250,7 +284,10 @@ impl Executive {
                 }
                 if pre_conditions_hold(network, spec, states) {
                     self.start(network, i, now, out, report);
-                } else if now >= e.planned_start.saturating_add(spec.control.pre_wait_timeout_us) {
+                } else if now
+                    >= e.planned_start
+                        .saturating_add(spec.control.pre_wait_timeout_us)
+                {
                     self.fail(network, i, FailureKind::PreTimeout, false, now, out, report);
                 } else if e.state == TaskState::Committed {
                     self.transition(i, TaskState::WaitingPre, now, out);
@@ -267,13 +304,31 @@ impl Executive {
                     return;
                 }
                 if !maintain_conditions_hold(network, spec, states, &e, now) {
-                    self.fail(network, i, FailureKind::MaintainViolation, true, now, out, report);
+                    self.fail(
+                        network,
+                        i,
+                        FailureKind::MaintainViolation,
+                        true,
+                        now,
+                        out,
+                        report,
+                    );
                     return;
                 }
                 if e.state == TaskState::Dispatched
-                    && now >= e.dispatched_at.saturating_add(spec.control.response_timeout_us)
+                    && now
+                        >= e.dispatched_at
+                            .saturating_add(spec.control.response_timeout_us)
                 {
-                    self.command_failed(network, states, i, FailureKind::ResponseTimeout, now, out, report);
+                    self.command_failed(
+                        network,
+                        states,
+                        i,
+                        FailureKind::ResponseTimeout,
+                        now,
+                        out,
+                        report,
+                    );
                 }
             }
             _ => {}
@@ -372,7 +427,10 @@ impl Executive {
             return;
         };
         self.transition(i, TaskState::Failed(kind), now, out);
-        if let Some(command) = network.task(e.def).and_then(|s| s.control.on_failure_command.as_ref()) {
+        if let Some(command) = network
+            .task(e.def)
+            .and_then(|s| s.control.on_failure_command.as_ref())
+        {
             let id = self.next_command_id;
             self.next_command_id = self.next_command_id.wrapping_add(1).max(1);
             out.dispatch(id, command.opcode, &command.args);
@@ -404,13 +462,23 @@ fn pre_conditions_hold(network: &TaskNetwork, spec: &TaskSpec, states: &StateTab
 }
 
 /// MAINTAIN constraints on measured timelines that cover `now`, and the maintain condition.
-fn maintain_conditions_hold(network: &TaskNetwork, spec: &TaskSpec, states: &StateTable, e: &ExecEntry, now: MissionTimeUs) -> bool {
+fn maintain_conditions_hold(
+    network: &TaskNetwork,
+    spec: &TaskSpec,
+    states: &StateTable,
+    e: &ExecEntry,
+    now: MissionTimeUs,
+) -> bool {
     let constraints_ok = spec
         .constraints
         .iter()
         .filter(|c| c.when == ConstraintWhen::Maintain)
         .filter(|c| {
-            now >= shift(e.started_at, c.start_offset_us) && now < shift(e.end_at, c.end_offset_us)
+            // A task still waiting for its response after its nominal end has not ended: its
+            // MAINTAIN constraints stay monitored until it completes.
+            let still_running = e.state == TaskState::Dispatched;
+            now >= shift(e.started_at, c.start_offset_us)
+                && (still_running || now < shift(e.end_at, c.end_offset_us))
         })
         .all(|c| match measured_value(network, c.timeline, states) {
             Some(v) => c.require.accepts(v),

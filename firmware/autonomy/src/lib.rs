@@ -19,7 +19,7 @@
     clippy::indexing_slicing
 )]
 
-pub mod autonomy;
+mod autonomy;
 pub mod capacity;
 pub mod checkpoint;
 pub mod condition;

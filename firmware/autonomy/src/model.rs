@@ -211,8 +211,10 @@ pub struct Permissions {
     pub may_move: bool,
     /// May be deleted when it cannot be scheduled or repaired.
     pub may_delete: bool,
-    /// Templates (task ids) the planner may add to satisfy this task's constraints, to restore
-    /// timelines this task impacts, or to enable its restart.
+    /// Templates (task ids) the planner may add: to enable this task when its constraints
+    /// cannot be met, to repair a conflict on one of its constraints, and to repair a conflict
+    /// on any timeline this task definition impacts (so the flyby's permission covers the
+    /// request it serves).
     pub may_add: Vec<u16, MAX_ADD_PERMISSIONS_PER_TASK>,
 }
 
@@ -251,7 +253,10 @@ impl TaskSpec {
     }
 
     /// The contingency action for a failure of `kind`, if any.
-    pub fn contingency_for(&self, kind: crate::telemetry::FailureKind) -> Option<ContingencyAction> {
+    pub fn contingency_for(
+        &self,
+        kind: crate::telemetry::FailureKind,
+    ) -> Option<ContingencyAction> {
         let bit = 1u8 << (kind as u8);
         self.contingencies
             .iter()
@@ -284,7 +289,11 @@ pub enum Operand {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum CondNode {
     /// `operand op value`; false when the operand is unknown.
-    Term { operand: Operand, op: RelOp, value: i64 },
+    Term {
+        operand: Operand,
+        op: RelOp,
+        value: i64,
+    },
     /// Pops two, pushes their conjunction.
     And,
     /// Pops two, pushes their disjunction.

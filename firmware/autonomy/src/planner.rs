@@ -22,7 +22,7 @@ use crate::model::*;
 use crate::plan::{Origin, PlanEntry};
 use crate::telemetry::{FailureKind, PlanModificationKind, TaskState};
 use crate::timeline::{
-    constraint_holds, constraint_span, consolidate, shift, Anchors, Candidate, Measurement,
+    consolidate, constraint_holds, constraint_span, shift, Anchors, Candidate, Measurement,
     PlanView, TimelineAnchor,
 };
 use fsw_bridge::{MissionTimeUs, TelemetryEvent};
@@ -44,7 +44,10 @@ pub enum ReportKind {
     Completed,
     Skipped,
     /// The task failed; `started` says whether its impacts had begun.
-    Failed { kind: FailureKind, started: bool },
+    Failed {
+        kind: FailureKind,
+        started: bool,
+    },
 }
 
 /// One execution report.
@@ -244,21 +247,32 @@ impl Planner {
         let mut consider = |t: MissionTimeUs| next = Some(next.map_or(t, |n| n.min(t)));
         for e in &self.entries {
             match e.state {
-                TaskState::Scheduled => consider(MissionTimeUs(
-                    e.start.0.saturating_sub(config.commit_window_us).max(now.0),
-                )),
-                TaskState::Unscheduled if e.persistent => consider(MissionTimeUs(
-                    e.earliest_start
-                        .0
-                        .saturating_sub(config.scheduling_window_us)
-                        .max(now.0),
-                )),
+                TaskState::Scheduled => {
+                    let commit_at =
+                        MissionTimeUs(e.start.0.saturating_sub(config.commit_window_us));
+                    if commit_at > now {
+                        consider(commit_at);
+                    }
+                }
+                TaskState::Unscheduled if e.persistent => {
+                    let window_at = MissionTimeUs(
+                        e.earliest_start
+                            .0
+                            .saturating_sub(config.scheduling_window_us),
+                    );
+                    if window_at > now {
+                        consider(window_at);
+                    }
+                }
                 _ => {}
             }
         }
         if self.entries.iter().any(|e| !e.state.is_terminal()) {
             if let Some(last) = self.last_cycle_at {
-                consider(last.saturating_add(config.plan_process_interval_us).max(now));
+                consider(
+                    last.saturating_add(config.plan_process_interval_us)
+                        .max(now),
+                );
             }
         }
         next
@@ -278,9 +292,9 @@ impl Planner {
         let start_checks = self.stats.validity_checks;
         self.intake(&ctx, out);
         self.expire(&ctx, out);
-        let periodic = self.last_cycle_at.is_none_or(|l| {
-            now >= l.saturating_add(network.config().plan_process_interval_us)
-        });
+        let periodic = self
+            .last_cycle_at
+            .is_none_or(|l| now >= l.saturating_add(network.config().plan_process_interval_us));
         if self.phase == Phase::Idle && (self.dirty || periodic) {
             self.phase = Phase::Consolidate;
             self.dirty = false;
@@ -355,7 +369,13 @@ impl Planner {
         }
     }
 
-    fn emit_transition(out: &mut impl Outputs, instance: u16, from: TaskState, to: TaskState, at: MissionTimeUs) {
+    fn emit_transition(
+        out: &mut impl Outputs,
+        instance: u16,
+        from: TaskState,
+        to: TaskState,
+        at: MissionTimeUs,
+    ) {
         out.telemetry(TelemetryEvent::TaskTransition {
             task: instance,
             from: from.code(),
@@ -364,7 +384,13 @@ impl Planner {
         });
     }
 
-    fn emit_modification(out: &mut impl Outputs, kind: PlanModificationKind, instance: u16, template: u16, at: MissionTimeUs) {
+    fn emit_modification(
+        out: &mut impl Outputs,
+        kind: PlanModificationKind,
+        instance: u16,
+        template: u16,
+        at: MissionTimeUs,
+    ) {
         out.telemetry(TelemetryEvent::PlanModification {
             kind: kind as u8,
             task: instance,
@@ -379,7 +405,10 @@ impl Planner {
 
     fn new_instance_id(&mut self) -> u16 {
         let id = self.next_instance;
-        self.next_instance = self.next_instance.checked_add(1).unwrap_or(FIRST_INSTANCE_ID);
+        self.next_instance = self
+            .next_instance
+            .checked_add(1)
+            .unwrap_or(FIRST_INSTANCE_ID);
         id
     }
 
@@ -429,7 +458,13 @@ impl Planner {
                 if let Some(x) = self.entries.get_mut(i - 1) {
                     x.state = TaskState::Failed(kind);
                 }
-                Self::emit_transition(out, e.instance, TaskState::Unscheduled, TaskState::Failed(kind), ctx.now);
+                Self::emit_transition(
+                    out,
+                    e.instance,
+                    TaskState::Unscheduled,
+                    TaskState::Failed(kind),
+                    ctx.now,
+                );
                 self.apply_contingency(ctx, e, kind, out);
             }
         }
@@ -440,11 +475,16 @@ impl Planner {
             self.stats.plan_full = self.stats.plan_full.saturating_add(1);
             return false;
         }
-        self.dirty = true;
         true
     }
 
-    fn apply_contingency(&mut self, ctx: &Ctx<'_>, failed: PlanEntry, kind: FailureKind, out: &mut impl Outputs) {
+    fn apply_contingency(
+        &mut self,
+        ctx: &Ctx<'_>,
+        failed: PlanEntry,
+        kind: FailureKind,
+        out: &mut impl Outputs,
+    ) {
         let Some(spec) = ctx.network.task(failed.def) else {
             return;
         };
@@ -478,7 +518,13 @@ impl Planner {
                         of_instance: failed.instance,
                     },
                 }) {
-                    Self::emit_modification(out, PlanModificationKind::Restart, instance, spec.id, ctx.now);
+                    Self::emit_modification(
+                        out,
+                        PlanModificationKind::Restart,
+                        instance,
+                        spec.id,
+                        ctx.now,
+                    );
                 }
             }
             ContingencyAction::AddTemplate(id) => {
@@ -504,7 +550,13 @@ impl Planner {
                 }
             }
             ContingencyAction::Delete => {
-                Self::emit_modification(out, PlanModificationKind::Delete, failed.instance, spec.id, ctx.now);
+                Self::emit_modification(
+                    out,
+                    PlanModificationKind::Delete,
+                    failed.instance,
+                    spec.id,
+                    ctx.now,
+                );
             }
         }
     }
@@ -512,7 +564,9 @@ impl Planner {
     /// The next unscheduled instance in the scheduling window: earliest start first, then
     /// higher priority, then lower instance id.
     fn next_to_schedule(&self, ctx: &Ctx<'_>) -> Option<u16> {
-        let horizon = ctx.now.saturating_add(ctx.network.config().scheduling_window_us);
+        let horizon = ctx
+            .now
+            .saturating_add(ctx.network.config().scheduling_window_us);
         self.entries
             .iter()
             .filter(|e| e.state == TaskState::Unscheduled && !self.attempted.contains(&e.instance))
@@ -525,10 +579,16 @@ impl Planner {
     }
 
     /// The end of an instance of `def` starting at `start`.
-    fn end_for(network: &TaskNetwork, entry: &PlanEntry, start: MissionTimeUs) -> Option<MissionTimeUs> {
+    fn end_for(
+        network: &TaskNetwork,
+        entry: &PlanEntry,
+        start: MissionTimeUs,
+    ) -> Option<MissionTimeUs> {
         let spec = network.task(entry.def)?;
         let duration = match entry.origin {
-            Origin::Restarted { .. } if entry.latest_start == MissionTimeUs::MAX => Some(spec.duration_us),
+            Origin::Restarted { .. } if entry.latest_start == MissionTimeUs::MAX => {
+                Some(spec.duration_us)
+            }
             _ => spec.duration_from(start),
         }?;
         Some(start.saturating_add(duration))
@@ -536,14 +596,20 @@ impl Planner {
 
     /// The window of start times for `entry`: its own window, the plan horizon, and the
     /// temporal constraints with other requested tasks.
-    fn start_window(&self, ctx: &Ctx<'_>, entry: &PlanEntry) -> Option<(MissionTimeUs, MissionTimeUs)> {
+    fn start_window(
+        &self,
+        ctx: &Ctx<'_>,
+        entry: &PlanEntry,
+    ) -> Option<(MissionTimeUs, MissionTimeUs)> {
         let spec = ctx.network.task(entry.def)?;
         let lo = entry.earliest_start.max(ctx.now);
         let mut hi = entry
             .latest_start
             .min(ctx.now.saturating_add(ctx.network.config().plan_horizon_us));
         if entry.latest_start != MissionTimeUs::MAX || entry.origin == Origin::Requested {
-            hi = hi.min(MissionTimeUs(spec.latest_end.0.saturating_sub(spec.min_duration_us)));
+            hi = hi.min(MissionTimeUs(
+                spec.latest_end.0.saturating_sub(spec.min_duration_us),
+            ));
         }
         let (lo, hi) = if entry.origin == Origin::Requested {
             let (tlo, thi) = temporal_window(ctx.network, &self.entries, entry)?;
@@ -556,8 +622,18 @@ impl Planner {
 
     /// Places instance `instance` at its earliest valid start, adding permitted templates to
     /// enable it if need be. Returns whether it was placed.
-    fn schedule(&mut self, ctx: &Ctx<'_>, instance: u16, is_move: bool, out: &mut impl Outputs) -> bool {
-        let Some(entry) = self.entry_index(instance).and_then(|i| self.entries.get(i)).copied() else {
+    fn schedule(
+        &mut self,
+        ctx: &Ctx<'_>,
+        instance: u16,
+        is_move: bool,
+        out: &mut impl Outputs,
+    ) -> bool {
+        let Some(entry) = self
+            .entry_index(instance)
+            .and_then(|i| self.entries.get(i))
+            .copied()
+        else {
             return false;
         };
         if let Some(start) = self.earliest_valid(ctx, &entry) {
@@ -569,10 +645,19 @@ impl Planner {
         }
         if !entry.persistent && !is_move {
             let kind = FailureKind::Unschedulable;
-            if let Some(e) = self.entry_index(instance).and_then(|i| self.entries.get_mut(i)) {
+            if let Some(e) = self
+                .entry_index(instance)
+                .and_then(|i| self.entries.get_mut(i))
+            {
                 e.state = TaskState::Failed(kind);
             }
-            Self::emit_transition(out, instance, TaskState::Unscheduled, TaskState::Failed(kind), ctx.now);
+            Self::emit_transition(
+                out,
+                instance,
+                TaskState::Unscheduled,
+                TaskState::Failed(kind),
+                ctx.now,
+            );
         }
         false
     }
@@ -593,7 +678,14 @@ impl Planner {
         found
     }
 
-    fn place(&mut self, ctx: &Ctx<'_>, instance: u16, start: MissionTimeUs, is_move: bool, out: &mut impl Outputs) {
+    fn place(
+        &mut self,
+        ctx: &Ctx<'_>,
+        instance: u16,
+        start: MissionTimeUs,
+        is_move: bool,
+        out: &mut impl Outputs,
+    ) {
         let Some(i) = self.entry_index(instance) else {
             return;
         };
@@ -612,12 +704,24 @@ impl Planner {
             let template = entry.template_id(ctx.network);
             Self::emit_modification(out, PlanModificationKind::Move, instance, template, ctx.now);
         } else {
-            Self::emit_transition(out, instance, TaskState::Unscheduled, TaskState::Scheduled, ctx.now);
+            Self::emit_transition(
+                out,
+                instance,
+                TaskState::Unscheduled,
+                TaskState::Scheduled,
+                ctx.now,
+            );
         }
     }
 
     /// Tries permitted templates that impact the timeline of a constraint `entry` cannot meet.
-    fn enable(&mut self, ctx: &Ctx<'_>, entry: &PlanEntry, is_move: bool, out: &mut impl Outputs) -> bool {
+    fn enable(
+        &mut self,
+        ctx: &Ctx<'_>,
+        entry: &PlanEntry,
+        is_move: bool,
+        out: &mut impl Outputs,
+    ) -> bool {
         let Some(spec) = ctx.network.task(entry.def) else {
             return false;
         };
@@ -632,7 +736,11 @@ impl Planner {
                 let Some(tspec) = ctx.network.task(tdef) else {
                     continue;
                 };
-                if !tspec.impacts.iter().any(|i| i.timeline == constraint.timeline) {
+                if !tspec
+                    .impacts
+                    .iter()
+                    .any(|i| i.timeline == constraint.timeline)
+                {
                     continue;
                 }
                 let helper = PlanEntry {
@@ -667,8 +775,20 @@ impl Planner {
                 }
                 if let Some(start) = self.earliest_valid(ctx, entry) {
                     let helper_id = self.new_instance_id();
-                    Self::emit_modification(out, PlanModificationKind::Add, helper_id, template_id, ctx.now);
-                    Self::emit_transition(out, helper_id, TaskState::Unscheduled, TaskState::Scheduled, ctx.now);
+                    Self::emit_modification(
+                        out,
+                        PlanModificationKind::Add,
+                        helper_id,
+                        template_id,
+                        ctx.now,
+                    );
+                    Self::emit_transition(
+                        out,
+                        helper_id,
+                        TaskState::Unscheduled,
+                        TaskState::Scheduled,
+                        ctx.now,
+                    );
                     self.place(ctx, entry.instance, start, is_move, out);
                     return true;
                 }
@@ -685,11 +805,25 @@ impl Planner {
         let Some(end) = Self::end_for(ctx.network, entry, start) else {
             return false;
         };
-        placement_valid(ctx.network, &self.entries, &self.anchors, entry, start, end, ctx.now)
+        placement_valid(
+            ctx.network,
+            &self.entries,
+            &self.anchors,
+            entry,
+            start,
+            end,
+            ctx.now,
+        )
     }
 
     /// Collects the critical start times of `entry` in `[lo, hi]`, sorted and unique.
-    fn fill_candidates(&mut self, ctx: &Ctx<'_>, entry: &PlanEntry, lo: MissionTimeUs, hi: MissionTimeUs) {
+    fn fill_candidates(
+        &mut self,
+        ctx: &Ctx<'_>,
+        entry: &PlanEntry,
+        lo: MissionTimeUs,
+        hi: MissionTimeUs,
+    ) {
         let candidates = &mut self.scratch.candidates;
         candidates.clear();
         let Some(spec) = ctx.network.task(entry.def) else {
@@ -703,9 +837,12 @@ impl Planner {
         };
         push(lo.0);
         push(hi.0);
-        let mut start_offsets: Vec<i64, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> = Vec::new();
-        let mut end_offsets: Vec<i64, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> = Vec::new();
-        let mut timelines: Vec<u8, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> = Vec::new();
+        let mut start_offsets: Vec<i64, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> =
+            Vec::new();
+        let mut end_offsets: Vec<i64, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> =
+            Vec::new();
+        let mut timelines: Vec<u8, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> =
+            Vec::new();
         let mut impacted: Vec<u8, MAX_IMPACTS_PER_TASK> = Vec::new();
         for c in &spec.constraints {
             let _ = start_offsets.push(c.start_offset_us);
@@ -745,7 +882,9 @@ impl Planner {
                 push(s.saturating_add(1));
             }
             for &o in &end_offsets {
-                let s = t.0.saturating_add_signed(o.saturating_neg()).saturating_sub(duration);
+                let s =
+                    t.0.saturating_add_signed(o.saturating_neg())
+                        .saturating_sub(duration);
                 push(s);
                 push(s.saturating_add(1));
             }
@@ -762,11 +901,19 @@ impl Planner {
         for &tl in &timelines {
             view.for_each_event(tl, |e| from_instant(e.at));
         }
-        for other in self.entries.iter().filter(|e| e.instance != entry.instance && is_live(e)) {
+        for other in self
+            .entries
+            .iter()
+            .filter(|e| e.instance != entry.instance && is_live(e))
+        {
             let Some(ospec) = ctx.network.task(other.def) else {
                 continue;
             };
-            for c in ospec.constraints.iter().filter(|c| impacted.contains(&c.timeline)) {
+            for c in ospec
+                .constraints
+                .iter()
+                .filter(|c| impacted.contains(&c.timeline))
+            {
                 let (a, b) = constraint_span(c, other.start, other.end);
                 from_instant(a);
                 from_instant(b);
@@ -779,7 +926,10 @@ impl Planner {
         candidates.sort_unstable();
         let mut w = 0usize;
         for r in 0..candidates.len() {
-            let (Some(&v), prev) = (candidates.get(r), w.checked_sub(1).and_then(|p| candidates.get(p)).copied()) else {
+            let (Some(&v), prev) = (
+                candidates.get(r),
+                w.checked_sub(1).and_then(|p| candidates.get(p)).copied(),
+            ) else {
                 continue;
             };
             if prev != Some(v) {
@@ -801,7 +951,11 @@ impl Planner {
     ) -> Vec<ValidInterval, MAX_VALID_INTERVALS> {
         let ctx = Ctx { network, now };
         let mut out: Vec<ValidInterval, MAX_VALID_INTERVALS> = Vec::new();
-        let Some(entry) = self.entry_index(instance).and_then(|i| self.entries.get(i)).copied() else {
+        let Some(entry) = self
+            .entry_index(instance)
+            .and_then(|i| self.entries.get(i))
+            .copied()
+        else {
             return out;
         };
         let Some((lo, hi)) = self.start_window(&ctx, &entry) else {
@@ -835,13 +989,25 @@ impl Planner {
     }
 
     /// Exact validity check of `instance` placed at `start`, for tests and tools.
-    pub fn is_valid_placement(&mut self, network: &TaskNetwork, now: MissionTimeUs, instance: u16, start: MissionTimeUs) -> bool {
+    pub fn is_valid_placement(
+        &mut self,
+        network: &TaskNetwork,
+        now: MissionTimeUs,
+        instance: u16,
+        start: MissionTimeUs,
+    ) -> bool {
         let ctx = Ctx { network, now };
-        let Some(entry) = self.entry_index(instance).and_then(|i| self.entries.get(i)).copied() else {
+        let Some(entry) = self
+            .entry_index(instance)
+            .and_then(|i| self.entries.get(i))
+            .copied()
+        else {
             return false;
         };
         match self.start_window(&ctx, &entry) {
-            Some((lo, hi)) if start >= lo && start <= hi => self.placement_valid(&ctx, &entry, start),
+            Some((lo, hi)) if start >= lo && start <= hi => {
+                self.placement_valid(&ctx, &entry, start)
+            }
             _ => false,
         }
     }
@@ -868,7 +1034,9 @@ impl Planner {
                 let a = a.max(ctx.now);
                 let (from, to) = match c.when {
                     ConstraintWhen::Pre => (a, b),
-                    ConstraintWhen::Maintain => view.first_violation(c.timeline, &c.require, a, b).unwrap_or((a, b)),
+                    ConstraintWhen::Maintain => view
+                        .first_violation(c.timeline, &c.require, a, b)
+                        .unwrap_or((a, b)),
                 };
                 let conflict = Conflict {
                     instance: e.instance,
@@ -886,7 +1054,11 @@ impl Planner {
     }
 
     /// Every constraint that does not hold in the projected plan (tests, reports).
-    pub fn conflicts(&self, network: &TaskNetwork, now: MissionTimeUs) -> Vec<Conflict, MAX_PLAN_ENTRIES> {
+    pub fn conflicts(
+        &self,
+        network: &TaskNetwork,
+        now: MissionTimeUs,
+    ) -> Vec<Conflict, MAX_PLAN_ENTRIES> {
         let ctx = Ctx { network, now };
         let view = PlanView::new(network, &self.entries, &self.anchors);
         let mut out = Vec::new();
@@ -930,7 +1102,10 @@ impl Planner {
                 return;
             }
             // Put it back where it was and try the other modifiers.
-            if let Some(e) = self.entry_index(entry.instance).and_then(|i| self.entries.get_mut(i)) {
+            if let Some(e) = self
+                .entry_index(entry.instance)
+                .and_then(|i| self.entries.get_mut(i))
+            {
                 e.state = TaskState::Scheduled;
                 e.start = entry.start;
                 e.end = entry.end;
@@ -943,37 +1118,58 @@ impl Planner {
             if let Some(e) = self.entries.get_mut(i) {
                 e.state = TaskState::Deleted;
             }
-            Self::emit_modification(out, PlanModificationKind::Delete, entry.instance, spec.id, ctx.now);
-            Self::emit_transition(out, entry.instance, TaskState::Scheduled, TaskState::Deleted, ctx.now);
+            Self::emit_modification(
+                out,
+                PlanModificationKind::Delete,
+                entry.instance,
+                spec.id,
+                ctx.now,
+            );
+            Self::emit_transition(
+                out,
+                entry.instance,
+                TaskState::Scheduled,
+                TaskState::Deleted,
+                ctx.now,
+            );
         }
     }
 
     /// Templates permitted for a conflict on `timeline`: those the constrained task may add,
-    /// then those any task impacting the timeline may add (in plan order), without repeats.
-    fn permitted_templates(&self, network: &TaskNetwork, owner: &PlanEntry, timeline: u8) -> Vec<u16, MAX_TASKS> {
+    /// then those every task definition that impacts the timeline may add (in network order),
+    /// without repeats. This depends on the network only, never on what is left in the plan.
+    fn permitted_templates(
+        &self,
+        network: &TaskNetwork,
+        owner: &PlanEntry,
+        timeline: u8,
+    ) -> Vec<u16, MAX_TASKS> {
         let mut out: Vec<u16, MAX_TASKS> = Vec::new();
-        let mut add_from = |def: u8| {
-            if let Some(s) = network.task(def) {
-                for &id in &s.permissions.may_add {
-                    if !out.contains(&id) {
-                        let _ = out.push(id);
-                    }
+        let mut add_from = |s: &TaskSpec| {
+            for &id in &s.permissions.may_add {
+                if !out.contains(&id) {
+                    let _ = out.push(id);
                 }
             }
         };
-        add_from(owner.def);
-        for e in &self.entries {
-            let impacts = network
-                .task(e.def)
-                .is_some_and(|s| s.impacts.iter().any(|i| i.timeline == timeline));
-            if impacts {
-                add_from(e.def);
+        if let Some(s) = network.task(owner.def) {
+            add_from(s);
+        }
+        for s in network.tasks() {
+            if s.impacts.iter().any(|i| i.timeline == timeline) {
+                add_from(s);
             }
         }
         out
     }
 
-    fn add_for_conflict(&mut self, ctx: &Ctx<'_>, owner: &PlanEntry, conflict: Conflict, out: &mut impl Outputs) -> bool {
+    fn add_for_conflict(
+        &mut self,
+        ctx: &Ctx<'_>,
+        owner: &PlanEntry,
+        conflict: Conflict,
+        out: &mut impl Outputs,
+    ) -> bool {
         let Some(constraint) = ctx
             .network
             .task(owner.def)
@@ -990,7 +1186,11 @@ impl Planner {
             let Some(tspec) = ctx.network.task(tdef) else {
                 continue;
             };
-            if !tspec.impacts.iter().any(|i| i.timeline == constraint.timeline) {
+            if !tspec
+                .impacts
+                .iter()
+                .any(|i| i.timeline == constraint.timeline)
+            {
                 continue;
             }
             let helper = PlanEntry {
@@ -1022,7 +1222,15 @@ impl Planner {
             }
             for (start, end) in trials {
                 self.stats.validity_checks = self.stats.validity_checks.saturating_add(1);
-                if !placement_valid(ctx.network, &self.entries, &self.anchors, &helper, start, end, ctx.now) {
+                if !placement_valid(
+                    ctx.network,
+                    &self.entries,
+                    &self.anchors,
+                    &helper,
+                    start,
+                    end,
+                    ctx.now,
+                ) {
                     continue;
                 }
                 let placed = PlanEntry {
@@ -1040,7 +1248,14 @@ impl Planner {
                 // Progress: the constraint now holds at the instant the violation started.
                 let view = PlanView::new(ctx.network, &self.entries, &self.anchors);
                 let fixed = match constraint.when {
-                    ConstraintWhen::Pre => constraint_holds(&view, owner.instance, &constraint, owner.start, owner.end, ctx.now),
+                    ConstraintWhen::Pre => constraint_holds(
+                        &view,
+                        owner.instance,
+                        &constraint,
+                        owner.start,
+                        owner.end,
+                        ctx.now,
+                    ),
                     ConstraintWhen::Maintain => view.holds_over(
                         constraint.timeline,
                         &constraint.require,
@@ -1050,10 +1265,23 @@ impl Planner {
                 };
                 if fixed {
                     let id = self.new_instance_id();
-                    Self::emit_modification(out, PlanModificationKind::Add, id, template_id, ctx.now);
-                    Self::emit_transition(out, id, TaskState::Unscheduled, TaskState::Scheduled, ctx.now);
+                    Self::emit_modification(
+                        out,
+                        PlanModificationKind::Add,
+                        id,
+                        template_id,
+                        ctx.now,
+                    );
+                    Self::emit_transition(
+                        out,
+                        id,
+                        TaskState::Unscheduled,
+                        TaskState::Scheduled,
+                        ctx.now,
+                    );
                     // The owner's constraint may still fail later on: look again.
-                    self.tried.retain(|&(i, k)| !(i == owner.instance && k == conflict.constraint));
+                    self.tried
+                        .retain(|&(i, k)| !(i == owner.instance && k == conflict.constraint));
                     return true;
                 }
                 self.entries.pop();
@@ -1063,8 +1291,15 @@ impl Planner {
     }
 
     /// Commits every scheduled instance starting within the commit window, earliest first.
-    fn commit(&mut self, ctx: &Ctx<'_>, commits: &mut impl FnMut(Commit) -> bool, out: &mut impl Outputs) {
-        let window_end = ctx.now.saturating_add(ctx.network.config().commit_window_us);
+    fn commit(
+        &mut self,
+        ctx: &Ctx<'_>,
+        commits: &mut impl FnMut(Commit) -> bool,
+        out: &mut impl Outputs,
+    ) {
+        let window_end = ctx
+            .now
+            .saturating_add(ctx.network.config().commit_window_us);
         loop {
             let next = self
                 .entries
@@ -1090,7 +1325,13 @@ impl Planner {
                 break;
             }
             e.state = TaskState::Committed;
-            Self::emit_transition(out, commit.instance, TaskState::Scheduled, TaskState::Committed, ctx.now);
+            Self::emit_transition(
+                out,
+                commit.instance,
+                TaskState::Scheduled,
+                TaskState::Committed,
+                ctx.now,
+            );
         }
     }
 
@@ -1139,7 +1380,10 @@ pub fn placement_valid(
         if spec.impacts.iter().take(n).any(|i| i.timeline == tl) {
             continue;
         }
-        for other in entries.iter().filter(|e| e.instance != entry.instance && is_live(e)) {
+        for other in entries
+            .iter()
+            .filter(|e| e.instance != entry.instance && is_live(e))
+        {
             let Some(ospec) = network.task(other.def) else {
                 continue;
             };
@@ -1173,9 +1417,17 @@ pub fn placement_valid(
 /// the placed requested instances: shortest paths (Bellman-Ford) on the temporal constraint
 /// graph whose nodes are a zero point and the start and end of each requested task. `None` when
 /// the constraints cannot be met.
-pub fn temporal_window(network: &TaskNetwork, entries: &[PlanEntry], entry: &PlanEntry) -> Option<(MissionTimeUs, MissionTimeUs)> {
+pub fn temporal_window(
+    network: &TaskNetwork,
+    entries: &[PlanEntry],
+    entry: &PlanEntry,
+) -> Option<(MissionTimeUs, MissionTimeUs)> {
     let me = network.task(entry.def)?.id;
-    if !network.temporal().iter().any(|t| t.from_task == me || t.to_task == me) {
+    if !network
+        .temporal()
+        .iter()
+        .any(|t| t.from_task == me || t.to_task == me)
+    {
         return Some((MissionTimeUs::ZERO, MissionTimeUs::MAX));
     }
     const NODES: usize = 1 + 2 * MAX_TASKS;
@@ -1184,10 +1436,16 @@ pub fn temporal_window(network: &TaskNetwork, entries: &[PlanEntry], entry: &Pla
     // Calls f(from, to, weight) for every edge: to - from <= weight.
     let edges = |f: &mut dyn FnMut(usize, usize, i64)| {
         for tc in network.temporal() {
-            let (Some(a), Some(b)) = (network.def_of_id(tc.from_task), network.def_of_id(tc.to_task)) else {
+            let (Some(a), Some(b)) = (
+                network.def_of_id(tc.from_task),
+                network.def_of_id(tc.to_task),
+            ) else {
                 continue;
             };
-            let (u, v) = (node(usize::from(a), tc.from_point), node(usize::from(b), tc.to_point));
+            let (u, v) = (
+                node(usize::from(a), tc.from_point),
+                node(usize::from(b), tc.to_point),
+            );
             f(u, v, tc.max_us);
             f(v, u, tc.min_us.saturating_neg());
         }
@@ -1199,7 +1457,9 @@ pub fn temporal_window(network: &TaskNetwork, entries: &[PlanEntry], entry: &Pla
             f(s, e, t.duration_us as i64);
             f(e, s, (t.min_duration_us as i64).saturating_neg());
             let placed = entries.iter().find(|p| {
-                p.def as usize == d && p.origin == Origin::Requested && p.instance != entry.instance
+                p.def as usize == d
+                    && p.origin == Origin::Requested
+                    && p.instance != entry.instance
                     && p.state != TaskState::Unscheduled
             });
             if let Some(p) = placed {
@@ -1241,9 +1501,20 @@ pub fn temporal_window(network: &TaskNetwork, entries: &[PlanEntry], entry: &Pla
         Some(dist)
     };
     let start_node = node(usize::from(entry.def), TaskPoint::Start);
-    let upper = shortest(false)?.get(start_node).copied().unwrap_or(i64::MAX);
+    let upper = shortest(false)?
+        .get(start_node)
+        .copied()
+        .unwrap_or(i64::MAX);
     let lower = shortest(true)?.get(start_node).copied().unwrap_or(i64::MAX);
-    let hi = if upper == i64::MAX { u64::MAX } else { upper.max(0) as u64 };
-    let lo = if lower == i64::MAX { 0 } else { lower.saturating_neg().max(0) as u64 };
+    let hi = if upper == i64::MAX {
+        u64::MAX
+    } else {
+        upper.max(0) as u64
+    };
+    let lo = if lower == i64::MAX {
+        0
+    } else {
+        lower.saturating_neg().max(0) as u64
+    };
     Some((MissionTimeUs(lo), MissionTimeUs(hi)))
 }

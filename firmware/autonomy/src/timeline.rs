@@ -169,7 +169,11 @@ pub struct PlanView<'a> {
 }
 
 impl<'a> PlanView<'a> {
-    pub fn new(network: &'a TaskNetwork, entries: &'a [PlanEntry], anchors: &'a [TimelineAnchor]) -> Self {
+    pub fn new(
+        network: &'a TaskNetwork,
+        entries: &'a [PlanEntry],
+        anchors: &'a [TimelineAnchor],
+    ) -> Self {
         Self {
             network,
             entries,
@@ -213,7 +217,10 @@ impl<'a> PlanView<'a> {
     }
 
     fn has_rates(&self, timeline: u8) -> bool {
-        let mut any = self.anchors.get(usize::from(timeline)).is_some_and(|a| a.rate != 0);
+        let mut any = self
+            .anchors
+            .get(usize::from(timeline))
+            .is_some_and(|a| a.rate != 0);
         self.for_each_event(timeline, |e| any |= matches!(e.kind, EventKind::Rate(_)));
         any
     }
@@ -253,7 +260,8 @@ impl<'a> PlanView<'a> {
             after = Some((at, seq));
         }
         let mut value = i128::from(base_value);
-        let mut integral: i128 = i128::from(anchor.rate) * i128::from(t.0.saturating_sub(base_at.0));
+        let mut integral: i128 =
+            i128::from(anchor.rate) * i128::from(t.0.saturating_sub(base_at.0));
         self.for_each_event(timeline, |e| match e.kind {
             EventKind::Add(d) => {
                 if passes(&e) && after.is_none_or(|k| e.key() > k) {
@@ -311,8 +319,16 @@ impl<'a> PlanView<'a> {
     }
 
     /// Whether `require` holds on `timeline` at every instant of `[a, b)`.
-    pub fn holds_over(&self, timeline: u8, require: &Requirement, a: MissionTimeUs, b: MissionTimeUs) -> bool {
-        self.for_each_check_point(timeline, a, b, |t| require.accepts(self.value_at(timeline, t)))
+    pub fn holds_over(
+        &self,
+        timeline: u8,
+        require: &Requirement,
+        a: MissionTimeUs,
+        b: MissionTimeUs,
+    ) -> bool {
+        self.for_each_check_point(timeline, a, b, |t| {
+            require.accepts(self.value_at(timeline, t))
+        })
     }
 
     /// The first sub-interval of `[a, b)` on which `require` does not hold, as
@@ -352,14 +368,20 @@ impl<'a> PlanView<'a> {
         match spec.kind {
             TimelineKind::State { .. } => true,
             TimelineKind::Claimable => (0..=1).contains(&v),
-            TimelineKind::Cumulative { min, max, .. } => v == VALUE_UNKNOWN || (min..=max).contains(&v),
+            TimelineKind::Cumulative { min, max, .. } => {
+                v == VALUE_UNKNOWN || (min..=max).contains(&v)
+            }
         }
     }
 }
 
 /// The instant a PRE constraint is checked, or the interval a MAINTAIN constraint covers, for
 /// an instance placed over `[start, end)`.
-pub fn constraint_span(c: &ConstraintSpec, start: MissionTimeUs, end: MissionTimeUs) -> (MissionTimeUs, MissionTimeUs) {
+pub fn constraint_span(
+    c: &ConstraintSpec,
+    start: MissionTimeUs,
+    end: MissionTimeUs,
+) -> (MissionTimeUs, MissionTimeUs) {
     let a = shift(start, c.start_offset_us);
     match c.when {
         ConstraintWhen::Pre => (a, MissionTimeUs(a.0.saturating_add(1))),
@@ -400,7 +422,12 @@ pub fn constraint_holds(
 /// the fold time into the anchors and removes them from `entries`. The fold time is `now`,
 /// pulled back to the first impact of any instance that stays, so that no remaining event
 /// precedes an anchor. Returns the number of instances folded.
-pub fn consolidate(network: &TaskNetwork, entries: &mut Vec<PlanEntry, MAX_PLAN_ENTRIES>, anchors: &mut Anchors, now: MissionTimeUs) -> usize {
+pub fn consolidate(
+    network: &TaskNetwork,
+    entries: &mut Vec<PlanEntry, MAX_PLAN_ENTRIES>,
+    anchors: &mut Anchors,
+    now: MissionTimeUs,
+) -> usize {
     let first_last = |e: &PlanEntry| -> Option<(MissionTimeUs, MissionTimeUs)> {
         let c = e.contribution()?;
         let spec = network.task(e.def)?;
@@ -420,7 +447,8 @@ pub fn consolidate(network: &TaskNetwork, entries: &mut Vec<PlanEntry, MAX_PLAN_
     loop {
         let mut changed = false;
         for e in entries.iter() {
-            let foldable = e.state.is_terminal() && first_last(e).is_none_or(|(_, last)| last <= fold_at);
+            let foldable =
+                e.state.is_terminal() && first_last(e).is_none_or(|(_, last)| last <= fold_at);
             if !foldable {
                 if let Some((first, _)) = first_last(e) {
                     if first < fold_at {
@@ -434,7 +462,9 @@ pub fn consolidate(network: &TaskNetwork, entries: &mut Vec<PlanEntry, MAX_PLAN_
             break;
         }
     }
-    let foldable = |e: &PlanEntry| e.state.is_terminal() && first_last(e).is_none_or(|(_, last)| last <= fold_at);
+    let foldable = |e: &PlanEntry| {
+        e.state.is_terminal() && first_last(e).is_none_or(|(_, last)| last <= fold_at)
+    };
     if !entries.iter().any(foldable) {
         return 0;
     }

@@ -141,7 +141,13 @@ impl ValidationError {
 
 impl core::fmt::Display for ValidationError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
-        write!(f, "{:?} (code {}) at {:?}", self.code, self.code.code(), self.site)
+        write!(
+            f,
+            "{:?} (code {}) at {:?}",
+            self.code,
+            self.code.code(),
+            self.site
+        )
     }
 }
 
@@ -175,7 +181,11 @@ pub fn validate_header(header: &NetworkHeader) -> VResult {
 }
 
 /// Checks timeline `index` against the ones before it.
-pub fn validate_timeline(index: usize, timeline: &TimelineSpec, earlier: &[TimelineSpec]) -> VResult {
+pub fn validate_timeline(
+    index: usize,
+    timeline: &TimelineSpec,
+    earlier: &[TimelineSpec],
+) -> VResult {
     use ValidationCode::*;
     let site = ErrorSite::Timeline(u8_index(index));
     if earlier.iter().any(|t| t.name == timeline.name) {
@@ -214,7 +224,11 @@ pub fn validate_timeline(index: usize, timeline: &TimelineSpec, earlier: &[Timel
 }
 
 /// Checks condition `index`: well-formed postfix, depth, operands.
-pub fn validate_condition(index: usize, condition: &ConditionSpec, timelines: &[TimelineSpec]) -> VResult {
+pub fn validate_condition(
+    index: usize,
+    condition: &ConditionSpec,
+    timelines: &[TimelineSpec],
+) -> VResult {
     use ValidationCode::*;
     let condition_index = u8_index(index);
     let site = |node: usize| ErrorSite::Condition {
@@ -255,7 +269,10 @@ pub fn validate_condition(index: usize, condition: &ConditionSpec, timelines: &[
         }
     }
     if depths.len() != 1 {
-        return err(MalformedCondition, site(condition.nodes.len().saturating_sub(1)));
+        return err(
+            MalformedCondition,
+            site(condition.nodes.len().saturating_sub(1)),
+        );
     }
     Ok(())
 }
@@ -382,7 +399,10 @@ pub fn validate_task(index: usize, task: &TaskSpec, ctx: &TaskContext<'_>) -> VR
                     return err(ClaimNotMaintain, s);
                 }
             }
-            (TimelineKind::Cumulative { .. }, Effect::Assign(v) | Effect::Add(v) | Effect::Rate(v)) => {
+            (
+                TimelineKind::Cumulative { .. },
+                Effect::Assign(v) | Effect::Add(v) | Effect::Rate(v),
+            ) => {
                 if !check_magnitude(v) {
                     return err(ValueOutOfRange, s);
                 }
@@ -409,7 +429,11 @@ pub fn validate_task(index: usize, task: &TaskSpec, ctx: &TaskContext<'_>) -> VR
     {
         return err(BadTimeout, site(TaskField::Control));
     }
-    let is_template = |id: u16| ctx.ids.iter().any(|&(i, r)| i == id && r == TaskRole::Template);
+    let is_template = |id: u16| {
+        ctx.ids
+            .iter()
+            .any(|&(i, r)| i == id && r == TaskRole::Template)
+    };
     for (c, contingency) in task.contingencies.iter().enumerate() {
         let s = site(TaskField::Contingency(u8_index(c)));
         if contingency.on == 0 || contingency.on & !FailureKind::ANY != 0 {
@@ -430,10 +454,17 @@ pub fn validate_task(index: usize, task: &TaskSpec, ctx: &TaskContext<'_>) -> VR
 }
 
 /// Checks temporal constraint `index`.
-pub fn validate_temporal(index: usize, tc: &TemporalConstraint, ids: &[(u16, TaskRole)]) -> VResult {
+pub fn validate_temporal(
+    index: usize,
+    tc: &TemporalConstraint,
+    ids: &[(u16, TaskRole)],
+) -> VResult {
     use ValidationCode::*;
     let site = ErrorSite::Temporal(u8_index(index));
-    let requested = |id: u16| ids.iter().any(|&(i, r)| i == id && r == TaskRole::Requested);
+    let requested = |id: u16| {
+        ids.iter()
+            .any(|&(i, r)| i == id && r == TaskRole::Requested)
+    };
     if !requested(tc.from_task) || !requested(tc.to_task) || tc.from_task == tc.to_task {
         return err(DanglingTemporalTask, site);
     }
@@ -590,10 +621,22 @@ pub fn decode_into(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
     let mut r = Reader { rest: bytes };
     let spec = &mut network.spec;
     spec.header = r.take(ErrorSite::Network)?;
-    decode_list(&mut r, &mut spec.timelines, ValidationCode::TooManyTimelines)?;
-    decode_list(&mut r, &mut spec.conditions, ValidationCode::TooManyConditions)?;
+    decode_list(
+        &mut r,
+        &mut spec.timelines,
+        ValidationCode::TooManyTimelines,
+    )?;
+    decode_list(
+        &mut r,
+        &mut spec.conditions,
+        ValidationCode::TooManyConditions,
+    )?;
     decode_list(&mut r, &mut spec.tasks, ValidationCode::TooManyTasks)?;
-    decode_list(&mut r, &mut spec.temporal, ValidationCode::TooManyTemporalConstraints)?;
+    decode_list(
+        &mut r,
+        &mut spec.temporal,
+        ValidationCode::TooManyTemporalConstraints,
+    )?;
     Ok(())
 }
 
@@ -609,7 +652,9 @@ struct Writer<'a> {
 impl Writer<'_> {
     fn put<T: Serialize>(&mut self, value: &T) -> Result<(), BufferTooSmall> {
         let rest = self.buf.get_mut(self.len..).ok_or(BufferTooSmall)?;
-        let used = postcard::to_slice(value, rest).map_err(|_| BufferTooSmall)?.len();
+        let used = postcard::to_slice(value, rest)
+            .map_err(|_| BufferTooSmall)?
+            .len();
         self.len += used;
         Ok(())
     }
