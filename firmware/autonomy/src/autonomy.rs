@@ -286,11 +286,13 @@ impl Autonomy {
     /// Writes the whole plan and execution state as a new record in `area` (the slot not
     /// holding the newest record). Returns the record's sequence number.
     pub fn checkpoint_to(&self, area: &mut WarmRestartArea<'_>) -> Result<u32, CheckpointError> {
-        let (_, seq) = area.write(|buf| self.encode_image(buf))?;
+        let (_, seq) = area.write(|buf| self.encode_state(buf))?;
         Ok(seq)
     }
 
-    fn encode_image(&self, buf: &mut [u8]) -> Option<usize> {
+    /// Encodes the whole plan and execution state (the checkpoint payload) into `buf`;
+    /// returns the length used, or `None` if it does not fit.
+    pub fn encode_state(&self, buf: &mut [u8]) -> Option<usize> {
         let mut len = 0usize;
         let meta = ImageMeta {
             loaded: self.loaded,
@@ -326,8 +328,7 @@ impl Autonomy {
         area: &WarmRestartArea<'_>,
     ) -> Result<RestoreInfo, CheckpointError> {
         let (slot, sequence, payload) = area.latest().ok_or(CheckpointError::NoValidRecord)?;
-        let result = self.decode_image(payload);
-        if result.is_none() {
+        if self.decode_state(payload).is_none() {
             *self = Self::new();
             return Err(CheckpointError::BadPayload);
         }
@@ -341,7 +342,10 @@ impl Autonomy {
         })
     }
 
-    fn decode_image(&mut self, payload: &[u8]) -> Option<()> {
+    /// Replaces the state with one encoded by [`Autonomy::encode_state`] (no restart
+    /// adjustments; [`Autonomy::restore_from`] adds them). `None` if the bytes do not decode
+    /// or do not hang together; `self` may then be partly overwritten.
+    pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
         let (meta, rest): (ImageMeta, _) = postcard::take_from_bytes(payload).ok()?;
         let net_len = usize::try_from(u32::from_be_bytes(rest.get(..4)?.try_into().ok()?)).ok()?;
         let net_bytes = rest.get(4..4 + net_len)?;
