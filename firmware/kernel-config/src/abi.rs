@@ -1,0 +1,146 @@
+//! The numbers partitions, the kernel and the host agree on: system-call numbers and error
+//! codes, the kernel-event records the I/O partition drains, telemetry metric ids, and the
+//! reserved state keys the harness uses to ask the target for measurements and (in the test
+//! image) to steer the rogue partition.
+//!
+//! System calls: `sc` with the call number in r0 and arguments in r3..r7; the result comes back
+//! in r3 (negative: one of the `E_*` codes), secondary results in r4 and r5. Pointers and
+//! lengths are checked against the caller's regions before the kernel touches them.
+
+/// Give up the rest of this window; returns 0 at the start of the partition's next window.
+pub const SYS_WAIT_NEXT_WINDOW: u32 = 0;
+/// (port, ptr, len) -> 0. Sampling: replaces the value; queuing: appends (E_FULL when full).
+pub const SYS_PORT_SEND: u32 = 1;
+/// (port, ptr, cap) -> length; r4 = sender's generation, r5 = age in ticks (saturated).
+/// E_EMPTY when a queue is empty or a sampling port was never written.
+pub const SYS_PORT_RECEIVE: u32 = 2;
+/// () -> mission time in µs: r3 = high word, r4 = low word (last time granted by the host).
+pub const SYS_MISSION_TIME: u32 = 3;
+/// () -> CPU ticks the caller used since boot: r3 = high, r4 = low; r5 = ticks in this window.
+pub const SYS_CPU_TIME: u32 = 4;
+/// (ptr, len) -> 0: one whole defmt frame for the host.
+pub const SYS_LOG: u32 = 5;
+/// (offset, ptr, len) -> 0: read the warm area's checkpoint part (warm-area owner only).
+pub const SYS_WARM_READ: u32 = 6;
+/// (offset, ptr, len) -> 0: write the warm area's checkpoint part (warm-area owner only).
+pub const SYS_WARM_WRITE: u32 = 7;
+/// () -> r3 = partition index, r4 = generation. Also the null call of the benchmarks.
+pub const SYS_IDENTITY: u32 = 8;
+/// (file ptr, len, line): the partition panicked; the health monitor acts; never returns.
+pub const SYS_PANIC: u32 = 9;
+/// () -> r3 = reset cause code (1 power-on, 2 warm, 3 watchdog, 4 health monitor), r4 = boot
+/// count. Link owner only.
+pub const SYS_BOOT_INFO: u32 = 10;
+/// (ptr, cap) -> bytes of the kernel's defmt stream moved into the buffer. Link owner only.
+pub const SYS_LOG_DRAIN: u32 = 11;
+/// (ptr to EVENT_RECORD_SIZE bytes) -> 1 if a kernel event was written, 0 if none. Link owner.
+pub const SYS_EVENT_DRAIN: u32 = 12;
+/// (high, low): mission time granted by the host, in µs. Link owner only.
+pub const SYS_SET_MISSION_TIME: u32 = 13;
+/// (): warm-reset the module with reset cause Warm (the host asked). Link owner only.
+pub const SYS_RESET_MODULE: u32 = 14;
+/// (): queue the kernel's accounting metrics now. Link owner only.
+pub const SYS_REQUEST_METRICS: u32 = 15;
+/// Number of system calls.
+pub const SYSCALL_COUNT: u32 = 16;
+
+/// Unknown system-call number.
+pub const E_UNKNOWN_CALL: i32 = -1;
+/// A pointer/length outside the caller's regions, misaligned, or wrapping around.
+pub const E_BAD_POINTER: i32 = -2;
+/// No such port, or the caller is not its source (send) / a destination (receive).
+pub const E_BAD_PORT: i32 = -3;
+/// Message larger than the port's size, or receive buffer smaller than the message.
+pub const E_TOO_BIG: i32 = -4;
+/// Nothing to receive (not a fault).
+pub const E_EMPTY: i32 = -5;
+/// Queue full (not a fault).
+pub const E_FULL: i32 = -6;
+/// The caller lacks the capability for this service.
+pub const E_DENIED: i32 = -7;
+/// Warm-area offset or length outside its checkpoint part.
+pub const E_RANGE: i32 = -8;
+
+/// True for error codes that count as a fault for the health monitor.
+pub const fn is_fault(code: i32) -> bool {
+    code < 0 && code != E_EMPTY && code != E_FULL
+}
+
+/// Size of one kernel-event record (SYS_EVENT_DRAIN): four big-endian words.
+/// Health monitor: [EVENT_HEALTH_MONITOR, partition | kind << 8 | action << 16, address, 0].
+/// Metric: [EVENT_METRIC, id, value high, value low].
+pub const EVENT_RECORD_SIZE: usize = 16;
+pub const EVENT_HEALTH_MONITOR: u32 = 1;
+pub const EVENT_METRIC: u32 = 2;
+
+/// Telemetry `Metric` ids. Per-partition ids add the partition index.
+pub mod metric {
+    /// Ticks partition p used in the last complete major frame.
+    pub const FRAME_TICKS: u16 = 0x0100;
+    /// Most ticks partition p used in any one major frame since boot.
+    pub const WORST_FRAME_TICKS: u16 = 0x0110;
+    /// Windows in which partition p was still running at the end (preempted).
+    pub const OVERRUNS: u16 = 0x0120;
+    /// Largest start jitter of p's windows (actual switch-in minus scheduled start), ticks.
+    pub const MAX_JITTER: u16 = 0x0130;
+    /// Generation of p (number of restarts).
+    pub const GENERATION: u16 = 0x0140;
+    /// Ticks partition p used in each window of the last frame, summed (same as FRAME_TICKS)
+    /// reported together with the frame number it belongs to: FRAME_NUMBER.
+    pub const FRAME_NUMBER: u16 = 0x0200;
+    /// Largest window-start jitter over all partitions since boot, ticks.
+    pub const MAX_JITTER_ALL: u16 = 0x0201;
+    /// Kernel time per partition switch (timer interrupt entry to return), averaged over all
+    /// switches since boot, in thousandths of a tick.
+    pub const SWITCH_MILLITICKS: u16 = 0x0202;
+    /// Number of partition switches since boot.
+    pub const SWITCHES: u16 = 0x0203;
+    /// Largest kernel time of one switch, ticks.
+    pub const SWITCH_MAX_TICKS: u16 = 0x0204;
+    /// Kernel events dropped because the queue was full.
+    pub const EVENTS_DROPPED: u16 = 0x0210;
+    /// Log bytes dropped because the kernel log buffer was full.
+    pub const LOG_BYTES_DROPPED: u16 = 0x0211;
+    /// CRC-32 of the planner's search table (sent by the planner on request).
+    pub const PLANNER_CHECKSUM: u16 = 0x0300;
+    /// State updates the executive received since its (re)start.
+    pub const EXECUTIVE_STATE_UPDATES: u16 = 0x0301;
+    /// Ticks for SYSCALL_BENCH_CALLS null system calls (sent by the executive on request).
+    pub const SYSCALL_BENCH_TICKS: u16 = 0x0302;
+    /// Planner iterations since its (re)start.
+    pub const PLANNER_ITERATIONS: u16 = 0x0303;
+    /// Generation of the planner seen by the planner itself when it reports its checksum.
+    pub const PLANNER_GENERATION: u16 = 0x0304;
+}
+
+/// Null system calls timed by the syscall benchmark.
+pub const SYSCALL_BENCH_CALLS: u32 = 1000;
+
+/// Reserved `StateKey`s (0xff00..): control messages from the harness, routed by the I/O
+/// partition instead of being treated as spacecraft state.
+pub mod control {
+    /// Ask the kernel for its accounting metrics now (handled by the I/O partition).
+    pub const REQUEST_METRICS: u16 = 0xff00;
+    /// Ask the planner for the checksum of its search table.
+    pub const PLANNER_CHECKSUM: u16 = 0xff01;
+    /// Ask the executive to time SYSCALL_BENCH_CALLS null system calls.
+    pub const SYSCALL_BENCH: u16 = 0xff02;
+    /// Test image: tell the rogue partition what to do (value `Enum(ROGUE_*)`).
+    pub const ROGUE_MODE: u16 = 0xff10;
+    /// First reserved key.
+    pub const FIRST: u16 = 0xff00;
+}
+
+/// Rogue behaviours (test image).
+pub mod rogue {
+    /// Store into the planner's region (expect a DSI and a restart).
+    pub const WRITE_PLANNER: u16 = 1;
+    /// Spin forever (expect preemption at every window end; nobody else delayed).
+    pub const ENDLESS_LOOP: u16 = 2;
+    /// Pass bad pointers to every system call (expect errors and log-and-continue events).
+    pub const BAD_POINTERS: u16 = 3;
+    /// Panic (expect a restart).
+    pub const PANIC: u16 = 4;
+    /// Execute a privileged instruction (expect a program exception and a restart).
+    pub const PRIVILEGED: u16 = 5;
+}

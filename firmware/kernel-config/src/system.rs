@@ -1,0 +1,250 @@
+//! The configuration the image runs: the product's three partitions (I/O, executive, planner)
+//! and, in the test image (feature `test-partitions`), a rogue partition used only by tests.
+//!
+//! Memory map (physical = effective; every partition region is one BAT block):
+//!
+//! | range                   | what                                   | partitions see         |
+//! |-------------------------|----------------------------------------|------------------------|
+//! | 0x00000000-0x0007ffff   | vectors, kernel+partition code, rodata | read/execute only      |
+//! | 0x00080000-0x000fffff   | kernel data, bss, stack, port buffers  | nothing                |
+//! | 0x00100000-0x0010ffff   | warm-restart area                      | via system calls only  |
+//! | 0x00110000-0x0011ffff   | hashed page table (all invalid)        | nothing                |
+//! | 0x00200000-0x0027ffff   | I/O partition (512 KiB)                | I/O: read/write        |
+//! | 0x00400000-0x005fffff   | executive (2 MiB)                      | executive: read/write  |
+//! | 0x00800000-0x00bfffff   | planner (4 MiB)                        | planner: read/write    |
+//! | 0x00c00000-0x00c1ffff   | rogue (128 KiB, test image only)       | rogue: read/write      |
+//! | 0xf3000000-0xf307ffff   | mac-io (ESCC UART)                     | I/O: device            |
+//!
+//! Major frame: 10 ms (166 000 ticks): I/O 1.5 ms, executive 2 ms, planner 4 ms, (rogue 1 ms in
+//! the test image), the rest idle.
+use crate::{
+    Access, Capabilities, HealthTable, Partition, Port, PortKind, Region, Schedule, SystemConfig,
+    Window,
+};
+#[cfg(feature = "test-partitions")]
+use crate::{ErrorKind, HmAction};
+
+/// Partition indices (the `partition` field of health-monitor events, metric id offsets).
+pub const IO: usize = 0;
+pub const EXECUTIVE: usize = 1;
+pub const PLANNER: usize = 2;
+#[cfg(feature = "test-partitions")]
+pub const ROGUE: usize = 3;
+
+/// Where the I/O partition finds mac-io (Heathrow BAR0, set by the kernel at boot).
+pub const MAC_IO_BASE: u32 = 0xf300_0000;
+
+pub const IO_REGION: Region = Region {
+    base: 0x0020_0000,
+    size: 0x0008_0000,
+    access: Access::ReadWrite,
+};
+pub const MAC_IO_REGION: Region = Region {
+    base: MAC_IO_BASE,
+    size: 0x0008_0000,
+    access: Access::Device,
+};
+pub const EXECUTIVE_REGION: Region = Region {
+    base: 0x0040_0000,
+    size: 0x0020_0000,
+    access: Access::ReadWrite,
+};
+pub const PLANNER_REGION: Region = Region {
+    base: 0x0080_0000,
+    size: 0x0040_0000,
+    access: Access::ReadWrite,
+};
+#[cfg(feature = "test-partitions")]
+pub const ROGUE_REGION: Region = Region {
+    base: 0x00c0_0000,
+    size: 0x0002_0000,
+    access: Access::ReadWrite,
+};
+
+const PARTITIONS_PRODUCT: [Partition; 3] = [
+    Partition {
+        name: "io",
+        entry: "partition_io_main",
+        regions: &[IO_REGION, MAC_IO_REGION],
+        stack_size: 0x4000,
+        capabilities: Capabilities {
+            link_owner: true,
+            warm_area: false,
+        },
+        health: HealthTable::RESTART_ON_FAULT,
+    },
+    Partition {
+        name: "executive",
+        entry: "partition_executive_main",
+        regions: &[EXECUTIVE_REGION],
+        stack_size: 0x8000,
+        capabilities: Capabilities {
+            link_owner: false,
+            warm_area: true,
+        },
+        health: HealthTable::RESTART_ON_FAULT,
+    },
+    Partition {
+        name: "planner",
+        entry: "partition_planner_main",
+        regions: &[PLANNER_REGION],
+        stack_size: 0x10000,
+        capabilities: Capabilities::NONE,
+        health: HealthTable::RESTART_ON_FAULT,
+    },
+];
+
+#[cfg(feature = "test-partitions")]
+const ROGUE_PARTITION: Partition = Partition {
+    name: "rogue",
+    entry: "partition_rogue_main",
+    regions: &[ROGUE_REGION],
+    stack_size: 0x2000,
+    capabilities: Capabilities::NONE,
+    // Bad system calls are reported and the call returns its error, so the rogue can try
+    // every call; everything else restarts it.
+    health: HealthTable::RESTART_ON_FAULT.with(ErrorKind::IllegalSyscall, HmAction::Log),
+};
+
+#[cfg(not(feature = "test-partitions"))]
+const PARTITIONS: &[Partition] = &PARTITIONS_PRODUCT;
+#[cfg(feature = "test-partitions")]
+const PARTITIONS: &[Partition] = &[
+    PARTITIONS_PRODUCT[0],
+    PARTITIONS_PRODUCT[1],
+    PARTITIONS_PRODUCT[2],
+    ROGUE_PARTITION,
+];
+
+/// 10 ms at 16.6 MHz.
+pub const MAJOR_FRAME_TICKS: u32 = 166_000;
+
+const WINDOWS_PRODUCT: [Window; 3] = [
+    Window {
+        partition: IO,
+        offset: 0,
+        duration: 24_900,
+    },
+    Window {
+        partition: EXECUTIVE,
+        offset: 24_900,
+        duration: 33_200,
+    },
+    Window {
+        partition: PLANNER,
+        offset: 58_100,
+        duration: 66_400,
+    },
+];
+
+#[cfg(not(feature = "test-partitions"))]
+const WINDOWS: &[Window] = &WINDOWS_PRODUCT;
+#[cfg(feature = "test-partitions")]
+const WINDOWS: &[Window] = &[
+    WINDOWS_PRODUCT[0],
+    WINDOWS_PRODUCT[1],
+    WINDOWS_PRODUCT[2],
+    Window {
+        partition: ROGUE,
+        offset: 124_500,
+        duration: 16_600,
+    },
+];
+
+/// Largest message routed from the link to a partition (a postcard-encoded `HostToTarget`;
+/// an UplinkChunk with 128 bytes is the largest).
+pub const ROUTED_MESSAGE_SIZE: u32 = 160;
+/// Largest message a partition sends towards the host (a postcard-encoded `TargetToHost`
+/// other than Log: CommandDispatch, Telemetry, FrameDone).
+pub const OUTBOUND_MESSAGE_SIZE: u32 = 64;
+
+const PORTS_PRODUCT: [Port; 6] = [
+    Port {
+        name: "io_to_executive",
+        kind: PortKind::Queuing,
+        message_size: ROUTED_MESSAGE_SIZE,
+        depth: 8,
+        source: IO,
+        destinations: &[EXECUTIVE],
+    },
+    Port {
+        name: "io_to_planner",
+        kind: PortKind::Queuing,
+        message_size: ROUTED_MESSAGE_SIZE,
+        depth: 8,
+        source: IO,
+        destinations: &[PLANNER],
+    },
+    Port {
+        name: "executive_to_io",
+        kind: PortKind::Queuing,
+        message_size: OUTBOUND_MESSAGE_SIZE,
+        depth: 8,
+        source: EXECUTIVE,
+        destinations: &[IO],
+    },
+    Port {
+        name: "planner_to_io",
+        kind: PortKind::Queuing,
+        message_size: OUTBOUND_MESSAGE_SIZE,
+        depth: 8,
+        source: PLANNER,
+        destinations: &[IO],
+    },
+    Port {
+        name: "plan_summary",
+        kind: PortKind::Sampling,
+        message_size: 32,
+        depth: 1,
+        source: PLANNER,
+        destinations: &[EXECUTIVE],
+    },
+    Port {
+        name: "executive_status",
+        kind: PortKind::Sampling,
+        message_size: 32,
+        depth: 1,
+        source: EXECUTIVE,
+        destinations: &[PLANNER],
+    },
+];
+
+#[cfg(not(feature = "test-partitions"))]
+const PORTS: &[Port] = &PORTS_PRODUCT;
+#[cfg(feature = "test-partitions")]
+const PORTS: &[Port] = &[
+    PORTS_PRODUCT[0],
+    PORTS_PRODUCT[1],
+    PORTS_PRODUCT[2],
+    PORTS_PRODUCT[3],
+    PORTS_PRODUCT[4],
+    PORTS_PRODUCT[5],
+    Port {
+        name: "io_to_rogue",
+        kind: PortKind::Queuing,
+        message_size: ROUTED_MESSAGE_SIZE,
+        depth: 2,
+        source: IO,
+        destinations: &[ROGUE],
+    },
+];
+
+/// Port indices, in the order above.
+pub const PORT_IO_TO_EXECUTIVE: usize = 0;
+pub const PORT_IO_TO_PLANNER: usize = 1;
+pub const PORT_EXECUTIVE_TO_IO: usize = 2;
+pub const PORT_PLANNER_TO_IO: usize = 3;
+pub const PORT_PLAN_SUMMARY: usize = 4;
+pub const PORT_EXECUTIVE_STATUS: usize = 5;
+#[cfg(feature = "test-partitions")]
+pub const PORT_IO_TO_ROGUE: usize = 6;
+
+/// The system the image runs.
+pub const SYSTEM: SystemConfig = SystemConfig {
+    partitions: PARTITIONS,
+    schedule: Schedule {
+        major_frame: MAJOR_FRAME_TICKS,
+        windows: WINDOWS,
+    },
+    ports: PORTS,
+};
