@@ -27,6 +27,7 @@ pub mod executive;
 pub mod model;
 pub mod plan;
 pub mod planner;
+pub mod scenarios;
 pub mod telemetry;
 pub mod timeline;
 pub mod uplink;

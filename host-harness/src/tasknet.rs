@@ -1,0 +1,1427 @@
+//! Task networks in TOML: the human-readable form the ground writes, compiled into the autonomy
+//! core's network type and its binary uplink, checked by the very validator the target runs
+//! (`autonomy::uplink`), with every error reported as `file:line:column: field: message`.
+//!
+//! # Format
+//!
+//! Times (`earliest_start`, `latest_start`, `latest_end`) are mission times: `"10:00"` or
+//! `"10:00:30"` (that time on the epoch day), `"2028-040T10:00"` (year-day of year; must be on or
+//! after the epoch), or an integer number of seconds since the epoch; `"never"` means no limit.
+//! The epoch (mission time 0) is `[network] epoch`, default `"2028-040T00:00"`.
+//! Durations and offsets: `"15m"`, `"90s"`, `"1h"`, `"250ms"`, `"1h30m"`, a leading `-` for
+//! negative offsets, or an integer number of seconds.
+//! State values are named (`"NADIR"`) after the timeline's `values`.
+//!
+//! ```toml
+//! [network]
+//! id = 3
+//! epoch = "2028-040T00:00"          # mission time 0
+//! commit_window = "60s"
+//! scheduling_window = "6h"
+//! plan_horizon = "12h"
+//! plan_process_interval = "5m"
+//!
+//! [[timeline]]
+//! name = "GncAttitude"
+//! kind = "state"                    # state | claimable | cumulative
+//! values = ["INERTIAL", "NADIR", "TURNING", "UNKNOWN", "EARTH"]
+//! initial = "INERTIAL"
+//! state_key = 1                     # measured by this state-buffer entry
+//!
+//! [[timeline]]
+//! name = "FlybyRequest"
+//! kind = "cumulative"
+//! initial = 0
+//! min = 0
+//! max = 8
+//!
+//! [[timeline]]
+//! name = "Instrument"
+//! kind = "claimable"
+//!
+//! [[condition]]
+//! name = "attitude_known"
+//! expr = { not = { timeline = "GncAttitude", op = "==", value = "UNKNOWN" } }
+//! # also: { all = [...] }, { any = [...] }, { state_key = 7, op = ">=", value = 3 }
+//!
+//! [[task]]
+//! id = 3
+//! name = "Instrument Flyby"
+//! role = "requested"                # requested (default) | template
+//! priority = 40
+//! command = { opcode = 0x0201, args = [] }   # omit for a no-op task
+//! duration = "50m"
+//! min_duration = "5m"               # default: duration
+//! earliest_start = "10:15"
+//! latest_start = "11:00"            # default: earliest_start (requested), never (template)
+//! latest_end = "11:05"              # default: never
+//! constraints = [
+//!   { when = "pre", timeline = "GncAttitude", in = ["NADIR"] },
+//!   { when = "maintain", timeline = "GncAttitude", in = ["NADIR"] },
+//!   # cumulative/claimable: { when = "maintain", timeline = "FlybyRequest", min = 1, max = 8 }
+//!   # offsets: start_offset = "1s", end_offset = "-30s"
+//! ]
+//! impacts = [
+//!   { when = "maintain", timeline = "FlybyRequest", add = 1 },
+//!   { when = "maintain", timeline = "Instrument", claim = true },
+//!   # { when = "post", timeline = "GncAttitude", assign = "NADIR" }, { ..., rate = -5 }
+//! ]
+//! pre_wait_timeout = "1m"
+//! response_timeout = "1m"
+//! max_retries = 0
+//! start_condition = "attitude_known"   # also maintain_condition, skip_condition
+//! on_failure_command = { opcode = 0x0200, args = [] }
+//! contingencies = [ { on = "any", action = "restart" } ]
+//! # on: "any" or a list of pre_timeout, response_timeout, command_failed, command_rejected,
+//! #     maintain_violation, unschedulable; action: restart | move | delete | { add_template = "name" }
+//! may_move = true
+//! may_delete = false
+//! may_add = ["GncAttain NADIR (template)", "Instrument Degraded Flyby"]
+//!
+//! [[temporal]]                      # to_point(to) - from_point(from) in [min, max]
+//! from = "GncAttain NADIR"
+//! from_point = "end"
+//! to = "Instrument Flyby"
+//! to_point = "start"
+//! min = "0s"
+//! max = "1h"
+//! ```
+use std::collections::BTreeMap;
+use std::fmt;
+use std::ops::Range;
+use std::path::Path;
+
+use autonomy::uplink::{ErrorSite, TaskField, ValidationError};
+use autonomy::{
+    CommandArgs, CommandSpec, CondNode, ConditionSpec, ConstraintSpec, ConstraintWhen, Contingency,
+    ContingencyAction, ControlSpec, Effect, FailureKind, ImpactSpec, ImpactWhen, MissionTimeUs,
+    Name, NetworkSpec, Opcode, Operand, Permissions, PlannerConfig, RelOp, Requirement, StateKey,
+    TaskNetwork, TaskPoint, TaskRole, TaskSpec, TemporalConstraint, TimelineKind, TimelineSpec,
+};
+use serde::Deserialize;
+use toml::Spanned;
+
+/// A task network that did not compile, located in its file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TaskNetError {
+    pub file: String,
+    pub line: usize,
+    pub column: usize,
+    /// The field concerned, as a path (`task[2].constraints[0]`).
+    pub field: String,
+    pub message: String,
+    /// The target's validation code, when the validator refused it.
+    pub code: Option<u16>,
+}
+
+impl fmt::Display for TaskNetError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}:{}:{}: {}: {}",
+            self.file, self.line, self.column, self.field, self.message
+        )
+    }
+}
+
+impl std::error::Error for TaskNetError {}
+
+/// Reads and compiles a TOML task network; returns the network and its uplink bytes.
+pub fn compile_file(path: &Path) -> Result<(TaskNetwork, Vec<u8>), TaskNetError> {
+    let src = std::fs::read_to_string(path).map_err(|e| TaskNetError {
+        file: path.display().to_string(),
+        line: 0,
+        column: 0,
+        field: String::new(),
+        message: format!("cannot read: {e}"),
+        code: None,
+    })?;
+    compile_str(&src, &path.display().to_string())
+}
+
+/// Compiles TOML source `src` (named `file_name` in errors).
+pub fn compile_str(src: &str, file_name: &str) -> Result<(TaskNetwork, Vec<u8>), TaskNetError> {
+    let mut c = Compiler {
+        src,
+        file: file_name,
+        sites: Sites::default(),
+    };
+    let raw: RawFile = toml::from_str(src).map_err(|e| {
+        let span = e.span().unwrap_or(0..0);
+        c.error(span, "", e.message().trim().to_string())
+    })?;
+    let spec = c.build(&raw)?;
+    let network = TaskNetwork::from_spec(spec).map_err(|e| c.validation_error(e))?;
+    let mut buf = vec![0u8; 1 << 20];
+    let len = network
+        .encode(&mut buf)
+        .map_err(|_| c.error(0..0, "", "network too large to encode".into()))?;
+    buf.truncate(len);
+    // The bytes the target will see must pass the target's own check too.
+    TaskNetwork::validate_uplink(&buf).map_err(|e| c.validation_error(e))?;
+    Ok((network, buf))
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawFile {
+    network: Spanned<RawNetwork>,
+    #[serde(default)]
+    timeline: Vec<Spanned<RawTimeline>>,
+    #[serde(default)]
+    condition: Vec<Spanned<RawCondition>>,
+    #[serde(default)]
+    task: Vec<Spanned<RawTask>>,
+    #[serde(default)]
+    temporal: Vec<Spanned<RawTemporal>>,
+}
+
+#[derive(Deserialize, Clone)]
+#[serde(untagged)]
+enum RawNumOrText {
+    Int(i64),
+    Text(String),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawNetwork {
+    id: u32,
+    epoch: Option<Spanned<String>>,
+    commit_window: Option<Spanned<RawNumOrText>>,
+    scheduling_window: Option<Spanned<RawNumOrText>>,
+    plan_horizon: Option<Spanned<RawNumOrText>>,
+    plan_process_interval: Option<Spanned<RawNumOrText>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTimeline {
+    name: Spanned<String>,
+    kind: Spanned<String>,
+    values: Option<Vec<String>>,
+    initial: Option<Spanned<RawNumOrText>>,
+    min: Option<i64>,
+    max: Option<i64>,
+    state_key: Option<u16>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCondition {
+    name: Spanned<String>,
+    expr: Spanned<RawExpr>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum RawExpr {
+    All {
+        all: Vec<RawExpr>,
+    },
+    Any {
+        any: Vec<RawExpr>,
+    },
+    Not {
+        not: Box<RawExpr>,
+    },
+    Term {
+        timeline: Option<String>,
+        state_key: Option<u16>,
+        op: String,
+        value: RawNumOrText,
+    },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawCommand {
+    opcode: u16,
+    #[serde(default)]
+    args: Vec<i32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawConstraint {
+    when: String,
+    timeline: String,
+    #[serde(rename = "in")]
+    one_of: Option<Vec<String>>,
+    min: Option<i64>,
+    max: Option<i64>,
+    start_offset: Option<RawNumOrText>,
+    end_offset: Option<RawNumOrText>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawImpact {
+    when: String,
+    timeline: String,
+    assign: Option<RawNumOrText>,
+    add: Option<i64>,
+    rate: Option<i64>,
+    claim: Option<bool>,
+    start_offset: Option<RawNumOrText>,
+    end_offset: Option<RawNumOrText>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum RawOn {
+    One(String),
+    Many(Vec<String>),
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum RawAction {
+    Simple(String),
+    AddTemplate { add_template: String },
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawContingency {
+    on: RawOn,
+    action: RawAction,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTask {
+    id: Spanned<u16>,
+    name: Spanned<String>,
+    role: Option<Spanned<String>>,
+    #[serde(default)]
+    priority: u8,
+    command: Option<Spanned<RawCommand>>,
+    duration: Spanned<RawNumOrText>,
+    min_duration: Option<Spanned<RawNumOrText>>,
+    earliest_start: Option<Spanned<RawNumOrText>>,
+    latest_start: Option<Spanned<RawNumOrText>>,
+    latest_end: Option<Spanned<RawNumOrText>>,
+    #[serde(default)]
+    constraints: Vec<Spanned<RawConstraint>>,
+    #[serde(default)]
+    impacts: Vec<Spanned<RawImpact>>,
+    pre_wait_timeout: Option<Spanned<RawNumOrText>>,
+    response_timeout: Option<Spanned<RawNumOrText>>,
+    #[serde(default)]
+    max_retries: u8,
+    start_condition: Option<Spanned<String>>,
+    maintain_condition: Option<Spanned<String>>,
+    skip_condition: Option<Spanned<String>>,
+    on_failure_command: Option<RawCommand>,
+    #[serde(default)]
+    contingencies: Vec<Spanned<RawContingency>>,
+    #[serde(default)]
+    may_move: bool,
+    #[serde(default)]
+    may_delete: bool,
+    #[serde(default)]
+    may_add: Vec<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTemporal {
+    from: String,
+    from_point: String,
+    to: String,
+    to_point: String,
+    min: RawNumOrText,
+    max: RawNumOrText,
+}
+
+/// Where each element came from, to locate the validator's errors.
+#[derive(Default)]
+struct Sites {
+    network: Range<usize>,
+    timelines: Vec<Range<usize>>,
+    conditions: Vec<Range<usize>>,
+    tasks: Vec<BTreeMap<String, Range<usize>>>,
+    temporal: Vec<Range<usize>>,
+}
+
+struct Compiler<'a> {
+    src: &'a str,
+    file: &'a str,
+    sites: Sites,
+}
+
+const US_PER_S: i64 = 1_000_000;
+
+fn parse_duration_text(text: &str) -> Option<i64> {
+    let (negative, mut rest) = match text.strip_prefix('-') {
+        Some(r) => (true, r),
+        None => (false, text),
+    };
+    if rest.is_empty() {
+        return None;
+    }
+    let mut total: i64 = 0;
+    while !rest.is_empty() {
+        let digits = rest
+            .find(|c: char| !c.is_ascii_digit())
+            .unwrap_or(rest.len());
+        if digits == 0 {
+            return None;
+        }
+        let n: i64 = rest[..digits].parse().ok()?;
+        rest = &rest[digits..];
+        let unit_len = rest
+            .find(|c: char| c.is_ascii_digit())
+            .unwrap_or(rest.len());
+        let unit = match &rest[..unit_len] {
+            "h" => 3_600 * US_PER_S,
+            "m" | "min" => 60 * US_PER_S,
+            "s" => US_PER_S,
+            "ms" => 1_000,
+            "us" => 1,
+            _ => return None,
+        };
+        rest = &rest[unit_len..];
+        total = total.checked_add(n.checked_mul(unit)?)?;
+    }
+    Some(if negative { -total } else { total })
+}
+
+/// `hh:mm[:ss]` as µs.
+fn parse_clock(text: &str) -> Option<i64> {
+    let parts: Vec<&str> = text.split(':').collect();
+    if !(2..=3).contains(&parts.len()) {
+        return None;
+    }
+    let field = |s: &str, max: i64| -> Option<i64> {
+        let v: i64 = s.parse().ok()?;
+        (s.len() == 2 && (0..max).contains(&v)).then_some(v)
+    };
+    let h = field(parts[0], 24)?;
+    let m = field(parts[1], 60)?;
+    let s = match parts.get(2) {
+        Some(s) => field(s, 60)?,
+        None => 0,
+    };
+    Some(((h * 60 + m) * 60 + s) * US_PER_S)
+}
+
+/// `yyyy-dddThh:mm[:ss]` as µs since 0000-001 (only differences are used).
+fn parse_day_time(text: &str) -> Option<i64> {
+    let (date, clock) = text.split_once('T')?;
+    let (year, day) = date.split_once('-')?;
+    let year: i64 = year.parse().ok()?;
+    let day: i64 = day.parse().ok()?;
+    if !(1..=366).contains(&day) || year < 1 {
+        return None;
+    }
+    let days_before_year = (year - 1) * 365 + (year - 1) / 4 - (year - 1) / 100 + (year - 1) / 400;
+    Some((days_before_year + day - 1) * 86_400 * US_PER_S + parse_clock(clock)?)
+}
+
+fn field_path(kind: &str, index: usize, field: &str) -> String {
+    if field.is_empty() {
+        format!("{kind}[{index}]")
+    } else {
+        format!("{kind}[{index}].{field}")
+    }
+}
+
+impl<'a> Compiler<'a> {
+    fn position(&self, offset: usize) -> (usize, usize) {
+        let before = &self.src[..offset.min(self.src.len())];
+        let line = before.matches('\n').count() + 1;
+        let column = before
+            .rfind('\n')
+            .map_or(before.len(), |n| before.len() - n - 1)
+            + 1;
+        (line, column)
+    }
+
+    fn error(&self, span: Range<usize>, field: &str, message: String) -> TaskNetError {
+        let (line, column) = self.position(span.start);
+        TaskNetError {
+            file: self.file.to_string(),
+            line,
+            column,
+            field: field.to_string(),
+            message,
+            code: None,
+        }
+    }
+
+    fn validation_error(&self, e: ValidationError) -> TaskNetError {
+        let (span, field) = match e.site {
+            ErrorSite::Network => (self.sites.network.clone(), "network".to_string()),
+            ErrorSite::Timeline(i) => (
+                self.sites
+                    .timelines
+                    .get(usize::from(i))
+                    .cloned()
+                    .unwrap_or(0..0),
+                format!("timeline[{i}]"),
+            ),
+            ErrorSite::Condition { condition, node } => (
+                self.sites
+                    .conditions
+                    .get(usize::from(condition))
+                    .cloned()
+                    .unwrap_or(0..0),
+                format!("condition[{condition}].expr (node {node})"),
+            ),
+            ErrorSite::Temporal(i) => (
+                self.sites
+                    .temporal
+                    .get(usize::from(i))
+                    .cloned()
+                    .unwrap_or(0..0),
+                format!("temporal[{i}]"),
+            ),
+            ErrorSite::Task { task, field } => {
+                let key = match field {
+                    TaskField::Whole => String::new(),
+                    TaskField::Id => "id".into(),
+                    TaskField::Name => "name".into(),
+                    TaskField::Command => "command".into(),
+                    TaskField::Duration => "duration".into(),
+                    TaskField::Window => "earliest_start".into(),
+                    TaskField::Constraint(k) => format!("constraints[{k}]"),
+                    TaskField::Impact(k) => format!("impacts[{k}]"),
+                    TaskField::Control => "control".into(),
+                    TaskField::Contingency(k) => format!("contingencies[{k}]"),
+                    TaskField::Permission(k) => format!("may_add[{k}]"),
+                };
+                let sites = self.sites.tasks.get(usize::from(task));
+                let span = sites
+                    .and_then(|s| s.get(&key).or_else(|| s.get("")))
+                    .cloned()
+                    .unwrap_or(0..0);
+                (span, field_path("task", usize::from(task), &key))
+            }
+        };
+        let mut err = self.error(
+            span,
+            &field,
+            format!("{} (validation code {})", describe(e), e.code.code()),
+        );
+        err.code = Some(e.code.code());
+        err
+    }
+
+    fn duration_us(&self, v: &Spanned<RawNumOrText>, field: &str) -> Result<i64, TaskNetError> {
+        self.duration_value(v.get_ref(), v.span(), field)
+    }
+
+    fn duration_value(
+        &self,
+        v: &RawNumOrText,
+        span: Range<usize>,
+        field: &str,
+    ) -> Result<i64, TaskNetError> {
+        match v {
+            RawNumOrText::Int(s) => s
+                .checked_mul(US_PER_S)
+                .ok_or_else(|| self.error(span, field, "duration too large".into())),
+            RawNumOrText::Text(t) => parse_duration_text(t).ok_or_else(|| {
+                self.error(
+                    span,
+                    field,
+                    format!("`{t}` is not a duration (try \"15m\", \"90s\", \"1h30m\" or seconds)"),
+                )
+            }),
+        }
+    }
+
+    fn time(
+        &self,
+        v: &Spanned<RawNumOrText>,
+        epoch_us: i64,
+        field: &str,
+    ) -> Result<MissionTimeUs, TaskNetError> {
+        let bad = |msg: String| self.error(v.span(), field, msg);
+        let us = match v.get_ref() {
+            RawNumOrText::Int(s) => s
+                .checked_mul(US_PER_S)
+                .ok_or_else(|| bad("time too large".into()))?,
+            RawNumOrText::Text(t) if t == "never" => return Ok(MissionTimeUs::MAX),
+            RawNumOrText::Text(t) => {
+                if let Some(c) = parse_clock(t) {
+                    c
+                } else if let Some(abs) = parse_day_time(t) {
+                    abs - epoch_us
+                } else {
+                    return Err(bad(format!(
+                        "`{t}` is not a time (try \"10:15\", \"2028-040T10:15\", seconds or \"never\")"
+                    )));
+                }
+            }
+        };
+        if us < 0 {
+            return Err(bad("time is before the epoch".into()));
+        }
+        Ok(MissionTimeUs(us as u64))
+    }
+
+    fn name(&self, s: &Spanned<String>, field: &str) -> Result<Name, TaskNetError> {
+        Name::try_from(s.get_ref().as_str()).map_err(|_| {
+            self.error(
+                s.span(),
+                field,
+                format!("name longer than {} bytes", autonomy::MAX_NAME_LEN),
+            )
+        })
+    }
+
+    fn build(&mut self, raw: &RawFile) -> Result<NetworkSpec, TaskNetError> {
+        self.sites.network = raw.network.span();
+        let n = raw.network.get_ref();
+        let epoch_us = match &n.epoch {
+            Some(e) => parse_day_time(e.get_ref()).ok_or_else(|| {
+                self.error(
+                    e.span(),
+                    "network.epoch",
+                    format!(
+                        "`{}` is not a year-day time like \"2028-040T00:00\"",
+                        e.get_ref()
+                    ),
+                )
+            })?,
+            None => parse_day_time("2028-040T00:00").unwrap_or(0),
+        };
+        let mut config = PlannerConfig::DEFAULT;
+        for (value, target, field) in [
+            (
+                &n.commit_window,
+                &mut config.commit_window_us,
+                "network.commit_window",
+            ),
+            (
+                &n.scheduling_window,
+                &mut config.scheduling_window_us,
+                "network.scheduling_window",
+            ),
+            (
+                &n.plan_horizon,
+                &mut config.plan_horizon_us,
+                "network.plan_horizon",
+            ),
+            (
+                &n.plan_process_interval,
+                &mut config.plan_process_interval_us,
+                "network.plan_process_interval",
+            ),
+        ] {
+            if let Some(v) = value {
+                let us = self.duration_us(v, field)?;
+                *target = u64::try_from(us)
+                    .map_err(|_| self.error(v.span(), field, "must not be negative".into()))?;
+            }
+        }
+        let mut spec = NetworkSpec::new(n.id, config);
+
+        // Timelines and their value names.
+        let mut value_names: Vec<Vec<String>> = Vec::new();
+        for (i, t) in raw.timeline.iter().enumerate() {
+            let span = t.span();
+            let t = t.get_ref();
+            let path = |f: &str| field_path("timeline", i, f);
+            let kind = match t.kind.get_ref().as_str() {
+                "state" => {
+                    let values = t.values.clone().unwrap_or_default();
+                    let initial = match &t.initial {
+                        None => 0,
+                        Some(v) => {
+                            self.state_value(&values, v.get_ref(), v.span(), &path("initial"))?
+                        }
+                    };
+                    let count = u8::try_from(values.len()).map_err(|_| {
+                        self.error(span.clone(), &path("values"), "too many values".into())
+                    })?;
+                    TimelineKind::State {
+                        value_count: count,
+                        initial,
+                    }
+                }
+                "claimable" => TimelineKind::Claimable,
+                "cumulative" => {
+                    let initial = match &t.initial {
+                        None => 0,
+                        Some(v) => match v.get_ref() {
+                            RawNumOrText::Int(i) => *i,
+                            RawNumOrText::Text(_) => {
+                                return Err(self.error(
+                                    v.span(),
+                                    &path("initial"),
+                                    "a cumulative timeline starts at an integer".into(),
+                                ))
+                            }
+                        },
+                    };
+                    TimelineKind::Cumulative {
+                        initial,
+                        min: t.min.unwrap_or(i64::MIN / 4),
+                        max: t.max.unwrap_or(i64::MAX / 4),
+                    }
+                }
+                other => {
+                    return Err(self.error(
+                        t.kind.span(),
+                        &path("kind"),
+                        format!("unknown timeline kind `{other}` (state, claimable or cumulative)"),
+                    ))
+                }
+            };
+            let timeline = TimelineSpec {
+                name: self.name(&t.name, &path("name"))?,
+                kind,
+                state_key: t.state_key.map(StateKey),
+            };
+            if spec.timelines.push(timeline).is_err() {
+                return Err(self.capacity(span, &path(""), "timelines", autonomy::MAX_TIMELINES));
+            }
+            self.sites.timelines.push(span);
+            value_names.push(t.values.clone().unwrap_or_default());
+        }
+        let timeline_index = |name: &str| {
+            raw.timeline
+                .iter()
+                .position(|t| t.get_ref().name.get_ref() == name)
+        };
+
+        // Conditions.
+        let mut condition_names: Vec<String> = Vec::new();
+        for (i, c) in raw.condition.iter().enumerate() {
+            let span = c.span();
+            let c = c.get_ref();
+            let mut nodes = Vec::new();
+            self.expr(
+                c.expr.get_ref(),
+                c.expr.span(),
+                &field_path("condition", i, "expr"),
+                &timeline_index,
+                &value_names,
+                &mut nodes,
+            )?;
+            let mut spec_c = ConditionSpec::default();
+            for node in nodes {
+                if spec_c.nodes.push(node).is_err() {
+                    return Err(self.capacity(
+                        c.expr.span(),
+                        &field_path("condition", i, "expr"),
+                        "condition terms",
+                        autonomy::MAX_CONDITION_TERMS,
+                    ));
+                }
+            }
+            if spec.conditions.push(spec_c).is_err() {
+                return Err(self.capacity(
+                    span,
+                    &field_path("condition", i, ""),
+                    "conditions",
+                    autonomy::MAX_CONDITIONS,
+                ));
+            }
+            self.sites.conditions.push(c.expr.span());
+            condition_names.push(c.name.get_ref().clone());
+        }
+
+        // Tasks.
+        let task_id = |name: &str| -> Option<u16> {
+            raw.task
+                .iter()
+                .find(|t| t.get_ref().name.get_ref() == name)
+                .map(|t| *t.get_ref().id.get_ref())
+        };
+        for (i, t) in raw.task.iter().enumerate() {
+            let span = t.span();
+            let task = self.task(
+                i,
+                t.get_ref(),
+                span.clone(),
+                epoch_us,
+                &timeline_index,
+                &value_names,
+                &condition_names,
+                &task_id,
+            )?;
+            if spec.tasks.push(task).is_err() {
+                return Err(self.capacity(
+                    span,
+                    &field_path("task", i, ""),
+                    "tasks",
+                    autonomy::MAX_TASKS,
+                ));
+            }
+        }
+
+        // Temporal constraints.
+        for (i, tc) in raw.temporal.iter().enumerate() {
+            let span = tc.span();
+            let tc = tc.get_ref();
+            let path = field_path("temporal", i, "");
+            let point = |p: &str| match p {
+                "start" => Ok(TaskPoint::Start),
+                "end" => Ok(TaskPoint::End),
+                other => Err(self.error(
+                    span.clone(),
+                    &path,
+                    format!("unknown point `{other}` (start or end)"),
+                )),
+            };
+            let id = |name: &str| {
+                task_id(name).ok_or_else(|| {
+                    self.error(span.clone(), &path, format!("no task named `{name}`"))
+                })
+            };
+            let constraint = TemporalConstraint {
+                from_task: id(&tc.from)?,
+                from_point: point(&tc.from_point)?,
+                to_task: id(&tc.to)?,
+                to_point: point(&tc.to_point)?,
+                min_us: self.duration_value(&tc.min, span.clone(), &path)?,
+                max_us: self.duration_value(&tc.max, span.clone(), &path)?,
+            };
+            if spec.temporal.push(constraint).is_err() {
+                return Err(self.capacity(
+                    span,
+                    &path,
+                    "temporal constraints",
+                    autonomy::MAX_TEMPORAL_CONSTRAINTS,
+                ));
+            }
+            self.sites.temporal.push(span);
+        }
+        Ok(spec)
+    }
+
+    fn capacity(&self, span: Range<usize>, field: &str, what: &str, max: usize) -> TaskNetError {
+        self.error(
+            span,
+            field,
+            format!("more than {max} {what} (the target's capacity)"),
+        )
+    }
+
+    fn state_value(
+        &self,
+        values: &[String],
+        v: &RawNumOrText,
+        span: Range<usize>,
+        field: &str,
+    ) -> Result<u16, TaskNetError> {
+        match v {
+            RawNumOrText::Int(i) => u16::try_from(*i)
+                .map_err(|_| self.error(span, field, format!("{i} is not a state value"))),
+            RawNumOrText::Text(name) => values
+                .iter()
+                .position(|v| v == name)
+                .map(|p| p as u16)
+                .ok_or_else(|| {
+                    self.error(
+                        span,
+                        field,
+                        format!("`{name}` is not one of the timeline's values {values:?}"),
+                    )
+                }),
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn expr(
+        &self,
+        e: &RawExpr,
+        span: Range<usize>,
+        field: &str,
+        timeline_index: &dyn Fn(&str) -> Option<usize>,
+        value_names: &[Vec<String>],
+        out: &mut Vec<CondNode>,
+    ) -> Result<(), TaskNetError> {
+        match e {
+            RawExpr::All { all: items } | RawExpr::Any { any: items } => {
+                let joiner = if matches!(e, RawExpr::All { .. }) {
+                    CondNode::And
+                } else {
+                    CondNode::Or
+                };
+                if items.is_empty() {
+                    return Err(self.error(span, field, "empty all/any".into()));
+                }
+                for (k, item) in items.iter().enumerate() {
+                    self.expr(item, span.clone(), field, timeline_index, value_names, out)?;
+                    if k > 0 {
+                        out.push(joiner);
+                    }
+                }
+            }
+            RawExpr::Not { not } => {
+                self.expr(not, span.clone(), field, timeline_index, value_names, out)?;
+                out.push(CondNode::Not);
+            }
+            RawExpr::Term {
+                timeline,
+                state_key,
+                op,
+                value,
+            } => {
+                let op = match op.as_str() {
+                    "==" => RelOp::Eq,
+                    "!=" => RelOp::Ne,
+                    "<" => RelOp::Lt,
+                    "<=" => RelOp::Le,
+                    ">" => RelOp::Gt,
+                    ">=" => RelOp::Ge,
+                    other => {
+                        return Err(self.error(span, field, format!("unknown operator `{other}`")))
+                    }
+                };
+                let (operand, names) = match (timeline, state_key) {
+                    (Some(name), None) => {
+                        let t = timeline_index(name).ok_or_else(|| {
+                            self.error(span.clone(), field, format!("no timeline named `{name}`"))
+                        })?;
+                        (
+                            Operand::Timeline(t as u8),
+                            value_names.get(t).cloned().unwrap_or_default(),
+                        )
+                    }
+                    (None, Some(key)) => (Operand::State(StateKey(*key)), Vec::new()),
+                    _ => {
+                        return Err(self.error(
+                            span,
+                            field,
+                            "a term names exactly one of `timeline` or `state_key`".into(),
+                        ))
+                    }
+                };
+                let value = match value {
+                    RawNumOrText::Int(i) => *i,
+                    text => i64::from(self.state_value(&names, text, span.clone(), field)?),
+                };
+                out.push(CondNode::Term { operand, op, value });
+            }
+        }
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn task(
+        &mut self,
+        i: usize,
+        t: &RawTask,
+        span: Range<usize>,
+        epoch_us: i64,
+        timeline_index: &dyn Fn(&str) -> Option<usize>,
+        value_names: &[Vec<String>],
+        condition_names: &[String],
+        task_id: &dyn Fn(&str) -> Option<u16>,
+    ) -> Result<TaskSpec, TaskNetError> {
+        let path = |f: &str| field_path("task", i, f);
+        let mut sites: BTreeMap<String, Range<usize>> = BTreeMap::new();
+        sites.insert(String::new(), span.clone());
+        sites.insert("id".into(), t.id.span());
+        sites.insert("name".into(), t.name.span());
+        sites.insert("duration".into(), t.duration.span());
+        sites.insert(
+            "earliest_start".into(),
+            t.earliest_start.as_ref().map_or(span.clone(), |s| s.span()),
+        );
+        if let Some(c) = &t.command {
+            sites.insert("command".into(), c.span());
+        }
+        let control_span = t
+            .response_timeout
+            .as_ref()
+            .or(t.pre_wait_timeout.as_ref())
+            .map(|s| s.span())
+            .or_else(|| t.start_condition.as_ref().map(|s| s.span()))
+            .unwrap_or(span.clone());
+        sites.insert("control".into(), control_span);
+
+        let role = match t.role.as_ref().map(|r| r.get_ref().as_str()) {
+            None | Some("requested") => TaskRole::Requested,
+            Some("template") => TaskRole::Template,
+            Some(other) => {
+                let r = t.role.as_ref().map(|r| r.span()).unwrap_or(span.clone());
+                return Err(self.error(
+                    r,
+                    &path("role"),
+                    format!("unknown role `{other}` (requested or template)"),
+                ));
+            }
+        };
+        let non_negative = |us: i64, s: Range<usize>, f: &str| {
+            u64::try_from(us).map_err(|_| self.error(s, &path(f), "must not be negative".into()))
+        };
+        let duration_us = non_negative(
+            self.duration_us(&t.duration, &path("duration"))?,
+            t.duration.span(),
+            "duration",
+        )?;
+        let min_duration_us = match &t.min_duration {
+            Some(d) => non_negative(
+                self.duration_us(d, &path("min_duration"))?,
+                d.span(),
+                "min_duration",
+            )?,
+            None => duration_us,
+        };
+        let earliest_start = match &t.earliest_start {
+            Some(v) => self.time(v, epoch_us, &path("earliest_start"))?,
+            None => MissionTimeUs::ZERO,
+        };
+        let latest_start = match (&t.latest_start, role) {
+            (Some(v), _) => self.time(v, epoch_us, &path("latest_start"))?,
+            (None, TaskRole::Requested) => earliest_start,
+            (None, TaskRole::Template) => MissionTimeUs::MAX,
+        };
+        let latest_end = match &t.latest_end {
+            Some(v) => self.time(v, epoch_us, &path("latest_end"))?,
+            None => MissionTimeUs::MAX,
+        };
+        let command =
+            |c: &RawCommand, s: Range<usize>, f: &str| -> Result<CommandSpec, TaskNetError> {
+                Ok(CommandSpec {
+                    opcode: Opcode(c.opcode),
+                    args: CommandArgs::from_slice(&c.args).map_err(|_| {
+                        self.error(
+                            s,
+                            &path(f),
+                            format!(
+                                "more than {} command arguments",
+                                fsw_bridge::MAX_COMMAND_ARGS
+                            ),
+                        )
+                    })?,
+                })
+            };
+        let timeline = |name: &str, s: Range<usize>, f: &str| -> Result<usize, TaskNetError> {
+            timeline_index(name)
+                .ok_or_else(|| self.error(s, &path(f), format!("no timeline named `{name}`")))
+        };
+        let offset =
+            |v: &Option<RawNumOrText>, s: Range<usize>, f: &str| -> Result<i64, TaskNetError> {
+                match v {
+                    Some(v) => self.duration_value(v, s, &path(f)),
+                    None => Ok(0),
+                }
+            };
+
+        let mut spec = TaskSpec {
+            id: *t.id.get_ref(),
+            name: self.name(&t.name, &path("name"))?,
+            priority: t.priority,
+            role,
+            command: match &t.command {
+                Some(c) => Some(command(c.get_ref(), c.span(), "command")?),
+                None => None,
+            },
+            duration_us,
+            min_duration_us,
+            earliest_start,
+            latest_start,
+            latest_end,
+            constraints: Default::default(),
+            impacts: Default::default(),
+            control: ControlSpec {
+                start_condition: None,
+                maintain_condition: None,
+                skip_condition: None,
+                pre_wait_timeout_us: 0,
+                response_timeout_us: 0,
+                max_retries: t.max_retries,
+                on_failure_command: None,
+            },
+            contingencies: Default::default(),
+            permissions: Permissions {
+                may_move: t.may_move,
+                may_delete: t.may_delete,
+                may_add: Default::default(),
+            },
+        };
+        for (k, c) in t.constraints.iter().enumerate() {
+            let f = format!("constraints[{k}]");
+            let s = c.span();
+            sites.insert(f.clone(), s.clone());
+            let c = c.get_ref();
+            let tl = timeline(&c.timeline, s.clone(), &f)?;
+            let when = match c.when.as_str() {
+                "pre" => ConstraintWhen::Pre,
+                "maintain" => ConstraintWhen::Maintain,
+                other => {
+                    return Err(self.error(
+                        s,
+                        &path(&f),
+                        format!("unknown constraint time `{other}` (pre or maintain)"),
+                    ))
+                }
+            };
+            let require = match (&c.one_of, c.min, c.max) {
+                (Some(values), None, None) => {
+                    let mut mask = 0u32;
+                    for v in values {
+                        let code = self.state_value(
+                            value_names.get(tl).map_or(&[][..], |v| v),
+                            &RawNumOrText::Text(v.clone()),
+                            s.clone(),
+                            &path(&f),
+                        )?;
+                        mask |= 1u32.checked_shl(u32::from(code)).unwrap_or(0);
+                    }
+                    Requirement::OneOf { mask }
+                }
+                (None, min, max) if min.is_some() || max.is_some() => Requirement::Range {
+                    min: min.unwrap_or(-(1 << 48)),
+                    max: max.unwrap_or(1 << 48),
+                },
+                _ => {
+                    return Err(self.error(
+                        s,
+                        &path(&f),
+                        "give either `in = [values]` or `min`/`max`".into(),
+                    ))
+                }
+            };
+            let constraint = ConstraintSpec {
+                when,
+                timeline: tl as u8,
+                require,
+                start_offset_us: offset(&c.start_offset, s.clone(), &f)?,
+                end_offset_us: offset(&c.end_offset, s.clone(), &f)?,
+            };
+            if spec.constraints.push(constraint).is_err() {
+                return Err(self.capacity(
+                    s,
+                    &path(&f),
+                    "constraints per task",
+                    autonomy::MAX_CONSTRAINTS_PER_TASK,
+                ));
+            }
+        }
+        for (k, m) in t.impacts.iter().enumerate() {
+            let f = format!("impacts[{k}]");
+            let s = m.span();
+            sites.insert(f.clone(), s.clone());
+            let m = m.get_ref();
+            let tl = timeline(&m.timeline, s.clone(), &f)?;
+            let when = match m.when.as_str() {
+                "pre" => ImpactWhen::Pre,
+                "maintain" | "during" => ImpactWhen::Maintain,
+                "post" => ImpactWhen::Post,
+                other => {
+                    return Err(self.error(
+                        s,
+                        &path(&f),
+                        format!("unknown impact time `{other}` (pre, maintain or post)"),
+                    ))
+                }
+            };
+            let effect = match (&m.assign, m.add, m.rate, m.claim) {
+                (Some(v), None, None, None) => Effect::Assign(match v {
+                    RawNumOrText::Int(i) => *i,
+                    text => i64::from(self.state_value(
+                        value_names.get(tl).map_or(&[][..], |v| v),
+                        text,
+                        s.clone(),
+                        &path(&f),
+                    )?),
+                }),
+                (None, Some(d), None, None) => Effect::Add(d),
+                (None, None, Some(r), None) => Effect::Rate(r),
+                (None, None, None, Some(true)) => Effect::Claim,
+                _ => {
+                    return Err(self.error(
+                        s,
+                        &path(&f),
+                        "give exactly one of `assign`, `add`, `rate` or `claim = true`".into(),
+                    ))
+                }
+            };
+            let impact = ImpactSpec {
+                when,
+                timeline: tl as u8,
+                effect,
+                start_offset_us: offset(&m.start_offset, s.clone(), &f)?,
+                end_offset_us: offset(&m.end_offset, s.clone(), &f)?,
+            };
+            if spec.impacts.push(impact).is_err() {
+                return Err(self.capacity(
+                    s,
+                    &path(&f),
+                    "impacts per task",
+                    autonomy::MAX_IMPACTS_PER_TASK,
+                ));
+            }
+        }
+        let timeout = |v: &Option<Spanned<RawNumOrText>>, f: &str| -> Result<u64, TaskNetError> {
+            match v {
+                Some(v) => non_negative(self.duration_us(v, &path(f))?, v.span(), f),
+                None => Ok(0),
+            }
+        };
+        spec.control.pre_wait_timeout_us = timeout(&t.pre_wait_timeout, "pre_wait_timeout")?;
+        spec.control.response_timeout_us = timeout(&t.response_timeout, "response_timeout")?;
+        let condition =
+            |c: &Option<Spanned<String>>, f: &str| -> Result<Option<u8>, TaskNetError> {
+                match c {
+                    None => Ok(None),
+                    Some(name) => condition_names
+                        .iter()
+                        .position(|n| n == name.get_ref())
+                        .map(|p| Some(p as u8))
+                        .ok_or_else(|| {
+                            self.error(
+                                name.span(),
+                                &path(f),
+                                format!("no condition named `{}`", name.get_ref()),
+                            )
+                        }),
+                }
+            };
+        spec.control.start_condition = condition(&t.start_condition, "start_condition")?;
+        spec.control.maintain_condition = condition(&t.maintain_condition, "maintain_condition")?;
+        spec.control.skip_condition = condition(&t.skip_condition, "skip_condition")?;
+        if let Some(c) = &t.on_failure_command {
+            spec.control.on_failure_command = Some(command(c, span.clone(), "on_failure_command")?);
+        }
+        for (k, c) in t.contingencies.iter().enumerate() {
+            let f = format!("contingencies[{k}]");
+            let s = c.span();
+            sites.insert(f.clone(), s.clone());
+            let c = c.get_ref();
+            let kinds: Vec<String> = match &c.on {
+                RawOn::One(k) => vec![k.clone()],
+                RawOn::Many(ks) => ks.clone(),
+            };
+            let mut on = 0u8;
+            for kind in &kinds {
+                on |= match kind.as_str() {
+                    "any" => FailureKind::ANY,
+                    "pre_timeout" => FailureKind::PreTimeout.bit(),
+                    "response_timeout" => FailureKind::ResponseTimeout.bit(),
+                    "command_failed" => FailureKind::CommandFailed.bit(),
+                    "command_rejected" => FailureKind::CommandRejected.bit(),
+                    "maintain_violation" => FailureKind::MaintainViolation.bit(),
+                    "unschedulable" => FailureKind::Unschedulable.bit(),
+                    other => {
+                        return Err(self.error(
+                            s,
+                            &path(&f),
+                            format!("unknown failure kind `{other}`"),
+                        ))
+                    }
+                };
+            }
+            let action = match &c.action {
+                RawAction::Simple(a) => match a.as_str() {
+                    "restart" => ContingencyAction::Restart,
+                    "move" => ContingencyAction::Move,
+                    "delete" => ContingencyAction::Delete,
+                    other => return Err(self.error(s, &path(&f), format!("unknown action `{other}` (restart, move, delete or {{ add_template = \"name\" }})"))),
+                },
+                RawAction::AddTemplate { add_template } => ContingencyAction::AddTemplate(
+                    task_id(add_template).ok_or_else(|| self.error(s.clone(), &path(&f), format!("no task named `{add_template}`")))?,
+                ),
+            };
+            if spec.contingencies.push(Contingency { on, action }).is_err() {
+                return Err(self.capacity(
+                    s,
+                    &path(&f),
+                    "contingencies per task",
+                    autonomy::MAX_CONTINGENCIES_PER_TASK,
+                ));
+            }
+        }
+        for (k, name) in t.may_add.iter().enumerate() {
+            let f = format!("may_add[{k}]");
+            sites.insert(f.clone(), name.span());
+            let id = task_id(name.get_ref()).ok_or_else(|| {
+                self.error(
+                    name.span(),
+                    &path(&f),
+                    format!("no task named `{}`", name.get_ref()),
+                )
+            })?;
+            if spec.permissions.may_add.push(id).is_err() {
+                return Err(self.capacity(
+                    name.span(),
+                    &path(&f),
+                    "templates per task",
+                    autonomy::MAX_ADD_PERMISSIONS_PER_TASK,
+                ));
+            }
+        }
+        self.sites.tasks.push(sites);
+        Ok(spec)
+    }
+}
+
+/// A sentence for each validation code.
+fn describe(e: ValidationError) -> &'static str {
+    use autonomy::ValidationCode::*;
+    match e.code {
+        Decode => "does not decode",
+        TrailingBytes => "bytes after the end of the network",
+        FormatVersion => "unknown uplink format version",
+        TooManyTimelines
+        | TooManyTasks
+        | TooManyConstraints
+        | TooManyImpacts
+        | TooManyConditions
+        | TooManyConditionTerms
+        | TooManyContingencies
+        | TooManyPermissions
+        | TooManyTemporalConstraints => "over the target's capacity",
+        TooManyStateValues => "a state timeline needs 1 to 32 values",
+        NameTooLong => "name too long",
+        DuplicateTaskId => "another task has this id",
+        TaskIdReserved => "task ids must be below 0x8000 (higher ids are the planner's)",
+        DuplicateTimelineName => "another timeline has this name",
+        DanglingTimeline => "no such timeline",
+        DanglingCondition => "no such condition",
+        DanglingTemplate => "not a template task",
+        DanglingTemporalTask => "temporal constraints relate two different requested tasks",
+        DuplicateStateKey => "another timeline is measured by this state key",
+        TypeMismatch => "does not fit the timeline's kind",
+        ValueOutOfRange => "value outside the timeline's values or bounds",
+        EmptyRequirement => "nothing can satisfy this requirement",
+        ClaimNotMaintain => "a claim must be a maintain impact",
+        MaintainAssign => "assignments happen at pre or post, not maintain",
+        TermNotMeasured => "conditions can only read measured timelines (with a state_key)",
+        BadContingency => "bad failure kind set",
+        BadTimeWindow => "earliest_start is after latest_start",
+        BadDuration => "duration must be positive, at least min_duration, at most 30 days",
+        WindowTooShort => "the task cannot fit between earliest_start and latest_end",
+        TimeOutOfRange => "time out of range",
+        BadOffset => "offset out of range, or an empty maintain interval",
+        BadPlannerConfig => "planner windows must be positive and commit <= scheduling <= horizon",
+        BadTemporalBounds => "min must not exceed max",
+        BadTimeout => "a task with a command needs a response_timeout (at most 30 days)",
+        MalformedCondition => "malformed condition",
+        ConditionTooDeep => "condition nested too deep",
+        EmptyCondition => "empty condition",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const FLYBY: &str = include_str!("../../scenarios/tasknets/flyby.toml");
+
+    #[test]
+    fn flyby_compiles_and_its_uplink_passes_the_target_validator() {
+        let (network, bytes) = compile_str(FLYBY, "flyby.toml").unwrap();
+        assert_eq!(network.tasks().len(), 6);
+        assert_eq!(network.timelines().len(), 4);
+        assert!(TaskNetwork::validate_uplink(&bytes).is_ok());
+        let mut again = TaskNetwork::EMPTY;
+        autonomy::uplink::decode_into(&mut again, &bytes).unwrap();
+        assert_eq!(again, network);
+    }
+
+    #[test]
+    fn times_and_durations_parse() {
+        assert_eq!(parse_duration_text("15m"), Some(900_000_000));
+        assert_eq!(parse_duration_text("1h30m"), Some(5_400_000_000));
+        assert_eq!(parse_duration_text("-30s"), Some(-30_000_000));
+        assert_eq!(parse_duration_text("250ms"), Some(250_000));
+        assert_eq!(parse_duration_text("15"), None);
+        assert_eq!(parse_clock("10:15"), Some(36_900_000_000));
+        assert_eq!(parse_clock("10:15:30"), Some(36_930_000_000));
+        assert_eq!(parse_clock("25:00"), None);
+        let epoch = parse_day_time("2028-040T00:00").unwrap();
+        assert_eq!(
+            parse_day_time("2028-040T10:00").unwrap() - epoch,
+            36_000_000_000
+        );
+        assert_eq!(
+            parse_day_time("2028-041T00:00").unwrap() - epoch,
+            86_400_000_000
+        );
+    }
+
+    fn error_of(src: &str) -> TaskNetError {
+        compile_str(src, "t.toml").unwrap_err()
+    }
+
+    const HEAD: &str = "[network]\nid = 1\n\n[[timeline]]\nname = \"Att\"\nkind = \"state\"\nvalues = [\"A\", \"B\"]\nstate_key = 1\n";
+
+    #[test]
+    fn unknown_timeline_is_reported_at_its_constraint() {
+        let src = format!(
+            "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\nearliest_start = \"10:00\"\nconstraints = [\n  {{ when = \"pre\", timeline = \"Nope\", in = [\"A\"] }},\n]\n"
+        );
+        let e = error_of(&src);
+        assert_eq!((e.line, e.column), (16, 3), "{e}");
+        assert_eq!(e.field, "task[0].constraints[0]");
+        assert!(
+            e.to_string()
+                .starts_with("t.toml:16:3: task[0].constraints[0]: no timeline named `Nope`"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn validator_errors_carry_the_target_code_and_the_line() {
+        // earliest after latest start: the target's BadTimeWindow (50).
+        let src = format!(
+            "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\nearliest_start = \"10:00\"\nlatest_start = \"09:00\"\n"
+        );
+        let e = error_of(&src);
+        assert_eq!(e.code, Some(50));
+        assert_eq!(e.line, 14, "{e}");
+        assert_eq!(e.field, "task[0].earliest_start");
+        // A claim impact on a state timeline: TypeMismatch (40) at the impact.
+        let src = format!(
+            "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\nimpacts = [{{ when = \"maintain\", timeline = \"Att\", claim = true }}]\n"
+        );
+        let e = error_of(&src);
+        assert_eq!((e.code, e.line, e.column), (Some(40), 14, 12), "{e}");
+        // Reserved task id (31).
+        let src = format!("{HEAD}\n[[task]]\nid = 40000\nname = \"t\"\nduration = \"1m\"\n");
+        let e = error_of(&src);
+        assert_eq!(
+            (e.code, e.line, e.field.as_str()),
+            (Some(31), 11, "task[0].id"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn toml_syntax_and_type_errors_have_positions() {
+        let e = error_of("[network]\nid = \"x\"\n");
+        assert_eq!(e.line, 2, "{e}");
+        let e = error_of(&format!(
+            "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"soon\"\n"
+        ));
+        assert_eq!(
+            (e.line, e.column, e.field.as_str()),
+            (13, 12, "task[0].duration"),
+            "{e}"
+        );
+        assert!(e.message.contains("not a duration"));
+    }
+
+    #[test]
+    fn bad_state_value_names_the_choices() {
+        let src = format!(
+            "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\nimpacts = [{{ when = \"post\", timeline = \"Att\", assign = \"C\" }}]\n"
+        );
+        let e = error_of(&src);
+        assert!(
+            e.message
+                .contains("`C` is not one of the timeline's values [\"A\", \"B\"]"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn condition_depth_is_checked_by_the_target_validator() {
+        let term = "{ timeline = \"Att\", op = \"==\", value = \"A\" }";
+        let deep = format!("{{ not = {{ not = {{ not = {{ not = {term} }} }} }} }}");
+        let src = format!("{HEAD}\n[[condition]]\nname = \"c\"\nexpr = {deep}\n");
+        let e = error_of(&src);
+        assert_eq!((e.code, e.line), (Some(61), 12), "{e}");
+    }
+}
