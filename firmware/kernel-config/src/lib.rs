@@ -2,7 +2,8 @@
 //! partitions with their memory regions and stacks, the major frame and its windows (timebase
 //! ticks), inter-partition ports, and the health-monitor action per partition and error kind.
 //!
-//! Nothing is discovered at run time. The configuration the image runs is [`system::SYSTEM`];
+//! Nothing is discovered at run time. The configurations the image runs are [`system::PRODUCT`] and, in the test image,
+//! [`system::TEST`];
 //! [`check`] validates any configuration and is a `const fn`, so the image evaluates it in a
 //! `const` item and a bad configuration is a compile error whose message names the offending
 //! entry (see [`ConfigError::describe`]). The firmware's `build.rs` generates the partition part

@@ -21,14 +21,14 @@ use crate::{
     Access, Capabilities, HealthTable, Partition, Port, PortKind, Region, Schedule, SystemConfig,
     Window,
 };
-#[cfg(feature = "test-partitions")]
 use crate::{ErrorKind, HmAction};
 
-/// Partition indices (the `partition` field of health-monitor events, metric id offsets).
+/// Partition indices, the same in both images (the `partition` field of health-monitor
+/// events, metric id offsets).
 pub const IO: usize = 0;
 pub const EXECUTIVE: usize = 1;
 pub const PLANNER: usize = 2;
-#[cfg(feature = "test-partitions")]
+/// Test image only.
 pub const ROGUE: usize = 3;
 
 /// Where the I/O partition finds mac-io (Heathrow BAR0, set by the kernel at boot).
@@ -54,7 +54,6 @@ pub const PLANNER_REGION: Region = Region {
     size: 0x0040_0000,
     access: Access::ReadWrite,
 };
-#[cfg(feature = "test-partitions")]
 pub const ROGUE_REGION: Region = Region {
     base: 0x00c0_0000,
     size: 0x0002_0000,
@@ -94,7 +93,6 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
     },
 ];
 
-#[cfg(feature = "test-partitions")]
 const ROGUE_PARTITION: Partition = Partition {
     name: "rogue",
     entry: "partition_rogue_main",
@@ -106,10 +104,7 @@ const ROGUE_PARTITION: Partition = Partition {
     health: HealthTable::RESTART_ON_FAULT.with(ErrorKind::IllegalSyscall, HmAction::Log),
 };
 
-#[cfg(not(feature = "test-partitions"))]
-const PARTITIONS: &[Partition] = &PARTITIONS_PRODUCT;
-#[cfg(feature = "test-partitions")]
-const PARTITIONS: &[Partition] = &[
+const PARTITIONS_TEST: [Partition; 4] = [
     PARTITIONS_PRODUCT[0],
     PARTITIONS_PRODUCT[1],
     PARTITIONS_PRODUCT[2],
@@ -137,10 +132,7 @@ const WINDOWS_PRODUCT: [Window; 3] = [
     },
 ];
 
-#[cfg(not(feature = "test-partitions"))]
-const WINDOWS: &[Window] = &WINDOWS_PRODUCT;
-#[cfg(feature = "test-partitions")]
-const WINDOWS: &[Window] = &[
+const WINDOWS_TEST: [Window; 4] = [
     WINDOWS_PRODUCT[0],
     WINDOWS_PRODUCT[1],
     WINDOWS_PRODUCT[2],
@@ -209,10 +201,7 @@ const PORTS_PRODUCT: [Port; 6] = [
     },
 ];
 
-#[cfg(not(feature = "test-partitions"))]
-const PORTS: &[Port] = &PORTS_PRODUCT;
-#[cfg(feature = "test-partitions")]
-const PORTS: &[Port] = &[
+const PORTS_TEST: [Port; 7] = [
     PORTS_PRODUCT[0],
     PORTS_PRODUCT[1],
     PORTS_PRODUCT[2],
@@ -236,15 +225,25 @@ pub const PORT_EXECUTIVE_TO_IO: usize = 2;
 pub const PORT_PLANNER_TO_IO: usize = 3;
 pub const PORT_PLAN_SUMMARY: usize = 4;
 pub const PORT_EXECUTIVE_STATUS: usize = 5;
-#[cfg(feature = "test-partitions")]
 pub const PORT_IO_TO_ROGUE: usize = 6;
 
-/// The system the image runs.
-pub const SYSTEM: SystemConfig = SystemConfig {
-    partitions: PARTITIONS,
+/// The product: I/O, executive, planner.
+pub const PRODUCT: SystemConfig = SystemConfig {
+    partitions: &PARTITIONS_PRODUCT,
     schedule: Schedule {
         major_frame: MAJOR_FRAME_TICKS,
-        windows: WINDOWS,
+        windows: &WINDOWS_PRODUCT,
     },
-    ports: PORTS,
+    ports: &PORTS_PRODUCT,
+};
+
+/// The test image: the product plus the rogue partition, its window and its port. The
+/// product's partitions, windows and ports keep their indices and timing.
+pub const TEST: SystemConfig = SystemConfig {
+    partitions: &PARTITIONS_TEST,
+    schedule: Schedule {
+        major_frame: MAJOR_FRAME_TICKS,
+        windows: &WINDOWS_TEST,
+    },
+    ports: &PORTS_TEST,
 };

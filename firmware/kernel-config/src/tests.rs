@@ -71,10 +71,31 @@ use std::borrow::ToOwned;
 use std::string::String;
 
 #[test]
-fn the_shipped_configuration_is_valid() {
-    assert_eq!(check(&SYSTEM), Ok(()));
-    // And evaluates at compile time.
-    const _: () = assert_valid(&SYSTEM);
+fn the_shipped_configurations_are_valid() {
+    assert_eq!(check(&PRODUCT), Ok(()));
+    assert_eq!(check(&TEST), Ok(()));
+    // And evaluate at compile time.
+    const _: () = assert_valid(&PRODUCT);
+    const _: () = assert_valid(&TEST);
+}
+
+#[test]
+fn the_test_image_keeps_the_products_indices_and_timing() {
+    for (i, p) in PRODUCT.partitions.iter().enumerate() {
+        assert_eq!(TEST.partitions[i].name, p.name);
+    }
+    for (i, w) in PRODUCT.schedule.windows.iter().enumerate() {
+        let t = &TEST.schedule.windows[i];
+        assert_eq!(
+            (t.partition, t.offset, t.duration),
+            (w.partition, w.offset, w.duration)
+        );
+    }
+    for (i, p) in PRODUCT.ports.iter().enumerate() {
+        assert_eq!(TEST.ports[i].name, p.name);
+    }
+    assert_eq!(port_index(&TEST, "io_to_rogue"), Some(PORT_IO_TO_ROGUE));
+    assert_eq!(partition_index(&TEST, "rogue"), Some(ROGUE));
 }
 
 #[test]
@@ -356,10 +377,6 @@ fn region_containment_rejects_wrap_around_and_straddling() {
 fn port_storage_is_sized_from_the_configuration() {
     // 4 ports of 160/64 bytes x 8, 2 sampling ports of 32 bytes, 16-byte slot headers.
     let product = 2 * 8 * (160 + 16) + 2 * 8 * (64 + 16) + 2 * (32 + 16);
-    let expected = if cfg!(feature = "test-partitions") {
-        product + 2 * (160 + 16)
-    } else {
-        product
-    };
-    assert_eq!(port_storage_bytes(&SYSTEM), expected);
+    assert_eq!(port_storage_bytes(&PRODUCT), product);
+    assert_eq!(port_storage_bytes(&TEST), product + 2 * (160 + 16));
 }
