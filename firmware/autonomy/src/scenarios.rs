@@ -44,14 +44,10 @@ pub const ID_GNC_EARTH: u16 = 4;
 pub const ID_GNC_NADIR_TEMPLATE: u16 = 11;
 pub const ID_DEGRADED_TEMPLATE: u16 = 12;
 
-const fn mask(values: &[u16]) -> u32 {
-    let mut m = 0;
-    let mut i = 0;
-    while i < values.len() {
-        m |= 1 << values[i];
-        i += 1;
-    }
-    m
+fn mask(values: &[u16]) -> u32 {
+    values
+        .iter()
+        .fold(0, |m, &v| m | 1u32.checked_shl(u32::from(v)).unwrap_or(0))
 }
 
 fn name(s: &str) -> Result<Name, CapacityExceeded> {

@@ -269,3 +269,53 @@ proptest! {
         prop_assert!(restored.restore_from(&area).is_ok());
     }
 }
+
+/// The fuzz target's property on mutations of a real uplink (a fuzz smoke test that runs in
+/// `cargo test`): refused bytes leave the network untouched; accepted bytes re-validate,
+/// round-trip and can be planned.
+fn check_uplink(data: &[u8]) -> Result<(), TestCaseError> {
+    let mut network = TaskNetwork::EMPTY;
+    match autonomy::uplink::decode_into(&mut network, data) {
+        Err(_) => prop_assert_eq!(&network, &TaskNetwork::EMPTY),
+        Ok(()) => {
+            prop_assert!(TaskNetwork::from_spec(network.spec().clone()).is_ok());
+            let mut buf = vec![0u8; data.len() + 64];
+            let len = network.encode(&mut buf).unwrap();
+            let mut again = TaskNetwork::EMPTY;
+            autonomy::uplink::decode_into(&mut again, &buf[..len]).unwrap();
+            prop_assert_eq!(&again, &network);
+            let mut core = Box::new(Autonomy::new());
+            core.load_network(network).unwrap();
+            core.step(
+                MissionTimeUs(hm(9, 0).0),
+                StepBudget {
+                    planner_checks: 2_000,
+                },
+                &mut Sink,
+            );
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn mutated_uplinks_are_refused_cleanly_or_accepted_whole(
+        flips in proptest::collection::vec((any::<usize>(), any::<u8>()), 1..4),
+        cut in proptest::option::of(any::<usize>()),
+    ) {
+        let mut bytes = vec![0u8; 1 << 16];
+        let len = flyby_network().encode(&mut bytes).unwrap();
+        bytes.truncate(len);
+        for (at, value) in flips {
+            let at = at % bytes.len();
+            bytes[at] = value;
+        }
+        if let Some(cut) = cut {
+            bytes.truncate(cut % (bytes.len() + 1));
+        }
+        check_uplink(&bytes)?;
+    }
+}

@@ -278,7 +278,7 @@ impl Sim {
     /// state buffer.
     pub fn reset(&mut self, r: Reset) {
         self.sc.reset(r.at);
-        self.autonomy = Box::new(Autonomy::new());
+        *self.autonomy = Autonomy::new(); // RAM state gone
         let restart = r.at.saturating_add(r.recovery_us);
         let area = WarmRestartArea::new(&mut self.area);
         self.autonomy
@@ -362,7 +362,7 @@ pub struct Executed {
 
 pub fn fmt_time(t: MissionTimeUs) -> String {
     let s = t.0 / SEC;
-    if t.0 % SEC == 0 {
+    if t.0.is_multiple_of(SEC) {
         format!("{:02}:{:02}:{:02}", s / 3600, (s / 60) % 60, s % 60)
     } else {
         format!(

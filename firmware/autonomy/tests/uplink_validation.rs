@@ -1,0 +1,248 @@
+//! The uplink validator: each rejection has its precise code and site, and a rejected uplink
+//! leaves the running plan untouched.
+mod common;
+use autonomy::uplink::{validate_uplink, ErrorSite, TaskField, ValidationCode};
+use autonomy::*;
+use common::*;
+
+fn encode(spec: &NetworkSpec) -> Vec<u8> {
+    let mut buf = vec![0u8; 1 << 16];
+    let len = autonomy::uplink::encode_spec(spec, &mut buf).unwrap();
+    buf.truncate(len);
+    buf
+}
+
+fn rejected(spec: &NetworkSpec) -> (ValidationCode, ErrorSite) {
+    // The in-memory and the streaming validators agree.
+    let a = TaskNetwork::from_spec(spec.clone()).unwrap_err();
+    let b = validate_uplink(&encode(spec)).unwrap_err();
+    assert_eq!(a, b);
+    (a.code, a.site)
+}
+
+fn task(i: u8, field: TaskField) -> ErrorSite {
+    ErrorSite::Task { task: i, field }
+}
+
+#[test]
+fn flyby_uplink_is_accepted() {
+    assert!(validate_uplink(&encode(&flyby_spec())).is_ok());
+}
+
+#[test]
+fn each_defect_has_its_code_and_site() {
+    let mut s = flyby_spec();
+    s.tasks[2].constraints[0].timeline = 9;
+    assert_eq!(
+        rejected(&s),
+        (
+            ValidationCode::DanglingTimeline,
+            task(2, TaskField::Constraint(0))
+        )
+    );
+
+    let mut s = flyby_spec();
+    s.tasks[2].impacts[0].effect = Effect::Claim; // a claim on the cumulative request timeline
+    assert_eq!(
+        rejected(&s),
+        (ValidationCode::TypeMismatch, task(2, TaskField::Impact(0)))
+    );
+
+    let mut s = flyby_spec();
+    s.tasks[0].impacts[1].effect = Effect::Assign(7); // attitude has 5 values
+    assert_eq!(
+        rejected(&s),
+        (
+            ValidationCode::ValueOutOfRange,
+            task(0, TaskField::Impact(1))
+        )
+    );
+
+    let mut s = flyby_spec();
+    s.tasks[2].permissions.may_add[0] = ID_FLYBY; // not a template
+    assert_eq!(
+        rejected(&s),
+        (
+            ValidationCode::DanglingTemplate,
+            task(2, TaskField::Permission(0))
+        )
+    );
+
+    let mut s = flyby_spec();
+    s.tasks[3].id = ID_GNC_NADIR;
+    assert_eq!(
+        rejected(&s),
+        (ValidationCode::DuplicateTaskId, task(3, TaskField::Id))
+    );
+
+    let mut s = flyby_spec();
+    s.tasks[1].latest_start = hm(10, 0);
+    assert_eq!(
+        rejected(&s),
+        (ValidationCode::BadTimeWindow, task(1, TaskField::Window))
+    );
+
+    let mut s = flyby_spec();
+    s.tasks[2].min_duration_us = s.tasks[2].duration_us + 1;
+    assert_eq!(
+        rejected(&s),
+        (ValidationCode::BadDuration, task(2, TaskField::Duration))
+    );
+
+    let mut s = flyby_spec();
+    s.tasks[2].control.start_condition = Some(0);
+    assert_eq!(
+        rejected(&s),
+        (
+            ValidationCode::DanglingCondition,
+            task(2, TaskField::Control)
+        )
+    );
+
+    let mut s = flyby_spec();
+    s.header.config.commit_window_us = 0;
+    assert_eq!(
+        rejected(&s),
+        (ValidationCode::BadPlannerConfig, ErrorSite::Network)
+    );
+
+    let mut s = flyby_spec();
+    s.timelines[1].state_key = Some(ATTITUDE_KEY);
+    assert_eq!(
+        rejected(&s),
+        (ValidationCode::DuplicateStateKey, ErrorSite::Timeline(1))
+    );
+}
+
+fn term() -> CondNode {
+    CondNode::Term {
+        operand: Operand::Timeline(TL_ATTITUDE),
+        op: RelOp::Eq,
+        value: i64::from(NADIR),
+    }
+}
+
+#[test]
+fn conditions_are_checked_for_shape_depth_and_operands() {
+    let with = |nodes: &[CondNode]| {
+        let mut s = flyby_spec();
+        s.conditions
+            .push(ConditionSpec {
+                nodes: heapless::Vec::from_slice(nodes).unwrap(),
+            })
+            .unwrap();
+        s
+    };
+    let site = |node| ErrorSite::Condition { condition: 0, node };
+    assert!(TaskNetwork::from_spec(with(&[term(), term(), CondNode::And, CondNode::Not])).is_ok());
+    assert_eq!(
+        rejected(&with(&[term(), CondNode::And])),
+        (ValidationCode::MalformedCondition, site(1))
+    );
+    assert_eq!(
+        rejected(&with(&[term(), term()])),
+        (ValidationCode::MalformedCondition, site(1))
+    );
+    assert_eq!(
+        rejected(&with(&[
+            term(),
+            CondNode::Not,
+            CondNode::Not,
+            CondNode::Not,
+            CondNode::Not
+        ])),
+        (ValidationCode::ConditionTooDeep, site(4))
+    );
+    let internal = CondNode::Term {
+        operand: Operand::Timeline(TL_REQUEST),
+        op: RelOp::Ge,
+        value: 1,
+    };
+    assert_eq!(
+        rejected(&with(&[internal])),
+        (ValidationCode::TermNotMeasured, site(0))
+    );
+}
+
+#[test]
+fn byte_level_defects_are_refused() {
+    let bytes = encode(&flyby_spec());
+    let mut trailing = bytes.clone();
+    trailing.push(0);
+    assert_eq!(
+        validate_uplink(&trailing).unwrap_err().code,
+        ValidationCode::TrailingBytes
+    );
+    assert_eq!(
+        validate_uplink(&bytes[..bytes.len() - 3]).unwrap_err().code,
+        ValidationCode::Decode
+    );
+    let mut version = bytes.clone();
+    version[0] = 9;
+    assert_eq!(
+        validate_uplink(&version).unwrap_err().code,
+        ValidationCode::FormatVersion
+    );
+    // A task count over the capacity is named as such before anything is decoded.
+    let mut spec = flyby_spec();
+    spec.tasks.clear();
+    spec.temporal.clear();
+    let mut short = encode(&spec);
+    short.truncate(short.len() - 2); // drop "0 tasks, 0 temporal"
+    short.push((MAX_TASKS + 1) as u8);
+    assert_eq!(
+        validate_uplink(&short).unwrap_err().code,
+        ValidationCode::TooManyTasks
+    );
+}
+
+#[test]
+fn a_rejected_uplink_leaves_the_running_plan_untouched() {
+    let mut sim = Sim::flyby();
+    sim.run(hm(10, 20), &[]);
+    let plan_before = sim.autonomy.plan().to_vec();
+    let network_before = sim.autonomy.network().clone();
+    let mut bad = flyby_spec();
+    bad.tasks[2].constraints[0].timeline = 9;
+    let err = sim.autonomy.load_uplink(&encode(&bad)).unwrap_err();
+    assert_eq!(
+        err,
+        LoadError::Invalid(ValidationError::new(
+            ValidationCode::DanglingTimeline,
+            task(2, TaskField::Constraint(0))
+        ))
+    );
+    assert_eq!(err_code(err), 33);
+    assert_eq!(sim.autonomy.plan(), &plan_before[..]);
+    assert_eq!(sim.autonomy.network(), &network_before);
+    // And the flyby carries on as nominal.
+    sim.run(hm(11, 30), &[]);
+    assert_eq!(sim.as_executed().len(), 4);
+}
+
+fn err_code(e: LoadError) -> u16 {
+    match e {
+        LoadError::Invalid(v) => v.code.code(),
+        LoadError::Busy => 0,
+    }
+}
+
+#[test]
+fn a_good_uplink_loads_through_the_bytes() {
+    let mut core = Box::new(Autonomy::new());
+    core.load_uplink(&encode(&flyby_spec())).unwrap();
+    assert_eq!(core.network(), &flyby_network());
+    assert_eq!(core.plan().len(), 4, "the four requested tasks");
+}
+
+#[test]
+fn state_values_of_the_wrong_type_count_as_unknown() {
+    let mut core = Box::new(Autonomy::new());
+    core.load_network(flyby_network()).unwrap();
+    core.on_state_update(ATTITUDE_KEY, StateValue::Int(5), hm(9, 0));
+    assert_eq!(core.state_type_mismatches, 1);
+    core.on_state_update(ATTITUDE_KEY, StateValue::Enum(9), hm(9, 0));
+    assert_eq!(core.state_type_mismatches, 2);
+    let view = core.planner().view(core.network());
+    assert_eq!(view.value_at(TL_ATTITUDE, hm(9, 1)), VALUE_UNKNOWN);
+}
