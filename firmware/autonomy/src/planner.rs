@@ -1468,6 +1468,16 @@ pub fn temporal_window(
                     f(0, n, at);
                     f(n, 0, at.saturating_neg());
                 }
+            } else {
+                // Not placed yet: its own window still bounds it.
+                f(
+                    s,
+                    0,
+                    (t.earliest_start.0.min(MAX_MISSION_TIME_US) as i64).saturating_neg(),
+                );
+                if t.latest_start.0 <= MAX_MISSION_TIME_US {
+                    f(0, s, t.latest_start.0 as i64);
+                }
             }
         }
     };
