@@ -8,10 +8,12 @@ pub mod bench;
 pub mod defmt_log;
 pub mod firmware;
 pub mod link;
+pub mod mission;
 pub mod qemu;
 pub mod run;
 pub mod scenario;
 pub mod session;
+pub mod tasknet;
 
 use std::path::PathBuf;
 

@@ -40,6 +40,15 @@ enum Command {
         /// Write the JSON report here.
         #[arg(long, value_name = "FILE")]
         report: Option<PathBuf>,
+        /// Write JUnit XML here (missions: one test case per expectation).
+        #[arg(long, value_name = "FILE")]
+        junit: Option<PathBuf>,
+        /// Write the Gantt chart (HTML with SVG) here.
+        #[arg(long, value_name = "FILE")]
+        gantt: Option<PathBuf>,
+        /// Run a mission on the native target (flight application compiled into hil, no QEMU).
+        #[arg(long)]
+        native: bool,
         /// Do not print the target's log lines.
         #[arg(long)]
         no_logs: bool,
@@ -77,6 +86,71 @@ fn main() -> ExitCode {
     }
 }
 
+/// Files a mission run writes besides its run directory.
+struct MissionOutputs {
+    report: Option<PathBuf>,
+    junit: Option<PathBuf>,
+    gantt: Option<PathBuf>,
+}
+
+fn run_mission(
+    path: &std::path::Path,
+    scenario: scenario::Scenario,
+    options: &RunOptions,
+    outputs: &MissionOutputs,
+) -> Result<ExitCode, String> {
+    let prepared = hil::mission::report::prepare(path, scenario).map_err(|e| e.to_string())?;
+    let (mut target, fw) =
+        hil::mission::report::make_target(&prepared, options, &mut |l| println!("  {l}"))?;
+    println!("  target    {}", target.describe());
+    let (start, end) = (prepared.mission.start, prepared.mission.end);
+    let bar = indicatif::ProgressBar::new((end.0 - start.0) / 1_000_000);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("  {bar:40} {msg} mission time")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let result =
+        hil::mission::report::run(&prepared, target.as_mut(), fw.as_ref(), &mut |now, s, _| {
+            bar.set_position((now.0 - s.0) / 1_000_000);
+            bar.set_message(hil::mission::time::fmt_time(now));
+        });
+    bar.finish_and_clear();
+    let report = result.map_err(|e| e.to_string())?;
+    let logs = target.take_logs();
+    drop(target);
+    println!("{}", hil::mission::report::summary(&report));
+    let dir = hil::repo_root()
+        .join("target/hil-runs")
+        .join(report.scenario.replace(['/', ' '], "_"));
+    std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+    let json = serde_json::to_string_pretty(&report).map_err(|e| e.to_string())?;
+    let html = hil::mission::gantt::render(&report, &prepared.network, start, end);
+    let xml = hil::mission::report::junit(&report);
+    let log: String = logs.iter().map(|l| format!("{l}\n")).collect();
+    let mut written = Vec::new();
+    for (name, explicit, contents) in [
+        ("report.json", &outputs.report, &json),
+        ("junit.xml", &outputs.junit, &xml),
+        ("gantt.html", &outputs.gantt, &html),
+        ("target.log", &None, &log),
+    ] {
+        for file in [Some(dir.join(name)), explicit.clone()]
+            .into_iter()
+            .flatten()
+        {
+            std::fs::write(&file, contents)
+                .map_err(|e| format!("cannot write {}: {e}", file.display()))?;
+            written.push(file.display().to_string());
+        }
+    }
+    println!("  reports: {}", written.join(", "));
+    Ok(if report.passed {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
 fn execute(command: Command) -> Result<ExitCode, String> {
     match command {
         Command::Run {
@@ -86,6 +160,9 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             firmware,
             realtime,
             report,
+            junit,
+            gantt,
+            native,
             no_logs,
         } => {
             let scenario = scenario::load(&path).map_err(|e| e.to_string())?;
@@ -97,7 +174,16 @@ fn execute(command: Command) -> Result<ExitCode, String> {
                 realtime,
                 echo_logs: !no_logs,
                 verbose: true,
+                native,
             };
+            if scenario.mission.is_some() {
+                let outputs = MissionOutputs {
+                    report,
+                    junit,
+                    gantt,
+                };
+                return run_mission(&path, scenario, &options, &outputs);
+            }
             let result = run_scenario(&scenario, &options, &mut |line| println!("  {line}"))
                 .map_err(|e| e.to_string())?;
             println!("{}", summary(&result));

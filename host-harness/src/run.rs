@@ -28,6 +28,8 @@ pub struct RunOptions {
     pub echo_logs: bool,
     /// Print progress lines.
     pub verbose: bool,
+    /// Run missions on the native target (the flight application compiled into hil).
+    pub native: bool,
 }
 
 #[derive(Debug, thiserror::Error)]

@@ -26,6 +26,9 @@ use fsw_bridge::ResetCause;
 use serde::Deserialize;
 use toml::Spanned;
 
+use crate::mission::sim::SpacecraftConfig;
+use crate::mission::spec::{EventSpec, ExpectSpec, LinkFaultSpec, MissionSpec};
+
 /// Most pings one step may ask for.
 pub const MAX_PINGS_PER_STEP: u32 = 100_000;
 /// Most corrupted frames one step may send.
@@ -37,14 +40,33 @@ pub struct Scenario {
     pub name: String,
     #[serde(default)]
     pub description: String,
+    /// Seed for everything random in the run (noise, probabilistic faults, link faults).
+    #[serde(default)]
+    pub seed: u64,
     #[serde(default)]
     pub target: TargetSpec,
+    /// Link-level steps (handshake, pings, resets). A scenario has steps or a mission.
+    #[serde(default)]
     pub steps: Vec<Spanned<Step>>,
+    /// A mission: task network, span, events, expectations (see `crate::mission`).
+    pub mission: Option<Spanned<MissionSpec>>,
+    #[serde(default)]
+    pub spacecraft: SpacecraftConfig,
+    #[serde(default)]
+    pub events: Vec<Spanned<EventSpec>>,
+    #[serde(default)]
+    pub link: LinkFaultSpec,
+    #[serde(default)]
+    pub expect: Vec<Spanned<ExpectSpec>>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TargetSpec {
+    /// Where the flight software runs: "qemu" (default: the emulated RAD750 proxy, or a real
+    /// board with `serial`) or "native" (compiled into hil; missions only).
+    #[serde(default)]
+    pub kind: TargetKind,
     /// QEMU profile name (`qemu/<profile>.toml`) or path.
     #[serde(default = "default_profile")]
     pub profile: String,
@@ -56,9 +78,18 @@ pub struct TargetSpec {
     pub hello_timeout_ms: u64,
 }
 
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum TargetKind {
+    #[default]
+    Qemu,
+    Native,
+}
+
 impl Default for TargetSpec {
     fn default() -> Self {
         Self {
+            kind: TargetKind::Qemu,
             profile: default_profile(),
             serial: None,
             baud: None,
@@ -182,11 +213,39 @@ pub fn parse(text: &str, path: &Path) -> Result<Scenario, ScenarioError> {
     };
     let scenario: Scenario =
         toml::from_str(text).map_err(|e| invalid(e.span(), e.message().to_string()))?;
-    if scenario.steps.is_empty() {
-        return Err(invalid(
-            None,
-            "steps: a scenario needs at least one step".into(),
-        ));
+    match (&scenario.mission, scenario.steps.is_empty()) {
+        (None, true) => {
+            return Err(invalid(
+                None,
+                "a scenario needs [[steps]] (link checks) or a [mission]".into(),
+            ))
+        }
+        (Some(m), false) => {
+            return Err(invalid(
+                Some(m.span()),
+                "mission: a scenario has either [[steps]] or a [mission], not both".into(),
+            ))
+        }
+        _ => {}
+    }
+    if scenario.mission.is_none() {
+        for (what, span) in [
+            ("events", scenario.events.first().map(|e| e.span())),
+            ("expect", scenario.expect.first().map(|e| e.span())),
+        ] {
+            if let Some(span) = span {
+                return Err(invalid(
+                    Some(span),
+                    format!("{what}: only a [mission] has {what}"),
+                ));
+            }
+        }
+        if scenario.target.kind == TargetKind::Native {
+            return Err(invalid(
+                None,
+                "target.kind: \"native\" runs missions only".into(),
+            ));
+        }
     }
     for step in &scenario.steps {
         let problem = match step.get_ref() {

@@ -1,0 +1,767 @@
+//! The lockstep time driver. The host grants mission time frame by frame: before each grant it
+//! delivers what the spacecraft published and answered since the last one; the target consumes
+//! input only at frame boundaries, runs one frame, reports its decisions and FrameDone with the
+//! earliest time it next needs to run. The next grant is at the earliest of that, the next
+//! spacecraft event, the next scenario event and `max_frame`: idle stretches cost nothing.
+//!
+//! Link faults are injected by the host, seeded: bytes corrupted or frames dropped or delayed
+//! in both directions. A grant or FrameDone lost that way is retransmitted at once (the target
+//! answers a repeated grant with the same FrameDone), so a lossy link costs inputs and
+//! decisions, as it would in flight, but never stalls the run or makes it depend on wall time.
+use std::path::Path;
+
+use fsw_bridge::codec::{encode, FrameDecoder, MAX_FRAME_LEN};
+use fsw_bridge::messages::UPLINK_CHUNK_MAX;
+use fsw_bridge::{
+    CommandStatus, HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, StateKey,
+    StateValue, TargetToHost,
+};
+use sha2::{Digest, Sha256};
+
+use super::record::MissionRecord;
+use super::rng::Rng;
+use super::sim::{CommandFate, Spacecraft};
+use super::spec::{CommandFaultSpec, EventSpec, LinkFaultSpec, MissionSpec};
+use super::target::{MissionTarget, TargetError};
+use super::time::{fmt_time, parse_duration, parse_time};
+use super::CompiledNetwork;
+use crate::scenario::Scenario;
+
+/// Consecutive grants at the same mission time after which the run is declared stuck.
+pub const MAX_ZERO_ADVANCE_FRAMES: u32 = 10_000;
+/// Retransmissions of one grant before the run gives up.
+pub const MAX_GRANT_ATTEMPTS: u32 = 50;
+
+#[derive(Debug, thiserror::Error)]
+pub enum MissionError {
+    #[error("{0}")]
+    Invalid(String),
+    #[error(transparent)]
+    Target(#[from] TargetError),
+    #[error("the target refused the task-network uplink (reason code {reason:#06x})")]
+    UplinkRefused { reason: u16 },
+    #[error("the target kept asking to run at {at} ({frames} frames without time advancing)")]
+    Stuck { at: String, frames: u32 },
+    #[error("the grant for frame {frame} was lost {attempts} times in a row")]
+    LinkDown { frame: u32, attempts: u32 },
+    #[error("expected reset cause {expected} after the {what} at {at}, got {got}")]
+    WrongResetCause {
+        what: String,
+        at: String,
+        expected: String,
+        got: String,
+    },
+}
+
+/// One scenario event with its time resolved.
+#[derive(Clone, Debug)]
+struct Event {
+    at: MissionTimeUs,
+    index: usize,
+    action: Action,
+}
+
+#[derive(Clone, Debug)]
+enum Action {
+    WarmReset {
+        recovery_us: u64,
+    },
+    PowerCycle {
+        recovery_us: u64,
+    },
+    CommandFault(Fault),
+    Override {
+        key: StateKey,
+        value: StateValue,
+        name: String,
+    },
+    Change {
+        key: StateKey,
+        by: i64,
+        name: String,
+    },
+}
+
+#[derive(Clone, Debug)]
+struct Fault {
+    opcode: Opcode,
+    /// Remaining dispatches to let through before the one that fails (None: probabilistic).
+    skip: Option<u32>,
+    probability: f64,
+    fate: CommandFate,
+    spent: bool,
+}
+
+/// The resolved mission: times, events, faults.
+pub struct Mission {
+    pub start: MissionTimeUs,
+    pub end: MissionTimeUs,
+    pub max_frame_us: Option<u64>,
+    events: Vec<Event>,
+    link: LinkFaultSpec,
+    pub seed: u64,
+}
+
+fn field_err(field: &str, message: impl std::fmt::Display) -> MissionError {
+    MissionError::Invalid(format!("{field}: {message}"))
+}
+
+impl Mission {
+    /// Resolve the scenario's mission part against the compiled network.
+    pub fn resolve(
+        scenario: &Scenario,
+        spec: &MissionSpec,
+        net: &CompiledNetwork,
+    ) -> Result<Self, MissionError> {
+        let start = parse_time(&spec.start).map_err(|e| field_err("mission.start", e))?;
+        let end = parse_time(&spec.end).map_err(|e| field_err("mission.end", e))?;
+        if end <= start {
+            return Err(field_err("mission.end", "must be after mission.start"));
+        }
+        let max_frame_us = spec
+            .max_frame
+            .as_deref()
+            .map(|d| parse_duration(d).map_err(|e| field_err("mission.max_frame", e)))
+            .transpose()?;
+        if max_frame_us == Some(0) {
+            return Err(field_err("mission.max_frame", "must be longer than 0"));
+        }
+        let mut events = Vec::new();
+        for (index, ev) in scenario.events.iter().enumerate() {
+            let ev = ev.get_ref();
+            let field = format!("events[{index}]");
+            let at = parse_time(&ev.at).map_err(|e| field_err(&format!("{field}.at"), e))?;
+            if at < start || at > end {
+                return Err(field_err(
+                    &format!("{field}.at"),
+                    format!(
+                        "{} is outside the mission ({} to {})",
+                        ev.at, spec.start, spec.end
+                    ),
+                ));
+            }
+            let action = resolve_action(ev, &field, net)?;
+            events.push(Event { at, index, action });
+        }
+        events.sort_by_key(|e| (e.at, e.index));
+        for (field, p) in [
+            ("link.corrupt", scenario.link.corrupt),
+            ("link.drop", scenario.link.drop),
+            ("link.delay", scenario.link.delay),
+        ] {
+            if !(0.0..=0.5).contains(&p) {
+                return Err(field_err(
+                    field,
+                    format!("{p} is not a probability in 0..=0.5"),
+                ));
+            }
+        }
+        Ok(Self {
+            start,
+            end,
+            max_frame_us,
+            events,
+            link: scenario.link.clone(),
+            seed: scenario.seed,
+        })
+    }
+
+    /// Times of the resets this mission injects (for campaigns and reports).
+    pub fn reset_times(&self) -> Vec<MissionTimeUs> {
+        self.events
+            .iter()
+            .filter(|e| {
+                matches!(
+                    e.action,
+                    Action::WarmReset { .. } | Action::PowerCycle { .. }
+                )
+            })
+            .map(|e| e.at)
+            .collect()
+    }
+
+    /// Add a warm reset at `at` (campaign variants).
+    pub fn add_warm_reset(&mut self, at: MissionTimeUs, recovery_us: u64) {
+        let index = self.events.len() + 1000;
+        self.events.push(Event {
+            at,
+            index,
+            action: Action::WarmReset { recovery_us },
+        });
+        self.events.sort_by_key(|e| (e.at, e.index));
+    }
+}
+
+fn resolve_action(
+    ev: &EventSpec,
+    field: &str,
+    net: &CompiledNetwork,
+) -> Result<Action, MissionError> {
+    let mut actions = Vec::new();
+    let recovery = |r: &super::spec::ResetSpec, what: &str| {
+        r.recovery
+            .as_deref()
+            .map(|d| {
+                parse_duration(d).map_err(|e| field_err(&format!("{field}.{what}.recovery"), e))
+            })
+            .transpose()
+            .map(|v| v.unwrap_or(0))
+    };
+    if let Some(r) = &ev.warm_reset {
+        actions.push(Action::WarmReset {
+            recovery_us: recovery(r, "warm_reset")?,
+        });
+    }
+    if let Some(r) = &ev.power_cycle {
+        actions.push(Action::PowerCycle {
+            recovery_us: recovery(r, "power_cycle")?,
+        });
+    }
+    if let Some(f) = &ev.command_failure {
+        let status = match f.status.as_deref().unwrap_or("failed") {
+            "failed" => CommandStatus::Failed(f.code.unwrap_or(1)),
+            "rejected" => CommandStatus::Rejected,
+            other => {
+                return Err(field_err(
+                    &format!("{field}.command_failure.status"),
+                    format!("{other:?} is not one of \"failed\", \"rejected\""),
+                ))
+            }
+        };
+        actions.push(Action::CommandFault(fault(
+            f,
+            CommandFate::Answer(status),
+            &format!("{field}.command_failure"),
+        )?));
+    }
+    if let Some(f) = &ev.command_timeout {
+        actions.push(Action::CommandFault(fault(
+            f,
+            CommandFate::Silent,
+            &format!("{field}.command_timeout"),
+        )?));
+    }
+    if let Some(o) = &ev.state_override {
+        let f = format!("{field}.state_override");
+        let (key, values) = net.timeline(&o.timeline).ok_or_else(|| {
+            field_err(
+                &format!("{f}.timeline"),
+                format!("no timeline named {:?}", o.timeline),
+            )
+        })?;
+        let key = key.ok_or_else(|| {
+            field_err(
+                &format!("{f}.timeline"),
+                format!(
+                    "{:?} has no state key: the spacecraft does not publish it",
+                    o.timeline
+                ),
+            )
+        })?;
+        let value = value_of(&o.value, values).map_err(|e| field_err(&format!("{f}.value"), e))?;
+        actions.push(Action::Override {
+            key,
+            value,
+            name: o.timeline.clone(),
+        });
+    }
+    if let Some(c) = &ev.state_change {
+        let f = format!("{field}.state_change");
+        let (key, values) = net.timeline(&c.timeline).ok_or_else(|| {
+            field_err(
+                &format!("{f}.timeline"),
+                format!("no timeline named {:?}", c.timeline),
+            )
+        })?;
+        if !values.is_empty() {
+            return Err(field_err(
+                &format!("{f}.timeline"),
+                "a state timeline cannot change by an amount; use state_override",
+            ));
+        }
+        let key = key.ok_or_else(|| field_err(&format!("{f}.timeline"), "it has no state key"))?;
+        actions.push(Action::Change {
+            key,
+            by: c.by,
+            name: c.timeline.clone(),
+        });
+    }
+    match actions.len() {
+        1 => Ok(actions.remove(0)),
+        0 => Err(field_err(field, "an event needs one action (warm_reset, power_cycle, command_failure, command_timeout, state_override, state_change)")),
+        _ => Err(field_err(field, "an event has exactly one action; split it into several events")),
+    }
+}
+
+fn fault(f: &CommandFaultSpec, fate: CommandFate, field: &str) -> Result<Fault, MissionError> {
+    if let Some(p) = f.probability {
+        if !(0.0..=1.0).contains(&p) {
+            return Err(field_err(
+                &format!("{field}.probability"),
+                format!("{p} is not in 0..=1"),
+            ));
+        }
+        if f.occurrence.is_some() {
+            return Err(field_err(
+                field,
+                "give either occurrence or probability, not both",
+            ));
+        }
+    }
+    let occurrence = f.occurrence.unwrap_or(1);
+    if occurrence == 0 {
+        return Err(field_err(&format!("{field}.occurrence"), "counts from 1"));
+    }
+    Ok(Fault {
+        opcode: Opcode(f.opcode),
+        skip: if f.probability.is_some() {
+            None
+        } else {
+            Some(occurrence - 1)
+        },
+        probability: f.probability.unwrap_or(0.0),
+        fate,
+        spent: false,
+    })
+}
+
+/// A value as a scenario writes it: a value name of a state timeline, or an integer.
+pub fn value_of(v: &toml::Value, values: &[String]) -> Result<StateValue, String> {
+    match v {
+        toml::Value::String(name) if name == "UNKNOWN" && !values.iter().any(|x| x == name) => {
+            Ok(StateValue::Unknown)
+        }
+        toml::Value::String(name) => values
+            .iter()
+            .position(|x| x == name)
+            .map(|i| StateValue::Enum(i as u16))
+            .ok_or_else(|| {
+                format!(
+                    "{name:?} is not a value of this timeline (values: {})",
+                    values.join(", ")
+                )
+            }),
+        toml::Value::Integer(i) if values.is_empty() => Ok(StateValue::Int(*i)),
+        toml::Value::Integer(_) => Err("this is a state timeline: give a value name".into()),
+        toml::Value::Boolean(b) => Ok(StateValue::Bool(*b)),
+        other => Err(format!("{other} is not a value name or an integer")),
+    }
+}
+
+/// Host-side link fault injection.
+struct LinkFaults {
+    spec: LinkFaultSpec,
+    tx_rng: Rng,
+    rx_rng: Rng,
+    delayed: Vec<Vec<u8>>,
+    rx_decoder: FrameDecoder,
+    injected_tx: u64,
+    injected_rx: u64,
+}
+
+fn frame_of<M: serde::Serialize>(msg: &M) -> Vec<u8> {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = encode(msg, &mut buf).expect("messages fit a frame");
+    buf[..n].to_vec()
+}
+
+impl LinkFaults {
+    fn new(spec: LinkFaultSpec, seed: u64) -> Self {
+        let rng = Rng::new(seed);
+        Self {
+            spec,
+            tx_rng: rng.fork(0x7e),
+            rx_rng: rng.fork(0x7f),
+            delayed: Vec::new(),
+            rx_decoder: FrameDecoder::new(),
+            injected_tx: 0,
+            injected_rx: 0,
+        }
+    }
+
+    fn active(&self) -> bool {
+        self.spec.corrupt > 0.0 || self.spec.drop > 0.0 || self.spec.delay > 0.0
+    }
+
+    /// Corrupt bytes of `frame` (not the delimiters); true if anything changed.
+    fn corrupt(rng: &mut Rng, p: f64, frame: &mut [u8]) -> bool {
+        let mut hit = false;
+        let len = frame.len();
+        for b in frame.iter_mut().take(len.saturating_sub(1)).skip(1) {
+            if rng.chance(p) {
+                *b ^= 1 << rng.below(8);
+                hit = true;
+            }
+        }
+        hit
+    }
+
+    /// What goes on the wire for `msg` this frame (nothing, if dropped or delayed). Returns the
+    /// bytes and whether they arrive intact.
+    fn tx(&mut self, msg: &HostToTarget, out: &mut Vec<Vec<u8>>) -> bool {
+        let mut frame = frame_of(msg);
+        if !self.active() {
+            out.push(frame);
+            return true;
+        }
+        if self.tx_rng.chance(self.spec.drop) {
+            self.injected_tx += 1;
+            return false;
+        }
+        if self.tx_rng.chance(self.spec.delay) {
+            self.injected_tx += 1;
+            self.delayed.push(frame);
+            return false;
+        }
+        let hit = Self::corrupt(&mut self.tx_rng, self.spec.corrupt, &mut frame);
+        if hit {
+            self.injected_tx += 1;
+        }
+        out.push(frame);
+        !hit
+    }
+
+    /// Frames held back from the previous frame.
+    fn take_delayed(&mut self) -> Vec<Vec<u8>> {
+        std::mem::take(&mut self.delayed)
+    }
+
+    /// What the host receives of `msg` after the link.
+    fn rx(&mut self, msg: TargetToHost) -> Option<TargetToHost> {
+        if !self.active() {
+            return Some(msg);
+        }
+        if self.rx_rng.chance(self.spec.drop) {
+            self.injected_rx += 1;
+            return None;
+        }
+        let mut frame = frame_of(&msg);
+        if !Self::corrupt(&mut self.rx_rng, self.spec.corrupt, &mut frame) {
+            return Some(msg);
+        }
+        self.injected_rx += 1;
+        let mut got = None;
+        for b in frame {
+            if let Some(Ok(m)) = self.rx_decoder.push::<TargetToHost>(b) {
+                got = Some(m);
+            }
+        }
+        got
+    }
+}
+
+/// The transcript: every frame both ways, in order, and its SHA-256.
+#[derive(Default)]
+pub struct Transcript {
+    hasher: Sha256,
+    pub frames: u64,
+    pub bytes: u64,
+}
+
+impl Transcript {
+    fn sent(&mut self, frame: &[u8]) {
+        self.hasher.update(b"T");
+        self.hasher.update((frame.len() as u32).to_be_bytes());
+        self.hasher.update(frame);
+        self.frames += 1;
+        self.bytes += frame.len() as u64;
+    }
+
+    fn received(&mut self, msg: &TargetToHost) {
+        let frame = frame_of(msg);
+        self.hasher.update(b"R");
+        self.hasher.update((frame.len() as u32).to_be_bytes());
+        self.hasher.update(&frame);
+        self.frames += 1;
+        self.bytes += frame.len() as u64;
+    }
+
+    pub fn finish(self) -> String {
+        self.hasher
+            .finalize()
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect()
+    }
+}
+
+/// The outcome of driving a mission.
+pub struct MissionRun {
+    pub record: MissionRecord,
+    pub transcript_sha256: String,
+    pub transcript_frames: u64,
+    pub injected_link_faults: u64,
+    pub host_link_errors: LinkCounters,
+}
+
+/// Progress callback: (mission time now, mission start, mission end).
+pub type Progress<'a> = &'a mut dyn FnMut(MissionTimeUs, MissionTimeUs, MissionTimeUs);
+
+/// Run `mission` on `target`.
+pub fn drive(
+    mission: &Mission,
+    net: &CompiledNetwork,
+    spacecraft: &super::sim::SpacecraftConfig,
+    target: &mut dyn MissionTarget,
+    progress: Progress<'_>,
+) -> Result<MissionRun, MissionError> {
+    let mut sim = Spacecraft::new(spacecraft, net, mission.start, mission.seed)
+        .map_err(|e| field_err(&e.field, e.message))?;
+    let mut faults = LinkFaults::new(mission.link.clone(), mission.seed);
+    let mut fault_rng = Rng::new(mission.seed).fork(0xfa);
+    let mut armed: Vec<Fault> = Vec::new();
+    let mut rec = MissionRecord::default();
+    let mut transcript = Transcript::default();
+    let mut events = mission.events.iter().peekable();
+
+    let hello = target.boot()?;
+    rec.label(
+        mission.start,
+        format!("boot ({})", crate::scenario::cause_name(hello.reset_cause)),
+    );
+    uplink(target, &net.uplink, &mut transcript)?;
+
+    let mut now = mission.start;
+    let mut frame: u32 = 0;
+    let mut inputs = sim.publish_all(now);
+    let mut zero_advance = 0u32;
+    loop {
+        // Scenario events due now happen before the grant.
+        while let Some(ev) = events.next_if(|e| e.at <= now) {
+            match &ev.action {
+                Action::WarmReset { recovery_us } | Action::PowerCycle { recovery_us } => {
+                    let power = matches!(ev.action, Action::PowerCycle { .. });
+                    let what = if power { "power cycle" } else { "warm reset" };
+                    if power {
+                        target.power_cycle()?;
+                    } else {
+                        target.warm_reset()?;
+                    }
+                    sim.reset(now);
+                    // Fault protection runs; the flight software is down.
+                    now = now.saturating_add(*recovery_us);
+                    let _ = sim.due(now);
+                    let hello = target.boot()?;
+                    let expected = if power {
+                        ResetCause::PowerOn
+                    } else {
+                        ResetCause::Warm
+                    };
+                    if hello.reset_cause != expected {
+                        return Err(MissionError::WrongResetCause {
+                            what: what.into(),
+                            at: fmt_time(ev.at),
+                            expected: crate::scenario::cause_name(expected).into(),
+                            got: crate::scenario::cause_name(hello.reset_cause).into(),
+                        });
+                    }
+                    rec.reset(ev.at, what, *recovery_us, hello.reset_cause);
+                    rec.label(
+                        now,
+                        format!(
+                            "flight software restarted ({})",
+                            crate::scenario::cause_name(hello.reset_cause)
+                        ),
+                    );
+                    if power {
+                        // A power-cycled target has no network in RAM; it restores from NV.
+                    }
+                    inputs = sim.publish_all(now);
+                }
+                Action::CommandFault(f) => {
+                    rec.faults.push((
+                        now.0,
+                        format!("armed {:?} for opcode {:#06x}", f.fate, f.opcode.0),
+                    ));
+                    armed.push(f.clone());
+                }
+                Action::Override { key, value, name } => {
+                    sim.override_state(*key, *value, now);
+                    rec.faults
+                        .push((now.0, format!("{name} forced to {value:?}")));
+                }
+                Action::Change { key, by, name } => {
+                    sim.add_to(*key, *by, now)
+                        .map_err(|e| field_err("events", e))?;
+                    rec.faults.push((now.0, format!("{name} changed by {by}")));
+                }
+            }
+        }
+        inputs.extend(sim.due(now));
+        for msg in &inputs {
+            if let HostToTarget::StateUpdate {
+                key,
+                value,
+                timestamp,
+            } = msg
+            {
+                rec.state(*key, *value, *timestamp);
+            }
+        }
+        // Frames for this grant: held-back frames, inputs, the grant.
+        let mut wire = faults.take_delayed();
+        for msg in inputs.drain(..) {
+            faults.tx(&msg, &mut wire);
+        }
+        let until = next_stop(now, mission, &sim, None, events.peek().map(|e| e.at));
+        let grant = HostToTarget::TimeGrant { frame, now, until };
+        if !faults.tx(&grant, &mut wire) {
+            // Retransmission of a grant the link damaged or lost.
+            wire.push(frame_of(&grant));
+        }
+        let mut next_wakeup = None;
+        let mut attempts = 0;
+        loop {
+            for f in &wire {
+                transcript.sent(f);
+            }
+            let outputs = target.exchange(&wire, frame)?;
+            let mut done = false;
+            for msg in outputs {
+                let Some(msg) = faults.rx(msg) else { continue };
+                transcript.received(&msg);
+                match &msg {
+                    TargetToHost::CommandDispatch { id, opcode, args } => {
+                        rec.dispatch(now, *id, *opcode, args);
+                        let fate = fate_of(&mut armed, *opcode, &mut fault_rng);
+                        if fate != CommandFate::Nominal {
+                            rec.faults.push((
+                                now.0,
+                                format!("command {id} (opcode {:#06x}): {fate:?}", opcode.0),
+                            ));
+                        }
+                        sim.on_dispatch(now, *id, *opcode, args, fate);
+                    }
+                    TargetToHost::Telemetry(ev) => rec.telemetry(ev, &net.network),
+                    TargetToHost::FrameDone {
+                        frame: f,
+                        next_wakeup: w,
+                        ..
+                    } if *f == frame => {
+                        done = true;
+                        next_wakeup = *w;
+                    }
+                    TargetToHost::Hello { reset_cause, .. } => {
+                        // The target reset itself (health monitor, watchdog).
+                        rec.reset(now, "target-initiated reset", 0, *reset_cause);
+                        inputs = sim.publish_all(now);
+                    }
+                    _ => {}
+                }
+            }
+            if done {
+                break;
+            }
+            attempts += 1;
+            if attempts >= MAX_GRANT_ATTEMPTS {
+                return Err(MissionError::LinkDown { frame, attempts });
+            }
+            wire = vec![frame_of(&grant)];
+        }
+        rec.frames += 1;
+        progress(now, mission.start, mission.end);
+        if now >= mission.end {
+            break;
+        }
+        let next = next_stop(now, mission, &sim, next_wakeup, events.peek().map(|e| e.at));
+        if next <= now {
+            zero_advance += 1;
+            if zero_advance > MAX_ZERO_ADVANCE_FRAMES {
+                return Err(MissionError::Stuck {
+                    at: fmt_time(now),
+                    frames: zero_advance,
+                });
+            }
+        } else {
+            zero_advance = 0;
+        }
+        now = next.max(now);
+        frame = frame.wrapping_add(1);
+    }
+    Ok(MissionRun {
+        record: rec,
+        transcript_frames: transcript.frames,
+        transcript_sha256: transcript.finish(),
+        injected_link_faults: faults.injected_tx + faults.injected_rx,
+        host_link_errors: faults.rx_decoder.counters(),
+    })
+}
+
+/// The next time anything needs to happen, never past the mission's end.
+fn next_stop(
+    now: MissionTimeUs,
+    mission: &Mission,
+    sim: &Spacecraft,
+    wakeup: Option<MissionTimeUs>,
+    next_event: Option<MissionTimeUs>,
+) -> MissionTimeUs {
+    let mut next = mission.end;
+    for t in [wakeup, sim.next_event(), next_event].into_iter().flatten() {
+        next = next.min(t.max(now));
+    }
+    if let Some(max) = mission.max_frame_us {
+        next = next.min(now.saturating_add(max));
+    }
+    next
+}
+
+fn fate_of(armed: &mut [Fault], opcode: Opcode, rng: &mut Rng) -> CommandFate {
+    for f in armed.iter_mut().filter(|f| f.opcode == opcode && !f.spent) {
+        match &mut f.skip {
+            Some(0) => {
+                f.spent = true;
+                return f.fate;
+            }
+            Some(n) => *n -= 1,
+            None => {
+                if rng.chance(f.probability) {
+                    return f.fate;
+                }
+            }
+        }
+    }
+    CommandFate::Nominal
+}
+
+/// Send the task network in chunks; every chunk must be acknowledged and the last one
+/// validated (UplinkAck with seq == total).
+fn uplink(
+    target: &mut dyn MissionTarget,
+    bytes: &[u8],
+    transcript: &mut Transcript,
+) -> Result<(), MissionError> {
+    let chunks: Vec<&[u8]> = bytes.chunks(UPLINK_CHUNK_MAX).collect();
+    let total = u16::try_from(chunks.len())
+        .map_err(|_| MissionError::Invalid("the task network is too large to uplink".into()))?;
+    for (seq, chunk) in chunks.iter().enumerate() {
+        let seq = seq as u16;
+        let msg = HostToTarget::UplinkChunk {
+            seq,
+            total,
+            bytes: heapless::Vec::from_slice(chunk).expect("chunk fits"),
+        };
+        let frame = frame_of(&msg);
+        transcript.sent(&frame);
+        let last = seq + 1 == total;
+        let replies = target.exchange_until(&[frame], &|m| match m {
+            TargetToHost::UplinkNak { .. } => true,
+            TargetToHost::UplinkAck { seq: s } => (!last && *s == seq) || (last && *s == total),
+            _ => false,
+        })?;
+        for r in &replies {
+            transcript.received(r);
+            if let TargetToHost::UplinkNak { reason, .. } = r {
+                return Err(MissionError::UplinkRefused { reason: *reason });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Load a scenario's task network, relative to the scenario file.
+pub fn network_path(scenario_file: &Path, tasknet: &str) -> std::path::PathBuf {
+    scenario_file
+        .parent()
+        .unwrap_or(Path::new("."))
+        .join(tasknet)
+}

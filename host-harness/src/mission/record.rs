@@ -1,0 +1,306 @@
+//! What happened in a mission: every decision the target reported, the as-executed task
+//! instances reconstructed from them, the spacecraft's actual states, resets, metrics; and the
+//! evaluation of a scenario's expectations against all that.
+use std::collections::BTreeMap;
+
+use autonomy::{PlanModificationKind, TaskNetwork, TaskState, FIRST_INSTANCE_ID};
+use fsw_bridge::{
+    CommandArgs, MissionTimeUs, Opcode, ResetCause, StateKey, StateValue, TelemetryEvent,
+};
+use serde::Serialize;
+
+use super::time::fmt_time;
+
+/// One decision of the autonomy, as reported by the target, with its mission time.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub enum Decision {
+    Dispatch {
+        at: u64,
+        id: u32,
+        opcode: u16,
+        args: Vec<i32>,
+    },
+    Transition {
+        at: u64,
+        task: u16,
+        from: u8,
+        to: u8,
+    },
+    PlanModification {
+        at: u64,
+        kind: u8,
+        task: u16,
+        template: u16,
+    },
+}
+
+/// One task instance as executed.
+#[derive(Clone, Debug, Serialize)]
+pub struct Instance {
+    pub id: u16,
+    /// Ground id of its task definition.
+    pub definition: u16,
+    pub name: String,
+    /// When the planner handed it to the executive (first commit).
+    pub committed_at: Option<u64>,
+    /// Start of execution: the dispatch of its command (Running for a no-op task).
+    pub started_at: Option<u64>,
+    pub ended_at: Option<u64>,
+    /// Final state code (TaskState::code), if it finished.
+    pub outcome: Option<u8>,
+    /// How it came to be: requested, added, restarted.
+    pub origin: String,
+}
+
+impl Instance {
+    pub fn outcome_name(&self) -> &'static str {
+        match self.outcome.and_then(TaskState::from_code) {
+            None => "not-finished",
+            Some(TaskState::Completed) => "completed",
+            Some(TaskState::Skipped) => "skipped",
+            Some(TaskState::Deleted) => "deleted",
+            Some(TaskState::Failed(autonomy::FailureKind::MaintainViolation)) => "aborted",
+            Some(TaskState::Failed(_)) => "failed",
+            Some(_) => "not-finished",
+        }
+    }
+}
+
+/// A reset the host caused.
+#[derive(Clone, Debug, Serialize)]
+pub struct ResetRecord {
+    pub at: u64,
+    pub kind: String,
+    pub recovery_us: u64,
+    pub restart_at: u64,
+    pub reset_cause: String,
+    /// Guest ticks of the first frame after the restart (restore + repair), when measured.
+    pub recovery_ticks: Option<u64>,
+}
+
+/// Everything recorded during a mission.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct MissionRecord {
+    pub decisions: Vec<Decision>,
+    pub instances: Vec<Instance>,
+    /// Labelled happenings in order: "<task> added", "<task> started", "warm reset", ...
+    pub labels: Vec<(u64, String)>,
+    pub resets: Vec<ResetRecord>,
+    /// Actual spacecraft states as published, per state key.
+    #[serde(skip)]
+    pub states: BTreeMap<StateKey, Vec<(MissionTimeUs, StateValue)>>,
+    /// Named metrics (maxima over the run unless the name says otherwise).
+    pub metrics: BTreeMap<String, u64>,
+    /// Frames granted.
+    pub frames: u64,
+    /// Injected faults, in order.
+    pub faults: Vec<(u64, String)>,
+}
+
+/// Instructions per timebase tick under `-icount shift=2` (4 ns per instruction, 16.6 MHz).
+pub const INSTRUCTIONS_PER_TICK_X1000: u64 = 15_060;
+
+impl MissionRecord {
+    fn instance_mut(&mut self, id: u16, network: &TaskNetwork) -> &mut Instance {
+        if let Some(i) = self.instances.iter().position(|i| i.id == id) {
+            return &mut self.instances[i];
+        }
+        let (definition, origin) = if id < FIRST_INSTANCE_ID {
+            (id, "requested".to_string())
+        } else {
+            (u16::MAX, "added".to_string())
+        };
+        self.instances.push(Instance {
+            id,
+            definition,
+            name: task_name(network, definition),
+            committed_at: None,
+            started_at: None,
+            ended_at: None,
+            outcome: None,
+            origin,
+        });
+        self.instances.last_mut().expect("just pushed")
+    }
+
+    pub fn label(&mut self, at: MissionTimeUs, text: impl Into<String>) {
+        self.labels.push((at.0, text.into()));
+    }
+
+    pub fn dispatch(&mut self, at: MissionTimeUs, id: u32, opcode: Opcode, args: &CommandArgs) {
+        self.decisions.push(Decision::Dispatch {
+            at: at.0,
+            id,
+            opcode: opcode.0,
+            args: args.to_vec(),
+        });
+    }
+
+    /// A telemetry event from the target.
+    pub fn telemetry(&mut self, event: &TelemetryEvent, network: &TaskNetwork) {
+        match *event {
+            TelemetryEvent::TaskTransition { task, from, to, at } => {
+                self.decisions.push(Decision::Transition {
+                    at: at.0,
+                    task,
+                    from,
+                    to,
+                });
+                let inst = self.instance_mut(task, network);
+                let state = TaskState::from_code(to);
+                match state {
+                    Some(TaskState::Committed) if inst.committed_at.is_none() => {
+                        inst.committed_at = Some(at.0)
+                    }
+                    // Execution starts with the dispatch (a no-op task goes straight to
+                    // Running); a retry does not move the start.
+                    Some(TaskState::Dispatched | TaskState::Running)
+                        if inst.started_at.is_none() =>
+                    {
+                        inst.started_at = Some(at.0)
+                    }
+                    Some(s) if s.is_terminal() => {
+                        inst.ended_at = Some(at.0);
+                        inst.outcome = Some(to);
+                    }
+                    _ => {}
+                }
+                let name = inst.name.clone();
+                let verb = match state {
+                    Some(TaskState::Committed) => Some("committed"),
+                    Some(TaskState::Dispatched) => Some("dispatched"),
+                    Some(TaskState::Running) => Some("started"),
+                    Some(TaskState::Completed) => Some("completed"),
+                    Some(TaskState::Skipped) => Some("skipped"),
+                    Some(TaskState::Deleted) => Some("deleted"),
+                    Some(TaskState::Failed(autonomy::FailureKind::MaintainViolation)) => {
+                        Some("aborted")
+                    }
+                    Some(TaskState::Failed(_)) => Some("failed"),
+                    _ => None,
+                };
+                if let Some(verb) = verb {
+                    self.label(at, format!("{name} {verb}"));
+                }
+            }
+            TelemetryEvent::PlanModification {
+                kind,
+                task,
+                template,
+                at,
+            } => {
+                self.decisions.push(Decision::PlanModification {
+                    at: at.0,
+                    kind,
+                    task,
+                    template,
+                });
+                let name = task_name(network, template);
+                let verb = match kind {
+                    k if k == PlanModificationKind::Add as u8 => "added",
+                    k if k == PlanModificationKind::Delete as u8 => "deleted from the plan",
+                    k if k == PlanModificationKind::Move as u8 => "moved",
+                    k if k == PlanModificationKind::Restart as u8 => "restarted",
+                    k if k == PlanModificationKind::NetworkLoaded as u8 => {
+                        self.label(at, "task network loaded");
+                        return;
+                    }
+                    k if k == PlanModificationKind::Restored as u8 => {
+                        self.label(at, "plan restored from checkpoint");
+                        return;
+                    }
+                    _ => "modified",
+                };
+                if task != 0 {
+                    let inst = self.instance_mut(task, network);
+                    inst.definition = template;
+                    inst.name = name.clone();
+                    inst.origin = verb.to_string();
+                }
+                self.label(at, format!("{name} {verb}"));
+            }
+            TelemetryEvent::Metric { id, value } => self.metric_event(id, value),
+            TelemetryEvent::HealthMonitor {
+                partition,
+                kind,
+                address,
+                action,
+            } => {
+                self.faults.push((
+                    0,
+                    format!("health monitor: partition {partition} kind {kind} at {address:#x}, action {action}"),
+                ));
+            }
+        }
+    }
+
+    fn metric_event(&mut self, id: u16, value: u64) {
+        use flight_app::metric;
+        let name = match id {
+            metric::STEP_TICKS => "max_step_ticks",
+            metric::CHECKPOINT_TICKS => "max_checkpoint_ticks",
+            metric::RESTORE_TICKS => "max_restore_ticks",
+            metric::RECOVERY_TICKS => {
+                if let Some(r) = self.resets.last_mut() {
+                    r.recovery_ticks.get_or_insert(value);
+                }
+                "max_recovery_ticks"
+            }
+            metric::CHECKPOINT_WRITE_FAILURES => "checkpoint_write_failures",
+            _ => return,
+        };
+        let slot = self.metrics.entry(name.to_string()).or_insert(0);
+        *slot = (*slot).max(value);
+        if name == "max_recovery_ticks" {
+            self.metrics.insert(
+                "max_recovery_instructions".into(),
+                self.metrics[name] * INSTRUCTIONS_PER_TICK_X1000 / 1000,
+            );
+        }
+    }
+
+    /// The spacecraft published `value` for `key` at `at`.
+    pub fn state(&mut self, key: StateKey, value: StateValue, at: MissionTimeUs) {
+        self.states.entry(key).or_default().push((at, value));
+    }
+
+    /// The spacecraft's value of `key` at `t` (last publication at or before `t`).
+    pub fn state_at(&self, key: StateKey, t: MissionTimeUs) -> Option<StateValue> {
+        self.states
+            .get(&key)?
+            .iter()
+            .take_while(|(at, _)| *at <= t)
+            .last()
+            .map(|(_, v)| *v)
+    }
+
+    pub fn reset(&mut self, at: MissionTimeUs, kind: &str, recovery_us: u64, cause: ResetCause) {
+        self.resets.push(ResetRecord {
+            at: at.0,
+            kind: kind.into(),
+            recovery_us,
+            restart_at: at.0 + recovery_us,
+            reset_cause: crate::scenario::cause_name(cause).into(),
+            recovery_ticks: None,
+        });
+        self.label(at, kind.to_string());
+    }
+
+    /// Decision lines ("10:30:00 Instrument Flyby aborted"), for the terminal and diffs.
+    pub fn timeline_lines(&self) -> Vec<String> {
+        self.labels
+            .iter()
+            .map(|(at, l)| format!("{} {l}", fmt_time(MissionTimeUs(*at))))
+            .collect()
+    }
+}
+
+/// Name of a task definition by ground id.
+pub fn task_name(network: &TaskNetwork, id: u16) -> String {
+    network
+        .tasks()
+        .iter()
+        .find(|t| t.id == id)
+        .map(|t| t.name.as_str().to_string())
+        .unwrap_or_else(|| format!("task#{id}"))
+}
