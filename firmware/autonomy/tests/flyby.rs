@@ -261,3 +261,19 @@ fn print_reset_at_10_12() {
         println!("{l}");
     }
 }
+
+/// The planner is anytime: with a budget of one validity check per step it needs more steps
+/// (each at the same mission time, since it asks to run again at once) but reaches the same
+/// as-executed timeline.
+#[test]
+fn throttled_planner_reaches_the_same_recovery() {
+    let mut sim = Sim::flyby();
+    sim.budget = autonomy::StepBudget { planner_checks: 1 };
+    sim.run(hm(11, 30), &[reset_at(10, 30)]);
+    let full = run(&[reset_at(10, 30)]);
+    assert_eq!(
+        timeline_lines(&sim.as_executed()),
+        timeline_lines(&full.as_executed())
+    );
+    assert!(sim.steps > full.steps, "{} vs {}", sim.steps, full.steps);
+}
