@@ -515,6 +515,7 @@ pub fn drive(
     let mut events = mission.events.iter().peekable();
 
     let hello = target.boot()?;
+    transcript.received(&hello_message(&hello));
     rec.label(
         mission.start,
         format!("boot ({})", crate::scenario::cause_name(hello.reset_cause)),
@@ -542,6 +543,7 @@ pub fn drive(
                     now = now.saturating_add(*recovery_us);
                     let _ = sim.due(now);
                     let hello = target.boot()?;
+                    transcript.received(&hello_message(&hello));
                     let expected = if power {
                         ResetCause::PowerOn
                     } else {
@@ -678,6 +680,10 @@ pub fn drive(
         now = next.max(now);
         frame = frame.wrapping_add(1);
     }
+    rec.metrics.insert(
+        "link_faults_injected".into(),
+        faults.injected_tx + faults.injected_rx,
+    );
     Ok(MissionRun {
         record: rec,
         transcript_frames: transcript.frames,
@@ -685,6 +691,15 @@ pub fn drive(
         injected_link_faults: faults.injected_tx + faults.injected_rx,
         host_link_errors: faults.rx_decoder.counters(),
     })
+}
+
+fn hello_message(h: &crate::session::Hello) -> TargetToHost {
+    TargetToHost::Hello {
+        protocol_version: fsw_bridge::PROTOCOL_VERSION,
+        build_id: h.build_id,
+        reset_cause: h.reset_cause,
+        boot_count: h.boot_count,
+    }
 }
 
 /// The next time anything needs to happen, never past the mission's end.

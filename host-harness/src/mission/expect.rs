@@ -122,7 +122,11 @@ pub fn evaluate(
     net: &CompiledNetwork,
     counts_cycles: bool,
 ) -> Verdict {
-    if let (Some(metric), false) = (&spec.metric, counts_cycles) {
+    let cycle_metric = spec
+        .metric
+        .as_deref()
+        .is_some_and(|m| m.ends_with("_ticks") || m.ends_with("_instructions"));
+    if let (Some(metric), true, false) = (&spec.metric, cycle_metric, counts_cycles) {
         return Verdict {
             index,
             what: metric.clone(),
