@@ -14,9 +14,7 @@
 
 use autonomy::{Autonomy, Outputs, RestoreInfo, StepBudget, WarmRestartArea};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
-use fsw_bridge::{
-    CommandArgs, HostToTarget, MissionTimeUs, Opcode, TargetToHost, TelemetryEvent,
-};
+use fsw_bridge::{CommandArgs, HostToTarget, MissionTimeUs, Opcode, TargetToHost, TelemetryEvent};
 
 /// Largest task-network uplink the application accepts, in bytes.
 pub const MAX_UPLINK_BYTES: usize = 16 * 1024;
@@ -130,6 +128,9 @@ pub struct FlightApp {
     budget: StepBudget,
     /// Set after a restore until the first granted frame has been stepped.
     recovering: bool,
+    /// The last frame finished and what its FrameDone said: a grant for that frame again (the
+    /// host lost our FrameDone, or its grant reached us twice) is answered without stepping.
+    last_done: Option<(u32, Option<MissionTimeUs>)>,
 }
 
 impl Default for FlightApp {
@@ -148,6 +149,7 @@ impl FlightApp {
             uplink_progress: None,
             budget: DEFAULT_STEP_BUDGET,
             recovering: false,
+            last_done: None,
         }
     }
 
@@ -181,7 +183,10 @@ impl FlightApp {
         };
         let mut outcome = BootOutcome::Cold;
         if !prefer_nv && warm_seq.is_some() {
-            if let Ok(info) = self.autonomy.restore_from(&WarmRestartArea::new(memories.warm)) {
+            if let Ok(info) = self
+                .autonomy
+                .restore_from(&WarmRestartArea::new(memories.warm))
+            {
                 outcome = BootOutcome::RestoredWarm(info);
             }
         }
@@ -295,8 +300,20 @@ impl FlightApp {
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) {
+        if let Some((done, next_wakeup)) = self.last_done {
+            if done == frame {
+                downlink.send(TargetToHost::FrameDone {
+                    frame,
+                    next_wakeup,
+                    busy_ticks: 0,
+                });
+                return;
+            }
+        }
         let t0 = clock.ticks();
-        let report = self.autonomy.step(now, self.budget, &mut Decisions { downlink });
+        let report = self
+            .autonomy
+            .step(now, self.budget, &mut Decisions { downlink });
         let t1 = clock.ticks();
         if core::mem::replace(&mut self.recovering, false) {
             downlink.send(metric_event(metric::RECOVERY_TICKS, t1.wrapping_sub(t0)));
@@ -331,6 +348,7 @@ impl FlightApp {
         } else {
             self.autonomy.next_wakeup()
         };
+        self.last_done = Some((frame, next_wakeup));
         downlink.send(TargetToHost::FrameDone {
             frame,
             next_wakeup,
@@ -341,4 +359,85 @@ impl FlightApp {
 
 fn metric_event(id: u16, value: u64) -> TargetToHost {
     TargetToHost::Telemetry(TelemetryEvent::Metric { id, value })
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use std::vec::Vec;
+
+    use super::*;
+
+    fn grant(frame: u32, secs: u64) -> HostToTarget {
+        HostToTarget::TimeGrant {
+            frame,
+            now: MissionTimeUs::from_secs(secs),
+            until: MissionTimeUs::from_secs(secs + 1),
+        }
+    }
+
+    #[test]
+    fn a_repeated_grant_gets_the_same_frame_done_without_stepping_again() {
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let (mut warm, mut nv) = (std::vec![0u8; 8192], std::vec![0u8; 8192]);
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: Some(&mut nv),
+        };
+        let mut out: Vec<TargetToHost> = Vec::new();
+        app.handle(&grant(7, 10), &mut mem, &mut NoClock, &mut |m| out.push(m));
+        app.handle(&grant(7, 10), &mut mem, &mut NoClock, &mut |m| out.push(m));
+        let done: Vec<&TargetToHost> = out
+            .iter()
+            .filter(|m| matches!(m, TargetToHost::FrameDone { .. }))
+            .collect();
+        assert_eq!(done.len(), 2);
+        assert_eq!(done[0], done[1]);
+        app.handle(&grant(8, 20), &mut mem, &mut NoClock, &mut |m| out.push(m));
+        assert!(matches!(
+            out.last(),
+            Some(TargetToHost::FrameDone { frame: 8, .. })
+        ));
+    }
+
+    #[test]
+    fn uplink_chunks_out_of_order_are_refused_and_nothing_is_loaded() {
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let (mut warm, mut nv) = (std::vec![0u8; 8192], std::vec![0u8; 8192]);
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: Some(&mut nv),
+        };
+        let mut out: Vec<TargetToHost> = Vec::new();
+        let chunk = |seq, total| HostToTarget::UplinkChunk {
+            seq,
+            total,
+            bytes: heapless::Vec::from_slice(&[1, 2, 3]).unwrap(),
+        };
+        app.handle(&chunk(1, 3), &mut mem, &mut NoClock, &mut |m| out.push(m));
+        assert_eq!(
+            out.pop(),
+            Some(TargetToHost::UplinkNak {
+                seq: 1,
+                reason: uplink_reason::OUT_OF_SEQUENCE
+            })
+        );
+        app.handle(&chunk(0, 2), &mut mem, &mut NoClock, &mut |m| out.push(m));
+        assert_eq!(out.pop(), Some(TargetToHost::UplinkAck { seq: 0 }));
+        app.handle(&chunk(1, 3), &mut mem, &mut NoClock, &mut |m| out.push(m));
+        assert_eq!(
+            out.pop(),
+            Some(TargetToHost::UplinkNak {
+                seq: 1,
+                reason: uplink_reason::BAD_TOTAL
+            })
+        );
+        // Garbage that completes a transfer is refused by the validator, not loaded.
+        app.handle(&chunk(0, 1), &mut mem, &mut NoClock, &mut |m| out.push(m));
+        assert!(matches!(
+            out.pop(),
+            Some(TargetToHost::UplinkNak { seq: 1, .. })
+        ));
+        assert!(app.autonomy().network().tasks().is_empty());
+    }
 }

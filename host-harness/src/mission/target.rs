@@ -81,8 +81,6 @@ pub struct NativeTarget {
     decoder: FrameDecoder,
     boot_count: u32,
     next_cause: ResetCause,
-    /// Last frame finished, and its FrameDone (resent when the same grant comes again).
-    last_done: Option<TargetToHost>,
 }
 
 impl Default for NativeTarget {
@@ -100,7 +98,6 @@ impl NativeTarget {
             decoder: FrameDecoder::new(),
             boot_count: 0,
             next_cause: ResetCause::PowerOn,
-            last_done: None,
         }
     }
 
@@ -109,16 +106,6 @@ impl NativeTarget {
             let Some(Ok(msg)) = self.decoder.push::<HostToTarget>(byte) else {
                 continue;
             };
-            if let (
-                HostToTarget::TimeGrant { frame, .. },
-                Some(TargetToHost::FrameDone { frame: done, .. }),
-            ) = (&msg, &self.last_done)
-            {
-                if frame == done {
-                    out.push(self.last_done.clone().expect("checked"));
-                    continue;
-                }
-            }
             let mut memories = Memories {
                 warm: &mut self.warm,
                 nv: Some(&mut self.nv),
@@ -133,11 +120,6 @@ impl NativeTarget {
                         seq,
                         link: self.decoder.counters(),
                     });
-                }
-            }
-            for m in &sent {
-                if matches!(m, TargetToHost::FrameDone { .. }) {
-                    self.last_done = Some(m.clone());
                 }
             }
             out.extend(sent);
@@ -161,7 +143,6 @@ impl MissionTarget for NativeTarget {
     fn boot(&mut self) -> Result<Hello, TargetError> {
         self.app = new_app();
         self.decoder = FrameDecoder::new();
-        self.last_done = None;
         self.boot_count += 1;
         let cause = std::mem::replace(&mut self.next_cause, ResetCause::Warm);
         let mut memories = Memories {
