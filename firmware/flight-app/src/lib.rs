@@ -33,21 +33,22 @@ pub mod uplink_reason {
 }
 
 /// Ids of the `TelemetryEvent::Metric` records this application emits (values in timebase
-/// ticks of the CPU that runs it; the native target reports 0).
+/// ticks of the CPU that runs it; the native target reports none). The application owns ids
+/// 0x1000-0x1fff; the kernel's are below 0x1000 (kernel-config's `abi::metric`).
 pub mod metric {
     /// Ticks the autonomy step of one frame took.
-    pub const STEP_TICKS: u16 = 0x0100;
+    pub const STEP_TICKS: u16 = 0x1000;
     /// Ticks one checkpoint write took (both areas).
-    pub const CHECKPOINT_TICKS: u16 = 0x0101;
+    pub const CHECKPOINT_TICKS: u16 = 0x1001;
     /// Ticks the restore at boot took.
-    pub const RESTORE_TICKS: u16 = 0x0102;
+    pub const RESTORE_TICKS: u16 = 0x1002;
     /// Ticks from the first grant after a restore to the end of that frame's step: the
     /// recovery (violations detected, aborts, contingencies, repair).
-    pub const RECOVERY_TICKS: u16 = 0x0103;
+    pub const RECOVERY_TICKS: u16 = 0x1003;
     /// Sequence number of the checkpoint restored at boot.
-    pub const RESTORED_SEQUENCE: u16 = 0x0104;
+    pub const RESTORED_SEQUENCE: u16 = 0x1004;
     /// Checkpoint writes that failed in one frame (a plan image larger than an area's slot).
-    pub const CHECKPOINT_WRITE_FAILURES: u16 = 0x0105;
+    pub const CHECKPOINT_WRITE_FAILURES: u16 = 0x1005;
 }
 
 /// Planner work allowed per granted frame.
