@@ -63,3 +63,12 @@ pub fn link(
         burst,
     })
 }
+
+/// Kernel costs measured on the emulated target, by name (partition switch, syscall round
+/// trip, frame processing, footprints). Until the partitioning kernel reports them, every
+/// kernel quantity is "not measured".
+pub fn kernel_metrics(
+    _firmware: &FirmwareImage,
+) -> Result<std::collections::BTreeMap<String, u64>, String> {
+    Err("the kernel benchmark is not available in this image yet".into())
+}

@@ -53,10 +53,27 @@ enum Command {
         #[arg(long)]
         no_logs: bool,
     },
-    /// Benchmarks (wall-time numbers depend on the host; they never fail a build).
+    /// Timing budgets: measure on the emulated target (guest ticks and instructions under
+    /// icount), print quantity / measured / budget / headroom / change, fail naming every
+    /// quantity over budget. `hil bench link` and friends are wall-time benchmarks.
     Bench {
         #[command(subcommand)]
-        what: BenchWhat,
+        what: Option<BenchWhat>,
+        /// Budgets file (default: budgets.toml in the repository).
+        #[arg(long, value_name = "FILE")]
+        budgets: Option<PathBuf>,
+        /// Baseline file (default: budgets-baseline.toml in the repository).
+        #[arg(long, value_name = "FILE")]
+        baseline: Option<PathBuf>,
+        /// Print JSON instead of the table.
+        #[arg(long)]
+        json: bool,
+        /// Record these measurements as the new baseline.
+        #[arg(long)]
+        save_baseline: bool,
+        /// Firmware ELF to measure (default: build it).
+        #[arg(long, value_name = "ELF")]
+        firmware: Option<PathBuf>,
     },
     /// Build the firmware image and print its path and build id.
     Build,
@@ -151,6 +168,53 @@ fn run_mission(
     })
 }
 
+fn bench_budgets(
+    budgets: Option<PathBuf>,
+    baseline: Option<PathBuf>,
+    json: bool,
+    save_baseline: bool,
+    firmware: Option<PathBuf>,
+) -> Result<ExitCode, String> {
+    use hil::budget;
+    let root = hil::repo_root();
+    let budgets_path = budgets.unwrap_or_else(|| root.join("budgets.toml"));
+    let baseline_path = baseline.unwrap_or_else(|| root.join("budgets-baseline.toml"));
+    let list = budget::load(&budgets_path).map_err(|e| e.to_string())?;
+    let fw = match firmware {
+        Some(elf) => FirmwareImage::open(&elf).map_err(|e| e.to_string())?,
+        None => firmware::build().map_err(|e| e.to_string())?,
+    };
+    let (measured, missing) = budget::measure(&list, &fw, &mut |l| eprintln!("  {l}"));
+    let base = budget::load_baseline(&baseline_path)?;
+    let rows = budget::evaluate(&list, &measured, &missing, &base);
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&rows).map_err(|e| e.to_string())?
+        );
+    } else {
+        println!(
+            "timing budgets ({}; firmware build {}; guest ticks/instructions under icount)",
+            budgets_path.display(),
+            build_id_hex(&fw.build_id)
+        );
+        print!("{}", budget::table(&rows));
+    }
+    if save_baseline {
+        budget::save_baseline(&baseline_path, &rows)?;
+        eprintln!("baseline written to {}", baseline_path.display());
+    }
+    let offenders = budget::offenders(&rows);
+    if offenders.is_empty() {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        for o in &offenders {
+            eprintln!("budget exceeded: {o}");
+        }
+        Ok(ExitCode::FAILURE)
+    }
+}
+
 fn execute(command: Command) -> Result<ExitCode, String> {
     match command {
         Command::Run {
@@ -200,7 +264,16 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             })
         }
         Command::Bench {
-            what: BenchWhat::Link { pings, json },
+            what: None,
+            budgets,
+            baseline,
+            json,
+            save_baseline,
+            firmware,
+        } => bench_budgets(budgets, baseline, json, save_baseline, firmware),
+        Command::Bench {
+            what: Some(BenchWhat::Link { pings, json }),
+            ..
         } => {
             if pings == 0 {
                 return Err("--pings must be at least 1".into());

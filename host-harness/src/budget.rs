@@ -1,0 +1,514 @@
+//! Timing and memory budgets (`budgets.toml`), measured on the emulated target in guest ticks
+//! or instructions under icount (identical run to run), and checked by `hil bench`.
+//!
+//! Each budget names its quantity, unit, limit and where the measurement comes from:
+//! - `mission:<scenario>:<metric>`: run a mission scenario (relative to the repository) on the
+//!   emulated target and take one of its metrics (`max_recovery_ticks`, `max_step_ticks`, ...);
+//! - `kernel:<metric>`: the kernel benchmark (`hil bench kernel`): partition switch, syscall
+//!   round trip, frame processing, footprints;
+//! - `elf:<section-prefix>`: bytes of the firmware ELF's allocated sections whose names start
+//!   with the prefix (static memory).
+//!
+//! A budget is raised only by editing `budgets.toml`, so every raise shows in review. The last
+//! accepted measurements live in `budgets-baseline.toml` (`hil bench --save-baseline`), so the
+//! table shows the change a patch makes.
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use object::{Object, ObjectSection};
+use serde::{Deserialize, Serialize};
+use toml::Spanned;
+
+/// Unit of a budget.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum Unit {
+    /// Timebase ticks (16.6 MHz on g3beige).
+    Ticks,
+    /// Guest instructions (4 ns each under `-icount shift=2`).
+    Instructions,
+    Bytes,
+}
+
+impl Unit {
+    pub fn name(self) -> &'static str {
+        match self {
+            Unit::Ticks => "ticks",
+            Unit::Instructions => "instructions",
+            Unit::Bytes => "bytes",
+        }
+    }
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BudgetSpec {
+    pub quantity: String,
+    pub unit: Unit,
+    pub max: u64,
+    pub source: String,
+    #[serde(default)]
+    pub description: String,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct BudgetFile {
+    #[serde(rename = "budget")]
+    budgets: Vec<Spanned<BudgetSpec>>,
+}
+
+/// Where a measurement comes from.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Source {
+    Mission { scenario: String, metric: String },
+    Kernel { metric: String },
+    Elf { section_prefix: String },
+}
+
+impl Source {
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let mut parts = text.splitn(3, ':');
+        match (parts.next(), parts.next(), parts.next()) {
+            (Some("mission"), Some(scenario), Some(metric)) if !scenario.is_empty() && !metric.is_empty() => {
+                Ok(Source::Mission {
+                    scenario: scenario.into(),
+                    metric: metric.into(),
+                })
+            }
+            (Some("kernel"), Some(metric), None) if !metric.is_empty() => Ok(Source::Kernel {
+                metric: metric.into(),
+            }),
+            (Some("elf"), Some(prefix), None) if !prefix.is_empty() => Ok(Source::Elf {
+                section_prefix: prefix.into(),
+            }),
+            _ => Err(format!(
+                "source {text:?}: expected mission:<scenario>:<metric>, kernel:<metric> or elf:<section-prefix>"
+            )),
+        }
+    }
+}
+
+/// A budget file that could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum BudgetError {
+    #[error("cannot read {path}: {source}")]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}:{column}: {message}")]
+    Invalid {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+}
+
+/// A checked budget.
+#[derive(Clone, Debug)]
+pub struct Budget {
+    pub spec: BudgetSpec,
+    pub source: Source,
+}
+
+/// Read and check `budgets.toml`.
+pub fn load(path: &Path) -> Result<Vec<Budget>, BudgetError> {
+    let text = std::fs::read_to_string(path).map_err(|source| BudgetError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let at = |offset: usize, message: String| {
+        let before = &text[..offset.min(text.len())];
+        BudgetError::Invalid {
+            path: path.to_path_buf(),
+            line: before.matches('\n').count() + 1,
+            column: before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1,
+            message,
+        }
+    };
+    let file: BudgetFile = toml::from_str(&text).map_err(|e| {
+        at(
+            e.span().map(|s| s.start).unwrap_or(0),
+            e.message().to_string(),
+        )
+    })?;
+    let mut seen = BTreeMap::new();
+    let mut out = Vec::new();
+    for b in file.budgets {
+        let offset = b.span().start;
+        let spec = b.into_inner();
+        if seen.insert(spec.quantity.clone(), ()).is_some() {
+            return Err(at(
+                offset,
+                format!("quantity {:?} has two budgets", spec.quantity),
+            ));
+        }
+        let source = Source::parse(&spec.source).map_err(|m| at(offset, m))?;
+        out.push(Budget { spec, source });
+    }
+    Ok(out)
+}
+
+/// Measured values, by source.
+pub type Measurements = BTreeMap<Source, u64>;
+
+/// One row of the `hil bench` table.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub quantity: String,
+    pub unit: Unit,
+    pub measured: Option<u64>,
+    pub budget: u64,
+    /// (budget - measured) / budget, in percent; negative when over budget.
+    pub headroom_percent: Option<f64>,
+    pub baseline: Option<u64>,
+    /// (measured - baseline) / baseline, in percent.
+    pub change_percent: Option<f64>,
+    pub over_budget: bool,
+    pub description: String,
+    /// Why it could not be measured.
+    pub missing: Option<String>,
+}
+
+/// Compare measurements with budgets and the baseline.
+pub fn evaluate(
+    budgets: &[Budget],
+    measured: &Measurements,
+    missing: &BTreeMap<Source, String>,
+    baseline: &BTreeMap<String, u64>,
+) -> Vec<Row> {
+    budgets
+        .iter()
+        .map(|b| {
+            let value = measured.get(&b.source).copied();
+            let base = baseline.get(&b.spec.quantity).copied();
+            Row {
+                quantity: b.spec.quantity.clone(),
+                unit: b.spec.unit,
+                measured: value,
+                budget: b.spec.max,
+                headroom_percent: value
+                    .map(|v| (b.spec.max as f64 - v as f64) / (b.spec.max.max(1) as f64) * 100.0),
+                baseline: base,
+                change_percent: match (value, base) {
+                    (Some(v), Some(b)) if b > 0 => Some((v as f64 - b as f64) / b as f64 * 100.0),
+                    _ => None,
+                },
+                over_budget: value.is_some_and(|v| v > b.spec.max),
+                description: b.spec.description.clone(),
+                missing: if value.is_none() {
+                    Some(
+                        missing
+                            .get(&b.source)
+                            .cloned()
+                            .unwrap_or_else(|| "not measured".into()),
+                    )
+                } else {
+                    None
+                },
+            }
+        })
+        .collect()
+}
+
+/// The table, for people.
+pub fn table(rows: &[Row]) -> String {
+    let group = |v: u64| {
+        let s = v.to_string();
+        let mut out = String::new();
+        for (i, c) in s.chars().enumerate() {
+            if i > 0 && (s.len() - i) % 3 == 0 {
+                out.push(',');
+            }
+            out.push(c);
+        }
+        out
+    };
+    let mut out = format!(
+        "{:<28} {:>14} {:>14} {:<13} {:>9} {:>9}\n",
+        "quantity", "measured", "budget", "unit", "headroom", "change"
+    );
+    for r in rows {
+        out.push_str(&format!(
+            "{:<28} {:>14} {:>14} {:<13} {:>9} {:>9}{}\n",
+            r.quantity,
+            r.measured.map(group).unwrap_or_else(|| "-".into()),
+            group(r.budget),
+            r.unit.name(),
+            r.headroom_percent
+                .map(|h| format!("{h:.1}%"))
+                .unwrap_or_else(|| "-".into()),
+            r.change_percent
+                .map(|c| format!("{c:+.1}%"))
+                .unwrap_or_else(|| "-".into()),
+            if r.over_budget {
+                "  OVER BUDGET".to_string()
+            } else if let Some(m) = &r.missing {
+                format!("  NOT MEASURED: {m}")
+            } else {
+                String::new()
+            }
+        ));
+    }
+    out
+}
+
+/// The offenders, named: over budget, or not measured at all.
+pub fn offenders(rows: &[Row]) -> Vec<String> {
+    rows.iter()
+        .filter_map(|r| {
+            if r.over_budget {
+                Some(format!(
+                    "{}: {} {} measured, budget {}",
+                    r.quantity,
+                    r.measured.unwrap_or(0),
+                    r.unit.name(),
+                    r.budget
+                ))
+            } else {
+                r.missing
+                    .as_ref()
+                    .map(|m| format!("{}: not measured ({m})", r.quantity))
+            }
+        })
+        .collect()
+}
+
+/// Read `budgets-baseline.toml` (`quantity = value` lines); empty when absent.
+pub fn load_baseline(path: &Path) -> Result<BTreeMap<String, u64>, String> {
+    match std::fs::read_to_string(path) {
+        Ok(text) => toml::from_str(&text).map_err(|e| format!("{}: {e}", path.display())),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(BTreeMap::new()),
+        Err(e) => Err(format!("{}: {e}", path.display())),
+    }
+}
+
+/// Write the measurements as the new baseline.
+pub fn save_baseline(path: &Path, rows: &[Row]) -> Result<(), String> {
+    let mut text = String::from(
+        "# Measurements accepted as the baseline for `hil bench` (written by `hil bench --save-baseline`).\n",
+    );
+    for r in rows {
+        if let Some(v) = r.measured {
+            text.push_str(&format!("{} = {v}\n", r.quantity));
+        }
+    }
+    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Static memory from the firmware ELF: allocated bytes of sections starting with `prefix`.
+pub fn elf_section_bytes(elf: &Path, prefix: &str) -> Result<u64, String> {
+    let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*bytes).map_err(|e| e.to_string())?;
+    let mut total = 0;
+    let mut any = false;
+    for s in file.sections() {
+        if s.name().is_ok_and(|n| n.starts_with(prefix)) {
+            total += s.size();
+            any = true;
+        }
+    }
+    if any {
+        Ok(total)
+    } else {
+        Err(format!("no section named {prefix}* in {}", elf.display()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn budgets(text: &str) -> Result<Vec<Budget>, String> {
+        let dir =
+            std::env::temp_dir().join(format!("hil-budget-{}-{}", std::process::id(), text.len()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("budgets.toml");
+        std::fs::write(&p, text).unwrap();
+        load(&p).map_err(|e| {
+            e.to_string()
+                .replace(&p.display().to_string(), "budgets.toml")
+        })
+    }
+
+    #[test]
+    fn sources_parse_and_bad_ones_are_named() {
+        assert_eq!(
+            Source::parse("mission:scenarios/a.toml:max_step_ticks").unwrap(),
+            Source::Mission {
+                scenario: "scenarios/a.toml".into(),
+                metric: "max_step_ticks".into()
+            }
+        );
+        assert!(Source::parse("kernel:").is_err());
+        assert!(Source::parse("wall:clock")
+            .unwrap_err()
+            .contains("expected"));
+    }
+
+    #[test]
+    fn a_budget_file_with_a_mistake_names_the_line() {
+        let e = budgets("[[budget]]\nquantity = \"a\"\nunit = \"ticks\"\nmax = 5\nsource = \"kernel:x\"\n\n[[budget]]\nquantity = \"a\"\nunit = \"ticks\"\nmax = 5\nsource = \"kernel:y\"\n").unwrap_err();
+        assert!(
+            e.starts_with("budgets.toml:7:1: quantity \"a\" has two budgets"),
+            "{e}"
+        );
+        let e = budgets(
+            "[[budget]]\nquantity = \"a\"\nunit = \"seconds\"\nmax = 5\nsource = \"kernel:x\"\n",
+        )
+        .unwrap_err();
+        assert!(e.starts_with("budgets.toml:3:"), "{e}");
+    }
+
+    #[test]
+    fn over_budget_and_unmeasured_quantities_are_offenders_with_headroom_and_change() {
+        let b = budgets("[[budget]]\nquantity = \"fast\"\nunit = \"ticks\"\nmax = 100\nsource = \"kernel:a\"\n[[budget]]\nquantity = \"slow\"\nunit = \"ticks\"\nmax = 100\nsource = \"kernel:b\"\n[[budget]]\nquantity = \"gone\"\nunit = \"bytes\"\nmax = 1\nsource = \"kernel:c\"\n").unwrap();
+        let mut m = Measurements::new();
+        m.insert(Source::Kernel { metric: "a".into() }, 80);
+        m.insert(Source::Kernel { metric: "b".into() }, 120);
+        let baseline = BTreeMap::from([("fast".to_string(), 100u64)]);
+        let rows = evaluate(&b, &m, &BTreeMap::new(), &baseline);
+        assert_eq!(rows[0].headroom_percent, Some(20.0));
+        assert_eq!(rows[0].change_percent, Some(-20.0));
+        assert!(!rows[0].over_budget);
+        assert!(rows[1].over_budget);
+        let off = offenders(&rows);
+        assert_eq!(off.len(), 2, "{off:?}");
+        assert!(off[0].starts_with("slow: 120 ticks measured, budget 100"));
+        assert!(off[1].starts_with("gone: not measured"));
+        assert!(table(&rows).contains("OVER BUDGET"));
+    }
+}
+
+/// Run whatever the budgets need and collect the measurements: each mission scenario once on
+/// the emulated target, the kernel benchmark once, the ELF sections of `firmware`.
+pub fn measure(
+    budgets: &[Budget],
+    firmware: &crate::firmware::FirmwareImage,
+    progress: &mut dyn FnMut(&str),
+) -> (Measurements, BTreeMap<Source, String>) {
+    let mut measured = Measurements::new();
+    let mut missing = BTreeMap::new();
+    let mut scenarios: Vec<&str> = budgets
+        .iter()
+        .filter_map(|b| match &b.source {
+            Source::Mission { scenario, .. } => Some(scenario.as_str()),
+            _ => None,
+        })
+        .collect();
+    scenarios.sort();
+    scenarios.dedup();
+    for scenario in scenarios {
+        progress(&format!("measuring: {scenario} on the emulated target"));
+        let sources: Vec<&Source> = budgets
+            .iter()
+            .map(|b| &b.source)
+            .filter(|s| matches!(s, Source::Mission { scenario: sc, .. } if sc == scenario))
+            .collect();
+        match run_mission_metrics(scenario, firmware) {
+            Ok(metrics) => {
+                for s in sources {
+                    let Source::Mission { metric, .. } = s else {
+                        continue;
+                    };
+                    match metrics.get(metric) {
+                        Some(v) => {
+                            measured.insert(s.clone(), *v);
+                        }
+                        None => {
+                            missing.insert(
+                                s.clone(),
+                                format!("{scenario} reported no metric {metric:?}"),
+                            );
+                        }
+                    }
+                }
+            }
+            Err(e) => {
+                for s in sources {
+                    missing.insert(s.clone(), format!("{scenario}: {e}"));
+                }
+            }
+        }
+    }
+    let kernel: Vec<&Source> = budgets
+        .iter()
+        .map(|b| &b.source)
+        .filter(|s| matches!(s, Source::Kernel { .. }))
+        .collect();
+    if !kernel.is_empty() {
+        progress("measuring: kernel benchmark on the emulated target");
+        match kernel_metrics(firmware) {
+            Ok(metrics) => {
+                for s in kernel {
+                    let Source::Kernel { metric } = s else {
+                        continue;
+                    };
+                    match metrics.get(metric) {
+                        Some(v) => {
+                            measured.insert(s.clone(), *v);
+                        }
+                        None => {
+                            missing.insert(
+                                s.clone(),
+                                format!("the kernel benchmark has no {metric:?}"),
+                            );
+                        }
+                    }
+                }
+            }
+            Err(e) => {
+                for s in kernel {
+                    missing.insert(s.clone(), e.clone());
+                }
+            }
+        }
+    }
+    for b in budgets {
+        if let Source::Elf { section_prefix } = &b.source {
+            match elf_section_bytes(&firmware.elf, section_prefix) {
+                Ok(v) => {
+                    measured.insert(b.source.clone(), v);
+                }
+                Err(e) => {
+                    missing.insert(b.source.clone(), e);
+                }
+            }
+        }
+    }
+    (measured, missing)
+}
+
+fn run_mission_metrics(
+    scenario: &str,
+    firmware: &crate::firmware::FirmwareImage,
+) -> Result<BTreeMap<String, u64>, String> {
+    let path = crate::repo_root().join(scenario);
+    let loaded = crate::scenario::load(&path).map_err(|e| e.to_string())?;
+    let prepared = crate::mission::report::prepare(&path, loaded).map_err(|e| e.to_string())?;
+    let options = crate::run::RunOptions {
+        firmware: Some(firmware.elf.clone()),
+        ..Default::default()
+    };
+    let (mut target, fw) = crate::mission::report::make_target(&prepared, &options, &mut |_| {})?;
+    let report =
+        crate::mission::report::run(&prepared, target.as_mut(), fw.as_ref(), &mut |_, _, _| {})
+            .map_err(|e| e.to_string())?;
+    if !report.passed {
+        return Err(format!(
+            "the scenario failed, so its costs are not representative:\n{}",
+            crate::mission::report::summary(&report)
+        ));
+    }
+    Ok(report.metrics)
+}
+
+/// The kernel benchmark's metrics by name. Provided by the kernel benchmark module when the
+/// image has one.
+fn kernel_metrics(
+    firmware: &crate::firmware::FirmwareImage,
+) -> Result<BTreeMap<String, u64>, String> {
+    crate::bench::kernel_metrics(firmware)
+}
