@@ -1,11 +1,9 @@
-//! The framed serial link to the host: frames out (blocking on the UART), and frames in through
+//! The framed serial link to the host (used by the I/O partition, in its own region): frames out (blocking on the UART), and frames in through
 //! an RX ring buffer and the streaming decoder, whose counters the target reports in every Pong.
 use embedded_io::{Read, ReadReady, Write};
 use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, MAX_FRAME_LEN};
 use fsw_bridge::{HostToTarget, LinkCounters, TargetToHost};
 use heapless::Deque;
-
-use crate::sync::Global;
 
 /// Bytes the RX ring holds between polls.
 pub const RX_RING_CAPACITY: usize = 512;
@@ -69,12 +67,4 @@ impl<U: Read + ReadReady + Write> Link<U> {
     pub fn counters(&self) -> LinkCounters {
         self.decoder.counters()
     }
-}
-
-/// The one link of this image, shared by the main loop, the logger and the fault reporters.
-pub static LINK: Global<Link<crate::board::escc::EsccChannelA>> = Global::empty();
-
-/// Send a message on the link; dropped if the link is not up yet or is busy (nested call).
-pub fn send(msg: &TargetToHost) {
-    let _ = LINK.with(|link| link.send(msg));
 }

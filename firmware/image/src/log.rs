@@ -1,87 +1,143 @@
-//! defmt global logger: encoded log bytes travel to the host in Log frames and are decoded there
-//! against this ELF. Timestamps are guest microseconds since this boot (timebase).
-use core::cell::{Cell, UnsafeCell};
+//! The defmt global logger, for the kernel and for partitions alike. Each log call is encoded
+//! into a whole frame first: in the kernel into the kernel's buffer, then into the kernel's log
+//! ring; in a partition into the partition's own header (in its region, right above its stack),
+//! then handed to the kernel with SYS_LOG. Whole frames never interleave, so the host decodes
+//! one defmt stream (carried in Log frames by the I/O partition) against this ELF.
+//! Timestamps are guest microseconds since this boot (timebase).
+use core::cell::UnsafeCell;
+use core::ptr::addr_of_mut;
 
-use fsw_bridge::messages::LOG_CHUNK_MAX;
-use fsw_bridge::TargetToHost;
-use heapless::Vec;
+use crate::config::partition_image;
+use crate::shared;
 
-use crate::boot::{disable_interrupts, restore_msr};
+/// Largest encoded log frame; longer ones are dropped whole.
+pub const LOG_FRAME_MAX: usize = 256;
 
-struct LoggerState {
-    encoder: UnsafeCell<defmt::Encoder>,
-    chunk: UnsafeCell<Vec<u8, LOG_CHUNK_MAX>>,
-    /// Nesting depth of acquire; only depth 1 writes, deeper messages are dropped.
-    depth: Cell<u32>,
-    saved_msr: Cell<u32>,
+struct Sink {
+    bytes: [u8; LOG_FRAME_MAX],
+    len: usize,
+    overflow: bool,
 }
 
-// SAFETY: single core; every access happens between acquire and release with interrupts off.
-unsafe impl Sync for LoggerState {}
-
-static STATE: LoggerState = LoggerState {
-    encoder: UnsafeCell::new(defmt::Encoder::new()),
-    chunk: UnsafeCell::new(Vec::new()),
-    depth: Cell::new(0),
-    saved_msr: Cell::new(0),
-};
-
-fn flush_chunk() {
-    // SAFETY: called only while the logger is held at depth 1 (see `Logger` impl).
-    let chunk = unsafe { &mut *STATE.chunk.get() };
-    if !chunk.is_empty() {
-        crate::link::send(&TargetToHost::Log {
-            bytes: chunk.clone(),
-        });
-        chunk.clear();
+impl Sink {
+    fn push(&mut self, bytes: &[u8]) {
+        if self.len + bytes.len() > LOG_FRAME_MAX {
+            self.overflow = true;
+            return;
+        }
+        self.bytes[self.len..self.len + bytes.len()].copy_from_slice(bytes);
+        self.len += bytes.len();
     }
 }
 
-fn emit(bytes: &[u8]) {
-    for &b in bytes {
-        // SAFETY: as in `flush_chunk`.
-        let chunk = unsafe { &mut *STATE.chunk.get() };
-        if chunk.push(b).is_err() {
-            flush_chunk();
-            // SAFETY: as above; the chunk is empty now, so the push succeeds.
-            let _ = unsafe { &mut *STATE.chunk.get() }.push(b);
-        }
+/// A logger's state: in the kernel's RAM for the kernel, in each partition's header for it.
+#[repr(C)]
+pub struct LogFrame {
+    encoder: defmt::Encoder,
+    sink: Sink,
+    /// Nesting depth of acquire; only depth 1 writes, deeper messages are dropped.
+    depth: u32,
+    saved_msr: u32,
+}
+
+const _: () = assert!(
+    core::mem::size_of::<LogFrame>() <= kernel_config::PARTITION_HEADER_SIZE as usize,
+    "the partition header must hold a LogFrame"
+);
+
+struct KernelFrame(UnsafeCell<LogFrame>);
+
+// SAFETY: used only in kernel context, with interrupts off, on the single core.
+unsafe impl Sync for KernelFrame {}
+
+static KERNEL_FRAME: KernelFrame = KernelFrame(UnsafeCell::new(LogFrame {
+    encoder: defmt::Encoder::new(),
+    sink: Sink {
+        bytes: [0; LOG_FRAME_MAX],
+        len: 0,
+        overflow: false,
+    },
+    depth: 0,
+    saved_msr: 0,
+}));
+
+/// This context's logger state.
+fn frame() -> *mut LogFrame {
+    if shared::in_kernel() {
+        KERNEL_FRAME.0.get()
+    } else {
+        partition_image(shared::current_partition()).header() as *mut LogFrame
     }
 }
 
 #[defmt::global_logger]
-struct LinkLogger;
+struct Logger;
 
-// SAFETY: acquire/release bracket every write with interrupts off; nested use is dropped.
-unsafe impl defmt::Logger for LinkLogger {
+// SAFETY: every write happens between acquire and release; the kernel's state is used with
+// interrupts off, a partition's only by that partition (which is single-threaded; preemption
+// does not touch its header), and nested use is dropped.
+unsafe impl defmt::Logger for Logger {
     fn acquire() {
-        let msr = disable_interrupts();
-        let depth = STATE.depth.get();
-        STATE.depth.set(depth + 1);
-        if depth == 0 {
-            STATE.saved_msr.set(msr);
-            // SAFETY: depth 0 -> 1: we are the only user of the encoder.
-            unsafe { (*STATE.encoder.get()).start_frame(emit) }
+        let kernel = shared::in_kernel();
+        let msr = if kernel {
+            crate::boot::disable_interrupts()
+        } else {
+            0
+        };
+        let f = frame();
+        // SAFETY:
+        // 1. `f` is this context's own LogFrame (see `frame`); in a partition it is in the
+        //    partition's header, which the partition start zeroed (integers and bool: valid).
+        // 2. The encoder is written before any reference to it is formed.
+        unsafe {
+            let depth = (*f).depth;
+            (*f).depth = depth + 1;
+            if depth == 0 {
+                (*f).saved_msr = msr;
+                addr_of_mut!((*f).encoder).write(defmt::Encoder::new());
+                (*f).sink.len = 0;
+                (*f).sink.overflow = false;
+                let LogFrame { encoder, sink, .. } = &mut *f;
+                encoder.start_frame(|b| sink.push(b));
+            }
         }
     }
 
     unsafe fn flush() {}
 
     unsafe fn release() {
-        let depth = STATE.depth.get();
-        if depth == 1 {
-            (*STATE.encoder.get()).end_frame(emit);
-            flush_chunk();
-            STATE.depth.set(0);
-            restore_msr(STATE.saved_msr.get());
-        } else {
-            STATE.depth.set(depth.saturating_sub(1));
+        let f = frame();
+        let depth = (*f).depth;
+        if depth != 1 {
+            (*f).depth = depth.saturating_sub(1);
+            return;
+        }
+        let LogFrame {
+            encoder,
+            sink,
+            depth,
+            ..
+        } = &mut *f;
+        encoder.end_frame(|b| sink.push(b));
+        *depth = 0;
+        if !sink.overflow {
+            let bytes = &sink.bytes[..sink.len];
+            if shared::in_kernel() {
+                crate::kernel::klog::with_ring(|ring| ring.push_frame(bytes));
+            } else {
+                let _ = crate::sys::log(bytes);
+            }
+        }
+        if shared::in_kernel() {
+            crate::boot::restore_msr((*f).saved_msr);
         }
     }
 
     unsafe fn write(bytes: &[u8]) {
-        if STATE.depth.get() == 1 {
-            (*STATE.encoder.get()).write(bytes, emit);
+        let f = frame();
+        if (*f).depth == 1 {
+            let LogFrame { encoder, sink, .. } = &mut *f;
+            encoder.write(bytes, |b| sink.push(b));
         }
     }
 }

@@ -32,7 +32,9 @@ struct BootRecord {
 
 const NO_PENDING_CAUSE: u32 = 0;
 
-fn cause_code(cause: ResetCause) -> u32 {
+/// The code the kernel hands the I/O partition (SYS_BOOT_INFO): 1 power-on, 2 warm, 3 watchdog,
+/// 4 health monitor.
+pub fn cause_code(cause: ResetCause) -> u32 {
     match cause {
         ResetCause::PowerOn => 1,
         ResetCause::Warm => 2,

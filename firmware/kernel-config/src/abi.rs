@@ -39,8 +39,12 @@ pub const SYS_EVENT_DRAIN: u32 = 12;
 pub const SYS_SET_MISSION_TIME: u32 = 13;
 /// (): warm-reset the module with reset cause Warm (the host asked). Link owner only.
 pub const SYS_RESET_MODULE: u32 = 14;
-/// (): queue the kernel's accounting metrics now. Link owner only.
+/// (period): 0 = queue the kernel's accounting metrics now; n = queue them every n major
+/// frames from now on; REPORT_OFF = stop the periodic reports (the default: nothing is sent
+/// unasked). Link owner only.
 pub const SYS_REQUEST_METRICS: u32 = 15;
+/// SYS_REQUEST_METRICS argument that stops periodic reports.
+pub const REPORT_OFF: u32 = u32::MAX;
 /// Number of system calls.
 pub const SYSCALL_COUNT: u32 = 16;
 
@@ -119,7 +123,8 @@ pub const SYSCALL_BENCH_CALLS: u32 = 1000;
 /// Reserved `StateKey`s (0xff00..): control messages from the harness, routed by the I/O
 /// partition instead of being treated as spacecraft state.
 pub mod control {
-    /// Ask the kernel for its accounting metrics now (handled by the I/O partition).
+    /// Ask the kernel for its accounting metrics (handled by the I/O partition): value
+    /// `Int(0)` once now, `Int(n)` every n major frames, `Int(-1)` stop periodic reports.
     pub const REQUEST_METRICS: u16 = 0xff00;
     /// Ask the planner for the checksum of its search table.
     pub const PLANNER_CHECKSUM: u16 = 0xff01;

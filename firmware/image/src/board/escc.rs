@@ -42,6 +42,17 @@ impl EsccChannelA {
         Self(())
     }
 
+    /// The channel the kernel initialised at boot, for the I/O partition (which has mac-io
+    /// mapped at the same address).
+    ///
+    /// # Safety
+    /// 1. [`EsccChannelA::init`] ran in this boot.
+    /// 2. The caller is the only user of the channel (the I/O partition), apart from the
+    ///    kernel's [`kernel_write`], which only runs while the partition is stopped.
+    pub unsafe fn attach() -> Self {
+        Self(())
+    }
+
     fn status(&self) -> u8 {
         // SAFETY: the instance exists only after `init` mapped the device.
         unsafe { mmio_read8(CHANNEL_A_CONTROL) }
@@ -116,5 +127,14 @@ impl Write for EsccChannelA {
 impl WriteReady for EsccChannelA {
     fn write_ready(&mut self) -> Result<bool, Self::Error> {
         Ok(self.status() & RR0_TX_EMPTY != 0)
+    }
+}
+
+/// Kernel only (MMU off, partition stopped): write bytes to channel A, waiting for the
+/// transmitter. For reports the kernel sends itself (faults, module reset).
+pub fn kernel_write(bytes: &[u8]) {
+    let mut channel = EsccChannelA(());
+    for &b in bytes {
+        channel.write_byte(b);
     }
 }

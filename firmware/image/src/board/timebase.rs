@@ -30,17 +30,12 @@ pub const fn ticks_to_us(ticks: u64) -> u64 {
     ticks.saturating_mul(10) / 166
 }
 
-static mut BOOT_TICKS: u64 = 0;
-
-/// Remember the timebase at boot (the reference for log timestamps).
+/// Remember the timebase at boot (the reference for log timestamps). Kernel only.
 pub fn mark_boot() {
-    // SAFETY: written once at boot before anything reads it; single core.
-    unsafe { BOOT_TICKS = now().0 }
+    crate::shared::set_boot_ticks(now().0);
 }
 
-/// Guest microseconds since [`mark_boot`].
+/// Guest microseconds since [`mark_boot`]; callable from the kernel and from partitions.
 pub fn micros_since_boot() -> u64 {
-    // SAFETY: plain read of a value written once at boot.
-    let boot = unsafe { BOOT_TICKS };
-    ticks_to_us(now().0.wrapping_sub(boot))
+    ticks_to_us(now().0.wrapping_sub(crate::shared::boot_ticks()))
 }

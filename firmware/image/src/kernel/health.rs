@@ -1,0 +1,212 @@
+//! The health monitor: turns what goes wrong in a partition (exceptions, bad system calls,
+//! panics, overruns) into the action its configuration names (log, halt the partition, restart
+//! it, warm-reset the module), and reports every event to the host as
+//! `TelemetryEvent::HealthMonitor { partition, kind, address, action }` (codes:
+//! `kernel_config::ErrorKind`, `kernel_config::HmAction`) plus a defmt line. A fault in the
+//! kernel itself is reported with partition `KERNEL_PARTITION_ID` and warm-resets the module
+//! with reset cause HealthMonitor. No fault ends in a `while(1)`.
+use fsw_bridge::{ResetCause, TargetToHost, TelemetryEvent};
+use heapless::Deque;
+use kernel_config::abi::{EVENT_HEALTH_MONITOR, EVENT_METRIC, EVENT_RECORD_SIZE};
+use kernel_config::{ErrorKind, HmAction, KERNEL_PARTITION_ID};
+
+use super::{klog, Kernel, Next, RunState};
+use crate::boot;
+use crate::config::SYSTEM;
+use crate::warm;
+
+/// Kernel events waiting for the I/O partition.
+pub const EVENT_QUEUE_DEPTH: usize = 48;
+
+/// A kernel event as the I/O partition drains it (see `abi::EVENT_RECORD_SIZE`).
+pub type EventRecord = [u32; 4];
+
+pub struct EventQueue {
+    queue: Deque<EventRecord, EVENT_QUEUE_DEPTH>,
+    pub dropped: u32,
+}
+
+impl EventQueue {
+    pub const fn new() -> Self {
+        Self {
+            queue: Deque::new(),
+            dropped: 0,
+        }
+    }
+
+    fn push(&mut self, record: EventRecord) {
+        if self.queue.push_back(record).is_err() {
+            self.dropped = self.dropped.saturating_add(1);
+        }
+    }
+
+    pub fn metric(&mut self, id: u16, value: u64) {
+        self.push([
+            EVENT_METRIC,
+            u32::from(id),
+            (value >> 32) as u32,
+            value as u32,
+        ]);
+    }
+
+    pub fn health(&mut self, partition: u8, kind: ErrorKind, address: u32, action: HmAction) {
+        self.push([
+            EVENT_HEALTH_MONITOR,
+            u32::from(partition) | (kind as u32) << 8 | (action as u32) << 16,
+            address,
+            0,
+        ]);
+    }
+
+    pub fn pop(&mut self) -> Option<EventRecord> {
+        self.queue.pop_front()
+    }
+}
+
+/// The message an event record stands for.
+pub fn event_message(record: &EventRecord) -> Option<TargetToHost> {
+    let event = match record[0] {
+        EVENT_HEALTH_MONITOR => TelemetryEvent::HealthMonitor {
+            partition: record[1] as u8,
+            kind: (record[1] >> 8) as u8,
+            address: record[2],
+            action: (record[1] >> 16) as u8,
+        },
+        EVENT_METRIC => TelemetryEvent::Metric {
+            id: record[1] as u16,
+            value: (u64::from(record[2]) << 32) | u64::from(record[3]),
+        },
+        _ => return None,
+    };
+    Some(TargetToHost::Telemetry(event))
+}
+
+/// Serialise an event record for SYS_EVENT_DRAIN.
+pub fn record_bytes(record: &EventRecord) -> [u8; EVENT_RECORD_SIZE] {
+    let mut out = [0u8; EVENT_RECORD_SIZE];
+    for (i, word) in record.iter().enumerate() {
+        out[i * 4..i * 4 + 4].copy_from_slice(&word.to_be_bytes());
+    }
+    out
+}
+
+impl Kernel {
+    fn report(&mut self, p: usize, kind: ErrorKind, address: u32, action: HmAction) {
+        self.events.health(p as u8, kind, address, action);
+        defmt::warn!(
+            "hm: partition {=str} {=str} at {=u32:#x}: {=str}",
+            SYSTEM.partitions[p].name,
+            kind.name(),
+            address,
+            action.name()
+        );
+    }
+
+    /// An exception (or a panic) in partition `p`, which was running.
+    pub fn partition_fault(&mut self, p: usize, kind: ErrorKind, address: u32, now: u64) -> Next {
+        let action = SYSTEM.partitions[p].health.action(kind);
+        self.report(p, kind, address, action);
+        match action {
+            // Continue after the faulting instruction (the checker refuses this for panics and
+            // instruction-storage faults, which cannot be continued).
+            HmAction::Log => {
+                self.context(p).srr0 = self.context(p).srr0.wrapping_add(4);
+                Next::Partition(p)
+            }
+            _ => self.stop_partition(p, action, now),
+        }
+    }
+
+    /// A system call from `p` failed with a fault code (already in its r3).
+    pub fn syscall_fault(&mut self, p: usize, call: u32, now: u64) -> Next {
+        let kind = ErrorKind::IllegalSyscall;
+        let action = SYSTEM.partitions[p].health.action(kind);
+        self.report(p, kind, call, action);
+        match action {
+            HmAction::Log => Next::Partition(p),
+            _ => self.stop_partition(p, action, now),
+        }
+    }
+
+    /// Halt, restart or reset for the running partition `p`.
+    fn stop_partition(&mut self, p: usize, action: HmAction, now: u64) -> Next {
+        self.charge(p, now);
+        match action {
+            HmAction::Log => Next::Partition(p),
+            HmAction::HaltPartition => {
+                self.parts[p].run = RunState::Halted;
+                Next::Idle
+            }
+            // A fresh start in the rest of its window.
+            HmAction::RestartPartition => {
+                self.restart(p);
+                Next::Partition(p)
+            }
+            HmAction::WarmReset => self.warm_reset(ResetCause::HealthMonitor),
+        }
+    }
+
+    /// `p` overran its window (already charged and preempted).
+    pub fn overrun_action(&mut self, p: usize, action: HmAction) {
+        match action {
+            HmAction::Log => {
+                // Counted every time (accounting metrics); reported once per (re)start so a
+                // runaway partition does not flood the link.
+                if !self.parts[p].overrun_reported {
+                    self.parts[p].overrun_reported = true;
+                    self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                }
+            }
+            HmAction::HaltPartition => {
+                self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                self.parts[p].run = RunState::Halted;
+            }
+            HmAction::RestartPartition => {
+                self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                self.restart(p);
+            }
+            HmAction::WarmReset => {
+                self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                self.warm_reset(ResetCause::HealthMonitor)
+            }
+        }
+    }
+
+    /// Send what is pending straight to the host, record the cause, restart from the reset
+    /// vector with RAM kept.
+    pub fn warm_reset(&mut self, cause: ResetCause) -> ! {
+        boot::disable_interrupts();
+        while let Some(record) = self.events.pop() {
+            if let Some(msg) = event_message(&record) {
+                klog::send_direct(&msg);
+            }
+        }
+        klog::with_ring(klog::flush_direct);
+        warm::set_pending_cause(cause);
+        boot::software_reset()
+    }
+}
+
+/// A fault in the kernel itself (or anything the kernel cannot attribute to a partition):
+/// report it with partition `KERNEL_PARTITION_ID`, then warm-reset with cause HealthMonitor.
+pub fn kernel_fault(vector: u32, srr0: u32, srr1: u32, dar: u32, dsisr: u32) -> ! {
+    boot::disable_interrupts();
+    let address = if vector == 0x300 { dar } else { srr0 };
+    // SAFETY: kernel context, interrupts off; whatever the kernel was doing is abandoned.
+    let k = unsafe { super::kernel() };
+    k.events.health(
+        KERNEL_PARTITION_ID,
+        ErrorKind::from_vector(vector),
+        address,
+        HmAction::WarmReset,
+    );
+    defmt::error!(
+        "kernel exception {=u32:#x} at {=u32:#x} (srr1 {=u32:#x}, dar {=u32:#x}, dsisr {=u32:#x}): warm reset",
+        vector,
+        srr0,
+        srr1,
+        dar,
+        dsisr
+    );
+    k.warm_reset(ResetCause::HealthMonitor)
+}

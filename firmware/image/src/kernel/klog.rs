@@ -1,0 +1,93 @@
+//! The kernel's side of logging and reporting: a ring of whole defmt frames (from the kernel's
+//! own log calls and from partitions' SYS_LOG) that the I/O partition drains into Log frames,
+//! and a direct path to the UART for when the kernel must speak itself (a fault in the kernel,
+//! a module reset): it flushes what is pending, then its own message.
+use fsw_bridge::codec::{encode, MAX_FRAME_LEN};
+use fsw_bridge::messages::LOG_CHUNK_MAX;
+use fsw_bridge::TargetToHost;
+use heapless::Deque;
+
+use crate::board::escc;
+
+/// Bytes of defmt stream the kernel holds for the I/O partition.
+pub const LOG_RING_BYTES: usize = 2048;
+
+pub struct LogRing {
+    bytes: Deque<u8, LOG_RING_BYTES>,
+    /// Bytes dropped because the ring could not take a whole frame.
+    pub dropped: u32,
+}
+
+impl LogRing {
+    pub const fn new() -> Self {
+        Self {
+            bytes: Deque::new(),
+            dropped: 0,
+        }
+    }
+
+    /// Append one whole defmt frame, or drop it whole: frames never interleave.
+    pub fn push_frame(&mut self, frame: &[u8]) {
+        if self.bytes.capacity() - self.bytes.len() < frame.len() {
+            self.dropped = self.dropped.saturating_add(frame.len() as u32);
+            return;
+        }
+        for &b in frame {
+            let _ = self.bytes.push_back(b);
+        }
+    }
+
+    /// Move up to `out.len()` bytes out; returns how many.
+    pub fn drain(&mut self, out: &mut [u8]) -> usize {
+        let mut n = 0;
+        while n < out.len() {
+            match self.bytes.pop_front() {
+                Some(b) => {
+                    out[n] = b;
+                    n += 1;
+                }
+                None => break,
+            }
+        }
+        n
+    }
+}
+
+struct RingCell(core::cell::UnsafeCell<LogRing>);
+
+// SAFETY: used only in kernel context with interrupts off, on the single core, through
+// `with_ring`, whose closures never log (so never re-enter).
+unsafe impl Sync for RingCell {}
+
+static RING: RingCell = RingCell(core::cell::UnsafeCell::new(LogRing::new()));
+
+/// Kernel only: run `f` with the kernel's log ring. `f` must not log.
+pub fn with_ring<R>(f: impl FnOnce(&mut LogRing) -> R) -> R {
+    // SAFETY: kernel context, interrupts off; closures given here do not log, so there is no
+    // second reference while this one lives.
+    f(unsafe { &mut *RING.0.get() })
+}
+
+/// Send a message straight to the UART (kernel only, MMU off). A leading frame delimiter ends
+/// any frame the I/O partition was in the middle of, so this one arrives whole.
+pub fn send_direct(msg: &TargetToHost) {
+    let mut frame = [0u8; MAX_FRAME_LEN];
+    if let Ok(len) = encode(msg, &mut frame) {
+        escc::kernel_write(&[0]);
+        escc::kernel_write(&frame[..len]);
+    }
+}
+
+/// Send everything in the ring as Log frames, straight to the UART.
+pub fn flush_direct(ring: &mut LogRing) {
+    loop {
+        let mut chunk = [0u8; LOG_CHUNK_MAX];
+        let n = ring.drain(&mut chunk);
+        if n == 0 {
+            return;
+        }
+        send_direct(&TargetToHost::Log {
+            bytes: heapless::Vec::from_slice(&chunk[..n]).unwrap_or_default(),
+        });
+    }
+}

@@ -1,0 +1,274 @@
+//! The partitioning kernel: ARINC 653-style time and space partitioning on the 750.
+//!
+//! The kernel owns the machine with the MMU off and runs only in exception handlers (plus its
+//! boot and idle loop). Partitions run in problem state with their own BAT mappings
+//! ([`mmu`]), in the windows of a cyclic major frame driven by the decrementer ([`sched`]);
+//! they reach the kernel through `sc` ([`syscall`], with pointers checked by [`umem`]) and
+//! exchange messages through kernel-copied [`ports`]. Every exception, bad system call, panic
+//! or overrun in a partition goes to the [`health`] monitor, which applies the configured
+//! action and reports it; a fault in the kernel itself warm-resets the module.
+pub mod health;
+pub mod klog;
+pub mod mmu;
+pub mod ports;
+pub mod sched;
+pub mod syscall;
+pub mod umem;
+
+use core::ptr::addr_of_mut;
+
+use crate::board::timebase;
+use crate::boot;
+use crate::config::{partition_image, PARTITION_COUNT};
+use crate::shared;
+
+/// A saved register set. The layout is fixed: boot.rs's entry and resume code use the offsets.
+#[repr(C)]
+#[derive(Clone, Copy)]
+pub struct Context {
+    pub gpr: [u32; 32],
+    pub cr: u32,
+    pub lr: u32,
+    pub ctr: u32,
+    pub xer: u32,
+    pub srr0: u32,
+    pub srr1: u32,
+    _pad: [u32; 2],
+}
+
+const _: () = {
+    assert!(core::mem::offset_of!(Context, cr) == 128);
+    assert!(core::mem::offset_of!(Context, srr0) == 144);
+    assert!(core::mem::offset_of!(Context, srr1) == 148);
+};
+
+impl Context {
+    pub const ZERO: Context = Context {
+        gpr: [0; 32],
+        cr: 0,
+        lr: 0,
+        ctr: 0,
+        xer: 0,
+        srr0: 0,
+        srr1: 0,
+        _pad: [0; 2],
+    };
+
+    /// The context that starts partition `p` from scratch (see `__partition_start`).
+    fn partition_start(p: usize) -> Context {
+        let image = partition_image(p);
+        let mut ctx = Context::ZERO;
+        ctx.gpr[3] = image.zero_start;
+        ctx.gpr[4] = image.zero_end;
+        ctx.gpr[5] = image.entry;
+        ctx.gpr[6] = image.stack_top;
+        ctx.srr0 = boot::__partition_start as *const () as u32;
+        ctx.srr1 = boot::msr::PARTITION;
+        ctx
+    }
+
+    /// The kernel's idle loop.
+    fn idle() -> Context {
+        let mut ctx = Context::ZERO;
+        ctx.srr0 = boot::__kernel_idle as *const () as u32;
+        ctx.srr1 = boot::msr::IDLE;
+        ctx
+    }
+}
+
+/// Where a fault inside the kernel saves its registers (SPRG2 points here while the kernel
+/// runs), so it never overwrites a partition's context.
+#[no_mangle]
+pub static mut KERNEL_FAULT_CONTEXT: Context = Context::ZERO;
+
+#[derive(Clone, Copy, PartialEq, Eq, Debug, defmt::Format)]
+pub enum RunState {
+    /// Runs in its windows.
+    Ready,
+    /// Gave up the rest of its window; resumes at its next window start.
+    Waiting,
+    /// Stopped by the health monitor until the module resets.
+    Halted,
+}
+
+/// Per-partition kernel bookkeeping.
+#[derive(Clone, Copy)]
+pub struct PartitionState {
+    pub run: RunState,
+    /// Restarts since boot; carried by every message the partition sends.
+    pub generation: u32,
+    /// Ticks used since boot.
+    pub cpu_total: u64,
+    /// Ticks used in the current window so far (up to the last switch-out).
+    pub window_ticks: u32,
+    /// Ticks used in the current major frame so far.
+    pub frame_ticks: u32,
+    pub last_frame_ticks: u32,
+    pub worst_frame_ticks: u32,
+    pub overruns: u32,
+    pub max_jitter: u32,
+    /// An overrun with action Log has been reported since the last (re)start.
+    pub overrun_reported: bool,
+}
+
+impl PartitionState {
+    const NEW: PartitionState = PartitionState {
+        run: RunState::Ready,
+        generation: 0,
+        cpu_total: 0,
+        window_ticks: 0,
+        frame_ticks: 0,
+        last_frame_ticks: 0,
+        worst_frame_ticks: 0,
+        overruns: 0,
+        max_jitter: 0,
+        overrun_reported: false,
+    };
+}
+
+/// What runs after the kernel returns.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Next {
+    Partition(usize),
+    Idle,
+}
+
+pub struct Kernel {
+    contexts: [Context; PARTITION_COUNT],
+    idle: Context,
+    pub parts: [PartitionState; PARTITION_COUNT],
+    pub sched: sched::Scheduler,
+    pub ports: ports::Ports,
+    pub events: health::EventQueue,
+    pub boot_cause: u32,
+    pub boot_count: u32,
+    pub mission_time_us: u64,
+    /// Partition whose regions DBAT1..3 map now.
+    mapped: Option<usize>,
+}
+
+static mut KERNEL: Kernel = Kernel {
+    contexts: [Context::ZERO; PARTITION_COUNT],
+    idle: Context::ZERO,
+    parts: [PartitionState::NEW; PARTITION_COUNT],
+    sched: sched::Scheduler::new(),
+    ports: ports::Ports::new(),
+    events: health::EventQueue::new(),
+    boot_cause: 0,
+    boot_count: 0,
+    mission_time_us: 0,
+    mapped: None,
+};
+
+/// The kernel's state, for kernel code only.
+///
+/// # Safety
+/// 1. Called only in kernel context (boot, trap handlers) with interrupts off, on the single
+///    core, and the returned reference is not kept across a return to a partition; so no two
+///    live `&mut Kernel` exist.
+pub unsafe fn kernel() -> &'static mut Kernel {
+    &mut *addr_of_mut!(KERNEL)
+}
+
+/// Start the partitions: called once at boot, never returns.
+pub fn start(boot_cause: u32, boot_count: u32) -> ! {
+    boot::enable_doze();
+    mmu::init();
+    // SAFETY: boot, interrupts off, nothing else holds the kernel state.
+    let k = unsafe { kernel() };
+    k.boot_cause = boot_cause;
+    k.boot_count = boot_count;
+    for p in 0..PARTITION_COUNT {
+        k.contexts[p] = Context::partition_start(p);
+    }
+    let now = timebase::now().0;
+    let next = k.sched_start(now);
+    let ctx = k.resume(next, now);
+    // SAFETY:
+    // 1. `ctx` is a complete context the kernel prepared (a partition start or idle).
+    // 2. `__context_resume` points SPRG2 at it, so the next exception saves into it.
+    unsafe { boot::__context_resume(ctx) }
+}
+
+impl Kernel {
+    /// Prepare `next` to run: map its regions, account the switch, and say which context the
+    /// resume code enters.
+    fn resume(&mut self, next: Next, entry: u64) -> *const Context {
+        match next {
+            Next::Partition(p) => {
+                if self.mapped != Some(p) {
+                    mmu::map(p);
+                    self.mapped = Some(p);
+                }
+                let now = timebase::now().0;
+                self.switched_in(p, entry, now);
+                shared::set_running(Some(p));
+                &self.contexts[p]
+            }
+            Next::Idle => {
+                self.sched.running = None;
+                self.idle = Context::idle();
+                shared::set_running(None);
+                &self.idle
+            }
+        }
+    }
+
+    /// (Re)start partition `p` from its entry: fresh statics, next generation.
+    pub fn restart(&mut self, p: usize) {
+        self.contexts[p] = Context::partition_start(p);
+        let state = &mut self.parts[p];
+        state.generation = state.generation.wrapping_add(1);
+        state.run = RunState::Ready;
+        state.overrun_reported = false;
+    }
+
+    pub fn context(&mut self, p: usize) -> &mut Context {
+        &mut self.contexts[p]
+    }
+}
+
+/// Entered from `__exception_common` with the MMU off, interrupts off, on the kernel stack.
+/// `ctx` is where the interrupted registers were saved. Returns the context to resume.
+#[no_mangle]
+pub extern "C" fn kernel_trap(
+    vector: u32,
+    ctx: *mut Context,
+    dar: u32,
+    dsisr: u32,
+) -> *const Context {
+    let entry = timebase::now().0;
+    shared::set_running(None);
+    if ctx == addr_of_mut!(KERNEL_FAULT_CONTEXT) {
+        // SAFETY: the entry code just wrote this context; nothing else uses it.
+        let c = unsafe { &*ctx };
+        health::kernel_fault(vector, c.srr0, c.srr1, dar, dsisr);
+    }
+    // SAFETY: kernel context, interrupts off; the reference ends when this trap returns.
+    let k = unsafe { kernel() };
+    let next = match k.sched.running {
+        Some(p) => {
+            debug_assert!(core::ptr::eq(ctx, &k.contexts[p]));
+            match vector {
+                0x900 => k.on_timer(entry),
+                0xc00 => k.syscall(p, entry),
+                _ => {
+                    let srr0 = k.contexts[p].srr0;
+                    let address = if vector == 0x300 { dar } else { srr0 };
+                    let kind = kernel_config::ErrorKind::from_vector(vector);
+                    k.partition_fault(p, kind, address, entry)
+                }
+            }
+        }
+        None => {
+            // SAFETY: as above, the entry code wrote it.
+            let c = unsafe { &*ctx };
+            if vector == 0x900 && c.srr1 & boot::msr::PR == 0 {
+                k.on_timer(entry)
+            } else {
+                health::kernel_fault(vector, c.srr0, c.srr1, dar, dsisr)
+            }
+        }
+    };
+    k.resume(next, entry)
+}

@@ -1,0 +1,183 @@
+//! System calls (`sc`): the number in r0, arguments in r3..r7, results in r3 (negative: an
+//! `abi::E_*` code) and r4/r5. See `kernel_config::abi` for the table. A call that fails with a
+//! fault code (anything but E_EMPTY/E_FULL) is also reported to the health monitor, which
+//! applies the partition's IllegalSyscall action; the kernel itself never fails because of what
+//! a partition passed.
+use fsw_bridge::ResetCause;
+use kernel_config::abi::*;
+use kernel_config::{WARM_AREA_BASE, WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
+
+use super::umem::{copy, USlice};
+use super::{health, klog, Kernel, Next};
+use crate::config::SYSTEM;
+
+enum Outcome {
+    /// Return to the caller with r3, r4, r5.
+    Return(u32, u32, u32),
+    /// Something else runs next (wait, panic, reset).
+    Switch(Next),
+}
+
+use Outcome::Return;
+
+fn ok() -> Result<Outcome, i32> {
+    Ok(Return(0, 0, 0))
+}
+
+impl Kernel {
+    pub fn syscall(&mut self, p: usize, now: u64) -> Next {
+        let ctx = *self.context(p);
+        let call = ctx.gpr[0];
+        let a = [ctx.gpr[3], ctx.gpr[4], ctx.gpr[5], ctx.gpr[6], ctx.gpr[7]];
+        match self.dispatch(p, call, a, now) {
+            Ok(Outcome::Return(r3, r4, r5)) => {
+                let ctx = self.context(p);
+                ctx.gpr[3] = r3;
+                ctx.gpr[4] = r4;
+                ctx.gpr[5] = r5;
+                Next::Partition(p)
+            }
+            Ok(Outcome::Switch(next)) => next,
+            Err(code) => {
+                self.context(p).gpr[3] = code as u32;
+                if is_fault(code) {
+                    self.syscall_fault(p, call, now)
+                } else {
+                    Next::Partition(p)
+                }
+            }
+        }
+    }
+
+    fn link_owner(p: usize) -> Result<(), i32> {
+        if SYSTEM.partitions[p].capabilities.link_owner {
+            Ok(())
+        } else {
+            Err(E_DENIED)
+        }
+    }
+
+    fn warm_range(p: usize, offset: u32, len: u32) -> Result<u32, i32> {
+        if !SYSTEM.partitions[p].capabilities.warm_area {
+            return Err(E_DENIED);
+        }
+        let room = WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE;
+        match offset.checked_add(len) {
+            Some(end) if end <= room => Ok(WARM_AREA_BASE + WARM_BOOT_RECORD_SIZE + offset),
+            _ => Err(E_RANGE),
+        }
+    }
+
+    fn dispatch(&mut self, p: usize, call: u32, a: [u32; 5], now: u64) -> Result<Outcome, i32> {
+        match call {
+            SYS_WAIT_NEXT_WINDOW => {
+                self.context(p).gpr[3] = 0;
+                Ok(Outcome::Switch(self.wait_next_window(p, now)))
+            }
+            SYS_PORT_SEND => {
+                let message = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
+                let generation = self.parts[p].generation;
+                self.ports
+                    .send(p, a[0] as usize, message, generation, now)?;
+                ok()
+            }
+            SYS_PORT_RECEIVE => {
+                let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
+                let got = self.ports.receive(p, a[0] as usize, buffer)?;
+                let age = now.saturating_sub(got.sent_at).min(u64::from(u32::MAX)) as u32;
+                Ok(Return(got.len as u32, got.generation, age))
+            }
+            SYS_MISSION_TIME => {
+                let t = self.mission_time_us;
+                Ok(Return((t >> 32) as u32, t as u32, 0))
+            }
+            SYS_CPU_TIME => {
+                let s = &self.parts[p];
+                let window = s.window_ticks as u64 + now.saturating_sub(self.sched_run_since());
+                let total = s.cpu_total + now.saturating_sub(self.sched_run_since());
+                Ok(Return((total >> 32) as u32, total as u32, window as u32))
+            }
+            SYS_LOG => {
+                let frame = USlice::from_raw(a[0], a[1])?.readable_by(p)?;
+                klog::with_ring(|ring| ring.push_frame(frame));
+                ok()
+            }
+            SYS_WARM_READ => {
+                let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
+                let at = Self::warm_range(p, a[0], a[2])?;
+                // SAFETY:
+                // 1. `at..at + len` lies inside the warm area's checkpoint part (checked by
+                //    `warm_range`), kernel RAM that is not otherwise borrowed during this call.
+                let area = unsafe { core::slice::from_raw_parts(at as *const u8, buffer.len()) };
+                copy(buffer, area);
+                ok()
+            }
+            SYS_WARM_WRITE => {
+                let data = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
+                let at = Self::warm_range(p, a[0], a[2])?;
+                // SAFETY: as for SYS_WARM_READ; the boot record before the part is not touched.
+                let area = unsafe { core::slice::from_raw_parts_mut(at as *mut u8, data.len()) };
+                copy(area, data);
+                ok()
+            }
+            SYS_IDENTITY => Ok(Return(p as u32, self.parts[p].generation, 0)),
+            SYS_PANIC => {
+                let file = USlice::from_raw(a[0], a[1].min(128))
+                    .and_then(|s| s.readable_by(p))
+                    .unwrap_or(b"<bad pointer>");
+                defmt::error!(
+                    "partition {=str} panicked at {=str}:{=u32}",
+                    SYSTEM.partitions[p].name,
+                    core::str::from_utf8(file).unwrap_or("<not utf-8>"),
+                    a[2]
+                );
+                Ok(Outcome::Switch(self.partition_fault(
+                    p,
+                    kernel_config::ErrorKind::Panic,
+                    a[2],
+                    now,
+                )))
+            }
+            SYS_BOOT_INFO => {
+                Self::link_owner(p)?;
+                Ok(Return(self.boot_cause, self.boot_count, 0))
+            }
+            SYS_LOG_DRAIN => {
+                Self::link_owner(p)?;
+                let buffer = USlice::from_raw(a[0], a[1])?.writable_by(p)?;
+                let n = klog::with_ring(|ring| ring.drain(buffer));
+                Ok(Return(n as u32, 0, 0))
+            }
+            SYS_EVENT_DRAIN => {
+                Self::link_owner(p)?;
+                let buffer = USlice::from_raw(a[0], EVENT_RECORD_SIZE as u32)?.writable_by(p)?;
+                match self.events.pop() {
+                    Some(record) => {
+                        copy(buffer, &health::record_bytes(&record));
+                        Ok(Return(1, 0, 0))
+                    }
+                    None => Ok(Return(0, 0, 0)),
+                }
+            }
+            SYS_SET_MISSION_TIME => {
+                Self::link_owner(p)?;
+                self.mission_time_us = (u64::from(a[0]) << 32) | u64::from(a[1]);
+                ok()
+            }
+            SYS_RESET_MODULE => {
+                Self::link_owner(p)?;
+                self.warm_reset(ResetCause::Warm)
+            }
+            SYS_REQUEST_METRICS => {
+                Self::link_owner(p)?;
+                match a[0] {
+                    0 => self.report_metrics(),
+                    REPORT_OFF => self.sched.report_period = 0,
+                    period => self.sched.report_period = period,
+                }
+                ok()
+            }
+            _ => Err(E_UNKNOWN_CALL),
+        }
+    }
+}

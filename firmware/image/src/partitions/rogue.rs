@@ -1,0 +1,128 @@
+//! The rogue partition, built only into the test image: on command (a StateUpdate with the
+//! reserved key `control::ROGUE_MODE`, value `Enum(abi::rogue::*)`) it writes into the
+//! planner's memory, spins forever, passes bad pointers to every system call, panics, or runs a
+//! privileged instruction, so the tests can watch the kernel contain it.
+use core::arch::asm;
+use core::ptr::addr_of_mut;
+
+use fsw_bridge::{HostToTarget, StateKey, StateValue};
+use kernel_config::abi::{self, control, rogue};
+use kernel_config::system::{PORT_IO_TO_EXECUTIVE, PORT_IO_TO_ROGUE, ROGUE_REGION};
+
+use super::receive_routed;
+use crate::sys;
+
+#[no_mangle]
+pub extern "C" fn partition_rogue_main() -> ! {
+    let (_, generation) = sys::identity();
+    defmt::info!("rogue: started, generation {=u32}", generation);
+    loop {
+        while let Some((msg, _)) = receive_routed(PORT_IO_TO_ROGUE) {
+            if let HostToTarget::StateUpdate {
+                key: StateKey(control::ROGUE_MODE),
+                value: StateValue::Enum(mode),
+                ..
+            } = msg
+            {
+                act(mode);
+            }
+        }
+        sys::wait_next_window();
+    }
+}
+
+fn act(mode: u16) {
+    match mode {
+        rogue::WRITE_PLANNER => {
+            // SAFETY: none needed for taking an address; the write below is the point of the
+            // test: the MMU must stop it.
+            let target = unsafe { addr_of_mut!(super::planner::STATE) } as *mut u32;
+            defmt::info!(
+                "rogue: writing into the planner's memory at {=u32:#x}",
+                target as u32
+            );
+            for i in 0..64 {
+                // SAFETY: deliberately not safe: this partition has no mapping for the
+                // planner's region, so the first store raises a DSI.
+                unsafe { core::ptr::write_volatile(target.add(i), 0xdead_beef) };
+            }
+            defmt::error!("rogue: the write went through");
+        }
+        rogue::ENDLESS_LOOP => {
+            defmt::info!("rogue: spinning forever");
+            let mut n: u32 = 0;
+            loop {
+                // SAFETY: a plain volatile store to this partition's own stack variable.
+                unsafe { core::ptr::write_volatile(&mut n, n.wrapping_add(1)) };
+            }
+        }
+        rogue::BAD_POINTERS => bad_pointers(),
+        rogue::PANIC => panic!("rogue: asked to panic"),
+        rogue::PRIVILEGED => {
+            defmt::info!("rogue: mfmsr in problem state");
+            // SAFETY: deliberately privileged: raises a program exception in problem state.
+            unsafe { asm!("mfmsr {0}", out(reg) _, options(nomem, nostack)) };
+            defmt::error!("rogue: mfmsr went through");
+        }
+        _ => defmt::warn!("rogue: unknown mode {=u16}", mode),
+    }
+}
+
+/// Every system call with arguments it must refuse. Each result is logged; the summary line
+/// says how many were refused.
+fn bad_pointers() {
+    let own = ROGUE_REGION.base + ROGUE_REGION.size - 64;
+    let kernel_data = kernel_config::KERNEL_DATA_BASE;
+    let planner = kernel_config::system::PLANNER_REGION.base;
+    let device = kernel_config::system::MAC_IO_BASE + 0x13000;
+    let cases: [(u32, [u32; 5]); 20] = [
+        (
+            abi::SYS_PORT_SEND,
+            [PORT_IO_TO_ROGUE as u32, kernel_data, 16, 0, 0],
+        ),
+        (
+            abi::SYS_PORT_SEND,
+            [PORT_IO_TO_ROGUE as u32, 0xffff_fff0, 0x20, 0, 0],
+        ),
+        (
+            abi::SYS_PORT_SEND,
+            [PORT_IO_TO_EXECUTIVE as u32, own, 16, 0, 0],
+        ),
+        (
+            abi::SYS_PORT_RECEIVE,
+            [PORT_IO_TO_ROGUE as u32, 0x100, 16, 0, 0],
+        ),
+        (
+            abi::SYS_PORT_RECEIVE,
+            [PORT_IO_TO_ROGUE as u32, planner, 160, 0, 0],
+        ),
+        (abi::SYS_PORT_RECEIVE, [99, own, 16, 0, 0]),
+        (abi::SYS_LOG, [kernel_config::WARM_AREA_BASE, 8, 0, 0, 0]),
+        (abi::SYS_LOG, [device, 4, 0, 0, 0]),
+        (abi::SYS_WARM_READ, [0, kernel_data, 16, 0, 0]),
+        (abi::SYS_WARM_READ, [0, own, 16, 0, 0]),
+        (abi::SYS_WARM_WRITE, [0, device, 1, 0, 0]),
+        (abi::SYS_BOOT_INFO, [0; 5]),
+        (abi::SYS_LOG_DRAIN, [planner, 64, 0, 0, 0]),
+        (abi::SYS_EVENT_DRAIN, [kernel_data, 0, 0, 0, 0]),
+        (abi::SYS_SET_MISSION_TIME, [0, 0, 0, 0, 0]),
+        (abi::SYS_RESET_MODULE, [0; 5]),
+        (abi::SYS_REQUEST_METRICS, [0; 5]),
+        (abi::SYS_LOG, [own, 0x1000, 0, 0, 0]),
+        (abi::SYSCALL_COUNT, [0; 5]),
+        (0xffff_ffff, [kernel_data; 5]),
+    ];
+    let mut refused = 0u32;
+    for (call, args) in cases {
+        let (r3, _, _) = sys::raw(call, args);
+        defmt::info!("rogue: call {=u32} -> {=i32}", call, r3);
+        if r3 < 0 {
+            refused += 1;
+        }
+    }
+    defmt::info!(
+        "rogue: bad pointers done, {=u32} of {=u32} calls refused",
+        refused,
+        cases.len() as u32
+    );
+}

@@ -1,0 +1,204 @@
+//! The partitions' side of the system calls: thin wrappers over `sc` (see
+//! `kernel_config::abi` for numbers and error codes). Everything here runs in problem state.
+use core::arch::asm;
+
+use kernel_config::abi::*;
+
+/// Raw system call: number, up to five arguments; returns (r3, r4, r5). The kernel restores
+/// every other register.
+#[inline(always)]
+pub fn raw(call: u32, a: [u32; 5]) -> (i32, u32, u32) {
+    let (r3, r4, r5): (u32, u32, u32);
+    // SAFETY:
+    // 1. `sc` enters the kernel, which saves and restores the whole register set except r3-r5
+    //    (the results) and checks every argument; the worst a bad argument does is an error.
+    // 2. The kernel may write memory the arguments point at (receive buffers): no `nomem`.
+    unsafe {
+        asm!(
+            "sc",
+            in("r0") call,
+            inlateout("r3") a[0] => r3,
+            inlateout("r4") a[1] => r4,
+            inlateout("r5") a[2] => r5,
+            in("r6") a[3],
+            in("r7") a[4],
+            options(nostack)
+        );
+    }
+    (r3 as i32, r4, r5)
+}
+
+fn result(r3: i32) -> Result<u32, i32> {
+    if r3 < 0 {
+        Err(r3)
+    } else {
+        Ok(r3 as u32)
+    }
+}
+
+/// Give up the rest of this window; returns at the start of the next one.
+pub fn wait_next_window() {
+    raw(SYS_WAIT_NEXT_WINDOW, [0; 5]);
+}
+
+pub fn port_send(port: usize, message: &[u8]) -> Result<(), i32> {
+    let (r3, _, _) = raw(
+        SYS_PORT_SEND,
+        [
+            port as u32,
+            message.as_ptr() as u32,
+            message.len() as u32,
+            0,
+            0,
+        ],
+    );
+    result(r3).map(|_| ())
+}
+
+/// A message taken from a port.
+pub struct Received {
+    pub len: usize,
+    /// The sender's generation when it sent the message.
+    pub generation: u32,
+    /// Ticks since it was sent.
+    #[allow(dead_code)]
+    pub age: u32,
+}
+
+pub fn port_receive(port: usize, buffer: &mut [u8]) -> Result<Received, i32> {
+    let (r3, generation, age) = raw(
+        SYS_PORT_RECEIVE,
+        [
+            port as u32,
+            buffer.as_mut_ptr() as u32,
+            buffer.len() as u32,
+            0,
+            0,
+        ],
+    );
+    result(r3).map(|len| Received {
+        len: len as usize,
+        generation,
+        age,
+    })
+}
+
+#[allow(dead_code)] // for the autonomy core
+/// Mission time in µs (as last granted by the host).
+pub fn mission_time_us() -> u64 {
+    let (hi, lo, _) = raw(SYS_MISSION_TIME, [0; 5]);
+    (u64::from(hi as u32) << 32) | u64::from(lo)
+}
+
+/// (ticks used since boot, ticks used in this window so far).
+pub fn cpu_time() -> (u64, u32) {
+    let (hi, lo, window) = raw(SYS_CPU_TIME, [0; 5]);
+    ((u64::from(hi as u32) << 32) | u64::from(lo), window)
+}
+
+/// One whole defmt frame.
+pub fn log(frame: &[u8]) -> Result<(), i32> {
+    let (r3, _, _) = raw(
+        SYS_LOG,
+        [frame.as_ptr() as u32, frame.len() as u32, 0, 0, 0],
+    );
+    result(r3).map(|_| ())
+}
+
+#[allow(dead_code)] // for the autonomy core's checkpoints
+pub fn warm_read(offset: u32, buffer: &mut [u8]) -> Result<(), i32> {
+    let (r3, _, _) = raw(
+        SYS_WARM_READ,
+        [
+            offset,
+            buffer.as_mut_ptr() as u32,
+            buffer.len() as u32,
+            0,
+            0,
+        ],
+    );
+    result(r3).map(|_| ())
+}
+
+#[allow(dead_code)] // for the autonomy core's checkpoints
+pub fn warm_write(offset: u32, data: &[u8]) -> Result<(), i32> {
+    let (r3, _, _) = raw(
+        SYS_WARM_WRITE,
+        [offset, data.as_ptr() as u32, data.len() as u32, 0, 0],
+    );
+    result(r3).map(|_| ())
+}
+
+/// (partition index, generation).
+pub fn identity() -> (usize, u32) {
+    let (p, generation, _) = raw(SYS_IDENTITY, [0; 5]);
+    (p as usize, generation)
+}
+
+/// Report a panic; the health monitor acts and this never returns.
+pub fn panic(file: &str, line: u32) -> ! {
+    raw(
+        SYS_PANIC,
+        [file.as_ptr() as u32, file.len() as u32, line, 0, 0],
+    );
+    // The kernel never resumes a partition after SYS_PANIC; should it ever, wait for good.
+    loop {
+        wait_next_window();
+    }
+}
+
+/// Link owner: (reset cause code, boot count).
+pub fn boot_info() -> (u32, u32) {
+    let (cause, count, _) = raw(SYS_BOOT_INFO, [0; 5]);
+    (cause as u32, count)
+}
+
+/// Link owner: move kernel log bytes into `buffer`.
+pub fn log_drain(buffer: &mut [u8]) -> usize {
+    let (r3, _, _) = raw(
+        SYS_LOG_DRAIN,
+        [buffer.as_mut_ptr() as u32, buffer.len() as u32, 0, 0, 0],
+    );
+    result(r3).unwrap_or(0) as usize
+}
+
+/// Link owner: the next kernel event record, if any.
+pub fn event_drain() -> Option<[u32; 4]> {
+    let mut record = [0u8; EVENT_RECORD_SIZE];
+    let (r3, _, _) = raw(SYS_EVENT_DRAIN, [record.as_mut_ptr() as u32, 0, 0, 0, 0]);
+    if r3 != 1 {
+        return None;
+    }
+    let mut words = [0u32; 4];
+    for (i, w) in words.iter_mut().enumerate() {
+        *w = u32::from_be_bytes([
+            record[i * 4],
+            record[i * 4 + 1],
+            record[i * 4 + 2],
+            record[i * 4 + 3],
+        ]);
+    }
+    Some(words)
+}
+
+/// Link owner: the host granted mission time `us`.
+pub fn set_mission_time(us: u64) {
+    raw(
+        SYS_SET_MISSION_TIME,
+        [(us >> 32) as u32, us as u32, 0, 0, 0],
+    );
+}
+
+/// Link owner: warm-reset the module (reset cause Warm).
+pub fn reset_module() -> ! {
+    raw(SYS_RESET_MODULE, [0; 5]);
+    loop {
+        wait_next_window();
+    }
+}
+
+/// Link owner: have the kernel queue its accounting metrics now (0), every `period` frames,
+/// or stop (REPORT_OFF).
+pub fn request_metrics(period: u32) {
+    raw(SYS_REQUEST_METRICS, [period, 0, 0, 0, 0]);
+}
