@@ -77,6 +77,9 @@ enum Command {
     },
     /// Build the firmware image and print its path and build id.
     Build,
+    /// Campaign: many seeded random-reset variants of a mission scenario, in parallel,
+    /// shardable across machines, merged into one report.
+    Campaign(hil::campaign::CampaignArgs),
 }
 
 #[derive(Subcommand)]
@@ -300,6 +303,7 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             }
             Ok(ExitCode::SUCCESS)
         }
+        Command::Campaign(args) => hil::campaign::cli(args),
         Command::Build => {
             let fw = firmware::build().map_err(|e| e.to_string())?;
             let fw = FirmwareImage::open(&fw.elf).map_err(|e| e.to_string())?;

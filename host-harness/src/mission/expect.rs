@@ -81,8 +81,15 @@ pub fn validate(spec: &ExpectSpec, net: &CompiledNetwork) -> Result<(), String> 
         }
         let v = spec.value.as_ref().ok_or("timeline: give value")?;
         value_of(v, values).map_err(|e| format!("value: {e}"))?;
-        if spec.at.is_none() {
-            return Err("timeline: give at".into());
+        match (&spec.at, &spec.during) {
+            (None, None) => return Err("timeline: give at or during".into()),
+            (Some(_), Some(_)) => return Err("timeline: give at or during, not both".into()),
+            (None, Some(task)) if !known_task(task) => {
+                return Err(format!(
+                    "during: no task named {task:?} in the task network"
+                ))
+            }
+            _ => {}
         }
     }
     if let Some(tasks) = &spec.covered_by {
@@ -192,7 +199,12 @@ fn check(
                 problems.push(format!("outcome {}", inst.outcome_name()));
             }
         }
-        if let Some(s) = t(&spec.started_at) {
+        if let Some(mut s) = t(&spec.started_at) {
+            if spec.or_at_restart == Some(true) {
+                if let Some(r) = down_at(rec, s.0) {
+                    s = MissionTimeUs(r.1);
+                }
+            }
             if inst.started_at != Some(s.0) {
                 problems.push(format!(
                     "started {}",
@@ -244,6 +256,9 @@ fn check(
                 Err(format!("added {n} time(s)"))
             },
         );
+    }
+    if let (Some(tl), Some(task)) = (&spec.timeline, &spec.during) {
+        return check_during(spec, tl, task, rec, net);
     }
     if let Some(tl) = &spec.timeline {
         let at = t(&spec.at).unwrap_or_default();
@@ -319,10 +334,24 @@ fn check(
             .filter(|i| tasks.contains(&i.name))
             .filter_map(|i| Some((i.started_at?, i.ended_at.unwrap_or(end_of_run.max(to.0)))))
             .collect();
+        let exclusive = spec.exclusive == Some(true);
+        let allow_reset_gaps = spec.allow_reset_gaps == Some(true);
+        let what = format!(
+            "{what}{}{}",
+            if exclusive { ", one at a time" } else { "" },
+            if allow_reset_gaps {
+                ", except while the flight software is down"
+            } else {
+                ""
+            }
+        );
+        if allow_reset_gaps {
+            spans.extend(downtimes(rec));
+        }
         spans.sort();
         let mut covered_to = from.0;
         let mut gaps = Vec::new();
-        for (s, e) in spans {
+        for &(s, e) in &spans {
             if s > covered_to && covered_to < to.0 {
                 gaps.push((covered_to, s.min(to.0)));
             }
@@ -331,22 +360,22 @@ fn check(
         if covered_to < to.0 {
             gaps.push((covered_to, to.0));
         }
+        let mut problems = Vec::new();
+        if !gaps.is_empty() {
+            problems.push(format!("gaps: {}", spans_text(&gaps)));
+        }
+        if exclusive {
+            let overlaps = overlaps(rec, tasks, from.0, to.0, end_of_run.max(to.0));
+            if !overlaps.is_empty() {
+                problems.push(format!("overlaps: {}", overlaps.join(", ")));
+            }
+        }
         return (
             what,
-            if gaps.is_empty() {
+            if problems.is_empty() {
                 Ok("no gap".into())
             } else {
-                Err(format!(
-                    "gaps: {}",
-                    gaps.iter()
-                        .map(|(a, b)| format!(
-                            "{}-{}",
-                            fmt_time(MissionTimeUs(*a)),
-                            fmt_time(MissionTimeUs(*b))
-                        ))
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                ))
+                Err(problems.join("; "))
             },
         );
     }
@@ -376,6 +405,148 @@ fn check(
         );
     }
     ("?".into(), Err("empty expectation".into()))
+}
+
+/// When the flight software was down: from each reset to its restart.
+fn downtimes(rec: &MissionRecord) -> Vec<(u64, u64)> {
+    rec.resets.iter().map(|r| (r.at, r.restart_at)).collect()
+}
+
+/// The downtime `t` falls in, if any (half-open: the restart instant is up).
+fn down_at(rec: &MissionRecord, t: u64) -> Option<(u64, u64)> {
+    downtimes(rec)
+        .into_iter()
+        .find(|(a, b)| (*a..*b).contains(&t))
+}
+
+fn spans_text(spans: &[(u64, u64)]) -> String {
+    spans
+        .iter()
+        .map(|(a, b)| {
+            format!(
+                "{}-{}",
+                fmt_time(MissionTimeUs(*a)),
+                fmt_time(MissionTimeUs(*b))
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Pairs of the listed tasks' instances that ran at the same time within `from`..`to`.
+fn overlaps(
+    rec: &MissionRecord,
+    tasks: &[String],
+    from: u64,
+    to: u64,
+    open_end: u64,
+) -> Vec<String> {
+    let spans: Vec<(u64, u64, &Instance)> = rec
+        .instances
+        .iter()
+        .filter(|i| tasks.contains(&i.name))
+        .filter_map(|i| {
+            let (s, e) = (
+                i.started_at?.max(from),
+                i.ended_at.unwrap_or(open_end).min(to),
+            );
+            (s < e).then_some((s, e, i))
+        })
+        .collect();
+    let mut out = Vec::new();
+    for (n, a) in spans.iter().enumerate() {
+        for b in &spans[n + 1..] {
+            let (s, e) = (a.0.max(b.0), a.1.min(b.1));
+            if s < e {
+                out.push(format!(
+                    "{} ({}) and {} ({}) during {}",
+                    a.2.name,
+                    a.2.origin,
+                    b.2.name,
+                    b.2.origin,
+                    spans_text(&[(s, e)])
+                ));
+            }
+        }
+    }
+    out
+}
+
+/// `timeline` = `value` while every instance of `task` ran, downtimes excepted.
+fn check_during(
+    spec: &ExpectSpec,
+    tl: &str,
+    task: &str,
+    rec: &MissionRecord,
+    net: &CompiledNetwork,
+) -> (String, Result<String, String>) {
+    let (key, values) = net.timeline(tl).expect("validated");
+    let key = key.expect("validated");
+    let want = value_of(spec.value.as_ref().expect("validated"), values).expect("validated");
+    let shown = |v: Option<fsw_bridge::StateValue>| match v {
+        Some(fsw_bridge::StateValue::Enum(i)) => {
+            values.get(i as usize).cloned().unwrap_or(format!("{i}"))
+        }
+        Some(other) => format!("{other:?}"),
+        None => "never published".into(),
+    };
+    let what = format!("{tl} is {} while {task} runs", shown(Some(want)));
+    let end_of_run = rec
+        .labels
+        .iter()
+        .map(|(t, _)| *t)
+        .chain(rec.instances.iter().filter_map(|i| i.ended_at))
+        .max()
+        .unwrap_or(0);
+    let publications = rec.states.get(&key).map(Vec::as_slice).unwrap_or(&[]);
+    let mut problems = Vec::new();
+    let mut checked = 0;
+    for inst in instances_of(rec, task) {
+        let Some(start) = inst.started_at else {
+            continue;
+        };
+        let end = inst.ended_at.unwrap_or(end_of_run);
+        // The running interval minus the downtimes.
+        let mut pieces = vec![(start, end)];
+        for (a, b) in downtimes(rec) {
+            pieces = pieces
+                .into_iter()
+                .flat_map(|(s, e)| [(s, e.min(a)), (s.max(b), e)])
+                .filter(|(s, e)| s < e)
+                .collect();
+        }
+        for (s, e) in pieces {
+            checked += 1;
+            let mut bad: Vec<(u64, Option<fsw_bridge::StateValue>)> = Vec::new();
+            let at_start = rec.state_at(key, MissionTimeUs(s));
+            if at_start != Some(want) {
+                bad.push((s, at_start));
+            }
+            for (t, v) in publications {
+                if t.0 > s && t.0 < e && *v != want {
+                    bad.push((t.0, Some(*v)));
+                }
+            }
+            if let Some((t, v)) = bad.first() {
+                problems.push(format!(
+                    "{} ({}) ran {} but {tl} was {} at {}",
+                    inst.name,
+                    inst.origin,
+                    spans_text(&[(s, e)]),
+                    shown(*v),
+                    fmt_time(MissionTimeUs(*t))
+                ));
+            }
+        }
+    }
+    (
+        what,
+        if problems.is_empty() {
+            Ok(format!("{checked} running interval(s) checked"))
+        } else {
+            Err(problems.join("; "))
+        },
+    )
 }
 
 fn describe(i: &Instance) -> String {

@@ -21,6 +21,27 @@
 //! instance = 1
 //! outcome = "aborted"
 //! ```
+//!
+//! Expectations that hold for a reset at any time (campaigns, `hil campaign`):
+//!
+//! ```toml
+//! [[expect]]                         # exactly one of them at a time, except while the
+//! covered_by = ["Instrument Flyby", "Instrument Degraded Flyby"]   # software is down
+//! from = "10:15"
+//! to = "11:05"
+//! exclusive = true                   # never two of the listed tasks at once
+//! allow_reset_gaps = true            # gaps from a reset to its restart are excused
+//!
+//! [[expect]]                         # every instance ran only while the state held
+//! timeline = "GncAttitude"           # (downtimes excepted)
+//! value = "NADIR"
+//! during = "Instrument Flyby"
+//!
+//! [[expect]]                         # on time, or at the restart if the flight
+//! task = "GncAttain EARTH"           # software was down at 11:05
+//! started_at = "11:05"
+//! or_at_restart = true
+//! ```
 use serde::Deserialize;
 
 /// `[mission]`.
@@ -115,6 +136,9 @@ pub struct ExpectSpec {
     pub started_at: Option<String>,
     /// The instance ended at this time (with `task`).
     pub ended_at: Option<String>,
+    /// With `started_at`: if the flight software was down (between a reset and its restart)
+    /// at `started_at`, the instance must start at that restart instead.
+    pub or_at_restart: Option<bool>,
     /// Template name: the planner added it `count` times (default: at least once).
     pub added: Option<String>,
     pub count: Option<u32>,
@@ -122,6 +146,9 @@ pub struct ExpectSpec {
     pub timeline: Option<String>,
     pub at: Option<String>,
     pub value: Option<toml::Value>,
+    /// With `timeline` instead of `at`: while any instance of this task ran (downtimes
+    /// excepted), the spacecraft's state was `value`.
+    pub during: Option<String>,
     /// Labels that must occur in this order, e.g. "Instrument Flyby aborted",
     /// "GncAttain NADIR added", "Instrument Flyby started".
     pub order: Option<Vec<String>>,
@@ -129,6 +156,11 @@ pub struct ExpectSpec {
     pub covered_by: Option<Vec<String>>,
     pub from: Option<String>,
     pub to: Option<String>,
+    /// With `covered_by`: the listed tasks never ran at the same time within `from`..`to`.
+    pub exclusive: Option<bool>,
+    /// With `covered_by`: gaps while the flight software is down (from a reset to its
+    /// restart) are not gaps.
+    pub allow_reset_gaps: Option<bool>,
     /// A metric of the run (see the report) must be at most `max` / at least `min`.
     pub metric: Option<String>,
     pub max: Option<u64>,

@@ -69,6 +69,39 @@ pub trait MissionTarget {
     fn take_logs(&mut self) -> Vec<LogLine>;
     /// True for the emulated target (costs are guest ticks), false for native.
     fn counts_cycles(&self) -> bool;
+    /// Make the next warm reset land in the middle of a frame (a "random instruction point")
+    /// instead of at a frame boundary; `seed` picks the instant. Returns false if this target
+    /// cannot do that (the reset then happens at the frame boundary as usual).
+    ///
+    /// The native target models it as a torn checkpoint (see
+    /// [`NativeTarget::damage_on_next_warm_reset`]). The emulated target would need the driver
+    /// to send the grant, wait a seeded number of microseconds and issue QMP `system_reset`
+    /// while the guest computes; that hook is not wired into the driver yet.
+    fn arm_mid_frame_reset(&mut self, seed: u64) -> bool {
+        let _ = seed;
+        false
+    }
+    /// What the mid-frame resets armed with `arm_mid_frame_reset` actually did, in order.
+    fn mid_frame_log(&self) -> Vec<String> {
+        Vec::new()
+    }
+}
+
+/// Damage a [`NativeTarget`] does to its checkpoints at the next warm reset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CheckpointDamage {
+    /// The reset lands while the last frame's checkpoint is written to the warm-restart area:
+    /// the newest warm record is garbage from byte `offset_permille`/1000 of its length on
+    /// (the other slot is whole), and the non-volatile write of that frame never started (its
+    /// newest record is invalidated, which restores exactly like the older record it would
+    /// still hold). Garbage comes from `seed`.
+    TornWarm { offset_permille: u32, seed: u64 },
+    /// The reset lands while the last frame's checkpoint is written to non-volatile memory
+    /// (the warm write of that frame completed).
+    TornNv { offset_permille: u32, seed: u64 },
+    /// Test knob: every checkpoint is gone, in both warm slots and in NV. Recovery must fail;
+    /// campaigns use it to prove their checks notice.
+    DestroyAll,
 }
 
 /// The flight application in this process: what runs in the firmware's partitions, without
@@ -81,6 +114,11 @@ pub struct NativeTarget {
     decoder: FrameDecoder,
     boot_count: u32,
     next_cause: ResetCause,
+    /// Damage to apply at the next warm reset (mid-frame resets, test knobs).
+    pending_damage: Option<CheckpointDamage>,
+    /// Mission time of the last grant delivered (for the damage log).
+    last_grant: Option<fsw_bridge::MissionTimeUs>,
+    damage_log: Vec<String>,
 }
 
 impl Default for NativeTarget {
@@ -98,7 +136,52 @@ impl NativeTarget {
             decoder: FrameDecoder::new(),
             boot_count: 0,
             next_cause: ResetCause::PowerOn,
+            pending_damage: None,
+            last_grant: None,
+            damage_log: Vec::new(),
         }
+    }
+
+    /// Apply `damage` to the checkpoints at the next warm reset (once).
+    pub fn damage_on_next_warm_reset(&mut self, damage: CheckpointDamage) {
+        self.pending_damage = Some(damage);
+    }
+
+    /// What the damage applied so far did (one line per reset).
+    pub fn damage_log(&self) -> &[String] {
+        &self.damage_log
+    }
+
+    fn apply_damage(&mut self, damage: CheckpointDamage) {
+        let frame = self
+            .last_grant
+            .map(super::time::fmt_time)
+            .unwrap_or_else(|| "-".into());
+        let line = match damage {
+            CheckpointDamage::DestroyAll => {
+                self.warm.iter_mut().for_each(|b| *b = 0);
+                self.nv.iter_mut().for_each(|b| *b = 0);
+                "every checkpoint destroyed (warm slots A and B, non-volatile memory)".to_string()
+            }
+            CheckpointDamage::TornWarm {
+                offset_permille,
+                seed,
+            } => {
+                let torn = tear_newest(&mut self.warm, offset_permille, seed);
+                let nv = invalidate_newest(&mut self.nv);
+                format!(
+                    "reset during the warm checkpoint write of the frame at {frame}: {torn}; {nv}"
+                )
+            }
+            CheckpointDamage::TornNv {
+                offset_permille,
+                seed,
+            } => {
+                let torn = tear_newest(&mut self.nv, offset_permille, seed);
+                format!("reset during the non-volatile checkpoint write of the frame at {frame}: {torn}")
+            }
+        };
+        self.damage_log.push(line);
     }
 
     fn deliver(&mut self, frames: &[Vec<u8>], out: &mut Vec<TargetToHost>) {
@@ -106,6 +189,9 @@ impl NativeTarget {
             let Some(Ok(msg)) = self.decoder.push::<HostToTarget>(byte) else {
                 continue;
             };
+            if let HostToTarget::TimeGrant { now, .. } = msg {
+                self.last_grant = Some(now);
+            }
             let mut memories = Memories {
                 warm: &mut self.warm,
                 nv: Some(&mut self.nv),
@@ -125,6 +211,48 @@ impl NativeTarget {
             out.extend(sent);
         }
     }
+}
+
+/// Slot index, start and length (header plus payload) of the newest whole record of a
+/// checkpoint area (layout: `autonomy::checkpoint`).
+fn newest_record(area: &mut [u8]) -> Option<(u8, usize, usize, u32)> {
+    let half = area.len() / 2;
+    let wrapped = autonomy::checkpoint::WarmRestartArea::new(area);
+    let (slot, sequence, payload) = wrapped.latest()?;
+    Some((
+        slot,
+        usize::from(slot) * half,
+        autonomy::checkpoint::RECORD_HEADER_LEN + payload.len(),
+        sequence,
+    ))
+}
+
+/// Overwrite the newest record of `area` with garbage from `offset_permille` of its length on.
+fn tear_newest(area: &mut [u8], offset_permille: u32, seed: u64) -> String {
+    let Some((slot, start, len, sequence)) = newest_record(area) else {
+        return "no whole record to tear".into();
+    };
+    let offset = (len as u64 * u64::from(offset_permille.min(999)) / 1000) as usize;
+    let mut rng = super::rng::Rng::new(seed);
+    for b in &mut area[start + offset..start + len] {
+        *b = rng.next_u64() as u8;
+    }
+    format!(
+        "record {sequence} in slot {} torn from byte {offset} of {len}",
+        ["A", "B"][usize::from(slot)]
+    )
+}
+
+/// Invalidate the newest record of `area` (its write never started).
+fn invalidate_newest(area: &mut [u8]) -> String {
+    let Some((slot, start, _, sequence)) = newest_record(area) else {
+        return "no non-volatile record".into();
+    };
+    area[start..start + 4].fill(0);
+    format!(
+        "non-volatile record {sequence} in slot {} not written yet",
+        ["A", "B"][usize::from(slot)]
+    )
 }
 
 fn new_app() -> Box<FlightApp> {
@@ -199,6 +327,9 @@ impl MissionTarget for NativeTarget {
 
     fn warm_reset(&mut self) -> Result<(), TargetError> {
         self.next_cause = ResetCause::Warm;
+        if let Some(damage) = self.pending_damage.take() {
+            self.apply_damage(damage);
+        }
         Ok(())
     }
 
@@ -216,6 +347,30 @@ impl MissionTarget for NativeTarget {
 
     fn counts_cycles(&self) -> bool {
         false
+    }
+
+    /// A torn checkpoint: the reset lands while the last frame's checkpoint is being written,
+    /// to the warm-restart area (3 in 4) or to non-volatile memory, at a seeded offset.
+    fn arm_mid_frame_reset(&mut self, seed: u64) -> bool {
+        let mut rng = super::rng::Rng::new(seed).fork(0x70);
+        let offset_permille = rng.below(1000) as u32;
+        let garbage = rng.next_u64();
+        self.pending_damage = Some(if rng.below(4) < 3 {
+            CheckpointDamage::TornWarm {
+                offset_permille,
+                seed: garbage,
+            }
+        } else {
+            CheckpointDamage::TornNv {
+                offset_permille,
+                seed: garbage,
+            }
+        });
+        true
+    }
+
+    fn mid_frame_log(&self) -> Vec<String> {
+        self.damage_log.clone()
     }
 }
 

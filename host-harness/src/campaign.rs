@@ -1,0 +1,1025 @@
+//! Campaigns: many seeded variants of one mission scenario, each with one warm reset at a
+//! random point, run in parallel and merged into one report (`hil campaign`).
+//!
+//! Run `i` of a campaign with base seed `S` uses seed `S + i` for everything random in that run
+//! (the scenario's own noise and link faults as well as the variant): from it the campaign
+//! draws, deterministically, a warm-reset time uniformly within the reset window (default: the
+//! mission span minus its last 20 %), a recovery duration (default 3 min, or uniform within a
+//! range), and whether the reset lands at a frame boundary or in the middle of a frame (half
+//! and half). A mid-frame reset on the native target is a torn checkpoint: the reset lands
+//! while the last frame's checkpoint is being written (see
+//! [`crate::mission::target::CheckpointDamage`]). A variant is fully described by
+//! (scenario, run index, seed, reset time, recovery, reset point), and
+//! `hil campaign <scenario> --seed S --only I` runs exactly that variant again.
+//!
+//! Every run is checked against the scenario's own expectations (which a campaign scenario
+//! writes to hold for a reset at any time, e.g. `scenarios/flyby-campaign.toml`) and against
+//! the campaign's own checks:
+//! - the run ends without a driver error;
+//! - every reset is followed, before the next one, by "plan restored from checkpoint" (no
+//!   lost checkpoint);
+//! - the variant's reset happened.
+//!
+//! `--shard k/n` (1-based) runs the indices `i` with `i % n == k - 1`; the shard reports
+//! (`--report`) merge with `--merge` into the report the unsharded campaign would have written
+//! (wall times aside). Results are always in run-index order, whatever order the worker threads
+//! finish in.
+use std::collections::BTreeMap;
+use std::panic::AssertUnwindSafe;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::Instant;
+
+use fsw_bridge::MissionTimeUs;
+use serde::{Deserialize, Serialize};
+
+use crate::mission::report::{make_target, prepare, run, MissionReport};
+use crate::mission::rng::Rng;
+use crate::mission::target::{CheckpointDamage, MissionTarget, NativeTarget};
+use crate::mission::time::{fmt_time, parse_duration, parse_time};
+use crate::run::RunOptions;
+use crate::scenario::{self, TargetKind};
+
+/// Default recovery (fault protection running before the flight software restarts).
+pub const DEFAULT_RECOVERY_US: u64 = 180_000_000;
+/// The label that proves a restart restored the plan.
+pub const RESTORED_LABEL: &str = "plan restored from checkpoint";
+
+const SEC: u64 = 1_000_000;
+
+/// `--shard k/n`: this machine runs the indices `i` with `i % n == k - 1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    pub k: u32,
+    pub n: u32,
+}
+
+impl Shard {
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let bad = || format!("bad shard {text:?}: expected k/n with 1 <= k <= n, e.g. 2/4");
+        let (k, n) = text.split_once('/').ok_or_else(bad)?;
+        let (k, n): (u32, u32) = (
+            k.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if n == 0 || k == 0 || k > n {
+            return Err(bad());
+        }
+        Ok(Self { k, n })
+    }
+
+    pub fn contains(&self, run: u32) -> bool {
+        run % self.n == self.k - 1
+    }
+
+    /// The run indices of this shard among `runs`.
+    pub fn runs(&self, runs: u32) -> Vec<u32> {
+        (0..runs).filter(|i| self.contains(*i)).collect()
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.k, self.n)
+    }
+}
+
+/// A time window `A..B` (mission times, B excluded).
+pub fn parse_window(text: &str) -> Result<(MissionTimeUs, MissionTimeUs), String> {
+    let (a, b) = text
+        .split_once("..")
+        .ok_or_else(|| format!("bad window {text:?}: expected A..B, e.g. 10:00..11:05"))?;
+    let (a, b) = (parse_time(a)?, parse_time(b)?);
+    if b <= a {
+        return Err(format!(
+            "bad window {text:?}: the end must be after the start"
+        ));
+    }
+    Ok((a, b))
+}
+
+/// A recovery: one duration (`3min`) or a range drawn from uniformly (`1min..5min`).
+pub fn parse_recovery(text: &str) -> Result<(u64, u64), String> {
+    match text.split_once("..") {
+        Some((a, b)) => {
+            let (a, b) = (parse_duration(a)?, parse_duration(b)?);
+            if b < a {
+                return Err(format!(
+                    "bad recovery range {text:?}: the end is before the start"
+                ));
+            }
+            Ok((a, b))
+        }
+        None => {
+            let d = parse_duration(text)?;
+            Ok((d, d))
+        }
+    }
+}
+
+fn fmt_duration(us: u64) -> String {
+    if us % SEC == 0 {
+        format!("{}s", us / SEC)
+    } else {
+        format!("{}ms", us / 1000)
+    }
+}
+
+fn fmt_recovery((a, b): (u64, u64)) -> String {
+    if a == b {
+        fmt_duration(a)
+    } else {
+        format!("{}..{}", fmt_duration(a), fmt_duration(b))
+    }
+}
+
+/// Where the reset of a variant lands.
+pub const FRAME_BOUNDARY: &str = "frame-boundary";
+pub const MID_FRAME: &str = "mid-frame";
+
+/// One variant of a campaign: everything needed to run it again.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Variant {
+    pub run: u32,
+    pub seed: u64,
+    pub reset_at: String,
+    pub reset_at_us: u64,
+    pub recovery: String,
+    pub recovery_us: u64,
+    /// "frame-boundary" or "mid-frame".
+    pub reset_point: String,
+    /// Seed of the mid-frame instant (what the target tears, and where).
+    pub mid_frame_seed: u64,
+    /// Test knob: every checkpoint destroyed at the reset (recovery must fail).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub destroy_checkpoints: bool,
+}
+
+impl Variant {
+    /// Derive run `run` of a campaign with base seed `base_seed`.
+    pub fn derive(
+        run: u32,
+        base_seed: u64,
+        window: (MissionTimeUs, MissionTimeUs),
+        recovery: (u64, u64),
+    ) -> Self {
+        let seed = base_seed.wrapping_add(u64::from(run));
+        let mut rng = Rng::new(seed).fork(0xca);
+        let span_s = (window.1 .0 - window.0 .0).div_ceil(SEC).max(1);
+        let reset_at = MissionTimeUs(window.0 .0 + rng.below(span_s) * SEC);
+        let recovery_us = if recovery.1 > recovery.0 {
+            let choices = (recovery.1 - recovery.0) / SEC + 1;
+            recovery.0 + rng.below(choices) * SEC
+        } else {
+            recovery.0
+        };
+        let mid_frame = rng.chance(0.5);
+        let mid_frame_seed = rng.next_u64();
+        Self {
+            run,
+            seed,
+            reset_at: fmt_time(reset_at),
+            reset_at_us: reset_at.0,
+            recovery: fmt_duration(recovery_us),
+            recovery_us,
+            reset_point: if mid_frame { MID_FRAME } else { FRAME_BOUNDARY }.into(),
+            mid_frame_seed,
+            destroy_checkpoints: false,
+        }
+    }
+
+    /// "run 7 (seed 8): warm reset at 10:31:12, mid-frame, recovery 180s".
+    pub fn describe(&self) -> String {
+        format!(
+            "run {} (seed {}): warm reset at {}, {}, recovery {}{}",
+            self.run,
+            self.seed,
+            self.reset_at,
+            self.reset_point,
+            self.recovery,
+            if self.destroy_checkpoints {
+                ", every checkpoint destroyed (test knob)"
+            } else {
+                ""
+            }
+        )
+    }
+}
+
+/// The outcome of one run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunResult {
+    pub variant: Variant,
+    pub passed: bool,
+    /// The driver's error, if the run did not reach its end.
+    pub error: Option<String>,
+    /// Failed expectations and campaign checks, one line each.
+    pub failures: Vec<String>,
+    /// What the mid-frame reset did (empty for a frame-boundary reset).
+    pub mid_frame: Vec<String>,
+    /// The run's metrics, plus `frames` and `wall_time_ms`.
+    pub metrics: BTreeMap<String, u64>,
+    pub transcript_sha256: String,
+    /// The as-executed timeline ("10:33:00 Instrument Flyby aborted"), for failed runs.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub timeline: Vec<String>,
+}
+
+/// min, median, 95th percentile and max of one metric over the runs that report it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Distribution {
+    pub runs: usize,
+    pub min: u64,
+    pub median: u64,
+    pub p95: u64,
+    pub max: u64,
+}
+
+/// Nearest-rank percentile of sorted values (`p` in 1..=100).
+pub fn percentile(sorted: &[u64], p: u32) -> u64 {
+    if sorted.is_empty() {
+        return 0;
+    }
+    let rank = (u64::from(p) * sorted.len() as u64).div_ceil(100).max(1) as usize;
+    sorted[rank.min(sorted.len()) - 1]
+}
+
+pub fn distribution(values: &[u64]) -> Option<Distribution> {
+    let mut v = values.to_vec();
+    v.sort_unstable();
+    Some(Distribution {
+        runs: v.len(),
+        min: *v.first()?,
+        median: percentile(&v, 50),
+        p95: percentile(&v, 95),
+        max: *v.last()?,
+    })
+}
+
+/// The merged statistics of a report.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CampaignStats {
+    pub runs_present: usize,
+    pub passed: usize,
+    pub failed: usize,
+    pub pass_rate: f64,
+    pub metrics: BTreeMap<String, Distribution>,
+    /// Run indices of the campaign with no result in this report (other shards).
+    pub missing_runs: Vec<u32>,
+}
+
+/// The JSON report of a campaign (or of one shard of it).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CampaignReport {
+    pub scenario: String,
+    /// The scenario file as given on the command line.
+    pub scenario_file: String,
+    /// "native" or "qemu".
+    pub target: String,
+    /// Base seed: run i uses seed + i.
+    pub seed: u64,
+    /// Runs in the whole campaign.
+    pub runs: u32,
+    pub reset_window: String,
+    pub recovery: String,
+    /// Shards whose results this report holds ("1/2"); empty: the whole campaign.
+    pub shards: Vec<String>,
+    /// Set when the report holds one reproduced run (`--only`).
+    pub only: Option<u32>,
+    pub results: Vec<RunResult>,
+    #[serde(default)]
+    pub stats: CampaignStats,
+}
+
+impl CampaignReport {
+    fn compute_stats(&mut self) {
+        let mut values: BTreeMap<String, Vec<u64>> = BTreeMap::new();
+        for r in &self.results {
+            for (k, v) in &r.metrics {
+                values.entry(k.clone()).or_default().push(*v);
+            }
+        }
+        let passed = self.results.iter().filter(|r| r.passed).count();
+        let present: std::collections::BTreeSet<u32> =
+            self.results.iter().map(|r| r.variant.run).collect();
+        self.stats = CampaignStats {
+            runs_present: self.results.len(),
+            passed,
+            failed: self.results.len() - passed,
+            pass_rate: if self.results.is_empty() {
+                0.0
+            } else {
+                passed as f64 / self.results.len() as f64
+            },
+            metrics: values
+                .iter()
+                .filter_map(|(k, v)| Some((k.clone(), distribution(v)?)))
+                .collect(),
+            missing_runs: if self.only.is_some() {
+                Vec::new()
+            } else {
+                (0..self.runs).filter(|i| !present.contains(i)).collect()
+            },
+        };
+    }
+
+    pub fn passed(&self) -> bool {
+        !self.results.is_empty() && self.results.iter().all(|r| r.passed)
+    }
+
+    /// The command line that runs `variant` again, exactly.
+    pub fn reproduce(&self, variant: &Variant) -> String {
+        format!(
+            "hil campaign {} --seed {} --only {} --reset-window {} --recovery {}{}",
+            self.scenario_file,
+            self.seed,
+            variant.run,
+            self.reset_window,
+            self.recovery,
+            if self.target == "native" {
+                " --native"
+            } else {
+                ""
+            }
+        )
+    }
+
+    /// Results without wall-clock-dependent numbers (for comparing campaigns).
+    pub fn deterministic_results(&self) -> Vec<RunResult> {
+        self.results
+            .iter()
+            .cloned()
+            .map(|mut r| {
+                r.metrics.remove("wall_time_ms");
+                r
+            })
+            .collect()
+    }
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct CampaignOptions {
+    pub scenario: PathBuf,
+    pub runs: u32,
+    pub seed: u64,
+    /// Force the native target (default: the scenario's target kind).
+    pub native: bool,
+    /// Worker threads (0: available parallelism).
+    pub jobs: usize,
+    pub shard: Option<Shard>,
+    /// Reset window (default: the mission span minus its last 20 %).
+    pub reset_window: Option<(MissionTimeUs, MissionTimeUs)>,
+    /// Recovery range in microseconds (equal ends: fixed).
+    pub recovery: (u64, u64),
+    /// Run only this index (reproduce one variant).
+    pub only: Option<u32>,
+    /// Firmware ELF for the emulated target (default: build it once).
+    pub firmware: Option<PathBuf>,
+    /// Test knob: runs whose checkpoints are all destroyed at the reset (warm slots and NV);
+    /// native only. Proves the campaign's checks notice a lost checkpoint.
+    pub destroy_checkpoints_in: Vec<u32>,
+}
+
+impl CampaignOptions {
+    pub fn new(scenario: impl Into<PathBuf>, runs: u32, seed: u64) -> Self {
+        Self {
+            scenario: scenario.into(),
+            runs,
+            seed,
+            native: false,
+            jobs: 0,
+            shard: None,
+            reset_window: None,
+            recovery: (DEFAULT_RECOVERY_US, DEFAULT_RECOVERY_US),
+            only: None,
+            firmware: None,
+            destroy_checkpoints_in: Vec::new(),
+        }
+    }
+}
+
+/// Everything a worker needs, resolved once.
+struct Plan {
+    scenario_file: PathBuf,
+    native: bool,
+    firmware: Option<PathBuf>,
+}
+
+/// The variants a campaign (or shard) runs, in run-index order.
+pub fn variants(
+    opts: &CampaignOptions,
+    window: (MissionTimeUs, MissionTimeUs),
+) -> Result<Vec<Variant>, String> {
+    let indices: Vec<u32> = match (opts.only, opts.shard) {
+        (Some(_), Some(_)) => return Err("--only and --shard do not go together".into()),
+        (Some(i), None) => vec![i],
+        (None, Some(s)) => s.runs(opts.runs),
+        (None, None) => (0..opts.runs).collect(),
+    };
+    Ok(indices
+        .into_iter()
+        .map(|i| {
+            let mut v = Variant::derive(i, opts.seed, window, opts.recovery);
+            v.destroy_checkpoints = opts.destroy_checkpoints_in.contains(&i);
+            v
+        })
+        .collect())
+}
+
+/// Run a campaign (or one shard of it, or one variant). `progress` is called on the calling
+/// thread once per finished run, in completion order; the report is in run-index order.
+pub fn run_campaign(
+    opts: &CampaignOptions,
+    progress: &mut dyn FnMut(&RunResult),
+) -> Result<CampaignReport, String> {
+    let scenario = scenario::load(&opts.scenario).map_err(|e| e.to_string())?;
+    if scenario.mission.is_none() {
+        return Err(format!(
+            "{}: a campaign needs a mission scenario (with [mission])",
+            opts.scenario.display()
+        ));
+    }
+    let native = opts.native || scenario.target.kind == TargetKind::Native;
+    let prepared = prepare(&opts.scenario, scenario).map_err(|e| e.to_string())?;
+    let (start, end) = (prepared.mission.start, prepared.mission.end);
+    let window = match opts.reset_window {
+        Some(w) => w,
+        None => (
+            start,
+            MissionTimeUs(start.0 + (end.0 - start.0) * 4 / 5 / SEC * SEC),
+        ),
+    };
+    if window.0 < start || window.1 > end || window.1 <= window.0 {
+        return Err(format!(
+            "reset window {}..{} is not inside the mission ({} to {})",
+            fmt_time(window.0),
+            fmt_time(window.1),
+            fmt_time(start),
+            fmt_time(end)
+        ));
+    }
+    if !native && !opts.destroy_checkpoints_in.is_empty() {
+        return Err("destroying checkpoints is a native-target test knob".into());
+    }
+    let variants = variants(opts, window)?;
+    let firmware = match (&opts.firmware, native) {
+        (_, true) => None,
+        (Some(f), false) => Some(f.clone()),
+        (None, false) => Some(crate::firmware::build().map_err(|e| e.to_string())?.elf),
+    };
+    let plan = Plan {
+        scenario_file: opts.scenario.clone(),
+        native,
+        firmware,
+    };
+    let jobs = match opts.jobs {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        j => j,
+    }
+    .min(variants.len())
+    .max(1);
+
+    let mut slots: Vec<Option<RunResult>> = vec![None; variants.len()];
+    let next = AtomicUsize::new(0);
+    let (tx, rx) = std::sync::mpsc::channel::<(usize, RunResult)>();
+    std::thread::scope(|s| -> Result<(), String> {
+        for _ in 0..jobs {
+            let tx = tx.clone();
+            let (next, variants, plan) = (&next, &variants, &plan);
+            std::thread::Builder::new()
+                .name("campaign-worker".into())
+                .stack_size(64 << 20)
+                .spawn_scoped(s, move || loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(v) = variants.get(k) else { break };
+                    let result = run_variant(plan, v);
+                    if tx.send((k, result)).is_err() {
+                        break;
+                    }
+                })
+                .map_err(|e| format!("cannot start a worker thread: {e}"))?;
+        }
+        drop(tx);
+        for (k, result) in rx {
+            progress(&result);
+            slots[k] = Some(result);
+        }
+        Ok(())
+    })?;
+    let results: Vec<RunResult> = slots
+        .into_iter()
+        .zip(&variants)
+        .map(|(r, v)| r.unwrap_or_else(|| failed(v.clone(), "the worker running it died".into())))
+        .collect();
+    let mut report = CampaignReport {
+        scenario: prepared.scenario.name.clone(),
+        scenario_file: opts.scenario.display().to_string(),
+        target: if native { "native" } else { "qemu" }.into(),
+        seed: opts.seed,
+        runs: opts.runs,
+        reset_window: format!("{}..{}", fmt_time(window.0), fmt_time(window.1)),
+        recovery: fmt_recovery(opts.recovery),
+        shards: opts.shard.iter().map(|s| s.to_string()).collect(),
+        only: opts.only,
+        results,
+        stats: CampaignStats::default(),
+    };
+    report.compute_stats();
+    Ok(report)
+}
+
+fn failed(variant: Variant, error: String) -> RunResult {
+    RunResult {
+        variant,
+        passed: false,
+        failures: vec![format!("run error: {error}")],
+        error: Some(error),
+        mid_frame: Vec::new(),
+        metrics: BTreeMap::new(),
+        transcript_sha256: String::new(),
+        timeline: Vec::new(),
+    }
+}
+
+/// Run one variant on a fresh target; never panics (a panic is a failed run).
+fn run_variant(plan: &Plan, variant: &Variant) -> RunResult {
+    let started = Instant::now();
+    let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| run_variant_inner(plan, variant)))
+        .unwrap_or_else(|panic| {
+            let msg = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "panic".into());
+            Err(format!("panicked: {msg}"))
+        });
+    let wall_ms = started.elapsed().as_millis() as u64;
+    let mut result = match outcome {
+        Ok((report, mid_frame)) => judge(variant, &report, mid_frame),
+        Err(e) => failed(variant.clone(), e),
+    };
+    result.metrics.insert("wall_time_ms".into(), wall_ms);
+    result
+}
+
+fn run_variant_inner(
+    plan: &Plan,
+    variant: &Variant,
+) -> Result<(MissionReport, Vec<String>), String> {
+    let path = &plan.scenario_file;
+    let scenario = scenario::load(path).map_err(|e| e.to_string())?;
+    let mut prepared = prepare(path, scenario).map_err(|e| e.to_string())?;
+    prepared.scenario.seed = variant.seed;
+    prepared.mission.seed = variant.seed;
+    prepared
+        .mission
+        .add_warm_reset(MissionTimeUs(variant.reset_at_us), variant.recovery_us);
+    let (mut target, firmware): (Box<dyn MissionTarget>, _) = if plan.native {
+        let mut t = NativeTarget::new();
+        if variant.destroy_checkpoints {
+            t.damage_on_next_warm_reset(CheckpointDamage::DestroyAll);
+        }
+        (Box::new(t), None)
+    } else {
+        let options = RunOptions {
+            firmware: plan.firmware.clone(),
+            ..RunOptions::default()
+        };
+        make_target(&prepared, &options, &mut |_| {})?
+    };
+    let mut notes = Vec::new();
+    if variant.reset_point == MID_FRAME
+        && !variant.destroy_checkpoints
+        && !target.arm_mid_frame_reset(variant.mid_frame_seed)
+    {
+        notes.push(
+            "this target cannot reset mid-frame yet: the reset landed at a frame boundary"
+                .to_string(),
+        );
+    }
+    let report = run(
+        &prepared,
+        target.as_mut(),
+        firmware.as_ref(),
+        &mut |_, _, _| {},
+    )
+    .map_err(|e| e.to_string())?;
+    notes.extend(target.mid_frame_log());
+    Ok((report, notes))
+}
+
+/// The campaign's own checks on top of the scenario's expectations.
+pub fn campaign_checks(variant: &Variant, report: &MissionReport) -> Vec<String> {
+    let mut failures = Vec::new();
+    if !report
+        .resets
+        .iter()
+        .any(|r| r.at == variant.reset_at_us && r.kind == "warm reset")
+    {
+        failures.push(format!(
+            "campaign: the warm reset at {} did not happen",
+            variant.reset_at
+        ));
+    }
+    let labels = &report.record.labels;
+    for (n, reset) in report.resets.iter().enumerate() {
+        let until = report.resets.get(n + 1).map_or(u64::MAX, |r| r.at);
+        let restored = labels
+            .iter()
+            .any(|(t, l)| *t >= reset.restart_at && *t < until && l == RESTORED_LABEL);
+        if !restored {
+            failures.push(format!(
+                "campaign: lost checkpoint: no \"{RESTORED_LABEL}\" after the {} at {} (restart {})",
+                reset.kind,
+                fmt_time(MissionTimeUs(reset.at)),
+                fmt_time(MissionTimeUs(reset.restart_at))
+            ));
+        }
+    }
+    failures
+}
+
+fn judge(variant: &Variant, report: &MissionReport, mid_frame: Vec<String>) -> RunResult {
+    let mut failures: Vec<String> = report
+        .expectations
+        .iter()
+        .filter(|v| !v.passed)
+        .map(|v| format!("expect[{}] {}: {}", v.index, v.what, v.detail))
+        .collect();
+    failures.extend(campaign_checks(variant, report));
+    let mut metrics = report.metrics.clone();
+    metrics.insert("frames".into(), report.frames);
+    let passed = failures.is_empty();
+    RunResult {
+        variant: variant.clone(),
+        passed,
+        error: None,
+        failures,
+        mid_frame,
+        metrics,
+        transcript_sha256: report.transcript_sha256.clone(),
+        timeline: if passed {
+            Vec::new()
+        } else {
+            report.record.timeline_lines()
+        },
+    }
+}
+
+/// Merge shard reports into one. Refuses reports of different campaigns and overlapping runs.
+pub fn merge(reports: Vec<CampaignReport>) -> Result<CampaignReport, String> {
+    let mut it = reports.into_iter();
+    let mut merged = it.next().ok_or("nothing to merge")?;
+    if merged.only.is_some() {
+        return Err("a report of one reproduced run (--only) does not merge".into());
+    }
+    let mut owner: BTreeMap<u32, String> = BTreeMap::new();
+    let label = |r: &CampaignReport| {
+        if r.shards.is_empty() {
+            "the unsharded report".to_string()
+        } else {
+            format!("shard {}", r.shards.join("+"))
+        }
+    };
+    for r in &merged.results {
+        owner.insert(r.variant.run, label(&merged));
+    }
+    for other in it {
+        let mut differences = Vec::new();
+        if other.scenario != merged.scenario {
+            differences.push(format!(
+                "scenario {} vs {}",
+                merged.scenario, other.scenario
+            ));
+        }
+        if other.seed != merged.seed {
+            differences.push(format!("seed {} vs {}", merged.seed, other.seed));
+        }
+        if other.runs != merged.runs {
+            differences.push(format!("runs {} vs {}", merged.runs, other.runs));
+        }
+        if other.target != merged.target {
+            differences.push(format!("target {} vs {}", merged.target, other.target));
+        }
+        if other.reset_window != merged.reset_window {
+            differences.push(format!(
+                "reset window {} vs {}",
+                merged.reset_window, other.reset_window
+            ));
+        }
+        if other.recovery != merged.recovery {
+            differences.push(format!(
+                "recovery {} vs {}",
+                merged.recovery, other.recovery
+            ));
+        }
+        if other.only.is_some() {
+            differences.push("one is a reproduced single run (--only)".into());
+        }
+        if !differences.is_empty() {
+            return Err(format!(
+                "cannot merge reports of different campaigns: {}",
+                differences.join(", ")
+            ));
+        }
+        let this = label(&other);
+        for r in &other.results {
+            if let Some(prev) = owner.get(&r.variant.run) {
+                return Err(format!(
+                    "cannot merge: run {} is in both {prev} and {this} (overlapping shards)",
+                    r.variant.run
+                ));
+            }
+            owner.insert(r.variant.run, this.clone());
+        }
+        merged.shards.extend(other.shards);
+        merged.results.extend(other.results);
+    }
+    merged.results.sort_by_key(|r| r.variant.run);
+    merged.shards.sort();
+    merged.compute_stats();
+    if merged.stats.missing_runs.is_empty() {
+        merged.shards.clear();
+    }
+    Ok(merged)
+}
+
+/// Read a campaign report written with `--report`.
+pub fn load_report(path: &Path) -> Result<CampaignReport, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let mut r: CampaignReport = serde_json::from_str(&text)
+        .map_err(|e| format!("{}: not a campaign report: {e}", path.display()))?;
+    r.compute_stats();
+    Ok(r)
+}
+
+/// The terminal summary: pass rate, metric distributions, failures with their reproducers.
+pub fn summary(r: &CampaignReport) -> String {
+    let mut out = format!(
+        "campaign {} ({}): {} runs, seeds {}..{}, {} target, reset window {}, recovery {}{}\n",
+        r.scenario,
+        r.scenario_file,
+        r.runs,
+        r.seed,
+        r.seed + u64::from(r.runs.max(1)) - 1,
+        r.target,
+        r.reset_window,
+        r.recovery,
+        if r.shards.is_empty() {
+            String::new()
+        } else {
+            format!(", shard(s) {}", r.shards.join(", "))
+        }
+    );
+    let s = &r.stats;
+    out.push_str(&format!(
+        "  passed {}/{} ({:.1} %)",
+        s.passed,
+        s.runs_present,
+        s.pass_rate * 100.0
+    ));
+    if !s.missing_runs.is_empty() {
+        out.push_str(&format!(
+            "; {} of {} runs not in this report (other shards)",
+            s.missing_runs.len(),
+            r.runs
+        ));
+    }
+    let mid = r
+        .results
+        .iter()
+        .filter(|x| x.variant.reset_point == MID_FRAME)
+        .count();
+    out.push_str(&format!(
+        "; {} mid-frame, {} frame-boundary resets\n",
+        mid,
+        r.results.len() - mid
+    ));
+    if !s.metrics.is_empty() {
+        out.push_str(&format!(
+            "  {:<28} {:>10} {:>10} {:>10} {:>10} {:>5}\n",
+            "metric", "min", "median", "p95", "max", "runs"
+        ));
+        for (name, d) in &s.metrics {
+            out.push_str(&format!(
+                "  {:<28} {:>10} {:>10} {:>10} {:>10} {:>5}\n",
+                name, d.min, d.median, d.p95, d.max, d.runs
+            ));
+        }
+    }
+    let failures: Vec<&RunResult> = r.results.iter().filter(|x| !x.passed).collect();
+    if !failures.is_empty() {
+        out.push_str("  failures:\n");
+        for f in failures {
+            out.push_str(&format!("    {}\n", f.variant.describe()));
+            for line in &f.failures {
+                out.push_str(&format!("      {line}\n"));
+            }
+            for line in &f.mid_frame {
+                out.push_str(&format!("      ({line})\n"));
+            }
+            out.push_str(&format!("      reproduce: {}\n", r.reproduce(&f.variant)));
+        }
+    }
+    out.push_str(&format!(
+        "{} {}",
+        if r.passed() { "PASS" } else { "FAIL" },
+        r.scenario
+    ));
+    out
+}
+
+/// `hil campaign`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct CampaignArgs {
+    /// Mission scenario (TOML), e.g. scenarios/flyby-campaign.toml (not with --merge).
+    #[arg(required_unless_present = "merge")]
+    pub scenario: Option<PathBuf>,
+    /// Number of variants (run indices 0..N).
+    #[arg(long, default_value_t = 20)]
+    pub runs: u32,
+    /// Base seed: run i uses seed S + i.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Run on the native target (default: the scenario's target kind).
+    #[arg(long)]
+    pub native: bool,
+    /// Worker threads (default: available parallelism).
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Run only the indices i with i % n == k - 1 (1-based k), e.g. 2/4.
+    #[arg(long, value_name = "k/n")]
+    pub shard: Option<String>,
+    /// Write the campaign report (JSON) here.
+    #[arg(long, value_name = "FILE")]
+    pub report: Option<PathBuf>,
+    /// Merge these shard reports into one (with --report) instead of running.
+    #[arg(long, value_name = "FILES", num_args = 1.., conflicts_with = "scenario")]
+    pub merge: Vec<PathBuf>,
+    /// Reset times are drawn from A..B (default: the mission span minus its last 20 %).
+    #[arg(long, value_name = "A..B")]
+    pub reset_window: Option<String>,
+    /// Recovery before the software restarts: a duration or a range A..B drawn from.
+    #[arg(long, value_name = "DUR", default_value = "3min")]
+    pub recovery: String,
+    /// Run only this run index (reproduce one variant exactly).
+    #[arg(long, value_name = "I")]
+    pub only: Option<u32>,
+    /// Firmware ELF for the emulated target (default: build firmware/image once).
+    #[arg(long, value_name = "ELF")]
+    pub firmware: Option<PathBuf>,
+}
+
+fn write_report(report: &CampaignReport, path: &Option<PathBuf>) -> Result<(), String> {
+    if let Some(path) = path {
+        let json = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
+        std::fs::write(path, json).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        println!("  report: {}", path.display());
+    }
+    Ok(())
+}
+
+/// The `hil campaign` command.
+pub fn cli(args: CampaignArgs) -> Result<ExitCode, String> {
+    let report = if !args.merge.is_empty() {
+        let reports = args
+            .merge
+            .iter()
+            .map(|p| load_report(p))
+            .collect::<Result<Vec<_>, _>>()?;
+        merge(reports)?
+    } else {
+        let scenario = args.scenario.clone().ok_or("give a scenario or --merge")?;
+        let mut opts = CampaignOptions::new(scenario, args.runs, args.seed);
+        opts.native = args.native;
+        opts.jobs = args.jobs.unwrap_or(0);
+        opts.shard = args.shard.as_deref().map(Shard::parse).transpose()?;
+        opts.reset_window = args.reset_window.as_deref().map(parse_window).transpose()?;
+        opts.recovery = parse_recovery(&args.recovery)?;
+        opts.only = args.only;
+        opts.firmware = args.firmware.clone();
+        let count = match (opts.only, opts.shard) {
+            (Some(_), _) => 1,
+            (None, Some(s)) => s.runs(opts.runs).len() as u64,
+            (None, None) => u64::from(opts.runs),
+        };
+        println!(
+            "hil campaign {} — {} run(s), base seed {}",
+            opts.scenario.display(),
+            count,
+            opts.seed
+        );
+        let bar = indicatif::ProgressBar::new(count);
+        bar.set_style(
+            indicatif::ProgressStyle::with_template("  {bar:40} {pos}/{len} runs {msg}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        let mut failed = 0;
+        let report = run_campaign(&opts, &mut |r| {
+            if !r.passed {
+                failed += 1;
+                bar.println(format!("  FAIL {}", r.variant.describe()));
+            }
+            bar.set_message(format!("({failed} failed)"));
+            bar.inc(1);
+        });
+        bar.finish_and_clear();
+        report?
+    };
+    println!("{}", summary(&report));
+    write_report(&report, &args.report)?;
+    Ok(if report.passed() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::FAILURE
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn window() -> (MissionTimeUs, MissionTimeUs) {
+        parse_window("09:50..11:10").unwrap()
+    }
+
+    #[test]
+    fn shards_partition_the_runs() {
+        let s = Shard::parse("2/3").unwrap();
+        assert_eq!(s.runs(10), [1, 4, 7]);
+        let mut all: Vec<u32> = (1..=3).flat_map(|k| Shard { k, n: 3 }.runs(10)).collect();
+        all.sort();
+        assert_eq!(all, (0..10).collect::<Vec<_>>());
+        assert_eq!(Shard::parse("1/1").unwrap().runs(3), [0, 1, 2]);
+        for bad in ["0/2", "3/2", "1/0", "1", "a/b", "1/2/3"] {
+            assert!(Shard::parse(bad).is_err(), "{bad}");
+        }
+    }
+
+    #[test]
+    fn variants_derive_deterministically_from_the_seed() {
+        let r = (DEFAULT_RECOVERY_US, DEFAULT_RECOVERY_US);
+        let a: Vec<Variant> = (0..50)
+            .map(|i| Variant::derive(i, 7, window(), r))
+            .collect();
+        let b: Vec<Variant> = (0..50)
+            .map(|i| Variant::derive(i, 7, window(), r))
+            .collect();
+        assert_eq!(a, b);
+        // Run i of base seed S is run i-1 of base seed S+1: only the seed matters.
+        assert_eq!(
+            Variant::derive(3, 7, window(), r).reset_at_us,
+            Variant::derive(2, 8, window(), r).reset_at_us
+        );
+        let (lo, hi) = window();
+        for v in &a {
+            assert_eq!(v.seed, 7 + u64::from(v.run));
+            assert!(v.reset_at_us >= lo.0 && v.reset_at_us < hi.0, "{v:?}");
+            assert_eq!(v.reset_at_us % SEC, 0);
+            assert_eq!(v.recovery_us, DEFAULT_RECOVERY_US);
+            assert_eq!(parse_time(&v.reset_at).unwrap().0, v.reset_at_us);
+        }
+        let mid = a.iter().filter(|v| v.reset_point == MID_FRAME).count();
+        assert!((10..=40).contains(&mid), "{mid} of 50 mid-frame");
+        let distinct: std::collections::BTreeSet<u64> = a.iter().map(|v| v.reset_at_us).collect();
+        assert!(distinct.len() > 40);
+        // A recovery range is drawn from, in whole seconds, ends included.
+        let range = parse_recovery("1min..5min").unwrap();
+        for i in 0..50 {
+            let v = Variant::derive(i, 1, window(), range);
+            assert!((60 * SEC..=300 * SEC).contains(&v.recovery_us));
+            assert_eq!(v.recovery_us % SEC, 0);
+        }
+    }
+
+    #[test]
+    fn statistics_use_nearest_rank() {
+        let d = distribution(&[5, 1, 4, 2, 3]).unwrap();
+        assert_eq!((d.runs, d.min, d.median, d.p95, d.max), (5, 1, 3, 5, 5));
+        let v: Vec<u64> = (1..=100).collect();
+        let d = distribution(&v).unwrap();
+        assert_eq!((d.min, d.median, d.p95, d.max), (1, 50, 95, 100));
+        let d = distribution(&[9]).unwrap();
+        assert_eq!((d.min, d.median, d.p95, d.max), (9, 9, 9, 9));
+        assert!(distribution(&[]).is_none());
+        assert_eq!(percentile(&[1, 2], 50), 1);
+    }
+
+    #[test]
+    fn windows_and_recoveries_parse() {
+        let (a, b) = parse_window("10:00..11:05").unwrap();
+        assert_eq!((b.0 - a.0) / SEC, 65 * 60);
+        assert!(parse_window("11:05..10:00").is_err());
+        assert!(parse_window("10:00").is_err());
+        assert_eq!(parse_recovery("3min").unwrap(), (180 * SEC, 180 * SEC));
+        assert!(parse_recovery("5min..1min").is_err());
+        assert_eq!(fmt_recovery((180 * SEC, 180 * SEC)), "180s");
+        assert_eq!(
+            parse_recovery(&fmt_recovery((60 * SEC, 300 * SEC))).unwrap(),
+            (60 * SEC, 300 * SEC)
+        );
+    }
+}
