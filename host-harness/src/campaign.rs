@@ -119,7 +119,7 @@ pub fn parse_recovery(text: &str) -> Result<(u64, u64), String> {
 }
 
 fn fmt_duration(us: u64) -> String {
-    if us % SEC == 0 {
+    if us.is_multiple_of(SEC) {
         format!("{}s", us / SEC)
     } else {
         format!("{}ms", us / 1000)
@@ -746,6 +746,12 @@ pub fn merge(reports: Vec<CampaignReport>) -> Result<CampaignReport, String> {
     Ok(merged)
 }
 
+/// Write a campaign report (JSON), as `--report` does.
+pub fn save_report(report: &CampaignReport, path: &Path) -> Result<(), String> {
+    let json = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
+    std::fs::write(path, json).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
 /// Read a campaign report written with `--report`.
 pub fn load_report(path: &Path) -> Result<CampaignReport, String> {
     let text = std::fs::read_to_string(path)
@@ -875,8 +881,7 @@ pub struct CampaignArgs {
 
 fn write_report(report: &CampaignReport, path: &Option<PathBuf>) -> Result<(), String> {
     if let Some(path) = path {
-        let json = serde_json::to_string_pretty(report).map_err(|e| e.to_string())?;
-        std::fs::write(path, json).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        save_report(report, path)?;
         println!("  report: {}", path.display());
     }
     Ok(())
