@@ -607,6 +607,13 @@ fn run_variant_inner(
     )
     .map_err(|e| e.to_string())?;
     notes.extend(target.mid_frame_log());
+    let mut report = report;
+    if !target.counts_cycles() {
+        // The native target counts no guest cycles: its tick metrics are all 0, not data.
+        report
+            .metrics
+            .retain(|k, _| !(k.ends_with("_ticks") || k.ends_with("_instructions")));
+    }
     Ok((report, notes))
 }
 
