@@ -304,7 +304,7 @@ mod tests {
     #[test]
     fn out_of_range_count_points_at_the_step() {
         let e = err("name = \"x\"\n\n[[steps]]\nping = { count = 0 }\n");
-        assert!(e.starts_with("s.toml:4:"), "{e}");
+        assert!(e.starts_with("s.toml:3:"), "{e}");
         assert!(e.contains("ping.count: 0 is out of range"), "{e}");
     }
 
@@ -326,7 +326,7 @@ mod tests {
         let e = err(
             "name = \"x\"\n[target]\nserial = \"/dev/ttyUSB0\"\n[[steps]]\nwarm_reset = { via = \"qmp\" }\n",
         );
-        assert!(e.starts_with("s.toml:5:"), "{e}");
+        assert!(e.starts_with("s.toml:4:"), "{e}");
         assert!(e.contains("needs a QEMU target"), "{e}");
     }
 

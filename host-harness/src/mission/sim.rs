@@ -457,11 +457,22 @@ impl Spacecraft {
 
     /// Everything due at or before `now`, as messages for the target, in time then issue order.
     pub fn due(&mut self, now: MissionTimeUs) -> Vec<HostToTarget> {
-        self.pending.sort_by_key(|p| (p.0, p.1));
-        let split = self.pending.partition_point(|p| p.0 <= now);
-        let due: Vec<_> = self.pending.drain(..split).collect();
         let mut out = Vec::new();
-        for (at, _, p) in due {
+        // Handling an event may schedule another one that is also due (a periodic publication
+        // falling behind `now`): take them in time order until none is left.
+        loop {
+            self.pending.sort_by_key(|p| (p.0, p.1));
+            if self.pending.first().is_none_or(|p| p.0 > now) {
+                break;
+            }
+            let (at, _, p) = self.pending.remove(0);
+            self.handle_due(at, p, &mut out);
+        }
+        out
+    }
+
+    fn handle_due(&mut self, at: MissionTimeUs, p: Pending, out: &mut Vec<HostToTarget>) {
+        {
             match p {
                 Pending::State(key, value) => {
                     // Cumulative states are recomputed from their flows when published.
@@ -496,7 +507,6 @@ impl Spacecraft {
                 }
             }
         }
-        out
     }
 
     /// A flight-software reset at `at`: fault protection drops every command in progress, and
