@@ -57,13 +57,33 @@ pub fn target_dir() -> PathBuf {
 
 /// Build the firmware image (release profile) if needed and identify it.
 pub fn build() -> Result<FirmwareImage, FirmwareError> {
+    build_into(&[], target_dir())
+}
+
+/// Build the image with cargo features of `firmware/image` (e.g. `test-partitions`, the test
+/// image with the rogue partition) into `target/firmware-<features>`, so it never replaces
+/// the default image.
+pub fn build_with_features(features: &[&str]) -> Result<FirmwareImage, FirmwareError> {
+    if features.is_empty() {
+        return build();
+    }
+    let dir = repo_root().join(format!("target/firmware-{}", features.join("-")));
+    build_into(features, dir)
+}
+
+fn build_into(features: &[&str], target_dir: PathBuf) -> Result<FirmwareImage, FirmwareError> {
     let root = repo_root();
     let image_dir = root.join("firmware/image");
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    let mut args = vec!["build", "--release", "--quiet"];
+    let joined = features.join(",");
+    if !features.is_empty() {
+        args.extend(["--features", joined.as_str()]);
+    }
     let output = Command::new(cargo)
         .current_dir(&image_dir)
-        .args(["build", "--release", "--quiet"])
-        .env("CARGO_TARGET_DIR", target_dir())
+        .args(&args)
+        .env("CARGO_TARGET_DIR", &target_dir)
         // Settings of an outer cargo invocation (a test run) must not leak into this build.
         .env_remove("CARGO_ENCODED_RUSTFLAGS")
         .env_remove("RUSTFLAGS")
@@ -76,7 +96,7 @@ pub fn build() -> Result<FirmwareImage, FirmwareError> {
             stderr: String::from_utf8_lossy(&output.stderr).into_owned(),
         });
     }
-    FirmwareImage::open(&target_dir().join("powerpc-unknown-linux-gnu/release/rad750-firmware"))
+    FirmwareImage::open(&target_dir.join("powerpc-unknown-linux-gnu/release/rad750-firmware"))
 }
 
 /// Read the 8-byte `FIRMWARE_BUILD_ID` symbol's contents from the ELF.

@@ -20,6 +20,22 @@ pub fn firmware() -> &'static FirmwareImage {
     FW.get_or_init(|| firmware::build().unwrap_or_else(|e| panic!("firmware build failed: {e}")))
 }
 
+/// The test image (feature `test-partitions`: the product plus the rogue partition), built
+/// once per test process into its own target directory.
+pub fn test_firmware() -> &'static FirmwareImage {
+    static FW: OnceLock<FirmwareImage> = OnceLock::new();
+    FW.get_or_init(|| {
+        firmware::build_with_features(&["test-partitions"])
+            .unwrap_or_else(|e| panic!("test image build failed: {e}"))
+    })
+}
+
+/// Boot the test image under QEMU.
+pub fn boot_test_image() -> Session {
+    Session::boot_qemu(&profile(), test_firmware(), &LaunchOptions::default())
+        .unwrap_or_else(|e| panic!("cannot boot the test image: {e}"))
+}
+
 pub fn profile() -> QemuProfile {
     QemuProfile::load("rad750-proxy").expect("qemu/rad750-proxy.toml")
 }

@@ -512,7 +512,7 @@ pub const fn check(config: &SystemConfig) -> Result<(), ConfigError> {
             }
             r += 1;
         }
-        if part.stack_size == 0 || part.stack_size % 16 != 0 {
+        if part.stack_size == 0 || !part.stack_size.is_multiple_of(16) {
             return Err(ConfigError::BadStackSize { partition: p });
         }
         if PARTITION_HEADER_SIZE as u64 + part.stack_size as u64 > regions[0].size as u64 {

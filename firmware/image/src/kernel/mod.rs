@@ -200,8 +200,11 @@ impl Kernel {
                     mmu::map(p);
                     self.mapped = Some(p);
                 }
-                let now = timebase::now().0;
-                self.switched_in(p, entry, now);
+                // A switch (not the return from a system call, which stays charged to `p`).
+                if self.sched.running != Some(p) {
+                    let now = timebase::now().0;
+                    self.switched_in(p, entry, now);
+                }
                 shared::set_running(Some(p));
                 &self.contexts[p]
             }

@@ -191,7 +191,7 @@ impl Kernel {
         }
         self.sched.frames = self.sched.frames.wrapping_add(1);
         let period = self.sched.report_period;
-        if period != 0 && self.sched.frames % period == 0 {
+        if period != 0 && self.sched.frames.is_multiple_of(period) {
             self.report_metrics();
         }
     }

@@ -1,0 +1,348 @@
+//! The partitioning kernel under qemu-system-ppc: space partitioning (a rogue partition's write
+//! into the planner is stopped and the planner is unharmed), time partitioning (a rogue in an
+//! endless loop delays nobody), checked system calls (bad pointers get errors, the kernel keeps
+//! running), the health monitor's actions, and deterministic per-window accounting.
+//!
+//! The rogue partition exists only in the test image (`test-partitions`); the harness steers it
+//! with a StateUpdate on the reserved key `control::ROGUE_MODE`.
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use fsw_bridge::{HostToTarget, MissionTimeUs, StateKey, StateValue, TargetToHost, TelemetryEvent};
+use hil::session::Session;
+use hil_tests::{boot, boot_test_image, PATIENCE};
+use kernel_config::abi::{control, metric, rogue, JITTER_BOUND_TICKS};
+use kernel_config::system::{EXECUTIVE, IO, PLANNER, PLANNER_REGION, ROGUE};
+use kernel_config::{ErrorKind, HmAction};
+
+fn send_control(target: &mut Session, key: u16, value: StateValue) {
+    target
+        .link
+        .send(&HostToTarget::StateUpdate {
+            key: StateKey(key),
+            value,
+            timestamp: MissionTimeUs::ZERO,
+        })
+        .unwrap();
+}
+
+/// Receive until `want` matches; everything else is kept in `target.unsolicited`.
+fn wait_for(
+    target: &mut Session,
+    what: &str,
+    want: impl Fn(&TargetToHost) -> bool,
+) -> TargetToHost {
+    let deadline = Instant::now() + PATIENCE;
+    loop {
+        let left = deadline.saturating_duration_since(Instant::now());
+        assert!(!left.is_zero(), "no {what} within {PATIENCE:?}");
+        let msg = target
+            .recv(left)
+            .unwrap_or_else(|e| panic!("waiting for {what}: {e}"));
+        if want(&msg) {
+            return msg;
+        }
+        target.unsolicited.push(msg);
+    }
+}
+
+fn metric_value(target: &mut Session, id: u16) -> u64 {
+    match wait_for(
+        target,
+        &format!("metric {id:#x}"),
+        |m| matches!(m, TargetToHost::Telemetry(TelemetryEvent::Metric { id: i, .. }) if *i == id),
+    ) {
+        TargetToHost::Telemetry(TelemetryEvent::Metric { value, .. }) => value,
+        _ => unreachable!(),
+    }
+}
+
+/// One accounting report from the kernel, asked for now.
+fn kernel_metrics(target: &mut Session) -> BTreeMap<u16, u64> {
+    send_control(target, control::REQUEST_METRICS, StateValue::Int(0));
+    collect_report(target)
+}
+
+/// The metrics of the next kernel report (FRAME_NUMBER .. EVENTS_DROPPED).
+fn collect_report(target: &mut Session) -> BTreeMap<u16, u64> {
+    let mut report = BTreeMap::new();
+    let first = metric_value(target, metric::FRAME_NUMBER);
+    report.insert(metric::FRAME_NUMBER, first);
+    loop {
+        match wait_for(target, "kernel report", |m| {
+            matches!(m, TargetToHost::Telemetry(TelemetryEvent::Metric { .. }))
+        }) {
+            TargetToHost::Telemetry(TelemetryEvent::Metric { id, value }) => {
+                report.insert(id, value);
+                if id == metric::EVENTS_DROPPED {
+                    return report;
+                }
+            }
+            _ => unreachable!(),
+        }
+    }
+}
+
+fn planner_checksum(target: &mut Session) -> (u64, u64) {
+    send_control(target, control::PLANNER_CHECKSUM, StateValue::Unknown);
+    let checksum = metric_value(target, metric::PLANNER_CHECKSUM);
+    let generation = metric_value(target, metric::PLANNER_GENERATION);
+    (checksum, generation)
+}
+
+fn health_events(target: &Session) -> Vec<(u8, u8, u32, u8)> {
+    target
+        .unsolicited
+        .iter()
+        .filter_map(|m| match m {
+            TargetToHost::Telemetry(TelemetryEvent::HealthMonitor {
+                partition,
+                kind,
+                address,
+                action,
+            }) => Some((*partition, *kind, *address, *action)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Ping until a decoded log line contains `text` (logs travel with everything else).
+fn wait_for_log(target: &mut Session, text: &str) {
+    let deadline = Instant::now() + PATIENCE;
+    let mut seq = 10_000;
+    while !target.logs.iter().any(|l| l.message.contains(text)) {
+        assert!(
+            Instant::now() < deadline,
+            "no log line containing {text:?}; logs: {:#?}",
+            target.logs.iter().map(|l| &l.message).collect::<Vec<_>>()
+        );
+        seq += 1;
+        target
+            .ping(seq, PATIENCE)
+            .expect("the target answers pings");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn rogue(target: &mut Session, mode: u16) {
+    send_control(target, control::ROGUE_MODE, StateValue::Enum(mode));
+}
+
+fn no_reset_happened(target: &Session) {
+    assert!(
+        !target
+            .unsolicited
+            .iter()
+            .any(|m| matches!(m, TargetToHost::Hello { .. })),
+        "the module reset"
+    );
+}
+
+#[test]
+fn a_rogue_write_into_the_planner_is_stopped_by_a_dsi_and_the_planner_is_unchanged() {
+    let mut target = boot_test_image();
+    target.expect_hello(PATIENCE).unwrap();
+    wait_for_log(&mut target, "rogue: started, generation 0");
+    let (before, planner_generation) = planner_checksum(&mut target);
+
+    rogue(&mut target, rogue::WRITE_PLANNER);
+    let event = wait_for(&mut target, "health-monitor event", |m| {
+        matches!(
+            m,
+            TargetToHost::Telemetry(TelemetryEvent::HealthMonitor { .. })
+        )
+    });
+    let TargetToHost::Telemetry(TelemetryEvent::HealthMonitor {
+        partition,
+        kind,
+        address,
+        action,
+    }) = event
+    else {
+        unreachable!()
+    };
+    assert_eq!(partition, ROGUE as u8);
+    assert_eq!(kind, ErrorKind::DataStorage as u8);
+    assert_eq!(action, HmAction::RestartPartition as u8);
+    assert!(
+        PLANNER_REGION.contains(address, 4),
+        "fault address {address:#x} is not in the planner's region"
+    );
+    // Restarted: a fresh start with the next generation.
+    wait_for_log(&mut target, "rogue: started, generation 1");
+    assert!(!target
+        .logs
+        .iter()
+        .any(|l| l.message.contains("the write went through")));
+
+    let (after, generation_after) = planner_checksum(&mut target);
+    assert_eq!(after, before, "the planner's table changed");
+    assert_eq!(
+        generation_after, planner_generation,
+        "the planner was restarted"
+    );
+    no_reset_happened(&target);
+}
+
+#[test]
+fn a_rogue_partition_in_an_endless_loop_delays_nobody() {
+    let mut target = boot_test_image();
+    target.expect_hello(PATIENCE).unwrap();
+    wait_for_log(&mut target, "rogue: started, generation 0");
+    let before = kernel_metrics(&mut target);
+
+    rogue(&mut target, rogue::ENDLESS_LOOP);
+    wait_for_log(&mut target, "rogue: spinning forever");
+    let start = kernel_metrics(&mut target);
+    // Let it spin for a few hundred major frames.
+    let mut during = kernel_metrics(&mut target);
+    while during[&metric::FRAME_NUMBER] < start[&metric::FRAME_NUMBER] + 300 {
+        std::thread::sleep(Duration::from_millis(50));
+        during = kernel_metrics(&mut target);
+    }
+    let frames = during[&metric::FRAME_NUMBER] - start[&metric::FRAME_NUMBER];
+    let rogue_overruns =
+        during[&(metric::OVERRUNS + ROGUE as u16)] - start[&(metric::OVERRUNS + ROGUE as u16)];
+    assert!(
+        rogue_overruns + 1 >= frames && rogue_overruns <= frames + 1,
+        "the rogue was preempted {rogue_overruns} times in {frames} frames"
+    );
+    // It used its whole window (less the switch), frame after frame.
+    let window = u64::from(kernel_config::system::TEST.schedule.windows[3].duration);
+    let used = during[&(metric::FRAME_TICKS + ROGUE as u16)];
+    assert!(
+        used + 2 * JITTER_BOUND_TICKS >= window && used <= window,
+        "the rogue used {used} ticks of its {window}-tick window"
+    );
+    eprintln!("before the loop: {before:?}\nduring the loop: {during:?}");
+    for p in [IO, EXECUTIVE, PLANNER] {
+        let id = p as u16;
+        assert_eq!(
+            during[&(metric::OVERRUNS + id)],
+            0,
+            "partition {p} overran its window"
+        );
+        let jitter = during[&(metric::MAX_JITTER + id)];
+        assert!(
+            jitter <= JITTER_BOUND_TICKS,
+            "partition {p}: window start jitter {jitter} ticks exceeds the bound {JITTER_BOUND_TICKS}"
+        );
+    }
+    // The executive's and planner's work per frame is what it was before the rogue spun.
+    for p in [EXECUTIVE, PLANNER] {
+        let id = metric::FRAME_TICKS + p as u16;
+        assert_eq!(
+            during[&id], before[&id],
+            "partition {p} used different ticks per frame"
+        );
+    }
+    target
+        .ping(1, PATIENCE)
+        .expect("the I/O partition still answers");
+    assert!(health_events(&target).iter().all(|e| e.0 == ROGUE as u8));
+    no_reset_happened(&target);
+}
+
+#[test]
+fn bad_pointers_to_every_syscall_get_errors_and_the_kernel_keeps_running() {
+    let mut target = boot_test_image();
+    target.expect_hello(PATIENCE).unwrap();
+    wait_for_log(&mut target, "rogue: started, generation 0");
+    rogue(&mut target, rogue::BAD_POINTERS);
+    wait_for_log(&mut target, "rogue: bad pointers done");
+    let done = target
+        .logs
+        .iter()
+        .find(|l| l.message.contains("rogue: bad pointers done"))
+        .unwrap()
+        .message
+        .clone();
+    assert_eq!(done, "rogue: bad pointers done, 20 of 20 calls refused");
+    target.ping(2, PATIENCE).expect("the kernel keeps running");
+    let events = health_events(&target);
+    let illegal: Vec<_> = events
+        .iter()
+        .filter(|e| e.0 == ROGUE as u8 && e.1 == ErrorKind::IllegalSyscall as u8)
+        .collect();
+    assert_eq!(illegal.len(), 20, "{events:?}");
+    assert!(illegal.iter().all(|e| e.3 == HmAction::Log as u8));
+    // Log and continue: the rogue was not restarted, and nobody else was touched.
+    let report = kernel_metrics(&mut target);
+    for p in [IO, EXECUTIVE, PLANNER, ROGUE] {
+        assert_eq!(report[&(metric::GENERATION + p as u16)], 0, "partition {p}");
+    }
+    no_reset_happened(&target);
+}
+
+#[test]
+fn panics_and_privileged_instructions_in_a_partition_restart_it() {
+    let mut target = boot_test_image();
+    target.expect_hello(PATIENCE).unwrap();
+    wait_for_log(&mut target, "rogue: started, generation 0");
+    rogue(&mut target, rogue::PANIC);
+    wait_for_log(&mut target, "rogue: started, generation 1");
+    assert!(target.logs.iter().any(|l| l
+        .message
+        .starts_with("partition rogue panicked at src/partitions/rogue.rs:")));
+    rogue(&mut target, rogue::PRIVILEGED);
+    wait_for_log(&mut target, "rogue: started, generation 2");
+    let events = health_events(&target);
+    assert!(events.contains(&(
+        ROGUE as u8,
+        ErrorKind::Panic as u8,
+        events
+            .iter()
+            .find(|e| e.1 == ErrorKind::Panic as u8)
+            .unwrap()
+            .2,
+        HmAction::RestartPartition as u8
+    )));
+    assert!(events.iter().any(|e| e.0 == ROGUE as u8
+        && e.1 == ErrorKind::Program as u8
+        && e.3 == HmAction::RestartPartition as u8));
+    target.ping(3, PATIENCE).unwrap();
+    no_reset_happened(&target);
+}
+
+/// Per-partition ticks of reports 2..=4 after periodic reporting was switched on (the first is
+/// skipped: the frame in which the request arrived depends on the host).
+fn accounting_run() -> Vec<BTreeMap<u16, u64>> {
+    let mut target = boot();
+    target.expect_hello(PATIENCE).unwrap();
+    send_control(&mut target, control::REQUEST_METRICS, StateValue::Int(50));
+    let _ = collect_report(&mut target);
+    (0..3)
+        .map(|_| {
+            let report = collect_report(&mut target);
+            report
+                .into_iter()
+                .filter(|(id, _)| {
+                    *id == metric::FRAME_NUMBER || (*id & 0xfff0) == metric::FRAME_TICKS
+                })
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn the_same_image_gives_identical_per_window_accounting_twice() {
+    let first = accounting_run();
+    let second = accounting_run();
+    // Frame numbers differ with when the request arrived; the ticks must not.
+    let ticks = |run: &Vec<BTreeMap<u16, u64>>| -> Vec<Vec<(u16, u64)>> {
+        run.iter()
+            .map(|r| {
+                r.iter()
+                    .filter(|(id, _)| **id != metric::FRAME_NUMBER)
+                    .map(|(id, v)| (*id, *v))
+                    .collect()
+            })
+            .collect()
+    };
+    assert_eq!(ticks(&first), ticks(&second));
+    for report in &first {
+        for p in [IO, EXECUTIVE, PLANNER] {
+            assert!(report[&(metric::FRAME_TICKS + p as u16)] > 0, "{report:?}");
+        }
+    }
+}
