@@ -132,6 +132,9 @@ pub struct FlightApp {
     /// The last frame finished and what its FrameDone said: a grant for that frame again (the
     /// host lost our FrameDone, or its grant reached us twice) is answered without stepping.
     last_done: Option<(u32, Option<MissionTimeUs>)>,
+    /// Byte range of the warm memory the last checkpoint wrote (a target whose warm-restart
+    /// area sits behind a system call copies just these bytes).
+    last_warm_write: Option<(usize, usize)>,
 }
 
 impl Default for FlightApp {
@@ -151,11 +154,17 @@ impl FlightApp {
             budget: DEFAULT_STEP_BUDGET,
             recovering: false,
             last_done: None,
+            last_warm_write: None,
         }
     }
 
     pub fn autonomy(&self) -> &Autonomy {
         &self.autonomy
+    }
+
+    /// The range of warm memory written by the last frame's checkpoint, once (start, end).
+    pub fn take_warm_write(&mut self) -> Option<(usize, usize)> {
+        self.last_warm_write.take()
     }
 
     pub fn set_budget(&mut self, budget: StepBudget) {
@@ -326,6 +335,18 @@ impl FlightApp {
             .is_err()
         {
             failures += 1;
+        } else {
+            let slot_len = memories.warm.len() / 2;
+            self.last_warm_write =
+                WarmRestartArea::new(memories.warm)
+                    .latest()
+                    .map(|(slot, _, payload)| {
+                        let start = usize::from(slot) * slot_len;
+                        (
+                            start,
+                            start + autonomy::checkpoint::RECORD_HEADER_LEN + payload.len(),
+                        )
+                    });
         }
         if let Some(nv) = memories.nv.as_deref_mut() {
             if self

@@ -76,7 +76,7 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         name: "executive",
         entry: "partition_executive_main",
         regions: &[EXECUTIVE_REGION],
-        stack_size: 0x8000,
+        stack_size: 0x10000,
         capabilities: Capabilities {
             link_owner: false,
             warm_area: true,

@@ -426,9 +426,13 @@ impl LinkFaults {
         std::mem::take(&mut self.delayed)
     }
 
-    /// What the host receives of `msg` after the link.
+    /// What the host receives of `msg` after the link. Cost metrics are instrumentation that
+    /// only the emulated target sends: they pass untouched and draw nothing from the fault
+    /// stream, so native and emulated runs lose the same decisions to the same seed.
     fn rx(&mut self, msg: TargetToHost) -> Option<TargetToHost> {
-        if !self.active() {
+        if !self.active()
+            || matches!(msg, TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::Metric { .. }))
+        {
             return Some(msg);
         }
         if self.rx_rng.chance(self.spec.drop) {

@@ -1,47 +1,132 @@
-//! The executive partition (placeholder until the autonomy core's executive moves in): counts
-//! state updates and command responses, answers each TimeGrant with FrameDone (its busy ticks
-//! are the CPU ticks it used in this window), publishes a status word on its sampling port, and
-//! on request times null system calls for the syscall benchmark.
+//! The executive partition: runs the flight application (`flight-app`: the autonomy core with
+//! the lockstep and uplink protocol around it). It receives the host's state updates, command
+//! responses, uplink chunks and time grants routed by the I/O partition, steps the autonomy
+//! once per grant, checkpoints the plan into the warm-restart area (through the kernel: this
+//! partition owns it), and queues what it decided (command dispatches, telemetry, FrameDone)
+//! for the I/O partition. It also serves the kernel's syscall benchmark on request.
 //!
-//! Where the autonomy core goes: [`ExecutiveState`] lives in this partition's 2 MiB region
-//! (`.bss.part.executive`); put the executive's state there (a `ZeroValid` struct, initialised
-//! in place in [`partition_executive_main`]), handle the routed messages in the receive loop,
-//! send CommandDispatch/Telemetry with `send_to_host(PORT_EXECUTIVE_TO_IO, ..)`, checkpoint
-//! through `sys::warm_write` (this partition owns the warm area).
+//! The planner and the executive of the core still run together here; they exchange only
+//! commits and task reports, so splitting them over the planner partition is a move of code,
+//! not of design.
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
+use flight_app::{CpuClock, Downlink, FlightApp, Memories};
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
+use heapless::Deque;
 use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
 use kernel_config::system::{PORT_EXECUTIVE_STATUS, PORT_EXECUTIVE_TO_IO, PORT_IO_TO_EXECUTIVE};
+use kernel_config::{WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 
 use super::{receive_routed, send_to_host, zeroed_state, ZeroValid};
 use crate::board::timebase;
 use crate::sys;
 
+/// Bytes of the warm-restart area available for checkpoints (after the boot record).
+pub const WARM_CHECKPOINT_BYTES: usize = (WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE) as usize;
+/// Messages for the host the partition holds while the outbound port is full.
+pub const OUTBOX_CAPACITY: usize = 128;
+
 pub struct ExecutiveState {
     pub state_updates: u32,
     pub command_responses: u32,
     pub time_grants: u32,
+    /// Messages lost because the outbox was full.
+    pub outbox_overflows: u32,
+    /// Checkpoint copies the kernel refused.
+    pub warm_write_errors: u32,
+    /// This partition's copy of the warm-restart area's checkpoint part.
+    pub warm: [u8; WARM_CHECKPOINT_BYTES],
+    pub outbox: Deque<TargetToHost, OUTBOX_CAPACITY>,
 }
 
-// SAFETY: integers only.
+// SAFETY: integers, a byte array, and a heapless Deque whose all-zero value is the empty queue
+// (indices 0, not full; the buffer is MaybeUninit).
 unsafe impl ZeroValid for ExecutiveState {}
 
 #[link_section = ".bss.part.executive"]
 static mut STATE: MaybeUninit<ExecutiveState> = MaybeUninit::uninit();
 
+#[link_section = ".bss.part.executive"]
+static mut APP: MaybeUninit<FlightApp> = MaybeUninit::uninit();
+
+/// The initial application, copied into place (never built on the stack).
+const APP_INIT: FlightApp = FlightApp::new();
+
+/// CPU time of this partition only, so costs do not depend on other partitions' windows.
+struct PartitionClock;
+
+impl CpuClock for PartitionClock {
+    fn ticks(&mut self) -> u64 {
+        sys::cpu_time().0
+    }
+}
+
+/// Queues messages for the host.
+struct Outbox<'a> {
+    queue: &'a mut Deque<TargetToHost, OUTBOX_CAPACITY>,
+    overflows: &'a mut u32,
+}
+
+impl Downlink for Outbox<'_> {
+    fn send(&mut self, msg: TargetToHost) {
+        if self.queue.push_back(msg).is_err() {
+            *self.overflows = self.overflows.saturating_add(1);
+        }
+    }
+}
+
 #[no_mangle]
 pub extern "C" fn partition_executive_main() -> ! {
-    // SAFETY: STATE is this partition's static, zeroed by the partition start; entry runs once
-    // per (re)start.
+    // SAFETY: STATE and APP are this partition's statics, zeroed by the partition start; the
+    // entry runs once per (re)start, so nothing else refers to them.
     let state = unsafe { zeroed_state(addr_of_mut!(STATE)) };
+    // SAFETY: as above; APP is written whole before its first use.
+    let app: &'static mut FlightApp = unsafe { (*addr_of_mut!(APP)).write(APP_INIT) };
+    if sys::warm_read(0, &mut state.warm).is_err() {
+        defmt::warn!("executive: warm-restart area unreadable; cold start");
+    }
+    {
+        let mut outbox = Outbox {
+            queue: &mut state.outbox,
+            overflows: &mut state.outbox_overflows,
+        };
+        let mut memories = Memories {
+            warm: &mut state.warm,
+            nv: None,
+        };
+        let outcome = app.boot(&mut memories, &mut PartitionClock, &mut outbox);
+        match outcome {
+            flight_app::BootOutcome::Cold => {
+                defmt::info!("executive: cold start, waiting for an uplink")
+            }
+            flight_app::BootOutcome::RestoredWarm(info)
+            | flight_app::BootOutcome::RestoredNv(info) => {
+                defmt::info!(
+                    "executive: plan restored from checkpoint {=u32}",
+                    info.sequence
+                )
+            }
+        }
+    }
     loop {
+        flush(state);
         while let Some((msg, _generation)) = receive_routed(PORT_IO_TO_EXECUTIVE) {
-            handle(state, msg);
+            handle(state, app, msg);
+            flush(state);
         }
         let _ = sys::port_send(PORT_EXECUTIVE_STATUS, &state.state_updates.to_be_bytes());
         sys::wait_next_window();
+    }
+}
+
+/// Hand queued messages to the I/O partition until its port is full.
+fn flush(state: &mut ExecutiveState) {
+    while let Some(msg) = state.outbox.front() {
+        if send_to_host(PORT_EXECUTIVE_TO_IO, msg).is_err() {
+            return;
+        }
+        state.outbox.pop_front();
     }
 }
 
@@ -52,20 +137,8 @@ fn metric(id: u16, value: u64) {
     );
 }
 
-fn handle(state: &mut ExecutiveState, msg: HostToTarget) {
-    match msg {
-        HostToTarget::TimeGrant { frame, .. } => {
-            state.time_grants += 1;
-            let (_, window_ticks) = sys::cpu_time();
-            let _ = send_to_host(
-                PORT_EXECUTIVE_TO_IO,
-                &TargetToHost::FrameDone {
-                    frame,
-                    next_wakeup: None,
-                    busy_ticks: window_ticks,
-                },
-            );
-        }
+fn handle(state: &mut ExecutiveState, app: &mut FlightApp, msg: HostToTarget) {
+    match &msg {
         HostToTarget::StateUpdate {
             key: StateKey(control::SYSCALL_BENCH),
             ..
@@ -76,10 +149,28 @@ fn handle(state: &mut ExecutiveState, msg: HostToTarget) {
                 metric::EXECUTIVE_STATE_UPDATES,
                 u64::from(state.state_updates),
             );
+            return;
         }
         HostToTarget::StateUpdate { .. } => state.state_updates += 1,
         HostToTarget::CommandResponse { .. } => state.command_responses += 1,
+        HostToTarget::TimeGrant { .. } => state.time_grants += 1,
         _ => {}
+    }
+    let mut outbox = Outbox {
+        queue: &mut state.outbox,
+        overflows: &mut state.outbox_overflows,
+    };
+    let mut memories = Memories {
+        warm: &mut state.warm,
+        nv: None,
+    };
+    app.handle(&msg, &mut memories, &mut PartitionClock, &mut outbox);
+    if let Some((start, end)) = app.take_warm_write() {
+        // Only the bytes this checkpoint wrote go to the warm-restart area; a reset in the
+        // middle of the copy leaves the other slot whole (A/B records).
+        if sys::warm_write(start as u32, &state.warm[start..end]).is_err() {
+            state.warm_write_errors = state.warm_write_errors.saturating_add(1);
+        }
     }
 }
 

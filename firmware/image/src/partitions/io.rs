@@ -1,8 +1,8 @@
 //! The I/O partition: the only one with the UART (mac-io is mapped into it alone). It runs the
 //! frame codec, says Hello once per boot (with the reset cause the kernel determined), answers
 //! Ping with its decoder counters, honours ResetRequest through the kernel, and routes:
-//! TimeGrant, StateUpdate and CommandResponse to the executive, StateUpdate and UplinkChunk to
-//! the planner, and reserved control keys (`abi::control`) to whoever they address; in the
+//! TimeGrant, StateUpdate, CommandResponse and UplinkChunk to the executive (where the flight
+//! application runs), StateUpdate to the planner, and reserved control keys (`abi::control`) to whoever they address; in the
 //! other direction the executive's and planner's outbound ports, the kernel's log stream and
 //! the kernel's events (health monitor, metrics) go to the host.
 use core::mem::MaybeUninit;
@@ -130,7 +130,8 @@ fn handle(link: &mut Link<EsccChannelA>, msg: HostToTarget) {
             route(PORT_IO_TO_PLANNER, &msg);
         }
         HostToTarget::CommandResponse { .. } => route(PORT_IO_TO_EXECUTIVE, &msg),
-        HostToTarget::UplinkChunk { .. } => route(PORT_IO_TO_PLANNER, &msg),
+        // The flight application (autonomy core) runs in the executive partition.
+        HostToTarget::UplinkChunk { .. } => route(PORT_IO_TO_EXECUTIVE, &msg),
     }
 }
 
