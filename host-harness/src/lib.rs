@@ -5,6 +5,7 @@
 //! The binary (`src/main.rs`) is a thin clap front end over this library; the integration tests
 //! in `tests/` use the library directly.
 pub mod bench;
+pub mod bench_kernel;
 pub mod budget;
 pub mod campaign;
 pub mod defmt_log;

@@ -84,6 +84,16 @@ enum Command {
 
 #[derive(Subcommand)]
 enum BenchWhat {
+    /// Partitioning kernel: switch cost, window jitter, syscall round trip (guest ticks and
+    /// instructions, deterministic), kernel RAM/ROM footprint.
+    Kernel {
+        /// Major frames to run before reading the accounting.
+        #[arg(long, default_value_t = 300)]
+        frames: u64,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Boot-to-Hello time, ping round trips and frames per second on the link.
     Link {
         /// Number of pings (sequential, then the same number pipelined).
@@ -304,6 +314,20 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Campaign(args) => hil::campaign::cli(args),
+        Command::Bench {
+            what: Some(BenchWhat::Kernel { frames, json }),
+            ..
+        } => {
+            let fw = firmware::build().map_err(|e| e.to_string())?;
+            let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
+            let b = hil::bench_kernel::kernel(&profile, &fw, frames).map_err(|e| e.to_string())?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&b).unwrap());
+            } else {
+                print_kernel_bench(&b);
+            }
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Build => {
             let fw = firmware::build().map_err(|e| e.to_string())?;
             let fw = FirmwareImage::open(&fw.elf).map_err(|e| e.to_string())?;
@@ -315,4 +339,39 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+fn print_kernel_bench(b: &hil::bench_kernel::KernelBench) {
+    println!("kernel benchmark (guest timebase ticks at 16.6 MHz; 1 tick = 15.06 instructions under icount shift=2)");
+    println!(
+        "  partition switch     mean {:.1} ticks ({:.0} instructions), max {} ticks, over {} window starts",
+        b.switch_mean_ticks, b.switch_mean_instructions, b.switch_max_ticks, b.switches
+    );
+    println!(
+        "  syscall round trip   {:.2} ticks ({:.0} instructions)",
+        b.syscall_round_trip_ticks, b.syscall_round_trip_instructions
+    );
+    println!(
+        "  window start jitter  max {} ticks over {} frames",
+        b.jitter_max_ticks, b.frames
+    );
+    for p in &b.partitions {
+        println!(
+            "    {:<10} jitter max {:>3} ticks, last frame {:>6} ticks, worst frame {:>6} ticks, overruns {}",
+            p.name, p.max_jitter_ticks, p.frame_ticks, p.worst_frame_ticks, p.overruns
+        );
+    }
+    let f = &b.footprint;
+    println!(
+        "  kernel RAM           {} bytes ({:.1} KiB; plus the {} KiB all-invalid page table)",
+        f.kernel_ram_bytes,
+        f.kernel_ram_bytes as f64 / 1024.0,
+        f.page_table_bytes / 1024
+    );
+    println!(
+        "  kernel ROM           {} bytes ({:.1} KiB) of a {} byte image",
+        f.kernel_rom_bytes,
+        f.kernel_rom_bytes as f64 / 1024.0,
+        f.image_rom_bytes
+    );
 }
