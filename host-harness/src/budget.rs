@@ -6,8 +6,8 @@
 //!   emulated target and take one of its metrics (`max_recovery_ticks`, `max_step_ticks`, ...);
 //! - `kernel:<metric>`: the kernel benchmark (`hil bench kernel`): partition switch, syscall
 //!   round trip, frame processing, footprints;
-//! - `elf:<section-prefix>`: bytes of the firmware ELF's allocated sections whose names start
-//!   with the prefix (static memory).
+//! - `elf:<section-prefix>[+<prefix>...]`: bytes of the firmware ELF's sections whose names
+//!   start with the prefixes (static memory).
 //!
 //! A budget is raised only by editing `budgets.toml`, so every raise shows in review. The last
 //! accepted measurements live in `budgets-baseline.toml` (`hil bench --save-baseline`), so the
@@ -298,23 +298,25 @@ pub fn save_baseline(path: &Path, rows: &[Row]) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Static memory from the firmware ELF: allocated bytes of sections starting with `prefix`.
-pub fn elf_section_bytes(elf: &Path, prefix: &str) -> Result<u64, String> {
+/// Static memory from the firmware ELF: bytes of the sections whose names start with one of
+/// the `+`-separated prefixes (e.g. `.kdata+.bss`). Every prefix must match a section.
+pub fn elf_section_bytes(elf: &Path, prefixes: &str) -> Result<u64, String> {
     let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
     let file = object::File::parse(&*bytes).map_err(|e| e.to_string())?;
     let mut total = 0;
-    let mut any = false;
-    for s in file.sections() {
-        if s.name().is_ok_and(|n| n.starts_with(prefix)) {
-            total += s.size();
-            any = true;
+    for prefix in prefixes.split('+') {
+        let mut any = false;
+        for s in file.sections() {
+            if s.name().is_ok_and(|n| n.starts_with(prefix)) {
+                total += s.size();
+                any = true;
+            }
+        }
+        if !any {
+            return Err(format!("no section named {prefix}* in {}", elf.display()));
         }
     }
-    if any {
-        Ok(total)
-    } else {
-        Err(format!("no section named {prefix}* in {}", elf.display()))
-    }
+    Ok(total)
 }
 
 #[cfg(test)]
@@ -511,4 +513,28 @@ fn kernel_metrics(
     firmware: &crate::firmware::FirmwareImage,
 ) -> Result<BTreeMap<String, u64>, String> {
     crate::bench::kernel_metrics(firmware)
+}
+
+/// What `hil bench` found.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchOutcome {
+    pub rows: Vec<Row>,
+    /// Each quantity over budget or not measured, named; empty when every budget holds.
+    pub offenders: Vec<String>,
+}
+
+/// `hil bench`: load the budgets, measure them on the emulated target, compare with the
+/// baseline.
+pub fn check(
+    budgets_path: &Path,
+    baseline_path: &Path,
+    firmware: &crate::firmware::FirmwareImage,
+    progress: &mut dyn FnMut(&str),
+) -> Result<BenchOutcome, String> {
+    let list = load(budgets_path).map_err(|e| e.to_string())?;
+    let (measured, missing) = measure(&list, firmware, progress);
+    let baseline = load_baseline(baseline_path)?;
+    let rows = evaluate(&list, &measured, &missing, &baseline);
+    let offenders = offenders(&rows);
+    Ok(BenchOutcome { rows, offenders })
 }
