@@ -10,10 +10,15 @@ use std::time::{Duration, Instant};
 
 use fsw_bridge::{HostToTarget, MissionTimeUs, StateKey, StateValue, TargetToHost, TelemetryEvent};
 use hil::session::Session;
-use hil_tests::{boot, boot_test_image, PATIENCE};
+use hil_tests::{boot, boot_test_image};
 use kernel_config::abi::{control, metric, rogue, JITTER_BOUND_TICKS};
 use kernel_config::system::{EXECUTIVE, IO, PLANNER, PLANNER_REGION, ROGUE};
 use kernel_config::{ErrorKind, HmAction};
+
+/// Liveness bound for these tests (wall time). Longer than the link tests' because under host
+/// CPU contention QEMU delivers serial input slowly (one byte per main-loop turn) while the
+/// idle guest warps virtual time; only a hang should ever reach it.
+const PATIENCE: Duration = Duration::from_secs(120);
 
 fn send_control(target: &mut Session, key: u16, value: StateValue) {
     target
@@ -117,9 +122,14 @@ fn wait_for_log(target: &mut Session, text: &str) {
             target.logs.iter().map(|l| &l.message).collect::<Vec<_>>()
         );
         seq += 1;
-        target
-            .ping(seq, PATIENCE)
-            .expect("the target answers pings");
+        if let Err(e) = target.ping(seq, PATIENCE) {
+            panic!(
+                "the target stopped answering pings ({e}); QEMU log {:?}; logs: {:#?}\nother messages: {:?}",
+                target.qemu_log(),
+                target.logs.iter().map(|l| &l.message).collect::<Vec<_>>(),
+                target.unsolicited
+            );
+        }
         std::thread::sleep(Duration::from_millis(20));
     }
 }
