@@ -2,8 +2,9 @@
 //! test process, and a pty pair stands in for a serial-attached board when a test plays target.
 use std::ffi::CStr;
 use std::fs::File;
+use std::ops::{Deref, DerefMut};
 use std::os::fd::FromRawFd;
-use std::sync::OnceLock;
+use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::time::Duration;
 
 use hil::firmware::{self, FirmwareImage};
@@ -30,10 +31,50 @@ pub fn test_firmware() -> &'static FirmwareImage {
     })
 }
 
+/// One QEMU at a time per test process. Under `-icount sleep=off` a QEMU keeps a host core
+/// busy even while its guest idles, and the main loop that feeds its serial port then competes
+/// with the other QEMUs' CPUs: on a 2-core machine, two or more at once can starve each other's
+/// serial input for tens of seconds. Every test that starts QEMU holds this while it runs.
+pub fn exclusive_qemu() -> MutexGuard<'static, ()> {
+    static ONE_QEMU: Mutex<()> = Mutex::new(());
+    // A test that panicked while holding it has ended its QEMU (by PID, on drop) already.
+    ONE_QEMU
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// A booted target that holds the one-QEMU slot until it is dropped (QEMU ends first).
+pub struct Booted {
+    session: Session,
+    _slot: MutexGuard<'static, ()>,
+}
+
+impl Deref for Booted {
+    type Target = Session;
+    fn deref(&self) -> &Session {
+        &self.session
+    }
+}
+
+impl DerefMut for Booted {
+    fn deref_mut(&mut self) -> &mut Session {
+        &mut self.session
+    }
+}
+
+fn boot_image(image: &FirmwareImage) -> Booted {
+    let slot = exclusive_qemu();
+    let session = Session::boot_qemu(&profile(), image, &LaunchOptions::default())
+        .unwrap_or_else(|e| panic!("cannot boot {}: {e}", image.elf.display()));
+    Booted {
+        session,
+        _slot: slot,
+    }
+}
+
 /// Boot the test image under QEMU.
-pub fn boot_test_image() -> Session {
-    Session::boot_qemu(&profile(), test_firmware(), &LaunchOptions::default())
-        .unwrap_or_else(|e| panic!("cannot boot the test image: {e}"))
+pub fn boot_test_image() -> Booted {
+    boot_image(test_firmware())
 }
 
 pub fn profile() -> QemuProfile {
@@ -41,9 +82,8 @@ pub fn profile() -> QemuProfile {
 }
 
 /// Boot the RAD750 proxy under QEMU and wait for nothing yet.
-pub fn boot() -> Session {
-    Session::boot_qemu(&profile(), firmware(), &LaunchOptions::default())
-        .unwrap_or_else(|e| panic!("cannot boot the target: {e}"))
+pub fn boot() -> Booted {
+    boot_image(firmware())
 }
 
 /// A pseudo-terminal pair: the test writes the "target" side on `master`; a `Session` opens

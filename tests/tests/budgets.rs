@@ -5,6 +5,7 @@ use hil_tests::firmware;
 
 #[test]
 fn every_budget_holds_on_the_emulated_target() {
+    let _one = hil_tests::exclusive_qemu();
     let root = hil::repo_root();
     let outcome = budget::check(
         &root.join("budgets.toml"),
@@ -24,6 +25,7 @@ fn every_budget_holds_on_the_emulated_target() {
 
 #[test]
 fn a_budget_lowered_below_its_measurement_fails_naming_it() {
+    let _one = hil_tests::exclusive_qemu();
     let root = hil::repo_root();
     let text = std::fs::read_to_string(root.join("budgets.toml")).unwrap();
     // reset_recovery measures a few hundred thousand instructions: 1000 is far too little.

@@ -176,15 +176,18 @@ fn mismatched_or_overlapping_reports_are_refused() {
     );
 }
 
-/// Needs the firmware integration (the emulated target runs missions only once the firmware
-/// speaks the mission protocol; until then missions fail at the uplink). Whoever lands the
-/// integration enables this. Mid-frame variants run at frame boundaries on QEMU until the
-/// driver has a mid-frame reset hook (see `MissionTarget::arm_mid_frame_reset`).
+/// Twenty random-reset variants of the flyby on the emulated RAD750 (the flight application in
+/// the executive partition), every one recovering with a consistent plan and no lost
+/// checkpoint. Mid-frame variants reset at frame boundaries on QEMU until the driver has a
+/// mid-frame reset hook (see `MissionTarget::arm_mid_frame_reset`).
 #[test]
-#[ignore = "needs the firmware integration (missions on the emulated target)"]
 fn campaign_on_the_emulated_target() {
+    let _one = hil_tests::exclusive_qemu();
     let mut opts = flyby_campaign(20);
     opts.native = false;
+    // One QEMU at a time (see `exclusive_qemu`), on the image the other tests use.
+    opts.jobs = 1;
+    opts.firmware = Some(hil_tests::firmware().elf.clone());
     let report = run(&opts);
     assert_eq!(report.target, "qemu");
     assert!(report.passed(), "{}", hil::campaign::summary(&report));

@@ -121,6 +121,7 @@ fn bad_scenario_files_name_file_line_and_field() {
 
 #[test]
 fn the_shipped_smoke_scenario_passes() {
+    let _one = hil_tests::exclusive_qemu();
     let path = hil::repo_root().join("scenarios/smoke.toml");
     let scenario = hil::scenario::load(&path).unwrap();
     let options = hil::run::RunOptions {

@@ -13,6 +13,7 @@ fn scenario(name: &str) -> PathBuf {
 }
 
 fn run_emulated(path: &Path) -> MissionReport {
+    let _one = hil_tests::exclusive_qemu();
     let loaded = hil::scenario::load(path).unwrap_or_else(|e| panic!("{e}"));
     let prepared = prepare(path, loaded).unwrap_or_else(|e| panic!("{e}"));
     let nv = std::env::temp_dir().join(format!(
