@@ -431,7 +431,10 @@ impl LinkFaults {
     /// stream, so native and emulated runs lose the same decisions to the same seed.
     fn rx(&mut self, msg: TargetToHost) -> Option<TargetToHost> {
         if !self.active()
-            || matches!(msg, TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::Metric { .. }))
+            || matches!(
+                msg,
+                TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::Metric { .. })
+            )
         {
             return Some(msg);
         }
