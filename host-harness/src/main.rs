@@ -129,7 +129,8 @@ fn run_mission(
     options: &RunOptions,
     outputs: &MissionOutputs,
 ) -> Result<ExitCode, String> {
-    let prepared = hil::mission::report::prepare(path, scenario).map_err(|e| e.to_string())?;
+    let mut prepared = hil::mission::report::prepare(path, scenario).map_err(|e| e.to_string())?;
+    prepared.mission.realtime = options.realtime;
     let (mut target, fw) =
         hil::mission::report::make_target(&prepared, options, &mut |l| println!("  {l}"))?;
     println!("  target    {}", target.describe());

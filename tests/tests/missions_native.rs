@@ -183,3 +183,30 @@ fn mission_files_with_mistakes_are_refused_with_file_line_and_field() {
         "{e}"
     );
 }
+
+#[test]
+fn realtime_mode_paces_the_grants_by_the_wall_clock() {
+    let dir = std::env::temp_dir().join(format!("hil-rt-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("tasknets")).unwrap();
+    std::fs::copy(
+        hil::repo_root().join("scenarios/tasknets/flyby.toml"),
+        dir.join("tasknets/flyby.toml"),
+    )
+    .unwrap();
+    let path = dir.join("rt.toml");
+    std::fs::write(
+        &path,
+        "name = \"rt\"\n[mission]\ntasknet = \"tasknets/flyby.toml\"\nstart = \"09:59:58\"\nend = \"10:00:00\"\n",
+    )
+    .unwrap();
+    let mut prepared = prepare(&path, hil::scenario::load(&path).unwrap()).unwrap();
+    prepared.mission.realtime = true;
+    let started = std::time::Instant::now();
+    run(&prepared, &mut NativeTarget::new(), None, &mut |_, _, _| {}).unwrap();
+    // Two mission seconds cannot take less than two wall seconds (a busy host only adds).
+    assert!(
+        started.elapsed() >= std::time::Duration::from_secs(2),
+        "{:?}",
+        started.elapsed()
+    );
+}

@@ -100,6 +100,9 @@ pub struct Mission {
     events: Vec<Event>,
     link: LinkFaultSpec,
     pub seed: u64,
+    /// Pace grants by the wall clock (one mission second per second), for a real peer on the
+    /// link; off: lockstep, as fast as the target runs.
+    pub realtime: bool,
 }
 
 fn field_err(field: &str, message: impl std::fmt::Display) -> MissionError {
@@ -163,6 +166,7 @@ impl Mission {
             events,
             link: scenario.link.clone(),
             seed: scenario.seed,
+            realtime: false,
         })
     }
 
@@ -530,6 +534,7 @@ pub fn drive(
     uplink(target, &net.uplink, &mut transcript)?;
 
     let mut now = mission.start;
+    let wall_start = std::time::Instant::now();
     let mut frame: u32 = 0;
     let mut inputs = sim.publish_all(now);
     let mut zero_advance = 0u32;
@@ -611,6 +616,13 @@ pub fn drive(
         let mut wire = faults.take_delayed();
         for msg in inputs.drain(..) {
             faults.tx(&msg, &mut wire);
+        }
+        if mission.realtime {
+            // Real time: the grant for `now` goes out when the wall clock says so.
+            let due = wall_start + std::time::Duration::from_micros(now.0 - mission.start.0);
+            if let Some(wait) = due.checked_duration_since(std::time::Instant::now()) {
+                std::thread::sleep(wait);
+            }
         }
         let until = next_stop(now, mission, &sim, None, events.peek().map(|e| e.at));
         let grant = HostToTarget::TimeGrant { frame, now, until };
