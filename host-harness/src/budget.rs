@@ -120,11 +120,11 @@ pub fn load(path: &Path) -> Result<Vec<Budget>, BudgetError> {
         source,
     })?;
     let at = |offset: usize, message: String| {
-        let before = &text[..offset.min(text.len())];
+        let (line, column) = crate::scenario::line_col(&text, offset);
         BudgetError::Invalid {
             path: path.to_path_buf(),
-            line: before.matches('\n').count() + 1,
-            column: before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1,
+            line,
+            column,
             message,
         }
     };
@@ -219,7 +219,7 @@ pub fn table(rows: &[Row]) -> String {
         let s = v.to_string();
         let mut out = String::new();
         for (i, c) in s.chars().enumerate() {
-            if i > 0 && (s.len() - i) % 3 == 0 {
+            if i > 0 && (s.len() - i).is_multiple_of(3) {
                 out.push(',');
             }
             out.push(c);

@@ -13,6 +13,13 @@ const LABEL_W: f64 = 230.0;
 const PLOT_W: f64 = 900.0;
 const TOP: f64 = 40.0;
 
+/// One chart row: its label, the planned span, and the executed span with its outcome.
+type Row = (
+    String,
+    Option<(u64, u64)>,
+    Option<(u64, u64, String, String)>,
+);
+
 fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")

@@ -30,12 +30,11 @@ fn located(
     span: Option<std::ops::Range<usize>>,
     message: String,
 ) -> ScenarioError {
-    let offset = span.map(|s| s.start).unwrap_or(0);
-    let before = &text[..offset.min(text.len())];
+    let (line, column) = crate::scenario::line_col(text, span.map(|s| s.start).unwrap_or(0));
     ScenarioError::Invalid {
         path: path.to_path_buf(),
-        line: before.matches('\n').count() + 1,
-        column: before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1,
+        line,
+        column,
         message,
     }
 }
