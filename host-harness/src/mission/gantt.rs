@@ -37,11 +37,7 @@ pub fn render(
     let span = (end.0 - start.0).max(1) as f64;
     let x = |t: u64| LABEL_W + (t.saturating_sub(start.0) as f64 / span * PLOT_W).min(PLOT_W);
     // Rows: planned requested tasks first, then every executed instance.
-    let mut rows: Vec<(
-        String,
-        Option<(u64, u64)>,
-        Option<(u64, u64, String, String)>,
-    )> = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
     for t in net
         .network
         .tasks()
