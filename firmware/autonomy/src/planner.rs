@@ -730,19 +730,11 @@ impl Planner {
         };
         for constraint in spec.constraints.iter() {
             for &template_id in spec.permissions.may_add.iter() {
-                let Some(tdef) = ctx.network.def_of_id(template_id) else {
+                let Some((tdef, _)) =
+                    template_impacting(ctx.network, template_id, constraint.timeline)
+                else {
                     continue;
                 };
-                let Some(tspec) = ctx.network.task(tdef) else {
-                    continue;
-                };
-                if !tspec
-                    .impacts
-                    .iter()
-                    .any(|i| i.timeline == constraint.timeline)
-                {
-                    continue;
-                }
                 let helper = PlanEntry {
                     instance: self.next_instance,
                     def: tdef,
@@ -1180,19 +1172,11 @@ impl Planner {
         };
         let templates = self.permitted_templates(ctx.network, owner, constraint.timeline);
         for &template_id in &templates {
-            let Some(tdef) = ctx.network.def_of_id(template_id) else {
+            let Some((tdef, tspec)) =
+                template_impacting(ctx.network, template_id, constraint.timeline)
+            else {
                 continue;
             };
-            let Some(tspec) = ctx.network.task(tdef) else {
-                continue;
-            };
-            if !tspec
-                .impacts
-                .iter()
-                .any(|i| i.timeline == constraint.timeline)
-            {
-                continue;
-            }
             let helper = PlanEntry {
                 instance: self.next_instance,
                 def: tdef,
@@ -1527,4 +1511,20 @@ pub fn temporal_window(
         lower.saturating_neg().max(0) as u64
     };
     Some((MissionTimeUs(lo), MissionTimeUs(hi)))
+}
+
+/// The definition (index and spec) of template `template_id` if it has an impact on `timeline` (a task the
+/// planner may add to change that timeline); None when the template does not exist or does not
+/// touch the timeline.
+fn template_impacting(
+    network: &TaskNetwork,
+    template_id: u16,
+    timeline: u8,
+) -> Option<(u8, &TaskSpec)> {
+    let def = network.def_of_id(template_id)?;
+    let spec = network.task(def)?;
+    spec.impacts
+        .iter()
+        .any(|i| i.timeline == timeline)
+        .then_some((def, spec))
 }
