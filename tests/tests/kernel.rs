@@ -267,14 +267,14 @@ fn bad_pointers_to_every_syscall_get_errors_and_the_kernel_keeps_running() {
         .unwrap()
         .message
         .clone();
-    assert_eq!(done, "rogue: bad pointers done, 20 of 20 calls refused");
+    assert_eq!(done, "rogue: bad pointers done, 22 of 22 calls refused");
     target.ping(2, PATIENCE).expect("the kernel keeps running");
     let events = health_events(&target);
     let illegal: Vec<_> = events
         .iter()
         .filter(|e| e.0 == ROGUE as u8 && e.1 == ErrorKind::IllegalSyscall as u8)
         .collect();
-    assert_eq!(illegal.len(), 20, "{events:?}");
+    assert_eq!(illegal.len(), 22, "{events:?}");
     assert!(illegal.iter().all(|e| e.3 == HmAction::Log as u8));
     // Log and continue: the rogue was not restarted, and nobody else was touched.
     let report = kernel_metrics(&mut target);

@@ -66,7 +66,18 @@ pub extern "C" fn rust_start() -> ! {
         boot_count,
         PROTOCOL_VERSION
     );
-    kernel::start(warm::cause_code(cause), boot_count)
+    let nv_bytes = match pci::init_nv(kernel_config::NV_BASE) {
+        Some(size) => {
+            defmt::info!(
+                "boot: non-volatile memory, {=u32} KiB at {=u32:#x}",
+                size / 1024,
+                kernel_config::NV_BASE
+            );
+            size.min(kernel_config::NV_MAX_BYTES)
+        }
+        None => 0,
+    };
+    kernel::start(warm::cause_code(cause), boot_count, nv_bytes)
 }
 
 static mut PANICKING: bool = false;

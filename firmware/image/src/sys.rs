@@ -129,6 +129,30 @@ pub fn warm_write(offset: u32, data: &[u8]) -> Result<(), i32> {
     result(r3).map(|_| ())
 }
 
+/// Read non-volatile memory at `offset`; Ok(size of the memory offered), Err(E_NO_DEVICE)
+/// when the board has none.
+pub fn nv_read(offset: u32, buffer: &mut [u8]) -> Result<u32, i32> {
+    let (r3, _, _) = raw(
+        SYS_NV_READ,
+        [
+            offset,
+            buffer.as_mut_ptr() as u32,
+            buffer.len() as u32,
+            0,
+            0,
+        ],
+    );
+    result(r3)
+}
+
+pub fn nv_write(offset: u32, data: &[u8]) -> Result<(), i32> {
+    let (r3, _, _) = raw(
+        SYS_NV_WRITE,
+        [offset, data.as_ptr() as u32, data.len() as u32, 0, 0],
+    );
+    result(r3).map(|_| ())
+}
+
 /// (partition index, generation).
 pub fn identity() -> (usize, u32) {
     let (p, generation, _) = raw(SYS_IDENTITY, [0; 5]);

@@ -45,8 +45,14 @@ pub const SYS_RESET_MODULE: u32 = 14;
 pub const SYS_REQUEST_METRICS: u32 = 15;
 /// SYS_REQUEST_METRICS argument that stops periodic reports.
 pub const REPORT_OFF: u32 = u32::MAX;
+/// (offset, ptr, len) -> r3 = size of the non-volatile memory offered (NV owner only):
+/// read `len` bytes at `offset`. E_NO_DEVICE when the board has no non-volatile memory
+/// (`len` 0 probes the size).
+pub const SYS_NV_READ: u32 = 16;
+/// (offset, ptr, len) -> 0: write the non-volatile memory (NV owner only; E_NO_DEVICE as above).
+pub const SYS_NV_WRITE: u32 = 17;
 /// Number of system calls.
-pub const SYSCALL_COUNT: u32 = 16;
+pub const SYSCALL_COUNT: u32 = 18;
 
 /// Unknown system-call number.
 pub const E_UNKNOWN_CALL: i32 = -1;
@@ -62,12 +68,14 @@ pub const E_EMPTY: i32 = -5;
 pub const E_FULL: i32 = -6;
 /// The caller lacks the capability for this service.
 pub const E_DENIED: i32 = -7;
-/// Warm-area offset or length outside its checkpoint part.
+/// Warm-area (or non-volatile memory) offset or length outside its usable part.
 pub const E_RANGE: i32 = -8;
+/// The board has no such device (non-volatile memory). Not a fault: the caller copes.
+pub const E_NO_DEVICE: i32 = -9;
 
 /// True for error codes that count as a fault for the health monitor.
 pub const fn is_fault(code: i32) -> bool {
-    code < 0 && code != E_EMPTY && code != E_FULL
+    code < 0 && code != E_EMPTY && code != E_FULL && code != E_NO_DEVICE
 }
 
 /// Size of one kernel-event record (SYS_EVENT_DRAIN): four big-endian words.

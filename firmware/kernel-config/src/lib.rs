@@ -55,6 +55,11 @@ pub const WARM_AREA_BASE: u32 = 0x0010_0000;
 pub const WARM_AREA_SIZE: u32 = 0x0001_0000;
 /// Bytes at the start of the warm area that hold the kernel's boot record.
 pub const WARM_BOOT_RECORD_SIZE: u32 = 64;
+/// Where the kernel maps the non-volatile memory device (QEMU `ivshmem-plain` backed by a file
+/// that outlives the process: a power cycle keeps it), when the board has one.
+pub const NV_BASE: u32 = 0x9000_0000;
+/// Largest part of the non-volatile device the kernel offers to its owner partition.
+pub const NV_MAX_BYTES: u32 = 0x0010_0000;
 /// Hashed page table (64 KiB, all invalid: every translation outside a BAT faults).
 pub const HTAB_BASE: u32 = 0x0011_0000;
 pub const HTAB_SIZE: u32 = 0x0001_0000;
@@ -246,12 +251,15 @@ pub struct Capabilities {
     pub link_owner: bool,
     /// May read and write the warm-restart area (after the boot record). At most one.
     pub warm_area: bool,
+    /// May read and write the non-volatile memory (survives a power cycle). At most one.
+    pub nv_memory: bool,
 }
 
 impl Capabilities {
     pub const NONE: Capabilities = Capabilities {
         link_owner: false,
         warm_area: false,
+        nv_memory: false,
     };
 }
 
@@ -377,6 +385,7 @@ pub enum ConfigError {
         count: usize,
     },
     WarmAreaOwners,
+    NvMemoryOwners,
     ContinueNotPossible {
         partition: usize,
         kind: ErrorKind,
@@ -440,6 +449,7 @@ pub const fn check(config: &SystemConfig) -> Result<(), ConfigError> {
     }
     let mut link_owners = 0;
     let mut warm_owners = 0;
+    let mut nv_owners = 0;
     let mut p = 0;
     while p < parts.len() {
         let part = &parts[p];
@@ -524,6 +534,9 @@ pub const fn check(config: &SystemConfig) -> Result<(), ConfigError> {
         if part.capabilities.warm_area {
             warm_owners += 1;
         }
+        if part.capabilities.nv_memory {
+            nv_owners += 1;
+        }
         if matches!(part.health.action(ErrorKind::Panic), HmAction::Log) {
             return Err(ConfigError::ContinueNotPossible {
                 partition: p,
@@ -546,6 +559,9 @@ pub const fn check(config: &SystemConfig) -> Result<(), ConfigError> {
     }
     if warm_owners > 1 {
         return Err(ConfigError::WarmAreaOwners);
+    }
+    if nv_owners > 1 {
+        return Err(ConfigError::NvMemoryOwners);
     }
 
     let schedule = &config.schedule;
@@ -731,6 +747,9 @@ impl ConfigError {
                 .str("exactly one partition must own the link, found ")
                 .num(count as u64),
             ConfigError::WarmAreaOwners => m.str("more than one partition owns the warm area"),
+            ConfigError::NvMemoryOwners => {
+                m.str("more than one partition owns the non-volatile memory")
+            }
             ConfigError::ContinueNotPossible { partition, kind } => part(m, config, partition)
                 .str(": health-monitor action `log` (continue) is not possible for ")
                 .str(kind.name()),

@@ -18,6 +18,7 @@ const IO_PART: Partition = Partition {
     capabilities: Capabilities {
         link_owner: true,
         warm_area: false,
+        nv_memory: false,
     },
     ..part("io", &[IO_REGION, MAC_IO_REGION])
 };
@@ -345,6 +346,48 @@ fn exactly_one_partition_owns_the_link() {
     assert_eq!(
         check(&config(&P, &WINDOWS_OK, &[])),
         Err(ConfigError::LinkOwnerCount { count: 0 })
+    );
+}
+
+#[test]
+fn at_most_one_partition_owns_each_persistent_memory() {
+    const NV: Capabilities = Capabilities {
+        nv_memory: true,
+        ..Capabilities::NONE
+    };
+    const WARM: Capabilities = Capabilities {
+        warm_area: true,
+        ..Capabilities::NONE
+    };
+    static TWO_NV: [Partition; 3] = [
+        IO_PART,
+        Partition {
+            capabilities: NV,
+            ..part("executive", &[EXECUTIVE_REGION])
+        },
+        Partition {
+            capabilities: NV,
+            ..part("planner", &[PLANNER_REGION])
+        },
+    ];
+    static TWO_WARM: [Partition; 3] = [
+        IO_PART,
+        Partition {
+            capabilities: WARM,
+            ..part("executive", &[EXECUTIVE_REGION])
+        },
+        Partition {
+            capabilities: WARM,
+            ..part("planner", &[PLANNER_REGION])
+        },
+    ];
+    assert_eq!(
+        message(&config(&TWO_NV, &WINDOWS_OK, &[])),
+        "kernel configuration: more than one partition owns the non-volatile memory"
+    );
+    assert_eq!(
+        message(&config(&TWO_WARM, &WINDOWS_OK, &[])),
+        "kernel configuration: more than one partition owns the warm area"
     );
 }
 

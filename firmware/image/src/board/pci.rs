@@ -15,6 +15,16 @@ pub const MAC_IO_BASE: usize = 0xf300_0000;
 const REG_ID: u8 = 0x00;
 const REG_COMMAND: u8 = 0x04;
 const REG_BAR0: u8 = 0x10;
+const REG_BAR2: u8 = 0x18;
+const REG_BAR3: u8 = 0x1c;
+/// BAR low bits: memory space, 64-bit type.
+const BAR_TYPE_MASK: u32 = 0x6;
+const BAR_TYPE_64: u32 = 0x4;
+const BAR_FLAGS_MASK: u32 = 0xf;
+
+/// Vendor/device word of QEMU's `ivshmem-plain` (Red Hat 0x1af4, device 0x1110): shared memory
+/// backed by a host file, the board's non-volatile memory.
+pub const IVSHMEM: u32 = 0x1110_1af4;
 /// Command register: memory space + bus master.
 const COMMAND_MEMORY_AND_MASTER: u32 = 0x6;
 
@@ -54,6 +64,32 @@ pub fn find(id: u32) -> Option<DevFn> {
 pub fn map_bar(devfn: DevFn, bar_reg: u8, base: u32) {
     config_write(devfn, bar_reg, base);
     config_write(devfn, REG_COMMAND, COMMAND_MEMORY_AND_MASTER);
+}
+
+/// Find the non-volatile memory (ivshmem, BAR2: 64-bit memory of the backing file's size) and
+/// map it at `base`. Returns its size in bytes, or None when the board has none (or its BAR is
+/// not what QEMU's ivshmem-plain offers).
+pub fn init_nv(base: u32) -> Option<u32> {
+    let devfn = find(IVSHMEM)?;
+    // Size the BAR: write all ones, read back which address bits stick.
+    config_write(devfn, REG_BAR2, u32::MAX);
+    config_write(devfn, REG_BAR3, u32::MAX);
+    let low = config_read(devfn, REG_BAR2);
+    let high = config_read(devfn, REG_BAR3);
+    if low & BAR_TYPE_MASK != BAR_TYPE_64 || high != u32::MAX {
+        return None;
+    }
+    let mask = low & !BAR_FLAGS_MASK;
+    if mask == 0 {
+        return None;
+    }
+    let size = (!mask).wrapping_add(1);
+    if size == 0 || !base.is_multiple_of(size) {
+        return None;
+    }
+    config_write(devfn, REG_BAR3, 0);
+    map_bar(devfn, REG_BAR2, base);
+    Some(size)
 }
 
 /// Find mac-io and map it at [`MAC_IO_BASE`]. Returns where it was found.

@@ -142,6 +142,8 @@ pub struct Kernel {
     pub events: health::EventQueue,
     pub boot_cause: u32,
     pub boot_count: u32,
+    /// Bytes of non-volatile memory mapped at `kernel_config::NV_BASE` (0: none).
+    pub nv_bytes: u32,
     pub mission_time_us: u64,
     /// Partition whose regions DBAT1..3 map now.
     mapped: Option<usize>,
@@ -156,6 +158,7 @@ static mut KERNEL: Kernel = Kernel {
     events: health::EventQueue::new(),
     boot_cause: 0,
     boot_count: 0,
+    nv_bytes: 0,
     mission_time_us: 0,
     mapped: None,
 };
@@ -171,13 +174,14 @@ pub unsafe fn kernel() -> &'static mut Kernel {
 }
 
 /// Start the partitions: called once at boot, never returns.
-pub fn start(boot_cause: u32, boot_count: u32) -> ! {
+pub fn start(boot_cause: u32, boot_count: u32, nv_bytes: u32) -> ! {
     boot::enable_doze();
     mmu::init();
     // SAFETY: boot, interrupts off, nothing else holds the kernel state.
     let k = unsafe { kernel() };
     k.boot_cause = boot_cause;
     k.boot_count = boot_count;
+    k.nv_bytes = nv_bytes;
     for p in 0..PARTITION_COUNT {
         k.contexts[p] = Context::partition_start(p);
     }

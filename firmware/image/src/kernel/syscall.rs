@@ -5,7 +5,7 @@
 //! a partition passed.
 use fsw_bridge::ResetCause;
 use kernel_config::abi::*;
-use kernel_config::{WARM_AREA_BASE, WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
+use kernel_config::{NV_BASE, WARM_AREA_BASE, WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 
 use super::umem::{copy, USlice};
 use super::{health, klog, Kernel, Next};
@@ -68,6 +68,19 @@ impl Kernel {
         }
     }
 
+    fn nv_range(&self, p: usize, offset: u32, len: u32) -> Result<u32, i32> {
+        if !SYSTEM.partitions[p].capabilities.nv_memory {
+            return Err(E_DENIED);
+        }
+        if self.nv_bytes == 0 {
+            return Err(E_NO_DEVICE);
+        }
+        match offset.checked_add(len) {
+            Some(end) if end <= self.nv_bytes => Ok(NV_BASE + offset),
+            _ => Err(E_RANGE),
+        }
+    }
+
     fn dispatch(&mut self, p: usize, call: u32, a: [u32; 5], now: u64) -> Result<Outcome, i32> {
         match call {
             SYS_WAIT_NEXT_WINDOW => {
@@ -116,6 +129,25 @@ impl Kernel {
                 let data = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
                 let at = Self::warm_range(p, a[0], a[2])?;
                 // SAFETY: as for SYS_WARM_READ; the boot record before the part is not touched.
+                let area = unsafe { core::slice::from_raw_parts_mut(at as *mut u8, data.len()) };
+                copy(area, data);
+                ok()
+            }
+            SYS_NV_READ => {
+                let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
+                let at = self.nv_range(p, a[0], a[2])?;
+                // SAFETY:
+                // 1. `at..at + len` lies inside the non-volatile memory the boot code mapped at
+                //    NV_BASE (checked by `nv_range`): device memory behind PCI that only this
+                //    call and SYS_NV_WRITE touch, with the MMU off in the kernel.
+                let area = unsafe { core::slice::from_raw_parts(at as *const u8, buffer.len()) };
+                copy(buffer, area);
+                Ok(Return(self.nv_bytes, 0, 0))
+            }
+            SYS_NV_WRITE => {
+                let data = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
+                let at = self.nv_range(p, a[0], a[2])?;
+                // SAFETY: as for SYS_NV_READ.
                 let area = unsafe { core::slice::from_raw_parts_mut(at as *mut u8, data.len()) };
                 copy(area, data);
                 ok()

@@ -74,7 +74,7 @@ fn bad_pointers() {
     let kernel_data = kernel_config::KERNEL_DATA_BASE;
     let planner = kernel_config::system::PLANNER_REGION.base;
     let device = kernel_config::system::MAC_IO_BASE + 0x13000;
-    let cases: [(u32, [u32; 5]); 20] = [
+    let cases: [(u32, [u32; 5]); 22] = [
         (
             abi::SYS_PORT_SEND,
             [PORT_IO_TO_ROGUE as u32, kernel_data, 16, 0, 0],
@@ -101,6 +101,8 @@ fn bad_pointers() {
         (abi::SYS_WARM_READ, [0, kernel_data, 16, 0, 0]),
         (abi::SYS_WARM_READ, [0, own, 16, 0, 0]),
         (abi::SYS_WARM_WRITE, [0, device, 1, 0, 0]),
+        (abi::SYS_NV_READ, [0, kernel_data, 16, 0, 0]),
+        (abi::SYS_NV_WRITE, [0, own, 16, 0, 0]),
         (abi::SYS_BOOT_INFO, [0; 5]),
         (abi::SYS_LOG_DRAIN, [planner, 64, 0, 0, 0]),
         (abi::SYS_EVENT_DRAIN, [kernel_data, 0, 0, 0, 0]),
