@@ -49,6 +49,23 @@ pub mod metric {
     pub const RESTORED_SEQUENCE: u16 = 0x1004;
     /// Checkpoint writes that failed in one frame (a plan image larger than an area's slot).
     pub const CHECKPOINT_WRITE_FAILURES: u16 = 0x1005;
+    /// Where the checkpoint restored at boot came from: [`RESTORED_FROM_WARM`] or
+    /// [`RESTORED_FROM_NV`].
+    pub const RESTORED_FROM: u16 = 0x1006;
+    pub const RESTORED_FROM_WARM: u64 = 1;
+    pub const RESTORED_FROM_NV: u64 = 2;
+
+    /// Metrics that are measured CPU costs (timebase ticks). A span measured with the 16.6 MHz
+    /// timebase against the 250 MHz instruction clock can come out one tick longer or shorter
+    /// depending on where between two ticks it started, and on the emulated target that phase
+    /// depends on how long the target idled while the host prepared the grant. Everything
+    /// else the application sends is exactly reproducible.
+    pub const fn is_measured_cost(id: u16) -> bool {
+        matches!(
+            id,
+            STEP_TICKS | CHECKPOINT_TICKS | RESTORE_TICKS | RECOVERY_TICKS
+        )
+    }
 }
 
 /// Planner work allowed per granted frame.
@@ -135,6 +152,8 @@ pub struct FlightApp {
     /// Byte range of the warm memory the last checkpoint wrote (a target whose warm-restart
     /// area sits behind a system call copies just these bytes).
     last_warm_write: Option<(usize, usize)>,
+    /// The same for non-volatile memory.
+    last_nv_write: Option<(usize, usize)>,
 }
 
 impl Default for FlightApp {
@@ -155,6 +174,7 @@ impl FlightApp {
             recovering: false,
             last_done: None,
             last_warm_write: None,
+            last_nv_write: None,
         }
     }
 
@@ -169,6 +189,29 @@ impl FlightApp {
 
     pub fn set_budget(&mut self, budget: StepBudget) {
         self.budget = budget;
+    }
+
+    /// The range of non-volatile memory written by the last frame's checkpoint, once.
+    pub fn take_nv_write(&mut self) -> Option<(usize, usize)> {
+        self.last_nv_write.take()
+    }
+
+    /// Write the newest checkpoint into A/B `area`; the byte range written, or None if the
+    /// checkpoint failed.
+    fn checkpoint_into(&self, area: &mut [u8]) -> Option<(usize, usize)> {
+        self.autonomy
+            .checkpoint_to(&mut WarmRestartArea::new(area))
+            .ok()?;
+        let slot_len = area.len() / 2;
+        WarmRestartArea::new(area)
+            .latest()
+            .map(|(slot, _, payload)| {
+                let start = usize::from(slot) * slot_len;
+                (
+                    start,
+                    start + autonomy::checkpoint::RECORD_HEADER_LEN + payload.len(),
+                )
+            })
     }
 
     /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories.
@@ -209,12 +252,17 @@ impl FlightApp {
         }
         if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
             self.recovering = true;
+            let from = match outcome {
+                BootOutcome::RestoredNv(_) => metric::RESTORED_FROM_NV,
+                _ => metric::RESTORED_FROM_WARM,
+            };
             let ticks = clock.ticks().wrapping_sub(t0);
             downlink.send(metric_event(metric::RESTORE_TICKS, ticks));
             downlink.send(metric_event(
                 metric::RESTORED_SEQUENCE,
                 u64::from(info.sequence),
             ));
+            downlink.send(metric_event(metric::RESTORED_FROM, from));
         }
         outcome
     }
@@ -329,32 +377,14 @@ impl FlightApp {
             downlink.send(metric_event(metric::RECOVERY_TICKS, t1.wrapping_sub(t0)));
         }
         let mut failures = 0;
-        if self
-            .autonomy
-            .checkpoint_to(&mut WarmRestartArea::new(memories.warm))
-            .is_err()
-        {
-            failures += 1;
-        } else {
-            let slot_len = memories.warm.len() / 2;
-            self.last_warm_write =
-                WarmRestartArea::new(memories.warm)
-                    .latest()
-                    .map(|(slot, _, payload)| {
-                        let start = usize::from(slot) * slot_len;
-                        (
-                            start,
-                            start + autonomy::checkpoint::RECORD_HEADER_LEN + payload.len(),
-                        )
-                    });
+        match self.checkpoint_into(memories.warm) {
+            Some(range) => self.last_warm_write = Some(range),
+            None => failures += 1,
         }
         if let Some(nv) = memories.nv.as_deref_mut() {
-            if self
-                .autonomy
-                .checkpoint_to(&mut WarmRestartArea::new(nv))
-                .is_err()
-            {
-                failures += 1;
+            match self.checkpoint_into(nv) {
+                Some(range) => self.last_nv_write = Some(range),
+                None => failures += 1,
             }
         }
         let t2 = clock.ticks();

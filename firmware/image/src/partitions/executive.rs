@@ -1,8 +1,8 @@
 //! The executive partition: runs the flight application (`flight-app`: the autonomy core with
 //! the lockstep and uplink protocol around it). It receives the host's state updates, command
 //! responses, uplink chunks and time grants routed by the I/O partition, steps the autonomy
-//! once per grant, checkpoints the plan into the warm-restart area (through the kernel: this
-//! partition owns it), and queues what it decided (command dispatches, telemetry, FrameDone)
+//! once per grant, checkpoints the plan into the warm-restart area and, when the board has it,
+//! into non-volatile memory (both through the kernel: this partition owns them), and queues what it decided (command dispatches, telemetry, FrameDone)
 //! for the I/O partition. It also serves the kernel's syscall benchmark on request.
 //!
 //! The planner and the executive of the core still run together here; they exchange only
@@ -24,6 +24,8 @@ use crate::sys;
 
 /// Bytes of the warm-restart area available for checkpoints (after the boot record).
 pub const WARM_CHECKPOINT_BYTES: usize = (WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE) as usize;
+/// Bytes of non-volatile memory used for checkpoints (the same A/B layout as the warm area).
+pub const NV_CHECKPOINT_BYTES: usize = WARM_CHECKPOINT_BYTES;
 /// Messages for the host the partition holds while the outbound port is full.
 pub const OUTBOX_CAPACITY: usize = 128;
 
@@ -35,12 +37,18 @@ pub struct ExecutiveState {
     pub outbox_overflows: u32,
     /// Checkpoint copies the kernel refused.
     pub warm_write_errors: u32,
+    /// Checkpoint copies to non-volatile memory the kernel refused.
+    pub nv_write_errors: u32,
     /// This partition's copy of the warm-restart area's checkpoint part.
     pub warm: [u8; WARM_CHECKPOINT_BYTES],
+    /// This partition's copy of the start of non-volatile memory (same A/B layout).
+    pub nv: [u8; NV_CHECKPOINT_BYTES],
+    /// The board has non-volatile memory (the boot read of `nv` succeeded).
+    pub has_nv: bool,
     pub outbox: Deque<TargetToHost, OUTBOX_CAPACITY>,
 }
 
-// SAFETY: integers, a byte array, and a heapless Deque whose all-zero value is the empty queue
+// SAFETY: integers, booleans, byte arrays, and a heapless Deque whose all-zero value is the empty queue
 // (indices 0, not full; the buffer is MaybeUninit).
 unsafe impl ZeroValid for ExecutiveState {}
 
@@ -86,6 +94,26 @@ pub extern "C" fn partition_executive_main() -> ! {
     if sys::warm_read(0, &mut state.warm).is_err() {
         defmt::warn!("executive: warm-restart area unreadable; cold start");
     }
+    // Probe the size first (a read of 0 bytes), so a small device is refused here rather
+    // than by the kernel as an out-of-range access.
+    state.has_nv = match sys::nv_read(0, &mut []) {
+        Ok(size) if size as usize >= NV_CHECKPOINT_BYTES => sys::nv_read(0, &mut state.nv).is_ok(),
+        Ok(size) => {
+            defmt::warn!(
+                "executive: non-volatile memory of {=u32} bytes is smaller than a checkpoint area ({=usize}); warm area only",
+                size,
+                NV_CHECKPOINT_BYTES
+            );
+            false
+        }
+        Err(_) => {
+            defmt::info!("executive: no non-volatile memory on this board; warm area only");
+            false
+        }
+    };
+    // Zeroing the statics and copying both memories take most of a window; the restore
+    // starts in a fresh one so that the boot never overruns the executive's window.
+    sys::wait_next_window();
     {
         let mut outbox = Outbox {
             queue: &mut state.outbox,
@@ -93,7 +121,7 @@ pub extern "C" fn partition_executive_main() -> ! {
         };
         let mut memories = Memories {
             warm: &mut state.warm,
-            nv: None,
+            nv: state.has_nv.then_some(&mut state.nv[..]),
         };
         let outcome = app.boot(&mut memories, &mut PartitionClock, &mut outbox);
         match outcome {
@@ -109,6 +137,9 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
         }
     }
+    // The restore used most of this window: the first frame's work (the repair after a reset)
+    // starts in a fresh one, so it never overruns the window, whenever its grant arrives.
+    sys::wait_next_window();
     loop {
         flush(state);
         while let Some((msg, _generation)) = receive_routed(PORT_IO_TO_EXECUTIVE) {
@@ -162,7 +193,7 @@ fn handle(state: &mut ExecutiveState, app: &mut FlightApp, msg: HostToTarget) {
     };
     let mut memories = Memories {
         warm: &mut state.warm,
-        nv: None,
+        nv: state.has_nv.then_some(&mut state.nv[..]),
     };
     app.handle(&msg, &mut memories, &mut PartitionClock, &mut outbox);
     if let Some((start, end)) = app.take_warm_write() {
@@ -170,6 +201,11 @@ fn handle(state: &mut ExecutiveState, app: &mut FlightApp, msg: HostToTarget) {
         // middle of the copy leaves the other slot whole (A/B records).
         if sys::warm_write(start as u32, &state.warm[start..end]).is_err() {
             state.warm_write_errors = state.warm_write_errors.saturating_add(1);
+        }
+    }
+    if let Some((start, end)) = app.take_nv_write() {
+        if sys::nv_write(start as u32, &state.nv[start..end]).is_err() {
+            state.nv_write_errors = state.nv_write_errors.saturating_add(1);
         }
     }
 }
