@@ -158,12 +158,14 @@ fn run_mission(
     let html = hil::mission::gantt::render(&report, &prepared.network, start, end);
     let xml = hil::mission::report::junit(&report);
     let log: String = logs.iter().map(|l| format!("{l}\n")).collect();
+    let transcript: String = report.transcript.iter().map(|l| format!("{l}\n")).collect();
     let mut written = Vec::new();
     for (name, explicit, contents) in [
         ("report.json", &outputs.report, &json),
         ("junit.xml", &outputs.junit, &xml),
         ("gantt.html", &outputs.gantt, &html),
         ("target.log", &None, &log),
+        ("transcript.txt", &None, &transcript),
     ] {
         for file in [Some(dir.join(name)), explicit.clone()]
             .into_iter()

@@ -14,7 +14,7 @@ use fsw_bridge::codec::{encode, FrameDecoder, MAX_FRAME_LEN};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::{
     CommandStatus, HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, StateKey,
-    StateValue, TargetToHost,
+    StateValue, TargetToHost, TelemetryEvent,
 };
 use sha2::{Digest, Sha256};
 
@@ -461,12 +461,14 @@ impl LinkFaults {
     }
 }
 
-/// The transcript: every frame both ways, in order, and its SHA-256.
+/// The transcript: every frame both ways, in order, and its SHA-256; plus one readable line
+/// per frame (`hil run` writes them to `transcript.txt`, to diff two runs whose hashes differ).
 #[derive(Default)]
 pub struct Transcript {
     hasher: Sha256,
     pub frames: u64,
     pub bytes: u64,
+    pub lines: Vec<String>,
 }
 
 impl Transcript {
@@ -476,23 +478,54 @@ impl Transcript {
         self.hasher.update(frame);
         self.frames += 1;
         self.bytes += frame.len() as u64;
+        let mut decoder = FrameDecoder::new();
+        let decoded = frame.iter().find_map(|&b| decoder.push::<HostToTarget>(b));
+        self.lines.push(match decoded {
+            Some(Ok(msg)) => format!("-> {msg:?}"),
+            _ => format!("-> (undecodable, {} bytes) {frame:02x?}", frame.len()),
+        });
     }
 
     fn received(&mut self, msg: &TargetToHost) {
-        let frame = frame_of(msg);
+        let frame = frame_of(&without_measured_costs(msg));
         self.hasher.update(b"R");
         self.hasher.update((frame.len() as u32).to_be_bytes());
         self.hasher.update(&frame);
         self.frames += 1;
         self.bytes += frame.len() as u64;
+        self.lines.push(format!("<- {msg:?}"));
     }
 
-    pub fn finish(self) -> String {
-        self.hasher
+    pub fn finish(self) -> (String, Vec<String>) {
+        let hash = self
+            .hasher
             .finalize()
             .iter()
             .map(|b| format!("{b:02x}"))
-            .collect()
+            .collect();
+        (hash, self.lines)
+    }
+}
+
+/// `msg` with its measured CPU costs (FrameDone's busy ticks, cost metrics) set to 0, as the
+/// transcript hash sees it: a measured span can differ by one timebase tick from run to run
+/// (see [`flight_app::metric::is_measured_cost`]), every decision and every other field cannot.
+/// The readable transcript and the report keep the measured values.
+pub fn without_measured_costs(msg: &TargetToHost) -> TargetToHost {
+    match msg {
+        TargetToHost::FrameDone {
+            frame, next_wakeup, ..
+        } => TargetToHost::FrameDone {
+            frame: *frame,
+            next_wakeup: *next_wakeup,
+            busy_ticks: 0,
+        },
+        TargetToHost::Telemetry(TelemetryEvent::Metric { id, .. })
+            if flight_app::metric::is_measured_cost(*id) =>
+        {
+            TargetToHost::Telemetry(TelemetryEvent::Metric { id: *id, value: 0 })
+        }
+        other => other.clone(),
     }
 }
 
@@ -501,6 +534,8 @@ pub struct MissionRun {
     pub record: MissionRecord,
     pub transcript_sha256: String,
     pub transcript_frames: u64,
+    /// One line per frame, in transcript order.
+    pub transcript: Vec<String>,
     pub injected_link_faults: u64,
     pub host_link_errors: LinkCounters,
 }
@@ -703,10 +738,13 @@ pub fn drive(
         "link_faults_injected".into(),
         faults.injected_tx + faults.injected_rx,
     );
+    let transcript_frames = transcript.frames;
+    let (transcript_sha256, transcript) = transcript.finish();
     Ok(MissionRun {
         record: rec,
-        transcript_frames: transcript.frames,
-        transcript_sha256: transcript.finish(),
+        transcript_frames,
+        transcript_sha256,
+        transcript,
         injected_link_faults: faults.injected_tx + faults.injected_rx,
         host_link_errors: faults.rx_decoder.counters(),
     })

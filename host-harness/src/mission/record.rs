@@ -76,6 +76,11 @@ pub struct ResetRecord {
     pub reset_cause: String,
     /// Guest ticks of the first frame after the restart (restore + repair), when measured.
     pub recovery_ticks: Option<u64>,
+    /// Where the target restored its plan from ("warm-restart area", "non-volatile memory"),
+    /// with the checkpoint's sequence number; None if it came up without a plan.
+    pub restored_from: Option<String>,
+    #[serde(skip)]
+    restored_sequence: Option<u64>,
 }
 
 /// Everything recorded during a mission.
@@ -247,6 +252,26 @@ impl MissionRecord {
                 "max_recovery_ticks"
             }
             metric::CHECKPOINT_WRITE_FAILURES => "checkpoint_write_failures",
+            metric::RESTORED_SEQUENCE => {
+                if let Some(r) = self.resets.last_mut() {
+                    r.restored_sequence = Some(value);
+                }
+                return;
+            }
+            metric::RESTORED_FROM => {
+                if let Some(r) = self.resets.last_mut() {
+                    let memory = match value {
+                        metric::RESTORED_FROM_NV => "non-volatile memory",
+                        metric::RESTORED_FROM_WARM => "warm-restart area",
+                        _ => "unknown memory",
+                    };
+                    r.restored_from = Some(match r.restored_sequence {
+                        Some(seq) => format!("{memory}, checkpoint {seq}"),
+                        None => memory.to_string(),
+                    });
+                }
+                return;
+            }
             _ => return,
         };
         let slot = self.metrics.entry(name.to_string()).or_insert(0);
@@ -282,6 +307,8 @@ impl MissionRecord {
             restart_at: at.0 + recovery_us,
             reset_cause: crate::scenario::cause_name(cause).into(),
             recovery_ticks: None,
+            restored_from: None,
+            restored_sequence: None,
         });
         self.label(at, kind.to_string());
     }

@@ -120,6 +120,9 @@ pub struct MissionReport {
     pub decisions: Vec<super::record::Decision>,
     #[serde(skip)]
     pub record: MissionRecord,
+    /// Every frame both ways, one readable line each (the hashed transcript).
+    #[serde(skip)]
+    pub transcript: Vec<String>,
 }
 
 /// Where the mission runs.
@@ -238,6 +241,7 @@ pub fn run(
         frames: record.frames,
         transcript_sha256: run.transcript_sha256,
         transcript_frames: run.transcript_frames,
+        transcript: run.transcript,
         injected_link_faults: run.injected_link_faults,
         mission_start: fmt_time(prepared.mission.start),
         mission_end: fmt_time(prepared.mission.end),
@@ -264,11 +268,15 @@ pub fn summary(r: &MissionReport) -> String {
     }
     for reset in &r.resets {
         out.push_str(&format!(
-            "  {} at {}: down {} s, restarted ({}){}\n",
+            "  {} at {}: down {} s, restarted ({}), {}{}\n",
             reset.kind,
             fmt_time(fsw_bridge::MissionTimeUs(reset.at)),
             reset.recovery_us / 1_000_000,
             reset.reset_cause,
+            match &reset.restored_from {
+                Some(from) => format!("plan restored from the {from}"),
+                None => "no plan restored".to_string(),
+            },
             reset
                 .recovery_ticks
                 .map(|t| format!(

@@ -119,6 +119,9 @@ pub struct NativeTarget {
     /// Mission time of the last grant delivered (for the damage log).
     last_grant: Option<fsw_bridge::MissionTimeUs>,
     damage_log: Vec<String>,
+    /// What the application sent while booting; goes out with the next exchange, as the
+    /// emulated target's outbox does.
+    boot_messages: Vec<TargetToHost>,
 }
 
 impl Default for NativeTarget {
@@ -139,6 +142,7 @@ impl NativeTarget {
             pending_damage: None,
             last_grant: None,
             damage_log: Vec::new(),
+            boot_messages: Vec::new(),
         }
     }
 
@@ -185,6 +189,7 @@ impl NativeTarget {
     }
 
     fn deliver(&mut self, frames: &[Vec<u8>], out: &mut Vec<TargetToHost>) {
+        out.append(&mut self.boot_messages);
         for byte in frames.iter().flatten().copied() {
             let Some(Ok(msg)) = self.decoder.push::<HostToTarget>(byte) else {
                 continue;
@@ -280,6 +285,7 @@ impl MissionTarget for NativeTarget {
         let mut sink = Vec::new();
         self.app
             .boot(&mut memories, &mut NoClock, &mut |m| sink.push(m));
+        self.boot_messages = sink;
         let _ = PROTOCOL_VERSION;
         Ok(Hello {
             build_id: NATIVE_BUILD_ID,
