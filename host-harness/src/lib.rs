@@ -6,6 +6,7 @@
 //! in `tests/` use the library directly.
 pub mod bench;
 pub mod bench_kernel;
+pub mod bench_missions;
 pub mod budget;
 pub mod campaign;
 pub mod defmt_log;

@@ -94,6 +94,20 @@ enum BenchWhat {
         #[arg(long)]
         json: bool,
     },
+    /// Mission speed: the flyby's lockstep speed-up on the emulated target, the native target
+    /// and the ratio, wall time per campaign run, recovery instructions (wall times depend on
+    /// the host).
+    Missions {
+        /// Native repetitions per scenario (averaged).
+        #[arg(long, default_value_t = 20)]
+        native_runs: u32,
+        /// Runs of the campaign part (emulated and native).
+        #[arg(long, default_value_t = 4)]
+        campaign_runs: u32,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Boot-to-Hello time, ping round trips and frames per second on the link.
     Link {
         /// Number of pings (sequential, then the same number pipelined).
@@ -287,6 +301,39 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             save_baseline,
             firmware,
         } => bench_budgets(budgets, baseline, json, save_baseline, firmware),
+        Command::Bench {
+            what:
+                Some(BenchWhat::Missions {
+                    native_runs,
+                    campaign_runs,
+                    json,
+                }),
+            ..
+        } => {
+            let fw = firmware::build().map_err(|e| e.to_string())?;
+            let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
+            let root = hil::repo_root().join("scenarios");
+            let scenarios = [
+                root.join("flyby-nominal.toml"),
+                root.join("flyby-early-reset.toml"),
+                root.join("flyby-power-cycle.toml"),
+            ];
+            let bench = hil::bench_missions::missions(
+                &profile,
+                &fw,
+                &scenarios,
+                native_runs,
+                &root.join("flyby-campaign.toml"),
+                campaign_runs,
+                &mut |l| eprintln!("  measuring: {l}"),
+            )?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&bench).unwrap());
+            } else {
+                print!("{}", hil::bench_missions::table(&bench));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
         Command::Bench {
             what: Some(BenchWhat::Link { pings, json }),
             ..
