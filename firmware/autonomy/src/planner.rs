@@ -1205,73 +1205,170 @@ impl Planner {
                 }
             }
             for (start, end) in trials {
-                self.stats.validity_checks = self.stats.validity_checks.saturating_add(1);
-                if !placement_valid(
-                    ctx.network,
-                    &self.entries,
-                    &self.anchors,
-                    &helper,
-                    start,
-                    end,
-                    ctx.now,
-                ) {
-                    continue;
-                }
-                let placed = PlanEntry {
-                    state: TaskState::Scheduled,
-                    start,
-                    end,
-                    earliest_start: start,
-                    latest_start: start,
-                    ..helper
-                };
-                if self.entries.push(placed).is_err() {
-                    self.stats.plan_full = self.stats.plan_full.saturating_add(1);
-                    return false;
-                }
-                // Progress: the constraint now holds at the instant the violation started.
-                let view = PlanView::new(ctx.network, &self.entries, &self.anchors);
-                let fixed = match constraint.when {
-                    ConstraintWhen::Pre => constraint_holds(
-                        &view,
-                        owner.instance,
-                        &constraint,
-                        owner.start,
-                        owner.end,
-                        ctx.now,
-                    ),
-                    ConstraintWhen::Maintain => view.holds_over(
-                        constraint.timeline,
-                        &constraint.require,
-                        conflict.from,
-                        MissionTimeUs(conflict.from.0.saturating_add(1)),
-                    ),
-                };
-                if fixed {
-                    let id = self.new_instance_id();
-                    Self::emit_modification(
-                        out,
-                        PlanModificationKind::Add,
-                        id,
-                        template_id,
-                        ctx.now,
-                    );
-                    Self::emit_transition(
-                        out,
-                        id,
-                        TaskState::Unscheduled,
-                        TaskState::Scheduled,
-                        ctx.now,
-                    );
-                    // The owner's constraint may still fail later on: look again.
-                    self.tried
-                        .retain(|&(i, k)| !(i == owner.instance && k == conflict.constraint));
+                if self.place_helper(ctx, owner, &constraint, conflict, &helper, start, end) {
+                    self.announce_added(ctx, owner, conflict, template_id, out);
                     return true;
                 }
-                self.entries.pop();
+            }
+            // The gap is shorter than the template can run (a flyby delayed by less than the
+            // degraded flyby's minimum): make room by starting the movable task that ends the
+            // gap that much later, then cover the whole gap.
+            let cover_end = conflict.from.saturating_add(cover_duration);
+            if gap < cover_duration && conflict.from >= ctx.now {
+                if let Some((j, before)) = self.make_room(ctx, owner, conflict.from, cover_end) {
+                    if self.place_helper(
+                        ctx,
+                        owner,
+                        &constraint,
+                        conflict,
+                        &helper,
+                        conflict.from,
+                        cover_end,
+                    ) {
+                        let moved = self.entries[j];
+                        Self::emit_modification(
+                            out,
+                            PlanModificationKind::Move,
+                            moved.instance,
+                            moved.template_id(ctx.network),
+                            ctx.now,
+                        );
+                        self.announce_added(ctx, owner, conflict, template_id, out);
+                        return true;
+                    }
+                    self.entries[j] = before;
+                }
             }
         }
         false
+    }
+
+    /// Place `helper` at `start..end` if that is valid and makes `owner`'s `constraint` hold
+    /// where the violation started; otherwise leave the plan as it was.
+    #[allow(clippy::too_many_arguments)]
+    fn place_helper(
+        &mut self,
+        ctx: &Ctx<'_>,
+        owner: &PlanEntry,
+        constraint: &ConstraintSpec,
+        conflict: Conflict,
+        helper: &PlanEntry,
+        start: MissionTimeUs,
+        end: MissionTimeUs,
+    ) -> bool {
+        self.stats.validity_checks = self.stats.validity_checks.saturating_add(1);
+        if !placement_valid(
+            ctx.network,
+            &self.entries,
+            &self.anchors,
+            helper,
+            start,
+            end,
+            ctx.now,
+        ) {
+            return false;
+        }
+        let placed = PlanEntry {
+            state: TaskState::Scheduled,
+            start,
+            end,
+            earliest_start: start,
+            latest_start: start,
+            ..*helper
+        };
+        if self.entries.push(placed).is_err() {
+            self.stats.plan_full = self.stats.plan_full.saturating_add(1);
+            return false;
+        }
+        // Progress: the constraint now holds at the instant the violation started.
+        let view = PlanView::new(ctx.network, &self.entries, &self.anchors);
+        let fixed = match constraint.when {
+            ConstraintWhen::Pre => constraint_holds(
+                &view,
+                owner.instance,
+                constraint,
+                owner.start,
+                owner.end,
+                ctx.now,
+            ),
+            ConstraintWhen::Maintain => view.holds_over(
+                constraint.timeline,
+                &constraint.require,
+                conflict.from,
+                MissionTimeUs(conflict.from.0.saturating_add(1)),
+            ),
+        };
+        if !fixed {
+            self.entries.pop();
+        }
+        fixed
+    }
+
+    /// Report the helper `place_helper` just placed, and look at `owner`'s constraint again
+    /// (it may still fail later on).
+    fn announce_added(
+        &mut self,
+        ctx: &Ctx<'_>,
+        owner: &PlanEntry,
+        conflict: Conflict,
+        template_id: u16,
+        out: &mut impl Outputs,
+    ) {
+        let id = self.new_instance_id();
+        Self::emit_modification(out, PlanModificationKind::Add, id, template_id, ctx.now);
+        Self::emit_transition(
+            out,
+            id,
+            TaskState::Unscheduled,
+            TaskState::Scheduled,
+            ctx.now,
+        );
+        self.tried
+            .retain(|&(i, k)| !(i == owner.instance && k == conflict.constraint));
+    }
+
+    /// Start the uncommitted, movable task that begins inside `(from, until)` at `until`
+    /// instead, if its window allows and it stays valid there. Returns its index and its entry
+    /// as it was (to put back), or None with the plan unchanged.
+    fn make_room(
+        &mut self,
+        ctx: &Ctx<'_>,
+        owner: &PlanEntry,
+        from: MissionTimeUs,
+        until: MissionTimeUs,
+    ) -> Option<(usize, PlanEntry)> {
+        let j = self.entries.iter().position(|e| {
+            e.state == TaskState::Scheduled
+                && !e.started
+                && e.instance != owner.instance
+                && e.start > from
+                && e.start < until
+                && ctx
+                    .network
+                    .task(e.def)
+                    .is_some_and(|s| s.permissions.may_move)
+        })?;
+        let before = self.entries[j];
+        let (lo, hi) = self.start_window(ctx, &before)?;
+        if until < lo || until > hi {
+            return None;
+        }
+        let end = Self::end_for(ctx.network, &before, until)?;
+        self.stats.validity_checks = self.stats.validity_checks.saturating_add(1);
+        if !placement_valid(
+            ctx.network,
+            &self.entries,
+            &self.anchors,
+            &before,
+            until,
+            end,
+            ctx.now,
+        ) {
+            return None;
+        }
+        self.entries[j].start = until;
+        self.entries[j].end = end;
+        Some((j, before))
     }
 
     /// Commits every scheduled instance starting within the commit window, earliest first.
