@@ -52,6 +52,21 @@ fn twenty_random_reset_variants_of_the_flyby_all_recover_with_a_consistent_plan(
     }
 }
 
+/// A thousand variants natively (a few seconds): resets in every minute of the flyby, at frame
+/// boundaries and mid-frame. Two classes of failure lived here until found this way: a reset
+/// just before GncAttain NADIR was committed delayed the flyby by less than the degraded
+/// flyby's minimum and left the request uncovered (seeds 33, 106, 189), and a reset during the
+/// first checkpoint write lost the only plan (seeds 381, 622, 694, 909).
+#[test]
+fn a_thousand_random_reset_variants_all_recover() {
+    let report = run(&flyby_campaign(1000));
+    let summary = hil::campaign::summary(&report);
+    assert_eq!(report.stats.passed, 1000, "{summary}");
+    for run in [32, 105, 188, 380, 621, 693, 908] {
+        assert!(report.results[run].passed, "run {run}: {summary}");
+    }
+}
+
 #[test]
 fn a_run_whose_checkpoints_are_all_destroyed_fails_with_its_reproducer() {
     let mut opts = flyby_campaign(4);

@@ -34,12 +34,13 @@ fn run_native(path: &Path) -> MissionReport {
 
 /// Every shipped flyby scenario runs on the emulated target (the power cycle restarts QEMU; the
 /// plan comes back from the emulated non-volatile memory, a file that outlives the process).
-const EMULATED: [&str; 8] = [
+const EMULATED: [&str; 9] = [
     "flyby-nominal.toml",
     "flyby-early-reset.toml",
     "flyby-late-reset.toml",
     "flyby-two-resets.toml",
     "flyby-reset-during-turn.toml",
+    "flyby-reset-before-commit.toml",
     "flyby-command-failure.toml",
     "flyby-power-cycle.toml",
     "flyby-link-corruption.toml",

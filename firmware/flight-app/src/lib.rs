@@ -196,6 +196,23 @@ impl FlightApp {
         self.last_nv_write.take()
     }
 
+    /// Checkpoint into the warm memory and, if there is one, non-volatile memory; returns how
+    /// many of the writes failed.
+    fn checkpoint_all(&mut self, memories: &mut Memories<'_>) -> u64 {
+        let mut failures = 0;
+        match self.checkpoint_into(memories.warm) {
+            Some(range) => self.last_warm_write = Some(range),
+            None => failures += 1,
+        }
+        if let Some(nv) = memories.nv.as_deref_mut() {
+            match self.checkpoint_into(nv) {
+                Some(range) => self.last_nv_write = Some(range),
+                None => failures += 1,
+            }
+        }
+        failures
+    }
+
     /// Write the newest checkpoint into A/B `area`; the byte range written, or None if the
     /// checkpoint failed.
     fn checkpoint_into(&self, area: &mut [u8]) -> Option<(usize, usize)> {
@@ -286,7 +303,7 @@ impl FlightApp {
                 self.autonomy.on_command_response(*id, *status)
             }
             HostToTarget::UplinkChunk { seq, total, bytes } => {
-                self.uplink_chunk(*seq, *total, bytes, downlink)
+                self.uplink_chunk(*seq, *total, bytes, memories, downlink)
             }
             HostToTarget::TimeGrant { frame, now, until } => {
                 self.frame(*frame, *now, *until, memories, clock, downlink)
@@ -301,6 +318,7 @@ impl FlightApp {
         seq: u16,
         total: u16,
         bytes: &heapless::Vec<u8, UPLINK_CHUNK_MAX>,
+        memories: &mut Memories<'_>,
         downlink: &mut impl Downlink,
     ) {
         let mut nak = |reason| {
@@ -336,8 +354,16 @@ impl FlightApp {
         self.uplink_progress = None;
         let image = self.uplink.get(..self.uplink_len).unwrap_or(&[]);
         match self.autonomy.load_uplink(image) {
-            // The whole network was accepted: acknowledged with seq == total.
-            Ok(()) => downlink.send(TargetToHost::UplinkAck { seq: total }),
+            // The whole network was accepted. It is checkpointed before the acknowledgement
+            // (seq == total) goes out, so a network the ground saw acknowledged survives a
+            // reset even before the first frame has run.
+            Ok(()) => {
+                let failures = self.checkpoint_all(memories);
+                if failures > 0 {
+                    downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
+                }
+                downlink.send(TargetToHost::UplinkAck { seq: total })
+            }
             Err(autonomy::LoadError::Invalid(e)) => downlink.send(TargetToHost::UplinkNak {
                 seq: total,
                 reason: e.code.code(),
@@ -376,17 +402,7 @@ impl FlightApp {
         if core::mem::replace(&mut self.recovering, false) {
             downlink.send(metric_event(metric::RECOVERY_TICKS, t1.wrapping_sub(t0)));
         }
-        let mut failures = 0;
-        match self.checkpoint_into(memories.warm) {
-            Some(range) => self.last_warm_write = Some(range),
-            None => failures += 1,
-        }
-        if let Some(nv) = memories.nv.as_deref_mut() {
-            match self.checkpoint_into(nv) {
-                Some(range) => self.last_nv_write = Some(range),
-                None => failures += 1,
-            }
-        }
+        let failures = self.checkpoint_all(memories);
         let t2 = clock.ticks();
         if failures > 0 {
             downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
