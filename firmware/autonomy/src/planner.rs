@@ -1225,18 +1225,20 @@ impl Planner {
                         conflict.from,
                         cover_end,
                     ) {
-                        let moved = self.entries[j];
+                        let template = before.template_id(ctx.network);
                         Self::emit_modification(
                             out,
                             PlanModificationKind::Move,
-                            moved.instance,
-                            moved.template_id(ctx.network),
+                            before.instance,
+                            template,
                             ctx.now,
                         );
                         self.announce_added(ctx, owner, conflict, template_id, out);
                         return true;
                     }
-                    self.entries[j] = before;
+                    if let Some(e) = self.entries.get_mut(j) {
+                        *e = before;
+                    }
                 }
             }
         }
@@ -1348,7 +1350,7 @@ impl Planner {
                     .task(e.def)
                     .is_some_and(|s| s.permissions.may_move)
         })?;
-        let before = self.entries[j];
+        let before = *self.entries.get(j)?;
         let (lo, hi) = self.start_window(ctx, &before)?;
         if until < lo || until > hi {
             return None;
@@ -1366,8 +1368,9 @@ impl Planner {
         ) {
             return None;
         }
-        self.entries[j].start = until;
-        self.entries[j].end = end;
+        let e = self.entries.get_mut(j)?;
+        e.start = until;
+        e.end = end;
         Some((j, before))
     }
 
