@@ -735,20 +735,7 @@ impl Planner {
                 else {
                     continue;
                 };
-                let helper = PlanEntry {
-                    instance: self.next_instance,
-                    def: tdef,
-                    state: TaskState::Unscheduled,
-                    start: ctx.now,
-                    end: ctx.now,
-                    earliest_start: ctx.now,
-                    latest_start: hi,
-                    started: false,
-                    persistent: false,
-                    origin: Origin::Added {
-                        for_instance: entry.instance,
-                    },
-                };
+                let helper = self.new_helper(tdef, entry, ctx.now, ctx.now, hi);
                 let Some(helper_start) = self.earliest_valid(ctx, &helper) else {
                     continue;
                 };
@@ -1177,20 +1164,7 @@ impl Planner {
             else {
                 continue;
             };
-            let helper = PlanEntry {
-                instance: self.next_instance,
-                def: tdef,
-                state: TaskState::Unscheduled,
-                start: conflict.from,
-                end: conflict.from,
-                earliest_start: ctx.now,
-                latest_start: conflict.from,
-                started: false,
-                persistent: false,
-                origin: Origin::Added {
-                    for_instance: owner.instance,
-                },
-            };
+            let helper = self.new_helper(tdef, owner, conflict.from, ctx.now, conflict.from);
             // First try covering the violation exactly (a MAINTAIN impact filling a gap), then
             // the earliest valid placement that ends its changes before the violation.
             let gap = conflict.to.0.saturating_sub(conflict.from.0);
@@ -1243,6 +1217,32 @@ impl Planner {
             }
         }
         false
+    }
+
+    /// A not yet placed instance of template `def`, added for `owner`, tentatively at `at`,
+    /// to start within `earliest..=latest` (it gets the next instance id if it is kept).
+    fn new_helper(
+        &self,
+        def: u8,
+        owner: &PlanEntry,
+        at: MissionTimeUs,
+        earliest: MissionTimeUs,
+        latest: MissionTimeUs,
+    ) -> PlanEntry {
+        PlanEntry {
+            instance: self.next_instance,
+            def,
+            state: TaskState::Unscheduled,
+            start: at,
+            end: at,
+            earliest_start: earliest,
+            latest_start: latest,
+            started: false,
+            persistent: false,
+            origin: Origin::Added {
+                for_instance: owner.instance,
+            },
+        }
     }
 
     /// Place `helper` at `start..end` if that is valid and makes `owner`'s `constraint` hold
