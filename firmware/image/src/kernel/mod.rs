@@ -143,6 +143,8 @@ pub struct Kernel {
     pub boot_cause: u32,
     pub boot_count: u32,
     pub mission_time_us: u64,
+    /// Ticks from the reset vector to the start of the schedule (SYS_UPTIME's r5).
+    pub boot_ticks: u64,
     /// Partition whose regions DBAT1..3 map now.
     mapped: Option<usize>,
 }
@@ -157,6 +159,7 @@ static mut KERNEL: Kernel = Kernel {
     boot_cause: 0,
     boot_count: 0,
     mission_time_us: 0,
+    boot_ticks: 0,
     mapped: None,
 };
 
@@ -182,6 +185,8 @@ pub fn start(boot_cause: u32, boot_count: u32) -> ! {
         k.contexts[p] = Context::partition_start(p);
     }
     let now = timebase::now().0;
+    // The kernel's part of boot to ready: reset stub, board bring-up and the set-up above.
+    k.boot_ticks = now.wrapping_sub(shared::boot_ticks());
     let next = k.sched_start(now);
     let ctx = k.resume(next, now);
     // SAFETY:

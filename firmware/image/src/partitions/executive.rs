@@ -96,6 +96,16 @@ pub extern "C" fn partition_executive_main() -> ! {
             nv: None,
         };
         let outcome = app.boot(&mut memories, &mut PartitionClock, &mut outbox);
+        // Ready: the first grant can be taken. Once per boot (a restart by the health
+        // monitor is not a boot, and this partition's CPU time counts from the boot).
+        if sys::identity().1 == 0 {
+            let (_, kernel_boot) = sys::uptime();
+            let ready = kernel_boot + sys::cpu_time().0;
+            outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
+                id: metric::BOOT_TO_READY_TICKS,
+                value: ready,
+            }));
+        }
         match outcome {
             flight_app::BootOutcome::Cold => {
                 defmt::info!("executive: cold start, waiting for an uplink")
