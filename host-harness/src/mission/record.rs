@@ -84,6 +84,17 @@ pub struct ResetRecord {
     pub reset_recovery_ticks: Option<u64>,
 }
 
+/// The autonomy step of one frame, in guest ticks (emulated target): the whole step and its
+/// planner and executive parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct StepCost {
+    /// Frames granted before this one.
+    pub frame: u64,
+    pub step: u64,
+    pub planner: Option<u64>,
+    pub executive: Option<u64>,
+}
+
 /// One boot of the target: the first one, and one per reset.
 #[derive(Clone, Debug, Serialize)]
 pub struct BootRecord {
@@ -107,6 +118,9 @@ pub struct MissionRecord {
     pub resets: Vec<ResetRecord>,
     /// Every boot, in order (one more than there are resets).
     pub boots: Vec<BootRecord>,
+    /// Every frame's autonomy step cost, in order (emulated target).
+    #[serde(skip)]
+    pub step_costs: Vec<StepCost>,
     /// Actual spacecraft states as published, per state key.
     #[serde(skip)]
     pub states: BTreeMap<StateKey, Vec<(MissionTimeUs, StateValue)>>,
@@ -265,9 +279,27 @@ impl MissionRecord {
     fn metric_event(&mut self, id: u16, value: u64) {
         use flight_app::metric;
         let name = match id {
-            metric::STEP_TICKS => "max_step_ticks",
-            metric::PLANNER_TICKS => "max_planner_ticks",
-            metric::EXECUTIVE_TICKS => "max_executive_ticks",
+            metric::STEP_TICKS => {
+                self.step_costs.push(StepCost {
+                    frame: self.frames,
+                    step: value,
+                    planner: None,
+                    executive: None,
+                });
+                "max_step_ticks"
+            }
+            metric::PLANNER_TICKS => {
+                if let Some(c) = self.step_costs.last_mut() {
+                    c.planner.get_or_insert(value);
+                }
+                "max_planner_ticks"
+            }
+            metric::EXECUTIVE_TICKS => {
+                if let Some(c) = self.step_costs.last_mut() {
+                    c.executive.get_or_insert(value);
+                }
+                "max_executive_ticks"
+            }
             metric::CHECKPOINT_TICKS => "max_checkpoint_ticks",
             metric::RESTORE_TICKS => "max_restore_ticks",
             metric::RECOVERY_TICKS => {
