@@ -128,6 +128,9 @@ pub mod metric {
     /// every boot from the same memory contents; the schedule's latency (the lead time, the
     /// other partitions' windows before and between the executive's) is not in it.
     pub const BOOT_TO_READY_TICKS: u16 = 0x0310;
+    /// The kernel's part of BOOT_TO_READY_TICKS (reset vector to the start of the schedule),
+    /// sent just before it.
+    pub const KERNEL_BOOT_TICKS: u16 = 0x0311;
 }
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the

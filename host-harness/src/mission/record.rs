@@ -106,6 +106,9 @@ pub struct BootRecord {
     /// partition's CPU (`kernel_config::abi::metric::BOOT_TO_READY_TICKS`). Emulated target
     /// only.
     pub boot_to_ready_ticks: Option<u64>,
+    /// The kernel's part of it: reset vector to the start of the schedule (reset stub with the
+    /// ROM-to-RAM copy, board bring-up, kernel set-up).
+    pub kernel_boot_ticks: Option<u64>,
 }
 
 /// Everything recorded during a mission.
@@ -310,6 +313,12 @@ impl MissionRecord {
                 "max_recovery_ticks"
             }
             metric::CHECKPOINT_WRITE_FAILURES => "checkpoint_write_failures",
+            kernel_config::abi::metric::KERNEL_BOOT_TICKS => {
+                if let Some(boot) = self.boots.last_mut() {
+                    boot.kernel_boot_ticks.get_or_insert(value);
+                }
+                return;
+            }
             kernel_config::abi::metric::BOOT_TO_READY_TICKS => {
                 let Some(boot) = self.boots.last_mut() else {
                     return;
@@ -365,6 +374,7 @@ impl MissionRecord {
             at: at.0,
             reset_cause: crate::scenario::cause_name(cause).into(),
             boot_to_ready_ticks: None,
+            kernel_boot_ticks: None,
         });
     }
 
@@ -431,6 +441,7 @@ mod tests {
         use kernel_config::abi::metric::BOOT_TO_READY_TICKS;
         let mut rec = MissionRecord::default();
         rec.boot(MissionTimeUs(0), ResetCause::PowerOn);
+        metric(&mut rec, kernel_config::abi::metric::KERNEL_BOOT_TICKS, 30_000);
         metric(&mut rec, BOOT_TO_READY_TICKS, 40_000);
         metric(&mut rec, PLANNER_TICKS, 500);
         metric(&mut rec, PLANNER_TICKS, 300);
@@ -444,6 +455,8 @@ mod tests {
 
         let boots: Vec<Option<u64>> = rec.boots.iter().map(|b| b.boot_to_ready_ticks).collect();
         assert_eq!(boots, [Some(40_000), Some(70_000), Some(71_000)]);
+        assert_eq!(rec.boots[0].kernel_boot_ticks, Some(30_000));
+        assert_eq!(rec.boots[1].kernel_boot_ticks, None);
         assert_eq!(rec.resets[0].reset_recovery_ticks, Some(90_000));
         assert_eq!(rec.resets[1].reset_recovery_ticks, Some(81_000));
         let m = &rec.metrics;

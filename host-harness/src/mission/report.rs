@@ -267,9 +267,13 @@ pub fn summary(r: &MissionReport) -> String {
     }
     if let Some(ticks) = r.boots.first().and_then(|b| b.boot_to_ready_ticks) {
         out.push_str(&format!(
-            "  boot ({}): ready after {ticks} ticks = {} instructions\n",
+            "  boot ({}): ready after {ticks} ticks = {} instructions{}\n",
             r.boots[0].reset_cause,
-            super::record::to_instructions(ticks)
+            super::record::to_instructions(ticks),
+            r.boots[0]
+                .kernel_boot_ticks
+                .map(|k| format!(" (kernel {k}, executive {})", ticks.saturating_sub(k)))
+                .unwrap_or_default()
         ));
     }
     for reset in &r.resets {

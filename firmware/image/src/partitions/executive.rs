@@ -118,6 +118,10 @@ pub extern "C" fn partition_executive_main() -> ! {
             let (_, kernel_boot) = sys::uptime();
             let ready = kernel_boot + sys::cpu_time().0;
             outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
+                id: metric::KERNEL_BOOT_TICKS,
+                value: kernel_boot,
+            }));
+            outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
                 id: metric::BOOT_TO_READY_TICKS,
                 value: ready,
             }));
