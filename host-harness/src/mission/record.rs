@@ -441,7 +441,11 @@ mod tests {
         use kernel_config::abi::metric::BOOT_TO_READY_TICKS;
         let mut rec = MissionRecord::default();
         rec.boot(MissionTimeUs(0), ResetCause::PowerOn);
-        metric(&mut rec, kernel_config::abi::metric::KERNEL_BOOT_TICKS, 30_000);
+        metric(
+            &mut rec,
+            kernel_config::abi::metric::KERNEL_BOOT_TICKS,
+            30_000,
+        );
         metric(&mut rec, BOOT_TO_READY_TICKS, 40_000);
         metric(&mut rec, PLANNER_TICKS, 500);
         metric(&mut rec, PLANNER_TICKS, 300);
