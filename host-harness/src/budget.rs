@@ -3,7 +3,9 @@
 //!
 //! Each budget names its quantity, unit, limit and where the measurement comes from:
 //! - `mission:<scenario>:<metric>`: run a mission scenario (relative to the repository) on the
-//!   emulated target and take one of its metrics (`max_recovery_ticks`, `max_step_ticks`, ...);
+//!   emulated target and take one of its metrics (`max_reset_recovery_instructions`,
+//!   `max_boot_to_ready_ticks_power_on`, `max_planner_ticks`, `max_step_ticks`, ...; see
+//!   `mission::record::MissionRecord::metrics`);
 //! - `kernel:<metric>`: the kernel benchmark (`hil bench kernel`): partition switch, syscall
 //!   round trip, frame processing, footprints;
 //! - `elf:<section-prefix>[+<prefix>...]`: bytes of the firmware ELF's sections whose names

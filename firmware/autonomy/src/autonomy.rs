@@ -14,6 +14,8 @@
 //!    every command response.
 //! 4. Once per frame call [`Autonomy::step`] with the granted mission time, a planner budget and
 //!    an [`Outputs`] sink: it dispatches commands and emits telemetry through the sink.
+//!    [`Autonomy::step_timed`] does the same and also times the planner's and the executive's
+//!    parts of the step with a clock the caller gives (the firmware's partition CPU time).
 //! 5. After the step, [`Autonomy::checkpoint_to`] the warm-restart area, and report
 //!    [`Autonomy::next_wakeup`] to the time driver.
 //!
@@ -64,6 +66,20 @@ pub struct StepReport {
     pub planner_checks: u32,
     /// The planner stopped on its budget: call `step` again soon (`next_wakeup` says now).
     pub planner_pending: bool,
+}
+
+/// CPU the two halves of one step took, in the units of the clock given to
+/// [`Autonomy::step_timed`] (0 for [`Autonomy::step`]). The step is three passes: the executive,
+/// the planner, the executive again; the clock is read four times, around them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StepCost {
+    /// Both executive passes (command responses, start/maintain/end checks, timeouts,
+    /// completions, task reports to the planner; then starting what was committed for now),
+    /// and the step's own bookkeeping before the first one.
+    pub executive: u64,
+    /// The planner pass: task reports and contingencies, its anytime cycle within the budget,
+    /// and its commits (the executive's acceptance of each commit included).
+    pub planner: u64,
 }
 
 /// Why a network could not be loaded.
@@ -225,6 +241,20 @@ impl Autonomy {
         budget: StepBudget,
         out: &mut impl Outputs,
     ) -> StepReport {
+        self.step_timed(now, budget, out, &mut || 0).0
+    }
+
+    /// [`Autonomy::step`], timing its planner and executive parts with `clock` (a CPU clock:
+    /// the firmware's partition CPU time). The clock is only read, never consulted, so the
+    /// decisions are exactly those of `step`.
+    pub fn step_timed(
+        &mut self,
+        now: MissionTimeUs,
+        budget: StepBudget,
+        out: &mut impl Outputs,
+        clock: &mut impl FnMut() -> u64,
+    ) -> (StepReport, StepCost) {
+        let t0 = clock();
         self.now = now;
         if let Some(seq) = self.restored.take() {
             out.telemetry(TelemetryEvent::PlanModification {
@@ -235,7 +265,11 @@ impl Autonomy {
             });
         }
         if !self.loaded {
-            return StepReport::default();
+            let cost = StepCost {
+                executive: clock().wrapping_sub(t0),
+                planner: 0,
+            };
+            return (StepReport::default(), cost);
         }
         let Self {
             network,
@@ -247,6 +281,7 @@ impl Autonomy {
         executive.step(network, states, now, out, &mut |r: TaskReport| {
             planner.on_report(r)
         });
+        let t1 = clock();
         let report = planner.step(
             network,
             now,
@@ -254,13 +289,20 @@ impl Autonomy {
             &mut |c| executive.has_room() && executive.accept(network, c),
             out,
         );
+        let t2 = clock();
         executive.step(network, states, now, out, &mut |r: TaskReport| {
             planner.on_report(r)
         });
-        StepReport {
+        let t3 = clock();
+        let cost = StepCost {
+            executive: t1.wrapping_sub(t0).wrapping_add(t3.wrapping_sub(t2)),
+            planner: t2.wrapping_sub(t1),
+        };
+        let report = StepReport {
             planner_checks: report.checks,
             planner_pending: report.work_pending,
-        }
+        };
+        (report, cost)
     }
 
     /// The earliest mission time at which `step` must run again (if no input arrives first),

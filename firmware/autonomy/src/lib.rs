@@ -32,7 +32,7 @@ pub mod telemetry;
 pub mod timeline;
 pub mod uplink;
 
-pub use autonomy::{Autonomy, LoadError, Outputs, StepBudget, StepReport};
+pub use autonomy::{Autonomy, LoadError, Outputs, StepBudget, StepCost, StepReport};
 pub use capacity::*;
 pub use checkpoint::{CheckpointError, RestoreInfo, WarmRestartArea};
 pub use fsw_bridge::{

@@ -176,6 +176,27 @@ fn same_inputs_give_the_same_decisions() {
     assert_eq!(a.area, b.area, "checkpoints are byte-identical too");
 }
 
+/// Timing the planner and executive parts of each step (as the firmware does with its CPU
+/// clock) only reads the clock: the decisions and checkpoints are those of the untimed step,
+/// and every clock read is accounted to exactly one part.
+#[test]
+fn timing_the_parts_of_a_step_changes_no_decision() {
+    let resets = [reset_at(10, 30), reset_at(10, 40)];
+    let plain = run(&resets);
+    let mut timed = Sim::flyby();
+    timed.timed = true;
+    timed.run(hm(11, 30), &resets);
+    assert_eq!(plain.out.decisions, timed.out.decisions);
+    assert_eq!(plain.area, timed.area);
+    assert_eq!(timed.costs.len() as u64, timed.steps);
+    // Four reads per step (a clock advancing by one per read): the executive's two intervals
+    // and the planner's one.
+    assert!(timed
+        .costs
+        .iter()
+        .all(|c| c.executive == 2 && c.planner == 1));
+}
+
 /// A reset at any minute of the flyby: after recovery the request is covered by exactly one
 /// instrument task at a time up to its end, the full flyby only ever runs at NADIR, and the
 /// next maneuver still happens on time.

@@ -36,34 +36,50 @@ pub mod uplink_reason {
 /// ticks of the CPU that runs it; the native target reports none). The application owns ids
 /// 0x1000-0x1fff; the kernel's are below 0x1000 (kernel-config's `abi::metric`).
 pub mod metric {
-    /// Ticks the autonomy step of one frame took.
+    /// Ticks the autonomy step of one frame took (planner and executive, and the clock reads
+    /// that split them: at least PLANNER_TICKS + EXECUTIVE_TICKS of the same frame).
     pub const STEP_TICKS: u16 = 0x1000;
     /// Ticks one checkpoint write took (both areas).
     pub const CHECKPOINT_TICKS: u16 = 0x1001;
     /// Ticks the restore at boot took.
     pub const RESTORE_TICKS: u16 = 0x1002;
-    /// Ticks from the first grant after a restore to the end of that frame's step: the
-    /// recovery (violations detected, aborts, contingencies, repair).
+    /// Ticks the application spent recovering after a restore, from the end of its boot to the
+    /// end of the step that committed the repaired plan: the host's inputs in between (the
+    /// state buffer published again, command responses) and the step(s) of the granted
+    /// frames until the planner has no work pending (violations detected, aborts,
+    /// contingencies, repair, commits); checkpoint writes of the frames before that one are
+    /// included, the last frame's is not. Sent once per restore.
     pub const RECOVERY_TICKS: u16 = 0x1003;
     /// Sequence number of the checkpoint restored at boot.
     pub const RESTORED_SEQUENCE: u16 = 0x1004;
     /// Checkpoint writes that failed in one frame (a plan image larger than an area's slot).
     pub const CHECKPOINT_WRITE_FAILURES: u16 = 0x1005;
+    /// Ticks the planner's part of one frame's step took (reports and contingencies, its
+    /// anytime cycle within the step budget, commits).
+    pub const PLANNER_TICKS: u16 = 0x1006;
+    /// Ticks the executive's part of one frame's step took (both executive passes).
+    pub const EXECUTIVE_TICKS: u16 = 0x1007;
     /// Where the checkpoint restored at boot came from: [`RESTORED_FROM_WARM`] or
     /// [`RESTORED_FROM_NV`].
-    pub const RESTORED_FROM: u16 = 0x1006;
+    pub const RESTORED_FROM: u16 = 0x1008;
     pub const RESTORED_FROM_WARM: u64 = 1;
     pub const RESTORED_FROM_NV: u64 = 2;
 
     /// Metrics that are measured CPU costs (timebase ticks). A span measured with the 16.6 MHz
     /// timebase against the 250 MHz instruction clock can come out one tick longer or shorter
-    /// depending on where between two ticks it started, and on the emulated target that phase
-    /// depends on how long the target idled while the host prepared the grant. Everything
-    /// else the application sends is exactly reproducible.
+    /// depending on where between two ticks it started; the executive starts its work at a
+    /// window start to keep that phase fixed, and the transcript hash leaves these values
+    /// out so that it cannot depend on it. Everything else the application sends is exactly
+    /// reproducible.
     pub const fn is_measured_cost(id: u16) -> bool {
         matches!(
             id,
-            STEP_TICKS | CHECKPOINT_TICKS | RESTORE_TICKS | RECOVERY_TICKS
+            STEP_TICKS
+                | CHECKPOINT_TICKS
+                | RESTORE_TICKS
+                | RECOVERY_TICKS
+                | PLANNER_TICKS
+                | EXECUTIVE_TICKS
         )
     }
 }
@@ -144,8 +160,9 @@ pub struct FlightApp {
     /// (next expected sequence number, announced total) of the transfer in progress.
     uplink_progress: Option<(u16, u16)>,
     budget: StepBudget,
-    /// Set after a restore until the first granted frame has been stepped.
-    recovering: bool,
+    /// Set after a restore until the repaired plan is committed: the CPU spent on recovery so
+    /// far (see [`metric::RECOVERY_TICKS`]).
+    recovering: Option<u64>,
     /// The last frame finished and what its FrameDone said: a grant for that frame again (the
     /// host lost our FrameDone, or its grant reached us twice) is answered without stepping.
     last_done: Option<(u32, Option<MissionTimeUs>)>,
@@ -171,7 +188,7 @@ impl FlightApp {
             uplink_len: 0,
             uplink_progress: None,
             budget: DEFAULT_STEP_BUDGET,
-            recovering: false,
+            recovering: None,
             last_done: None,
             last_warm_write: None,
             last_nv_write: None,
@@ -268,7 +285,7 @@ impl FlightApp {
             }
         }
         if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
-            self.recovering = true;
+            self.recovering = Some(0);
             let from = match outcome {
                 BootOutcome::RestoredNv(_) => metric::RESTORED_FROM_NV,
                 _ => metric::RESTORED_FROM_WARM,
@@ -293,6 +310,7 @@ impl FlightApp {
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) -> bool {
+        let t0 = self.recovering.map(|_| clock.ticks());
         match msg {
             HostToTarget::StateUpdate {
                 key,
@@ -306,9 +324,14 @@ impl FlightApp {
                 self.uplink_chunk(*seq, *total, bytes, memories, downlink)
             }
             HostToTarget::TimeGrant { frame, now, until } => {
-                self.frame(*frame, *now, *until, memories, clock, downlink)
+                // Accounts its own recovery time.
+                self.frame(*frame, *now, *until, memories, clock, downlink);
+                return true;
             }
             HostToTarget::Ping { .. } | HostToTarget::ResetRequest { .. } => return false,
+        }
+        if let (Some(t0), Some(spent)) = (t0, self.recovering.as_mut()) {
+            *spent = spent.wrapping_add(clock.ticks().wrapping_sub(t0));
         }
         true
     }
@@ -395,20 +418,36 @@ impl FlightApp {
             }
         }
         let t0 = clock.ticks();
-        let report = self
-            .autonomy
-            .step(now, self.budget, &mut Decisions { downlink });
+        let (report, cost) = self.autonomy.step_timed(
+            now,
+            self.budget,
+            &mut Decisions {
+                downlink: &mut *downlink,
+            },
+            &mut || clock.ticks(),
+        );
         let t1 = clock.ticks();
-        if core::mem::replace(&mut self.recovering, false) {
-            downlink.send(metric_event(metric::RECOVERY_TICKS, t1.wrapping_sub(t0)));
+        if let Some(spent) = self.recovering.as_mut() {
+            *spent = spent.wrapping_add(t1.wrapping_sub(t0));
+            if !report.planner_pending {
+                // The repaired plan is committed.
+                downlink.send(metric_event(metric::RECOVERY_TICKS, *spent));
+                self.recovering = None;
+            }
         }
         let failures = self.checkpoint_all(memories);
         let t2 = clock.ticks();
+        if let Some(spent) = self.recovering.as_mut() {
+            // Still repairing: this frame's checkpoint is on the way to the committed plan.
+            *spent = spent.wrapping_add(t2.wrapping_sub(t1));
+        }
         if failures > 0 {
             downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
         }
         if t2 != t0 {
             downlink.send(metric_event(metric::STEP_TICKS, t1.wrapping_sub(t0)));
+            downlink.send(metric_event(metric::PLANNER_TICKS, cost.planner));
+            downlink.send(metric_event(metric::EXECUTIVE_TICKS, cost.executive));
             downlink.send(metric_event(metric::CHECKPOINT_TICKS, t2.wrapping_sub(t1)));
         }
         let next_wakeup = if report.planner_pending {
@@ -466,6 +505,95 @@ mod tests {
             out.last(),
             Some(TargetToHost::FrameDone { frame: 8, .. })
         ));
+    }
+
+    /// A clock that advances by 10 ticks per read.
+    struct Counting(u64);
+
+    impl CpuClock for Counting {
+        fn ticks(&mut self) -> u64 {
+            self.0 += 10;
+            self.0
+        }
+    }
+
+    fn metrics(out: &[TargetToHost], id: u16) -> Vec<u64> {
+        out.iter()
+            .filter_map(|m| match m {
+                TargetToHost::Telemetry(TelemetryEvent::Metric { id: i, value }) if *i == id => {
+                    Some(*value)
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn uplink_flyby(app: &mut FlightApp, mem: &mut Memories<'_>) {
+        let network = autonomy::scenarios::flyby_network().unwrap();
+        let mut image = std::vec![0u8; MAX_UPLINK_BYTES];
+        let len = network.encode(&mut image).unwrap();
+        let chunks: Vec<&[u8]> = image[..len].chunks(UPLINK_CHUNK_MAX).collect();
+        let mut out: Vec<TargetToHost> = Vec::new();
+        for (seq, c) in chunks.iter().enumerate() {
+            let msg = HostToTarget::UplinkChunk {
+                seq: seq as u16,
+                total: chunks.len() as u16,
+                bytes: heapless::Vec::from_slice(c).unwrap(),
+            };
+            app.handle(&msg, mem, &mut NoClock, &mut |m| out.push(m));
+        }
+        assert_eq!(
+            out.last(),
+            Some(&TargetToHost::UplinkAck {
+                seq: chunks.len() as u16
+            })
+        );
+    }
+
+    #[test]
+    fn each_frame_reports_its_planner_and_executive_parts_and_a_restore_its_recovery() {
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let mut warm = std::vec![0u8; 60 * 1024];
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: None,
+        };
+        uplink_flyby(&mut app, &mut mem);
+        let mut out: Vec<TargetToHost> = Vec::new();
+        let mut clock = Counting(0);
+        app.handle(&grant(0, 9 * 3600), &mut mem, &mut clock, &mut |m| {
+            out.push(m)
+        });
+        // Step: one read before, four inside (executive, planner, executive), one after.
+        assert_eq!(metrics(&out, metric::STEP_TICKS), [50]);
+        assert_eq!(metrics(&out, metric::EXECUTIVE_TICKS), [20]);
+        assert_eq!(metrics(&out, metric::PLANNER_TICKS), [10]);
+        assert!(metrics(&out, metric::RECOVERY_TICKS).is_empty());
+
+        // Warm reset: a fresh application restores, hears two state updates, then a grant.
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let mut out: Vec<TargetToHost> = Vec::new();
+        let outcome = app.boot(&mut mem, &mut clock, &mut |m| out.push(m));
+        assert!(matches!(outcome, BootOutcome::RestoredWarm(_)));
+        for _ in 0..2 {
+            let update = HostToTarget::StateUpdate {
+                key: autonomy::scenarios::ATTITUDE_KEY,
+                value: fsw_bridge::StateValue::Enum(autonomy::scenarios::UNKNOWN),
+                timestamp: MissionTimeUs::from_secs(9 * 3600 + 60),
+            };
+            app.handle(&update, &mut mem, &mut clock, &mut |m| out.push(m));
+        }
+        app.handle(&grant(1, 9 * 3600 + 60), &mut mem, &mut clock, &mut |m| {
+            out.push(m)
+        });
+        // 10 ticks per state update, 50 for the step.
+        assert_eq!(metrics(&out, metric::RECOVERY_TICKS), [70]);
+        // Once per restore.
+        app.handle(&grant(2, 9 * 3600 + 120), &mut mem, &mut clock, &mut |m| {
+            out.push(m)
+        });
+        assert_eq!(metrics(&out, metric::RECOVERY_TICKS), [70]);
+        assert_eq!(metrics(&out, metric::STEP_TICKS).len(), 2);
     }
 
     #[test]

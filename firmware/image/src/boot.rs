@@ -1,7 +1,8 @@
 //! Reset vector, exception vectors, and the two halves of every kernel entry: saving the
 //! interrupted context and resuming a context.
 //!
-//! The 750 starts at `0xfff00100` with MSR[IP]=1 and the MMU off. The reset stub (in ROM) copies
+//! The 750 starts at `0xfff00100` with MSR[IP]=1 and the MMU off. The reset stub (in ROM) reads
+//! the timebase first (the start of boot to ready, passed on to [`crate::rust_start`]), copies
 //! the shared code (vectors, text, rodata, `.kshared`) to 0x0 and the kernel data to its region,
 //! clears `.bss` and the hashed page table, sets up the kernel stack and enters
 //! [`crate::rust_start`] through `rfi` with MSR[IP]=0 (vectors at 0x0), MSR[ME] and MSR[FP].
@@ -40,6 +41,13 @@ global_asm!(
     .section .reset.entry, "ax"
     .globl _reset
 _reset:
+    # The timebase at the reset vector in r14:r15 (upper half re-read until stable); nothing
+    # below touches r14-r16 until they are handed to rust_start.
+30: mftbu %r14
+    mftb %r15
+    mftbu %r16
+    cmpw %r14, %r16
+    bne 30b
     # Copy the shared code (vectors, text, rodata, .kshared) from ROM to RAM.
     lis %r3, __ram_image_lma@ha
     addi %r3, %r3, __ram_image_lma@l
@@ -77,12 +85,15 @@ _reset:
     stwu %r0, -16(%r1)
     li %r2, 0
     li %r13, 0
-    # Enter Rust with MSR = ME | FP (IP cleared: exception vectors now at 0x0).
+    # Enter Rust with MSR = ME | FP (IP cleared: exception vectors now at 0x0) and the
+    # timebase at the reset vector as its arguments.
     lis %r3, rust_start@ha
     addi %r3, %r3, rust_start@l
     mtspr 26, %r3
     li %r4, 0x3000
     mtspr 27, %r4
+    mr %r3, %r14
+    mr %r4, %r15
     rfi
     # Copy words [r4, r5) from r3.
 10: cmplw %r4, %r5

@@ -45,11 +45,11 @@ fn reset_cause_name(cause: ResetCause) -> &'static str {
 }
 
 /// Entered from the reset stub with the MMU off, vectors at 0x0, the kernel stack, and .bss
-/// cleared.
+/// cleared; `reset_tb_hi:reset_tb_lo` is the timebase the stub read at the reset vector.
 #[no_mangle]
 #[link_section = ".text.rust_start"]
-pub extern "C" fn rust_start() -> ! {
-    timebase::mark_boot();
+pub extern "C" fn rust_start(reset_tb_hi: u32, reset_tb_lo: u32) -> ! {
+    timebase::mark_boot((u64::from(reset_tb_hi) << 32) | u64::from(reset_tb_lo));
     let (cause, boot_count) = warm::record_boot();
     if pci::init_mac_io().is_none() {
         // Without mac-io there is no UART and nobody to tell: try again from the top.

@@ -96,6 +96,16 @@ pub fn cpu_time() -> (u64, u32) {
     ((u64::from(hi as u32) << 32) | u64::from(lo), window)
 }
 
+/// (ticks since the reset vector, ticks the kernel's boot took: reset vector to the start of
+/// the schedule).
+pub fn uptime() -> (u64, u64) {
+    let (hi, lo, boot) = raw(SYS_UPTIME, [0; 5]);
+    (
+        (u64::from(hi as u32) << 32) | u64::from(lo),
+        u64::from(boot),
+    )
+}
+
 /// One whole defmt frame.
 pub fn log(frame: &[u8]) -> Result<(), i32> {
     let (r3, _, _) = raw(

@@ -51,8 +51,13 @@ pub const REPORT_OFF: u32 = u32::MAX;
 pub const SYS_NV_READ: u32 = 16;
 /// (offset, ptr, len) -> 0: write the non-volatile memory (NV owner only; E_NO_DEVICE as above).
 pub const SYS_NV_WRITE: u32 = 17;
-/// Number of system calls.
-pub const SYSCALL_COUNT: u32 = 18;
+/// () -> ticks since the reset vector: r3 = high, r4 = low; r5 = ticks the kernel's boot took,
+/// from the reset vector to the start of the schedule (reset stub, board bring-up, kernel set-up:
+/// the same every boot of the same kind, unlike the uptime, which includes every other
+/// partition's windows and the idle time spent waiting for the host).
+pub const SYS_UPTIME: u32 = 18;
+/// Number of system calls (one past the highest number; unassigned numbers get E_UNKNOWN_CALL).
+pub const SYSCALL_COUNT: u32 = 19;
 
 /// Unknown system-call number.
 pub const E_UNKNOWN_CALL: i32 = -1;
@@ -123,6 +128,16 @@ pub mod metric {
     pub const PLANNER_ITERATIONS: u16 = 0x0303;
     /// Generation of the planner seen by the planner itself when it reports its checksum.
     pub const PLANNER_GENERATION: u16 = 0x0304;
+    /// Boot to ready, sent by the executive once per boot when the flight application has
+    /// restored its checkpoint (or found none) and can take its first grant: the kernel's boot
+    /// (reset vector to the start of the schedule, SYS_UPTIME's r5) plus the CPU the executive
+    /// partition used from its start to that point. Ticks of CPU on the way to ready, the same
+    /// every boot from the same memory contents; the schedule's latency (the lead time, the
+    /// other partitions' windows before and between the executive's) is not in it.
+    pub const BOOT_TO_READY_TICKS: u16 = 0x0310;
+    /// The kernel's part of BOOT_TO_READY_TICKS (reset vector to the start of the schedule),
+    /// sent just before it.
+    pub const KERNEL_BOOT_TICKS: u16 = 0x0311;
 }
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the

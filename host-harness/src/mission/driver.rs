@@ -521,7 +521,12 @@ pub fn without_measured_costs(msg: &TargetToHost) -> TargetToHost {
             busy_ticks: 0,
         },
         TargetToHost::Telemetry(TelemetryEvent::Metric { id, .. })
-            if flight_app::metric::is_measured_cost(*id) =>
+            if flight_app::metric::is_measured_cost(*id)
+                || matches!(
+                    *id,
+                    kernel_config::abi::metric::BOOT_TO_READY_TICKS
+                        | kernel_config::abi::metric::KERNEL_BOOT_TICKS
+                ) =>
         {
             TargetToHost::Telemetry(TelemetryEvent::Metric { id: *id, value: 0 })
         }
@@ -562,11 +567,12 @@ pub fn drive(
 
     let hello = target.boot()?;
     transcript.received(&hello_message(&hello));
+    rec.boot(mission.start, hello.reset_cause);
     rec.label(
         mission.start,
         format!("boot ({})", crate::scenario::cause_name(hello.reset_cause)),
     );
-    uplink(target, &net.uplink, &mut transcript)?;
+    uplink(target, net, &mut transcript, &mut rec)?;
 
     let mut now = mission.start;
     let wall_start = std::time::Instant::now();
@@ -796,12 +802,15 @@ fn fate_of(armed: &mut [Fault], opcode: Opcode, rng: &mut Rng) -> CommandFate {
 }
 
 /// Send the task network in chunks; every chunk must be acknowledged and the last one
-/// validated (UplinkAck with seq == total).
+/// validated (UplinkAck with seq == total). Telemetry that arrives meanwhile (the boot's cost
+/// metrics) is recorded.
 fn uplink(
     target: &mut dyn MissionTarget,
-    bytes: &[u8],
+    net: &CompiledNetwork,
     transcript: &mut Transcript,
+    rec: &mut MissionRecord,
 ) -> Result<(), MissionError> {
+    let bytes = &net.uplink;
     let chunks: Vec<&[u8]> = bytes.chunks(UPLINK_CHUNK_MAX).collect();
     let total = u16::try_from(chunks.len())
         .map_err(|_| MissionError::Invalid("the task network is too large to uplink".into()))?;
@@ -822,8 +831,12 @@ fn uplink(
         })?;
         for r in &replies {
             transcript.received(r);
-            if let TargetToHost::UplinkNak { reason, .. } = r {
-                return Err(MissionError::UplinkRefused { reason: *reason });
+            match r {
+                TargetToHost::UplinkNak { reason, .. } => {
+                    return Err(MissionError::UplinkRefused { reason: *reason })
+                }
+                TargetToHost::Telemetry(ev) => rec.telemetry(ev, &net.network),
+                _ => {}
             }
         }
     }

@@ -66,7 +66,7 @@ impl Instance {
     }
 }
 
-/// A reset the host caused.
+/// A reset the host caused (or the target reported).
 #[derive(Clone, Debug, Serialize)]
 pub struct ResetRecord {
     pub at: u64,
@@ -74,13 +74,46 @@ pub struct ResetRecord {
     pub recovery_us: u64,
     pub restart_at: u64,
     pub reset_cause: String,
-    /// Guest ticks of the first frame after the restart (restore + repair), when measured.
+    /// Guest ticks from the reset vector to ready (the boot this reset caused; see
+    /// [`BootRecord::boot_to_ready_ticks`]), when measured.
+    pub boot_to_ready_ticks: Option<u64>,
+    /// Guest ticks the flight application spent after its restore until the repaired plan was
+    /// committed (`flight_app::metric::RECOVERY_TICKS`), when measured.
     pub recovery_ticks: Option<u64>,
     /// Where the target restored its plan from ("warm-restart area", "non-volatile memory"),
     /// with the checkpoint's sequence number; None if it came up without a plan.
     pub restored_from: Option<String>,
     #[serde(skip)]
     restored_sequence: Option<u64>,
+    /// Reset vector to repaired plan committed: `boot_to_ready_ticks + recovery_ticks`.
+    pub reset_recovery_ticks: Option<u64>,
+}
+
+/// The autonomy step of one frame, in guest ticks (emulated target): the whole step and its
+/// planner and executive parts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct StepCost {
+    /// Frames granted before this one.
+    pub frame: u64,
+    pub step: u64,
+    pub planner: Option<u64>,
+    pub executive: Option<u64>,
+}
+
+/// One boot of the target: the first one, and one per reset.
+#[derive(Clone, Debug, Serialize)]
+pub struct BootRecord {
+    /// Mission time of the reset that caused it (the mission start for the first boot).
+    pub at: u64,
+    pub reset_cause: String,
+    /// Guest ticks of CPU from the reset vector to ready (the flight application restored or
+    /// cold-started and able to take a grant): the kernel's boot plus the executive
+    /// partition's CPU (`kernel_config::abi::metric::BOOT_TO_READY_TICKS`). Emulated target
+    /// only.
+    pub boot_to_ready_ticks: Option<u64>,
+    /// The kernel's part of it: reset vector to the start of the schedule (reset stub with the
+    /// ROM-to-RAM copy, board bring-up, kernel set-up).
+    pub kernel_boot_ticks: Option<u64>,
 }
 
 /// Everything recorded during a mission.
@@ -91,6 +124,11 @@ pub struct MissionRecord {
     /// Labelled happenings in order: "<task> added", "<task> started", "warm reset", ...
     pub labels: Vec<(u64, String)>,
     pub resets: Vec<ResetRecord>,
+    /// Every boot, in order (one more than there are resets).
+    pub boots: Vec<BootRecord>,
+    /// Every frame's autonomy step cost, in order (emulated target).
+    #[serde(skip)]
+    pub step_costs: Vec<StepCost>,
     /// Actual spacecraft states as published, per state key.
     #[serde(skip)]
     pub states: BTreeMap<StateKey, Vec<(MissionTimeUs, StateValue)>>,
@@ -104,6 +142,11 @@ pub struct MissionRecord {
 
 /// Instructions per timebase tick under `-icount shift=2` (4 ns per instruction, 16.6 MHz).
 pub const INSTRUCTIONS_PER_TICK_X1000: u64 = 15_060;
+
+/// Guest instructions in `ticks` timebase ticks (see [`INSTRUCTIONS_PER_TICK_X1000`]).
+pub fn to_instructions(ticks: u64) -> u64 {
+    ticks * INSTRUCTIONS_PER_TICK_X1000 / 1000
+}
 
 impl MissionRecord {
     fn instance_mut(&mut self, id: u16, network: &TaskNetwork) -> &mut Instance {
@@ -239,16 +282,39 @@ impl MissionRecord {
         }
     }
 
+    /// A cost metric from the target. Metrics named `max_*` keep the largest value of the run;
+    /// each `*_ticks` maximum of a recovery or a boot also has an `*_instructions` twin.
     fn metric_event(&mut self, id: u16, value: u64) {
         use flight_app::metric;
         let name = match id {
-            metric::STEP_TICKS => "max_step_ticks",
+            metric::STEP_TICKS => {
+                self.step_costs.push(StepCost {
+                    frame: self.frames,
+                    step: value,
+                    planner: None,
+                    executive: None,
+                });
+                "max_step_ticks"
+            }
+            metric::PLANNER_TICKS => {
+                if let Some(c) = self.step_costs.last_mut() {
+                    c.planner.get_or_insert(value);
+                }
+                "max_planner_ticks"
+            }
+            metric::EXECUTIVE_TICKS => {
+                if let Some(c) = self.step_costs.last_mut() {
+                    c.executive.get_or_insert(value);
+                }
+                "max_executive_ticks"
+            }
             metric::CHECKPOINT_TICKS => "max_checkpoint_ticks",
             metric::RESTORE_TICKS => "max_restore_ticks",
             metric::RECOVERY_TICKS => {
                 if let Some(r) = self.resets.last_mut() {
                     r.recovery_ticks.get_or_insert(value);
                 }
+                self.reset_recovered();
                 "max_recovery_ticks"
             }
             metric::CHECKPOINT_WRITE_FAILURES => "checkpoint_write_failures",
@@ -272,16 +338,69 @@ impl MissionRecord {
                 }
                 return;
             }
+            kernel_config::abi::metric::KERNEL_BOOT_TICKS => {
+                if let Some(boot) = self.boots.last_mut() {
+                    boot.kernel_boot_ticks.get_or_insert(value);
+                }
+                return;
+            }
+            kernel_config::abi::metric::BOOT_TO_READY_TICKS => {
+                let Some(boot) = self.boots.last_mut() else {
+                    return;
+                };
+                boot.boot_to_ready_ticks.get_or_insert(value);
+                let power_on = boot.reset_cause == crate::scenario::cause_name(ResetCause::PowerOn);
+                // Every boot but the first is a reset's.
+                if self.boots.len() > 1 {
+                    if let Some(r) = self.resets.last_mut() {
+                        r.boot_to_ready_ticks.get_or_insert(value);
+                    }
+                    self.reset_recovered();
+                }
+                if power_on {
+                    "max_boot_to_ready_ticks_power_on"
+                } else {
+                    "max_boot_to_ready_ticks_warm"
+                }
+            }
             _ => return,
         };
+        self.max_metric(name, value);
+        if name == "max_recovery_ticks" {
+            self.max_metric("max_recovery_instructions", to_instructions(value));
+        }
+    }
+
+    fn max_metric(&mut self, name: &str, value: u64) {
         let slot = self.metrics.entry(name.to_string()).or_insert(0);
         *slot = (*slot).max(value);
-        if name == "max_recovery_ticks" {
-            self.metrics.insert(
-                "max_recovery_instructions".into(),
-                self.metrics[name] * INSTRUCTIONS_PER_TICK_X1000 / 1000,
-            );
+    }
+
+    /// Once both halves of the last reset's recovery are known: reset vector to repaired plan.
+    fn reset_recovered(&mut self) {
+        let Some(r) = self.resets.last_mut() else {
+            return;
+        };
+        if let (Some(boot), Some(recovery), None) = (
+            r.boot_to_ready_ticks,
+            r.recovery_ticks,
+            r.reset_recovery_ticks,
+        ) {
+            let total = boot + recovery;
+            r.reset_recovery_ticks = Some(total);
+            self.max_metric("max_reset_recovery_ticks", total);
+            self.max_metric("max_reset_recovery_instructions", to_instructions(total));
         }
+    }
+
+    /// The target booted (the mission's first boot; resets record theirs in [`Self::reset`]).
+    pub fn boot(&mut self, at: MissionTimeUs, cause: ResetCause) {
+        self.boots.push(BootRecord {
+            at: at.0,
+            reset_cause: crate::scenario::cause_name(cause).into(),
+            boot_to_ready_ticks: None,
+            kernel_boot_ticks: None,
+        });
     }
 
     /// The spacecraft published `value` for `key` at `at`.
@@ -306,10 +425,13 @@ impl MissionRecord {
             recovery_us,
             restart_at: at.0 + recovery_us,
             reset_cause: crate::scenario::cause_name(cause).into(),
+            boot_to_ready_ticks: None,
             recovery_ticks: None,
             restored_from: None,
             restored_sequence: None,
+            reset_recovery_ticks: None,
         });
+        self.boot(at, cause);
         self.label(at, kind.to_string());
     }
 
@@ -330,4 +452,50 @@ pub fn task_name(network: &TaskNetwork, id: u16) -> String {
         .find(|t| t.id == id)
         .map(|t| t.name.as_str().to_string())
         .unwrap_or_else(|| format!("task#{id}"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn metric(rec: &mut MissionRecord, id: u16, value: u64) {
+        rec.telemetry(&TelemetryEvent::Metric { id, value }, &TaskNetwork::EMPTY);
+    }
+
+    #[test]
+    fn boot_to_ready_goes_to_its_boot_and_a_reset_adds_its_recovery() {
+        use flight_app::metric::{PLANNER_TICKS, RECOVERY_TICKS};
+        use kernel_config::abi::metric::BOOT_TO_READY_TICKS;
+        let mut rec = MissionRecord::default();
+        rec.boot(MissionTimeUs(0), ResetCause::PowerOn);
+        metric(
+            &mut rec,
+            kernel_config::abi::metric::KERNEL_BOOT_TICKS,
+            30_000,
+        );
+        metric(&mut rec, BOOT_TO_READY_TICKS, 40_000);
+        metric(&mut rec, PLANNER_TICKS, 500);
+        metric(&mut rec, PLANNER_TICKS, 300);
+        rec.reset(MissionTimeUs(10), "warm reset", 5, ResetCause::Warm);
+        metric(&mut rec, BOOT_TO_READY_TICKS, 70_000);
+        assert_eq!(rec.resets[0].reset_recovery_ticks, None);
+        metric(&mut rec, RECOVERY_TICKS, 20_000);
+        rec.reset(MissionTimeUs(20), "warm reset", 5, ResetCause::Warm);
+        metric(&mut rec, BOOT_TO_READY_TICKS, 71_000);
+        metric(&mut rec, RECOVERY_TICKS, 10_000);
+
+        let boots: Vec<Option<u64>> = rec.boots.iter().map(|b| b.boot_to_ready_ticks).collect();
+        assert_eq!(boots, [Some(40_000), Some(70_000), Some(71_000)]);
+        assert_eq!(rec.boots[0].kernel_boot_ticks, Some(30_000));
+        assert_eq!(rec.boots[1].kernel_boot_ticks, None);
+        assert_eq!(rec.resets[0].reset_recovery_ticks, Some(90_000));
+        assert_eq!(rec.resets[1].reset_recovery_ticks, Some(81_000));
+        let m = &rec.metrics;
+        assert_eq!(m["max_boot_to_ready_ticks_power_on"], 40_000);
+        assert_eq!(m["max_boot_to_ready_ticks_warm"], 71_000);
+        assert_eq!(m["max_planner_ticks"], 500);
+        assert_eq!(m["max_recovery_ticks"], 20_000);
+        assert_eq!(m["max_reset_recovery_ticks"], 90_000);
+        assert_eq!(m["max_reset_recovery_instructions"], 90_000 * 15_060 / 1000);
+    }
 }

@@ -106,6 +106,8 @@ pub struct MissionReport {
     pub tasks: Vec<GanttRow>,
     pub events: Vec<(String, String)>,
     pub resets: Vec<super::record::ResetRecord>,
+    /// Every boot with its boot-to-ready cost (emulated target).
+    pub boots: Vec<super::record::BootRecord>,
     pub faults: Vec<(String, String)>,
     pub metrics: std::collections::BTreeMap<String, u64>,
     pub frames: u64,
@@ -232,6 +234,7 @@ pub fn run(
             .map(|(at, l)| (fmt_time(fsw_bridge::MissionTimeUs(*at)), l.clone()))
             .collect(),
         resets: record.resets.clone(),
+        boots: record.boots.clone(),
         faults: record
             .faults
             .iter()
@@ -266,9 +269,35 @@ pub fn summary(r: &MissionReport) -> String {
             row.outcome
         ));
     }
-    for reset in &r.resets {
+    if let Some(ticks) = r.boots.first().and_then(|b| b.boot_to_ready_ticks) {
         out.push_str(&format!(
-            "  {} at {}: down {} s, restarted ({}), {}{}\n",
+            "  boot ({}): ready after {ticks} ticks = {} instructions{}\n",
+            r.boots[0].reset_cause,
+            super::record::to_instructions(ticks),
+            r.boots[0]
+                .kernel_boot_ticks
+                .map(|k| format!(" (kernel {k}, executive {})", ticks.saturating_sub(k)))
+                .unwrap_or_default()
+        ));
+    }
+    for reset in &r.resets {
+        let cost = match (
+            reset.boot_to_ready_ticks,
+            reset.recovery_ticks,
+            reset.reset_recovery_ticks,
+        ) {
+            (Some(boot), Some(recovery), Some(total)) => format!(
+                "; reset to repaired plan {total} ticks = {} instructions (boot to ready {boot}, recovery {recovery})",
+                super::record::to_instructions(total)
+            ),
+            (_, Some(recovery), _) => format!(
+                "; recovery took {recovery} ticks = {} instructions",
+                super::record::to_instructions(recovery)
+            ),
+            _ => String::new(),
+        };
+        out.push_str(&format!(
+            "  {} at {}: down {} s, restarted ({}), {}{cost}\n",
             reset.kind,
             fmt_time(fsw_bridge::MissionTimeUs(reset.at)),
             reset.recovery_us / 1_000_000,
@@ -277,13 +306,6 @@ pub fn summary(r: &MissionReport) -> String {
                 Some(from) => format!("plan restored from the {from}"),
                 None => "no plan restored".to_string(),
             },
-            reset
-                .recovery_ticks
-                .map(|t| format!(
-                    ", recovery took {t} ticks = {} instructions",
-                    t * super::record::INSTRUCTIONS_PER_TICK_X1000 / 1000
-                ))
-                .unwrap_or_default()
         ));
     }
     out.push_str("  expectations:\n");

@@ -199,6 +199,9 @@ pub struct Sim {
     pub budget: StepBudget,
     pub now: MissionTimeUs,
     pub steps: u64,
+    /// Step with `step_timed` and a clock that advances by one per read, recording the costs.
+    pub timed: bool,
+    pub costs: Vec<StepCost>,
 }
 
 pub const WARM_AREA_LEN: usize = 64 * 1024;
@@ -215,6 +218,8 @@ impl Sim {
             budget: StepBudget::UNLIMITED,
             now: start,
             steps: 0,
+            timed: false,
+            costs: Vec::new(),
         }
     }
 
@@ -226,7 +231,18 @@ impl Sim {
         self.now = t;
         self.out.now = t;
         self.sc.deliver(t, &mut self.autonomy);
-        self.autonomy.step(t, self.budget, &mut self.out);
+        if self.timed {
+            let mut reads = 0u64;
+            let (_, cost) = self
+                .autonomy
+                .step_timed(t, self.budget, &mut self.out, &mut || {
+                    reads += 1;
+                    reads
+                });
+            self.costs.push(cost);
+        } else {
+            self.autonomy.step(t, self.budget, &mut self.out);
+        }
         self.steps += 1;
         for (id, opcode, args) in std::mem::take(&mut self.out.dispatches) {
             self.sc.on_dispatch(t, id, opcode, &args);

@@ -30,12 +30,13 @@ pub const fn ticks_to_us(ticks: u64) -> u64 {
     ticks.saturating_mul(10) / 166
 }
 
-/// Remember the timebase at boot (the reference for log timestamps). Kernel only.
-pub fn mark_boot() {
-    crate::shared::set_boot_ticks(now().0);
+/// Remember the timebase at the reset vector (`ticks`, read by the reset stub): the reference
+/// for log timestamps, the uptime and boot to ready. Kernel only.
+pub fn mark_boot(ticks: u64) {
+    crate::shared::set_boot_ticks(ticks);
 }
 
-/// Guest microseconds since [`mark_boot`]; callable from the kernel and from partitions.
+/// Guest microseconds since the reset vector; callable from the kernel and from partitions.
 pub fn micros_since_boot() -> u64 {
     ticks_to_us(now().0.wrapping_sub(crate::shared::boot_ticks()))
 }

@@ -145,6 +145,8 @@ pub struct Kernel {
     /// Bytes of non-volatile memory mapped at `kernel_config::NV_BASE` (0: none).
     pub nv_bytes: u32,
     pub mission_time_us: u64,
+    /// Ticks from the reset vector to the start of the schedule (SYS_UPTIME's r5).
+    pub boot_ticks: u64,
     /// Partition whose regions DBAT1..3 map now.
     mapped: Option<usize>,
 }
@@ -160,6 +162,7 @@ static mut KERNEL: Kernel = Kernel {
     boot_count: 0,
     nv_bytes: 0,
     mission_time_us: 0,
+    boot_ticks: 0,
     mapped: None,
 };
 
@@ -186,6 +189,8 @@ pub fn start(boot_cause: u32, boot_count: u32, nv_bytes: u32) -> ! {
         k.contexts[p] = Context::partition_start(p);
     }
     let now = timebase::now().0;
+    // The kernel's part of boot to ready: reset stub, board bring-up and the set-up above.
+    k.boot_ticks = now.wrapping_sub(shared::boot_ticks());
     let next = k.sched_start(now);
     let ctx = k.resume(next, now);
     // SAFETY:

@@ -153,6 +153,11 @@ impl Kernel {
                 ok()
             }
             SYS_IDENTITY => Ok(Return(p as u32, self.parts[p].generation, 0)),
+            SYS_UPTIME => {
+                let up = now.wrapping_sub(crate::shared::boot_ticks());
+                let boot = self.boot_ticks.min(u64::from(u32::MAX)) as u32;
+                Ok(Return((up >> 32) as u32, up as u32, boot))
+            }
             SYS_PANIC => {
                 let file = USlice::from_raw(a[0], a[1].min(128))
                     .and_then(|s| s.readable_by(p))

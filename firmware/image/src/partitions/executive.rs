@@ -2,8 +2,16 @@
 //! the lockstep and uplink protocol around it). It receives the host's state updates, command
 //! responses, uplink chunks and time grants routed by the I/O partition, steps the autonomy
 //! once per grant, checkpoints the plan into the warm-restart area and, when the board has it,
-//! into non-volatile memory (both through the kernel: this partition owns them), and queues what it decided (command dispatches, telemetry, FrameDone)
-//! for the I/O partition. It also serves the kernel's syscall benchmark on request.
+//! into non-volatile memory (both through the kernel: this partition owns them), and queues
+//! what it decided (command dispatches, telemetry, FrameDone) for the I/O partition. It also serves the kernel's syscall benchmark on request.
+//!
+//! Host input is handled at window starts: what the I/O partition routes is queued until the
+//! message the host waits for an answer to (a time grant, an uplink chunk) has arrived, and the
+//! whole batch is handled at the start of the partition's next window. So a frame's work starts
+//! at the same point of a window however the host's bytes were spread over the I/O
+//! partition's windows, and its costs (partition CPU ticks, read from the timebase with 15
+//! instructions per tick) come out the same run to run; handled as it trickled in, a frame's
+//! step could start at a different point in the window and its tick count differ by one.
 //!
 //! The planner and the executive of the core still run together here; they exchange only
 //! commits and task reports, so splitting them over the planner partition is a move of code,
@@ -28,6 +36,8 @@ pub const WARM_CHECKPOINT_BYTES: usize = (WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE
 pub const NV_CHECKPOINT_BYTES: usize = WARM_CHECKPOINT_BYTES;
 /// Messages for the host the partition holds while the outbound port is full.
 pub const OUTBOX_CAPACITY: usize = 128;
+/// Host messages held until their batch is complete (a frame's state updates and responses).
+pub const PENDING_CAPACITY: usize = 32;
 
 pub struct ExecutiveState {
     pub state_updates: u32,
@@ -46,10 +56,16 @@ pub struct ExecutiveState {
     /// The board has non-volatile memory (the boot read of `nv` succeeded).
     pub has_nv: bool,
     pub outbox: Deque<TargetToHost, OUTBOX_CAPACITY>,
+    /// Host messages received, in order, not handled yet.
+    pub pending: Deque<HostToTarget, PENDING_CAPACITY>,
+    /// `pending` ends with a message the host waits for: handle it at the next window start.
+    pub batch_complete: bool,
+    /// Batches handled early because `pending` was full.
+    pub pending_overflows: u32,
 }
 
-// SAFETY: integers, booleans, byte arrays, and a heapless Deque whose all-zero value is the empty queue
-// (indices 0, not full; the buffer is MaybeUninit).
+// SAFETY: integers, booleans, byte arrays, and heapless Deques whose all-zero value is the empty
+// queue (indices 0, not full; the buffer is MaybeUninit).
 unsafe impl ZeroValid for ExecutiveState {}
 
 #[link_section = ".bss.part.executive"]
@@ -124,6 +140,20 @@ pub extern "C" fn partition_executive_main() -> ! {
             nv: state.has_nv.then_some(&mut state.nv[..]),
         };
         let outcome = app.boot(&mut memories, &mut PartitionClock, &mut outbox);
+        // Ready: the first grant can be taken. Once per boot (a restart by the health
+        // monitor is not a boot, and this partition's CPU time counts from the boot).
+        if sys::identity().1 == 0 {
+            let (_, kernel_boot) = sys::uptime();
+            let ready = kernel_boot + sys::cpu_time().0;
+            outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
+                id: metric::KERNEL_BOOT_TICKS,
+                value: kernel_boot,
+            }));
+            outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
+                id: metric::BOOT_TO_READY_TICKS,
+                value: ready,
+            }));
+        }
         match outcome {
             flight_app::BootOutcome::Cold => {
                 defmt::info!("executive: cold start, waiting for an uplink")
@@ -137,17 +167,52 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
         }
     }
-    // The restore used most of this window: the first frame's work (the repair after a reset)
-    // starts in a fresh one, so it never overruns the window, whenever its grant arrives.
-    sys::wait_next_window();
     loop {
+        // A window start: first the batch completed in the last window.
+        if core::mem::replace(&mut state.batch_complete, false) {
+            handle_pending(state, app);
+        }
         flush(state);
         while let Some((msg, _generation)) = receive_routed(PORT_IO_TO_EXECUTIVE) {
-            handle(state, app, msg);
-            flush(state);
+            if let HostToTarget::StateUpdate {
+                key: StateKey(control::SYSCALL_BENCH),
+                ..
+            } = msg
+            {
+                // Times itself from a window start of its own.
+                handle(state, app, msg);
+                flush(state);
+                continue;
+            }
+            let answer_awaited = matches!(
+                msg,
+                HostToTarget::TimeGrant { .. } | HostToTarget::UplinkChunk { .. }
+            );
+            if let Err(msg) = state.pending.push_back(msg) {
+                // More than a batch can hold: handle what there is now (correct, but this
+                // frame's costs may then differ by a tick from run to run).
+                state.pending_overflows = state.pending_overflows.saturating_add(1);
+                defmt::warn!(
+                    "executive: more than {=usize} messages in one batch",
+                    PENDING_CAPACITY
+                );
+                handle_pending(state, app);
+                handle(state, app, msg);
+                flush(state);
+                continue;
+            }
+            state.batch_complete |= answer_awaited;
         }
         let _ = sys::port_send(PORT_EXECUTIVE_STATUS, &state.state_updates.to_be_bytes());
         sys::wait_next_window();
+    }
+}
+
+/// Handle every queued host message, in order.
+fn handle_pending(state: &mut ExecutiveState, app: &mut FlightApp) {
+    while let Some(msg) = state.pending.pop_front() {
+        handle(state, app, msg);
+        flush(state);
     }
 }
 
