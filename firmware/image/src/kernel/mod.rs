@@ -200,12 +200,13 @@ impl Kernel {
                     mmu::map(p);
                     self.mapped = Some(p);
                 }
+                shared::set_running(Some(p));
                 // A switch (not the return from a system call, which stays charged to `p`).
+                // Last: it writes the decrementer `p`'s CPU time counts from.
                 if self.sched.running != Some(p) {
                     let now = timebase::now().0;
                     self.switched_in(p, entry, now);
                 }
-                shared::set_running(Some(p));
                 &self.contexts[p]
             }
             Next::Idle => {
@@ -241,6 +242,7 @@ pub extern "C" fn kernel_trap(
     dsisr: u32,
 ) -> *const Context {
     let entry = timebase::now().0;
+    let entry_dec = sched::read_dec();
     shared::set_running(None);
     if ctx == addr_of_mut!(KERNEL_FAULT_CONTEXT) {
         // SAFETY: the entry code just wrote this context; nothing else uses it.
@@ -249,6 +251,7 @@ pub extern "C" fn kernel_trap(
     }
     // SAFETY: kernel context, interrupts off; the reference ends when this trap returns.
     let k = unsafe { kernel() };
+    k.sched.entry_dec = entry_dec;
     let next = match k.sched.running {
         Some(p) => {
             debug_assert!(core::ptr::eq(ctx, &k.contexts[p]));

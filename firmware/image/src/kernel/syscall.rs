@@ -93,8 +93,9 @@ impl Kernel {
             }
             SYS_CPU_TIME => {
                 let s = &self.parts[p];
-                let window = s.window_ticks as u64 + now.saturating_sub(self.sched_run_since());
-                let total = s.cpu_total + now.saturating_sub(self.sched_run_since());
+                let stint = u64::from(self.stint_ticks());
+                let window = u64::from(s.window_ticks) + stint;
+                let total = s.cpu_total + stint;
                 Ok(Return((total >> 32) as u32, total as u32, window as u32))
             }
             SYS_LOG => {

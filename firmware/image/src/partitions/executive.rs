@@ -1,7 +1,7 @@
 //! The executive partition: runs the flight application (`flight-app`: the autonomy core with
 //! the lockstep and uplink protocol around it). It receives the host's state updates, command
 //! responses, uplink chunks and time grants routed by the I/O partition, steps the autonomy
-//! once per grant, checkpoints the plan into the warm-restart area (through the kernel: this
+//! once per grant (at the start of its window after the one the grant arrived in), checkpoints the plan into the warm-restart area (through the kernel: this
 //! partition owns it), and queues what it decided (command dispatches, telemetry, FrameDone)
 //! for the I/O partition. It also serves the kernel's syscall benchmark on request.
 //!
@@ -109,9 +109,22 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
         }
     }
+    // A time grant taken in one window waits here for the start of the next: a frame's work
+    // starts at the same instruction of a window on every run, whatever part of a window the
+    // host's bytes arrived in, so its costs (and a reset the host armed inside it, counted by
+    // the kernel from that window's start) are the same on every run.
+    let mut granted: Option<HostToTarget> = None;
     loop {
         flush(state);
+        if let Some(grant) = granted.take() {
+            handle(state, app, grant);
+            flush(state);
+        }
         while let Some((msg, _generation)) = receive_routed(PORT_IO_TO_EXECUTIVE) {
+            if matches!(msg, HostToTarget::TimeGrant { .. }) {
+                granted = Some(msg);
+                break;
+            }
             handle(state, app, msg);
             flush(state);
         }
