@@ -49,6 +49,9 @@ pub mod metric {
     pub const RESTORED_SEQUENCE: u16 = 0x1004;
     /// Checkpoint writes that failed in one frame (a plan image larger than an area's slot).
     pub const CHECKPOINT_WRITE_FAILURES: u16 = 0x1005;
+    /// Slot of the checkpoint restored at boot, in the memory it came from: 0 = A (first half),
+    /// 1 = B (second half).
+    pub const RESTORED_SLOT: u16 = 0x1006;
 }
 
 /// Planner work allowed per granted frame.
@@ -215,6 +218,7 @@ impl FlightApp {
                 metric::RESTORED_SEQUENCE,
                 u64::from(info.sequence),
             ));
+            downlink.send(metric_event(metric::RESTORED_SLOT, u64::from(info.slot)));
         }
         outcome
     }

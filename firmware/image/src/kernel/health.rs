@@ -139,6 +139,7 @@ impl Kernel {
 
     /// Halt, restart or reset for the running partition `p`.
     fn stop_partition(&mut self, p: usize, action: HmAction, now: u64) -> Next {
+        self.armed_reset_on_stop(p);
         self.charge(p, now);
         match action {
             HmAction::Log => Next::Partition(p),
@@ -168,10 +169,12 @@ impl Kernel {
             }
             HmAction::HaltPartition => {
                 self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                self.armed_reset_on_stop(p);
                 self.parts[p].run = RunState::Halted;
             }
             HmAction::RestartPartition => {
                 self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                self.armed_reset_on_stop(p);
                 self.restart(p);
             }
             HmAction::WarmReset => {

@@ -6,7 +6,10 @@
 //! they reach the kernel through `sc` ([`syscall`], with pointers checked by [`umem`]) and
 //! exchange messages through kernel-copied [`ports`]. Every exception, bad system call, panic
 //! or overrun in a partition goes to the [`health`] monitor, which applies the configured
-//! action and reports it; a fault in the kernel itself warm-resets the module.
+//! action and reports it; a fault in the kernel itself warm-resets the module. The host can
+//! also have the module warm-reset at a chosen point inside a partition's work
+//! ([`armed_reset`]).
+pub mod armed_reset;
 pub mod health;
 pub mod klog;
 pub mod mmu;
@@ -143,6 +146,8 @@ pub struct Kernel {
     pub boot_cause: u32,
     pub boot_count: u32,
     pub mission_time_us: u64,
+    /// A warm reset the host armed inside a partition's work, if any.
+    pub armed: armed_reset::ArmedReset,
     /// Partition whose regions DBAT1..3 map now.
     mapped: Option<usize>,
 }
@@ -157,6 +162,7 @@ static mut KERNEL: Kernel = Kernel {
     boot_cause: 0,
     boot_count: 0,
     mission_time_us: 0,
+    armed: armed_reset::ArmedReset::new(),
     mapped: None,
 };
 

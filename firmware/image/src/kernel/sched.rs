@@ -167,6 +167,12 @@ impl Kernel {
             .max(0) as u32
     }
 
+    /// CPU ticks `p` (running) has used since boot, up to this instruction.
+    pub fn cpu_now(&self, p: usize) -> u64 {
+        let stint = self.sched.stint_dec.wrapping_sub(read_dec()).max(0) as u64;
+        self.parts[p].cpu_total + stint
+    }
+
     /// Stop charging `p` (switch-out; the time up to the kernel entry).
     pub fn charge(&mut self, p: usize, _now: u64) {
         let used = u64::from(self.stint_ticks());
@@ -184,7 +190,7 @@ impl Kernel {
     }
 
     /// Called by `resume` when `p` is about to run: the window-start bookkeeping, then the
-    /// window end into DEC, last.
+    /// window end (or an armed reset point) into DEC, last.
     pub fn switched_in(&mut self, p: usize, entry: u64, now: u64) {
         if let Some((q, scheduled)) = self.sched.pending_start.take() {
             if q == p {
@@ -199,7 +205,10 @@ impl Kernel {
         let w = match self.sched.phase {
             Phase::Window(w) | Phase::Gap(w) => w,
         };
-        let dec = window_end_dec(w, self.sched.window_end, now);
+        let mut dec = window_end_dec(w, self.sched.window_end, now);
+        if self.armed.counts_stint(p) {
+            dec = self.armed_reset_stint(p, dec);
+        }
         write_dec(dec);
         self.sched.stint_dec = dec;
         self.sched.switch_end = timebase::now().0;
@@ -210,6 +219,8 @@ impl Kernel {
         match self.sched.phase {
             Phase::Window(w) => {
                 if let Some(p) = self.sched.running {
+                    // An armed reset point, or the count pauses at the window end.
+                    self.armed_reset_on_timer(p);
                     self.charge(p, now);
                     self.parts[p].overruns = self.parts[p].overruns.wrapping_add(1);
                     self.overrun(p);
@@ -222,6 +233,7 @@ impl Kernel {
 
     /// The running partition `p` gave up the rest of its window.
     pub fn wait_next_window(&mut self, p: usize, now: u64) -> Next {
+        self.armed_reset_on_wait(p);
         self.charge(p, now);
         self.parts[p].run = RunState::Waiting;
         Next::Idle

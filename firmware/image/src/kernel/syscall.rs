@@ -85,6 +85,8 @@ impl Kernel {
                 let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
                 let got = self.ports.receive(p, a[0] as usize, buffer)?;
                 let age = now.saturating_sub(got.sent_at).min(u64::from(u32::MAX)) as u32;
+                // Last before the return path: it may start a stint that counts from here.
+                self.armed_reset_on_receive(p, a[0] as usize);
                 Ok(Return(got.len as u32, got.generation, age))
             }
             SYS_MISSION_TIME => {
@@ -118,7 +120,12 @@ impl Kernel {
                 let at = Self::warm_range(p, a[0], a[2])?;
                 // SAFETY: as for SYS_WARM_READ; the boot record before the part is not touched.
                 let area = unsafe { core::slice::from_raw_parts_mut(at as *mut u8, data.len()) };
-                copy(area, data);
+                if self.armed.counting(p) {
+                    // A reset armed inside this partition's work may tear this write.
+                    self.armed_warm_write(p, a[0], area, data);
+                } else {
+                    copy(area, data);
+                }
                 ok()
             }
             SYS_IDENTITY => Ok(Return(p as u32, self.parts[p].generation, 0)),
@@ -167,7 +174,13 @@ impl Kernel {
             }
             SYS_RESET_MODULE => {
                 Self::link_owner(p)?;
-                self.warm_reset(ResetCause::Warm)
+                match a[0] {
+                    reset_at::NOW => self.warm_reset(ResetCause::Warm),
+                    mode => {
+                        self.arm_reset(p, mode, a[1], a[2] as usize)?;
+                        ok()
+                    }
+                }
             }
             SYS_REQUEST_METRICS => {
                 Self::link_owner(p)?;
