@@ -102,11 +102,35 @@ fn early_reset_recovery_is_measured_in_guest_ticks_and_within_budget() {
     assert!(r.metrics["max_restore_ticks"] > 0);
 }
 
+/// The transcript (everything both sides said, guest-tick measurements aside) is the same on
+/// every run, and so are the decisions. The costs are the same to within one tick: under QEMU
+/// 7.2's icount the instruction at which a decrementer write or read takes effect is now and
+/// then one off, which moves a measurement across a tick boundary (seen: one run in three).
 #[test]
 fn the_same_scenario_gives_the_same_transcript_and_the_same_costs_twice() {
     let path = scenario("flyby-two-resets.toml");
     let a = run_emulated(&path);
     let b = run_emulated(&path);
     assert_eq!(a.transcript_sha256, b.transcript_sha256);
-    assert_eq!(a.metrics, b.metrics);
+    assert_eq!(a.decisions, b.decisions);
+    assert_eq!(
+        a.metrics.keys().collect::<Vec<_>>(),
+        b.metrics.keys().collect::<Vec<_>>()
+    );
+    for (name, value) in &a.metrics {
+        let other = b.metrics[name];
+        let tolerance = if name.ends_with("_ticks") {
+            1
+        } else if name.ends_with("_instructions") {
+            hil::mission::record::INSTRUCTIONS_PER_TICK_X1000.div_ceil(1000)
+        } else {
+            0
+        };
+        assert!(
+            value.abs_diff(other) <= tolerance,
+            "{name}: {value} then {other}\n{:?}\n{:?}",
+            a.metrics,
+            b.metrics
+        );
+    }
 }
