@@ -41,7 +41,8 @@ pub const SYS_SET_MISSION_TIME: u32 = 13;
 /// owner only. `mode` is one of [`reset_at`]: NOW resets at once (value and port unused);
 /// AFTER_TICKS and IN_WARM_WRITE arm a reset inside the work the destination partition of the
 /// queuing `port` (the caller must be its source, the port must have one destination) does on
-/// the message now last in that port: the count starts when that partition receives it.
+/// the message now last in that port: the count starts at that partition's first window after
+/// it received the message (the executive starts a granted frame's work there).
 /// AFTER_TICKS: once the partition has run `value` ticks of CPU (its system calls included).
 /// IN_WARM_WRITE: in its next warm-area write, after `value`/1000 of the bytes. Either way, if
 /// the partition gives up its window (has finished that work) or is stopped by the health
@@ -162,7 +163,9 @@ pub mod metric {
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the
 /// kernel tests hold every window of every frame to. Measured under `-icount shift=2`; see
-/// the README's kernel section.
+/// the README's kernel section. A window's budget is its length less this bound (rounded down
+/// to a multiple of 83 ticks), so a partition switched in within the bound ends its window
+/// before the next one starts.
 pub const JITTER_BOUND_TICKS: u64 = 100;
 
 /// Null system calls timed by the syscall benchmark.
