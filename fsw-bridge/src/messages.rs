@@ -143,7 +143,8 @@ pub enum TelemetryEvent {
         template: u16,
         at: MissionTimeUs,
     },
-    /// The kernel's health monitor handled an error.
+    /// The kernel's health monitor handled an error. `address`: the faulting data or
+    /// instruction address (0 for an overrun: where a window ended is not reproducible).
     HealthMonitor {
         partition: u8,
         kind: u8,

@@ -84,9 +84,21 @@ pub enum ResetCause {
     HealthMonitor,
 }
 
-/// How the host asks the target to reset itself.
+/// How the host asks the target to reset itself. New kinds are appended at the end (postcard
+/// encodes the variant index).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum ResetKind {
-    /// Restart from the reset vector, RAM kept (warm-restart area survives).
+    /// Restart from the reset vector, RAM kept (warm-restart area survives), now.
     Warm,
+    /// A warm reset in the middle of the next granted frame: once the executive partition has
+    /// run `ticks` timebase ticks of CPU from its receipt of the next TimeGrant (its work on that
+    /// frame: the autonomy step, the checkpoint encoding, the warm-area copy, its messages). If
+    /// it finishes that work first, the reset happens when it does (before its FrameDone leaves
+    /// the target). Send it before the grant it applies to; the target answers with a Hello.
+    WarmAfterTicks { ticks: u32 },
+    /// A warm reset in the middle of the executive's copy of the next granted frame's checkpoint
+    /// into the warm-restart area, after `permille`/1000 of its bytes (so the newest slot is
+    /// torn). If the executive finishes that frame without writing a checkpoint, the reset
+    /// happens when it finishes.
+    WarmDuringCheckpointWrite { permille: u16 },
 }

@@ -71,7 +71,7 @@ fn largest_h2t(i: usize) -> HostToTarget {
             bytes: full::<UPLINK_CHUNK_MAX>(0xff),
         },
         5 => HostToTarget::ResetRequest {
-            kind: ResetKind::Warm,
+            kind: ResetKind::WarmAfterTicks { ticks: u32::MAX },
         },
         _ => panic!("HostToTarget has no variant {i}"),
     }
@@ -237,6 +237,28 @@ fn largest_instances_fit_in_a_frame() {
         postcard_bytes(&largest_h2t(4)).len(),
         1 + 3 + 3 + 2 + UPLINK_CHUNK_MAX
     );
+}
+
+/// Every reset kind, including the mid-frame ones, has its own tag and survives the link; the
+/// kinds added later keep the tags of the older ones (append-only).
+#[test]
+fn every_reset_kind_round_trips_with_its_tag() {
+    let kinds = [
+        (ResetKind::Warm, vec![0x05, 0x00]),
+        (
+            ResetKind::WarmAfterTicks { ticks: 20_000 },
+            vec![0x05, 0x01, 0xa0, 0x9c, 0x01],
+        ),
+        (
+            ResetKind::WarmDuringCheckpointWrite { permille: 999 },
+            vec![0x05, 0x02, 0xe7, 0x07],
+        ),
+    ];
+    for (kind, payload) in kinds {
+        let msg = HostToTarget::ResetRequest { kind };
+        assert_eq!(postcard_bytes(&msg), payload, "{kind:?}");
+        assert_round_trip(&msg);
+    }
 }
 
 /// VARIANT_COUNT against the declaration order: the instance of variant i is tagged i, and the

@@ -8,7 +8,12 @@
 //! range), and whether the reset lands at a frame boundary or in the middle of a frame (half
 //! and half). A mid-frame reset on the native target is a torn checkpoint: the reset lands
 //! while the last frame's checkpoint is being written (see
-//! [`crate::mission::target::CheckpointDamage`]). A variant is fully described by
+//! [`crate::mission::target::CheckpointDamage`]). On the emulated target it is a real warm
+//! reset at a seeded point of the executive's work in the frame at the reset time, carried out
+//! by the target's kernel (see [`MissionTarget::arm_mid_frame_reset`]); the run's `mid_frame`
+//! lines say where it landed (in the step, in the checkpoint write and how much of it was
+//! copied, or after the frame's work) and which checkpoint the restart restored. A variant is
+//! fully described by
 //! (scenario, run index, seed, reset time, recovery, reset point), and
 //! `hil campaign <scenario> --seed S --only I` runs exactly that variant again.
 //!

@@ -158,35 +158,43 @@ impl Session {
                 }
                 Err(e) => return Err(e),
             };
-            if let TargetToHost::Hello {
-                protocol_version,
-                build_id,
-                reset_cause,
-                boot_count,
-            } = msg
-            {
-                if protocol_version != PROTOCOL_VERSION {
-                    return Err(SessionError::ProtocolMismatch {
-                        target: protocol_version,
-                        host: PROTOCOL_VERSION,
-                    });
-                }
-                if let Some(fw) = &self.firmware {
-                    if fw.build_id != build_id {
-                        return Err(SessionError::BuildMismatch {
-                            target: build_id_hex(&build_id),
-                            expected: build_id_hex(&fw.build_id),
-                        });
-                    }
-                }
-                return Ok(Hello {
-                    build_id,
-                    reset_cause,
-                    boot_count,
-                });
+            if let Some(hello) = self.check_hello(&msg)? {
+                return Ok(hello);
             }
             self.unsolicited.push(msg);
         }
+    }
+
+    /// If `msg` is a Hello: what it said, or the protocol or firmware mismatch it shows.
+    pub fn check_hello(&self, msg: &TargetToHost) -> Result<Option<Hello>, SessionError> {
+        let TargetToHost::Hello {
+            protocol_version,
+            build_id,
+            reset_cause,
+            boot_count,
+        } = *msg
+        else {
+            return Ok(None);
+        };
+        if protocol_version != PROTOCOL_VERSION {
+            return Err(SessionError::ProtocolMismatch {
+                target: protocol_version,
+                host: PROTOCOL_VERSION,
+            });
+        }
+        if let Some(fw) = &self.firmware {
+            if fw.build_id != build_id {
+                return Err(SessionError::BuildMismatch {
+                    target: build_id_hex(&build_id),
+                    expected: build_id_hex(&fw.build_id),
+                });
+            }
+        }
+        Ok(Some(Hello {
+            build_id,
+            reset_cause,
+            boot_count,
+        }))
     }
 
     fn silent(&self, waited: Duration) -> SessionError {

@@ -1,6 +1,5 @@
 //! Campaigns (`hil campaign`): random-reset variants of the flyby on the native target, run in
-//! parallel, sharded and merged. The same campaign on the emulated target is at the end,
-//! ignored until the firmware runs missions.
+//! parallel, sharded and merged. The same campaign on the emulated target is at the end.
 use hil::campaign::{merge, run_campaign, CampaignOptions, CampaignReport, Shard, MID_FRAME};
 
 fn flyby_campaign(runs: u32) -> CampaignOptions {
@@ -193,8 +192,9 @@ fn mismatched_or_overlapping_reports_are_refused() {
 
 /// Twenty random-reset variants of the flyby on the emulated RAD750 (the flight application in
 /// the executive partition), every one recovering with a consistent plan and no lost
-/// checkpoint. Mid-frame variants reset at frame boundaries on QEMU until the driver has a
-/// mid-frame reset hook (see `MissionTarget::arm_mid_frame_reset`).
+/// checkpoint. Mid-frame variants are real warm resets at a seeded point of the executive's
+/// work in the frame at the reset time (see `MissionTarget::arm_mid_frame_reset`); each says
+/// where it landed and what the restart restored.
 #[test]
 fn campaign_on_the_emulated_target() {
     let _one = hil_tests::exclusive_qemu();
@@ -204,6 +204,45 @@ fn campaign_on_the_emulated_target() {
     opts.jobs = 1;
     opts.firmware = Some(hil_tests::firmware().elf.clone());
     let report = run(&opts);
+    let summary = hil::campaign::summary(&report);
     assert_eq!(report.target, "qemu");
-    assert!(report.passed(), "{}", hil::campaign::summary(&report));
+    assert!(report.passed(), "{summary}");
+    let mid: Vec<_> = report
+        .results
+        .iter()
+        .filter(|r| r.variant.reset_point == MID_FRAME)
+        .collect();
+    assert!(!mid.is_empty() && mid.len() < 20, "{summary}");
+    let mut inside = 0;
+    for r in &mid {
+        eprintln!("{}", r.variant.describe());
+        for line in &r.mid_frame {
+            eprintln!("    {line}");
+        }
+        // One line for where it landed (in the frame at the reset time), one for the restore.
+        assert_eq!(r.mid_frame.len(), 2, "{:?}", r.mid_frame);
+        let landing = &r.mid_frame[0];
+        assert!(
+            landing.contains(&format!("in the frame at {}", r.variant.reset_at)),
+            "{landing}"
+        );
+        assert!(
+            landing.contains("inside the executive's work")
+                || landing.starts_with("frame finished first"),
+            "{landing}"
+        );
+        if landing.contains("inside the executive's work") {
+            inside += 1;
+        }
+        assert!(
+            r.mid_frame[1].contains("plan restored from checkpoint"),
+            "{:?}",
+            r.mid_frame
+        );
+    }
+    eprintln!(
+        "{} mid-frame resets, {inside} inside the executive's work",
+        mid.len()
+    );
+    assert!(inside * 2 > mid.len(), "{summary}");
 }

@@ -65,6 +65,10 @@ pub mod metric {
     pub const RESTORED_FROM_WARM: u64 = 1;
     pub const RESTORED_FROM_NV: u64 = 2;
 
+    /// Slot of the checkpoint restored at boot, in the memory it came from: 0 = A (first half),
+    /// 1 = B (second half).
+    pub const RESTORED_SLOT: u16 = 0x1009;
+
     /// Metrics that are measured CPU costs (timebase ticks). A span measured with the 16.6 MHz
     /// timebase against the 250 MHz instruction clock can come out one tick longer or shorter
     /// depending on where between two ticks it started; the executive starts its work at a
@@ -297,6 +301,7 @@ impl FlightApp {
                 u64::from(info.sequence),
             ));
             downlink.send(metric_event(metric::RESTORED_FROM, from));
+            downlink.send(metric_event(metric::RESTORED_SLOT, u64::from(info.slot)));
         }
         outcome
     }

@@ -225,10 +225,18 @@ pub fn set_mission_time(us: u64) {
 
 /// Link owner: warm-reset the module (reset cause Warm).
 pub fn reset_module() -> ! {
-    raw(SYS_RESET_MODULE, [0; 5]);
+    raw(SYS_RESET_MODULE, [reset_at::NOW, 0, 0, 0, 0]);
     loop {
         wait_next_window();
     }
+}
+
+/// Link owner: warm-reset the module at a point inside the work the destination partition of
+/// `port` does on the message last queued there (`mode`: `reset_at::AFTER_TICKS` with `value`
+/// ticks, or `reset_at::IN_WARM_WRITE` with `value` permille of its next warm-area write).
+pub fn arm_reset(mode: u32, value: u32, port: usize) -> Result<(), i32> {
+    let (r3, _, _) = raw(SYS_RESET_MODULE, [mode, value, port as u32, 0, 0]);
+    result(r3).map(|_| ())
 }
 
 /// Link owner: have the kernel queue its accounting metrics now (0), every `period` frames,

@@ -37,8 +37,39 @@ pub const SYS_LOG_DRAIN: u32 = 11;
 pub const SYS_EVENT_DRAIN: u32 = 12;
 /// (high, low): mission time granted by the host, in µs. Link owner only.
 pub const SYS_SET_MISSION_TIME: u32 = 13;
-/// (): warm-reset the module with reset cause Warm (the host asked). Link owner only.
+/// (mode, value, port): warm-reset the module with reset cause Warm (the host asked). Link
+/// owner only. `mode` is one of [`reset_at`]: NOW resets at once (value and port unused);
+/// AFTER_TICKS and IN_WARM_WRITE arm a reset inside the work the destination partition of the
+/// queuing `port` (the caller must be its source, the port must have one destination) does on
+/// the message now last in that port: the count starts at that partition's first window after
+/// it received the message (the executive starts a granted frame's work there).
+/// AFTER_TICKS: once the partition has run `value` ticks of CPU (its system calls included).
+/// IN_WARM_WRITE: in its next warm-area write, after `value`/1000 of the bytes. Either way, if
+/// the partition gives up its window (has finished that work) or is stopped by the health
+/// monitor first, the reset happens then. An armed reset returns 0 (E_EMPTY if the port holds
+/// no message, E_RANGE for a bad mode or permille, E_BAD_PORT for a port that does not qualify);
+/// the kernel reports where it landed in metrics (`metric::ARMED_RESET_*`) just before the reset.
 pub const SYS_RESET_MODULE: u32 = 14;
+
+/// SYS_RESET_MODULE modes and where an armed reset landed.
+pub mod reset_at {
+    /// Reset now.
+    pub const NOW: u32 = 0;
+    /// After `value` ticks of the partition's work on the anchor message.
+    pub const AFTER_TICKS: u32 = 1;
+    /// In the partition's next warm-area write, after `value` permille of its bytes.
+    pub const IN_WARM_WRITE: u32 = 2;
+
+    /// `metric::ARMED_RESET_POINT`: the count ran out while the partition ran its own code (or
+    /// in a system call other than a warm-area write, the reset then following that call).
+    pub const LANDED_IN_CODE: u64 = 1;
+    /// Inside a warm-area write: part of its bytes copied (`metric::ARMED_RESET_WARM_COPIED`).
+    pub const LANDED_IN_WARM_WRITE: u64 = 2;
+    /// The partition finished first (gave up its window); the reset followed at once.
+    pub const LANDED_AFTER_WORK: u64 = 3;
+    /// The health monitor stopped or restarted the partition first; the reset followed.
+    pub const LANDED_PARTITION_STOPPED: u64 = 4;
+}
 /// (period): 0 = queue the kernel's accounting metrics now; n = queue them every n major
 /// frames from now on; REPORT_OFF = stop the periodic reports (the default: nothing is sent
 /// unasked). Link owner only.
@@ -118,6 +149,19 @@ pub mod metric {
     pub const EVENTS_DROPPED: u16 = 0x0210;
     /// Log bytes dropped because the kernel log buffer was full.
     pub const LOG_BYTES_DROPPED: u16 = 0x0211;
+    /// An armed reset (SYS_RESET_MODULE with a point) is about to happen: where it landed, one
+    /// of `reset_at::LANDED_*`. Sent straight to the host with the next ones, before the Hello.
+    pub const ARMED_RESET_POINT: u16 = 0x0220;
+    /// Ticks the partition ran from its receipt of the anchor message to the reset (measured
+    /// with the decrementer, so the same on every run).
+    pub const ARMED_RESET_TICKS: u16 = 0x0221;
+    /// The partition's last warm-area write since the anchor: offset in the checkpoint part
+    /// << 32 | length in bytes. Sent only if there was one.
+    pub const ARMED_RESET_WARM_WRITE: u16 = 0x0222;
+    /// Bytes of that write copied before the reset (its whole length unless it was torn).
+    pub const ARMED_RESET_WARM_COPIED: u16 = 0x0223;
+    /// When that write ran: ticks since the anchor at its start << 32 | at its end (or tear).
+    pub const ARMED_RESET_WARM_WRITE_TICKS: u16 = 0x0224;
     /// CRC-32 of the planner's search table (sent by the planner on request).
     pub const PLANNER_CHECKSUM: u16 = 0x0300;
     /// State updates the executive received since its (re)start.
@@ -142,7 +186,9 @@ pub mod metric {
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the
 /// kernel tests hold every window of every frame to. Measured under `-icount shift=2`; see
-/// the README's kernel section.
+/// the README's kernel section. A window's budget is its length less this bound (rounded down
+/// to a multiple of 83 ticks), so a partition switched in within the bound ends its window
+/// before the next one starts.
 pub const JITTER_BOUND_TICKS: u64 = 100;
 
 /// Null system calls timed by the syscall benchmark.

@@ -141,10 +141,15 @@ pub fn uplink_chunk() -> impl Strategy<Value = HostToTarget> {
     (u16s(), u16s(), hvec::<u8, _, UPLINK_CHUNK_MAX>(any::<u8>))
         .prop_map(|(seq, total, bytes)| HostToTarget::UplinkChunk { seq, total, bytes })
 }
+pub fn reset_kinds() -> impl Strategy<Value = ResetKind> {
+    prop_oneof![
+        Just(ResetKind::Warm),
+        u32s().prop_map(|ticks| ResetKind::WarmAfterTicks { ticks }),
+        u16s().prop_map(|permille| ResetKind::WarmDuringCheckpointWrite { permille }),
+    ]
+}
 pub fn reset_request() -> impl Strategy<Value = HostToTarget> {
-    Just(HostToTarget::ResetRequest {
-        kind: ResetKind::Warm,
-    })
+    reset_kinds().prop_map(|kind| HostToTarget::ResetRequest { kind })
 }
 
 pub fn host_to_target() -> impl Strategy<Value = HostToTarget> {

@@ -461,18 +461,85 @@ impl LinkFaults {
     }
 }
 
-/// The transcript: every frame both ways, in order, and its SHA-256; plus one readable line
-/// per frame (`hil run` writes them to `transcript.txt`, to diff two runs whose hashes differ).
-#[derive(Default)]
+/// Guest-tick measurements among the target's metrics (costs, and where in its work an armed
+/// reset landed in ticks). Their values go to the run's metrics and reset records, not into the
+/// transcript hash: under QEMU 7.2's icount a measurement can come out one tick apart between
+/// two runs of the same scenario (the instruction at which a decrementer write or read takes
+/// effect is occasionally one off), while everything the target decided and said is the same.
+pub fn is_tick_measurement(id: u16) -> bool {
+    use flight_app::metric as app;
+    use kernel_config::abi::metric as kernel;
+    app::is_measured_cost(id)
+        || matches!(
+            id,
+            kernel::BOOT_TO_READY_TICKS
+                | kernel::KERNEL_BOOT_TICKS
+                | kernel::ARMED_RESET_TICKS
+                | kernel::ARMED_RESET_WARM_WRITE_TICKS
+                | kernel::SYSCALL_BENCH_TICKS
+                | kernel::SWITCH_MILLITICKS
+                | kernel::SWITCH_MAX_TICKS
+                | kernel::MAX_JITTER_ALL
+        )
+        || [
+            kernel::FRAME_TICKS,
+            kernel::WORST_FRAME_TICKS,
+            kernel::MAX_JITTER,
+        ]
+        .iter()
+        .any(|base| (*base..*base + 0x10).contains(&id))
+}
+
+/// `msg` as the transcript hash sees it: guest-tick measurements (FrameDone's `busy_ticks`,
+/// [`is_tick_measurement`] metrics) read as 0.
+pub fn without_tick_measurements(msg: &TargetToHost) -> TargetToHost {
+    match msg {
+        TargetToHost::FrameDone {
+            frame, next_wakeup, ..
+        } => TargetToHost::FrameDone {
+            frame: *frame,
+            next_wakeup: *next_wakeup,
+            busy_ticks: 0,
+        },
+        TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::Metric { id, .. })
+            if is_tick_measurement(*id) =>
+        {
+            TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::Metric { id: *id, value: 0 })
+        }
+        other => other.clone(),
+    }
+}
+
+/// The transcript: every frame both ways, in order (what the target sent without its
+/// guest-tick measurements, see [`without_tick_measurements`]), and its SHA-256; plus one
+/// readable line per frame with the measured values (`hil run` writes them to
+/// `transcript.txt`). With `HIL_DEBUG_TRANSCRIPT` set in the environment every frame is also
+/// printed to stderr.
 pub struct Transcript {
     hasher: Sha256,
     pub frames: u64,
     pub bytes: u64,
     pub lines: Vec<String>,
+    echo: bool,
+}
+
+impl Default for Transcript {
+    fn default() -> Self {
+        Self {
+            hasher: Sha256::default(),
+            frames: 0,
+            bytes: 0,
+            lines: Vec::new(),
+            echo: std::env::var_os("HIL_DEBUG_TRANSCRIPT").is_some(),
+        }
+    }
 }
 
 impl Transcript {
     fn sent(&mut self, frame: &[u8]) {
+        if self.echo {
+            eprintln!("T {frame:02x?}");
+        }
         self.hasher.update(b"T");
         self.hasher.update((frame.len() as u32).to_be_bytes());
         self.hasher.update(frame);
@@ -487,7 +554,10 @@ impl Transcript {
     }
 
     fn received(&mut self, msg: &TargetToHost) {
-        let frame = frame_of(&without_measured_costs(msg));
+        if self.echo {
+            eprintln!("R {msg:?}");
+        }
+        let frame = frame_of(&without_tick_measurements(msg));
         self.hasher.update(b"R");
         self.hasher.update((frame.len() as u32).to_be_bytes());
         self.hasher.update(&frame);
@@ -507,33 +577,6 @@ impl Transcript {
     }
 }
 
-/// `msg` with its measured CPU costs (FrameDone's busy ticks, cost metrics) set to 0, as the
-/// transcript hash sees it: a measured span can differ by one timebase tick from run to run
-/// (see [`flight_app::metric::is_measured_cost`]), every decision and every other field cannot.
-/// The readable transcript and the report keep the measured values.
-pub fn without_measured_costs(msg: &TargetToHost) -> TargetToHost {
-    match msg {
-        TargetToHost::FrameDone {
-            frame, next_wakeup, ..
-        } => TargetToHost::FrameDone {
-            frame: *frame,
-            next_wakeup: *next_wakeup,
-            busy_ticks: 0,
-        },
-        TargetToHost::Telemetry(TelemetryEvent::Metric { id, .. })
-            if flight_app::metric::is_measured_cost(*id)
-                || matches!(
-                    *id,
-                    kernel_config::abi::metric::BOOT_TO_READY_TICKS
-                        | kernel_config::abi::metric::KERNEL_BOOT_TICKS
-                ) =>
-        {
-            TargetToHost::Telemetry(TelemetryEvent::Metric { id: *id, value: 0 })
-        }
-        other => other.clone(),
-    }
-}
-
 /// The outcome of driving a mission.
 pub struct MissionRun {
     pub record: MissionRecord,
@@ -548,6 +591,90 @@ pub struct MissionRun {
 /// Progress callback: (mission time now, mission start, mission end).
 pub type Progress<'a> = &'a mut dyn FnMut(MissionTimeUs, MissionTimeUs, MissionTimeUs);
 
+/// The host's side of a running mission: the simulated spacecraft, the link fault injector, the
+/// armed command faults, the record and the transcript.
+struct Host<'a> {
+    net: &'a CompiledNetwork,
+    sim: Spacecraft,
+    faults: LinkFaults,
+    fault_rng: Rng,
+    armed: Vec<Fault>,
+    rec: MissionRecord,
+    transcript: Transcript,
+    /// Messages for the next grant.
+    inputs: Vec<HostToTarget>,
+}
+
+impl Host<'_> {
+    /// The frames that go out before the grant at `now`: frames held back from the previous
+    /// frame, then what the spacecraft published and answered (link faults applied).
+    fn input_frames(&mut self, now: MissionTimeUs) -> Vec<Vec<u8>> {
+        self.inputs.extend(self.sim.due(now));
+        for msg in &self.inputs {
+            if let HostToTarget::StateUpdate {
+                key,
+                value,
+                timestamp,
+            } = msg
+            {
+                self.rec.state(*key, *value, *timestamp);
+            }
+        }
+        let mut wire = self.faults.take_delayed();
+        for msg in self.inputs.drain(..) {
+            self.faults.tx(&msg, &mut wire);
+        }
+        wire
+    }
+
+    /// Append `grant` to `wire`, retransmitted at once if the link damaged or lost it.
+    fn push_grant(&mut self, grant: &HostToTarget, wire: &mut Vec<Vec<u8>>) {
+        if !self.faults.tx(grant, wire) {
+            wire.push(frame_of(grant));
+        }
+    }
+
+    /// One message the target sent in the frame `frame` granted at `now`, after the link.
+    /// Returns `Some(next_wakeup)` for that frame's FrameDone.
+    #[allow(clippy::option_option)]
+    fn take_output(
+        &mut self,
+        msg: TargetToHost,
+        now: MissionTimeUs,
+        frame: u32,
+    ) -> Option<Option<MissionTimeUs>> {
+        let msg = self.faults.rx(msg)?;
+        self.transcript.received(&msg);
+        match &msg {
+            TargetToHost::CommandDispatch { id, opcode, args } => {
+                self.rec.dispatch(now, *id, *opcode, args);
+                let fate = fate_of(&mut self.armed, *opcode, &mut self.fault_rng);
+                if fate != CommandFate::Nominal {
+                    self.rec.faults.push((
+                        now.0,
+                        format!("command {id} (opcode {:#06x}): {fate:?}", opcode.0),
+                    ));
+                }
+                self.sim.on_dispatch(now, *id, *opcode, args, fate);
+            }
+            TargetToHost::Telemetry(ev) => self.rec.telemetry(ev, &self.net.network),
+            TargetToHost::FrameDone {
+                frame: f,
+                next_wakeup,
+                ..
+            } if *f == frame => return Some(*next_wakeup),
+            TargetToHost::Hello { reset_cause, .. } => {
+                // The target reset itself (health monitor, watchdog).
+                self.rec
+                    .reset(now, "target-initiated reset", 0, *reset_cause);
+                self.inputs = self.sim.publish_all(now);
+            }
+            _ => {}
+        }
+        None
+    }
+}
+
 /// Run `mission` on `target`.
 pub fn drive(
     mission: &Mission,
@@ -556,28 +683,42 @@ pub fn drive(
     target: &mut dyn MissionTarget,
     progress: Progress<'_>,
 ) -> Result<MissionRun, MissionError> {
-    let mut sim = Spacecraft::new(spacecraft, net, mission.start, mission.seed)
+    let sim = Spacecraft::new(spacecraft, net, mission.start, mission.seed)
         .map_err(|e| field_err(&e.field, e.message))?;
-    let mut faults = LinkFaults::new(mission.link.clone(), mission.seed);
-    let mut fault_rng = Rng::new(mission.seed).fork(0xfa);
-    let mut armed: Vec<Fault> = Vec::new();
-    let mut rec = MissionRecord::default();
-    let mut transcript = Transcript::default();
+    let mut host = Host {
+        net,
+        sim,
+        faults: LinkFaults::new(mission.link.clone(), mission.seed),
+        fault_rng: Rng::new(mission.seed).fork(0xfa),
+        armed: Vec::new(),
+        rec: MissionRecord::default(),
+        transcript: Transcript::default(),
+        inputs: Vec::new(),
+    };
     let mut events = mission.events.iter().peekable();
 
     let hello = target.boot()?;
-    transcript.received(&hello_message(&hello));
-    rec.boot(mission.start, hello.reset_cause);
-    rec.label(
+    host.transcript.received(&hello_message(&hello));
+    host.rec.boot(mission.start, hello.reset_cause);
+    host.rec.label(
         mission.start,
         format!("boot ({})", crate::scenario::cause_name(hello.reset_cause)),
     );
-    uplink(target, net, &mut transcript, &mut rec)?;
+    uplink(target, net, &mut host.transcript, &mut host.rec)?;
 
     let mut now = mission.start;
     let wall_start = std::time::Instant::now();
+    let pace = |now: MissionTimeUs| {
+        if mission.realtime {
+            // Real time: the grant for `now` goes out when the wall clock says so.
+            let due = wall_start + std::time::Duration::from_micros(now.0 - mission.start.0);
+            if let Some(wait) = due.checked_duration_since(std::time::Instant::now()) {
+                std::thread::sleep(wait);
+            }
+        }
+    };
     let mut frame: u32 = 0;
-    let mut inputs = sim.publish_all(now);
+    host.inputs = host.sim.publish_all(now);
     let mut zero_advance = 0u32;
     loop {
         // Scenario events due now happen before the grant.
@@ -586,17 +727,45 @@ pub fn drive(
                 Action::WarmReset { recovery_us } | Action::PowerCycle { recovery_us } => {
                     let power = matches!(ev.action, Action::PowerCycle { .. });
                     let what = if power { "power cycle" } else { "warm reset" };
+                    let in_frame = if power {
+                        None
+                    } else {
+                        target.mid_frame_reset_request(now)
+                    };
                     if power {
                         target.power_cycle()?;
+                    } else if let Some(request) = in_frame {
+                        // The reset lands inside the frame at `now`, on the target itself: that
+                        // frame gets its inputs and grant with the request just before the
+                        // grant, and the target resets instead of finishing it.
+                        let mut wire = host.input_frames(now);
+                        pace(now);
+                        let until =
+                            next_stop(now, mission, &host.sim, None, events.peek().map(|e| e.at));
+                        let grant = HostToTarget::TimeGrant { frame, now, until };
+                        // A test instrument, like QMP: never damaged by injected link faults.
+                        wire.push(frame_of(&request));
+                        host.push_grant(&grant, &mut wire);
+                        for f in &wire {
+                            host.transcript.sent(f);
+                        }
+                        for msg in target.exchange_until_reset(&wire, frame)? {
+                            // The Hello that ends the frame is the boot's, below.
+                            if !matches!(msg, TargetToHost::Hello { .. }) {
+                                let _ = host.take_output(msg, now, frame);
+                            }
+                        }
+                        host.rec.frames += 1;
+                        frame = frame.wrapping_add(1);
                     } else {
                         target.warm_reset()?;
                     }
-                    sim.reset(now);
+                    host.sim.reset(now);
                     // Fault protection runs; the flight software is down.
                     now = now.saturating_add(*recovery_us);
-                    let _ = sim.due(now);
+                    let _ = host.sim.due(now);
                     let hello = target.boot()?;
-                    transcript.received(&hello_message(&hello));
+                    host.transcript.received(&hello_message(&hello));
                     let expected = if power {
                         ResetCause::PowerOn
                     } else {
@@ -610,105 +779,58 @@ pub fn drive(
                             got: crate::scenario::cause_name(hello.reset_cause).into(),
                         });
                     }
-                    rec.reset(ev.at, what, *recovery_us, hello.reset_cause);
-                    rec.label(
+                    host.rec.reset(ev.at, what, *recovery_us, hello.reset_cause);
+                    host.rec.label(
                         now,
                         format!(
                             "flight software restarted ({})",
                             crate::scenario::cause_name(hello.reset_cause)
                         ),
                     );
-                    if power {
-                        // A power-cycled target has no network in RAM; it restores from NV.
-                    }
-                    inputs = sim.publish_all(now);
+                    // A power-cycled target has no network in RAM; it restores from NV.
+                    host.inputs = host.sim.publish_all(now);
                 }
                 Action::CommandFault(f) => {
-                    rec.faults.push((
+                    host.rec.faults.push((
                         now.0,
                         format!("armed {:?} for opcode {:#06x}", f.fate, f.opcode.0),
                     ));
-                    armed.push(f.clone());
+                    host.armed.push(f.clone());
                 }
                 Action::Override { key, value, name } => {
-                    sim.override_state(*key, *value, now);
-                    rec.faults
+                    host.sim.override_state(*key, *value, now);
+                    host.rec
+                        .faults
                         .push((now.0, format!("{name} forced to {value:?}")));
                 }
                 Action::Change { key, by, name } => {
-                    sim.add_to(*key, *by, now)
+                    host.sim
+                        .add_to(*key, *by, now)
                         .map_err(|e| field_err("events", e))?;
-                    rec.faults.push((now.0, format!("{name} changed by {by}")));
+                    host.rec
+                        .faults
+                        .push((now.0, format!("{name} changed by {by}")));
                 }
             }
         }
-        inputs.extend(sim.due(now));
-        for msg in &inputs {
-            if let HostToTarget::StateUpdate {
-                key,
-                value,
-                timestamp,
-            } = msg
-            {
-                rec.state(*key, *value, *timestamp);
-            }
-        }
         // Frames for this grant: held-back frames, inputs, the grant.
-        let mut wire = faults.take_delayed();
-        for msg in inputs.drain(..) {
-            faults.tx(&msg, &mut wire);
-        }
-        if mission.realtime {
-            // Real time: the grant for `now` goes out when the wall clock says so.
-            let due = wall_start + std::time::Duration::from_micros(now.0 - mission.start.0);
-            if let Some(wait) = due.checked_duration_since(std::time::Instant::now()) {
-                std::thread::sleep(wait);
-            }
-        }
-        let until = next_stop(now, mission, &sim, None, events.peek().map(|e| e.at));
+        let mut wire = host.input_frames(now);
+        pace(now);
+        let until = next_stop(now, mission, &host.sim, None, events.peek().map(|e| e.at));
         let grant = HostToTarget::TimeGrant { frame, now, until };
-        if !faults.tx(&grant, &mut wire) {
-            // Retransmission of a grant the link damaged or lost.
-            wire.push(frame_of(&grant));
-        }
+        host.push_grant(&grant, &mut wire);
         let mut next_wakeup = None;
         let mut attempts = 0;
         loop {
             for f in &wire {
-                transcript.sent(f);
+                host.transcript.sent(f);
             }
             let outputs = target.exchange(&wire, frame)?;
             let mut done = false;
             for msg in outputs {
-                let Some(msg) = faults.rx(msg) else { continue };
-                transcript.received(&msg);
-                match &msg {
-                    TargetToHost::CommandDispatch { id, opcode, args } => {
-                        rec.dispatch(now, *id, *opcode, args);
-                        let fate = fate_of(&mut armed, *opcode, &mut fault_rng);
-                        if fate != CommandFate::Nominal {
-                            rec.faults.push((
-                                now.0,
-                                format!("command {id} (opcode {:#06x}): {fate:?}", opcode.0),
-                            ));
-                        }
-                        sim.on_dispatch(now, *id, *opcode, args, fate);
-                    }
-                    TargetToHost::Telemetry(ev) => rec.telemetry(ev, &net.network),
-                    TargetToHost::FrameDone {
-                        frame: f,
-                        next_wakeup: w,
-                        ..
-                    } if *f == frame => {
-                        done = true;
-                        next_wakeup = *w;
-                    }
-                    TargetToHost::Hello { reset_cause, .. } => {
-                        // The target reset itself (health monitor, watchdog).
-                        rec.reset(now, "target-initiated reset", 0, *reset_cause);
-                        inputs = sim.publish_all(now);
-                    }
-                    _ => {}
+                if let Some(w) = host.take_output(msg, now, frame) {
+                    done = true;
+                    next_wakeup = w;
                 }
             }
             if done {
@@ -720,12 +842,18 @@ pub fn drive(
             }
             wire = vec![frame_of(&grant)];
         }
-        rec.frames += 1;
+        host.rec.frames += 1;
         progress(now, mission.start, mission.end);
         if now >= mission.end {
             break;
         }
-        let next = next_stop(now, mission, &sim, next_wakeup, events.peek().map(|e| e.at));
+        let next = next_stop(
+            now,
+            mission,
+            &host.sim,
+            next_wakeup,
+            events.peek().map(|e| e.at),
+        );
         if next <= now {
             zero_advance += 1;
             if zero_advance > MAX_ZERO_ADVANCE_FRAMES {
@@ -740,19 +868,19 @@ pub fn drive(
         now = next.max(now);
         frame = frame.wrapping_add(1);
     }
-    rec.metrics.insert(
-        "link_faults_injected".into(),
-        faults.injected_tx + faults.injected_rx,
-    );
-    let transcript_frames = transcript.frames;
-    let (transcript_sha256, transcript) = transcript.finish();
+    let injected = host.faults.injected_tx + host.faults.injected_rx;
+    host.rec
+        .metrics
+        .insert("link_faults_injected".into(), injected);
+    let transcript_frames = host.transcript.frames;
+    let (transcript_sha256, transcript) = host.transcript.finish();
     Ok(MissionRun {
-        record: rec,
+        record: host.rec,
         transcript_frames,
         transcript_sha256,
         transcript,
-        injected_link_faults: faults.injected_tx + faults.injected_rx,
-        host_link_errors: faults.rx_decoder.counters(),
+        injected_link_faults: injected,
+        host_link_errors: host.faults.rx_decoder.counters(),
     })
 }
 

@@ -6,7 +6,10 @@
 //! they reach the kernel through `sc` ([`syscall`], with pointers checked by [`umem`]) and
 //! exchange messages through kernel-copied [`ports`]. Every exception, bad system call, panic
 //! or overrun in a partition goes to the [`health`] monitor, which applies the configured
-//! action and reports it; a fault in the kernel itself warm-resets the module.
+//! action and reports it; a fault in the kernel itself warm-resets the module. The host can
+//! also have the module warm-reset at a chosen point inside a partition's work
+//! ([`armed_reset`]).
+pub mod armed_reset;
 pub mod health;
 pub mod klog;
 pub mod mmu;
@@ -147,6 +150,8 @@ pub struct Kernel {
     pub mission_time_us: u64,
     /// Ticks from the reset vector to the start of the schedule (SYS_UPTIME's r5).
     pub boot_ticks: u64,
+    /// A warm reset the host armed inside a partition's work, if any.
+    pub armed: armed_reset::ArmedReset,
     /// Partition whose regions DBAT1..3 map now.
     mapped: Option<usize>,
 }
@@ -163,6 +168,7 @@ static mut KERNEL: Kernel = Kernel {
     nv_bytes: 0,
     mission_time_us: 0,
     boot_ticks: 0,
+    armed: armed_reset::ArmedReset::new(),
     mapped: None,
 };
 
@@ -209,12 +215,13 @@ impl Kernel {
                     mmu::map(p);
                     self.mapped = Some(p);
                 }
+                shared::set_running(Some(p));
                 // A switch (not the return from a system call, which stays charged to `p`).
+                // Last: it writes the decrementer `p`'s CPU time counts from.
                 if self.sched.running != Some(p) {
                     let now = timebase::now().0;
                     self.switched_in(p, entry, now);
                 }
-                shared::set_running(Some(p));
                 &self.contexts[p]
             }
             Next::Idle => {
@@ -250,6 +257,7 @@ pub extern "C" fn kernel_trap(
     dsisr: u32,
 ) -> *const Context {
     let entry = timebase::now().0;
+    let entry_dec = sched::read_dec();
     shared::set_running(None);
     if ctx == addr_of_mut!(KERNEL_FAULT_CONTEXT) {
         // SAFETY: the entry code just wrote this context; nothing else uses it.
@@ -258,6 +266,7 @@ pub extern "C" fn kernel_trap(
     }
     // SAFETY: kernel context, interrupts off; the reference ends when this trap returns.
     let k = unsafe { kernel() };
+    k.sched.entry_dec = entry_dec;
     let next = match k.sched.running {
         Some(p) => {
             debug_assert!(core::ptr::eq(ctx, &k.contexts[p]));

@@ -92,6 +92,11 @@ impl Ports {
         Ok(())
     }
 
+    /// Messages waiting in `port` (queuing ports; 0 or 1 for a sampling port).
+    pub fn queued(&self, port: usize) -> u16 {
+        self.state.get(port).map_or(0, |s| s.count)
+    }
+
     /// `receiver` takes (queuing) or reads (sampling) the next message on `port` into `buffer`.
     pub fn receive(
         &mut self,

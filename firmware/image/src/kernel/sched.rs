@@ -7,9 +7,24 @@
 //! Accounting is in timebase ticks: a partition is charged from the moment the kernel switches
 //! it in until the kernel is entered to switch it out (its system calls included). Window-start
 //! jitter is the switch-in time minus the scheduled start.
+//!
+//! Window starts follow the timebase; what a partition gets of its window, and its CPU time, are
+//! counted with the decrementer, so that they are the same on every run. Under `-icount` the
+//! timebase reads `floor(virtual ns * 16.6 MHz)`: the difference of two readings a fixed number
+//! of instructions apart is off by one tick or not depending on where within a tick the first
+//! one fell, which depends on how long the guest idled waiting for the host, and a window end
+//! taken from the timebase falls a few instructions earlier or later in the partition's work
+//! from one run to the next. A decrementer value that is a multiple of [`DEC_EXACT_TICKS`]
+//! instead expires an exact number of instructions after the instruction that wrote it, and
+//! reading it back counts from that write. So the last thing the kernel does before it enters a
+//! partition at its window start is to write the window's budget into DEC: the window's length
+//! less the jitter bound, rounded down to such a multiple (the window ends that much before its
+//! scheduled end; a late switch-in gets what is left before it). The partition's CPU time in the
+//! stint is the value written minus DEC at the next kernel entry: the instructions it ran
+//! (through fixed code paths), the same on every run for the same work.
 use core::arch::asm;
 
-use kernel_config::abi::metric;
+use kernel_config::abi::{metric, JITTER_BOUND_TICKS};
 use kernel_config::ErrorKind;
 
 use super::{Kernel, Next, RunState};
@@ -33,8 +48,18 @@ pub struct Scheduler {
     frame_start: u64,
     /// The partition switched in, if any (None: idle).
     pub running: Option<usize>,
-    /// When `running` was switched in.
-    run_since: u64,
+    /// The decrementer written when `running` was switched in (its CPU time counts down from
+    /// here).
+    stint_dec: i32,
+    /// The decrementer at the last kernel entry.
+    pub entry_dec: i32,
+    /// Timebase end of the current window (scheduled).
+    window_end: u64,
+    /// The kernel entry that led to the last window-start switch, and when that switch
+    /// finished (just before the partition resumed): accounted at its switch-out, so that
+    /// nothing data-dependent runs between the decrementer write and the partition.
+    switch_entry: Option<u64>,
+    switch_end: u64,
     /// The window whose start the next switch-in measures: (partition, scheduled start).
     pending_start: Option<(usize, u64)>,
     pub frames: u32,
@@ -46,13 +71,59 @@ pub struct Scheduler {
     pub report_period: u32,
 }
 
+/// Decrementer values that are multiples of this expire an exact number of nanoseconds after
+/// their write: 83 ticks at 16.6 MHz are exactly 5 µs (1250 instructions under icount shift=2).
+/// QEMU turns a DEC value into a deadline in whole nanoseconds, rounding down, so any other
+/// value expires up to a nanosecond early, by an amount that depends on the value.
+pub const DEC_EXACT_TICKS: u32 = 83;
+
+/// The decrementer (counts down; negative once expired). Also a compiler barrier: the kernel
+/// reads it at fixed points (its entry), and the code around must not move across the read.
+#[inline]
+pub fn read_dec() -> i32 {
+    let value: u32;
+    // SAFETY: supervisor state; reading DEC has no side effects (no `nomem`: a barrier).
+    unsafe { asm!("mfspr {0}, 22", out(reg) value, options(nostack)) }
+    value as i32
+}
+
+/// Schedule the next decrementer interrupt `ticks` from now. Also a compiler barrier: what the
+/// kernel does after the write to a partition's window budget counts as the partition's time,
+/// so nothing data-dependent may be moved after it.
+#[inline]
+pub fn write_dec(ticks: i32) {
+    // SAFETY: supervisor state; writing DEC only schedules the next decrementer interrupt,
+    // which stays masked until the kernel returns with MSR[EE] set (no `nomem`: a barrier).
+    unsafe { asm!("mtspr 22, {0}", in(reg) ticks as u32, options(nostack)) }
+}
+
 fn set_decrementer_at(deadline: u64) {
     let now = timebase::now().0;
-    let ticks = deadline.saturating_sub(now).clamp(1, 0x7fff_ffff) as u32;
-    // SAFETY: supervisor state; writing DEC only schedules the next decrementer interrupt,
-    // which stays masked until the kernel returns with MSR[EE] set.
-    unsafe { asm!("mtspr 22, {0}", in(reg) ticks, options(nostack, nomem)) }
+    write_dec(deadline.saturating_sub(now).clamp(1, 0x7fff_ffff) as i32);
 }
+
+/// Decrementer value for window `w` whose scheduled end is `deadline`, entered at `now`: its
+/// budget, or the last multiple of DEC_EXACT_TICKS ticks before the end if less is left (at
+/// least one multiple).
+fn window_end_dec(w: usize, deadline: u64, now: u64) -> i32 {
+    let left = deadline.saturating_sub(now).clamp(1, 0x7fff_ffff) as u32;
+    let left = (left / DEC_EXACT_TICKS).max(1) * DEC_EXACT_TICKS;
+    WINDOW_BUDGETS[w].min(left) as i32
+}
+
+/// Ticks a partition runs in each window when it is switched in on time: the window's length
+/// less the jitter bound, rounded down to a multiple of DEC_EXACT_TICKS.
+const WINDOW_BUDGETS: [u32; WINDOW_COUNT] = {
+    let mut budgets = [0; WINDOW_COUNT];
+    let mut w = 0;
+    while w < WINDOW_COUNT {
+        let usable = SYSTEM.schedule.windows[w].duration - JITTER_BOUND_TICKS as u32;
+        budgets[w] = usable / DEC_EXACT_TICKS * DEC_EXACT_TICKS;
+        assert!(budgets[w] > 0, "a window shorter than the jitter bound");
+        w += 1;
+    }
+    budgets
+};
 
 impl Scheduler {
     pub const fn new() -> Self {
@@ -60,7 +131,11 @@ impl Scheduler {
             phase: Phase::Gap(0),
             frame_start: 0,
             running: None,
-            run_since: 0,
+            stint_dec: 0,
+            entry_dec: 0,
+            window_end: 0,
+            switch_entry: None,
+            switch_end: 0,
             pending_start: None,
             frames: 0,
             switches: 0,
@@ -83,22 +158,39 @@ impl Kernel {
         self.sched.frame_start + u64::from(SYSTEM.schedule.windows[w].offset)
     }
 
-    /// When the running partition was switched in.
-    pub fn sched_run_since(&self) -> u64 {
-        self.sched.run_since
+    /// Ticks the running partition has used since it was switched in, up to the last kernel
+    /// entry.
+    pub fn stint_ticks(&self) -> u32 {
+        self.sched
+            .stint_dec
+            .wrapping_sub(self.sched.entry_dec)
+            .max(0) as u32
     }
 
-    /// Stop charging `p` (switch-out at `now`).
-    pub fn charge(&mut self, p: usize, now: u64) {
-        let used = now.saturating_sub(self.sched.run_since);
+    /// CPU ticks `p` (running) has used since boot, up to this instruction.
+    pub fn cpu_now(&self, p: usize) -> u64 {
+        let stint = self.sched.stint_dec.wrapping_sub(read_dec()).max(0) as u64;
+        self.parts[p].cpu_total + stint
+    }
+
+    /// Stop charging `p` (switch-out; the time up to the kernel entry).
+    pub fn charge(&mut self, p: usize, _now: u64) {
+        let used = u64::from(self.stint_ticks());
         let state = &mut self.parts[p];
         state.cpu_total += used;
         state.window_ticks = state.window_ticks.saturating_add(used as u32);
         state.frame_ticks = state.frame_ticks.saturating_add(used as u32);
         self.sched.running = None;
+        if let Some(entry) = self.sched.switch_entry.take() {
+            let cost = self.sched.switch_end.saturating_sub(entry) as u32;
+            self.sched.switches = self.sched.switches.wrapping_add(1);
+            self.sched.switch_ticks_total += u64::from(cost);
+            self.sched.switch_max_ticks = self.sched.switch_max_ticks.max(cost);
+        }
     }
 
-    /// Called by `resume` when `p` is about to run.
+    /// Called by `resume` when `p` is about to run: the window-start bookkeeping, then the
+    /// window end (or an armed reset point) into DEC, last.
     pub fn switched_in(&mut self, p: usize, entry: u64, now: u64) {
         if let Some((q, scheduled)) = self.sched.pending_start.take() {
             if q == p {
@@ -106,14 +198,20 @@ impl Kernel {
                 let state = &mut self.parts[p];
                 state.max_jitter = state.max_jitter.max(jitter);
                 self.sched.max_jitter = self.sched.max_jitter.max(jitter);
-                let cost = now.saturating_sub(entry) as u32;
-                self.sched.switches = self.sched.switches.wrapping_add(1);
-                self.sched.switch_ticks_total += u64::from(cost);
-                self.sched.switch_max_ticks = self.sched.switch_max_ticks.max(cost);
+                self.sched.switch_entry = Some(entry);
             }
         }
         self.sched.running = Some(p);
-        self.sched.run_since = now;
+        let w = match self.sched.phase {
+            Phase::Window(w) | Phase::Gap(w) => w,
+        };
+        let mut dec = window_end_dec(w, self.sched.window_end, now);
+        if self.armed.counts_stint(p) {
+            dec = self.armed_reset_stint(p, dec);
+        }
+        write_dec(dec);
+        self.sched.stint_dec = dec;
+        self.sched.switch_end = timebase::now().0;
     }
 
     /// The decrementer fired: a window ended or a gap did.
@@ -121,6 +219,8 @@ impl Kernel {
         match self.sched.phase {
             Phase::Window(w) => {
                 if let Some(p) = self.sched.running {
+                    // An armed reset point, or the count pauses at the window end.
+                    self.armed_reset_on_timer(p);
                     self.charge(p, now);
                     self.parts[p].overruns = self.parts[p].overruns.wrapping_add(1);
                     self.overrun(p);
@@ -133,6 +233,7 @@ impl Kernel {
 
     /// The running partition `p` gave up the rest of its window.
     pub fn wait_next_window(&mut self, p: usize, now: u64) -> Next {
+        self.armed_reset_on_wait(p);
         self.charge(p, now);
         self.parts[p].run = RunState::Waiting;
         Next::Idle
@@ -170,11 +271,15 @@ impl Kernel {
         let window = &SYSTEM.schedule.windows[w];
         let scheduled = self.window_start(w);
         self.sched.phase = Phase::Window(w);
-        set_decrementer_at(scheduled + u64::from(window.duration));
+        // DEC gets the window end when the partition is switched in (`switched_in`).
+        self.sched.window_end = scheduled + u64::from(window.duration);
         let p = window.partition;
         self.parts[p].window_ticks = 0;
         match self.parts[p].run {
-            RunState::Halted => Next::Idle,
+            RunState::Halted => {
+                set_decrementer_at(self.sched.window_end);
+                Next::Idle
+            }
             RunState::Ready | RunState::Waiting => {
                 self.parts[p].run = RunState::Ready;
                 self.sched.pending_start = Some((p, scheduled));

@@ -98,6 +98,8 @@ impl Kernel {
                 let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
                 let got = self.ports.receive(p, a[0] as usize, buffer)?;
                 let age = now.saturating_sub(got.sent_at).min(u64::from(u32::MAX)) as u32;
+                // Last before the return path: it may start a stint that counts from here.
+                self.armed_reset_on_receive(p, a[0] as usize);
                 Ok(Return(got.len as u32, got.generation, age))
             }
             SYS_MISSION_TIME => {
@@ -106,8 +108,9 @@ impl Kernel {
             }
             SYS_CPU_TIME => {
                 let s = &self.parts[p];
-                let window = s.window_ticks as u64 + now.saturating_sub(self.sched_run_since());
-                let total = s.cpu_total + now.saturating_sub(self.sched_run_since());
+                let stint = u64::from(self.stint_ticks());
+                let window = u64::from(s.window_ticks) + stint;
+                let total = s.cpu_total + stint;
                 Ok(Return((total >> 32) as u32, total as u32, window as u32))
             }
             SYS_LOG => {
@@ -130,7 +133,12 @@ impl Kernel {
                 let at = Self::warm_range(p, a[0], a[2])?;
                 // SAFETY: as for SYS_WARM_READ; the boot record before the part is not touched.
                 let area = unsafe { core::slice::from_raw_parts_mut(at as *mut u8, data.len()) };
-                copy(area, data);
+                if self.armed.counting(p) {
+                    // A reset armed inside this partition's work may tear this write.
+                    self.armed_warm_write(p, a[0], area, data);
+                } else {
+                    copy(area, data);
+                }
                 ok()
             }
             SYS_NV_READ => {
@@ -203,7 +211,13 @@ impl Kernel {
             }
             SYS_RESET_MODULE => {
                 Self::link_owner(p)?;
-                self.warm_reset(ResetCause::Warm)
+                match a[0] {
+                    reset_at::NOW => self.warm_reset(ResetCause::Warm),
+                    mode => {
+                        self.arm_reset(p, mode, a[1], a[2] as usize)?;
+                        ok()
+                    }
+                }
             }
             SYS_REQUEST_METRICS => {
                 Self::link_owner(p)?;

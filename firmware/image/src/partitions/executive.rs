@@ -3,7 +3,8 @@
 //! responses, uplink chunks and time grants routed by the I/O partition, steps the autonomy
 //! once per grant, checkpoints the plan into the warm-restart area and, when the board has it,
 //! into non-volatile memory (both through the kernel: this partition owns them), and queues
-//! what it decided (command dispatches, telemetry, FrameDone) for the I/O partition. It also serves the kernel's syscall benchmark on request.
+//! what it decided (command dispatches, telemetry, FrameDone) for the I/O partition. It also
+//! serves the kernel's syscall benchmark on request.
 //!
 //! Host input is handled at window starts: what the I/O partition routes is queued until the
 //! message the host waits for an answer to (a time grant, an uplink chunk) has arrived, and the
@@ -167,8 +168,11 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
         }
     }
+    // A batch completed in one window (see the module comment) is handled at the start of the
+    // next: a frame's work starts at the same instruction of a window on every run, so its
+    // costs, and a reset the host armed inside it (counted by the kernel from that window's
+    // start), are the same on every run.
     loop {
-        // A window start: first the batch completed in the last window.
         if core::mem::replace(&mut state.batch_complete, false) {
             handle_pending(state, app);
         }

@@ -1,6 +1,8 @@
 //! The I/O partition: the only one with the UART (mac-io is mapped into it alone). It runs the
 //! frame codec, says Hello once per boot (with the reset cause the kernel determined), answers
-//! Ping with its decoder counters, honours ResetRequest through the kernel, and routes:
+//! Ping with its decoder counters, honours ResetRequest through the kernel (a mid-frame kind is
+//! held until the next TimeGrant has been routed, then armed on the executive's work on that
+//! grant), and routes:
 //! TimeGrant, StateUpdate, CommandResponse and UplinkChunk to the executive (where the flight
 //! application runs), StateUpdate to the planner, and reserved control keys (`abi::control`) to whoever they address; in the
 //! other direction the executive's and planner's outbound ports, the kernel's log stream and
@@ -9,8 +11,10 @@ use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use fsw_bridge::messages::LOG_CHUNK_MAX;
-use fsw_bridge::{HostToTarget, ResetCause, StateKey, StateValue, TargetToHost, PROTOCOL_VERSION};
-use kernel_config::abi::{control, REPORT_OFF};
+use fsw_bridge::{
+    HostToTarget, ResetCause, ResetKind, StateKey, StateValue, TargetToHost, PROTOCOL_VERSION,
+};
+use kernel_config::abi::{control, reset_at, REPORT_OFF};
 use kernel_config::system::{
     OUTBOUND_MESSAGE_SIZE, PORT_EXECUTIVE_TO_IO, PORT_IO_TO_EXECUTIVE, PORT_IO_TO_PLANNER,
     PORT_PLANNER_TO_IO, ROUTED_MESSAGE_SIZE,
@@ -51,11 +55,13 @@ pub extern "C" fn partition_io_main() -> ! {
     } else {
         defmt::warn!("io: restarted, generation {=u32}", generation);
     }
+    // A mid-frame reset the host asked for, waiting for the grant it applies to: (mode, value).
+    let mut reset_in_next_frame: Option<(u32, u32)> = None;
     loop {
         pump_outbound(link);
         while let Some(next) = link.poll() {
             match next {
-                Ok(msg) => handle(link, msg),
+                Ok(msg) => handle(link, &mut reset_in_next_frame, msg),
                 Err(error) => {
                     defmt::warn!("link: frame rejected: {=str}", decode_error_name(error))
                 }
@@ -94,19 +100,29 @@ fn pump_outbound(link: &mut Link<EsccChannelA>) {
     }
 }
 
-fn route(port: usize, msg: &HostToTarget) {
+/// Queue `msg` on `port`; false if it was refused (and logged).
+fn route(port: usize, msg: &HostToTarget) -> bool {
     let mut buf = [0u8; ROUTED_MESSAGE_SIZE as usize];
     match postcard::to_slice(msg, &mut buf) {
-        Ok(bytes) => {
-            if let Err(code) = sys::port_send(port, bytes) {
+        Ok(bytes) => match sys::port_send(port, bytes) {
+            Ok(()) => true,
+            Err(code) => {
                 defmt::warn!("io: port {=usize} refused a message ({=i32})", port, code);
+                false
             }
+        },
+        Err(_) => {
+            defmt::warn!("io: message too large for port {=usize}", port);
+            false
         }
-        Err(_) => defmt::warn!("io: message too large for port {=usize}", port),
     }
 }
 
-fn handle(link: &mut Link<EsccChannelA>, msg: HostToTarget) {
+fn handle(
+    link: &mut Link<EsccChannelA>,
+    reset_in_next_frame: &mut Option<(u32, u32)>,
+    msg: HostToTarget,
+) {
     match msg {
         HostToTarget::Ping { seq } => {
             link.send(&TargetToHost::Pong {
@@ -114,13 +130,34 @@ fn handle(link: &mut Link<EsccChannelA>, msg: HostToTarget) {
                 link: link.counters(),
             });
         }
-        HostToTarget::ResetRequest { .. } => {
-            defmt::info!("reset requested by host: warm");
-            sys::reset_module();
+        HostToTarget::ResetRequest { kind } => {
+            match kind {
+                ResetKind::Warm => {
+                    defmt::info!("reset requested by host: warm");
+                    sys::reset_module();
+                }
+                ResetKind::WarmAfterTicks { ticks } => {
+                    defmt::info!("reset requested by host: warm, {=u32} ticks into the executive's next frame", ticks);
+                    *reset_in_next_frame = Some((reset_at::AFTER_TICKS, ticks));
+                }
+                ResetKind::WarmDuringCheckpointWrite { permille } => {
+                    defmt::info!("reset requested by host: warm, {=u16} permille into the next checkpoint write", permille);
+                    *reset_in_next_frame =
+                        Some((reset_at::IN_WARM_WRITE, u32::from(permille.min(1000))));
+                }
+            }
         }
         HostToTarget::TimeGrant { now, .. } => {
             sys::set_mission_time(now.0);
-            route(PORT_IO_TO_EXECUTIVE, &msg);
+            if route(PORT_IO_TO_EXECUTIVE, &msg) {
+                // The grant is now the last message for the executive: the kernel counts the
+                // executive's work from its receipt.
+                if let Some((mode, value)) = reset_in_next_frame.take() {
+                    if let Err(code) = sys::arm_reset(mode, value, PORT_IO_TO_EXECUTIVE) {
+                        defmt::warn!("io: the kernel refused the mid-frame reset ({=i32})", code);
+                    }
+                }
+            }
         }
         HostToTarget::StateUpdate {
             key: StateKey(key), ..
@@ -129,9 +166,13 @@ fn handle(link: &mut Link<EsccChannelA>, msg: HostToTarget) {
             route(PORT_IO_TO_EXECUTIVE, &msg);
             route(PORT_IO_TO_PLANNER, &msg);
         }
-        HostToTarget::CommandResponse { .. } => route(PORT_IO_TO_EXECUTIVE, &msg),
+        HostToTarget::CommandResponse { .. } => {
+            route(PORT_IO_TO_EXECUTIVE, &msg);
+        }
         // The flight application (autonomy core) runs in the executive partition.
-        HostToTarget::UplinkChunk { .. } => route(PORT_IO_TO_EXECUTIVE, &msg),
+        HostToTarget::UplinkChunk { .. } => {
+            route(PORT_IO_TO_EXECUTIVE, &msg);
+        }
     }
 }
 
@@ -151,10 +192,16 @@ fn control(key: u16, msg: &HostToTarget) {
             };
             sys::request_metrics(period)
         }
-        control::PLANNER_CHECKSUM => route(PORT_IO_TO_PLANNER, msg),
-        control::SYSCALL_BENCH => route(PORT_IO_TO_EXECUTIVE, msg),
+        control::PLANNER_CHECKSUM => {
+            route(PORT_IO_TO_PLANNER, msg);
+        }
+        control::SYSCALL_BENCH => {
+            route(PORT_IO_TO_EXECUTIVE, msg);
+        }
         #[cfg(feature = "test-partitions")]
-        control::ROGUE_MODE => route(kernel_config::system::PORT_IO_TO_ROGUE, msg),
+        control::ROGUE_MODE => {
+            route(kernel_config::system::PORT_IO_TO_ROGUE, msg);
+        }
         _ => defmt::warn!("io: unknown control key {=u16:#x}", key),
     }
 }

@@ -1,0 +1,170 @@
+//! Warm resets at a chosen instruction point inside a frame on the emulated RAD750 (issue 5,
+//! item 4): the target's kernel resets the module at a point of the executive partition's work
+//! on the granted frame, counted in its own CPU ticks, the same point on every run. The flyby
+//! recovers from it, a reset inside the checkpoint copy tears the newest warm slot and the
+//! restart falls back to the other one, and the same armed point gives the same transcript.
+use fsw_bridge::{MissionTimeUs, ResetKind};
+use hil::mission::report::{prepare, run, MissionReport};
+use hil::mission::target::{EmulatedTarget, MidFrameReport, MissionTarget};
+use hil::mission::time::parse_time;
+use hil_tests::{firmware, profile};
+use kernel_config::abi::reset_at;
+
+/// The warm reset lands in the frame at this time: the flyby is running (Fig. 7's reset time).
+const RESET_AT: &str = "10:30";
+const RECOVERY_US: u64 = 180_000_000;
+
+/// The campaign's flyby with one warm reset at RESET_AT, armed at `kind` inside its frame.
+fn flyby_reset_at(kind: ResetKind, tag: &str) -> (MissionReport, Vec<MidFrameReport>, Vec<String>) {
+    let _one = hil_tests::exclusive_qemu();
+    let path = hil::repo_root().join("scenarios/flyby-campaign.toml");
+    let loaded = hil::scenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let mut prepared = prepare(&path, loaded).unwrap_or_else(|e| panic!("{e}"));
+    prepared
+        .mission
+        .add_warm_reset(parse_time(RESET_AT).unwrap(), RECOVERY_US);
+    let nv = std::env::temp_dir().join(format!(
+        "hil-test-nv-mid-frame-{}-{tag}.bin",
+        std::process::id()
+    ));
+    let mut target = EmulatedTarget::new(profile(), firmware().clone(), false, nv, false);
+    target.arm_mid_frame_reset_exactly(kind);
+    let report = run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{tag}: {e}"));
+    (
+        report,
+        target.mid_frame_reports().to_vec(),
+        target.mid_frame_log(),
+    )
+}
+
+/// The reset happened, as a warm reset, at RESET_AT, and the flyby's expectations held.
+fn assert_recovered(report: &MissionReport, log: &[String]) {
+    let summary = hil::mission::report::summary(report);
+    assert!(report.passed, "{summary}\n{log:#?}");
+    assert_eq!(report.resets.len(), 1, "{summary}");
+    let reset = &report.resets[0];
+    assert_eq!(reset.kind, "warm reset");
+    assert_eq!(reset.reset_cause, "warm", "{summary}");
+    assert_eq!(
+        MissionTimeUs(reset.at),
+        parse_time(RESET_AT).unwrap(),
+        "{summary}"
+    );
+    assert!(
+        report
+            .events
+            .iter()
+            .any(|(_, label)| label == "plan restored from checkpoint"),
+        "{summary}"
+    );
+}
+
+#[test]
+fn a_reset_armed_mid_frame_lands_inside_the_executives_work_and_the_flyby_recovers_the_same_way_twice(
+) {
+    let kind = ResetKind::WarmAfterTicks { ticks: 1_500 };
+    let (a, a_reports, a_log) = flyby_reset_at(kind, "a");
+    assert_recovered(&a, &a_log);
+    assert_eq!(a_reports.len(), 1, "{a_log:#?}");
+    let landing = &a_reports[0];
+    assert_eq!(landing.frame_at, parse_time(RESET_AT).unwrap());
+    assert_eq!(landing.kind, kind);
+    // 1500 ticks into a frame whose work is ~4000: in the step, before the checkpoint write.
+    assert_eq!(landing.landed, Some(reset_at::LANDED_IN_CODE), "{a_log:#?}");
+    assert!(landing.inside_work());
+    assert!(landing.checkpoint_write.is_none(), "{a_log:#?}");
+    let ticks = landing.ticks.expect("the kernel reported the point");
+    assert!((1_500..1_600).contains(&ticks), "{a_log:#?}");
+    assert!(
+        a_log[0].starts_with("reset after 1500 executive ticks in the frame at 10:30:00")
+            && a_log[0].contains("inside the executive's work"),
+        "{a_log:#?}"
+    );
+    assert!(
+        a_log
+            .iter()
+            .any(|l| l.contains("plan restored from checkpoint")),
+        "{a_log:#?}"
+    );
+    assert!(landing.restored.is_some(), "{a_log:#?}");
+
+    // The same armed point: the same transcript, the same landing, the same restore.
+    let (b, b_reports, b_log) = flyby_reset_at(kind, "b");
+    assert_recovered(&b, &b_log);
+    assert_eq!(a.transcript_sha256, b.transcript_sha256);
+    assert_eq!(a.decisions, b.decisions);
+    // Where it landed and what the restart restored (the tick counts themselves may differ
+    // by one between runs, see `hil::mission::driver::is_tick_measurement`).
+    let facts = |r: &MidFrameReport| (r.frame_at, r.kind, r.landed, r.checkpoint_write, r.restored);
+    assert_eq!(facts(&a_reports[0]), facts(&b_reports[0]));
+}
+
+#[test]
+fn a_reset_inside_the_checkpoint_copy_tears_the_newest_slot_and_the_restart_takes_the_other_one() {
+    // Probe: a point far beyond the frame's work. The executive finishes first and the kernel
+    // resets at the end of its work, saying where the checkpoint copy ran.
+    let probe_kind = ResetKind::WarmAfterTicks { ticks: 10_000_000 };
+    let (probe, reports, log) = flyby_reset_at(probe_kind, "probe");
+    assert_recovered(&probe, &log);
+    let finished = &reports[0];
+    assert_eq!(
+        finished.landed,
+        Some(reset_at::LANDED_AFTER_WORK),
+        "{log:#?}"
+    );
+    assert!(!finished.inside_work());
+    assert!(
+        log[0].starts_with("frame finished first") && log[0].contains("reset at the boundary"),
+        "{log:#?}"
+    );
+    let write = finished
+        .checkpoint_write
+        .expect("the frame wrote its checkpoint");
+    assert!(!write.torn(), "{log:#?}");
+    assert!(write.start_tick < write.end_tick, "{write:?}");
+    assert!(write.end_tick as u64 <= finished.ticks.unwrap(), "{log:#?}");
+    // The whole checkpoint of that frame survived: it is what the restart restored.
+    let (whole_sequence, whole_slot) = finished.restored.expect("restored");
+    assert_eq!(whole_slot, write.slot, "{log:#?}");
+
+    // Armed in the middle of that copy (the same frame does the same work): the copy stops
+    // there, the newest slot is torn, the restart takes the previous checkpoint from the other
+    // slot, and the flyby still recovers.
+    let middle = (write.start_tick + write.end_tick) / 2;
+    let (torn, reports, log) = flyby_reset_at(ResetKind::WarmAfterTicks { ticks: middle }, "torn");
+    assert_recovered(&torn, &log);
+    let landing = &reports[0];
+    assert_eq!(
+        landing.landed,
+        Some(reset_at::LANDED_IN_WARM_WRITE),
+        "{log:#?}"
+    );
+    assert!(landing.inside_work());
+    let tear = landing.checkpoint_write.expect("the torn write");
+    assert_eq!(tear.slot, write.slot);
+    assert_eq!(tear.len, write.len);
+    assert!(tear.torn() && tear.copied > 0, "{tear:?}");
+    let (sequence, slot) = landing.restored.expect("restored");
+    assert_ne!(slot, tear.slot, "the torn slot was restored: {log:#?}");
+    assert_eq!(sequence + 1, whole_sequence, "{log:#?}");
+    assert!(
+        log[0].contains("in its checkpoint write") && log[0].contains("torn"),
+        "{log:#?}"
+    );
+    assert!(log[1].contains("(the torn slot"), "{log:#?}");
+
+    // The other way to ask for it: a fraction of the copy.
+    let half = ResetKind::WarmDuringCheckpointWrite { permille: 500 };
+    let (halved, reports, log) = flyby_reset_at(half, "half");
+    assert_recovered(&halved, &log);
+    let landing = &reports[0];
+    assert_eq!(
+        landing.landed,
+        Some(reset_at::LANDED_IN_WARM_WRITE),
+        "{log:#?}"
+    );
+    let tear = landing.checkpoint_write.expect("the torn write");
+    assert_eq!(tear.copied, tear.len / 2, "{tear:?}");
+    assert_eq!(landing.restored, Some((sequence, slot)), "{log:#?}");
+}
