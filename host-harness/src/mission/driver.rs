@@ -14,7 +14,7 @@ use fsw_bridge::codec::{encode, FrameDecoder, MAX_FRAME_LEN};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::{
     CommandStatus, HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, StateKey,
-    StateValue, TargetToHost, TelemetryEvent,
+    StateValue, TargetToHost,
 };
 use sha2::{Digest, Sha256};
 
