@@ -761,24 +761,14 @@ impl MissionTarget for EmulatedTarget {
                         break;
                     }
                 }
-                Err(SessionError::TargetPanic { file, line }) => {
-                    return Err(TargetError::Panic { file, line })
-                }
-                Err(SessionError::Link(crate::link::LinkError::Timeout(_))) => {
-                    return Err(TargetError::FrameTimeout {
+                Err(e) => {
+                    return Err(frame_error(
+                        e,
                         frame,
-                        waited: FRAME_TIMEOUT,
-                        detail: format!(
-                            "received {} messages this frame; QEMU output: {}",
-                            out.len(),
-                            session
-                                .qemu_log()
-                                .map(|p| p.display().to_string())
-                                .unwrap_or_default()
-                        ),
-                    })
+                        format!("received {} messages this frame", out.len()),
+                        session,
+                    ))
                 }
-                Err(e) => return Err(e.into()),
             }
         }
         for msg in &out {
@@ -883,24 +873,17 @@ impl MissionTarget for EmulatedTarget {
                         break hello;
                     }
                 }
-                Err(SessionError::TargetPanic { file, line }) => {
-                    return Err(TargetError::Panic { file, line })
-                }
-                Err(SessionError::Link(crate::link::LinkError::Timeout(_))) => {
-                    return Err(TargetError::FrameTimeout {
+                Err(e) => {
+                    return Err(frame_error(
+                        e,
                         frame,
-                        waited: FRAME_TIMEOUT,
-                        detail: format!(
-                            "a mid-frame reset was armed in this frame but the target did not reset (received {} messages, no Hello); QEMU output: {}",
-                            out.len(),
-                            session
-                                .qemu_log()
-                                .map(|p| p.display().to_string())
-                                .unwrap_or_default()
+                        format!(
+                            "a mid-frame reset was armed in this frame but the target did not reset (received {} messages, no Hello)",
+                            out.len()
                         ),
-                    })
+                        session,
+                    ))
                 }
-                Err(e) => return Err(e.into()),
             }
         };
         self.pending_hello = Some(hello);
@@ -911,5 +894,25 @@ impl MissionTarget for EmulatedTarget {
         }
         self.drain_logs();
         Ok(out)
+    }
+}
+
+/// What went wrong while waiting for the target during frame `frame`: its panic, a timeout
+/// (with `what` it had received and where QEMU's output is), or the link error itself.
+fn frame_error(e: SessionError, frame: u32, what: String, session: &Session) -> TargetError {
+    match e {
+        SessionError::TargetPanic { file, line } => TargetError::Panic { file, line },
+        SessionError::Link(crate::link::LinkError::Timeout(_)) => TargetError::FrameTimeout {
+            frame,
+            waited: FRAME_TIMEOUT,
+            detail: format!(
+                "{what}; QEMU output: {}",
+                session
+                    .qemu_log()
+                    .map(|p| p.display().to_string())
+                    .unwrap_or_default()
+            ),
+        },
+        e => e.into(),
     }
 }
