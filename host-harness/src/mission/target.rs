@@ -749,28 +749,18 @@ impl MissionTarget for EmulatedTarget {
         self.send_all(frames)?;
         let session = self.session()?;
         let mut out = Vec::new();
-        let deadline = std::time::Instant::now() + FRAME_TIMEOUT;
-        loop {
-            let left = deadline.saturating_duration_since(std::time::Instant::now());
-            match session.recv(left) {
-                Ok(msg) => {
-                    let done =
-                        matches!(msg, TargetToHost::FrameDone { frame: f, .. } if f == frame);
-                    out.push(msg);
-                    if done {
-                        break;
-                    }
-                }
-                Err(e) => {
-                    return Err(frame_error(
-                        e,
-                        frame,
-                        format!("received {} messages this frame", out.len()),
-                        session,
-                    ))
-                }
-            }
-        }
+        receive_until(
+            session,
+            frame,
+            &mut out,
+            |_, msg| {
+                Ok(
+                    matches!(msg, TargetToHost::FrameDone { frame: f, .. } if *f == frame)
+                        .then_some(()),
+                )
+            },
+            |n| format!("received {n} messages this frame"),
+        )?;
         for msg in &out {
             self.observe(msg);
         }
@@ -862,30 +852,17 @@ impl MissionTarget for EmulatedTarget {
         self.send_all(frames)?;
         let session = self.session()?;
         let mut out = Vec::new();
-        let deadline = std::time::Instant::now() + FRAME_TIMEOUT;
-        let hello = loop {
-            let left = deadline.saturating_duration_since(std::time::Instant::now());
-            match session.recv(left) {
-                Ok(msg) => {
-                    let hello = session.check_hello(&msg)?;
-                    out.push(msg);
-                    if let Some(hello) = hello {
-                        break hello;
-                    }
-                }
-                Err(e) => {
-                    return Err(frame_error(
-                        e,
-                        frame,
-                        format!(
-                            "a mid-frame reset was armed in this frame but the target did not reset (received {} messages, no Hello)",
-                            out.len()
-                        ),
-                        session,
-                    ))
-                }
-            }
-        };
+        let hello = receive_until(
+            session,
+            frame,
+            &mut out,
+            |session, msg| Ok(session.check_hello(msg)?),
+            |n| {
+                format!(
+                    "a mid-frame reset was armed in this frame but the target did not reset (received {n} messages, no Hello)"
+                )
+            },
+        )?;
         self.pending_hello = Some(hello);
         if let Some(last) = self.mid_frame_reports.pop() {
             let report = Self::landing(last.kind, last.frame_at, &out);
@@ -894,6 +871,31 @@ impl MissionTarget for EmulatedTarget {
         }
         self.drain_logs();
         Ok(out)
+    }
+}
+
+/// Receive messages into `out` until `stop` picks one (its value is returned), for at most
+/// FRAME_TIMEOUT from now; `detail` says what had arrived (given how many) if none did.
+fn receive_until<T>(
+    session: &mut Session,
+    frame: u32,
+    out: &mut Vec<TargetToHost>,
+    mut stop: impl FnMut(&Session, &TargetToHost) -> Result<Option<T>, TargetError>,
+    detail: impl Fn(usize) -> String,
+) -> Result<T, TargetError> {
+    let deadline = std::time::Instant::now() + FRAME_TIMEOUT;
+    loop {
+        let left = deadline.saturating_duration_since(std::time::Instant::now());
+        match session.recv(left) {
+            Ok(msg) => {
+                let picked = stop(session, &msg)?;
+                out.push(msg);
+                if let Some(value) = picked {
+                    return Ok(value);
+                }
+            }
+            Err(e) => return Err(frame_error(e, frame, detail(out.len()), session)),
+        }
     }
 }
 
