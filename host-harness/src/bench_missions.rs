@@ -9,7 +9,8 @@ use serde::Serialize;
 
 use crate::campaign::{run_campaign, CampaignOptions};
 use crate::firmware::FirmwareImage;
-use crate::mission::report::{prepare, run, MissionReport};
+use crate::mission::report::MissionReport;
+use crate::mission::runner::{prepare, run};
 use crate::mission::target::{EmulatedTarget, NativeTarget};
 use crate::qemu::QemuProfile;
 
@@ -52,7 +53,7 @@ pub struct MissionBench {
 
 fn mission_seconds(r: &MissionReport) -> f64 {
     let parse = |t: &str| {
-        crate::mission::time::parse_time(t)
+        crate::time::parse_time(&t.into(), crate::time::Epoch::default())
             .map(|t| t.0)
             .unwrap_or(0)
     };
@@ -64,8 +65,7 @@ fn run_one(
     target: &mut dyn crate::mission::target::MissionTarget,
     firmware: Option<&FirmwareImage>,
 ) -> Result<(MissionReport, f64), String> {
-    let scenario = crate::scenario::load(path).map_err(|e| e.to_string())?;
-    let prepared = prepare(path, scenario).map_err(|e| e.to_string())?;
+    let prepared = prepare(path).map_err(|e| e.to_string())?;
     let started = Instant::now();
     let report = run(&prepared, target, firmware, &mut |_, _, _| {})
         .map_err(|e| format!("{}: {e}", path.display()))?;

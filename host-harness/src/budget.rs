@@ -15,8 +15,9 @@
 //! accepted measurements live in `budgets-baseline.toml` (`hil bench --save-baseline`), so the
 //! table shows the change a patch makes.
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
+use crate::diag::{Diagnostic, SourceFile};
 use object::{Object, ObjectSection};
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
@@ -91,22 +92,8 @@ impl Source {
     }
 }
 
-/// A budget file that could not be used.
-#[derive(Debug, thiserror::Error)]
-pub enum BudgetError {
-    #[error("cannot read {path}: {source}")]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("{path}:{line}:{column}: {message}")]
-    Invalid {
-        path: PathBuf,
-        line: usize,
-        column: usize,
-        message: String,
-    },
-}
+/// A budget file that could not be used: a [`Diagnostic`] at the offending entry.
+pub type BudgetError = Diagnostic;
 
 /// A checked budget.
 #[derive(Clone, Debug)]
@@ -117,37 +104,34 @@ pub struct Budget {
 
 /// Read and check `budgets.toml`.
 pub fn load(path: &Path) -> Result<Vec<Budget>, BudgetError> {
-    let text = std::fs::read_to_string(path).map_err(|source| BudgetError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    let at = |offset: usize, message: String| {
-        let (line, column) = crate::scenario::line_col(&text, offset);
-        BudgetError::Invalid {
-            path: path.to_path_buf(),
-            line,
-            column,
-            message,
-        }
-    };
-    let file: BudgetFile = toml::from_str(&text).map_err(|e| {
-        at(
-            e.span().map(|s| s.start).unwrap_or(0),
-            e.message().to_string(),
-        )
-    })?;
+    let src = SourceFile::read(path)?;
+    let file: BudgetFile = toml::from_str(&src.text).map_err(|e| src.toml_error(&e, ""))?;
     let mut seen = BTreeMap::new();
     let mut out = Vec::new();
-    for b in file.budgets {
-        let offset = b.span().start;
+    for (i, b) in file.budgets.into_iter().enumerate() {
+        let field = |f: &str| format!("budget[{i}].{f}");
         let spec = b.into_inner();
-        if seen.insert(spec.quantity.clone(), ()).is_some() {
-            return Err(at(
-                offset,
-                format!("quantity {:?} has two budgets", spec.quantity),
+        if let Some(first) = seen.insert(spec.quantity.clone(), i) {
+            return Err(src.error_at(
+                &field("quantity"),
+                format!(
+                    "quantity {:?} has a budget already (budget[{first}])",
+                    spec.quantity
+                ),
             ));
         }
-        let source = Source::parse(&spec.source).map_err(|m| at(offset, m))?;
+        let source = Source::parse(&spec.source).map_err(|m| src.error_at(&field("source"), m))?;
+        if let Source::Mission { metric, .. } = &source {
+            if crate::mission::metrics::lookup(metric).is_none() {
+                return Err(src.error_at(
+                    &field("source"),
+                    format!(
+                        "no mission metric named {metric:?} (metrics: {})",
+                        crate::mission::metrics::names().join(", ")
+                    ),
+                ));
+            }
+        }
         out.push(Budget { spec, source });
     }
     Ok(out)
@@ -356,7 +340,9 @@ mod tests {
     fn a_budget_file_with_a_mistake_names_the_line() {
         let e = budgets("[[budget]]\nquantity = \"a\"\nunit = \"ticks\"\nmax = 5\nsource = \"kernel:x\"\n\n[[budget]]\nquantity = \"a\"\nunit = \"ticks\"\nmax = 5\nsource = \"kernel:y\"\n").unwrap_err();
         assert!(
-            e.starts_with("budgets.toml:7:1: quantity \"a\" has two budgets"),
+            e.starts_with(
+                "budgets.toml:8:12: budget[1].quantity: quantity \"a\" has a budget already (budget[0])"
+            ),
             "{e}"
         );
         let e = budgets(
@@ -489,17 +475,16 @@ fn run_mission_metrics(
     scenario: &str,
     firmware: &crate::firmware::FirmwareImage,
 ) -> Result<BTreeMap<String, u64>, String> {
+    use crate::mission::runner;
     let path = crate::repo_root().join(scenario);
-    let loaded = crate::scenario::load(&path).map_err(|e| e.to_string())?;
-    let prepared = crate::mission::report::prepare(&path, loaded).map_err(|e| e.to_string())?;
-    let options = crate::run::RunOptions {
+    let prepared = runner::prepare(&path).map_err(|e| e.to_string())?;
+    let options = crate::options::RunOptions {
         firmware: Some(firmware.elf.clone()),
         ..Default::default()
     };
-    let (mut target, fw) = crate::mission::report::make_target(&prepared, &options, &mut |_| {})?;
-    let report =
-        crate::mission::report::run(&prepared, target.as_mut(), fw.as_ref(), &mut |_, _, _| {})
-            .map_err(|e| e.to_string())?;
+    let (mut target, fw) = runner::make_target(&prepared, &options, &mut |_| {})?;
+    let report = runner::run(&prepared, target.as_mut(), fw.as_ref(), &mut |_, _, _| {})
+        .map_err(|e| e.to_string())?;
     if !report.passed {
         return Err(format!(
             "the scenario failed, so its costs are not representative:\n{}",

@@ -39,12 +39,14 @@ use std::time::Instant;
 use fsw_bridge::MissionTimeUs;
 use serde::{Deserialize, Serialize};
 
-use crate::mission::report::{make_target, prepare, run, MissionReport};
+use crate::mission::metrics;
+use crate::mission::report::MissionReport;
 use crate::mission::rng::Rng;
+use crate::mission::runner::{make_target, prepare, run};
 use crate::mission::target::{CheckpointDamage, MissionTarget, NativeTarget};
-use crate::mission::time::{fmt_time, parse_duration, parse_time};
-use crate::run::RunOptions;
-use crate::scenario::{self, TargetKind};
+use crate::options::RunOptions;
+use crate::scenario::TargetKind;
+use crate::time::{fmt_time, parse_duration, parse_time, Epoch, TimeText};
 
 /// Default recovery (fault protection running before the flight software restarts).
 pub const DEFAULT_RECOVERY_US: u64 = 180_000_000;
@@ -95,7 +97,8 @@ pub fn parse_window(text: &str) -> Result<(MissionTimeUs, MissionTimeUs), String
     let (a, b) = text
         .split_once("..")
         .ok_or_else(|| format!("bad window {text:?}: expected A..B, e.g. 10:00..11:05"))?;
-    let (a, b) = (parse_time(a)?, parse_time(b)?);
+    let t = |x: &str| parse_time(&TimeText::from(x), Epoch::default());
+    let (a, b) = (t(a)?, t(b)?);
     if b <= a {
         return Err(format!(
             "bad window {text:?}: the end must be after the start"
@@ -108,7 +111,7 @@ pub fn parse_window(text: &str) -> Result<(MissionTimeUs, MissionTimeUs), String
 pub fn parse_recovery(text: &str) -> Result<(u64, u64), String> {
     match text.split_once("..") {
         Some((a, b)) => {
-            let (a, b) = (parse_duration(a)?, parse_duration(b)?);
+            let (a, b) = (parse_duration(&a.into())?, parse_duration(&b.into())?);
             if b < a {
                 return Err(format!(
                     "bad recovery range {text:?}: the end is before the start"
@@ -117,7 +120,7 @@ pub fn parse_recovery(text: &str) -> Result<(u64, u64), String> {
             Ok((a, b))
         }
         None => {
-            let d = parse_duration(text)?;
+            let d = parse_duration(&text.into())?;
             Ok((d, d))
         }
     }
@@ -140,8 +143,68 @@ fn fmt_recovery((a, b): (u64, u64)) -> String {
 }
 
 /// Where the reset of a variant lands.
-pub const FRAME_BOUNDARY: &str = "frame-boundary";
-pub const MID_FRAME: &str = "mid-frame";
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ResetPoint {
+    /// Between two frames.
+    FrameBoundary,
+    /// Inside a frame: a torn checkpoint natively, a reset at a point of the executive's work
+    /// on the emulated target.
+    MidFrame,
+}
+
+impl ResetPoint {
+    pub fn name(self) -> &'static str {
+        match self {
+            ResetPoint::FrameBoundary => "frame-boundary",
+            ResetPoint::MidFrame => "mid-frame",
+        }
+    }
+}
+
+/// Why a campaign run failed.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Failure {
+    /// The run did not reach its end: the target or the link failed, or `hil` panicked.
+    RunError { error: String },
+    /// One of the scenario's expectations did not hold.
+    Expectation {
+        index: usize,
+        what: String,
+        detail: String,
+    },
+    /// The variant's warm reset never happened.
+    ResetMissing { at: String },
+    /// A restart came up without the plan from a checkpoint.
+    LostCheckpoint {
+        reset: String,
+        at: String,
+        restart: String,
+    },
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Failure::RunError { error } => write!(f, "run error: {error}"),
+            Failure::Expectation { index, what, detail } => {
+                write!(f, "expect[{index}] {what}: {detail}")
+            }
+            Failure::ResetMissing { at } => {
+                write!(f, "campaign: the warm reset at {at} did not happen")
+            }
+            Failure::LostCheckpoint {
+                reset,
+                at,
+                restart,
+            } => write!(
+                f,
+                "campaign: lost checkpoint: no \"{RESTORED_LABEL}\" after the {reset} at {at} (restart {restart})"
+            ),
+        }
+    }
+}
 
 /// One variant of a campaign: everything needed to run it again.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -152,8 +215,7 @@ pub struct Variant {
     pub reset_at_us: u64,
     pub recovery: String,
     pub recovery_us: u64,
-    /// "frame-boundary" or "mid-frame".
-    pub reset_point: String,
+    pub reset_point: ResetPoint,
     /// Seed of the mid-frame instant (what the target tears, and where).
     pub mid_frame_seed: u64,
     /// Test knob: every checkpoint destroyed at the reset (recovery must fail).
@@ -188,7 +250,11 @@ impl Variant {
             reset_at_us: reset_at.0,
             recovery: fmt_duration(recovery_us),
             recovery_us,
-            reset_point: if mid_frame { MID_FRAME } else { FRAME_BOUNDARY }.into(),
+            reset_point: if mid_frame {
+                ResetPoint::MidFrame
+            } else {
+                ResetPoint::FrameBoundary
+            },
             mid_frame_seed,
             destroy_checkpoints: false,
         }
@@ -201,7 +267,7 @@ impl Variant {
             self.run,
             self.seed,
             self.reset_at,
-            self.reset_point,
+            self.reset_point.name(),
             self.recovery,
             if self.destroy_checkpoints {
                 ", every checkpoint destroyed (test knob)"
@@ -217,10 +283,8 @@ impl Variant {
 pub struct RunResult {
     pub variant: Variant,
     pub passed: bool,
-    /// The driver's error, if the run did not reach its end.
-    pub error: Option<String>,
-    /// Failed expectations and campaign checks, one line each.
-    pub failures: Vec<String>,
+    /// Why it failed: a run error, failed expectations, the campaign's own checks.
+    pub failures: Vec<Failure>,
     /// What the mid-frame reset did (empty for a frame-boundary reset).
     pub mid_frame: Vec<String>,
     /// The run's metrics, plus `frames` and `wall_time_ms`.
@@ -280,8 +344,7 @@ pub struct CampaignReport {
     pub scenario: String,
     /// The scenario file as given on the command line.
     pub scenario_file: String,
-    /// "native" or "qemu".
-    pub target: String,
+    pub target: TargetKind,
     /// Base seed: run i uses seed + i.
     pub seed: u64,
     /// Runs in the whole campaign.
@@ -342,7 +405,7 @@ impl CampaignReport {
             variant.run,
             self.reset_window,
             self.recovery,
-            if self.target == "native" {
+            if self.target == TargetKind::Native {
                 " --native"
             } else {
                 ""
@@ -439,7 +502,7 @@ pub fn run_campaign(
     opts: &CampaignOptions,
     progress: &mut dyn FnMut(&RunResult),
 ) -> Result<CampaignReport, String> {
-    let scenario = scenario::load(&opts.scenario).map_err(|e| e.to_string())?;
+    let scenario = crate::scenario::load(&opts.scenario).map_err(|e| e.render())?;
     if scenario.mission.is_none() {
         return Err(format!(
             "{}: a campaign needs a mission scenario (with [mission])",
@@ -447,8 +510,8 @@ pub fn run_campaign(
         ));
     }
     let native = opts.native || scenario.target.kind == TargetKind::Native;
-    let prepared = prepare(&opts.scenario, scenario).map_err(|e| e.to_string())?;
-    let (start, end) = (prepared.mission.start, prepared.mission.end);
+    let prepared = crate::mission::plan::MissionPlan::build(scenario).map_err(|e| e.render())?;
+    let (start, end) = (prepared.start, prepared.end);
     let window = match opts.reset_window {
         Some(w) => w,
         None => (
@@ -519,9 +582,13 @@ pub fn run_campaign(
         .map(|(r, v)| r.unwrap_or_else(|| failed(v.clone(), "the worker running it died".into())))
         .collect();
     let mut report = CampaignReport {
-        scenario: prepared.scenario.name.clone(),
+        scenario: prepared.name().to_string(),
         scenario_file: opts.scenario.display().to_string(),
-        target: if native { "native" } else { "qemu" }.into(),
+        target: if native {
+            TargetKind::Native
+        } else {
+            TargetKind::Qemu
+        },
         seed: opts.seed,
         runs: opts.runs,
         reset_window: format!("{}..{}", fmt_time(window.0), fmt_time(window.1)),
@@ -539,8 +606,7 @@ fn failed(variant: Variant, error: String) -> RunResult {
     RunResult {
         variant,
         passed: false,
-        failures: vec![format!("run error: {error}")],
-        error: Some(error),
+        failures: vec![Failure::RunError { error }],
         mid_frame: Vec::new(),
         metrics: BTreeMap::new(),
         transcript_sha256: String::new(),
@@ -573,14 +639,9 @@ fn run_variant_inner(
     plan: &Plan,
     variant: &Variant,
 ) -> Result<(MissionReport, Vec<String>), String> {
-    let path = &plan.scenario_file;
-    let scenario = scenario::load(path).map_err(|e| e.to_string())?;
-    let mut prepared = prepare(path, scenario).map_err(|e| e.to_string())?;
-    prepared.scenario.seed = variant.seed;
-    prepared.mission.seed = variant.seed;
-    prepared
-        .mission
-        .add_warm_reset(MissionTimeUs(variant.reset_at_us), variant.recovery_us);
+    let mut prepared = prepare(&plan.scenario_file).map_err(|e| e.to_string())?;
+    prepared.set_seed(variant.seed);
+    prepared.add_warm_reset(MissionTimeUs(variant.reset_at_us), variant.recovery_us);
     let (mut target, firmware): (Box<dyn MissionTarget>, _) = if plan.native {
         let mut t = NativeTarget::new();
         if variant.destroy_checkpoints {
@@ -595,7 +656,7 @@ fn run_variant_inner(
         make_target(&prepared, &options, &mut |_| {})?
     };
     let mut notes = Vec::new();
-    if variant.reset_point == MID_FRAME
+    if variant.reset_point == ResetPoint::MidFrame
         && !variant.destroy_checkpoints
         && !target.arm_mid_frame_reset(variant.mid_frame_seed)
     {
@@ -615,25 +676,22 @@ fn run_variant_inner(
     let mut report = report;
     if !target.counts_cycles() {
         // The native target counts no guest cycles: its tick metrics are all 0, not data.
-        report
-            .metrics
-            .retain(|k, _| !(k.ends_with("_ticks") || k.ends_with("_instructions")));
+        report.metrics.retain(|k, _| !metrics::is_guest_cost(k));
     }
     Ok((report, notes))
 }
 
 /// The campaign's own checks on top of the scenario's expectations.
-pub fn campaign_checks(variant: &Variant, report: &MissionReport) -> Vec<String> {
+pub fn campaign_checks(variant: &Variant, report: &MissionReport) -> Vec<Failure> {
     let mut failures = Vec::new();
     if !report
         .resets
         .iter()
         .any(|r| r.at == variant.reset_at_us && r.kind == "warm reset")
     {
-        failures.push(format!(
-            "campaign: the warm reset at {} did not happen",
-            variant.reset_at
-        ));
+        failures.push(Failure::ResetMissing {
+            at: variant.reset_at.clone(),
+        });
     }
     let labels = &report.record.labels;
     for (n, reset) in report.resets.iter().enumerate() {
@@ -642,23 +700,26 @@ pub fn campaign_checks(variant: &Variant, report: &MissionReport) -> Vec<String>
             .iter()
             .any(|(t, l)| *t >= reset.restart_at && *t < until && l == RESTORED_LABEL);
         if !restored {
-            failures.push(format!(
-                "campaign: lost checkpoint: no \"{RESTORED_LABEL}\" after the {} at {} (restart {})",
-                reset.kind,
-                fmt_time(MissionTimeUs(reset.at)),
-                fmt_time(MissionTimeUs(reset.restart_at))
-            ));
+            failures.push(Failure::LostCheckpoint {
+                reset: reset.kind.clone(),
+                at: fmt_time(MissionTimeUs(reset.at)),
+                restart: fmt_time(MissionTimeUs(reset.restart_at)),
+            });
         }
     }
     failures
 }
 
 fn judge(variant: &Variant, report: &MissionReport, mid_frame: Vec<String>) -> RunResult {
-    let mut failures: Vec<String> = report
+    let mut failures: Vec<Failure> = report
         .expectations
         .iter()
         .filter(|v| !v.passed)
-        .map(|v| format!("expect[{}] {}: {}", v.index, v.what, v.detail))
+        .map(|v| Failure::Expectation {
+            index: v.index,
+            what: v.what.clone(),
+            detail: v.detail.clone(),
+        })
         .collect();
     failures.extend(campaign_checks(variant, report));
     let mut metrics = report.metrics.clone();
@@ -667,7 +728,6 @@ fn judge(variant: &Variant, report: &MissionReport, mid_frame: Vec<String>) -> R
     RunResult {
         variant: variant.clone(),
         passed,
-        error: None,
         failures,
         mid_frame,
         metrics,
@@ -713,7 +773,7 @@ pub fn merge(reports: Vec<CampaignReport>) -> Result<CampaignReport, String> {
             differences.push(format!("runs {} vs {}", merged.runs, other.runs));
         }
         if other.target != merged.target {
-            differences.push(format!("target {} vs {}", merged.target, other.target));
+            differences.push(format!("target {:?} vs {:?}", merged.target, other.target));
         }
         if other.reset_window != merged.reset_window {
             differences.push(format!(
@@ -783,7 +843,10 @@ pub fn summary(r: &CampaignReport) -> String {
         r.runs,
         r.seed,
         r.seed + u64::from(r.runs.max(1)) - 1,
-        r.target,
+        match r.target {
+            TargetKind::Native => "native",
+            TargetKind::Qemu => "qemu",
+        },
         r.reset_window,
         r.recovery,
         if r.shards.is_empty() {
@@ -809,7 +872,7 @@ pub fn summary(r: &CampaignReport) -> String {
     let mid = r
         .results
         .iter()
-        .filter(|x| x.variant.reset_point == MID_FRAME)
+        .filter(|x| x.variant.reset_point == ResetPoint::MidFrame)
         .count();
     out.push_str(&format!(
         "; {} mid-frame, {} frame-boundary resets\n",
@@ -997,9 +1060,17 @@ mod tests {
             assert!(v.reset_at_us >= lo.0 && v.reset_at_us < hi.0, "{v:?}");
             assert_eq!(v.reset_at_us % SEC, 0);
             assert_eq!(v.recovery_us, DEFAULT_RECOVERY_US);
-            assert_eq!(parse_time(&v.reset_at).unwrap().0, v.reset_at_us);
+            assert_eq!(
+                parse_time(&v.reset_at.as_str().into(), Epoch::default())
+                    .unwrap()
+                    .0,
+                v.reset_at_us
+            );
         }
-        let mid = a.iter().filter(|v| v.reset_point == MID_FRAME).count();
+        let mid = a
+            .iter()
+            .filter(|v| v.reset_point == ResetPoint::MidFrame)
+            .count();
         assert!((10..=40).contains(&mid), "{mid} of 50 mid-frame");
         let distinct: std::collections::BTreeSet<u64> = a.iter().map(|v| v.reset_at_us).collect();
         assert!(distinct.len() > 40);

@@ -2,22 +2,31 @@
 //! opens a real serial port), speaks the framed link of `fsw-bridge`, drives scenarios, decodes
 //! the target's defmt logs, and reports.
 //!
-//! The binary (`src/main.rs`) is a thin clap front end over this library; the integration tests
-//! in `tests/` use the library directly.
+//! The pipeline of a mission: [`scenario`] (the file's schema) -> [`mission::plan`] (resolved
+//! against the [`tasknet`]) -> [`mission::driver`] (flown on a [`mission::target`]) ->
+//! [`mission::expect`] and [`mission::report`]. Every file error is a [`diag::Diagnostic`];
+//! times and durations have one grammar ([`time`]).
+//!
+//! The binary (`src/main.rs`) only calls [`cli::main`]; the integration tests in `tests/` use
+//! the library directly.
 pub mod bench;
 pub mod bench_kernel;
 pub mod bench_missions;
 pub mod budget;
 pub mod campaign;
+pub mod cli;
 pub mod defmt_log;
+pub mod diag;
 pub mod firmware;
 pub mod link;
 pub mod mission;
+pub mod options;
 pub mod qemu;
 pub mod run;
 pub mod scenario;
 pub mod session;
 pub mod tasknet;
+pub mod time;
 
 use std::path::PathBuf;
 

@@ -1,5 +1,7 @@
 //! `hil run`: execute a scenario against a target and produce a verdict and a report.
 use std::path::PathBuf;
+
+pub use crate::options::RunOptions;
 use std::time::{Duration, Instant};
 
 use fsw_bridge::HostToTarget;
@@ -14,23 +16,6 @@ use crate::session::{Session, SessionError};
 
 /// How long one ping may take before the step fails.
 pub const PING_TIMEOUT: Duration = Duration::from_secs(5);
-
-/// Settings from the command line that override or complete the scenario.
-#[derive(Clone, Debug, Default)]
-pub struct RunOptions {
-    /// Talk to a real target on this serial device instead of QEMU.
-    pub serial: Option<String>,
-    pub baud: Option<u32>,
-    /// Firmware ELF to boot (QEMU) or to decode logs with (serial). Default: build it.
-    pub firmware: Option<PathBuf>,
-    pub realtime: bool,
-    /// Print the target's log lines as they arrive.
-    pub echo_logs: bool,
-    /// Print progress lines.
-    pub verbose: bool,
-    /// Run missions on the native target (the flight application compiled into hil).
-    pub native: bool,
-}
 
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -163,7 +148,6 @@ pub fn run_scenario(
     let mut build_id = None;
     let total = scenario.steps.len();
     for (index, step) in scenario.steps.iter().enumerate() {
-        let step = step.get_ref();
         let outcome = run_step(step, &mut session, hello_timeout, &mut rtts, &mut build_id);
         let (passed, detail) = match outcome {
             Ok(detail) => (true, detail),
@@ -187,7 +171,7 @@ pub fn run_scenario(
             for (later, step) in scenario.steps.iter().enumerate().skip(index + 1) {
                 steps.push(StepReport {
                     index: later + 1,
-                    step: step.get_ref().describe(),
+                    step: step.describe(),
                     passed: false,
                     detail: "not run: an earlier step failed".into(),
                 });

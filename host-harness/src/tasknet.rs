@@ -4,12 +4,11 @@
 //!
 //! # Format
 //!
-//! Times (`earliest_start`, `latest_start`, `latest_end`) are mission times: `"10:00"` or
-//! `"10:00:30"` (that time on the epoch day), `"2028-040T10:00"` (year-day of year; must be on or
-//! after the epoch), or an integer number of seconds since the epoch; `"never"` means no limit.
-//! The epoch (mission time 0) is `[network] epoch`, default `"2028-040T00:00"`.
-//! Durations and offsets: `"15m"`, `"90s"`, `"1h"`, `"250ms"`, `"1h30m"`, a leading `-` for
-//! negative offsets, or an integer number of seconds.
+//! Times (`earliest_start`, `latest_start`, `latest_end`) and durations follow [`crate::time`],
+//! the grammar scenario files use too: `"10:00"`, `"1T10:00"`, `"2028-041T10:00"` (year-day,
+//! on or after the epoch), seconds; `"never"` means no limit. The epoch (mission time 0) is
+//! `[network] epoch`, default `"2028-040T00:00"`. Durations: `"15min"`, `"90s"`, `"1h30min"`,
+//! `"250ms"`, seconds; offsets may start with `-`.
 //! State values are named (`"NADIR"`) after the timeline's `values`.
 //!
 //! ```toml
@@ -87,7 +86,6 @@
 //! max = "1h"
 //! ```
 use std::collections::BTreeMap;
-use std::fmt;
 use std::ops::Range;
 use std::path::Path;
 
@@ -101,65 +99,117 @@ use autonomy::{
 use serde::Deserialize;
 use toml::Spanned;
 
-/// A task network that did not compile, located in its file.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct TaskNetError {
-    pub file: String,
-    pub line: usize,
-    pub column: usize,
-    /// The field concerned, as a path (`task[2].constraints[0]`).
-    pub field: String,
-    pub message: String,
-    /// The target's validation code, when the validator refused it.
-    pub code: Option<u16>,
+use crate::diag::{Diagnostic, SourceFile};
+use crate::time::{self, Epoch, TimeText};
+
+/// A task network that did not compile, located in its file (with the target's validation
+/// code when the target's own validator refused it).
+pub type TaskNetError = Diagnostic;
+
+/// A compiled task network: the autonomy core's network, its binary uplink, and the names a
+/// scenario may use (its symbol table). Compiled once per run.
+#[derive(Clone, Debug)]
+pub struct CompiledNetwork {
+    pub network: TaskNetwork,
+    pub uplink: Vec<u8>,
+    pub symbols: Symbols,
 }
 
-impl fmt::Display for TaskNetError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(
-            f,
-            "{}:{}:{}: {}: {}",
-            self.file, self.line, self.column, self.field, self.message
-        )
+/// The names of a task network, as the ground wrote them.
+#[derive(Clone, Debug, Default)]
+pub struct Symbols {
+    /// Mission time 0.
+    pub epoch: Epoch,
+    pub timelines: Vec<TimelineSymbol>,
+}
+
+/// One timeline's name, kind, value names and the state key that measures it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TimelineSymbol {
+    pub name: String,
+    pub kind: TimelineKindName,
+    /// Value names of a state timeline (empty for the others).
+    pub values: Vec<String>,
+    pub state_key: Option<StateKey>,
+}
+
+/// The kind of a timeline, which fixes the type of value a measurement of it must carry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimelineKindName {
+    /// Enumerated values: measured as `StateValue::Enum`.
+    State,
+    /// Integer quantity: measured as `StateValue::Int`.
+    Cumulative,
+    /// Claims only; never measured.
+    Claimable,
+}
+
+impl TimelineKindName {
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::State => "state",
+            Self::Cumulative => "cumulative",
+            Self::Claimable => "claimable",
+        }
     }
 }
 
-impl std::error::Error for TaskNetError {}
+impl CompiledNetwork {
+    /// A timeline by name.
+    pub fn timeline(&self, name: &str) -> Option<&TimelineSymbol> {
+        self.symbols.timelines.iter().find(|t| t.name == name)
+    }
 
-/// Reads and compiles a TOML task network; returns the network and its uplink bytes.
-pub fn compile_file(path: &Path) -> Result<(TaskNetwork, Vec<u8>), TaskNetError> {
-    let src = std::fs::read_to_string(path).map_err(|e| TaskNetError {
-        file: path.display().to_string(),
-        line: 0,
-        column: 0,
-        field: String::new(),
-        message: format!("cannot read: {e}"),
-        code: None,
-    })?;
-    compile_str(&src, &path.display().to_string())
+    /// A task definition's ground id by name.
+    pub fn task_id(&self, name: &str) -> Option<u16> {
+        self.network
+            .tasks()
+            .iter()
+            .find(|t| t.name.as_str() == name)
+            .map(|t| t.id)
+    }
+
+    /// A task definition's name by ground id.
+    pub fn task_name(&self, id: u16) -> Option<&str> {
+        self.network
+            .tasks()
+            .iter()
+            .find(|t| t.id == id)
+            .map(|t| t.name.as_str())
+    }
+}
+
+/// Reads and compiles a TOML task network.
+pub fn compile_file(path: &Path) -> Result<CompiledNetwork, TaskNetError> {
+    compile(&SourceFile::read(path)?)
 }
 
 /// Compiles TOML source `src` (named `file_name` in errors).
-pub fn compile_str(src: &str, file_name: &str) -> Result<(TaskNetwork, Vec<u8>), TaskNetError> {
+pub fn compile_str(src: &str, file_name: &str) -> Result<CompiledNetwork, TaskNetError> {
+    compile(&SourceFile::new(file_name, src))
+}
+
+/// Compiles a task-network file.
+pub fn compile(source: &SourceFile) -> Result<CompiledNetwork, TaskNetError> {
     let mut c = Compiler {
-        src,
-        file: file_name,
+        src: source,
         sites: Sites::default(),
     };
-    let raw: RawFile = toml::from_str(src).map_err(|e| {
-        let span = e.span().unwrap_or(0..0);
-        c.error(span, "", e.message().trim().to_string())
-    })?;
-    let spec = c.build(&raw)?;
+    let raw: RawFile = toml::from_str(&source.text).map_err(|e| source.toml_error(&e, ""))?;
+    let (spec, symbols) = c.build(&raw)?;
     let network = TaskNetwork::from_spec(spec).map_err(|e| c.validation_error(e))?;
     let mut buf = vec![0u8; 1 << 20];
     let len = network
         .encode(&mut buf)
-        .map_err(|_| c.error(0..0, "", "network too large to encode".into()))?;
+        .map_err(|_| c.error(0..0, "network", "network too large to encode".into()))?;
     buf.truncate(len);
     // The bytes the target will see must pass the target's own check too.
     TaskNetwork::validate_uplink(&buf).map_err(|e| c.validation_error(e))?;
-    Ok((network, buf))
+    Ok(CompiledNetwork {
+        network,
+        uplink: buf,
+        symbols,
+    })
 }
 
 #[derive(Deserialize)]
@@ -346,78 +396,18 @@ struct Sites {
 }
 
 struct Compiler<'a> {
-    src: &'a str,
-    file: &'a str,
+    src: &'a SourceFile,
     sites: Sites,
 }
 
-const US_PER_S: i64 = 1_000_000;
-
-fn parse_duration_text(text: &str) -> Option<i64> {
-    let (negative, mut rest) = match text.strip_prefix('-') {
-        Some(r) => (true, r),
-        None => (false, text),
-    };
-    if rest.is_empty() {
-        return None;
-    }
-    let mut total: i64 = 0;
-    while !rest.is_empty() {
-        let digits = rest
-            .find(|c: char| !c.is_ascii_digit())
-            .unwrap_or(rest.len());
-        if digits == 0 {
-            return None;
+impl RawNumOrText {
+    /// As a time or duration in [`crate::time`]'s grammar.
+    fn as_time_text(&self) -> TimeText {
+        match self {
+            RawNumOrText::Int(s) => TimeText::Seconds(*s),
+            RawNumOrText::Text(t) => TimeText::Text(t.clone()),
         }
-        let n: i64 = rest[..digits].parse().ok()?;
-        rest = &rest[digits..];
-        let unit_len = rest
-            .find(|c: char| c.is_ascii_digit())
-            .unwrap_or(rest.len());
-        let unit = match &rest[..unit_len] {
-            "h" => 3_600 * US_PER_S,
-            "m" | "min" => 60 * US_PER_S,
-            "s" => US_PER_S,
-            "ms" => 1_000,
-            "us" => 1,
-            _ => return None,
-        };
-        rest = &rest[unit_len..];
-        total = total.checked_add(n.checked_mul(unit)?)?;
     }
-    Some(if negative { -total } else { total })
-}
-
-/// `hh:mm[:ss]` as µs.
-fn parse_clock(text: &str) -> Option<i64> {
-    let parts: Vec<&str> = text.split(':').collect();
-    if !(2..=3).contains(&parts.len()) {
-        return None;
-    }
-    let field = |s: &str, max: i64| -> Option<i64> {
-        let v: i64 = s.parse().ok()?;
-        (s.len() == 2 && (0..max).contains(&v)).then_some(v)
-    };
-    let h = field(parts[0], 24)?;
-    let m = field(parts[1], 60)?;
-    let s = match parts.get(2) {
-        Some(s) => field(s, 60)?,
-        None => 0,
-    };
-    Some(((h * 60 + m) * 60 + s) * US_PER_S)
-}
-
-/// `yyyy-dddThh:mm[:ss]` as µs since 0000-001 (only differences are used).
-fn parse_day_time(text: &str) -> Option<i64> {
-    let (date, clock) = text.split_once('T')?;
-    let (year, day) = date.split_once('-')?;
-    let year: i64 = year.parse().ok()?;
-    let day: i64 = day.parse().ok()?;
-    if !(1..=366).contains(&day) || year < 1 {
-        return None;
-    }
-    let days_before_year = (year - 1) * 365 + (year - 1) / 4 - (year - 1) / 100 + (year - 1) / 400;
-    Some((days_before_year + day - 1) * 86_400 * US_PER_S + parse_clock(clock)?)
 }
 
 fn field_path(kind: &str, index: usize, field: &str) -> String {
@@ -429,26 +419,8 @@ fn field_path(kind: &str, index: usize, field: &str) -> String {
 }
 
 impl<'a> Compiler<'a> {
-    fn position(&self, offset: usize) -> (usize, usize) {
-        let before = &self.src[..offset.min(self.src.len())];
-        let line = before.matches('\n').count() + 1;
-        let column = before
-            .rfind('\n')
-            .map_or(before.len(), |n| before.len() - n - 1)
-            + 1;
-        (line, column)
-    }
-
     fn error(&self, span: Range<usize>, field: &str, message: String) -> TaskNetError {
-        let (line, column) = self.position(span.start);
-        TaskNetError {
-            file: self.file.to_string(),
-            line,
-            column,
-            field: field.to_string(),
-            message,
-            code: None,
-        }
+        self.src.error(span, field, message)
     }
 
     fn validation_error(&self, e: ValidationError) -> TaskNetError {
@@ -500,13 +472,12 @@ impl<'a> Compiler<'a> {
                 (span, field_path("task", usize::from(task), &key))
             }
         };
-        let mut err = self.error(
+        self.error(
             span,
             &field,
             format!("{} (validation code {})", describe(e), e.code.code()),
-        );
-        err.code = Some(e.code.code());
-        err
+        )
+        .with_code(e.code.code())
     }
 
     fn duration_us(&self, v: &Spanned<RawNumOrText>, field: &str) -> Result<i64, TaskNetError> {
@@ -519,48 +490,20 @@ impl<'a> Compiler<'a> {
         span: Range<usize>,
         field: &str,
     ) -> Result<i64, TaskNetError> {
-        match v {
-            RawNumOrText::Int(s) => s
-                .checked_mul(US_PER_S)
-                .ok_or_else(|| self.error(span, field, "duration too large".into())),
-            RawNumOrText::Text(t) => parse_duration_text(t).ok_or_else(|| {
-                self.error(
-                    span,
-                    field,
-                    format!("`{t}` is not a duration (try \"15m\", \"90s\", \"1h30m\" or seconds)"),
-                )
-            }),
-        }
+        time::parse_offset(&v.as_time_text()).map_err(|m| self.error(span, field, m))
     }
 
     fn time(
         &self,
         v: &Spanned<RawNumOrText>,
-        epoch_us: i64,
+        epoch: Epoch,
         field: &str,
     ) -> Result<MissionTimeUs, TaskNetError> {
-        let bad = |msg: String| self.error(v.span(), field, msg);
-        let us = match v.get_ref() {
-            RawNumOrText::Int(s) => s
-                .checked_mul(US_PER_S)
-                .ok_or_else(|| bad("time too large".into()))?,
-            RawNumOrText::Text(t) if t == "never" => return Ok(MissionTimeUs::MAX),
-            RawNumOrText::Text(t) => {
-                if let Some(c) = parse_clock(t) {
-                    c
-                } else if let Some(abs) = parse_day_time(t) {
-                    abs - epoch_us
-                } else {
-                    return Err(bad(format!(
-                        "`{t}` is not a time (try \"10:15\", \"2028-040T10:15\", seconds or \"never\")"
-                    )));
-                }
-            }
-        };
-        if us < 0 {
-            return Err(bad("time is before the epoch".into()));
+        if matches!(v.get_ref(), RawNumOrText::Text(t) if t == "never") {
+            return Ok(MissionTimeUs::MAX);
         }
-        Ok(MissionTimeUs(us as u64))
+        time::parse_time(&v.get_ref().as_time_text(), epoch)
+            .map_err(|m| self.error(v.span(), field, m))
     }
 
     fn name(&self, s: &Spanned<String>, field: &str) -> Result<Name, TaskNetError> {
@@ -573,21 +516,17 @@ impl<'a> Compiler<'a> {
         })
     }
 
-    fn build(&mut self, raw: &RawFile) -> Result<NetworkSpec, TaskNetError> {
+    fn build(&mut self, raw: &RawFile) -> Result<(NetworkSpec, Symbols), TaskNetError> {
         self.sites.network = raw.network.span();
         let n = raw.network.get_ref();
-        let epoch_us = match &n.epoch {
-            Some(e) => parse_day_time(e.get_ref()).ok_or_else(|| {
-                self.error(
-                    e.span(),
-                    "network.epoch",
-                    format!(
-                        "`{}` is not a year-day time like \"2028-040T00:00\"",
-                        e.get_ref()
-                    ),
-                )
-            })?,
-            None => parse_day_time("2028-040T00:00").unwrap_or(0),
+        let epoch = match &n.epoch {
+            Some(e) => time::parse_epoch(e.get_ref())
+                .map_err(|m| self.error(e.span(), "network.epoch", m))?,
+            None => Epoch::default(),
+        };
+        let mut symbols = Symbols {
+            epoch,
+            timelines: Vec::new(),
         };
         let mut config = PlannerConfig::DEFAULT;
         for (value, target, field) in [
@@ -682,6 +621,16 @@ impl<'a> Compiler<'a> {
             }
             self.sites.timelines.push(span);
             value_names.push(t.values.clone().unwrap_or_default());
+            symbols.timelines.push(TimelineSymbol {
+                name: t.name.get_ref().clone(),
+                kind: match kind {
+                    TimelineKind::State { .. } => TimelineKindName::State,
+                    TimelineKind::Claimable => TimelineKindName::Claimable,
+                    _ => TimelineKindName::Cumulative,
+                },
+                values: t.values.clone().unwrap_or_default(),
+                state_key: t.state_key.map(StateKey),
+            });
         }
         let timeline_index = |name: &str| {
             raw.timeline
@@ -726,7 +675,20 @@ impl<'a> Compiler<'a> {
             condition_names.push(c.name.get_ref().clone());
         }
 
-        // Tasks.
+        // Tasks: a name names one task.
+        for (i, t) in raw.task.iter().enumerate() {
+            let name = t.get_ref().name.get_ref();
+            if let Some(first) = raw.task[..i]
+                .iter()
+                .position(|o| o.get_ref().name.get_ref() == name)
+            {
+                return Err(self.error(
+                    t.get_ref().name.span(),
+                    &field_path("task", i, "name"),
+                    format!("task[{first}] has the name `{name}` already: task names must be unique (scenarios and reports refer to tasks by name)"),
+                ));
+            }
+        }
         let task_id = |name: &str| -> Option<u16> {
             raw.task
                 .iter()
@@ -739,7 +701,7 @@ impl<'a> Compiler<'a> {
                 i,
                 t.get_ref(),
                 span.clone(),
-                epoch_us,
+                epoch,
                 &timeline_index,
                 &value_names,
                 &condition_names,
@@ -792,7 +754,19 @@ impl<'a> Compiler<'a> {
             }
             self.sites.temporal.push(span);
         }
-        Ok(spec)
+        if let Some(cycle) = inconsistent_temporal_cycle(&spec) {
+            let names: Vec<String> = cycle.iter().map(|i| format!("temporal[{i}]")).collect();
+            let first = cycle.first().copied().unwrap_or(0);
+            return Err(self.error(
+                self.sites.temporal.get(first).cloned().unwrap_or(0..0),
+                &field_path("temporal", first, ""),
+                format!(
+                    "these temporal constraints form a cycle that no schedule can meet (with the tasks' durations): {}",
+                    names.join(" -> ")
+                ),
+            ));
+        }
+        Ok((spec, symbols))
     }
 
     fn capacity(&self, span: Range<usize>, field: &str, what: &str, max: usize) -> TaskNetError {
@@ -910,7 +884,7 @@ impl<'a> Compiler<'a> {
         i: usize,
         t: &RawTask,
         span: Range<usize>,
-        epoch_us: i64,
+        epoch: Epoch,
         timeline_index: &dyn Fn(&str) -> Option<usize>,
         value_names: &[Vec<String>],
         condition_names: &[String],
@@ -967,16 +941,16 @@ impl<'a> Compiler<'a> {
             None => duration_us,
         };
         let earliest_start = match &t.earliest_start {
-            Some(v) => self.time(v, epoch_us, &path("earliest_start"))?,
+            Some(v) => self.time(v, epoch, &path("earliest_start"))?,
             None => MissionTimeUs::ZERO,
         };
         let latest_start = match (&t.latest_start, role) {
-            (Some(v), _) => self.time(v, epoch_us, &path("latest_start"))?,
+            (Some(v), _) => self.time(v, epoch, &path("latest_start"))?,
             (None, TaskRole::Requested) => earliest_start,
             (None, TaskRole::Template) => MissionTimeUs::MAX,
         };
         let latest_end = match &t.latest_end {
-            Some(v) => self.time(v, epoch_us, &path("latest_end"))?,
+            Some(v) => self.time(v, epoch, &path("latest_end"))?,
             None => MissionTimeUs::MAX,
         };
         let command =
@@ -1256,6 +1230,76 @@ impl<'a> Compiler<'a> {
     }
 }
 
+/// The temporal constraints (by index) on a cycle that no schedule can meet, if any: a negative
+/// cycle of the simple temporal network whose nodes are the start and end of each task, with
+/// `end - start` in `[min_duration, duration]` and each constraint's `[min, max]`.
+fn inconsistent_temporal_cycle(spec: &NetworkSpec) -> Option<Vec<usize>> {
+    let node = |id: u16, point: TaskPoint| -> Option<usize> {
+        let d = spec.tasks.iter().position(|t| t.id == id)?;
+        Some(2 * d + usize::from(point == TaskPoint::End))
+    };
+    // Edges u -> v with weight w mean v - u <= w; the constraint index, if one made it.
+    let mut edges: Vec<(usize, usize, i64, Option<usize>)> = Vec::new();
+    for (d, t) in spec.tasks.iter().enumerate() {
+        let (start, end) = (2 * d, 2 * d + 1);
+        edges.push((start, end, t.duration_us.min(i64::MAX as u64) as i64, None));
+        edges.push((
+            end,
+            start,
+            -(t.min_duration_us.min(i64::MAX as u64) as i64),
+            None,
+        ));
+    }
+    for (i, tc) in spec.temporal.iter().enumerate() {
+        let (Some(u), Some(v)) = (
+            node(tc.from_task, tc.from_point),
+            node(tc.to_task, tc.to_point),
+        ) else {
+            continue;
+        };
+        edges.push((u, v, tc.max_us, Some(i)));
+        edges.push((v, u, tc.min_us.saturating_neg(), Some(i)));
+    }
+    let n = 2 * spec.tasks.len();
+    // Bellman-Ford from a virtual source joined to every node by a 0 edge.
+    let mut dist = vec![0i64; n];
+    let mut pred: Vec<Option<usize>> = vec![None; n];
+    let mut last_changed = None;
+    for _ in 0..=n {
+        last_changed = None;
+        for (k, &(u, v, w, _)) in edges.iter().enumerate() {
+            let cand = dist[u].saturating_add(w);
+            if cand < dist[v] {
+                dist[v] = cand;
+                pred[v] = Some(k);
+                last_changed = Some(v);
+            }
+        }
+        last_changed?;
+    }
+    // Still relaxing after n rounds: walk back n times to land on the cycle, then collect it.
+    let mut v = last_changed?;
+    for _ in 0..n {
+        v = edges[pred[v]?].0;
+    }
+    let start = v;
+    let mut constraints = Vec::new();
+    loop {
+        let (u, _, _, index) = edges[pred[v]?];
+        if let Some(i) = index {
+            if !constraints.contains(&i) {
+                constraints.push(i);
+            }
+        }
+        v = u;
+        if v == start {
+            break;
+        }
+    }
+    constraints.reverse();
+    Some(constraints)
+}
+
 /// A sentence for each validation code.
 fn describe(e: ValidationError) -> &'static str {
     use autonomy::ValidationCode::*;
@@ -1311,7 +1355,8 @@ mod tests {
 
     #[test]
     fn flyby_compiles_and_its_uplink_passes_the_target_validator() {
-        let (network, bytes) = compile_str(FLYBY, "flyby.toml").unwrap();
+        let net = compile_str(FLYBY, "flyby.toml").unwrap();
+        let (network, bytes) = (net.network, net.uplink);
         assert_eq!(network.tasks().len(), 6);
         assert_eq!(network.timelines().len(), 4);
         assert!(TaskNetwork::validate_uplink(&bytes).is_ok());
@@ -1321,24 +1366,83 @@ mod tests {
     }
 
     #[test]
-    fn times_and_durations_parse() {
-        assert_eq!(parse_duration_text("15m"), Some(900_000_000));
-        assert_eq!(parse_duration_text("1h30m"), Some(5_400_000_000));
-        assert_eq!(parse_duration_text("-30s"), Some(-30_000_000));
-        assert_eq!(parse_duration_text("250ms"), Some(250_000));
-        assert_eq!(parse_duration_text("15"), None);
-        assert_eq!(parse_clock("10:15"), Some(36_900_000_000));
-        assert_eq!(parse_clock("10:15:30"), Some(36_930_000_000));
-        assert_eq!(parse_clock("25:00"), None);
-        let epoch = parse_day_time("2028-040T00:00").unwrap();
-        assert_eq!(
-            parse_day_time("2028-040T10:00").unwrap() - epoch,
-            36_000_000_000
+    fn task_times_use_the_shared_grammar_and_the_epoch() {
+        let src = "[network]\nid = 1\nepoch = \"2028-040T00:00\"\n[[task]]\nid = 1\nname = \"a\"\nduration = \"15min\"\nearliest_start = \"2028-041T10:00\"\nlatest_start = \"1T10:00:30\"\n";
+        let net = compile_str(src, "t.toml").unwrap();
+        let t = &net.network.tasks()[0];
+        assert_eq!(t.duration_us, 900_000_000);
+        assert_eq!(t.earliest_start.0, (86_400 + 36_000) * 1_000_000);
+        assert_eq!(t.latest_start.0, (86_400 + 36_030) * 1_000_000);
+    }
+
+    /// One truth for the flyby: the TOML the scenarios fly is exactly the network
+    /// `autonomy::scenarios::flyby_spec()` builds for the autonomy core's own tests.
+    #[test]
+    fn flyby_toml_is_the_rust_flyby_network() {
+        let net = compile_str(FLYBY, "flyby.toml").unwrap();
+        let built = TaskNetwork::from_spec(autonomy::scenarios::flyby_spec().unwrap()).unwrap();
+        assert_eq!(net.network, built);
+        let mut buf = vec![0u8; 1 << 16];
+        let len = built.encode(&mut buf).unwrap();
+        assert_eq!(net.uplink, &buf[..len], "same uplink bytes");
+        let att = net.timeline("GncAttitude").unwrap();
+        assert_eq!(att.kind, TimelineKindName::State);
+        assert_eq!(att.state_key, Some(StateKey(1)));
+        assert_eq!(att.values[1], "NADIR");
+        assert_eq!(net.task_id("Instrument Flyby"), Some(3));
+    }
+
+    #[test]
+    fn two_tasks_with_one_name_are_refused_at_the_second() {
+        let src = format!(
+            "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\n\n[[task]]\nid = 2\nname = \"t\"\nduration = \"1m\"\n"
         );
+        let e = error_of(&src);
         assert_eq!(
-            parse_day_time("2028-041T00:00").unwrap() - epoch,
-            86_400_000_000
+            (e.line(), e.column(), e.field.as_str()),
+            (17, 8, "task[1].name"),
+            "{e}"
         );
+        assert!(
+            e.message.contains("task[0] has the name `t` already"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn temporal_constraints_no_schedule_can_meet_are_refused_naming_the_cycle() {
+        let tasks = "\n[[task]]\nid = 1\nname = \"a\"\nduration = \"1m\"\n\n[[task]]\nid = 2\nname = \"b\"\nduration = \"1m\"\n";
+        // b starts at least 10 min after a ends, and a starts at least 10 min after b ends.
+        let cycle = "\n[[temporal]]\nfrom = \"a\"\nfrom_point = \"end\"\nto = \"b\"\nto_point = \"start\"\nmin = \"10min\"\nmax = \"1h\"\n\n[[temporal]]\nfrom = \"b\"\nfrom_point = \"end\"\nto = \"a\"\nto_point = \"start\"\nmin = \"10min\"\nmax = \"1h\"\n";
+        let e = error_of(&format!("{HEAD}{tasks}{cycle}"));
+        assert!(e.field.starts_with("temporal["), "{e}");
+        assert!(
+            e.message.contains("temporal[0] -> temporal[1]")
+                || e.message.contains("temporal[1] -> temporal[0]"),
+            "{e}"
+        );
+        // The same pair with a consistent window (b within 10 min of a, a within 10 min after
+        // b's start at the latest) is a cycle a schedule can meet: accepted.
+        let fine = "\n[[temporal]]\nfrom = \"a\"\nfrom_point = \"end\"\nto = \"b\"\nto_point = \"start\"\nmin = \"0s\"\nmax = \"10min\"\n\n[[temporal]]\nfrom = \"b\"\nfrom_point = \"start\"\nto = \"a\"\nto_point = \"end\"\nmin = \"-10min\"\nmax = \"0s\"\n";
+        compile_str(&format!("{HEAD}{tasks}{fine}"), "t.toml").unwrap();
+    }
+
+    #[test]
+    fn an_unreadable_network_says_cannot_read_without_a_fake_position() {
+        let e = compile_file(Path::new("/nonexistent/net.toml")).unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("/nonexistent/net.toml: cannot read the file:"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_too_large_duration_says_too_long() {
+        let e = error_of(&format!(
+            "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"999999999999h\"\n"
+        ));
+        assert!(e.message.contains("too long"), "{e}");
     }
 
     fn error_of(src: &str) -> TaskNetError {
@@ -1353,7 +1457,7 @@ mod tests {
             "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\nearliest_start = \"10:00\"\nconstraints = [\n  {{ when = \"pre\", timeline = \"Nope\", in = [\"A\"] }},\n]\n"
         );
         let e = error_of(&src);
-        assert_eq!((e.line, e.column), (16, 3), "{e}");
+        assert_eq!((e.line(), e.column()), (16, 3), "{e}");
         assert_eq!(e.field, "task[0].constraints[0]");
         assert!(
             e.to_string()
@@ -1370,19 +1474,19 @@ mod tests {
         );
         let e = error_of(&src);
         assert_eq!(e.code, Some(50));
-        assert_eq!(e.line, 14, "{e}");
+        assert_eq!(e.line(), 14, "{e}");
         assert_eq!(e.field, "task[0].earliest_start");
         // A claim impact on a state timeline: TypeMismatch (40) at the impact.
         let src = format!(
             "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\nimpacts = [{{ when = \"maintain\", timeline = \"Att\", claim = true }}]\n"
         );
         let e = error_of(&src);
-        assert_eq!((e.code, e.line, e.column), (Some(40), 14, 12), "{e}");
+        assert_eq!((e.code, e.line(), e.column()), (Some(40), 14, 12), "{e}");
         // Reserved task id (31).
         let src = format!("{HEAD}\n[[task]]\nid = 40000\nname = \"t\"\nduration = \"1m\"\n");
         let e = error_of(&src);
         assert_eq!(
-            (e.code, e.line, e.field.as_str()),
+            (e.code, e.line(), e.field.as_str()),
             (Some(31), 11, "task[0].id"),
             "{e}"
         );
@@ -1391,12 +1495,12 @@ mod tests {
     #[test]
     fn toml_syntax_and_type_errors_have_positions() {
         let e = error_of("[network]\nid = \"x\"\n");
-        assert_eq!(e.line, 2, "{e}");
+        assert_eq!(e.line(), 2, "{e}");
         let e = error_of(&format!(
             "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"soon\"\n"
         ));
         assert_eq!(
-            (e.line, e.column, e.field.as_str()),
+            (e.line(), e.column(), e.field.as_str()),
             (13, 12, "task[0].duration"),
             "{e}"
         );
@@ -1422,6 +1526,6 @@ mod tests {
         let deep = format!("{{ not = {{ not = {{ not = {{ not = {term} }} }} }} }}");
         let src = format!("{HEAD}\n[[condition]]\nname = \"c\"\nexpr = {deep}\n");
         let e = error_of(&src);
-        assert_eq!((e.code, e.line), (Some(61), 12), "{e}");
+        assert_eq!((e.code, e.line()), (Some(61), 12), "{e}");
     }
 }

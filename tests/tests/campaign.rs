@@ -1,6 +1,9 @@
 //! Campaigns (`hil campaign`): random-reset variants of the flyby on the native target, run in
 //! parallel, sharded and merged. The same campaign on the emulated target is at the end.
-use hil::campaign::{merge, run_campaign, CampaignOptions, CampaignReport, Shard, MID_FRAME};
+use hil::campaign::{
+    merge, run_campaign, CampaignOptions, CampaignReport, Failure, ResetPoint, Shard,
+};
+use hil::scenario::TargetKind;
 
 fn flyby_campaign(runs: u32) -> CampaignOptions {
     let mut o = CampaignOptions::new(
@@ -36,7 +39,7 @@ fn twenty_random_reset_variants_of_the_flyby_all_recover_with_a_consistent_plan(
     let mid: Vec<_> = report
         .results
         .iter()
-        .filter(|r| r.variant.reset_point == MID_FRAME)
+        .filter(|r| r.variant.reset_point == ResetPoint::MidFrame)
         .collect();
     assert!(!mid.is_empty() && mid.len() < 20, "{summary}");
     for r in mid {
@@ -78,7 +81,9 @@ fn a_run_whose_checkpoints_are_all_destroyed_fails_with_its_reproducer() {
     assert!(!bad.passed);
     assert!(bad.variant.destroy_checkpoints);
     assert!(
-        bad.failures.iter().any(|f| f.contains("lost checkpoint")),
+        bad.failures
+            .iter()
+            .any(|f| matches!(f, Failure::LostCheckpoint { .. })),
         "{:?}",
         bad.failures
     );
@@ -88,7 +93,8 @@ fn a_run_whose_checkpoints_are_all_destroyed_fails_with_its_reproducer() {
     assert!(
         summary.contains(&format!(
             "run 2 (seed 3): warm reset at {}, {}, recovery 180s",
-            bad.variant.reset_at, bad.variant.reset_point
+            bad.variant.reset_at,
+            bad.variant.reset_point.name()
         )),
         "{summary}"
     );
@@ -205,12 +211,12 @@ fn campaign_on_the_emulated_target() {
     opts.firmware = Some(hil_tests::firmware().elf.clone());
     let report = run(&opts);
     let summary = hil::campaign::summary(&report);
-    assert_eq!(report.target, "qemu");
+    assert_eq!(report.target, TargetKind::Qemu);
     assert!(report.passed(), "{summary}");
     let mid: Vec<_> = report
         .results
         .iter()
-        .filter(|r| r.variant.reset_point == MID_FRAME)
+        .filter(|r| r.variant.reset_point == ResetPoint::MidFrame)
         .collect();
     assert!(!mid.is_empty() && mid.len() < 20, "{summary}");
     let mut inside = 0;

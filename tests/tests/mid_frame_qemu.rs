@@ -4,9 +4,9 @@
 //! recovers from it, a reset inside the checkpoint copy tears the newest warm slot and the
 //! restart falls back to the other one, and the same armed point gives the same transcript.
 use fsw_bridge::{MissionTimeUs, ResetKind};
-use hil::mission::report::{prepare, run, MissionReport};
+use hil::mission::report::MissionReport;
+use hil::mission::runner::{prepare, run};
 use hil::mission::target::{EmulatedTarget, MidFrameReport, MissionTarget};
-use hil::mission::time::parse_time;
 use hil_tests::{firmware, profile};
 use kernel_config::abi::reset_at;
 
@@ -18,11 +18,11 @@ const RECOVERY_US: u64 = 180_000_000;
 fn flyby_reset_at(kind: ResetKind, tag: &str) -> (MissionReport, Vec<MidFrameReport>, Vec<String>) {
     let _one = hil_tests::exclusive_qemu();
     let path = hil::repo_root().join("scenarios/flyby-campaign.toml");
-    let loaded = hil::scenario::load(&path).unwrap_or_else(|e| panic!("{e}"));
-    let mut prepared = prepare(&path, loaded).unwrap_or_else(|e| panic!("{e}"));
-    prepared
-        .mission
-        .add_warm_reset(parse_time(RESET_AT).unwrap(), RECOVERY_US);
+    let mut prepared = prepare(&path).unwrap_or_else(|e| panic!("{e}"));
+    prepared.add_warm_reset(
+        hil::time::parse_time(&RESET_AT.into(), hil::time::Epoch::default()).unwrap(),
+        RECOVERY_US,
+    );
     let nv = std::env::temp_dir().join(format!(
         "hil-test-nv-mid-frame-{}-{tag}.bin",
         std::process::id()
@@ -48,7 +48,7 @@ fn assert_recovered(report: &MissionReport, log: &[String]) {
     assert_eq!(reset.reset_cause, "warm", "{summary}");
     assert_eq!(
         MissionTimeUs(reset.at),
-        parse_time(RESET_AT).unwrap(),
+        hil::time::parse_time(&RESET_AT.into(), hil::time::Epoch::default()).unwrap(),
         "{summary}"
     );
     assert!(
@@ -68,7 +68,10 @@ fn a_reset_armed_mid_frame_lands_inside_the_executives_work_and_the_flyby_recove
     assert_recovered(&a, &a_log);
     assert_eq!(a_reports.len(), 1, "{a_log:#?}");
     let landing = &a_reports[0];
-    assert_eq!(landing.frame_at, parse_time(RESET_AT).unwrap());
+    assert_eq!(
+        landing.frame_at,
+        hil::time::parse_time(&RESET_AT.into(), hil::time::Epoch::default()).unwrap()
+    );
     assert_eq!(landing.kind, kind);
     // 1500 ticks into a frame whose work is ~4000: in the step, before the checkpoint write.
     assert_eq!(landing.landed, Some(reset_at::LANDED_IN_CODE), "{a_log:#?}");

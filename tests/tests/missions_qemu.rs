@@ -4,7 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use hil::mission::record::Decision;
-use hil::mission::report::{prepare, run, MissionReport};
+use hil::mission::report::MissionReport;
+use hil::mission::runner::{prepare, run};
 use hil::mission::target::{EmulatedTarget, NativeTarget};
 use hil_tests::{firmware, profile};
 
@@ -14,8 +15,7 @@ fn scenario(name: &str) -> PathBuf {
 
 fn run_emulated(path: &Path) -> MissionReport {
     let _one = hil_tests::exclusive_qemu();
-    let loaded = hil::scenario::load(path).unwrap_or_else(|e| panic!("{e}"));
-    let prepared = prepare(path, loaded).unwrap_or_else(|e| panic!("{e}"));
+    let prepared = prepare(path).unwrap_or_else(|e| panic!("{e}"));
     let nv = std::env::temp_dir().join(format!(
         "hil-test-nv-{}-{}.bin",
         std::process::id(),
@@ -27,8 +27,7 @@ fn run_emulated(path: &Path) -> MissionReport {
 }
 
 fn run_native(path: &Path) -> MissionReport {
-    let loaded = hil::scenario::load(path).unwrap();
-    let prepared = prepare(path, loaded).unwrap();
+    let prepared = prepare(path).unwrap();
     run(&prepared, &mut NativeTarget::new(), None, &mut |_, _, _| {}).unwrap()
 }
 

@@ -8,24 +8,19 @@
 //! in both directions. A grant or FrameDone lost that way is retransmitted at once (the target
 //! answers a repeated grant with the same FrameDone), so a lossy link costs inputs and
 //! decisions, as it would in flight, but never stalls the run or makes it depend on wall time.
-use std::path::Path;
 
 use fsw_bridge::codec::{encode, FrameDecoder, MAX_FRAME_LEN};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
-use fsw_bridge::{
-    CommandStatus, HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, StateKey,
-    StateValue, TargetToHost,
-};
+use fsw_bridge::{HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, TargetToHost};
 use sha2::{Digest, Sha256};
 
+use super::plan::{Action, CommandFault, LinkFaults, MissionPlan};
 use super::record::MissionRecord;
 use super::rng::Rng;
 use super::sim::{CommandFate, Spacecraft};
-use super::spec::{CommandFaultSpec, EventSpec, LinkFaultSpec, MissionSpec};
 use super::target::{MissionTarget, TargetError};
-use super::time::{fmt_time, parse_duration, parse_time};
 use super::CompiledNetwork;
-use crate::scenario::Scenario;
+use crate::time::fmt_time;
 
 /// Consecutive grants at the same mission time after which the run is declared stuck.
 pub const MAX_ZERO_ADVANCE_FRAMES: u32 = 10_000;
@@ -34,8 +29,6 @@ pub const MAX_GRANT_ATTEMPTS: u32 = 50;
 
 #[derive(Debug, thiserror::Error)]
 pub enum MissionError {
-    #[error("{0}")]
-    Invalid(String),
     #[error(transparent)]
     Target(#[from] TargetError),
     #[error("the target refused the task-network uplink (reason code {reason:#06x})")]
@@ -53,308 +46,9 @@ pub enum MissionError {
     },
 }
 
-/// One scenario event with its time resolved.
-#[derive(Clone, Debug)]
-struct Event {
-    at: MissionTimeUs,
-    index: usize,
-    action: Action,
-}
-
-#[derive(Clone, Debug)]
-enum Action {
-    WarmReset {
-        recovery_us: u64,
-    },
-    PowerCycle {
-        recovery_us: u64,
-    },
-    CommandFault(Fault),
-    Override {
-        key: StateKey,
-        value: StateValue,
-        name: String,
-    },
-    Change {
-        key: StateKey,
-        by: i64,
-        name: String,
-    },
-}
-
-#[derive(Clone, Debug)]
-struct Fault {
-    opcode: Opcode,
-    /// Remaining dispatches to let through before the one that fails (None: probabilistic).
-    skip: Option<u32>,
-    probability: f64,
-    fate: CommandFate,
-    spent: bool,
-}
-
-/// The resolved mission: times, events, faults.
-pub struct Mission {
-    pub start: MissionTimeUs,
-    pub end: MissionTimeUs,
-    pub max_frame_us: Option<u64>,
-    events: Vec<Event>,
-    link: LinkFaultSpec,
-    pub seed: u64,
-    /// Pace grants by the wall clock (one mission second per second), for a real peer on the
-    /// link; off: lockstep, as fast as the target runs.
-    pub realtime: bool,
-}
-
-fn field_err(field: &str, message: impl std::fmt::Display) -> MissionError {
-    MissionError::Invalid(format!("{field}: {message}"))
-}
-
-impl Mission {
-    /// Resolve the scenario's mission part against the compiled network.
-    pub fn resolve(
-        scenario: &Scenario,
-        spec: &MissionSpec,
-        net: &CompiledNetwork,
-    ) -> Result<Self, MissionError> {
-        let start = parse_time(&spec.start).map_err(|e| field_err("mission.start", e))?;
-        let end = parse_time(&spec.end).map_err(|e| field_err("mission.end", e))?;
-        if end <= start {
-            return Err(field_err("mission.end", "must be after mission.start"));
-        }
-        let max_frame_us = spec
-            .max_frame
-            .as_deref()
-            .map(|d| parse_duration(d).map_err(|e| field_err("mission.max_frame", e)))
-            .transpose()?;
-        if max_frame_us == Some(0) {
-            return Err(field_err("mission.max_frame", "must be longer than 0"));
-        }
-        let mut events = Vec::new();
-        for (index, ev) in scenario.events.iter().enumerate() {
-            let ev = ev.get_ref();
-            let field = format!("events[{index}]");
-            let at = parse_time(&ev.at).map_err(|e| field_err(&format!("{field}.at"), e))?;
-            if at < start || at > end {
-                return Err(field_err(
-                    &format!("{field}.at"),
-                    format!(
-                        "{} is outside the mission ({} to {})",
-                        ev.at, spec.start, spec.end
-                    ),
-                ));
-            }
-            let action = resolve_action(ev, &field, net)?;
-            events.push(Event { at, index, action });
-        }
-        events.sort_by_key(|e| (e.at, e.index));
-        for (field, p) in [
-            ("link.corrupt", scenario.link.corrupt),
-            ("link.drop", scenario.link.drop),
-            ("link.delay", scenario.link.delay),
-        ] {
-            if !(0.0..=0.5).contains(&p) {
-                return Err(field_err(
-                    field,
-                    format!("{p} is not a probability in 0..=0.5"),
-                ));
-            }
-        }
-        Ok(Self {
-            start,
-            end,
-            max_frame_us,
-            events,
-            link: scenario.link.clone(),
-            seed: scenario.seed,
-            realtime: false,
-        })
-    }
-
-    /// Times of the resets this mission injects (for campaigns and reports).
-    pub fn reset_times(&self) -> Vec<MissionTimeUs> {
-        self.events
-            .iter()
-            .filter(|e| {
-                matches!(
-                    e.action,
-                    Action::WarmReset { .. } | Action::PowerCycle { .. }
-                )
-            })
-            .map(|e| e.at)
-            .collect()
-    }
-
-    /// Add a warm reset at `at` (campaign variants).
-    pub fn add_warm_reset(&mut self, at: MissionTimeUs, recovery_us: u64) {
-        let index = self.events.len() + 1000;
-        self.events.push(Event {
-            at,
-            index,
-            action: Action::WarmReset { recovery_us },
-        });
-        self.events.sort_by_key(|e| (e.at, e.index));
-    }
-}
-
-fn resolve_action(
-    ev: &EventSpec,
-    field: &str,
-    net: &CompiledNetwork,
-) -> Result<Action, MissionError> {
-    let mut actions = Vec::new();
-    let recovery = |r: &super::spec::ResetSpec, what: &str| {
-        r.recovery
-            .as_deref()
-            .map(|d| {
-                parse_duration(d).map_err(|e| field_err(&format!("{field}.{what}.recovery"), e))
-            })
-            .transpose()
-            .map(|v| v.unwrap_or(0))
-    };
-    if let Some(r) = &ev.warm_reset {
-        actions.push(Action::WarmReset {
-            recovery_us: recovery(r, "warm_reset")?,
-        });
-    }
-    if let Some(r) = &ev.power_cycle {
-        actions.push(Action::PowerCycle {
-            recovery_us: recovery(r, "power_cycle")?,
-        });
-    }
-    if let Some(f) = &ev.command_failure {
-        let status = match f.status.as_deref().unwrap_or("failed") {
-            "failed" => CommandStatus::Failed(f.code.unwrap_or(1)),
-            "rejected" => CommandStatus::Rejected,
-            other => {
-                return Err(field_err(
-                    &format!("{field}.command_failure.status"),
-                    format!("{other:?} is not one of \"failed\", \"rejected\""),
-                ))
-            }
-        };
-        actions.push(Action::CommandFault(fault(
-            f,
-            CommandFate::Answer(status),
-            &format!("{field}.command_failure"),
-        )?));
-    }
-    if let Some(f) = &ev.command_timeout {
-        actions.push(Action::CommandFault(fault(
-            f,
-            CommandFate::Silent,
-            &format!("{field}.command_timeout"),
-        )?));
-    }
-    if let Some(o) = &ev.state_override {
-        let f = format!("{field}.state_override");
-        let (key, values) = net.timeline(&o.timeline).ok_or_else(|| {
-            field_err(
-                &format!("{f}.timeline"),
-                format!("no timeline named {:?}", o.timeline),
-            )
-        })?;
-        let key = key.ok_or_else(|| {
-            field_err(
-                &format!("{f}.timeline"),
-                format!(
-                    "{:?} has no state key: the spacecraft does not publish it",
-                    o.timeline
-                ),
-            )
-        })?;
-        let value = value_of(&o.value, values).map_err(|e| field_err(&format!("{f}.value"), e))?;
-        actions.push(Action::Override {
-            key,
-            value,
-            name: o.timeline.clone(),
-        });
-    }
-    if let Some(c) = &ev.state_change {
-        let f = format!("{field}.state_change");
-        let (key, values) = net.timeline(&c.timeline).ok_or_else(|| {
-            field_err(
-                &format!("{f}.timeline"),
-                format!("no timeline named {:?}", c.timeline),
-            )
-        })?;
-        if !values.is_empty() {
-            return Err(field_err(
-                &format!("{f}.timeline"),
-                "a state timeline cannot change by an amount; use state_override",
-            ));
-        }
-        let key = key.ok_or_else(|| field_err(&format!("{f}.timeline"), "it has no state key"))?;
-        actions.push(Action::Change {
-            key,
-            by: c.by,
-            name: c.timeline.clone(),
-        });
-    }
-    match actions.len() {
-        1 => Ok(actions.remove(0)),
-        0 => Err(field_err(field, "an event needs one action (warm_reset, power_cycle, command_failure, command_timeout, state_override, state_change)")),
-        _ => Err(field_err(field, "an event has exactly one action; split it into several events")),
-    }
-}
-
-fn fault(f: &CommandFaultSpec, fate: CommandFate, field: &str) -> Result<Fault, MissionError> {
-    if let Some(p) = f.probability {
-        if !(0.0..=1.0).contains(&p) {
-            return Err(field_err(
-                &format!("{field}.probability"),
-                format!("{p} is not in 0..=1"),
-            ));
-        }
-        if f.occurrence.is_some() {
-            return Err(field_err(
-                field,
-                "give either occurrence or probability, not both",
-            ));
-        }
-    }
-    let occurrence = f.occurrence.unwrap_or(1);
-    if occurrence == 0 {
-        return Err(field_err(&format!("{field}.occurrence"), "counts from 1"));
-    }
-    Ok(Fault {
-        opcode: Opcode(f.opcode),
-        skip: if f.probability.is_some() {
-            None
-        } else {
-            Some(occurrence - 1)
-        },
-        probability: f.probability.unwrap_or(0.0),
-        fate,
-        spent: false,
-    })
-}
-
-/// A value as a scenario writes it: a value name of a state timeline, or an integer.
-pub fn value_of(v: &toml::Value, values: &[String]) -> Result<StateValue, String> {
-    match v {
-        toml::Value::String(name) if name == "UNKNOWN" && !values.iter().any(|x| x == name) => {
-            Ok(StateValue::Unknown)
-        }
-        toml::Value::String(name) => values
-            .iter()
-            .position(|x| x == name)
-            .map(|i| StateValue::Enum(i as u16))
-            .ok_or_else(|| {
-                format!(
-                    "{name:?} is not a value of this timeline (values: {})",
-                    values.join(", ")
-                )
-            }),
-        toml::Value::Integer(i) if values.is_empty() => Ok(StateValue::Int(*i)),
-        toml::Value::Integer(_) => Err("this is a state timeline: give a value name".into()),
-        toml::Value::Boolean(b) => Ok(StateValue::Bool(*b)),
-        other => Err(format!("{other} is not a value name or an integer")),
-    }
-}
-
 /// Host-side link fault injection.
-struct LinkFaults {
-    spec: LinkFaultSpec,
+struct FaultInjector {
+    spec: LinkFaults,
     tx_rng: Rng,
     rx_rng: Rng,
     delayed: Vec<Vec<u8>>,
@@ -369,8 +63,8 @@ fn frame_of<M: serde::Serialize>(msg: &M) -> Vec<u8> {
     buf[..n].to_vec()
 }
 
-impl LinkFaults {
-    fn new(spec: LinkFaultSpec, seed: u64) -> Self {
+impl FaultInjector {
+    fn new(spec: LinkFaults, seed: u64) -> Self {
         let rng = Rng::new(seed);
         Self {
             spec,
@@ -384,7 +78,7 @@ impl LinkFaults {
     }
 
     fn active(&self) -> bool {
-        self.spec.corrupt > 0.0 || self.spec.drop > 0.0 || self.spec.delay > 0.0
+        self.spec.active()
     }
 
     /// Corrupt bytes of `frame` (not the delimiters); true if anything changed.
@@ -596,9 +290,9 @@ pub type Progress<'a> = &'a mut dyn FnMut(MissionTimeUs, MissionTimeUs, MissionT
 struct Host<'a> {
     net: &'a CompiledNetwork,
     sim: Spacecraft,
-    faults: LinkFaults,
+    faults: FaultInjector,
     fault_rng: Rng,
-    armed: Vec<Fault>,
+    armed: Vec<CommandFault>,
     rec: MissionRecord,
     transcript: Transcript,
     /// Messages for the next grant.
@@ -677,18 +371,22 @@ impl Host<'_> {
 
 /// Run `mission` on `target`.
 pub fn drive(
-    mission: &Mission,
-    net: &CompiledNetwork,
-    spacecraft: &super::sim::SpacecraftConfig,
+    mission: &MissionPlan,
     target: &mut dyn MissionTarget,
     progress: Progress<'_>,
 ) -> Result<MissionRun, MissionError> {
-    let sim = Spacecraft::new(spacecraft, net, mission.start, mission.seed)
-        .map_err(|e| field_err(&e.field, e.message))?;
+    let net = &mission.network;
+    let sim = Spacecraft::new(
+        &mission.scenario.spacecraft,
+        net,
+        mission.start,
+        mission.seed,
+    )
+    .map_err(|e| MissionError::Target(TargetError::Other(format!("{}: {}", e.field, e.message))))?;
     let mut host = Host {
         net,
         sim,
-        faults: LinkFaults::new(mission.link.clone(), mission.seed),
+        faults: FaultInjector::new(mission.link.clone(), mission.seed),
         fault_rng: Rng::new(mission.seed).fork(0xfa),
         armed: Vec::new(),
         rec: MissionRecord::default(),
@@ -804,9 +502,11 @@ pub fn drive(
                         .push((now.0, format!("{name} forced to {value:?}")));
                 }
                 Action::Change { key, by, name } => {
-                    host.sim
-                        .add_to(*key, *by, now)
-                        .map_err(|e| field_err("events", e))?;
+                    host.sim.add_to(*key, *by, now).map_err(|e| {
+                        MissionError::Target(TargetError::Other(format!(
+                            "state_change of {name}: {e}"
+                        )))
+                    })?;
                     host.rec
                         .faults
                         .push((now.0, format!("{name} changed by {by}")));
@@ -896,7 +596,7 @@ fn hello_message(h: &crate::session::Hello) -> TargetToHost {
 /// The next time anything needs to happen, never past the mission's end.
 fn next_stop(
     now: MissionTimeUs,
-    mission: &Mission,
+    mission: &MissionPlan,
     sim: &Spacecraft,
     wakeup: Option<MissionTimeUs>,
     next_event: Option<MissionTimeUs>,
@@ -911,7 +611,7 @@ fn next_stop(
     next
 }
 
-fn fate_of(armed: &mut [Fault], opcode: Opcode, rng: &mut Rng) -> CommandFate {
+fn fate_of(armed: &mut [CommandFault], opcode: Opcode, rng: &mut Rng) -> CommandFate {
     for f in armed.iter_mut().filter(|f| f.opcode == opcode && !f.spent) {
         match &mut f.skip {
             Some(0) => {
@@ -940,8 +640,11 @@ fn uplink(
 ) -> Result<(), MissionError> {
     let bytes = &net.uplink;
     let chunks: Vec<&[u8]> = bytes.chunks(UPLINK_CHUNK_MAX).collect();
-    let total = u16::try_from(chunks.len())
-        .map_err(|_| MissionError::Invalid("the task network is too large to uplink".into()))?;
+    let total = u16::try_from(chunks.len()).map_err(|_| {
+        MissionError::Target(TargetError::Other(
+            "the task network is too large to uplink (more than 65535 chunks)".into(),
+        ))
+    })?;
     for (seq, chunk) in chunks.iter().enumerate() {
         let seq = seq as u16;
         let msg = HostToTarget::UplinkChunk {
@@ -969,12 +672,4 @@ fn uplink(
         }
     }
     Ok(())
-}
-
-/// Load a scenario's task network, relative to the scenario file.
-pub fn network_path(scenario_file: &Path, tasknet: &str) -> std::path::PathBuf {
-    scenario_file
-        .parent()
-        .unwrap_or(Path::new("."))
-        .join(tasknet)
 }

@@ -3,8 +3,8 @@
 use std::fmt::Write;
 
 use super::report::MissionReport;
-use super::time::fmt_time;
 use super::CompiledNetwork;
+use crate::time::fmt_time;
 use autonomy::TaskRole;
 use fsw_bridge::MissionTimeUs;
 
@@ -20,10 +20,9 @@ type Row = (
     Option<(u64, u64, String, String)>,
 );
 
+/// Text and attribute values in the chart's HTML.
 fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+    quick_xml::escape::escape(s).into_owned()
 }
 
 /// Render the chart. Planned bars come from the task network (requested tasks at their

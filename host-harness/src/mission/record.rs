@@ -9,7 +9,8 @@ use fsw_bridge::{
 };
 use serde::Serialize;
 
-use super::time::fmt_time;
+use super::plan::Outcome;
+use crate::time::fmt_time;
 
 /// One decision of the autonomy, as reported by the target, with its mission time.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
@@ -50,20 +51,83 @@ pub struct Instance {
     pub outcome: Option<u8>,
     /// How it came to be: requested, added, restarted.
     pub origin: String,
+    /// A reset of the flight software cut its execution short at this time (its real end:
+    /// `ended_at` is set to it).
+    pub interrupted_at: Option<u64>,
+    /// Its definition sends a command (it executes on a subsystem, so a reset interrupts it).
+    pub commanded: bool,
+    /// What the autonomy decided about it after the restart that followed the interruption
+    /// (e.g. aborted, when its maintain constraint no longer held): time and state code.
+    pub after_restart: Option<(u64, u8)>,
 }
 
 impl Instance {
-    pub fn outcome_name(&self) -> &'static str {
+    /// How it ended (an instance cut short by a reset is interrupted, whatever the autonomy
+    /// decided after the restart).
+    pub fn outcome(&self) -> Outcome {
+        if self.interrupted_at.is_some() {
+            return Outcome::Interrupted;
+        }
         match self.outcome.and_then(TaskState::from_code) {
-            None => "not-finished",
-            Some(TaskState::Completed) => "completed",
-            Some(TaskState::Skipped) => "skipped",
-            Some(TaskState::Deleted) => "deleted",
-            Some(TaskState::Failed(autonomy::FailureKind::MaintainViolation)) => "aborted",
-            Some(TaskState::Failed(_)) => "failed",
-            Some(_) => "not-finished",
+            None if self.started_at.is_none() => Outcome::NotRun,
+            None => Outcome::NotFinished,
+            Some(state) => outcome_of(state).unwrap_or(Outcome::NotFinished),
         }
     }
+
+    pub fn outcome_name(&self) -> &'static str {
+        self.outcome().name()
+    }
+
+    /// One line: "Instrument Flyby (requested): 10:15:00 to 10:30:00, interrupted by the
+    /// reset (aborted after the restart, at 10:33:00)".
+    pub fn describe(&self) -> String {
+        let span = match (self.started_at, self.ended_at) {
+            (Some(s), Some(e)) => format!(
+                "{} to {}",
+                fmt_time(MissionTimeUs(s)),
+                fmt_time(MissionTimeUs(e))
+            ),
+            (Some(s), None) => format!("from {}", fmt_time(MissionTimeUs(s))),
+            (None, Some(e)) => format!("never started, ended {}", fmt_time(MissionTimeUs(e))),
+            (None, None) => "never started".to_string(),
+        };
+        let after = self
+            .after_restart_text()
+            .map(|a| format!(" ({a} after the restart)"))
+            .unwrap_or_default();
+        format!(
+            "{} ({}): {span}, {}{after}",
+            self.name,
+            self.origin,
+            self.outcome_name()
+        )
+    }
+
+    /// What the autonomy decided about an interrupted instance after the restart: "aborted at
+    /// 10:33:00".
+    pub fn after_restart_text(&self) -> Option<String> {
+        let (at, code) = self.after_restart?;
+        Some(format!(
+            "{} at {}",
+            TaskState::from_code(code)
+                .and_then(outcome_of)
+                .map_or("changed", Outcome::name),
+            fmt_time(MissionTimeUs(at))
+        ))
+    }
+}
+
+/// The outcome a terminal task state means.
+fn outcome_of(state: TaskState) -> Option<Outcome> {
+    Some(match state {
+        TaskState::Completed => Outcome::Completed,
+        TaskState::Skipped => Outcome::Skipped,
+        TaskState::Deleted => Outcome::Deleted,
+        TaskState::Failed(autonomy::FailureKind::MaintainViolation) => Outcome::Aborted,
+        TaskState::Failed(_) => Outcome::Failed,
+        _ => return None,
+    })
 }
 
 /// A reset the host caused (or the target reported).
@@ -153,20 +217,28 @@ impl MissionRecord {
         if let Some(i) = self.instances.iter().position(|i| i.id == id) {
             return &mut self.instances[i];
         }
-        let (definition, origin) = if id < FIRST_INSTANCE_ID {
-            (id, "requested".to_string())
+        let (definition, origin, name) = if id < FIRST_INSTANCE_ID {
+            (id, "requested".to_string(), task_name(network, id))
         } else {
-            (u16::MAX, "added".to_string())
+            // Its PlanModification (which names the template) has not been received.
+            (
+                u16::MAX,
+                "added".to_string(),
+                format!("added instance {id:#06x} (template not reported)"),
+            )
         };
         self.instances.push(Instance {
             id,
             definition,
-            name: task_name(network, definition),
+            name,
             committed_at: None,
             started_at: None,
             ended_at: None,
             outcome: None,
             origin,
+            interrupted_at: None,
+            commanded: id < FIRST_INSTANCE_ID && has_command(network, id),
+            after_restart: None,
         });
         self.instances.last_mut().expect("just pushed")
     }
@@ -206,6 +278,11 @@ impl MissionRecord {
                         if inst.started_at.is_none() =>
                     {
                         inst.started_at = Some(at.0)
+                    }
+                    // An instance a reset interrupted keeps its real end; the autonomy's later
+                    // verdict on it is recorded beside it.
+                    Some(s) if s.is_terminal() && inst.interrupted_at.is_some() => {
+                        inst.after_restart.get_or_insert((at.0, to));
                     }
                     Some(s) if s.is_terminal() => {
                         inst.ended_at = Some(at.0);
@@ -261,6 +338,7 @@ impl MissionRecord {
                 };
                 if task != 0 {
                     let inst = self.instance_mut(task, network);
+                    inst.commanded = has_command(network, template);
                     inst.definition = template;
                     inst.name = name.clone();
                     inst.origin = verb.to_string();
@@ -433,6 +511,17 @@ impl MissionRecord {
         });
         self.boot(at, cause);
         self.label(at, kind.to_string());
+        // Whatever was executing a command stopped with the flight software (commands in
+        // flight are lost with it). Tasks without a command are the planner's bookkeeping
+        // (a request held open): they carry on across the restart.
+        for inst in &mut self.instances {
+            if inst.started_at.is_some() && inst.ended_at.is_none() && inst.commanded {
+                inst.ended_at = Some(at.0);
+                inst.interrupted_at = Some(at.0);
+                let label = format!("{} interrupted", inst.name);
+                self.labels.push((at.0, label));
+            }
+        }
     }
 
     /// Decision lines ("10:30:00 Instrument Flyby aborted"), for the terminal and diffs.
@@ -444,6 +533,14 @@ impl MissionRecord {
     }
 }
 
+/// True if the task definition with ground id `id` sends a command.
+fn has_command(network: &TaskNetwork, id: u16) -> bool {
+    network
+        .tasks()
+        .iter()
+        .any(|t| t.id == id && t.command.is_some())
+}
+
 /// Name of a task definition by ground id.
 pub fn task_name(network: &TaskNetwork, id: u16) -> String {
     network
@@ -451,7 +548,7 @@ pub fn task_name(network: &TaskNetwork, id: u16) -> String {
         .iter()
         .find(|t| t.id == id)
         .map(|t| t.name.as_str().to_string())
-        .unwrap_or_else(|| format!("task#{id}"))
+        .unwrap_or_else(|| format!("task id {id} (not in the task network)"))
 }
 
 #[cfg(test)]

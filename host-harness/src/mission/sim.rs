@@ -13,99 +13,13 @@
 //! Everything is deterministic for a given configuration and seed.
 use std::collections::BTreeMap;
 
+use super::rng::Rng;
+use crate::scenario::mission::SpacecraftConfig;
+use crate::tasknet::{CompiledNetwork, TimelineKindName};
+use crate::time::{parse_duration, TimeText};
 use fsw_bridge::{
     CommandArgs, CommandStatus, HostToTarget, MissionTimeUs, Opcode, StateKey, StateValue,
 };
-use serde::Deserialize;
-
-use super::rng::Rng;
-use super::time::parse_duration;
-
-/// `[spacecraft]` in a scenario file.
-#[derive(Clone, Debug, Default, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpacecraftConfig {
-    pub gnc: Option<GncConfig>,
-    pub power: Option<PowerConfig>,
-    #[serde(default)]
-    pub instruments: Vec<InstrumentConfig>,
-    pub thermal: Option<ThermalConfig>,
-    /// How long commands without a model take to answer (default: at once).
-    pub response_delay: Option<String>,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GncConfig {
-    /// State timeline that holds the attitude.
-    pub attitude: String,
-    /// Opcode of the attain command; its first argument is the target attitude's value code.
-    pub attain_opcode: u16,
-    /// Slew duration.
-    pub slew: String,
-    /// Attitude at the start of the scenario.
-    pub initial: String,
-    /// Value reported while slewing.
-    pub turning: String,
-    /// Value reported after a reset until the next slew completes.
-    pub after_reset: String,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PowerConfig {
-    /// Cumulative timeline of battery energy (in its own unit, e.g. Wh).
-    pub battery: String,
-    pub initial: i64,
-    /// Energy drawn per hour by the hotel load.
-    pub hotel_per_hour: i64,
-    /// Per-command activity loads.
-    #[serde(default)]
-    pub loads: Vec<ActivityLoad>,
-    /// Standard deviation of activity loads, in percent (seeded).
-    #[serde(default)]
-    pub noise_percent: u32,
-    /// Systematic bias of activity loads, in percent (+10: everything draws 10 % more).
-    #[serde(default)]
-    pub bias_percent: i32,
-    /// How often the battery value is published (default 1 min).
-    pub publish_every: Option<String>,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ActivityLoad {
-    pub opcode: u16,
-    pub per_hour: i64,
-    pub duration: String,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct InstrumentConfig {
-    pub opcode: u16,
-    /// Cumulative timeline of stored data volume.
-    pub data_volume: String,
-    pub per_hour: i64,
-    pub duration: String,
-}
-
-#[derive(Clone, Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ThermalConfig {
-    pub temperature: String,
-    pub heater_opcode: u16,
-    pub warmup: String,
-    /// Temperature before the heater runs (published at the start).
-    pub cold: i64,
-    pub warm: i64,
-}
-
-/// How names in the configuration map to the task network.
-pub trait NetworkNames {
-    /// State key and value names (empty for non-state timelines) of a timeline.
-    fn timeline(&self, name: &str) -> Option<(StateKey, Vec<String>)>;
-}
 
 /// A configuration problem, naming the field.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -217,21 +131,45 @@ impl Spacecraft {
     /// Build the spacecraft from its configuration, resolving names against the network.
     pub fn new(
         config: &SpacecraftConfig,
-        names: &dyn NetworkNames,
+        net: &CompiledNetwork,
         start: MissionTimeUs,
         seed: u64,
     ) -> Result<Self, ConfigError> {
-        let dur = |field: &str, text: &str| parse_duration(text).map_err(|m| cfg_err(field, m));
-        let state_timeline = |field: &str, name: &str| {
-            names.timeline(name).ok_or_else(|| {
+        let dur =
+            |field: &str, text: &TimeText| parse_duration(text).map_err(|m| cfg_err(field, m));
+        // A published timeline of the kind the subsystem's values have: enumerated values go
+        // to a state timeline, integer quantities to a cumulative one (the target reads a
+        // value of the other type as UNKNOWN).
+        let timeline_of = |field: &str, name: &str, kind: TimelineKindName| {
+            let tl = net.timeline(name).ok_or_else(|| {
                 cfg_err(
                     field,
-                    format!(
-                        "no timeline named {name:?} in the task network, or it has no state key"
-                    ),
+                    format!("no timeline named {name:?} in the task network"),
                 )
-            })
+            })?;
+            let key = tl.state_key.ok_or_else(|| {
+                cfg_err(
+                    field,
+                    format!("{name:?} has no state_key in the task network: the spacecraft cannot publish it"),
+                )
+            })?;
+            if tl.kind != kind {
+                return Err(cfg_err(
+                    field,
+                    format!(
+                        "{name:?} is a {} timeline, but this subsystem publishes {} values (a {} timeline's): the target would read every one as UNKNOWN",
+                        tl.kind.name(),
+                        if kind == TimelineKindName::State { "enumerated" } else { "integer" },
+                        kind.name()
+                    ),
+                ));
+            }
+            Ok((key, tl.values.clone()))
         };
+        let state_timeline =
+            |field: &str, name: &str| timeline_of(field, name, TimelineKindName::State);
+        let quantity_timeline =
+            |field: &str, name: &str| timeline_of(field, name, TimelineKindName::Cumulative);
         let value_code = |field: &str, values: &[String], name: &str| {
             values
                 .iter()
@@ -278,7 +216,7 @@ impl Spacecraft {
             sc.set(key, StateValue::Enum(initial), start);
         }
         if let Some(p) = &config.power {
-            let (key, _) = state_timeline("spacecraft.power.battery", &p.battery)?;
+            let (key, _) = quantity_timeline("spacecraft.power.battery", &p.battery)?;
             let mut loads = Vec::new();
             for (i, l) in p.loads.iter().enumerate() {
                 loads.push(Activity {
@@ -315,7 +253,7 @@ impl Spacecraft {
         }
         for (i, inst) in config.instruments.iter().enumerate() {
             let field = format!("spacecraft.instruments[{i}]");
-            let (key, _) = state_timeline(&format!("{field}.data_volume"), &inst.data_volume)?;
+            let (key, _) = quantity_timeline(&format!("{field}.data_volume"), &inst.data_volume)?;
             sc.instruments.push(Instrument {
                 key,
                 activity: Activity {
@@ -329,7 +267,7 @@ impl Spacecraft {
             sc.set(key, StateValue::Int(0), start);
         }
         if let Some(t) = &config.thermal {
-            let (key, _) = state_timeline("spacecraft.thermal.temperature", &t.temperature)?;
+            let (key, _) = quantity_timeline("spacecraft.thermal.temperature", &t.temperature)?;
             sc.thermal = Some(Thermal {
                 key,
                 heater: Opcode(t.heater_opcode),
@@ -574,22 +512,20 @@ impl Spacecraft {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scenario::mission::{ActivityLoad, GncConfig, PowerConfig};
 
-    struct Names;
-    impl NetworkNames for Names {
-        fn timeline(&self, name: &str) -> Option<(StateKey, Vec<String>)> {
-            let att = || {
-                ["INERTIAL", "TURNING", "NADIR", "UNKNOWN"]
-                    .map(String::from)
-                    .to_vec()
-            };
-            match name {
-                "GncAttitude" => Some((StateKey(1), att())),
-                "Battery" => Some((StateKey(2), vec![])),
-                "Data" => Some((StateKey(3), vec![])),
-                _ => None,
-            }
-        }
+    /// GncAttitude (state, key 1), Battery and Data (cumulative, keys 2 and 3), Heater (a
+    /// planner-only state timeline).
+    fn names() -> CompiledNetwork {
+        crate::tasknet::compile_str(
+            "[network]\nid = 1\n\
+             [[timeline]]\nname = \"GncAttitude\"\nkind = \"state\"\nvalues = [\"INERTIAL\", \"TURNING\", \"NADIR\", \"UNKNOWN\"]\nstate_key = 1\n\
+             [[timeline]]\nname = \"Battery\"\nkind = \"cumulative\"\ninitial = 0\nmin = -1000000\nmax = 1000000\nstate_key = 2\n\
+             [[timeline]]\nname = \"Data\"\nkind = \"cumulative\"\ninitial = 0\nmin = 0\nmax = 1000000\nstate_key = 3\n\
+             [[timeline]]\nname = \"Heater\"\nkind = \"state\"\nvalues = [\"OFF\", \"ON\"]\n",
+            "names.toml",
+        )
+        .unwrap()
     }
 
     fn gnc_config() -> SpacecraftConfig {
@@ -610,7 +546,7 @@ mod tests {
 
     #[test]
     fn a_slew_turns_then_reaches_the_commanded_attitude_and_answers() {
-        let mut sc = Spacecraft::new(&gnc_config(), &Names, MissionTimeUs(0), 1).unwrap();
+        let mut sc = Spacecraft::new(&gnc_config(), &names(), MissionTimeUs(0), 1).unwrap();
         let args = CommandArgs::from_slice(&[2]).unwrap();
         sc.on_dispatch(
             MissionTimeUs(MIN),
@@ -644,7 +580,7 @@ mod tests {
 
     #[test]
     fn a_reset_drops_the_slew_and_leaves_the_attitude_unknown() {
-        let mut sc = Spacecraft::new(&gnc_config(), &Names, MissionTimeUs(0), 1).unwrap();
+        let mut sc = Spacecraft::new(&gnc_config(), &names(), MissionTimeUs(0), 1).unwrap();
         let args = CommandArgs::from_slice(&[2]).unwrap();
         sc.on_dispatch(
             MissionTimeUs(0),
@@ -668,7 +604,7 @@ mod tests {
 
     #[test]
     fn injected_fates_override_the_model() {
-        let mut sc = Spacecraft::new(&gnc_config(), &Names, MissionTimeUs(0), 1).unwrap();
+        let mut sc = Spacecraft::new(&gnc_config(), &names(), MissionTimeUs(0), 1).unwrap();
         let args = CommandArgs::from_slice(&[2]).unwrap();
         sc.on_dispatch(
             MissionTimeUs(0),
@@ -714,7 +650,7 @@ mod tests {
             }),
             ..Default::default()
         };
-        let mut sc = Spacecraft::new(&config, &Names, MissionTimeUs(0), 1).unwrap();
+        let mut sc = Spacecraft::new(&config, &names(), MissionTimeUs(0), 1).unwrap();
         sc.on_dispatch(
             MissionTimeUs(0),
             1,
@@ -752,8 +688,39 @@ mod tests {
     fn unknown_names_are_reported_by_field() {
         let mut config = gnc_config();
         config.gnc.as_mut().unwrap().initial = "SIDEWAYS".into();
-        let err = Spacecraft::new(&config, &Names, MissionTimeUs(0), 1).unwrap_err();
+        let err = Spacecraft::new(&config, &names(), MissionTimeUs(0), 1).unwrap_err();
         assert_eq!(err.field, "spacecraft.gnc.initial");
         assert!(err.message.contains("SIDEWAYS"), "{err:?}");
+    }
+
+    #[test]
+    fn a_subsystem_publishing_into_a_timeline_of_the_other_type_is_refused() {
+        // Integer battery values into a state timeline: the target would read UNKNOWN.
+        let config = SpacecraftConfig {
+            power: Some(PowerConfig {
+                battery: "GncAttitude".into(),
+                initial: 100,
+                hotel_per_hour: 1,
+                loads: Vec::new(),
+                noise_percent: 0,
+                bias_percent: 0,
+                publish_every: None,
+            }),
+            ..Default::default()
+        };
+        let err = Spacecraft::new(&config, &names(), MissionTimeUs(0), 1).unwrap_err();
+        assert_eq!(err.field, "spacecraft.power.battery");
+        assert!(err.message.contains("is a state timeline"), "{err:?}");
+        assert!(err.message.contains("UNKNOWN"), "{err:?}");
+        // Enumerated attitudes into a cumulative timeline.
+        let mut config = gnc_config();
+        config.gnc.as_mut().unwrap().attitude = "Battery".into();
+        let err = Spacecraft::new(&config, &names(), MissionTimeUs(0), 1).unwrap_err();
+        assert_eq!(err.field, "spacecraft.gnc.attitude");
+        assert!(err.message.contains("is a cumulative timeline"), "{err:?}");
+        // A planner-only timeline has no state key to publish under.
+        config.gnc.as_mut().unwrap().attitude = "Heater".into();
+        let err = Spacecraft::new(&config, &names(), MissionTimeUs(0), 1).unwrap_err();
+        assert!(err.message.contains("no state_key"), "{err:?}");
     }
 }

@@ -198,7 +198,7 @@ impl NativeTarget {
     fn apply_damage(&mut self, damage: CheckpointDamage) {
         let frame = self
             .last_grant
-            .map(super::time::fmt_time)
+            .map(crate::time::fmt_time)
             .unwrap_or_else(|| "-".into());
         let line = match damage {
             CheckpointDamage::DestroyAll => {
@@ -504,7 +504,7 @@ impl MidFrameReport {
 
     /// One line for what happened at the reset, one for the restore (once known).
     pub fn describe(&self) -> Vec<String> {
-        let at = super::time::fmt_time(self.frame_at);
+        let at = crate::time::fmt_time(self.frame_at);
         let armed = match self.kind {
             ResetKind::WarmAfterTicks { ticks } => format!("armed at tick {ticks}"),
             ResetKind::WarmDuringCheckpointWrite { permille } => {

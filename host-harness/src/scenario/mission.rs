@@ -1,5 +1,7 @@
-//! The mission part of a scenario file: the task network, the mission span, the simulated
-//! spacecraft, timed events (resets, power cycles, faults), link faults, and expectations.
+//! The schema of a scenario's mission parts: the task network and mission span, the simulated
+//! spacecraft, timed events (resets, power cycles, faults), link faults and expectations. Times
+//! and durations follow [`crate::time`] (the same grammar as task networks). What the values
+//! mean is checked when the mission is planned ([`crate::mission::plan`]).
 //!
 //! ```toml
 //! seed = 7
@@ -44,23 +46,25 @@
 //! ```
 use serde::Deserialize;
 
+use crate::time::TimeText;
+
 /// `[mission]`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct MissionSpec {
+pub struct MissionSection {
     /// Task network (TOML), relative to the scenario file.
     pub tasknet: String,
-    pub start: String,
-    pub end: String,
+    pub start: TimeText,
+    pub end: TimeText,
     /// Longest single grant; idle stretches longer than this are split (default: no limit).
-    pub max_frame: Option<String>,
+    pub max_frame: Option<TimeText>,
 }
 
 /// One `[[events]]` entry: a time and exactly one action.
-#[derive(Clone, Debug, Default, Deserialize)]
+#[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct EventSpec {
-    pub at: String,
+pub struct EventEntry {
+    pub at: TimeText,
     pub warm_reset: Option<ResetSpec>,
     pub power_cycle: Option<ResetSpec>,
     pub command_failure: Option<CommandFaultSpec>,
@@ -73,7 +77,7 @@ pub struct EventSpec {
 #[serde(deny_unknown_fields)]
 pub struct ResetSpec {
     /// How long fault protection runs before the flight software restarts (default 0).
-    pub recovery: Option<String>,
+    pub recovery: Option<TimeText>,
 }
 
 /// A command fault armed from the event's time on: the `occurrence`-th dispatch of `opcode`
@@ -107,10 +111,10 @@ pub struct StateChangeSpec {
     pub by: i64,
 }
 
-/// `[link]`: faults injected by the host on the serial link, seeded.
+/// `[link]`: faults injected by the host on the link, seeded.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct LinkFaultSpec {
+pub struct LinkSection {
     /// Probability that a byte is corrupted (one bit flipped), both directions.
     #[serde(default)]
     pub corrupt: f64,
@@ -122,20 +126,21 @@ pub struct LinkFaultSpec {
     pub delay: f64,
 }
 
-/// One `[[expect]]` entry: exactly one kind of check.
+/// One `[[expect]]` entry as written: exactly one kind of check (see
+/// [`crate::mission::plan::Expect`] for what each means once checked).
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct ExpectSpec {
+pub struct ExpectEntry {
     /// Task definition name (requested task or template): checks its `instance`-th instance.
     pub task: Option<String>,
     /// 1-based, in order of first appearance (default 1).
     pub instance: Option<u32>,
-    /// completed | aborted | failed | skipped | deleted | not-run
+    /// completed | aborted | failed | interrupted | skipped | deleted | not-run | not-finished
     pub outcome: Option<String>,
     /// The instance started at this time (with `task`).
-    pub started_at: Option<String>,
+    pub started_at: Option<TimeText>,
     /// The instance ended at this time (with `task`).
-    pub ended_at: Option<String>,
+    pub ended_at: Option<TimeText>,
     /// With `started_at`: if the flight software was down (between a reset and its restart)
     /// at `started_at`, the instance must start at that restart instead.
     pub or_at_restart: Option<bool>,
@@ -144,7 +149,7 @@ pub struct ExpectSpec {
     pub count: Option<u32>,
     /// Timeline name: the spacecraft's state at `at` was `value`.
     pub timeline: Option<String>,
-    pub at: Option<String>,
+    pub at: Option<TimeText>,
     pub value: Option<toml::Value>,
     /// With `timeline` instead of `at`: while any instance of this task ran (downtimes
     /// excepted), the spacecraft's state was `value`.
@@ -154,8 +159,8 @@ pub struct ExpectSpec {
     pub order: Option<Vec<String>>,
     /// Tasks whose running intervals together must cover `from`..`to`.
     pub covered_by: Option<Vec<String>>,
-    pub from: Option<String>,
-    pub to: Option<String>,
+    pub from: Option<TimeText>,
+    pub to: Option<TimeText>,
     /// With `covered_by`: the listed tasks never ran at the same time within `from`..`to`.
     pub exclusive: Option<bool>,
     /// With `covered_by`: gaps while the flight software is down (from a reset to its
@@ -165,4 +170,84 @@ pub struct ExpectSpec {
     pub metric: Option<String>,
     pub max: Option<u64>,
     pub min: Option<u64>,
+}
+
+/// `[spacecraft]`: the simulated subsystems (see [`crate::mission::sim`]).
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpacecraftConfig {
+    pub gnc: Option<GncConfig>,
+    pub power: Option<PowerConfig>,
+    #[serde(default)]
+    pub instruments: Vec<InstrumentConfig>,
+    pub thermal: Option<ThermalConfig>,
+    /// How long commands without a model take to answer (default: at once).
+    pub response_delay: Option<TimeText>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GncConfig {
+    /// State timeline that holds the attitude.
+    pub attitude: String,
+    /// Opcode of the attain command; its first argument is the target attitude's value code.
+    pub attain_opcode: u16,
+    /// Slew duration.
+    pub slew: TimeText,
+    /// Attitude at the start of the scenario.
+    pub initial: String,
+    /// Value reported while slewing.
+    pub turning: String,
+    /// Value reported after a reset until the next slew completes.
+    pub after_reset: String,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PowerConfig {
+    /// Cumulative timeline of battery energy (in its own unit, e.g. Wh).
+    pub battery: String,
+    pub initial: i64,
+    /// Energy drawn per hour by the hotel load.
+    pub hotel_per_hour: i64,
+    /// Per-command activity loads.
+    #[serde(default)]
+    pub loads: Vec<ActivityLoad>,
+    /// Standard deviation of activity loads, in percent (seeded).
+    #[serde(default)]
+    pub noise_percent: u32,
+    /// Systematic bias of activity loads, in percent (+10: everything draws 10 % more).
+    #[serde(default)]
+    pub bias_percent: i32,
+    /// How often the battery value is published (default 1 min).
+    pub publish_every: Option<TimeText>,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ActivityLoad {
+    pub opcode: u16,
+    pub per_hour: i64,
+    pub duration: TimeText,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InstrumentConfig {
+    pub opcode: u16,
+    /// Cumulative timeline of stored data volume.
+    pub data_volume: String,
+    pub per_hour: i64,
+    pub duration: TimeText,
+}
+
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThermalConfig {
+    pub temperature: String,
+    pub heater_opcode: u16,
+    pub warmup: TimeText,
+    /// Temperature before the heater runs (published at the start).
+    pub cold: i64,
+    pub warm: i64,
 }

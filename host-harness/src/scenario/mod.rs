@@ -1,5 +1,7 @@
-//! Scenario files (TOML). A scenario names its target and lists steps; errors point at the file,
-//! line and column of the offending field.
+//! Scenario files (TOML), the first stage of `hil`'s pipeline: the file's schema, read and
+//! checked once. A scenario is either a list of link-check steps or a mission; a mission is
+//! resolved against its task network into a [`crate::mission::plan::MissionPlan`] next.
+//! Every error is a [`Diagnostic`] at the file, line and column of the offending field.
 //!
 //! ```toml
 //! name = "smoke"
@@ -19,24 +21,41 @@
 //! [[steps]]
 //! corrupt_frames = { count = 5 } # send 5 frames with one flipped bit; the target must count them
 //! ```
-use std::ops::Range;
+pub mod mission;
+
+use std::ops::Deref;
 use std::path::{Path, PathBuf};
 
 use fsw_bridge::ResetCause;
 use serde::Deserialize;
-use toml::Spanned;
 
-use crate::mission::sim::SpacecraftConfig;
-use crate::mission::spec::{EventSpec, ExpectSpec, LinkFaultSpec, MissionSpec};
+use crate::diag::{Diagnostic, SourceFile};
+use mission::{EventEntry, ExpectEntry, LinkSection, MissionSection, SpacecraftConfig};
 
 /// Most pings one step may ask for.
 pub const MAX_PINGS_PER_STEP: u32 = 100_000;
 /// Most corrupted frames one step may send.
 pub const MAX_CORRUPT_PER_STEP: u32 = 10_000;
 
+/// A scenario file as read: its schema, its text (for locating later errors) and its path.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    pub path: PathBuf,
+    pub source: SourceFile,
+    pub file: ScenarioFile,
+}
+
+impl Deref for Scenario {
+    type Target = ScenarioFile;
+    fn deref(&self) -> &ScenarioFile {
+        &self.file
+    }
+}
+
+/// The schema of a scenario file.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct Scenario {
+pub struct ScenarioFile {
     pub name: String,
     #[serde(default)]
     pub description: String,
@@ -47,17 +66,17 @@ pub struct Scenario {
     pub target: TargetSpec,
     /// Link-level steps (handshake, pings, resets). A scenario has steps or a mission.
     #[serde(default)]
-    pub steps: Vec<Spanned<Step>>,
-    /// A mission: task network, span, events, expectations (see `crate::mission`).
-    pub mission: Option<Spanned<MissionSpec>>,
+    pub steps: Vec<Step>,
+    /// A mission: task network, span, events, expectations (see [`mission`]).
+    pub mission: Option<MissionSection>,
     #[serde(default)]
     pub spacecraft: SpacecraftConfig,
     #[serde(default)]
-    pub events: Vec<Spanned<EventSpec>>,
+    pub events: Vec<EventEntry>,
     #[serde(default)]
-    pub link: LinkFaultSpec,
+    pub link: LinkSection,
     #[serde(default)]
-    pub expect: Vec<Spanned<ExpectSpec>>,
+    pub expect: Vec<ExpectEntry>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -78,7 +97,7 @@ pub struct TargetSpec {
     pub hello_timeout_ms: u64,
 }
 
-#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, Deserialize, serde::Serialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum TargetKind {
     #[default]
@@ -174,105 +193,82 @@ impl Step {
     }
 }
 
-/// A scenario file that could not be used: where, and why.
-#[derive(Debug, thiserror::Error)]
-pub enum ScenarioError {
-    #[error("cannot read scenario {path}: {source}")]
-    Read {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    #[error("{path}:{line}:{column}: {message}")]
-    Invalid {
-        path: PathBuf,
-        line: usize,
-        column: usize,
-        message: String,
-    },
+/// Read, parse and check a scenario file.
+pub fn load(path: &Path) -> Result<Scenario, Diagnostic> {
+    let source = SourceFile::read(path)?;
+    parse_source(source, path)
 }
 
-/// Read, parse and validate a scenario file.
-pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Read {
+/// Parse and check scenario text; `path` names it in errors and anchors relative paths.
+pub fn parse(text: &str, path: &Path) -> Result<Scenario, Diagnostic> {
+    parse_source(SourceFile::new(path.display().to_string(), text), path)
+}
+
+fn parse_source(source: SourceFile, path: &Path) -> Result<Scenario, Diagnostic> {
+    let file: ScenarioFile = toml::from_str(&source.text).map_err(|e| source.toml_error(&e, ""))?;
+    let scenario = Scenario {
         path: path.to_path_buf(),
         source,
-    })?;
-    parse(&text, path)
+        file,
+    };
+    check(&scenario)?;
+    Ok(scenario)
 }
 
-/// Parse and validate scenario text; `path` is used in error messages.
-pub fn parse(text: &str, path: &Path) -> Result<Scenario, ScenarioError> {
-    let invalid = |span: Option<Range<usize>>, message: String| {
-        let (line, column) = line_col(text, span.map(|s| s.start).unwrap_or(0));
-        ScenarioError::Invalid {
-            path: path.to_path_buf(),
-            line,
-            column,
-            message,
-        }
-    };
-    let scenario: Scenario =
-        toml::from_str(text).map_err(|e| invalid(e.span(), e.message().to_string()))?;
-    match (&scenario.mission, scenario.steps.is_empty()) {
+/// What can be checked without the task network: the kind of scenario and its steps.
+fn check(s: &Scenario) -> Result<(), Diagnostic> {
+    let src = &s.source;
+    match (&s.mission, s.steps.is_empty()) {
         (None, true) => {
-            return Err(invalid(
-                None,
-                "a scenario needs [[steps]] (link checks) or a [mission]".into(),
+            return Err(src.error(
+                0..0,
+                "steps",
+                "a scenario needs [[steps]] (link checks) or a [mission]",
             ))
         }
-        (Some(m), false) => {
-            return Err(invalid(
-                Some(m.span()),
-                "mission: a scenario has either [[steps]] or a [mission], not both".into(),
+        (Some(_), false) => {
+            return Err(src.error_at(
+                "mission",
+                "a scenario has either [[steps]] or a [mission], not both",
             ))
         }
         _ => {}
     }
-    if scenario.mission.is_none() {
-        for (what, span) in [
-            ("events", scenario.events.first().map(|e| e.span())),
-            ("expect", scenario.expect.first().map(|e| e.span())),
+    if s.mission.is_none() {
+        for (what, present) in [
+            ("events", !s.events.is_empty()),
+            ("expect", !s.expect.is_empty()),
         ] {
-            if let Some(span) = span {
-                return Err(invalid(
-                    Some(span),
-                    format!("{what}: only a [mission] has {what}"),
-                ));
+            if present {
+                return Err(src.error_at(what, format!("only a [mission] has {what}")));
             }
         }
-        if scenario.target.kind == TargetKind::Native {
-            return Err(invalid(
-                None,
-                "target.kind: \"native\" runs missions only".into(),
+        if s.target.kind == TargetKind::Native {
+            return Err(src.error_at(
+                "target.kind",
+                "\"native\" runs missions only; link checks need the emulated target",
             ));
         }
     }
-    for step in &scenario.steps {
-        let problem = match step.get_ref() {
-            Step::Ping { count } if *count == 0 || *count > MAX_PINGS_PER_STEP => Some(format!(
-                "ping.count: {count} is out of range 1..={MAX_PINGS_PER_STEP}"
-            )),
-            Step::CorruptFrames { count } if *count == 0 || *count > MAX_CORRUPT_PER_STEP => Some(
-                format!("corrupt_frames.count: {count} is out of range 1..={MAX_CORRUPT_PER_STEP}"),
+    for (i, step) in s.steps.iter().enumerate() {
+        let (field, problem) = match step {
+            Step::Ping { count } if *count == 0 || *count > MAX_PINGS_PER_STEP => (
+                "ping.count",
+                format!("{count} is out of range 1..={MAX_PINGS_PER_STEP}"),
             ),
-            Step::WarmReset { via: ResetVia::Qmp } if scenario.target.serial.is_some() => {
-                Some("warm_reset.via: \"qmp\" needs a QEMU target, but target.serial is set".into())
-            }
-            _ => None,
+            Step::CorruptFrames { count } if *count == 0 || *count > MAX_CORRUPT_PER_STEP => (
+                "corrupt_frames.count",
+                format!("{count} is out of range 1..={MAX_CORRUPT_PER_STEP}"),
+            ),
+            Step::WarmReset { via: ResetVia::Qmp } if s.target.serial.is_some() => (
+                "warm_reset.via",
+                "\"qmp\" needs a QEMU target, but target.serial is set".into(),
+            ),
+            _ => continue,
         };
-        if let Some(message) = problem {
-            return Err(invalid(Some(step.span()), message));
-        }
+        return Err(src.error_at(&format!("steps[{i}].{field}"), problem));
     }
-    Ok(scenario)
-}
-
-/// 1-based line and column of a byte offset in a TOML file (for `file:line:column` errors).
-pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
-    let before = &text[..offset.min(text.len())];
-    let line = before.matches('\n').count() + 1;
-    let column = before.len() - before.rfind('\n').map(|i| i + 1).unwrap_or(0) + 1;
-    (line, column)
+    Ok(())
 }
 
 #[cfg(test)]
@@ -291,21 +287,23 @@ mod tests {
         )
         .unwrap();
         assert_eq!(s.target.profile, "rad750-proxy");
-        assert!(matches!(s.steps[0].get_ref(), Step::Ping { count: 3 }));
+        assert!(matches!(s.steps[0], Step::Ping { count: 3 }));
     }
 
     #[test]
-    fn unknown_step_names_file_line_and_variant() {
+    fn unknown_step_names_file_line_field_and_variant() {
         let e = err("name = \"x\"\n[[steps]]\npong = { count = 3 }\n");
-        assert!(e.starts_with("s.toml:3:1: "), "{e}");
+        assert!(e.starts_with("s.toml:3:1: steps[0]: "), "{e}");
         assert!(e.contains("unknown variant `pong`"), "{e}");
     }
 
     #[test]
-    fn out_of_range_count_points_at_the_step() {
+    fn out_of_range_count_points_at_the_count() {
         let e = err("name = \"x\"\n\n[[steps]]\nping = { count = 0 }\n");
-        assert!(e.starts_with("s.toml:3:"), "{e}");
-        assert!(e.contains("ping.count: 0 is out of range"), "{e}");
+        assert_eq!(
+            e,
+            "s.toml:4:18: steps[0].ping.count: 0 is out of range 1..=100000"
+        );
     }
 
     #[test]
@@ -322,17 +320,14 @@ mod tests {
     }
 
     #[test]
-    fn qmp_reset_on_a_serial_target_is_refused() {
+    fn qmp_reset_on_a_serial_target_is_refused_at_the_step() {
         let e = err(
             "name = \"x\"\n[target]\nserial = \"/dev/ttyUSB0\"\n[[steps]]\nwarm_reset = { via = \"qmp\" }\n",
         );
-        assert!(e.starts_with("s.toml:4:"), "{e}");
+        assert!(
+            e.starts_with("s.toml:5:22: steps[0].warm_reset.via: "),
+            "{e}"
+        );
         assert!(e.contains("needs a QEMU target"), "{e}");
-    }
-
-    #[test]
-    fn line_col_counts_from_one() {
-        assert_eq!(line_col("ab\ncd", 0), (1, 1));
-        assert_eq!(line_col("ab\ncd", 4), (2, 2));
     }
 }
