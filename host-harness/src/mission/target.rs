@@ -130,10 +130,12 @@ pub trait MissionTarget {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CheckpointDamage {
     /// The reset lands while the last frame's checkpoint is written to the warm-restart area:
-    /// the newest warm record is garbage from byte `offset_permille`/1000 of its length on
-    /// (the other slot is whole), and the non-volatile write of that frame never started (its
-    /// newest record is invalidated, which restores exactly like the older record it would
-    /// still hold). Garbage comes from `seed`.
+    /// the bytes that write covered are garbage from `offset_permille`/1000 of them on (the
+    /// other slot is whole), and the non-volatile write of that frame never started (the
+    /// record it wrote is invalidated, which restores exactly like the older record the slot
+    /// would still hold). Garbage comes from `seed`. Only a frame's write can be torn: the
+    /// checkpoint of an uplink is written before the uplink is acknowledged, so a reset after
+    /// the acknowledgement and before the next frame's write finds nothing being written.
     TornWarm { offset_permille: u32, seed: u64 },
     /// The reset lands while the last frame's checkpoint is written to non-volatile memory
     /// (the warm write of that frame completed).
@@ -157,6 +159,9 @@ pub struct NativeTarget {
     pending_damage: Option<CheckpointDamage>,
     /// Mission time of the last grant delivered (for the damage log).
     last_grant: Option<fsw_bridge::MissionTimeUs>,
+    /// The byte ranges the last frame's checkpoint wrote (warm, non-volatile), if the last
+    /// checkpoint written was a frame's (None after an uplink's, or before any frame).
+    last_frame_write: Option<(Option<(usize, usize)>, Option<(usize, usize)>)>,
     damage_log: Vec<String>,
     /// What the application sent while booting; goes out with the next exchange, as the
     /// emulated target's outbox does.
@@ -180,6 +185,7 @@ impl NativeTarget {
             next_cause: ResetCause::PowerOn,
             pending_damage: None,
             last_grant: None,
+            last_frame_write: None,
             damage_log: Vec::new(),
             boot_messages: Vec::new(),
         }
@@ -206,12 +212,20 @@ impl NativeTarget {
                 self.nv.iter_mut().for_each(|b| *b = 0);
                 "every checkpoint destroyed (warm slots A and B, non-volatile memory)".to_string()
             }
+            CheckpointDamage::TornWarm { .. } | CheckpointDamage::TornNv { .. }
+                if self.last_frame_write.is_none() =>
+            {
+                format!(
+                    "reset after the frame at {frame}: no checkpoint write was in progress (the last one written was an uplink's, acknowledged already), nothing torn"
+                )
+            }
             CheckpointDamage::TornWarm {
                 offset_permille,
                 seed,
             } => {
-                let torn = tear_newest(&mut self.warm, offset_permille, seed);
-                let nv = invalidate_newest(&mut self.nv);
+                let (warm, nv) = self.last_frame_write.unwrap_or_default();
+                let torn = tear_range(&mut self.warm, warm, offset_permille, seed);
+                let nv = invalidate_range(&mut self.nv, nv);
                 format!(
                     "reset during the warm checkpoint write of the frame at {frame}: {torn}; {nv}"
                 )
@@ -220,7 +234,8 @@ impl NativeTarget {
                 offset_permille,
                 seed,
             } => {
-                let torn = tear_newest(&mut self.nv, offset_permille, seed);
+                let (_, nv) = self.last_frame_write.unwrap_or_default();
+                let torn = tear_range(&mut self.nv, nv, offset_permille, seed);
                 format!("reset during the non-volatile checkpoint write of the frame at {frame}: {torn}")
             }
         };
@@ -244,6 +259,14 @@ impl NativeTarget {
             let handled = self
                 .app
                 .handle(&msg, &mut memories, &mut NoClock, &mut |m| sent.push(m));
+            // What the checkpoint writes of this message covered, for the torn-write model.
+            let writes = (self.app.take_warm_write(), self.app.take_nv_write());
+            if writes != (None, None) {
+                self.last_frame_write = match msg {
+                    HostToTarget::TimeGrant { .. } => Some(writes),
+                    _ => None,
+                };
+            }
             if !handled {
                 if let HostToTarget::Ping { seq } = msg {
                     sent.push(TargetToHost::Pong {
@@ -257,46 +280,49 @@ impl NativeTarget {
     }
 }
 
-/// Slot index, start and length (header plus payload) of the newest whole record of a
-/// checkpoint area (layout: `autonomy::checkpoint`).
-fn newest_record(area: &mut [u8]) -> Option<(u8, usize, usize, u32)> {
-    let half = area.len() / 2;
-    let wrapped = autonomy::checkpoint::WarmRestartArea::new(area);
-    let (slot, sequence, payload) = wrapped.latest()?;
-    Some((
-        slot,
-        usize::from(slot) * half,
-        autonomy::checkpoint::RECORD_HEADER_LEN + payload.len(),
-        sequence,
-    ))
-}
-
-/// Overwrite the newest record of `area` with garbage from `offset_permille` of its length on.
-fn tear_newest(area: &mut [u8], offset_permille: u32, seed: u64) -> String {
-    let Some((slot, start, len, sequence)) = newest_record(area) else {
-        return "no whole record to tear".into();
+/// Overwrite the bytes of `range` (a checkpoint write) in `area` with garbage from
+/// `offset_permille` of its length on.
+fn tear_range(
+    area: &mut [u8],
+    range: Option<(usize, usize)>,
+    offset_permille: u32,
+    seed: u64,
+) -> String {
+    let Some((start, end)) = range.filter(|(s, e)| s < e && *e <= area.len()) else {
+        return "that write had not started (nothing torn)".into();
     };
+    let len = end - start;
     let offset = (len as u64 * u64::from(offset_permille.min(999)) / 1000) as usize;
     let mut rng = super::rng::Rng::new(seed);
-    for b in &mut area[start + offset..start + len] {
+    for b in &mut area[start + offset..end] {
         *b = rng.next_u64() as u8;
     }
     format!(
-        "record {sequence} in slot {} torn from byte {offset} of {len}",
-        ["A", "B"][usize::from(slot)]
+        "slot {} torn from byte {offset} of the {len} the write covered",
+        slot_of(area, start)
     )
 }
 
-/// Invalidate the newest record of `area` (its write never started).
-fn invalidate_newest(area: &mut [u8]) -> String {
-    let Some((slot, start, _, sequence)) = newest_record(area) else {
-        return "no non-volatile record".into();
+/// Invalidate the record the write `range` made (its write never started: the slot's older
+/// record would restore the same way as none, the other slot being newer).
+fn invalidate_range(area: &mut [u8], range: Option<(usize, usize)>) -> String {
+    let Some((start, _)) = range.filter(|(s, _)| s + 4 <= area.len()) else {
+        return "no non-volatile write in that frame".into();
     };
     area[start..start + 4].fill(0);
     format!(
-        "non-volatile record {sequence} in slot {} not written yet",
-        ["A", "B"][usize::from(slot)]
+        "its non-volatile write (slot {}) never started",
+        slot_of(area, start)
     )
+}
+
+/// "A" or "B": which half of an A/B checkpoint area byte `offset` is in.
+fn slot_of(area: &[u8], offset: usize) -> &'static str {
+    if offset < area.len() / 2 {
+        "A"
+    } else {
+        "B"
+    }
 }
 
 fn new_app() -> Box<FlightApp> {
