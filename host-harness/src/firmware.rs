@@ -14,13 +14,15 @@ use crate::repo_root;
 pub enum FirmwareError {
     #[error("could not run cargo to build the firmware: {0}")]
     Cargo(std::io::Error),
-    #[error("building the firmware failed (cargo exit {status}):\n{stderr}\nhint: `rustup target add powerpc-unknown-linux-gnu` if the target is missing")]
+    #[error("building the firmware failed (cargo exit {status}):\n{stderr}")]
     Build { status: String, stderr: String },
     #[error("cannot read firmware image {path}: {source}")]
     Read {
         path: PathBuf,
         source: std::io::Error,
     },
+    #[error("the Rust target {TARGET} is not installed for the pinned toolchain and `rustup target add {TARGET}` failed ({why}); install it by hand with that command")]
+    TargetMissing { why: String },
     #[error("{path} is not a RAD750-proxy firmware image: {why}")]
     NotFirmware { path: PathBuf, why: String },
 }
@@ -71,9 +73,51 @@ pub fn build_with_features(features: &[&str]) -> Result<FirmwareImage, FirmwareE
     build_into(features, dir)
 }
 
+/// The Rust target the image is built for.
+pub const TARGET: &str = "powerpc-unknown-linux-gnu";
+
+/// Make sure the toolchain that builds `image_dir` (the one `rust-toolchain.toml` pins) has the
+/// PowerPC target's standard library. rustup adds the targets `rust-toolchain.toml` lists only
+/// when it installs the toolchain, so a machine that had the pinned toolchain already (without
+/// the target) would fail with "can't find crate for `core`"; this adds it instead, once.
+fn ensure_target(image_dir: &Path) -> Result<(), FirmwareError> {
+    let libdir = Command::new("rustc")
+        .current_dir(image_dir)
+        .args(["--print", "target-libdir", "--target", TARGET])
+        .output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| PathBuf::from(String::from_utf8_lossy(&o.stdout).trim()));
+    let installed = libdir
+        .and_then(|dir| std::fs::read_dir(dir).ok())
+        .is_some_and(|mut entries| {
+            entries
+                .any(|e| e.is_ok_and(|e| e.file_name().to_string_lossy().starts_with("libcore-")))
+        });
+    if installed {
+        return Ok(());
+    }
+    eprintln!("  the {TARGET} target is missing from the pinned toolchain: running `rustup target add {TARGET}` (once)");
+    let status = Command::new("rustup")
+        .current_dir(image_dir)
+        .args(["target", "add", TARGET])
+        .status()
+        .map_err(|e| FirmwareError::TargetMissing {
+            why: format!("cannot run rustup: {e}"),
+        })?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(FirmwareError::TargetMissing {
+            why: format!("rustup exited with {status}"),
+        })
+    }
+}
+
 fn build_into(features: &[&str], target_dir: PathBuf) -> Result<FirmwareImage, FirmwareError> {
     let root = repo_root();
     let image_dir = root.join("firmware/image");
+    ensure_target(&image_dir)?;
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     let mut args = vec!["build", "--release", "--quiet"];
     let joined = features.join(",");

@@ -30,14 +30,31 @@ pub mod time;
 
 use std::path::PathBuf;
 
-/// The repository this `hil` was built from (firmware sources, QEMU profiles, scenarios).
-/// `HIL_REPO` overrides it.
+/// The repository `hil` works in (firmware sources, QEMU profiles, scenarios, run outputs):
+/// `HIL_REPO` if set; else the checkout that contains the current directory; else the one that
+/// contains the `hil` executable (`target/release/hil` inside a checkout); else the source
+/// tree it was built from, if it still exists; else the current directory. So a copied or
+/// installed `hil` works inside any checkout, not only the one it was built in.
 pub fn repo_root() -> PathBuf {
     if let Some(dir) = std::env::var_os("HIL_REPO") {
         return PathBuf::from(dir);
     }
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+    let is_checkout = |dir: &std::path::Path| {
+        dir.join("firmware/image/Cargo.toml").is_file() && dir.join("qemu").is_dir()
+    };
+    let enclosing = |start: PathBuf| {
+        start
+            .ancestors()
+            .find(|d| is_checkout(d))
+            .map(PathBuf::from)
+    };
+    let built_in = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .parent()
-        .map(PathBuf::from)
+        .map(PathBuf::from);
+    std::env::current_dir()
+        .ok()
+        .and_then(enclosing)
+        .or_else(|| std::env::current_exe().ok().and_then(enclosing))
+        .or_else(|| built_in.filter(|d| is_checkout(d)))
         .unwrap_or_else(|| PathBuf::from("."))
 }

@@ -373,6 +373,8 @@ fn resolve_action(
         ("power_cycle", ev.power_cycle.is_some()),
         ("command_failure", ev.command_failure.is_some()),
         ("command_timeout", ev.command_timeout.is_some()),
+        ("command_no_effect", ev.command_no_effect.is_some()),
+        ("command_wrong_state", ev.command_wrong_state.is_some()),
         ("state_override", ev.state_override.is_some()),
         ("state_change", ev.state_change.is_some()),
     ]
@@ -381,7 +383,7 @@ fn resolve_action(
     .collect();
     match given.as_slice() {
         [_] => {}
-        [] => return Err(src.error_at(field, "an event needs one action (warm_reset, power_cycle, command_failure, command_timeout, state_override, state_change)")),
+        [] => return Err(src.error_at(field, "an event needs one action (warm_reset, power_cycle, command_failure, command_timeout, command_no_effect, command_wrong_state, state_override, state_change)")),
         [_, second, ..] => {
             return Err(src.error_at(
                 &format!("{field}.{second}"),
@@ -450,6 +452,42 @@ fn resolve_action(
             src,
             f,
             CommandFate::Silent,
+            &f_path,
+        )?));
+    }
+    if let Some(f) = &ev.command_no_effect {
+        let f_path = format!("{field}.command_no_effect");
+        for (name, present) in [("status", f.status.is_some()), ("code", f.code.is_some())] {
+            if present {
+                return Err(src.error_at(
+                    &format!("{f_path}.{name}"),
+                    "a command with no effect is answered Ok: it has no status or code",
+                ));
+            }
+        }
+        return Ok(Action::CommandFault(command_fault(
+            src,
+            f,
+            CommandFate::NoEffect,
+            &f_path,
+        )?));
+    }
+    if let Some(w) = &ev.command_wrong_state {
+        let f_path = format!("{field}.command_wrong_state");
+        let (_, tl) = measured_timeline(src, net, &w.timeline, &format!("{f_path}.timeline"))?;
+        let value =
+            value_of(&w.value, tl).map_err(|m| src.error_at(&format!("{f_path}.value"), m))?;
+        let as_fault = CommandFaultSpec {
+            opcode: w.opcode,
+            occurrence: w.occurrence,
+            probability: w.probability,
+            status: None,
+            code: None,
+        };
+        return Ok(Action::CommandFault(command_fault(
+            src,
+            &as_fault,
+            CommandFate::WrongState(value),
             &f_path,
         )?));
     }

@@ -103,6 +103,13 @@ pub enum CommandFate {
     Answer(CommandStatus),
     /// Never answered.
     Silent,
+    /// Accepted and answered Ok when it would have completed, but it has no effect: no state
+    /// changes, no energy drawn, no data produced (a subsystem that reports success and does
+    /// nothing).
+    NoEffect,
+    /// Carried out and answered Ok, but the state it sets ends at this value instead of the
+    /// commanded one (a GNC that settles at the wrong attitude).
+    WrongState(StateValue),
 }
 
 /// The simulated spacecraft.
@@ -328,14 +335,26 @@ impl Spacecraft {
         args: &CommandArgs,
         fate: CommandFate,
     ) {
-        match fate {
+        let wrong = match fate {
             CommandFate::Silent => return,
             CommandFate::Answer(status) => {
                 self.push(now, Pending::Response(id, status));
                 return;
             }
-            CommandFate::Nominal => {}
-        }
+            CommandFate::NoEffect => {
+                let done = match &self.gnc {
+                    Some(g) if g.attain == opcode => g.slew_us,
+                    _ => self.response_delay_us,
+                };
+                self.push(
+                    now.saturating_add(done),
+                    Pending::Response(id, CommandStatus::Ok),
+                );
+                return;
+            }
+            CommandFate::WrongState(value) => Some(value),
+            CommandFate::Nominal => None,
+        };
         let mut answered = false;
         if let Some(g) = self.gnc.clone() {
             if opcode == g.attain {
@@ -346,7 +365,8 @@ impl Spacecraft {
                 }
                 self.push(now, Pending::State(g.key, StateValue::Enum(g.turning)));
                 let done = now.saturating_add(g.slew_us);
-                self.push(done, Pending::State(g.key, StateValue::Enum(target as u16)));
+                let reached = wrong.unwrap_or(StateValue::Enum(target as u16));
+                self.push(done, Pending::State(g.key, reached));
                 self.push(done, Pending::Response(id, CommandStatus::Ok));
                 answered = true;
             }
@@ -381,7 +401,7 @@ impl Spacecraft {
             if opcode == t.heater {
                 self.push(
                     now.saturating_add(t.warmup_us),
-                    Pending::State(t.key, StateValue::Int(t.warm)),
+                    Pending::State(t.key, wrong.unwrap_or(StateValue::Int(t.warm))),
                 );
             }
         }

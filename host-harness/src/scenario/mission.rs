@@ -69,6 +69,10 @@ pub struct EventEntry {
     pub power_cycle: Option<ResetSpec>,
     pub command_failure: Option<CommandFaultSpec>,
     pub command_timeout: Option<CommandFaultSpec>,
+    /// Commands accepted and answered Ok, but carried out with no effect at all.
+    pub command_no_effect: Option<CommandFaultSpec>,
+    /// Commands carried out and answered Ok, but the state they set ends at another value.
+    pub command_wrong_state: Option<WrongStateSpec>,
     pub state_override: Option<StateOverrideSpec>,
     pub state_change: Option<StateChangeSpec>,
 }
@@ -92,6 +96,18 @@ pub struct CommandFaultSpec {
     pub status: Option<String>,
     /// For command_failure with status "failed": the subsystem's failure code (default 1).
     pub code: Option<u16>,
+}
+
+/// A command that completes with the wrong result: the `occurrence`-th dispatch of `opcode`
+/// (or each with `probability`) sets `timeline` to `value` instead of what it commanded.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WrongStateSpec {
+    pub opcode: u16,
+    pub timeline: String,
+    pub value: toml::Value,
+    pub occurrence: Option<u32>,
+    pub probability: Option<f64>,
 }
 
 /// Force a state to a value (an exogenous change, or a sensor that lies).
