@@ -71,6 +71,7 @@ fn network(tasks: &[RandomTask]) -> Option<TaskNetwork> {
                 name: Name::try_from(name).unwrap(),
                 kind,
                 state_key: None,
+                after_reset: None,
             })
             .unwrap();
     }
@@ -88,15 +89,7 @@ fn network(tasks: &[RandomTask]) -> Option<TaskNetwork> {
             latest_end: MissionTimeUs::MAX,
             constraints: heapless::Vec::new(),
             impacts: heapless::Vec::new(),
-            control: ControlSpec {
-                start_condition: None,
-                maintain_condition: None,
-                skip_condition: None,
-                pre_wait_timeout_us: 0,
-                response_timeout_us: 0,
-                max_retries: 0,
-                on_failure_command: None,
-            },
+            control: ControlSpec::NONE,
             contingencies: heapless::Vec::new(),
             permissions: Permissions {
                 may_move: false,
