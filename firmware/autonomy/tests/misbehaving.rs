@@ -385,3 +385,87 @@ fn print_each_misbehaviour() {
         println!("{:?}", sim.dispatches_per_definition());
     }
 }
+
+mod random_misbehaviour {
+    use super::*;
+    use autonomy::Backoff;
+    use proptest::prelude::*;
+
+    fn gnc_fate() -> impl Strategy<Value = GncFate> {
+        prop_oneof![
+            Just(GncFate::Nominal),
+            Just(GncFate::Reject),
+            Just(GncFate::Fail),
+            Just(GncFate::AcceptNoSlew),
+            Just(GncFate::NoResponse),
+            Just(GncFate::WrongEndState),
+            Just(GncFate::Silent),
+        ]
+    }
+
+    fn instrument_fate() -> impl Strategy<Value = InstrumentFate> {
+        prop_oneof![
+            Just(InstrumentFate::Nominal),
+            Just(InstrumentFate::Reject),
+            Just(InstrumentFate::Fail),
+            Just(InstrumentFate::Silent),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 96, ..ProptestConfig::default() })]
+
+        /// For any pattern of GNC and instrument misbehaviour (cycled over the commands),
+        /// any response policy and an optional warm reset, no run of a task definition sends
+        /// more commands than `max_dispatches_per_run`, and the core never asks to run at one
+        /// mission time more often than those commands can account for.
+        #[test]
+        fn commands_per_task_never_exceed_the_bound(
+            gnc in proptest::collection::vec(gnc_fate(), 1..6),
+            instruments in proptest::collection::vec(instrument_fate(), 1..4),
+            retries in 0u8..=2,
+            repairs in 0u8..=3,
+            backoff_s in 0u64..=30,
+            reset in proptest::option::of((0u64..80, 1u64..6)),
+        ) {
+            let mut spec = flyby_spec();
+            spec.header.responses.max_retries = PerCause::uniform(retries, FailureKind::RETRYABLE);
+            spec.header.responses.max_repairs = PerCause::uniform(repairs, FailureKind::REPAIRABLE);
+            spec.header.responses.backoff = Backoff {
+                initial_us: backoff_s * SEC,
+                max_us: backoff_s * 8 * SEC,
+            };
+            let network = TaskNetwork::from_spec(spec).expect("valid policy");
+            let mut sim = Sim::new(network.clone(), hm(9, 50));
+            sim.sc.gnc_fates = gnc.clone();
+            sim.sc.instrument_fates = instruments.clone();
+            let resets: Vec<Reset> = reset
+                .map(|(minute, recovery)| Reset {
+                    at: hm(10, 0).saturating_add(minute * MIN),
+                    recovery_us: recovery * MIN,
+                })
+                .into_iter()
+                .collect();
+            sim.run(hm(11, 30), &resets);
+            let mut total_bound = 0;
+            for (id, runs) in sim.dispatches_per_run() {
+                let bound = network.max_dispatches_per_run(def(&network, id));
+                total_bound += bound;
+                for &n in &runs {
+                    prop_assert!(
+                        n <= bound,
+                        "task {} sent {} > {} in a run ({:?})\n{}",
+                        id, n, bound, runs, decision_lines(&sim).join("\n")
+                    );
+                }
+            }
+            let same_time = sim.max_steps_at_one_time() as u32;
+            prop_assert!(
+                same_time <= 4 + total_bound,
+                "{} steps at one mission time\n{}",
+                same_time,
+                decision_lines(&sim).join("\n")
+            );
+        }
+    }
+}

@@ -424,6 +424,45 @@ impl Sim {
         out
     }
 
+    /// Per task definition (ground id), the commands sent in each run: a run of a definition
+    /// ends when one of its instances completes (what clears the planner's failure counts).
+    pub fn dispatches_per_run(&self) -> std::collections::BTreeMap<u16, Vec<u32>> {
+        let mut runs: std::collections::BTreeMap<u16, Vec<u32>> = Default::default();
+        let mut pending: Option<MissionTimeUs> = None;
+        for d in &self.out.decisions {
+            match *d {
+                Decision::Dispatch { at, .. } => {
+                    pending = Some(at);
+                    continue;
+                }
+                Decision::Transition {
+                    task,
+                    to: TaskState::Dispatched,
+                    at,
+                    ..
+                } if pending == Some(at) => {
+                    let r = runs
+                        .entry(self.template_of(task))
+                        .or_insert_with(|| vec![0]);
+                    if let Some(last) = r.last_mut() {
+                        *last += 1;
+                    }
+                }
+                Decision::Transition {
+                    task,
+                    to: TaskState::Completed,
+                    ..
+                } => runs
+                    .entry(self.template_of(task))
+                    .or_insert_with(|| vec![0])
+                    .push(0),
+                _ => {}
+            }
+            pending = None;
+        }
+        runs
+    }
+
     /// Dispatches per task definition (ground id).
     pub fn dispatches_per_definition(&self) -> std::collections::BTreeMap<u16, u32> {
         let mut counts = std::collections::BTreeMap::new();
