@@ -41,7 +41,8 @@ pub struct ExecEntry {
     pub end_at: MissionTimeUs,
     pub command_id: u32,
     pub dispatched_at: MissionTimeUs,
-    /// Retries spent on this instance, per cause.
+    /// Retries granted to this instance, per cause (the one waiting for its back-off
+    /// included).
     pub retries: PerCause,
     /// A retry (state WaitingPre after a failed attempt) waits until this time.
     pub retry_at: MissionTimeUs,
@@ -200,14 +201,13 @@ impl Executive {
         out: &mut impl Outputs,
         report: &mut impl FnMut(TaskReport),
     ) {
-        // Responses, in arrival order.
+        // Responses, in arrival order. One to a command sent before a reset does not count:
+        // the task it was for is interrupted.
         let responses = core::mem::take(&mut self.responses);
         for &(id, status) in &responses {
-            let Some(i) = self
-                .entries
-                .iter()
-                .position(|e| e.command_id == id && e.state == TaskState::Dispatched)
-            else {
+            let Some(i) = self.entries.iter().position(|e| {
+                e.command_id == id && e.state == TaskState::Dispatched && !e.interrupted
+            }) else {
                 self.stats.unmatched_responses = self.stats.unmatched_responses.saturating_add(1);
                 continue;
             };
