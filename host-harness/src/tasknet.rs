@@ -1677,4 +1677,162 @@ mod tests {
         let e = error_of(&src);
         assert_eq!((e.code, e.line), (Some(61), 12), "{e}");
     }
+    /// Compiles `src` and returns the error, checking it names `field` at `line` with `code`.
+    fn refused(src: &str, line: usize, field: &str, code: Option<u16>) -> TaskNetError {
+        let e = error_of(src);
+        assert_eq!(
+            (e.line, e.field.as_str(), e.code),
+            (line, field, code),
+            "{e}"
+        );
+        assert!(e.to_string().starts_with(&format!("t.toml:{line}:")), "{e}");
+        e
+    }
+
+    const TASK: &str = "\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\ncommand = { opcode = 1 }\nresponse_timeout = \"1m\"\n";
+
+    #[test]
+    fn response_bounds_compile_network_wide_and_per_task() {
+        let src = format!(
+            "[network]\nid = 1\nmax_retries = 1\nmax_repairs = {{ any = 3, command_rejected = 0 }}\nretry_backoff = \"5s\"\nretry_backoff_max = \"1m\"\n{TASK}max_retries = {{ command_failed = 2 }}\nmax_repairs = 4\nretry_backoff = \"30s\"\ncontingencies = [ {{ on = [\"interrupted\", \"post_condition\"], action = \"restart\" }} ]\n"
+        );
+        let (network, bytes) = compile_str(&src, "t.toml").unwrap_or_else(|e| panic!("{e}"));
+        assert!(TaskNetwork::validate_uplink(&bytes).is_ok());
+        let r = network.responses();
+        assert_eq!(r.max_retries, PerCause::uniform(1, FailureKind::RETRYABLE));
+        let mut repairs = PerCause::uniform(3, FailureKind::REPAIRABLE);
+        repairs.set(FailureKind::CommandRejected, 0);
+        assert_eq!(r.max_repairs, repairs);
+        assert_eq!(
+            r.backoff,
+            Backoff {
+                initial_us: 5_000_000,
+                max_us: 60_000_000
+            }
+        );
+        let control = &network.tasks()[0].control;
+        // A table sets the causes it names on top of the network's values.
+        let mut retries = PerCause::uniform(1, FailureKind::RETRYABLE);
+        retries.set(FailureKind::CommandFailed, 2);
+        assert_eq!(control.max_retries, Some(retries));
+        assert_eq!(
+            control.max_repairs,
+            Some(PerCause::uniform(4, FailureKind::REPAIRABLE))
+        );
+        // The cap not given is the network's.
+        assert_eq!(
+            control.backoff,
+            Some(Backoff {
+                initial_us: 30_000_000,
+                max_us: 60_000_000
+            })
+        );
+        assert_eq!(
+            network.tasks()[0].contingencies[0].on,
+            FailureKind::Interrupted.bit() | FailureKind::PostConditionNotMet.bit()
+        );
+        // Absent everywhere: the built-in defaults.
+        let (plain, _) = compile_str(&format!("[network]\nid = 1\n{TASK}"), "t.toml").unwrap();
+        assert_eq!(plain.responses(), &ResponsePolicy::DEFAULT);
+        assert_eq!(plain.tasks()[0].control.max_retries, None);
+        assert_eq!(plain.tasks()[0].control.backoff, None);
+    }
+
+    #[test]
+    fn bad_response_bounds_are_reported_at_their_field_with_the_target_code() {
+        // Line numbers: HEAD is 8 lines, TASK starts with a blank line 9, [[task]] on 10,
+        // response_timeout on 15; the field under test is on line 16.
+        refused(
+            &format!("{HEAD}{TASK}max_repairs = 16\n"),
+            16,
+            "task[0].max_repairs",
+            Some(70),
+        );
+        refused(
+            &format!("{HEAD}{TASK}max_retries = {{ maintain_violation = 1 }}\n"),
+            16,
+            "task[0].max_retries",
+            Some(71),
+        );
+        refused(
+            &format!(
+                "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\nmax_retries = 1\n"
+            ),
+            14,
+            "task[0].max_retries",
+            Some(71),
+        );
+        refused(
+            &format!("{HEAD}{TASK}retry_backoff = \"1m\"\nretry_backoff_max = \"10s\"\n"),
+            16,
+            "task[0].retry_backoff",
+            Some(72),
+        );
+        refused(
+            "[network]\nid = 1\nretry_backoff = \"0s\"\n",
+            3,
+            "network.retry_backoff",
+            Some(72),
+        );
+        refused(
+            "[network]\nid = 1\nmax_retries = { unschedulable = 2 }\n",
+            3,
+            "network.max_retries",
+            Some(71),
+        );
+        // Mistakes the compiler catches itself (no target code), also at the field.
+        let e = refused(
+            &format!("{HEAD}{TASK}max_repairs = {{ rejected = 1 }}\n"),
+            16,
+            "task[0].max_repairs",
+            None,
+        );
+        assert!(
+            e.message.contains("unknown failure cause `rejected`"),
+            "{e}"
+        );
+        assert!(e.message.contains("command_rejected"), "{e}");
+        let e = refused(
+            &format!("{HEAD}{TASK}max_repairs = -1\n"),
+            16,
+            "task[0].max_repairs",
+            None,
+        );
+        assert!(e.message.contains("not a bound"), "{e}");
+    }
+
+    #[test]
+    fn after_reset_compiles_and_is_checked() {
+        let heater =
+            "\n[[timeline]]\nname = \"Heater\"\nkind = \"state\"\nvalues = [\"OFF\", \"ON\"]\n";
+        let (network, _) = compile_str(&format!("{HEAD}{heater}after_reset = \"OFF\"\n"), "t.toml")
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(network.timelines()[1].after_reset, Some(0));
+        assert_eq!(network.timelines()[0].after_reset, None);
+        // On a measured timeline (73), at the value.
+        let e = refused(
+            &HEAD.replace("state_key = 1\n", "state_key = 1\nafter_reset = \"A\"\n"),
+            9,
+            "timeline[0].after_reset",
+            Some(73),
+        );
+        assert_eq!(e.column, 15, "{e}");
+        // On a claimable timeline (74).
+        refused(
+            &format!(
+                "{HEAD}\n[[timeline]]\nname = \"Slew\"\nkind = \"claimable\"\nafter_reset = 0\n"
+            ),
+            13,
+            "timeline[1].after_reset",
+            Some(74),
+        );
+        // A value the timeline does not have.
+        let e = refused(
+            &format!("{HEAD}{heater}after_reset = \"WARM\"\n"),
+            14,
+            "timeline[1].after_reset",
+            None,
+        );
+        assert!(e.message.contains("[\"OFF\", \"ON\"]"), "{e}");
+    }
 }
