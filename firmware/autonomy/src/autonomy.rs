@@ -367,8 +367,12 @@ impl Autonomy {
 
     /// Restores the state saved by the newest whole record in `area`. On success the next
     /// [`Autonomy::step`] (after the current state buffer has been published with
-    /// `on_state_update`) checks every task against the present state, aborts what no longer
-    /// holds, applies contingencies and repairs the plan. On error `self` is a cold, empty core.
+    /// `on_state_update`) sets the unmeasured timelines that declare an `after_reset` value to
+    /// it, ends every commanded task that was running at the checkpoint (aborted if a MAINTAIN
+    /// constraint no longer holds, else [`crate::FailureKind::Interrupted`]: never completed),
+    /// checks the other tasks against the present state, applies contingencies and repairs the
+    /// plan. Retry counts, back-offs and failure counts come back with the rest. On error
+    /// `self` is a cold, empty core.
     pub fn restore_from(
         &mut self,
         area: &WarmRestartArea<'_>,

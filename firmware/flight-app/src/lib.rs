@@ -644,7 +644,7 @@ mod tests {
             timestamp: MissionTimeUs::from_secs(9 * 3600),
         };
         let mut out: Vec<TargetToHost> = Vec::new();
-        let mut frame = |app: &mut FlightApp, mem: &mut Memories<'_>, n: u32| {
+        let frame = |app: &mut FlightApp, mem: &mut Memories<'_>, n: u32| {
             let mut out: Vec<TargetToHost> = Vec::new();
             app.handle(
                 &grant(n, 9 * 3600 + u64::from(n)),
