@@ -1553,7 +1553,8 @@ fn describe(e: ValidationError) -> &'static str {
         | TooManyConditionTerms
         | TooManyContingencies
         | TooManyPermissions
-        | TooManyTemporalConstraints => "over the target's capacity",
+        | TooManyTemporalConstraints
+        | TooManyCommandArgs => "over the target's capacity",
         TooManyStateValues => "a state timeline needs 1 to 32 values",
         NameTooLong => "name too long",
         DuplicateTaskId => "another task has this id",

@@ -7,7 +7,10 @@
 //!
 //! [`validate_uplink`] walks the bytes one element at a time (no temporary larger than one
 //! [`TaskSpec`]), so a rejected uplink never touches the running network; only then does
-//! [`decode_into`] rebuild the network in place. Every rejection is a [`ValidationError`]: a
+//! [`decode_into`] rebuild the network in place. Elements are read field by field
+//! ([`take_task`] and its siblings), so a list over its capacity is refused with its own code
+//! (`TooManyConstraints`, ...) at the first item that does not fit, and bytes that do not
+//! decode are named with the field they are in. Every rejection is a [`ValidationError`]: a
 //! [`ValidationCode`] (its `u16` goes to the host in `UplinkNak.reason`) and an [`ErrorSite`]
 //! naming the element, which the ground compiler maps back to `file:line:column`.
 use heapless::Vec;
@@ -21,7 +24,9 @@ use crate::telemetry::FailureKind;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[repr(u16)]
 pub enum ValidationCode {
-    /// Bytes do not decode (bad varint, enum tag, string, or a nested list over capacity).
+    /// Bytes do not decode (bad varint, enum tag, option tag, UTF-8, or the bytes end inside an
+    /// element). A list over its capacity has its own `TooMany...` code, a name over
+    /// [`MAX_NAME_LEN`] [`ValidationCode::NameTooLong`].
     Decode = 1,
     /// Bytes remain after the last element.
     TrailingBytes = 2,
@@ -38,6 +43,9 @@ pub enum ValidationCode {
     TooManyTemporalConstraints = 18,
     TooManyStateValues = 19,
     NameTooLong = 20,
+    /// A command (a task's, or its `on_failure_command`) with more than
+    /// [`fsw_bridge::MAX_COMMAND_ARGS`] arguments.
+    TooManyCommandArgs = 21,
     /// Two tasks share an id.
     DuplicateTaskId = 30,
     /// A ground task id at or above [`FIRST_INSTANCE_ID`].
@@ -639,14 +647,216 @@ impl<'a> Reader<'a> {
         }
     }
 
-    fn count(&mut self, max: usize, too_many: ValidationCode) -> Result<usize, ValidationError> {
+    /// The length postcard puts before a list or a string (a varint). Read as a `u64` on
+    /// every platform, so a length says the same on the 32-bit target as on the host.
+    fn length(&mut self, site: ErrorSite) -> Result<usize, ValidationError> {
+        let n: u64 = self.take(site)?;
+        Ok(usize::try_from(n).unwrap_or(usize::MAX))
+    }
+
+    /// A top-level element count (`u16`), at most `max`. Over it: `too_many` at the site of
+    /// the first element that does not fit.
+    fn count(
+        &mut self,
+        max: usize,
+        too_many: ValidationCode,
+        first_over: ErrorSite,
+    ) -> Result<usize, ValidationError> {
         let n: u16 = self.take(ErrorSite::Network)?;
         let n = usize::from(n);
         if n > max {
-            return Err(ValidationError::new(too_many, ErrorSite::Network));
+            return Err(ValidationError::new(too_many, first_over));
         }
         Ok(n)
     }
+
+    /// A list nested in an element, of at most `N` items; item `i` is at `site(i)`. A longer
+    /// list is refused with `too_many` at the site of the first item that does not fit,
+    /// before any item is decoded.
+    fn list<T: DeserializeOwned, const N: usize>(
+        &mut self,
+        too_many: ValidationCode,
+        site: impl Fn(usize) -> ErrorSite,
+    ) -> Result<Vec<T, N>, ValidationError> {
+        let n = self.length(site(0))?;
+        if n > N {
+            return Err(ValidationError::new(too_many, site(N)));
+        }
+        let mut items = Vec::new();
+        for i in 0..n {
+            let item = self.take(site(i))?;
+            items
+                .push(item)
+                .map_err(|_| ValidationError::new(too_many, site(i)))?;
+        }
+        Ok(items)
+    }
+
+    /// A name: over [`MAX_NAME_LEN`] bytes is [`ValidationCode::NameTooLong`].
+    fn name(&mut self, site: ErrorSite) -> Result<Name, ValidationError> {
+        let start = self.rest;
+        if self.length(site)? > MAX_NAME_LEN {
+            return Err(ValidationError::new(ValidationCode::NameTooLong, site));
+        }
+        self.rest = start;
+        self.take(site)
+    }
+
+    /// An `Option` (postcard: a tag byte 0 or 1, then the value) whose value `read` decodes.
+    fn option<T>(
+        &mut self,
+        site: ErrorSite,
+        read: impl FnOnce(&mut Self) -> Result<T, ValidationError>,
+    ) -> Result<Option<T>, ValidationError> {
+        match self.take::<u8>(site)? {
+            0 => Ok(None),
+            1 => read(self).map(Some),
+            _ => Err(ValidationError::new(ValidationCode::Decode, site)),
+        }
+    }
+
+    fn command(&mut self, site: ErrorSite) -> Result<CommandSpec, ValidationError> {
+        let opcode = self.take(site)?;
+        let args = self.list(ValidationCode::TooManyCommandArgs, |_| site)?;
+        Ok(CommandSpec { opcode, args })
+    }
+
+    fn timeline(&mut self, index: usize) -> Result<TimelineSpec, ValidationError> {
+        let site = ErrorSite::Timeline(u8_index(index));
+        let name = self.name(site)?;
+        let kind = self.take(site)?;
+        let state_key = self.take(site)?;
+        let after_reset = self.take(ErrorSite::TimelineAfterReset(u8_index(index)))?;
+        Ok(TimelineSpec {
+            name,
+            kind,
+            state_key,
+            after_reset,
+        })
+    }
+
+    fn condition(&mut self, index: usize) -> Result<ConditionSpec, ValidationError> {
+        let condition = u8_index(index);
+        let nodes = self.list(ValidationCode::TooManyConditionTerms, |node| {
+            ErrorSite::Condition {
+                condition,
+                node: u8_index(node),
+            }
+        })?;
+        Ok(ConditionSpec { nodes })
+    }
+
+    fn task(&mut self, index: usize) -> Result<TaskSpec, ValidationError> {
+        use ValidationCode::*;
+        let task = u8_index(index);
+        let site = |field| ErrorSite::Task { task, field };
+        let id = self.take(site(TaskField::Id))?;
+        let name = self.name(site(TaskField::Name))?;
+        let priority = self.take(site(TaskField::Whole))?;
+        let role = self.take(site(TaskField::Whole))?;
+        let command = self.option(site(TaskField::Command), |r| {
+            r.command(site(TaskField::Command))
+        })?;
+        let duration_us = self.take(site(TaskField::Duration))?;
+        let min_duration_us = self.take(site(TaskField::Duration))?;
+        let earliest_start = self.take(site(TaskField::Window))?;
+        let latest_start = self.take(site(TaskField::Window))?;
+        let latest_end = self.take(site(TaskField::Window))?;
+        let constraints = self.list(TooManyConstraints, |k| {
+            site(TaskField::Constraint(u8_index(k)))
+        })?;
+        let impacts = self.list(TooManyImpacts, |k| site(TaskField::Impact(u8_index(k))))?;
+        let control = self.control(|field| ErrorSite::Task { task, field })?;
+        let contingencies = self.list(TooManyContingencies, |k| {
+            site(TaskField::Contingency(u8_index(k)))
+        })?;
+        let may_move = self.take(site(TaskField::Whole))?;
+        let may_delete = self.take(site(TaskField::Whole))?;
+        let may_add = self.list(TooManyPermissions, |k| {
+            site(TaskField::Permission(u8_index(k)))
+        })?;
+        Ok(TaskSpec {
+            id,
+            name,
+            priority,
+            role,
+            command,
+            duration_us,
+            min_duration_us,
+            earliest_start,
+            latest_start,
+            latest_end,
+            constraints,
+            impacts,
+            control,
+            contingencies,
+            permissions: Permissions {
+                may_move,
+                may_delete,
+                may_add,
+            },
+        })
+    }
+
+    fn control(
+        &mut self,
+        site: impl Fn(TaskField) -> ErrorSite,
+    ) -> Result<ControlSpec, ValidationError> {
+        let control = site(TaskField::Control);
+        let responses = |f| site(TaskField::Responses(f));
+        let start_condition = self.take(control)?;
+        let maintain_condition = self.take(control)?;
+        let skip_condition = self.take(control)?;
+        let pre_wait_timeout_us = self.take(control)?;
+        let response_timeout_us = self.take(control)?;
+        let on_failure_command = self.option(control, |r| r.command(control))?;
+        let max_retries = self.take(responses(ResponseField::MaxRetries))?;
+        let max_repairs = self.take(responses(ResponseField::MaxRepairs))?;
+        let backoff = self.take(responses(ResponseField::Backoff))?;
+        Ok(ControlSpec {
+            start_condition,
+            maintain_condition,
+            skip_condition,
+            pre_wait_timeout_us,
+            response_timeout_us,
+            on_failure_command,
+            max_retries,
+            max_repairs,
+            backoff,
+        })
+    }
+}
+
+/// Decodes one timeline (element `index` of the uplink) off the front of `bytes`; returns it
+/// and the bytes after it. The uplink decoder's own element reader: a name over
+/// [`MAX_NAME_LEN`] is [`ValidationCode::NameTooLong`], anything else that does not decode
+/// [`ValidationCode::Decode`], at the timeline's site. Decodes exactly what postcard decodes
+/// into a [`TimelineSpec`] (the fuzz targets check that).
+pub fn take_timeline(bytes: &[u8], index: usize) -> Result<(TimelineSpec, &[u8]), ValidationError> {
+    let mut r = Reader { rest: bytes };
+    let t = r.timeline(index)?;
+    Ok((t, r.rest))
+}
+
+/// Decodes one condition (element `index`); more than [`MAX_CONDITION_TERMS`] nodes is
+/// [`ValidationCode::TooManyConditionTerms`] at the first node that does not fit.
+pub fn take_condition(
+    bytes: &[u8],
+    index: usize,
+) -> Result<(ConditionSpec, &[u8]), ValidationError> {
+    let mut r = Reader { rest: bytes };
+    let c = r.condition(index)?;
+    Ok((c, r.rest))
+}
+
+/// Decodes one task (element `index`). A list over its capacity is refused with its own code
+/// (`TooManyConstraints`, `TooManyImpacts`, `TooManyContingencies`, `TooManyPermissions`,
+/// `TooManyCommandArgs`) at the site of the first item that does not fit, a name over
+/// [`MAX_NAME_LEN`] with `NameTooLong`; any other defect is `Decode` at the field it is in.
+pub fn take_task(bytes: &[u8], index: usize) -> Result<(TaskSpec, &[u8]), ValidationError> {
+    let mut r = Reader { rest: bytes };
+    let t = r.task(index)?;
+    Ok((t, r.rest))
 }
 
 /// Validates a binary uplink without storing anything. Stack use stays around one [`TaskSpec`]
@@ -657,31 +867,42 @@ pub fn validate_uplink(bytes: &[u8]) -> VResult {
     let header: NetworkHeader = r.take(ErrorSite::Network)?;
     validate_header(&header)?;
     let mut timelines: Vec<TimelineSpec, MAX_TIMELINES> = Vec::new();
-    for i in 0..r.count(MAX_TIMELINES, TooManyTimelines)? {
-        let t: TimelineSpec = r.take(ErrorSite::Timeline(u8_index(i)))?;
+    let timeline_count = r.count(
+        MAX_TIMELINES,
+        TooManyTimelines,
+        ErrorSite::Timeline(u8_index(MAX_TIMELINES)),
+    )?;
+    for i in 0..timeline_count {
+        let t = r.timeline(i)?;
         validate_timeline(i, &t, &timelines)?;
-        timelines
-            .push(t)
-            .map_err(|_| ValidationError::new(TooManyTimelines, ErrorSite::Network))?;
+        timelines.push(t).map_err(|_| {
+            ValidationError::new(TooManyTimelines, ErrorSite::Timeline(u8_index(i)))
+        })?;
     }
-    let condition_count = r.count(MAX_CONDITIONS, TooManyConditions)?;
-    for i in 0..condition_count {
-        let site = ErrorSite::Condition {
-            condition: u8_index(i),
+    let condition_count = r.count(
+        MAX_CONDITIONS,
+        TooManyConditions,
+        ErrorSite::Condition {
+            condition: u8_index(MAX_CONDITIONS),
             node: 0,
-        };
-        let c: ConditionSpec = r.take(site)?;
+        },
+    )?;
+    for i in 0..condition_count {
+        let c = r.condition(i)?;
         validate_condition(i, &c, &timelines)?;
     }
-    let task_count = r.count(MAX_TASKS, TooManyTasks)?;
+    let task_count = r.count(
+        MAX_TASKS,
+        TooManyTasks,
+        ErrorSite::Task {
+            task: u8_index(MAX_TASKS),
+            field: TaskField::Whole,
+        },
+    )?;
     let tasks_start = r.rest;
     let mut ids: Vec<(u16, TaskRole), MAX_TASKS> = Vec::new();
     for i in 0..task_count {
-        let site = ErrorSite::Task {
-            task: u8_index(i),
-            field: TaskField::Whole,
-        };
-        let t: TaskSpec = r.take(site)?;
+        let t = r.task(i)?;
         push_id(&mut ids, i, &t)?;
     }
     let after_tasks = r.rest;
@@ -692,15 +913,16 @@ pub fn validate_uplink(bytes: &[u8]) -> VResult {
         ids: &ids,
     };
     for i in 0..task_count {
-        let site = ErrorSite::Task {
-            task: u8_index(i),
-            field: TaskField::Whole,
-        };
-        let t: TaskSpec = r.take(site)?;
+        let t = r.task(i)?;
         validate_task(i, &t, &ctx)?;
     }
     r.rest = after_tasks;
-    for i in 0..r.count(MAX_TEMPORAL_CONSTRAINTS, TooManyTemporalConstraints)? {
+    let temporal_count = r.count(
+        MAX_TEMPORAL_CONSTRAINTS,
+        TooManyTemporalConstraints,
+        ErrorSite::Temporal(u8_index(MAX_TEMPORAL_CONSTRAINTS)),
+    )?;
+    for i in 0..temporal_count {
         let tc: TemporalConstraint = r.take(ErrorSite::Temporal(u8_index(i)))?;
         validate_temporal(i, &tc, &ids)?;
     }
@@ -710,43 +932,47 @@ pub fn validate_uplink(bytes: &[u8]) -> VResult {
     Ok(())
 }
 
-fn decode_list<T: DeserializeOwned, const N: usize>(
-    r: &mut Reader<'_>,
-    list: &mut Vec<T, N>,
-    too_many: ValidationCode,
-) -> VResult {
-    list.clear();
-    for _ in 0..r.count(N, too_many)? {
-        let item: T = r.take(ErrorSite::Network)?;
-        list.push(item)
-            .map_err(|_| ValidationError::new(too_many, ErrorSite::Network))?;
-    }
-    Ok(())
-}
-
 /// Validates `bytes` and, only if they pass, rebuilds `network` from them in place. On error
 /// `network` is unchanged.
 pub fn decode_into(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
+    use ValidationCode::*;
     validate_uplink(bytes)?;
+    // Validated: every element below decodes and fits, so no error can occur part-way.
     let mut r = Reader { rest: bytes };
     let spec = &mut network.spec;
     spec.header = r.take(ErrorSite::Network)?;
-    decode_list(
-        &mut r,
-        &mut spec.timelines,
-        ValidationCode::TooManyTimelines,
-    )?;
-    decode_list(
-        &mut r,
-        &mut spec.conditions,
-        ValidationCode::TooManyConditions,
-    )?;
-    decode_list(&mut r, &mut spec.tasks, ValidationCode::TooManyTasks)?;
-    decode_list(
-        &mut r,
-        &mut spec.temporal,
-        ValidationCode::TooManyTemporalConstraints,
-    )?;
+    spec.timelines.clear();
+    for i in 0..r.count(MAX_TIMELINES, TooManyTimelines, ErrorSite::Network)? {
+        let t = r.timeline(i)?;
+        spec.timelines
+            .push(t)
+            .map_err(|_| ValidationError::new(TooManyTimelines, ErrorSite::Network))?;
+    }
+    spec.conditions.clear();
+    for i in 0..r.count(MAX_CONDITIONS, TooManyConditions, ErrorSite::Network)? {
+        let c = r.condition(i)?;
+        spec.conditions
+            .push(c)
+            .map_err(|_| ValidationError::new(TooManyConditions, ErrorSite::Network))?;
+    }
+    spec.tasks.clear();
+    for i in 0..r.count(MAX_TASKS, TooManyTasks, ErrorSite::Network)? {
+        let t = r.task(i)?;
+        spec.tasks
+            .push(t)
+            .map_err(|_| ValidationError::new(TooManyTasks, ErrorSite::Network))?;
+    }
+    spec.temporal.clear();
+    for i in 0..r.count(
+        MAX_TEMPORAL_CONSTRAINTS,
+        TooManyTemporalConstraints,
+        ErrorSite::Network,
+    )? {
+        let tc = r.take(ErrorSite::Temporal(u8_index(i)))?;
+        spec.temporal
+            .push(tc)
+            .map_err(|_| ValidationError::new(TooManyTemporalConstraints, ErrorSite::Network))?;
+    }
     Ok(())
 }
 
