@@ -23,7 +23,11 @@
 //! ([`crate::executive::Executive`]) only exchange [`crate::planner::Commit`]s (planner to
 //! executive) and [`crate::planner::TaskReport`]s (executive to planner), so each can run in its
 //! own partition with its own copy of the network; this wrapper just passes them directly.
-use crate::checkpoint::{CheckpointError, RestoreInfo, WarmRestartArea};
+use crate::capacity::MAX_MISSION_TIME_US;
+use crate::checkpoint::{
+    self, CheckpointError, PayloadDefect, PayloadError, PayloadSite, Record, RestoreInfo,
+    RestoredState, WarmRestartArea,
+};
 use crate::condition::{state_value_to_i64, StateTable};
 use crate::executive::Executive;
 use crate::model::*;
@@ -214,8 +218,13 @@ impl Autonomy {
     }
 
     /// Records a state-buffer value (measured at `at`). Values of the wrong type for their
-    /// timeline are taken as unknown and counted in `state_type_mismatches`.
+    /// timeline are taken as unknown and counted in `state_type_mismatches`. An update
+    /// measured after [`MAX_MISSION_TIME_US`] is ignored (no time the core keeps may be later;
+    /// see [`checkpoint::MAX_RESTORED_TIME_US`]).
     pub fn on_state_update(&mut self, key: StateKey, value: StateValue, at: MissionTimeUs) {
+        if at.0 > MAX_MISSION_TIME_US {
+            return;
+        }
         self.states.update(key, value, at);
         if let Some(t) = self.network.timeline_of_key(key) {
             let v = self.timeline_value(t, value);
@@ -241,7 +250,8 @@ impl Autonomy {
     }
 
     /// [`Autonomy::step`], timing its planner and executive parts with `clock` (a CPU clock:
-    /// the firmware's partition CPU time). The clock is only read, never consulted, so the
+    /// the firmware's partition CPU time). A `now` after [`MAX_MISSION_TIME_US`] is taken as
+    /// that time. The clock is only read, never consulted, so the
     /// decisions are exactly those of `step`.
     pub fn step_timed(
         &mut self,
@@ -251,6 +261,9 @@ impl Autonomy {
         clock: &mut impl FnMut() -> u64,
     ) -> (StepReport, StepCost) {
         let t0 = clock();
+        // Mission time stops at the latest time an uplink may name, so that every time the
+        // core keeps stays in range (see `checkpoint::MAX_RESTORED_TIME_US`).
+        let now = MissionTimeUs(now.0.min(MAX_MISSION_TIME_US));
         self.now = now;
         if let Some(seq) = self.restored.take() {
             out.telemetry(TelemetryEvent::PlanModification {
@@ -365,73 +378,97 @@ impl Autonomy {
         Some(len)
     }
 
-    /// Restores the state saved by the newest whole record in `area`. On success the next
+    /// Restores the state saved by the newest whole record in `area` whose payload decodes and
+    /// validates ([`checkpoint::check_restored`]); a refused newest record falls back to the
+    /// other one. On success the next
     /// [`Autonomy::step`] (after the current state buffer has been published with
     /// `on_state_update`) sets the unmeasured timelines that declare an `after_reset` value to
     /// it, ends every commanded task that was running at the checkpoint (aborted if a MAINTAIN
     /// constraint no longer holds, else [`crate::FailureKind::Interrupted`]: never completed),
     /// checks the other tasks against the present state, applies contingencies and repairs the
     /// plan. Retry counts, back-offs and failure counts come back with the rest. On error
-    /// `self` is a cold, empty core.
+    /// `self` is a cold, empty core; [`CheckpointError::BadPayload`] carries why the newest
+    /// record was refused.
     pub fn restore_from(
         &mut self,
         area: &WarmRestartArea<'_>,
     ) -> Result<RestoreInfo, CheckpointError> {
-        let (slot, sequence, payload) = area.latest().ok_or(CheckpointError::NoValidRecord)?;
-        if self.decode_state(payload).is_none() {
+        let mut refused = None;
+        for record in area.records().into_iter().flatten() {
+            match self.restore_record(record) {
+                Ok(info) => return Ok(info),
+                Err(e) => {
+                    refused.get_or_insert(e);
+                }
+            }
+        }
+        Err(refused.map_or(CheckpointError::NoValidRecord, CheckpointError::BadPayload))
+    }
+
+    /// Restores from one whole record (see [`Autonomy::restore_from`]; a caller with several
+    /// memories picks the record). On error `self` is a cold, empty core.
+    pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, PayloadError> {
+        if let Err(e) = self.decode_state(record.payload) {
             *self = Self::new();
-            return Err(CheckpointError::BadPayload);
+            return Err(e);
         }
         self.planner.after_restore();
         self.executive.after_restore();
-        self.restored = Some(sequence);
+        self.restored = Some(record.sequence);
         Ok(RestoreInfo {
-            slot,
-            sequence,
-            payload_len: payload.len() as u32,
+            slot: record.slot,
+            sequence: record.sequence,
+            payload_len: u32::try_from(record.payload.len()).unwrap_or(u32::MAX),
         })
     }
 
     /// Replaces the state with one encoded by [`Autonomy::encode_state`] (no restart
-    /// adjustments; [`Autonomy::restore_from`] adds them). `None` if the bytes do not decode
-    /// or do not hang together; `self` may then be partly overwritten.
-    pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
-        let (meta, rest): (ImageMeta, _) = postcard::take_from_bytes(payload).ok()?;
-        let net_len = usize::try_from(u32::from_be_bytes(rest.get(..4)?.try_into().ok()?)).ok()?;
-        let net_bytes = rest.get(4..4 + net_len)?;
-        uplink::decode_into(&mut self.network, net_bytes).ok()?;
-        let rest = rest.get(4 + net_len..)?;
-        let (planner, rest): (Planner, _) = postcard::take_from_bytes(rest).ok()?;
+    /// adjustments; [`Autonomy::restore_from`] adds them), after checking it like an uplink
+    /// ([`checkpoint::check_restored`]). On error, why the bytes were refused; `self` may then
+    /// be partly overwritten.
+    pub fn decode_state(&mut self, payload: &[u8]) -> Result<(), PayloadError> {
+        use PayloadDefect::*;
+        let fail = |defect, site| PayloadError::new(defect, site);
+        let (meta, rest): (ImageMeta, _) =
+            postcard::take_from_bytes(payload).map_err(|_| fail(Decode, PayloadSite::Meta))?;
+        let net_len = rest
+            .get(..4)
+            .and_then(|b| b.try_into().ok())
+            .map(u32::from_be_bytes)
+            .and_then(|n| usize::try_from(n).ok())
+            .ok_or(fail(Decode, PayloadSite::Network))?;
+        let net_bytes = rest
+            .get(4..)
+            .and_then(|r| r.get(..net_len))
+            .ok_or(fail(Decode, PayloadSite::Network))?;
+        uplink::decode_into(&mut self.network, net_bytes)
+            .map_err(|e| fail(InvalidNetwork(e), PayloadSite::Network))?;
+        let rest = rest.get(4 + net_len..).unwrap_or(&[]);
+        let (planner, rest): (Planner, _) =
+            postcard::take_from_bytes(rest).map_err(|_| fail(Decode, PayloadSite::Planner))?;
         self.planner = planner;
-        let (executive, rest): (Executive, _) = postcard::take_from_bytes(rest).ok()?;
+        let (executive, rest): (Executive, _) =
+            postcard::take_from_bytes(rest).map_err(|_| fail(Decode, PayloadSite::Executive))?;
         self.executive = executive;
-        let (states, rest): (StateTable, _) = postcard::take_from_bytes(rest).ok()?;
+        let (states, rest): (StateTable, _) =
+            postcard::take_from_bytes(rest).map_err(|_| fail(Decode, PayloadSite::States))?;
         self.states = states;
         if !rest.is_empty() {
-            return None;
+            return Err(fail(TrailingBytes, PayloadSite::End));
         }
-        // The plan must refer to the network it came with.
-        let defs = self.network.tasks().len();
-        let plan_ok = self
-            .planner
-            .entries()
-            .iter()
-            .all(|e| usize::from(e.def) < defs)
-            && self
-                .executive
-                .entries()
-                .iter()
-                .all(|e| usize::from(e.def) < defs)
-            && self.planner.anchors().len() == self.network.timelines().len()
-            && self.planner.ledger().len() == self.network.tasks().len();
-        if !plan_ok {
-            return None;
-        }
+        checkpoint::check_restored(&RestoredState {
+            loaded: meta.loaded,
+            now: meta.now,
+            network: &self.network,
+            planner: &self.planner,
+            executive: &self.executive,
+            states: &self.states,
+        })?;
         self.loaded = meta.loaded;
         self.now = meta.now;
         self.state_type_mismatches = meta.state_type_mismatches;
         self.last_state_type_mismatch = meta.last_state_type_mismatch;
-        Some(())
+        Ok(())
     }
 }
 

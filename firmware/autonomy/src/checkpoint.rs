@@ -1,13 +1,30 @@
 //! Warm-restart area: double-buffered (A/B) checkpoint records with sequence numbers and
-//! CRC-32s over a caller-provided byte region that survives a warm reset.
+//! CRC-32s over a caller-provided byte region that survives a warm reset, and the validation of
+//! a restored checkpoint's contents.
 //!
 //! The region is split into two equal slots. A record is a 20-byte big-endian header
 //! (`magic, format, reserved, sequence, length, crc`) followed by the payload; the CRC covers
 //! the first 16 header bytes and the payload. A write always goes to the slot that does not
 //! hold the newest whole record, and the header is written last, so a reset at any instant
-//! leaves at least one whole record. Reading takes the whole record with the highest sequence
-//! number; a truncated or corrupted one is ignored and the other slot is used.
+//! leaves at least one whole record. Sequence numbers compare with wrap-around
+//! ([`is_newer`]); a truncated or corrupted record is ignored.
+//!
+//! A whole record only proves that its bytes are the ones written. What they say is checked
+//! like an uplink before the core runs on it ([`check_restored`]): a payload that does not
+//! decode, or that holds an index, a time, a state, a count or a value the core cannot have
+//! produced, is refused with a [`PayloadError`] naming the defect and where it is, and the
+//! restore falls back to the older record (then to a cold start).
 use crc::{Crc, CRC_32_ISO_HDLC};
+
+use crate::capacity::*;
+use crate::condition::StateTable;
+use crate::executive::Executive;
+use crate::model::{TaskNetwork, TaskRole, TimelineKind, VALUE_UNKNOWN};
+use crate::plan::Origin;
+use crate::planner::{Planner, MAX_SCHEDULE_PASSES};
+use crate::telemetry::{FailureKind, TaskState};
+use crate::uplink::ValidationError;
+use fsw_bridge::MissionTimeUs;
 
 const MAGIC: u32 = 0x4D58_4350; // "MXCP"
 /// Version of the checkpoint payload layout; a record of another version is ignored. Version 2:
@@ -25,9 +42,62 @@ pub enum CheckpointError {
     AreaTooSmall,
     /// Neither slot holds a whole record of this format.
     NoValidRecord,
-    /// A whole record was found but its payload does not decode or validate (a firmware whose
-    /// layout changed without bumping [`CHECKPOINT_FORMAT`]).
-    BadPayload,
+    /// Whole records were found but none has a payload that decodes and validates (a firmware
+    /// whose layout changed without bumping [`CHECKPOINT_FORMAT`], or contents the core could
+    /// not have written). The error is the newest record's.
+    BadPayload(PayloadError),
+}
+
+/// Whether sequence number `a` is newer than `b`: serial-number arithmetic (RFC 1982), so
+/// that `0` is newer than `u32::MAX`. Of two numbers exactly `2^31` apart neither is newer.
+pub const fn is_newer(a: u32, b: u32) -> bool {
+    (a.wrapping_sub(b) as i32) > 0
+}
+
+/// One whole record of an area.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Record<'a> {
+    /// 0 for slot A, 1 for slot B.
+    pub slot: u8,
+    pub sequence: u32,
+    pub payload: &'a [u8],
+}
+
+/// The whole records of the A/B area `bytes` (the layout [`WarmRestartArea`] writes), newest
+/// first. Reads only, so it works on memory the caller may not write.
+pub fn records(bytes: &[u8]) -> [Option<Record<'_>>; 2] {
+    let slot_len = bytes.len() / 2;
+    let slot = |index: u8| {
+        let start = usize::from(index) * slot_len;
+        bytes.get(start..start + slot_len).unwrap_or(&[])
+    };
+    let record = |index: u8| {
+        record_in(slot(index)).map(|(sequence, payload)| Record {
+            slot: index,
+            sequence,
+            payload,
+        })
+    };
+    match (record(0), record(1)) {
+        (Some(a), Some(b)) if is_newer(b.sequence, a.sequence) => [Some(b), Some(a)],
+        (Some(a), b) => [Some(a), b],
+        (None, b) => [b, None],
+    }
+}
+
+/// The whole record in one slot, as (sequence, payload).
+fn record_in(slot: &[u8]) -> Option<(u32, &[u8])> {
+    if be_u32(slot, 0)? != MAGIC || be_u16(slot, 4)? != CHECKPOINT_FORMAT {
+        return None;
+    }
+    let sequence = be_u32(slot, 8)?;
+    let len = usize::try_from(be_u32(slot, 12)?).ok()?;
+    let crc = be_u32(slot, 16)?;
+    let payload = slot.get(RECORD_HEADER_LEN..RECORD_HEADER_LEN.checked_add(len)?)?;
+    let mut digest = CRC32.digest();
+    digest.update(slot.get(..16)?);
+    digest.update(payload);
+    (digest.finalize() == crc).then_some((sequence, payload))
 }
 
 /// What a restore found.
@@ -74,49 +144,21 @@ impl<'a> WarmRestartArea<'a> {
         self.slot_len().saturating_sub(RECORD_HEADER_LEN)
     }
 
-    fn slot(&self, index: u8) -> &[u8] {
-        let n = self.slot_len();
-        let start = usize::from(index) * n;
-        self.bytes.get(start..start + n).unwrap_or(&[])
-    }
-
     fn slot_mut(&mut self, index: u8) -> &mut [u8] {
         let n = self.slot_len();
         let start = usize::from(index) * n;
         self.bytes.get_mut(start..start + n).unwrap_or(&mut [])
     }
 
-    /// The whole record in slot `index`, as (sequence, payload).
-    fn record(&self, index: u8) -> Option<(u32, &[u8])> {
-        let slot = self.slot(index);
-        if be_u32(slot, 0)? != MAGIC || be_u16(slot, 4)? != CHECKPOINT_FORMAT {
-            return None;
-        }
-        let sequence = be_u32(slot, 8)?;
-        let len = usize::try_from(be_u32(slot, 12)?).ok()?;
-        let crc = be_u32(slot, 16)?;
-        let payload = slot.get(RECORD_HEADER_LEN..RECORD_HEADER_LEN.checked_add(len)?)?;
-        let mut digest = CRC32.digest();
-        digest.update(slot.get(..16)?);
-        digest.update(payload);
-        (digest.finalize() == crc).then_some((sequence, payload))
+    /// The whole records, newest first (see [`records`]).
+    pub fn records(&self) -> [Option<Record<'_>>; 2] {
+        records(self.bytes)
     }
 
     /// The newest whole record: (slot, sequence, payload).
     pub fn latest(&self) -> Option<(u8, u32, &[u8])> {
-        match (self.record(0), self.record(1)) {
-            (Some((sa, pa)), Some((sb, pb))) => {
-                // Sequence numbers compare with wrap-around.
-                if (sb.wrapping_sub(sa) as i32) > 0 {
-                    Some((1, sb, pb))
-                } else {
-                    Some((0, sa, pa))
-                }
-            }
-            (Some((sa, pa)), None) => Some((0, sa, pa)),
-            (None, Some((sb, pb))) => Some((1, sb, pb)),
-            (None, None) => None,
-        }
+        let [newest, _] = self.records();
+        newest.map(|r| (r.slot, r.sequence, r.payload))
     }
 
     /// Writes a new record whose payload `fill` produces into the given buffer (returning its
@@ -125,10 +167,25 @@ impl<'a> WarmRestartArea<'a> {
         &mut self,
         fill: impl FnOnce(&mut [u8]) -> Option<usize>,
     ) -> Result<(u8, u32), CheckpointError> {
-        let (slot, sequence) = match self.latest() {
-            Some((s, seq, _)) => (1 - s, seq.wrapping_add(1)),
-            None => (0, 1),
+        self.write_after(None, fill)
+    }
+
+    /// [`WarmRestartArea::write`], numbered after both this area's newest record and
+    /// `newest_elsewhere` (the newest sequence number of another area holding the same
+    /// checkpoints): two memories written with the same state carry the same number, so
+    /// comparing their numbers says which is newer even after one of them was lost.
+    pub fn write_after(
+        &mut self,
+        newest_elsewhere: Option<u32>,
+        fill: impl FnOnce(&mut [u8]) -> Option<usize>,
+    ) -> Result<(u8, u32), CheckpointError> {
+        let newest_here = self.latest().map(|(s, seq, _)| (s, seq));
+        let slot = newest_here.map_or(0, |(s, _)| 1 - s);
+        let newest = match (newest_here.map(|(_, seq)| seq), newest_elsewhere) {
+            (Some(a), Some(b)) => Some(if is_newer(b, a) { b } else { a }),
+            (a, b) => a.or(b),
         };
+        let sequence = newest.map_or(1, |n| n.wrapping_add(1));
         let capacity = self.payload_capacity();
         let target = self.slot_mut(slot);
         // Break the old record in this slot first, so a torn write is never taken as whole.
@@ -176,4 +233,304 @@ impl<'a> WarmRestartArea<'a> {
             }
         }
     }
+}
+
+/// Latest finite mission time a checkpoint may hold. The core takes no input time later than
+/// [`MAX_MISSION_TIME_US`] (later grants are clamped to it, later state updates ignored), and
+/// what it computes from one adds at most a plan horizon (itself at most
+/// [`MAX_MISSION_TIME_US`]) and durations, offsets and back-offs of at most
+/// [`MAX_DURATION_US`] each: every time it stores stays below this. [`MissionTimeUs::MAX`]
+/// is "never", where a time may be unbounded.
+pub const MAX_RESTORED_TIME_US: u64 = 4 * MAX_MISSION_TIME_US;
+
+/// Why a whole record's payload was refused: what is wrong, and where.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PayloadError {
+    pub defect: PayloadDefect,
+    pub site: PayloadSite,
+}
+
+impl PayloadError {
+    pub const fn new(defect: PayloadDefect, site: PayloadSite) -> Self {
+        Self { defect, site }
+    }
+}
+
+/// What is wrong with a restored payload.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PayloadDefect {
+    /// The bytes do not decode (a bad varint or tag, a list over its capacity, the payload
+    /// ends inside a part).
+    Decode,
+    /// Bytes remain after the last part.
+    TrailingBytes,
+    /// The task network inside fails the uplink validation.
+    InvalidNetwork(ValidationError),
+    /// A list whose length is fixed by the network has another one (timeline anchors, one per
+    /// timeline; failure ledgers, one per task definition).
+    CountMismatch,
+    /// A plan or executive entry names a task definition the network does not have.
+    DanglingDefinition,
+    /// An entry names a definition that cannot be its own: a requested instance whose
+    /// definition is a template or has another ground id, a second requested instance of one
+    /// definition, an added instance of a definition that is not a template.
+    WrongDefinition,
+    /// An executive entry that is not a committed or running instance of the plan with the
+    /// same definition.
+    NotInPlan,
+    /// An index that does not exist (a constraint of a task).
+    IndexOutOfRange,
+    /// An instance or command id from the wrong range: a planner-given instance id below
+    /// [`FIRST_INSTANCE_ID`], a command id of 0 for the next command.
+    IdOutOfRange,
+    /// A time after [`MAX_RESTORED_TIME_US`] that is not "never".
+    TimeOutOfRange,
+    /// A life-cycle state the core never puts there: an executive state in the plan, a
+    /// finished task in the executive, a started flag on an instance that never started, a
+    /// dispatched task without a command or command id, an interrupted task that was not
+    /// dispatched, a plan without a loaded network, a cause given up on that is never counted.
+    ImpossibleState,
+    /// A count over its bound: scheduling passes, the retries of an instance over its
+    /// definition's `max_retries`, consecutive failures of a cause the planner does not count.
+    CountOutOfRange,
+    /// A timeline value its timeline cannot hold: a state timeline outside its values, a rate
+    /// on a timeline that is not cumulative.
+    ValueOutOfRange,
+    /// Two state-buffer entries with the same key.
+    DuplicateKey,
+}
+
+/// Where in a restored payload a defect is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PayloadSite {
+    /// The header part (loaded flag, mission time, state type mismatch count).
+    Meta,
+    /// The task network, or the length before it.
+    Network,
+    /// The planner as a whole (its cursor, counters and the lists below).
+    Planner,
+    /// Plan entry `i`.
+    PlanEntry(u8),
+    /// The anchor of timeline `i`.
+    Anchor(u8),
+    /// The failure ledger of task definition `i`.
+    Ledger(u8),
+    /// Queued execution report `i`.
+    Report(u8),
+    /// Conflict `i` already tried in the current planner cycle.
+    Tried(u8),
+    /// The executive as a whole.
+    Executive,
+    /// Executive entry `i`.
+    ExecEntry(u8),
+    /// The state buffer copy as a whole.
+    States,
+    /// State-buffer entry `i`.
+    StateEntry(u8),
+    /// After the last part.
+    End,
+}
+
+/// Everything a checkpoint payload restores, decoded and not yet trusted.
+pub(crate) struct RestoredState<'a> {
+    pub loaded: bool,
+    pub now: MissionTimeUs,
+    pub network: &'a TaskNetwork,
+    pub planner: &'a Planner,
+    pub executive: &'a Executive,
+    pub states: &'a StateTable,
+}
+
+fn index(i: usize) -> u8 {
+    u8::try_from(i).unwrap_or(u8::MAX)
+}
+
+fn time_ok(t: MissionTimeUs) -> bool {
+    t.0 <= MAX_RESTORED_TIME_US || t == MissionTimeUs::MAX
+}
+
+fn check(ok: bool, defect: PayloadDefect, site: PayloadSite) -> Result<(), PayloadError> {
+    if ok {
+        Ok(())
+    } else {
+        Err(PayloadError::new(defect, site))
+    }
+}
+
+/// Checks a decoded checkpoint the way an uplink is checked: every index refers to something
+/// that exists, every time is in range, every state and count is one the core can reach, and
+/// the plan, the executive and the network belong together. The network itself was validated
+/// as it was decoded. Only true invariants of the core are checked: a checkpoint the core
+/// wrote, whatever its inputs were, always passes (the fuzz targets check that).
+pub(crate) fn check_restored(s: &RestoredState<'_>) -> Result<(), PayloadError> {
+    use PayloadDefect::*;
+    use PayloadSite as At;
+    let network = s.network;
+    let planner = s.planner;
+    let executive = s.executive;
+    let tasks = network.tasks();
+    check(time_ok(s.now), TimeOutOfRange, At::Meta)?;
+    let empty_network = tasks.is_empty() && network.timelines().is_empty();
+    let idle = planner.entries().is_empty() && executive.entries().is_empty();
+    check(
+        s.loaded || (empty_network && idle),
+        ImpossibleState,
+        At::Meta,
+    )?;
+
+    // The planner's own cursor and counters.
+    check(
+        planner.next_instance_id() >= FIRST_INSTANCE_ID,
+        IdOutOfRange,
+        At::Planner,
+    )?;
+    check(
+        planner.schedule_passes() < MAX_SCHEDULE_PASSES,
+        CountOutOfRange,
+        At::Planner,
+    )?;
+    check(
+        planner.last_cycle_at().is_none_or(time_ok),
+        TimeOutOfRange,
+        At::Planner,
+    )?;
+    check(
+        planner.anchors().len() == network.timelines().len(),
+        CountMismatch,
+        At::Planner,
+    )?;
+    check(
+        planner.ledger().len() == tasks.len(),
+        CountMismatch,
+        At::Planner,
+    )?;
+
+    for (i, e) in planner.entries().iter().enumerate() {
+        let at = At::PlanEntry(index(i));
+        let spec = network
+            .task(e.def)
+            .ok_or(PayloadError::new(DanglingDefinition, at))?;
+        match e.origin {
+            Origin::Requested => {
+                check(
+                    spec.role == TaskRole::Requested && e.instance == spec.id,
+                    WrongDefinition,
+                    at,
+                )?;
+                let requested_before = planner
+                    .entries()
+                    .iter()
+                    .take(i)
+                    .any(|x| x.origin == Origin::Requested && x.def == e.def);
+                check(!requested_before, WrongDefinition, at)?;
+            }
+            Origin::Added { .. } => {
+                check(spec.role == TaskRole::Template, WrongDefinition, at)?;
+                check(e.instance >= FIRST_INSTANCE_ID, IdOutOfRange, at)?;
+            }
+            Origin::Restarted { .. } => check(e.instance >= FIRST_INSTANCE_ID, IdOutOfRange, at)?,
+        }
+        let times = [e.start, e.end, e.earliest_start, e.latest_start];
+        check(times.into_iter().all(time_ok), TimeOutOfRange, at)?;
+        let executive_state = matches!(e.state, TaskState::WaitingPre | TaskState::Dispatched);
+        let unstarted = matches!(
+            e.state,
+            TaskState::Unscheduled | TaskState::Scheduled | TaskState::Committed
+        );
+        let started_unstarted = e.started && unstarted;
+        check(!executive_state && !started_unstarted, ImpossibleState, at)?;
+    }
+
+    for (i, a) in planner.anchors().iter().enumerate() {
+        let at = At::Anchor(index(i));
+        let times_ok = time_ok(a.at) && a.measured.is_none_or(|m| time_ok(m.at));
+        check(times_ok, TimeOutOfRange, at)?;
+        let spec = network
+            .timeline(index(i))
+            .ok_or(PayloadError::new(CountMismatch, at))?;
+        match spec.kind {
+            TimelineKind::State { value_count, .. } => {
+                let fits = |v: i64| v == VALUE_UNKNOWN || (0..i64::from(value_count)).contains(&v);
+                let values_ok = fits(a.value) && a.measured.is_none_or(|m| fits(m.value));
+                check(values_ok && a.rate == 0, ValueOutOfRange, at)?;
+            }
+            TimelineKind::Claimable => check(a.rate == 0, ValueOutOfRange, at)?,
+            TimelineKind::Cumulative { .. } => {}
+        }
+    }
+
+    for (i, l) in planner.ledger().iter().enumerate() {
+        let at = At::Ledger(index(i));
+        check(time_ok(l.not_before), TimeOutOfRange, at)?;
+        check(
+            l.gave_up & !FailureKind::REPAIRABLE == 0,
+            ImpossibleState,
+            at,
+        )?;
+        check(
+            l.consecutive.nonzero_causes() & !FailureKind::REPAIRABLE == 0,
+            CountOutOfRange,
+            at,
+        )?;
+    }
+
+    for (i, r) in planner.queued_reports().iter().enumerate() {
+        check(time_ok(r.at), TimeOutOfRange, At::Report(index(i)))?;
+    }
+    for (i, &(_, constraint)) in planner.tried_conflicts().iter().enumerate() {
+        check(
+            usize::from(constraint) < MAX_CONSTRAINTS_PER_TASK,
+            IndexOutOfRange,
+            At::Tried(index(i)),
+        )?;
+    }
+
+    check(
+        executive.next_command_id() != 0,
+        IdOutOfRange,
+        At::Executive,
+    )?;
+    for (i, e) in executive.entries().iter().enumerate() {
+        let at = At::ExecEntry(index(i));
+        let spec = network
+            .task(e.def)
+            .ok_or(PayloadError::new(DanglingDefinition, at))?;
+        let in_plan = planner.entries().iter().any(|p| {
+            p.instance == e.instance
+                && p.def == e.def
+                && matches!(p.state, TaskState::Committed | TaskState::Running)
+        });
+        check(in_plan, NotInPlan, at)?;
+        let times = [
+            e.planned_start,
+            e.started_at,
+            e.end_at,
+            e.dispatched_at,
+            e.retry_at,
+        ];
+        check(times.into_iter().all(time_ok), TimeOutOfRange, at)?;
+        let has_command = spec.command.is_some();
+        let state_ok = match e.state {
+            TaskState::Committed | TaskState::WaitingPre => true,
+            TaskState::Dispatched => has_command && e.command_id != 0,
+            TaskState::Running => has_command == (e.command_id != 0),
+            _ => false,
+        };
+        let interrupted_ok =
+            !e.interrupted || matches!(e.state, TaskState::Dispatched | TaskState::Running);
+        check(state_ok && interrupted_ok, ImpossibleState, at)?;
+        let bound = network.max_retries(e.def);
+        let retries_ok = FailureKind::ALL
+            .iter()
+            .all(|&k| e.retries.get(k) <= bound.get(k));
+        check(retries_ok, CountOutOfRange, at)?;
+    }
+
+    for (i, e) in s.states.entries().iter().enumerate() {
+        let at = At::StateEntry(index(i));
+        check(time_ok(e.at), TimeOutOfRange, at)?;
+        let seen_before = s.states.entries().iter().take(i).any(|x| x.key == e.key);
+        check(!seen_before, DuplicateKey, at)?;
+    }
+    Ok(())
 }

@@ -143,6 +143,11 @@ impl Executive {
         }
     }
 
+    /// The id the next command dispatched will get (never 0).
+    pub(crate) fn next_command_id(&self) -> u32 {
+        self.next_command_id
+    }
+
     /// Whether responses are waiting to be processed.
     pub fn work_pending(&self) -> bool {
         !self.responses.is_empty()

@@ -130,7 +130,9 @@ pub struct PlannerStepReport {
     pub work_pending: bool,
 }
 
-const MAX_SCHEDULE_PASSES: u8 = 3;
+/// Scheduling passes in one planner cycle (a pass that placed something is followed by
+/// another, up to this many).
+pub(crate) const MAX_SCHEDULE_PASSES: u8 = 3;
 
 /// Planner state. Everything but the scratch buffer is saved in checkpoints.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -1586,6 +1588,31 @@ impl Planner {
                 ctx.now,
             );
         }
+    }
+
+    /// The id the next instance the planner adds will get.
+    pub(crate) fn next_instance_id(&self) -> u16 {
+        self.next_instance
+    }
+
+    /// Scheduling passes done in the current cycle.
+    pub(crate) fn schedule_passes(&self) -> u8 {
+        self.passes
+    }
+
+    /// When the last cycle ended.
+    pub(crate) fn last_cycle_at(&self) -> Option<MissionTimeUs> {
+        self.last_cycle_at
+    }
+
+    /// Execution reports queued for the next step.
+    pub(crate) fn queued_reports(&self) -> &[TaskReport] {
+        &self.reports
+    }
+
+    /// (instance, constraint) conflicts already worked on in the current cycle.
+    pub(crate) fn tried_conflicts(&self) -> &[(u16, u8)] {
+        &self.tried
     }
 
     /// Restores the scratch buffers after a checkpoint restore (they are not saved).
