@@ -4,14 +4,17 @@
 //! chunks, time grants), drives the [`autonomy::Autonomy`] core, and sends back what the core
 //! decided (command dispatches, telemetry) followed by `FrameDone`. After every granted frame it
 //! checkpoints the whole plan into the warm-restart area (RAM kept across a warm reset) and, when
-//! there is one, into non-volatile memory (kept across a power cycle). On boot it restores from
-//! whichever holds the newer whole checkpoint.
+//! there is one, into non-volatile memory (kept across a power cycle), both under the same
+//! sequence number. On boot it restores the newest whole checkpoint of the two memories whose
+//! contents validate, comparing sequence numbers with wrap-around, and falls back to the next
+//! newest when one is refused.
 //!
 //! The firmware runs it inside its partitions; `hil`'s native target runs the very same code in
 //! the host process, which is what makes the native-versus-emulated comparison meaningful.
 #![no_std]
 #![forbid(unsafe_code)]
 
+use autonomy::checkpoint::{self, Record};
 use autonomy::{Autonomy, Outputs, RestoreInfo, StepBudget, WarmRestartArea};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::{CommandArgs, HostToTarget, MissionTimeUs, Opcode, TargetToHost, TelemetryEvent};
@@ -147,6 +150,24 @@ pub enum BootOutcome {
     RestoredNv(RestoreInfo),
 }
 
+/// The memory a checkpoint record was found in; warm sorts first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Source {
+    Warm,
+    Nv,
+}
+
+/// The newest sequence number of either memory (wrap-around), None if neither holds a record.
+fn newest_sequence(memories: &Memories<'_>) -> Option<u32> {
+    let newest_in = |bytes: &[u8]| checkpoint::records(bytes)[0].map(|r| r.sequence);
+    let warm = newest_in(memories.warm);
+    let nv = memories.nv.as_deref().and_then(newest_in);
+    match (warm, nv) {
+        (Some(w), Some(n)) => Some(if checkpoint::is_newer(n, w) { n } else { w }),
+        (w, n) => w.or(n),
+    }
+}
+
 /// Sends the core's decisions down the link.
 struct Decisions<'d, D: Downlink> {
     downlink: &'d mut D,
@@ -230,16 +251,17 @@ impl FlightApp {
         self.last_nv_write.take()
     }
 
-    /// Checkpoint into the warm memory and, if there is one, non-volatile memory; returns how
-    /// many of the writes failed.
+    /// Checkpoint into the warm memory and, if there is one, non-volatile memory, both under
+    /// the sequence number after the newest of either; returns how many of the writes failed.
     fn checkpoint_all(&mut self, memories: &mut Memories<'_>) -> u64 {
+        let newest = newest_sequence(memories);
         let mut failures = 0;
-        match self.checkpoint_into(memories.warm) {
+        match self.checkpoint_into(memories.warm, newest) {
             Some(range) => self.last_warm_write = Some(range),
             None => failures += 1,
         }
         if let Some(nv) = memories.nv.as_deref_mut() {
-            match self.checkpoint_into(nv) {
+            match self.checkpoint_into(nv, newest) {
                 Some(range) => self.last_nv_write = Some(range),
                 None => failures += 1,
             }
@@ -247,11 +269,11 @@ impl FlightApp {
         failures
     }
 
-    /// Write the newest checkpoint into A/B `area`; the byte range written, or None if the
-    /// checkpoint failed.
-    fn checkpoint_into(&self, area: &mut [u8]) -> Option<(usize, usize)> {
-        self.autonomy
-            .checkpoint_to(&mut WarmRestartArea::new(area))
+    /// Write the newest checkpoint into A/B `area`, numbered after `newest`; the byte range
+    /// written, or None if the checkpoint failed.
+    fn checkpoint_into(&self, area: &mut [u8], newest: Option<u32>) -> Option<(usize, usize)> {
+        WarmRestartArea::new(area)
+            .write_after(newest, |buf| self.autonomy.encode_state(buf))
             .ok()?;
         let slot_len = area.len() / 2;
         WarmRestartArea::new(area)
@@ -265,7 +287,8 @@ impl FlightApp {
             })
     }
 
-    /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories.
+    /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories (see
+    /// [`FlightApp::restore_newest`]).
     pub fn boot(
         &mut self,
         memories: &mut Memories<'_>,
@@ -273,34 +296,7 @@ impl FlightApp {
         downlink: &mut impl Downlink,
     ) -> BootOutcome {
         let t0 = clock.ticks();
-        let warm_seq = WarmRestartArea::new(memories.warm)
-            .latest()
-            .map(|(_, seq, _)| seq);
-        let nv_seq = memories
-            .nv
-            .as_deref_mut()
-            .and_then(|nv| WarmRestartArea::new(nv).latest().map(|(_, seq, _)| seq));
-        let prefer_nv = match (warm_seq, nv_seq) {
-            (Some(w), Some(n)) => n > w,
-            (None, Some(_)) => true,
-            _ => false,
-        };
-        let mut outcome = BootOutcome::Cold;
-        if !prefer_nv && warm_seq.is_some() {
-            if let Ok(info) = self
-                .autonomy
-                .restore_from(&WarmRestartArea::new(memories.warm))
-            {
-                outcome = BootOutcome::RestoredWarm(info);
-            }
-        }
-        if outcome == BootOutcome::Cold {
-            if let Some(nv) = memories.nv.as_deref_mut() {
-                if let Ok(info) = self.autonomy.restore_from(&WarmRestartArea::new(nv)) {
-                    outcome = BootOutcome::RestoredNv(info);
-                }
-            }
-        }
+        let outcome = self.restore_newest(memories);
         if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
             self.recovering = Some(0);
             let from = match outcome {
@@ -317,6 +313,41 @@ impl FlightApp {
             downlink.send(metric_event(metric::RESTORED_SLOT, u64::from(info.slot)));
         }
         outcome
+    }
+
+    /// The restore choice: every whole record of both memories (two slots each), newest first
+    /// by sequence number with wrap-around ([`checkpoint::is_newer`]; of two with the same
+    /// number, the warm one, which holds the same checkpoint), and the first whose payload
+    /// decodes and validates is restored. Cold when there is none.
+    fn restore_newest(&mut self, memories: &Memories<'_>) -> BootOutcome {
+        let warm = checkpoint::records(memories.warm);
+        let nv = memories
+            .nv
+            .as_deref()
+            .map_or([None, None], checkpoint::records);
+        let mut candidates: heapless::Vec<(Source, Record<'_>), 4> = heapless::Vec::new();
+        let tagged = warm
+            .into_iter()
+            .flatten()
+            .map(|r| (Source::Warm, r))
+            .chain(nv.into_iter().flatten().map(|r| (Source::Nv, r)));
+        for candidate in tagged {
+            let _ = candidates.push(candidate);
+        }
+        // Newest first: sequence numbers relative to one of them are a linear order as long
+        // as they span less than half the number space (they are a few frames apart).
+        let reference = candidates.first().map_or(0, |(_, r)| r.sequence);
+        let age = |r: &Record<'_>| reference.wrapping_sub(r.sequence) as i32;
+        candidates.sort_unstable_by_key(|(source, r)| (age(r), *source, r.slot));
+        for (source, record) in candidates {
+            if let Ok(info) = self.autonomy.restore_record(record) {
+                return match source {
+                    Source::Warm => BootOutcome::RestoredWarm(info),
+                    Source::Nv => BootOutcome::RestoredNv(info),
+                };
+            }
+        }
+        BootOutcome::Cold
     }
 
     /// Handle one message from the host. Returns false for messages that are not the
@@ -388,7 +419,7 @@ impl FlightApp {
         slot.copy_from_slice(bytes);
         self.uplink_len = end;
         downlink.send(TargetToHost::UplinkAck { seq });
-        if seq + 1 < total {
+        if u32::from(seq) + 1 < u32::from(total) {
             self.uplink_progress = Some((seq + 1, total));
             return;
         }

@@ -1,0 +1,230 @@
+//! The restore choice at boot (issue 15): warm-restart area and non-volatile memory are written
+//! under one sequence number per checkpoint, and boot takes the newest whole record of either
+//! whose payload validates, comparing numbers with wrap-around as the A/B slot choice does.
+use autonomy::checkpoint::{records, WarmRestartArea};
+use autonomy::scenarios::{ATTITUDE_KEY, NADIR};
+use flight_app::{BootOutcome, FlightApp, Memories, NoClock, MAX_UPLINK_BYTES};
+use fsw_bridge::messages::UPLINK_CHUNK_MAX;
+use fsw_bridge::{HostToTarget, MissionTimeUs, StateValue, TargetToHost};
+
+const AREA: usize = 16 * 1024;
+
+fn new_app() -> Box<FlightApp> {
+    Box::new(FlightApp::new())
+}
+
+fn send(app: &mut FlightApp, mem: &mut Memories<'_>, msg: &HostToTarget) -> Vec<TargetToHost> {
+    let mut out = Vec::new();
+    app.handle(msg, mem, &mut NoClock, &mut |m| out.push(m));
+    out
+}
+
+fn grant(frame: u32, minutes: u64) -> HostToTarget {
+    HostToTarget::TimeGrant {
+        frame,
+        now: MissionTimeUs::from_mins(minutes),
+        until: MissionTimeUs::from_mins(minutes + 1),
+    }
+}
+
+fn uplink_flyby(app: &mut FlightApp, mem: &mut Memories<'_>) {
+    let network = autonomy::scenarios::flyby_network().unwrap();
+    let mut image = vec![0u8; MAX_UPLINK_BYTES];
+    let len = network.encode(&mut image).unwrap();
+    let chunks: Vec<&[u8]> = image[..len].chunks(UPLINK_CHUNK_MAX).collect();
+    for (seq, c) in chunks.iter().enumerate() {
+        let msg = HostToTarget::UplinkChunk {
+            seq: seq as u16,
+            total: chunks.len() as u16,
+            bytes: heapless::Vec::from_slice(c).unwrap(),
+        };
+        send(app, mem, &msg);
+    }
+}
+
+/// Checkpoint payloads of the flyby at 9:50 + `frames` minutes, one per frame.
+fn flyby_payloads(frames: u64) -> Vec<Vec<u8>> {
+    let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
+    let mut mem = Memories {
+        warm: &mut warm,
+        nv: Some(&mut nv),
+    };
+    let mut app = new_app();
+    uplink_flyby(&mut app, &mut mem);
+    (0..frames)
+        .map(|f| {
+            send(&mut app, &mut mem, &grant(f as u32, 590 + f));
+            records(mem.warm)[0].unwrap().payload.to_vec()
+        })
+        .collect()
+}
+
+/// Writes `payload` into `area` as a record with sequence number `sequence`.
+fn put(area: &mut [u8], sequence: u32, payload: &[u8]) {
+    WarmRestartArea::new(area)
+        .write_after(Some(sequence.wrapping_sub(1)), |buf| {
+            buf[..payload.len()].copy_from_slice(payload);
+            Some(payload.len())
+        })
+        .unwrap();
+    assert_eq!(records(area)[0].unwrap().sequence, sequence);
+}
+
+fn boot(warm: &mut [u8], nv: &mut [u8]) -> (BootOutcome, Box<FlightApp>) {
+    let mut app = new_app();
+    let mut mem = Memories { warm, nv: Some(nv) };
+    let outcome = app.boot(&mut mem, &mut NoClock, &mut |_| {});
+    (outcome, app)
+}
+
+fn restored(outcome: BootOutcome) -> (&'static str, u32) {
+    match outcome {
+        BootOutcome::RestoredWarm(i) => ("warm", i.sequence),
+        BootOutcome::RestoredNv(i) => ("nv", i.sequence),
+        BootOutcome::Cold => ("cold", 0),
+    }
+}
+
+#[test]
+fn the_newer_memory_wins_across_the_sequence_number_wrap() {
+    let payloads = flyby_payloads(2);
+    let (older, newer) = (&payloads[0], &payloads[1]);
+    // Non-volatile memory holds the newer checkpoint, numbered 0 after u32::MAX.
+    let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
+    put(&mut warm, u32::MAX, older);
+    put(&mut nv, 0, newer);
+    let (outcome, app) = boot(&mut warm, &mut nv);
+    assert_eq!(restored(outcome), ("nv", 0));
+    assert_eq!(app.autonomy().now(), MissionTimeUs::from_mins(591));
+    // And the other way round.
+    let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
+    put(&mut warm, 0, newer);
+    put(&mut nv, u32::MAX, older);
+    assert_eq!(restored(boot(&mut warm, &mut nv).0), ("warm", 0));
+    // Without a wrap the larger number is newer.
+    let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
+    put(&mut warm, 7, older);
+    put(&mut nv, 8, newer);
+    assert_eq!(restored(boot(&mut warm, &mut nv).0), ("nv", 8));
+}
+
+#[test]
+fn both_memories_carry_one_sequence_number_per_checkpoint_even_after_a_power_cycle() {
+    let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
+    let newest = |area: &[u8]| records(area)[0].map(|r| r.sequence);
+    {
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: Some(&mut nv),
+        };
+        let mut app = new_app();
+        uplink_flyby(&mut app, &mut mem);
+        for f in 0..5 {
+            send(&mut app, &mut mem, &grant(f, 590 + u64::from(f)));
+        }
+    }
+    assert_eq!(newest(&warm), Some(6)); // the uplink's and five frames'
+    assert_eq!(newest(&nv), Some(6));
+    // Power cycle: the warm area is gone, the plan comes back from non-volatile memory.
+    warm.fill(0);
+    let (outcome, mut app) = boot(&mut warm, &mut nv);
+    assert_eq!(restored(outcome), ("nv", 6));
+    let mut mem = Memories {
+        warm: &mut warm,
+        nv: Some(&mut nv),
+    };
+    send(&mut app, &mut mem, &grant(5, 600));
+    // The warm area continues the numbering instead of starting again at 1.
+    assert_eq!(newest(mem.warm), Some(7));
+    assert_eq!(newest(mem.nv.as_deref().unwrap()), Some(7));
+}
+
+#[test]
+fn a_torn_non_volatile_write_after_a_power_cycle_does_not_hide_the_newer_warm_checkpoint() {
+    let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
+    {
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: Some(&mut nv),
+        };
+        let mut app = new_app();
+        uplink_flyby(&mut app, &mut mem);
+        for f in 0..40 {
+            send(&mut app, &mut mem, &grant(f, 590 + u64::from(f)));
+        }
+    }
+    warm.fill(0); // power cycle
+    let (_, mut app) = boot(&mut warm, &mut nv);
+    {
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: Some(&mut nv),
+        };
+        for f in 40..43 {
+            send(&mut app, &mut mem, &grant(f, 590 + u64::from(f)));
+        }
+    }
+    // The last frame's non-volatile write is torn: its record is not whole.
+    let torn = records(&nv)[0].unwrap();
+    let at = usize::from(torn.slot) * (AREA / 2) + 40;
+    nv[at] ^= 0xff;
+    assert_eq!(records(&nv)[0].unwrap().sequence, 43);
+    assert_eq!(records(&warm)[0].unwrap().sequence, 44);
+    // The warm area has the newest whole checkpoint: frame 42's.
+    let (outcome, app) = boot(&mut warm, &mut nv);
+    assert_eq!(restored(outcome), ("warm", 44));
+    assert_eq!(app.autonomy().now(), MissionTimeUs::from_mins(590 + 42));
+}
+
+#[test]
+fn a_refused_record_falls_back_to_the_next_newest_of_either_memory() {
+    let payloads = flyby_payloads(3);
+    let mut refused = payloads[2].clone();
+    refused.push(0); // CRC-valid once written, but bytes after the end: refused
+    let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
+    put(&mut warm, 10, &payloads[0]);
+    put(&mut warm, 12, &refused);
+    put(&mut nv, 11, &payloads[1]);
+    let (outcome, app) = boot(&mut warm, &mut nv);
+    assert_eq!(restored(outcome), ("nv", 11));
+    assert_eq!(app.autonomy().now(), MissionTimeUs::from_mins(591));
+    // Nothing valid anywhere: cold, waiting for an uplink.
+    let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
+    put(&mut warm, 12, &refused);
+    put(&mut nv, 12, &refused);
+    let (outcome, app) = boot(&mut warm, &mut nv);
+    assert_eq!(outcome, BootOutcome::Cold);
+    assert!(app.autonomy().plan().is_empty());
+    assert_eq!(app.autonomy().next_wakeup(), None);
+}
+
+#[test]
+fn a_restored_application_runs_on_from_the_checkpoint_it_chose() {
+    let payloads = flyby_payloads(2);
+    let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
+    put(&mut warm, u32::MAX - 1, &payloads[0]);
+    put(&mut warm, u32::MAX, &payloads[1]);
+    let (outcome, mut app) = boot(&mut warm, &mut nv);
+    assert_eq!(restored(outcome), ("warm", u32::MAX));
+    let mut mem = Memories {
+        warm: &mut warm,
+        nv: Some(&mut nv),
+    };
+    send(
+        &mut app,
+        &mut mem,
+        &HostToTarget::StateUpdate {
+            key: ATTITUDE_KEY,
+            value: StateValue::Enum(NADIR),
+            timestamp: MissionTimeUs::from_mins(592),
+        },
+    );
+    let out = send(&mut app, &mut mem, &grant(9, 592));
+    assert!(matches!(
+        out.last(),
+        Some(TargetToHost::FrameDone { frame: 9, .. })
+    ));
+    // The next checkpoint is numbered across the wrap, in both memories.
+    assert_eq!(records(mem.warm)[0].unwrap().sequence, 0);
+    assert_eq!(records(mem.nv.as_deref().unwrap())[0].unwrap().sequence, 0);
+}
