@@ -1,0 +1,214 @@
+//! Fuzz target logic for the autonomy core, in plain functions shared by the libFuzzer
+//! wrappers (`fuzz_targets/`) and the bounded run on stable
+//! (`firmware/autonomy/tests/fuzz_bounded.rs`).
+//!
+//! * [`uplink`]: any bytes as a task-network uplink. The element decoders agree with postcard;
+//!   a refused uplink leaves the network untouched; an accepted one re-validates, round-trips,
+//!   and is flown for a few frames, every checkpoint of which must restore.
+//! * [`checkpoint`]: any bytes as the payload of a whole (CRC-valid) checkpoint record. The
+//!   restore either refuses it and leaves a cold core, or restores a core that re-encodes to a
+//!   payload that restores again, and that can be flown for a few frames with every checkpoint
+//!   restoring (what the restore validation accepts, the core can run on; what the core
+//!   writes, the validation accepts).
+//!
+//! Seeds are in `seeds/<target>/`: the shipped task networks and variants over capacity, and
+//! checkpoints of flyby runs with resets and misbehaving subsystems (regenerate them with
+//! `cargo run --manifest-path host-harness/fuzz/Cargo.toml --example seeds`).
+use autonomy::checkpoint::{WarmRestartArea, RECORD_HEADER_LEN};
+use autonomy::uplink::{self, take_condition, take_task, take_timeline};
+use autonomy::{
+    Autonomy, CommandArgs, CommandStatus, ConditionSpec, MeasuredValueType, MissionTimeUs, Opcode,
+    StateValue, StepBudget, TaskNetwork, TaskSpec, TelemetryEvent, TimelineSpec,
+};
+
+#[path = "../../../../fsw-bridge/fuzz/src/bounded.rs"]
+pub mod bounded;
+
+/// The targets of this crate, by name.
+pub const TARGETS: &[(&str, fn(&[u8]))] = &[("uplink", uplink), ("checkpoint", checkpoint)];
+
+/// Planner work per frame when flying a fuzzed network: enough for the shipped networks,
+/// small enough that a pathological one cannot make one input take seconds.
+const FUZZ_BUDGET: StepBudget = StepBudget {
+    planner_checks: 2_000,
+};
+
+/// Frames flown after a network is loaded or a checkpoint restored.
+const FRAMES: usize = 6;
+
+/// Bytes for a checkpoint payload: far more than the largest network and plan need.
+const CHECKPOINT_BUF: usize = 64 * 1024;
+
+/// Any bytes as a task-network uplink.
+pub fn uplink(data: &[u8]) {
+    element_decoders_agree_with_postcard(data);
+    let mut network = TaskNetwork::EMPTY;
+    match uplink::decode_into(&mut network, data) {
+        Err(e) => {
+            assert_eq!(
+                network,
+                TaskNetwork::EMPTY,
+                "a refused uplink changed the network"
+            );
+            assert_eq!(
+                uplink::validate_uplink(data),
+                Err(e),
+                "decode and validate differ"
+            );
+        }
+        Ok(()) => {
+            assert!(uplink::validate_uplink(data).is_ok());
+            assert!(TaskNetwork::from_spec(network.spec().clone()).is_ok());
+            let mut buf = vec![0u8; data.len() + 64];
+            let len = network
+                .encode(&mut buf)
+                .expect("a decoded network re-encodes");
+            let mut again = TaskNetwork::EMPTY;
+            uplink::decode_into(&mut again, &buf[..len]).expect("re-encoded network decodes");
+            assert_eq!(again, network, "encode/decode does not round-trip");
+            let mut core = Box::new(Autonomy::new());
+            core.load_network(network).expect("an idle core loads");
+            let start = core
+                .network()
+                .tasks()
+                .iter()
+                .map(|t| t.earliest_start)
+                .min()
+                .unwrap_or(MissionTimeUs::ZERO);
+            fly(&mut core, start, seed_of(data));
+        }
+    }
+}
+
+/// The field-by-field element decoders of the uplink accept exactly what postcard's derived
+/// decoders accept, with the same value and the same rest.
+fn element_decoders_agree_with_postcard(data: &[u8]) {
+    let derived_timeline = postcard::take_from_bytes::<TimelineSpec>(data).ok();
+    let ours = take_timeline(data, 0).ok();
+    assert_eq!(ours, derived_timeline, "timeline decoders differ");
+    let derived_condition = postcard::take_from_bytes::<ConditionSpec>(data).ok();
+    let ours = take_condition(data, 0).ok();
+    assert_eq!(ours, derived_condition, "condition decoders differ");
+    let derived_task = postcard::take_from_bytes::<TaskSpec>(data).ok();
+    let ours = take_task(data, 0).ok();
+    assert_eq!(ours, derived_task, "task decoders differ");
+}
+
+/// Any bytes as the payload of a whole checkpoint record.
+pub fn checkpoint(data: &[u8]) {
+    let mut bytes = vec![0u8; 2 * (RECORD_HEADER_LEN + data.len())];
+    let mut area = WarmRestartArea::new(&mut bytes);
+    area.write(|buf| {
+        buf.get_mut(..data.len())?.copy_from_slice(data);
+        Some(data.len())
+    })
+    .expect("the area holds the payload");
+    let mut core = Box::new(Autonomy::new());
+    match core.restore_from(&area) {
+        Err(_) => assert_cold(&core),
+        Ok(info) => {
+            assert_eq!((info.slot, info.sequence), (0, 1));
+            // What was accepted re-encodes to a payload that is accepted again, unchanged.
+            let again = restores(&core).expect("a restored core checkpoints");
+            let mut twice = Box::new(Autonomy::new());
+            twice
+                .decode_state(&again)
+                .expect("the re-encoded payload restores");
+            let mut buf = vec![0u8; CHECKPOINT_BUF];
+            let len = twice.encode_state(&mut buf).expect("fits");
+            assert_eq!(
+                &buf[..len],
+                &again[..],
+                "checkpoint encoding is not a fixed point"
+            );
+            let now = core.now();
+            fly(&mut core, now, seed_of(data));
+        }
+    }
+}
+
+/// A core that restored nothing: empty, cold, waiting for an uplink.
+fn assert_cold(core: &Autonomy) {
+    assert!(core.plan().is_empty(), "refused restore left a plan");
+    assert!(core.executive().entries().is_empty());
+    assert!(core.network().tasks().is_empty() && core.network().timelines().is_empty());
+    assert!(core.states().entries().is_empty());
+    assert_eq!(core.now(), MissionTimeUs::ZERO);
+    assert_eq!(core.next_wakeup(), None);
+}
+
+/// The checkpoint payload of `core`, after checking that a fresh core accepts it and encodes
+/// it back to the same bytes. None when it does not fit (the core reports that as a failed
+/// checkpoint write).
+fn restores(core: &Autonomy) -> Option<Vec<u8>> {
+    let mut buf = vec![0u8; CHECKPOINT_BUF];
+    let len = core.encode_state(&mut buf)?;
+    buf.truncate(len);
+    let mut fresh = Box::new(Autonomy::new());
+    if let Err(e) = fresh.decode_state(&buf) {
+        panic!("a checkpoint the core wrote is refused: {e:?}");
+    }
+    let mut again = vec![0u8; CHECKPOINT_BUF];
+    let len = fresh.encode_state(&mut again).expect("fits as before");
+    assert_eq!(&again[..len], &buf[..], "restore changed the state");
+    Some(buf)
+}
+
+/// FNV-1a of the input: the deterministic choices of [`fly`] (values published, responses).
+fn seed_of(data: &[u8]) -> u64 {
+    data.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+    })
+}
+
+/// Records dispatches.
+#[derive(Default)]
+struct Sink {
+    dispatched: Vec<u32>,
+}
+
+impl autonomy::Outputs for Sink {
+    fn dispatch(&mut self, id: u32, _: Opcode, _: &CommandArgs) {
+        self.dispatched.push(id);
+    }
+    fn telemetry(&mut self, _: TelemetryEvent) {}
+}
+
+/// Flies `core` for [`FRAMES`] frames from `start`: every measured timeline is published
+/// (a value of its type, now and then one of the wrong type or unknown), every command is
+/// answered (Ok, Failed, Rejected, or not at all), the core steps at its next wakeup (or a
+/// minute later), and every frame's checkpoint must restore.
+fn fly(core: &mut Autonomy, start: MissionTimeUs, seed: u64) {
+    let mut rng = bounded::Mutator::new(seed);
+    let mut now = start;
+    let mut pending: Vec<u32> = Vec::new();
+    for _ in 0..FRAMES {
+        let measured: Vec<_> = core.network().measured_timelines().collect();
+        for (_, key, kind) in measured {
+            let value = match (rng.below(8), kind) {
+                (0, _) => StateValue::Unknown,
+                (1, _) => StateValue::Int(rng.next_u64() as i64),
+                (_, MeasuredValueType::Enum { values }) => {
+                    StateValue::Enum(rng.below(usize::from(values)) as u16)
+                }
+                (_, MeasuredValueType::Int) => StateValue::Int(rng.below(20) as i64 - 5),
+            };
+            core.on_state_update(key, value, now);
+        }
+        for id in pending.drain(..) {
+            let status = match rng.below(4) {
+                0 => continue,
+                1 => CommandStatus::Failed(7),
+                2 => CommandStatus::Rejected,
+                _ => CommandStatus::Ok,
+            };
+            core.on_command_response(id, status);
+        }
+        let mut sink = Sink::default();
+        core.step(now, FUZZ_BUDGET, &mut sink);
+        pending = sink.dispatched;
+        let _ = restores(core);
+        let next = core.next_wakeup().unwrap_or(now.saturating_add(60_000_000));
+        now = next.max(now.saturating_add(1));
+    }
+}

@@ -1,0 +1,93 @@
+//! The fuzz targets of `firmware/flight-app/fuzz`, run on stable: each over its seed corpus and
+//! a fixed number of deterministic mutations (the long campaigns run under cargo-fuzz). The
+//! seeds must reach the deep paths: uplinks that load, frames that fly, resets that restore.
+#[path = "../fuzz/src/lib.rs"]
+#[allow(dead_code)]
+mod fuzz_logic;
+
+use fsw_bridge::HostToTarget;
+use fuzz_logic::{bounded, decode_ops, Harness, Op};
+use std::path::Path;
+
+fn seeds(target: &str) -> Vec<(String, Vec<u8>)> {
+    bounded::seeds(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fuzz/seeds")
+            .join(target),
+    )
+}
+
+const REGENERATE: &str =
+    "regenerate the seeds: cargo run --manifest-path host-harness/fuzz/Cargo.toml --example seeds";
+
+#[test]
+fn every_target_has_a_seed_corpus() {
+    for (name, _) in fuzz_logic::TARGETS {
+        assert!(!seeds(name).is_empty());
+    }
+}
+
+#[test]
+fn messages_hold_over_their_seeds_and_300_mutations() {
+    let seeds = seeds("messages");
+    let ran = bounded::run(&seeds, 300, 0x3e55, 16 * 1024, fuzz_logic::messages);
+    assert_eq!(ran, seeds.len() + 300);
+}
+
+#[test]
+fn uplink_chunks_hold_over_their_seeds_and_600_mutations() {
+    let seeds = seeds("uplink_chunks");
+    let ran = bounded::run(&seeds, 600, 0xc4c4, 8 * 1024, fuzz_logic::uplink_chunks);
+    assert_eq!(ran, seeds.len() + 600);
+}
+
+#[test]
+fn message_seeds_load_networks_fly_frames_and_restore_after_resets() {
+    let (mut loaded, mut frames, mut resets) = (0, 0, 0);
+    for (_, bytes) in seeds("messages") {
+        let ops = decode_ops(&bytes);
+        let mut h = Harness::new();
+        for op in &ops {
+            h.apply(op);
+            match op {
+                Op::Message(HostToTarget::TimeGrant { .. }) => frames += 1,
+                Op::WarmReset | Op::PowerCycle => resets += 1,
+                _ => {}
+            }
+        }
+        if !h.app().autonomy().network().tasks().is_empty() {
+            loaded += 1;
+        }
+    }
+    assert!(loaded >= 10, "{loaded} seeds load a network; {REGENERATE}");
+    assert!(
+        frames >= 200 && resets >= 5,
+        "{frames} frames, {resets} resets"
+    );
+}
+
+#[test]
+fn chunk_seeds_deliver_whole_networks() {
+    let mut acknowledged = 0;
+    for (_, bytes) in seeds("uplink_chunks") {
+        let ops = fuzz_logic::chunk_ops(&bytes);
+        let total = ops
+            .iter()
+            .find_map(|op| match op {
+                Op::Message(HostToTarget::UplinkChunk { total, .. }) => Some(*total),
+                _ => None,
+            })
+            .unwrap();
+        let mut h = Harness::new();
+        for op in &ops {
+            h.apply(op);
+        }
+        if !h.app().autonomy().network().tasks().is_empty() && total > 1 {
+            acknowledged += 1;
+        }
+    }
+    assert!(
+        acknowledged >= 3,
+        "{acknowledged} seeds load a network; {REGENERATE}"
+    );
+}
