@@ -10,6 +10,10 @@
 use std::panic::{catch_unwind, resume_unwind, AssertUnwindSafe};
 use std::path::Path;
 
+/// A fuzz target: its name (and seed folder) and the function libFuzzer and the bounded run
+/// call with each input.
+pub type Target = (&'static str, fn(&[u8]));
+
 /// Every file of a seed corpus directory, in file name order. Panics when the directory is
 /// missing or empty: a target without seeds would be fuzzed from nothing.
 pub fn seeds(dir: &Path) -> Vec<(String, Vec<u8>)> {

@@ -14,7 +14,7 @@ use fsw_bridge::{HostToTarget, TargetToHost};
 pub mod bounded;
 
 /// The targets of this crate, by name.
-pub const TARGETS: &[(&str, fn(&[u8]))] = &[("frame_decoder", frame_decoder)];
+pub const TARGETS: &[bounded::Target] = &[("frame_decoder", frame_decoder)];
 
 /// Feeds `data` to the frame decoder of both directions as a raw byte stream, and again as the
 /// payload of one frame with a correct CRC (so that the message decoder is reached without

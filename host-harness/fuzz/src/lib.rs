@@ -20,7 +20,7 @@ use hil::mission::plan::MissionPlan;
 pub mod bounded;
 
 /// The targets of this crate, by name.
-pub const TARGETS: &[(&str, fn(&[u8]))] = &[
+pub const TARGETS: &[bounded::Target] = &[
     ("tasknet_toml", tasknet_toml),
     ("scenario_toml", scenario_toml),
 ];

@@ -25,7 +25,7 @@ use autonomy::{
 pub mod bounded;
 
 /// The targets of this crate, by name.
-pub const TARGETS: &[(&str, fn(&[u8]))] = &[("uplink", uplink), ("checkpoint", checkpoint)];
+pub const TARGETS: &[bounded::Target] = &[("uplink", uplink), ("checkpoint", checkpoint)];
 
 /// Planner work per frame when flying a fuzzed network: enough for the shipped networks,
 /// small enough that a pathological one cannot make one input take seconds.

@@ -33,8 +33,7 @@ use serde::{Deserialize, Serialize};
 pub mod bounded;
 
 /// The targets of this crate, by name.
-pub const TARGETS: &[(&str, fn(&[u8]))] =
-    &[("messages", messages), ("uplink_chunks", uplink_chunks)];
+pub const TARGETS: &[bounded::Target] = &[("messages", messages), ("uplink_chunks", uplink_chunks)];
 
 /// Bytes of the warm-restart area in the harness (a checkpoint slot is half): small enough
 /// that a large fuzzed network overflows it now and then (a failed checkpoint write) while
@@ -299,7 +298,7 @@ impl Harness {
                     a
                 }
             });
-        self.app = Box::new(FlightApp::new());
+        *self.app = FlightApp::new();
         self.model = UplinkModel::default();
         let mut memories = Memories {
             warm: &mut self.warm,
