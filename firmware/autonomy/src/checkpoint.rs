@@ -283,7 +283,8 @@ pub enum PayloadDefect {
     /// An instance or command id from the wrong range: a planner-given instance id below
     /// [`FIRST_INSTANCE_ID`], a command id of 0 for the next command.
     IdOutOfRange,
-    /// A time after [`MAX_RESTORED_TIME_US`] that is not "never".
+    /// A time after [`MAX_RESTORED_TIME_US`] that is not "never", or a task that does not end
+    /// within its definition's duration of its start.
     TimeOutOfRange,
     /// A life-cycle state the core never puts there: an executive state in the plan, a
     /// finished task in the executive, a started flag on an instance that never started, a
@@ -432,6 +433,11 @@ pub(crate) fn check_restored(s: &RestoredState<'_>) -> Result<(), PayloadError> 
         }
         let times = [e.start, e.end, e.earliest_start, e.latest_start];
         check(times.into_iter().all(time_ok), TimeOutOfRange, at)?;
+        // Until it ends, an instance spans at most its definition's duration (a start report
+        // keeps the span, so a longer one would push its end out of range).
+        let span_ok =
+            e.state.is_terminal() || (e.start <= e.end && e.end.0 - e.start.0 <= spec.duration_us);
+        check(span_ok, TimeOutOfRange, at)?;
         let executive_state = matches!(e.state, TaskState::WaitingPre | TaskState::Dispatched);
         let unstarted = matches!(
             e.state,
@@ -509,6 +515,7 @@ pub(crate) fn check_restored(s: &RestoredState<'_>) -> Result<(), PayloadError> 
             e.retry_at,
         ];
         check(times.into_iter().all(time_ok), TimeOutOfRange, at)?;
+        check(e.duration_us <= spec.duration_us, TimeOutOfRange, at)?;
         let has_command = spec.command.is_some();
         let state_ok = match e.state {
             TaskState::Committed | TaskState::WaitingPre => true,

@@ -369,6 +369,28 @@ fn times_out_of_range_are_refused_and_never_is_accepted() {
         }),
         error(TimeOutOfRange, PayloadSite::Report(0))
     );
+    // Durations: an executive entry longer than its definition (found by the checkpoint fuzz
+    // target: its end, once started, left the range), a plan entry that ends before it starts
+    // or spans more than its definition.
+    assert_eq!(
+        refusal(|p| p.executive.entries[1].duration_us = u64::MAX / 2),
+        error(TimeOutOfRange, PayloadSite::ExecEntry(1))
+    );
+    let scheduled = {
+        let p = Payload::decode(&repaired_flyby_payload());
+        plan_index(&p, |e| e.state == TaskState::Scheduled)
+    };
+    assert_eq!(
+        refusal(|p| p.planner.entries[scheduled].end.0 += 1),
+        error(TimeOutOfRange, entry_site(scheduled))
+    );
+    assert_eq!(
+        refusal(|p| {
+            let e = &mut p.planner.entries[scheduled];
+            e.end = MissionTimeUs(e.start.0 - 1);
+        }),
+        error(TimeOutOfRange, entry_site(scheduled))
+    );
     // "Never" is a time the plan holds (latest starts of restarted instances).
     let mut p = Payload::decode(&repaired_flyby_payload());
     p.planner.entries[0].latest_start = MissionTimeUs::MAX;
