@@ -407,11 +407,19 @@ impl Harness {
         assert_eq!(answers, [&TargetToHost::UplinkAck { seq }, &last]);
     }
 
-    /// Every record the last message wrote restores, to the same bytes.
+    /// Every record the last message wrote restores, to the same bytes. Both memories are
+    /// written with the same state under the same number; the non-volatile copy is checked
+    /// against the warm one, or on its own when the warm write failed.
     fn check_checkpoints(&mut self) {
         let warm = self.app.take_warm_write().is_some();
         let nv = self.app.take_nv_write().is_some();
-        for (written, memory) in [(warm, &self.warm), (nv, &self.nv)] {
+        if warm && nv {
+            let (w, n) = (records(&self.warm)[0], records(&self.nv)[0]);
+            let (w, n) = (w.expect("written"), n.expect("written"));
+            assert_eq!(w.sequence, n.sequence, "both memories carry one number");
+            assert_eq!(w.payload, n.payload, "both memories hold the same checkpoint");
+        }
+        for (written, memory) in [(warm, &self.warm), (nv && !warm, &self.nv)] {
             if !written {
                 continue;
             }
