@@ -1,7 +1,15 @@
 //! The endpoint as a whole: opening both directions, rounds and what is applied at their end,
 //! stale control frames, resets, "link lost" with the sequence numbers both ways, settledness,
-//! the busy consumer, expedited messages, configuration checks and the target's memory cost.
+//! the busy consumer, expedited messages, configuration checks and the target's memory cost;
+//! and no input at all (frames of any content, garbage bytes) makes an endpoint panic or
+//! break its invariants.
+mod common;
+
 use std::fmt::Debug;
+
+use common::link_strategies::link_frames;
+use common::{host_to_target, target_to_host};
+use proptest::prelude::*;
 
 use fsw_bridge::codec::FrameDecoder;
 use fsw_bridge::link::{
@@ -661,4 +669,114 @@ fn the_target_endpoint_fits_its_memory_budget() {
         "{} bytes besides the rings",
         bytes - rings
     );
+}
+
+/// One thing that can happen to an endpoint.
+#[derive(Clone, Debug)]
+enum Step<In, Out> {
+    /// A frame of any content arrives intact.
+    Frame(LinkFrame<In>),
+    /// Bytes arrive (a damaged frame, noise).
+    Garbage(Vec<u8>),
+    /// The endpoint's turn to send.
+    Burst,
+    Submit(VirtualChannel, Out),
+    Reset,
+}
+
+fn steps<In, Out, SI, SO>(
+    incoming: fn() -> SI,
+    outgoing: fn() -> SO,
+) -> impl Strategy<Value = Vec<Step<In, Out>>>
+where
+    In: Clone + Debug + 'static,
+    Out: Clone + Debug + 'static,
+    SI: Strategy<Value = In> + 'static,
+    SO: Strategy<Value = Out> + 'static,
+{
+    let step = prop_oneof![
+        8 => link_frames(incoming).prop_map(Step::Frame),
+        2 => proptest::collection::vec(any::<u8>(), 0..80).prop_map(Step::Garbage),
+        3 => Just(Step::Burst),
+        4 => (
+            prop_oneof![Just(MISSION), Just(INSTRUMENT)],
+            outgoing().boxed()
+        )
+            .prop_map(|(vc, msg)| Step::Submit(vc, msg)),
+        1 => Just(Step::Reset),
+    ];
+    proptest::collection::vec(step, 0..150)
+}
+
+/// Play `steps` on `endpoint`, checking its invariants after each.
+fn play<Out, In, const R: usize, const Q: usize>(
+    endpoint: &mut Endpoint<Out, In, R, Q>,
+    steps: Vec<Step<In, Out>>,
+) -> Result<(), TestCaseError>
+where
+    Out: LinkMessage + Debug,
+    In: LinkMessage + Debug,
+{
+    let mut decoder = FrameDecoder::new();
+    let window = usize::from(endpoint.config().window_width);
+    let mut delivered = [0u32; VC_COUNT];
+    for step in steps {
+        let mut bytes = Vec::new();
+        match step {
+            Step::Frame(frame) => bytes = common::frame(&frame),
+            Step::Garbage(garbage) => bytes = garbage,
+            Step::Burst => {
+                let mut written = 0usize;
+                endpoint.produce_burst(&mut |f: &[u8]| written += f.len());
+                prop_assert!(written > 0, "a burst always ends with RoundEnd");
+            }
+            Step::Submit(vc, msg) => {
+                let _ = endpoint.submit(vc, &msg);
+            }
+            Step::Reset => {
+                endpoint.reset();
+                delivered = [0; VC_COUNT];
+            }
+        }
+        for b in bytes {
+            if let Some(result) = decoder.push::<LinkFrame<In>>(b) {
+                if let Received::Delivered { vc, .. } = endpoint.on_frame(result, |_| true) {
+                    delivered[vc.index()] += 1;
+                }
+            }
+        }
+        for vc in VirtualChannel::ALL {
+            let fop = endpoint.fop(vc);
+            prop_assert!(fop.outstanding() <= window);
+            prop_assert!(fop.outstanding() + fop.backlog() <= Q);
+            prop_assert!(fop.ring_bytes_used() <= R);
+            prop_assert_eq!(fop.v_s(), fop.nn_r().wrapping_add(fop.outstanding() as u8));
+            prop_assert_eq!(endpoint.farm(vc).accepted_total(), delivered[vc.index()]);
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+
+    #[test]
+    fn no_input_makes_the_target_endpoint_panic_or_break_its_invariants(
+        steps in steps(host_to_target, target_to_host),
+    ) {
+        let mut target = TargetEndpoint::new(Role::Responder, LinkConfig::DEFAULT).unwrap();
+        play(&mut target, steps)?;
+    }
+
+    #[test]
+    fn no_input_makes_the_host_endpoint_panic_or_break_its_invariants(
+        steps in steps(target_to_host, host_to_target),
+    ) {
+        let mut host = Host::new(Role::Initiator, LinkConfig {
+            window_width: 3,
+            transmission_limit: 2,
+            ..LinkConfig::DEFAULT
+        }).unwrap();
+        play(&mut host, steps)?;
+    }
 }

@@ -4,6 +4,7 @@
 
 pub mod largest;
 pub mod link_sim;
+pub mod link_strategies;
 
 use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, WireMessage, LINK_CRC, MAX_FRAME_LEN};
 use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
