@@ -57,7 +57,7 @@ pub struct Farm {
     retransmit: bool,
     /// Accepted BD and BC frames (the CLCW carries the two low bits).
     farm_b_counter: u8,
-    /// Frames accepted since the last reset (V(R) without the modulo).
+    /// Frames accepted since the last reset.
     accepted_total: u32,
 }
 

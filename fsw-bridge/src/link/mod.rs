@@ -74,19 +74,67 @@
 //! its channel with Unlock and Set V(R) before its first AD frame, so that nothing from before a
 //! reset is ever accepted ([`farm`]); wait is a flag rather than a state; timers are rounds.
 //!
+//! Opening a channel takes a round trip: in round 1 the host's bursts carry Unlock and Set
+//! V(R) = 0 for its channels and the target's answer confirms them (its CLCW: unlocked, V(R) =
+//! 0); the target's channels are opened by its answer in round 1 and confirmed by the host's
+//! Report in round 2. Messages submitted meanwhile wait in the backlog. Wait-flag
+//! retransmissions (the peer's consumer was full) do not count toward the limit: a busy peer is
+//! not a broken link. Type-BD frames carry no VC; they count on the Mission channel's FARM-B
+//! counter. The Report's backlog flag is per VC so that settledness can be per VC.
+//!
 //! # Resets
 //!
 //! After a reset the target says Hello (Type-BD) before anything else; on it the host calls
 //! [`Endpoint::reset`], and the target calls it at boot. Both sides restart with V(S) = V(R) = 0,
-//! flush their queues (counting each flushed message in `lost_to_reset`) and reopen their
-//! channels in the next round. A fresh host session with a target that did not reset is not
-//! supported: reset the target first (as `hil` does).
+//! flush their queues (counting each flushed message in `lost_to_reset`: some of them may have
+//! arrived just before the reset, a ResetRequest always has) and reopen their channels as
+//! above. Frames from before the reset (in a UART FIFO, or held back by the fault injector)
+//! are never accepted: the FARM is locked until the new session's Unlock, and directives and
+//! Reports of other rounds are ignored. A fresh host session with a target that did not reset
+//! is not supported: reset the target first (as `hil` does).
 //!
-//! # Capacities
+//! # Integration
+//!
+//! ```text
+//! host (Role::Initiator)                      target (Role::Responder)
+//! ----------------------                      ------------------------
+//!                                             at boot: reset(); send Hello as Type-BD
+//! loop per lockstep frame:
+//!   submit(vc, msg) for what is due           (submit may say Full: keep the message)
+//!   loop:
+//!     write BD frames (Ping), then
+//!     produce_burst(sink)        ── burst ──► for each decoded frame: on_frame(frame, has_room)
+//!                                               Delivered -> the application; Expedited(Ping)
+//!                                               -> answer Pong as BD in the next burst
+//!                                             on Received::RoundEnd: submit what is queued,
+//!                                               write BD frames, produce_burst(sink)
+//!     on_frame(...) for each frame ◄── burst ──
+//!       Expedited(Hello) -> reset()
+//!       RoundEnd { round } -> end of the round
+//!     until is_settled(Mission) and the frame's FrameDone arrived
+//!   lost() is Some -> the run ends with the "link lost" verdict (its Display names the
+//!   sequence numbers both ways)
+//! ```
+//!
+//! A responder may hold its answer until it has something to say (until the granted frame's
+//! work is done, so that FrameDone travels in the answer): rounds have no deadline. The host
+//! must decide when a frame's exchange is complete from the Mission channel alone, so that the
+//! round sequence, and with it the faults the Mission stream meets, is the same on the native
+//! target (no Instrument traffic) and the emulated one; Instrument frames travel in whatever
+//! rounds there are. Hand `downlink_service` a metric predicate that is the same on both.
+//!
+//! Throughput is go-back-N's: each round delivers, per VC, the frames up to the first one lost.
+//! With 1 % byte corruption and 10 % loss a 25-byte frame gets through about 7 times in 10, so
+//! a round delivers 2 to 3 new messages per VC; clean links deliver the whole window (K = 16).
+//!
+//! # Capacities and cost
 //!
 //! Per outgoing VC an endpoint keeps up to `QUEUE_LEN` encoded frames in a ring of `RING_BYTES`
-//! bytes (window and backlog together). [`TargetEndpoint`] is the target's instantiation; its
-//! size is [`TARGET_ENDPOINT_BYTES_MAX`] at most (a test checks it).
+//! bytes (window and backlog together). [`TargetEndpoint`] (2 KiB and 64 frames per VC) takes
+//! 5528 bytes of RAM: 4096 for the rings, 768 for the frame slots, the rest for the FARMs, the
+//! round state and the counters; [`TARGET_ENDPOINT_BYTES_MAX`] is its budget (a test checks
+//! it). It needs no heap; the deepest call, `produce_burst`, uses about 1 KiB of stack (three
+//! frame buffers and the codec's own).
 //!
 //! # Testing support
 //!
@@ -225,11 +273,11 @@ pub struct LinkLost {
     /// Per VC this side sends on: NN(R), the first N(S) the peer has not acknowledged (every
     /// frame before it was).
     pub sent_acknowledged: [u8; VC_COUNT],
-    /// The same as a count of frames since the last reset (no modulo).
+    /// Frames acknowledged per VC since the last reset (NN(R) without the modulo).
     pub sent_acknowledged_total: [u32; VC_COUNT],
     /// Per VC the peer sends on: V(R), the next N(S) this side would accept.
     pub received: [u8; VC_COUNT],
-    /// The same as a count of frames since the last reset.
+    /// Frames accepted (delivered) per VC since the last reset.
     pub received_total: [u32; VC_COUNT],
 }
 
