@@ -109,7 +109,8 @@
 //!                                             on Received::RoundEnd: submit what is queued,
 //!                                               write BD frames, produce_burst(sink)
 //!     on_frame(...) for each frame ◄── burst ──
-//!       Expedited(Hello) -> reset()
+//!       Expedited(Hello) -> reset(), and start the next round at once (the answer to this
+//!         one may never come; if it does, its RoundEnd is stale and ignored)
 //!       RoundEnd { round } -> end of the round
 //!     until is_settled(Mission) and the frame's FrameDone arrived
 //!   lost() is Some -> the run ends with the "link lost" verdict (its Display names the
