@@ -6,7 +6,7 @@
 //! ([`link`]: CCSDS COP-1 style, counted in lockstep rounds) and the plain types the autonomy core
 //! sees ([`types`]).
 //!
-//! Features: `std` adds the host-only lossy channel simulator ([`link::channel`]).
+//! Features: `std` adds the host-only lossy channel simulator (`link::channel`).
 #![no_std]
 #![forbid(unsafe_code)]
 

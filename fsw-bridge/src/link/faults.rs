@@ -2,7 +2,7 @@
 //! which of its bytes are corrupted, as a pure function of (seed, direction, frame identity,
 //! transmission attempt, byte index). No state and no sequence of random draws: the same frame
 //! sent the same n-th time meets the same fate whatever else crossed the link, so the host's
-//! fault injector and the tests' [`crate::link::channel::LossyChannel`] (which use exactly
+//! fault injector and the tests' `link::channel::LossyChannel` (which use exactly
 //! these functions) inject the same faults into the Mission channel on the native and the
 //! emulated target, and a retransmission (another attempt) meets an independent fate.
 //!

@@ -141,7 +141,7 @@
 //!
 //! [`faults`] holds the deterministic fault decisions (a pure function of seed, direction,
 //! frame identity, attempt and byte index) that the tests' lossy channel and the host's fault
-//! injector share; with the `std` feature, [`channel::LossyChannel`] applies them to bursts.
+//! injector share; with the `std` feature, `channel::LossyChannel` applies them to bursts.
 pub mod class;
 pub mod endpoint;
 pub mod farm;
