@@ -38,6 +38,18 @@ struct Traffic {
 }
 
 impl Traffic {
+    fn total(&self) -> usize {
+        self.up.iter().map(Vec::len).sum::<usize>() + self.down.iter().map(Vec::len).sum::<usize>()
+    }
+
+    /// Rounds after which the link must be either done or declared lost, whatever the faults:
+    /// each message, once first in its queue, is acknowledged or ends the link within the
+    /// transmission limit (T1 is one round), and opening a channel is limited the same way.
+    fn decided_within(&self, config: &LinkConfig) -> u32 {
+        let limit = u32::from(config.transmission_limit) + 1;
+        (self.total() as u32 + 4) * limit + self.total() as u32 + 100
+    }
+
     fn longest(&self) -> usize {
         self.up
             .iter()
@@ -296,7 +308,8 @@ proptest! {
         rates in rates(PPM / 20, PPM / 10),
         seed in any::<u64>(),
     ) {
-        let outcome = run(&traffic, LinkConfig::DEFAULT, seed, rates, 4000)?;
+        let limit = traffic.decided_within(&LinkConfig::DEFAULT);
+        let outcome = run(&traffic, LinkConfig::DEFAULT, seed, rates, limit)?;
         prop_assert!(
             outcome.complete || outcome.lost.is_some(),
             "neither delivered nor lost after {} rounds", outcome.rounds
@@ -315,7 +328,8 @@ proptest! {
             transmission_limit: 3,
             ..LinkConfig::DEFAULT
         };
-        let outcome = run(&traffic, config, seed, rates, 2000)?;
+        let limit = traffic.decided_within(&config);
+        let outcome = run(&traffic, config, seed, rates, limit)?;
         prop_assert!(outcome.complete || outcome.lost.is_some());
     }
 }
