@@ -2,6 +2,10 @@
 //! independent reference framer, and helpers to run a byte stream through a decoder.
 #![allow(dead_code)] // Each test binary uses a different subset.
 
+pub mod largest;
+pub mod link_sim;
+pub mod link_strategies;
+
 use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, WireMessage, LINK_CRC, MAX_FRAME_LEN};
 use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
 use fsw_bridge::{
