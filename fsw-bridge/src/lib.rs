@@ -23,4 +23,4 @@ pub use messages::{HostToTarget, LinkCounters, TargetToHost, TelemetryEvent};
 pub use types::*;
 
 /// Version of the message set. Both sides refuse a peer that speaks another version.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;

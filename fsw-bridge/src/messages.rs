@@ -83,7 +83,8 @@ pub enum HostToTarget {
     ResetRequest { kind: ResetKind },
 }
 
-/// Messages the target sends to the host.
+/// Messages the target sends to the host (in protocol v2 inside the reliable link's frames,
+/// [`crate::link::LinkFrame`]).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum TargetToHost {
     /// Sent once on every boot, before anything else.
@@ -98,11 +99,13 @@ pub enum TargetToHost {
     Pong { seq: u32, link: LinkCounters },
     /// The target finished the frame granted by TimeGrant `frame`. `next_wakeup` is the earliest
     /// mission time at which it needs to run again (None: only when input arrives).
+    ///
+    /// It carries no measured cost (the frame's guest ticks go out as an Instrument metric,
+    /// `flight_app::metric::FRAME_BUSY_TICKS`): the Mission stream is the same on the native
+    /// and the emulated target, byte for byte.
     FrameDone {
         frame: u32,
         next_wakeup: Option<MissionTimeUs>,
-        /// Guest timebase ticks the frame's work took (a duration, never an absolute value).
-        busy_ticks: u32,
     },
     /// The executive asks a subsystem to carry out a command.
     CommandDispatch {

@@ -64,7 +64,6 @@ fn t2h_samples() -> Vec<TargetToHost> {
         TargetToHost::FrameDone {
             frame: 0,
             next_wakeup: None,
-            busy_ticks: 0,
         },
         TargetToHost::Log {
             bytes: (0..LOG_CHUNK_MAX).map(|i| (i * 7) as u8).collect(),

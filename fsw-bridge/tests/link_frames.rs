@@ -202,7 +202,7 @@ fn every_downlink_message_has_its_service_and_class() {
         (Service::Sequenced(Mission), MessageClass::Telemetry),
         (Service::Sequenced(Mission), MessageClass::UplinkReply),
         (Service::Sequenced(Mission), MessageClass::UplinkReply),
-        (Service::Sequenced(Instrument), MessageClass::Panic),
+        (Service::Expedited, MessageClass::Panic),
     ];
     for (i, (service, class)) in expected.into_iter().enumerate() {
         let msg = largest_t2h(i);

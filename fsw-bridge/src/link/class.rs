@@ -157,8 +157,8 @@ pub fn uplink_service(msg: &HostToTarget) -> Service {
     }
 }
 
-/// The service of a target-to-host message. Hello and Pong are expedited. Logs, health-monitor
-/// events and panic reports go on the Instrument channel, and so do the metrics for which
+/// The service of a target-to-host message. Hello, Pong and Panic are expedited. Logs and
+/// health-monitor events go on the Instrument channel, and so do the metrics for which
 /// `is_instrument_metric(id)` holds: fsw-bridge does not know the metric ids, so the caller
 /// says which ones the native target never sends (the measured costs, the kernel's metrics).
 /// Everything else is on the Mission channel. The predicate must give the same answer on both
@@ -169,9 +169,12 @@ pub fn downlink_service(
 ) -> Service {
     use VirtualChannel::{Instrument, Mission};
     match msg {
-        TargetToHost::Hello { .. } | TargetToHost::Pong { .. } => Service::Expedited,
+        // A panic report is the last thing a target sends before it resets itself: it cannot
+        // wait for an acknowledgement, so it travels like the Hello that follows it.
+        TargetToHost::Hello { .. } | TargetToHost::Pong { .. } | TargetToHost::Panic { .. } => {
+            Service::Expedited
+        }
         TargetToHost::Log { .. }
-        | TargetToHost::Panic { .. }
         | TargetToHost::Telemetry(TelemetryEvent::HealthMonitor { .. }) => {
             Service::Sequenced(Instrument)
         }

@@ -95,7 +95,6 @@ pub fn largest_t2h(i: usize) -> TargetToHost {
         2 => TargetToHost::FrameDone {
             frame: u32::MAX,
             next_wakeup: Some(MissionTimeUs::MAX),
-            busy_ticks: u32::MAX,
         },
         3 => TargetToHost::CommandDispatch {
             id: u32::MAX,

@@ -181,11 +181,10 @@ pub fn pong() -> impl Strategy<Value = TargetToHost> {
     (u32s(), link_counters()).prop_map(|(seq, link)| TargetToHost::Pong { seq, link })
 }
 pub fn frame_done() -> impl Strategy<Value = TargetToHost> {
-    (u32s(), proptest::option::of(times()), u32s()).prop_map(|(frame, next_wakeup, busy_ticks)| {
+    (u32s(), proptest::option::of(times())).prop_map(|(frame, next_wakeup)| {
         TargetToHost::FrameDone {
             frame,
             next_wakeup,
-            busy_ticks,
         }
     })
 }

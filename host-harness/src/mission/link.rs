@@ -1,0 +1,446 @@
+//! The host's end of the reliable link during a mission (`fsw_bridge::link`, CCSDS COP-1 style)
+//! together with the seeded fault injector and the transcript.
+//!
+//! Every message the host sends in a mission goes through [`LinkSession::send`]: it is queued on
+//! its virtual channel and delivered exactly once and in order, or the run ends with the link
+//! lost. [`LinkSession::exchange`] runs lockstep rounds with the target (a burst each way, each
+//! ended by the never-damaged RoundEnd doorbell) until everything queued is acknowledged, the
+//! target has nothing more on the Mission channel, and what the caller waits for (a FrameDone,
+//! the uplink's final acknowledgement) has been delivered. Rounds, not host time, count every
+//! timeout, so a result never depends on how fast the host is.
+//!
+//! Faults come from `fsw_bridge::link::channel::LossyChannel`: whether a byte is corrupted or a
+//! frame dropped, duplicated or delayed by a round is a pure function of the seed, the direction,
+//! the frame's identity (virtual channel and sequence number for data frames) and its
+//! transmission attempt. The native and the emulated target send the same Mission stream, so
+//! they meet the same faults; Instrument traffic (costs, logs, kernel events, which only the
+//! emulated target sends) travels in whatever rounds there are and never changes the round
+//! sequence.
+//!
+//! The transcript has one line per frame both ways. Its hash covers the Mission channel, the
+//! rounds, the expedited frames and the Mission half of each Report, which are the same run to
+//! run; Instrument frames (whose costs and log timestamps vary by a tick) are listed but not
+//! hashed.
+use fsw_bridge::codec::FrameDecoder;
+use fsw_bridge::link::channel::LossyChannel;
+use fsw_bridge::link::faults::{Direction, FaultRates};
+use fsw_bridge::link::{
+    downlink_service, uplink_service, HostEndpoint, LinkConfig, LinkFrame, LinkLost,
+    MessageClass, Received, Role, Service, VirtualChannel,
+};
+use fsw_bridge::{HostToTarget, TargetToHost, TelemetryEvent};
+use serde::Serialize;
+use sha2::{Digest, Sha256};
+
+use super::plan::LinkFaults;
+use super::target::{MissionTarget, TargetError};
+
+/// Rounds one exchange may take before the link is declared lost even though the transmission
+/// limit was not reached (a target that keeps answering without ever settling).
+pub const MAX_ROUNDS_PER_EXCHANGE: u32 = 4_096;
+
+/// True for the metrics only the emulated target sends (measured guest costs and the kernel's
+/// metrics): they travel on the Instrument channel. The same answer on both targets.
+pub fn is_instrument_metric(id: u16) -> bool {
+    id < 0x1000 || flight_app::metric::is_instrument(id)
+}
+
+/// The virtual channel (or expedited service) of a target message.
+pub fn service_of(msg: &TargetToHost) -> Service {
+    downlink_service(msg, is_instrument_metric)
+}
+
+/// How an exchange ended.
+#[derive(Debug)]
+pub enum Exchanged {
+    /// Everything was delivered both ways and the awaited message arrived.
+    Settled,
+    /// The target said Hello in the middle of the exchange: it reset itself (a mid-frame reset
+    /// the host armed, or its health monitor). What was not acknowledged is lost with the
+    /// reset (counted); the link restarts.
+    TargetReset(TargetToHost),
+}
+
+/// Why the mission could not go on over the link.
+#[derive(Debug, thiserror::Error)]
+pub enum LinkFailure {
+    #[error("link lost: {0}")]
+    Lost(LinkLost),
+    #[error("link lost: {rounds} rounds without settling (Mission channel: {detail})")]
+    NotSettling { rounds: u32, detail: String },
+    #[error(transparent)]
+    Target(#[from] TargetError),
+}
+
+/// Retransmissions and faults, for the report.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct LinkSummary {
+    pub rounds: u64,
+    /// Per message class: (class name, sent including retransmissions, retransmissions).
+    pub classes: Vec<ClassSummary>,
+    pub retransmissions: u64,
+    pub frames_rejected: u64,
+    pub duplicates_discarded: u64,
+    pub lost_to_reset: u64,
+    /// Faults injected: (uplink, downlink) frames corrupted, dropped, duplicated, delayed.
+    pub injected_uplink: u64,
+    pub injected_downlink: u64,
+    /// Retransmitted frames per 1,000 frames sent (both directions, both channels).
+    pub retransmissions_per_1000_frames: u64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ClassSummary {
+    pub class: &'static str,
+    pub sent: u64,
+    pub retransmitted: u64,
+}
+
+/// The host's end of the link for one mission.
+pub struct LinkSession {
+    endpoint: Box<HostEndpoint>,
+    channel: LossyChannel,
+    decoder: FrameDecoder,
+    /// Expedited messages for the next burst.
+    expedited: Vec<HostToTarget>,
+    rounds: u64,
+    transcript: Transcript,
+    /// Target-to-host frames retransmitted, as the host saw them (duplicates of accepted
+    /// frames plus out-of-sequence frames discarded).
+    downlink_duplicates: u64,
+    downlink_retransmissions: u64,
+}
+
+impl LinkSession {
+    pub fn new(seed: u64, faults: &LinkFaults) -> Self {
+        let endpoint = Box::new(
+            HostEndpoint::new(Role::Initiator, LinkConfig::DEFAULT)
+                .expect("the default link configuration is valid"),
+        );
+        let rates = FaultRates::from_probabilities(faults.corrupt, faults.drop, 0.0, faults.delay);
+        Self {
+            endpoint,
+            channel: LossyChannel::new(seed, rates),
+            decoder: FrameDecoder::new(),
+            expedited: Vec::new(),
+            rounds: 0,
+            transcript: Transcript::default(),
+            downlink_duplicates: 0,
+            downlink_retransmissions: 0,
+        }
+    }
+
+    /// Queue `msg` for delivery (exactly once and in order on its channel).
+    pub fn send(&mut self, msg: HostToTarget) -> Result<(), LinkFailure> {
+        match uplink_service(&msg) {
+            Service::Expedited => self.expedited.push(msg),
+            Service::Sequenced(vc) => {
+                self.endpoint.submit(vc, &msg).map_err(|e| {
+                    LinkFailure::Lost(self.endpoint.lost().copied().unwrap_or_else(|| {
+                        panic!("the host's send queue refused a message ({e:?}): {msg:?}")
+                    }))
+                })?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The target (re)started: restart the link (what was queued is counted lost to reset).
+    pub fn reset(&mut self) {
+        self.endpoint.reset();
+        self.decoder = FrameDecoder::new();
+        self.expedited.clear();
+    }
+
+    /// Record the Hello that opened the session (it comes from the target's boot, outside any
+    /// round).
+    pub fn hello(&mut self, hello: &TargetToHost) {
+        self.transcript.line(true, format!("< BD {}", describe(hello)));
+    }
+
+    /// Run rounds until everything queued is acknowledged, the target has nothing more on the
+    /// Mission channel, and `until` matched a delivered message (`until` = None: settling is
+    /// enough). Every delivered message goes to `deliver`, in order.
+    pub fn exchange(
+        &mut self,
+        target: &mut dyn MissionTarget,
+        mut until: Option<&mut dyn FnMut(&TargetToHost) -> bool>,
+        deliver: &mut dyn FnMut(TargetToHost),
+    ) -> Result<Exchanged, LinkFailure> {
+        let mut matched = until.is_none();
+        for _ in 0..MAX_ROUNDS_PER_EXCHANGE {
+            let mut burst: Vec<Vec<u8>> = Vec::new();
+            for msg in std::mem::take(&mut self.expedited) {
+                let _ = self
+                    .endpoint
+                    .send_expedited(&msg, &mut |f: &[u8]| burst.push(f.to_vec()));
+            }
+            let summary = self
+                .endpoint
+                .produce_burst(&mut |f: &[u8]| burst.push(f.to_vec()));
+            if let Some(lost) = self.endpoint.lost() {
+                return Err(LinkFailure::Lost(*lost));
+            }
+            let round = summary.round;
+            self.rounds += 1;
+            let wire = self
+                .channel
+                .carry::<HostToTarget>(Direction::Uplink, round, &burst, |_| false);
+            self.transcript.burst::<HostToTarget>(round, '>', &burst, &wire);
+            let reply = target.round(&wire, round)?;
+            let received = self.channel.carry::<TargetToHost>(
+                Direction::Downlink,
+                round,
+                &reply,
+                |m| matches!(m, TargetToHost::Hello { .. } | TargetToHost::Panic { .. }),
+            );
+            self.transcript.burst::<TargetToHost>(round, '<', &reply, &received);
+            for bytes in &received {
+                for &b in bytes {
+                    let Some(frame) = self.decoder.push::<LinkFrame<TargetToHost>>(b) else {
+                        continue;
+                    };
+                    match self.endpoint.on_frame(frame, |_| true) {
+                        Received::Delivered { msg, .. } => {
+                            if let Some(until) = until.as_mut() {
+                                matched |= until(&msg);
+                            }
+                            deliver(msg);
+                        }
+                        Received::Expedited(msg @ TargetToHost::Hello { .. }) => {
+                            self.reset();
+                            return Ok(Exchanged::TargetReset(msg));
+                        }
+                        Received::Expedited(TargetToHost::Panic { file, line }) => {
+                            return Err(LinkFailure::Target(TargetError::Panic {
+                                file: String::from_utf8_lossy(&file).into_owned(),
+                                line,
+                            }));
+                        }
+                        Received::Discarded(fsw_bridge::link::Discard::Duplicate { .. }) => {
+                            self.downlink_duplicates += 1;
+                        }
+                        Received::Discarded(fsw_bridge::link::Discard::OutOfSequence {
+                            ..
+                        }) => {
+                            self.downlink_retransmissions += 1;
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            if let Some(lost) = self.endpoint.lost() {
+                return Err(LinkFailure::Lost(*lost));
+            }
+            if matched && self.endpoint.is_settled(VirtualChannel::Mission) {
+                return Ok(Exchanged::Settled);
+            }
+        }
+        let fop = self.endpoint.fop(VirtualChannel::Mission);
+        Err(LinkFailure::NotSettling {
+            rounds: MAX_ROUNDS_PER_EXCHANGE,
+            detail: format!(
+                "host V(S) {} acknowledged to {}, received to V(R) {}, target reported V(S) {}",
+                fop.v_s(),
+                fop.nn_r(),
+                self.endpoint.farm(VirtualChannel::Mission).v_r(),
+                self.endpoint.peer().sent_vs[VirtualChannel::Mission.index()],
+            ),
+        })
+    }
+
+    /// Retransmissions and faults so far.
+    pub fn summary(&self) -> LinkSummary {
+        let stats = self.endpoint.stats();
+        let mut classes = Vec::new();
+        let mut retransmissions = 0;
+        let mut frames = 0u64;
+        for class in MessageClass::ALL {
+            let c = stats.class(class);
+            if c.sent == 0 && c.retransmitted == 0 {
+                continue;
+            }
+            retransmissions += u64::from(c.retransmitted);
+            frames += u64::from(c.sent);
+            classes.push(ClassSummary {
+                class: class.name(),
+                sent: u64::from(c.sent),
+                retransmitted: u64::from(c.retransmitted),
+            });
+        }
+        // The target's retransmissions, as seen arriving here.
+        retransmissions += self.downlink_duplicates + self.downlink_retransmissions;
+        frames += u64::from(stats.received_total()) + self.downlink_duplicates;
+        let injected = |d| self.channel.injected(d).total();
+        LinkSummary {
+            rounds: self.rounds,
+            classes,
+            retransmissions,
+            frames_rejected: u64::from(stats.frames_rejected),
+            duplicates_discarded: self.downlink_duplicates,
+            lost_to_reset: u64::from(stats.lost_to_reset_total()),
+            injected_uplink: injected(Direction::Uplink),
+            injected_downlink: injected(Direction::Downlink),
+            retransmissions_per_1000_frames: (retransmissions * 1000)
+                .checked_div(frames)
+                .unwrap_or(0),
+        }
+    }
+
+    /// Faults injected so far, both directions.
+    pub fn injected_faults(&self) -> u64 {
+        self.channel.injected(Direction::Uplink).total()
+            + self.channel.injected(Direction::Downlink).total()
+    }
+
+    /// The transcript: (frames recorded, SHA-256 of its hashed part, every line).
+    pub fn finish_transcript(self) -> (u64, String, Vec<String>) {
+        self.transcript.finish()
+    }
+}
+
+/// Every frame both ways, one line each, and a running hash of the part that is the same run
+/// to run (see the module documentation).
+#[derive(Default)]
+struct Transcript {
+    hasher: Sha256,
+    lines: Vec<String>,
+    frames: u64,
+}
+
+impl Transcript {
+    fn line(&mut self, hashed: bool, text: String) {
+        if hashed {
+            self.hasher.update(text.as_bytes());
+            self.hasher.update(b"\n");
+        }
+        if std::env::var_os("HIL_DEBUG_TRANSCRIPT").is_some() {
+            eprintln!("{text}");
+        }
+        self.lines.push(if hashed { text } else { format!("{text}  (not hashed)") });
+    }
+
+    /// One burst: what the sender wrote (`sent`) and what crossed the link (`crossed`).
+    fn burst<M: fsw_bridge::codec::WireMessage + Describe>(
+        &mut self,
+        round: u32,
+        arrow: char,
+        sent: &[Vec<u8>],
+        crossed: &[Vec<u8>],
+    ) {
+        self.frames += sent.len() as u64;
+        for bytes in crossed {
+            let lines = match decode_one::<M>(bytes) {
+                // Which channel it was on is unknowable: an Instrument frame's length (and so
+                // where the faults fell) can differ by a byte run to run.
+                None => vec![(false, format!("damaged frame, {} bytes", bytes.len()))],
+                Some(frame) => frame_lines(&frame),
+            };
+            for (hashed, text) in lines {
+                self.line(hashed, format!("r{round} {arrow} {text}"));
+            }
+        }
+        if crossed.len() < sent.len() {
+            self.line(
+                false,
+                format!(
+                    "r{round} {arrow} ({} frame(s) dropped or held back)",
+                    sent.len() - crossed.len()
+                ),
+            );
+        }
+    }
+
+    fn finish(self) -> (u64, String, Vec<String>) {
+        let hash = self
+            .hasher
+            .finalize()
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        (self.frames, hash, self.lines)
+    }
+}
+
+/// A message as a transcript line shows it.
+pub trait Describe {
+    fn describe(&self) -> String;
+}
+
+impl Describe for HostToTarget {
+    fn describe(&self) -> String {
+        match self {
+            HostToTarget::UplinkChunk { seq, total, bytes } => {
+                format!("UplinkChunk {{ seq: {seq}, total: {total}, {} bytes }}", bytes.len())
+            }
+            other => format!("{other:?}"),
+        }
+    }
+}
+
+impl Describe for TargetToHost {
+    fn describe(&self) -> String {
+        match self {
+            TargetToHost::Log { bytes } => format!("Log {{ {} bytes }}", bytes.len()),
+            other => format!("{other:?}"),
+        }
+    }
+}
+
+fn describe(msg: &impl Describe) -> String {
+    msg.describe()
+}
+
+/// The transcript lines of one decoded link frame: (hashed, text).
+fn frame_lines<M: Describe>(frame: &LinkFrame<M>) -> Vec<(bool, String)> {
+    match frame {
+        LinkFrame::Ad { vc, ns, msg } => vec![(
+            *vc == VirtualChannel::Mission,
+            format!("AD {}#{ns} {}", vc.name(), msg.describe()),
+        )],
+        LinkFrame::Bd(msg) => vec![(true, format!("BD {}", msg.describe()))],
+        LinkFrame::Bc { round, directive } => vec![(true, format!("BC r{round} {directive:?}"))],
+        LinkFrame::Report(r) => {
+            let (m, i) = (
+                VirtualChannel::Mission.index(),
+                VirtualChannel::Instrument.index(),
+            );
+            vec![
+                (
+                    true,
+                    format!(
+                        "Report r{} mission {{ {:?}, V(S) {}, backlog {} }}",
+                        r.round, r.clcw[m], r.sent_vs[m], r.backlog[m]
+                    ),
+                ),
+                (
+                    false,
+                    format!(
+                        "       instrument {{ {:?}, V(S) {}, backlog {} }}",
+                        r.clcw[i], r.sent_vs[i], r.backlog[i]
+                    ),
+                ),
+            ]
+        }
+        LinkFrame::RoundEnd { round } => vec![(true, format!("RoundEnd r{round}"))],
+    }
+}
+
+/// The single frame `bytes` hold, if they hold exactly one valid frame.
+fn decode_one<M: fsw_bridge::codec::WireMessage>(bytes: &[u8]) -> Option<LinkFrame<M>> {
+    let mut decoder = FrameDecoder::new();
+    let mut found = None;
+    for &b in bytes {
+        match decoder.push::<LinkFrame<M>>(b) {
+            Some(Ok(frame)) if found.is_none() => found = Some(frame),
+            Some(_) => return None,
+            None => {}
+        }
+    }
+    found
+}
+
+/// A measured-cost metric on the transcript (for readers): costs are Instrument frames.
+pub fn is_cost_metric(msg: &TargetToHost) -> bool {
+    matches!(msg, TargetToHost::Telemetry(TelemetryEvent::Metric { id, .. }) if is_instrument_metric(*id))
+}
