@@ -19,6 +19,11 @@
 //! scheduling_window = "6h"
 //! plan_horizon = "12h"
 //! plan_process_interval = "5m"
+//! # Responses to failures, for every task that does not set its own (defaults shown):
+//! max_retries = 0                   # executive re-dispatches per instance and cause
+//! max_repairs = 2                   # planner restarts/re-adds per definition and cause
+//! retry_backoff = "10s"             # 1st response at once, then 10s, 20s, 40s, ...
+//! retry_backoff_max = "10m"         # ... capped here
 //!
 //! [[timeline]]
 //! name = "GncAttitude"
@@ -37,6 +42,12 @@
 //! [[timeline]]
 //! name = "Instrument"
 //! kind = "claimable"
+//!
+//! [[timeline]]
+//! name = "Heater"                   # only the planner knows it (no state_key) ...
+//! kind = "state"
+//! values = ["OFF", "ON"]
+//! after_reset = "OFF"               # ... and a reset turns it off
 //!
 //! [[condition]]
 //! name = "attitude_known"
@@ -67,12 +78,15 @@
 //! ]
 //! pre_wait_timeout = "1m"
 //! response_timeout = "1m"
-//! max_retries = 0
+//! max_retries = { command_failed = 2, response_timeout = 1 }   # or one number for every cause
+//! max_repairs = 3                   # or { any = 3, command_rejected = 0 }
+//! retry_backoff = "30s"             # retry_backoff_max too; unset ones are the network's
 //! start_condition = "attitude_known"   # also maintain_condition, skip_condition
 //! on_failure_command = { opcode = 0x0200, args = [] }
 //! contingencies = [ { on = "any", action = "restart" } ]
 //! # on: "any" or a list of pre_timeout, response_timeout, command_failed, command_rejected,
-//! #     maintain_violation, unschedulable; action: restart | move | delete | { add_template = "name" }
+//! #     maintain_violation, unschedulable, post_condition, interrupted;
+//! #     action: restart | move | delete | { add_template = "name" }
 //! may_move = true
 //! may_delete = false
 //! may_add = ["GncAttain NADIR (template)", "Instrument Degraded Flyby"]
@@ -85,16 +99,23 @@
 //! min = "0s"
 //! max = "1h"
 //! ```
+//!
+//! Response bounds (`max_retries`, `max_repairs`) are per failure cause. One number sets every
+//! cause it applies to (retries: response_timeout, command_failed, command_rejected,
+//! post_condition; repairs: all but unschedulable); a table sets the causes it names (`any`
+//! first, then the others), leaving the rest as the network's (or the built-in default). At
+//! most 15 per cause. Cause names are those of `contingencies.on`.
 use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::Path;
 
-use autonomy::uplink::{ErrorSite, TaskField, ValidationError};
+use autonomy::uplink::{ErrorSite, ResponseField, TaskField, ValidationError};
 use autonomy::{
-    CommandArgs, CommandSpec, CondNode, ConditionSpec, ConstraintSpec, ConstraintWhen, Contingency,
-    ContingencyAction, ControlSpec, Effect, FailureKind, ImpactSpec, ImpactWhen, MissionTimeUs,
-    Name, NetworkSpec, Opcode, Operand, Permissions, PlannerConfig, RelOp, Requirement, StateKey,
-    TaskNetwork, TaskPoint, TaskRole, TaskSpec, TemporalConstraint, TimelineKind, TimelineSpec,
+    Backoff, CommandArgs, CommandSpec, CondNode, ConditionSpec, ConstraintSpec, ConstraintWhen,
+    Contingency, ContingencyAction, ControlSpec, Effect, FailureKind, ImpactSpec, ImpactWhen,
+    MissionTimeUs, Name, NetworkSpec, Opcode, Operand, PerCause, Permissions, PlannerConfig, RelOp,
+    Requirement, ResponsePolicy, StateKey, TaskNetwork, TaskPoint, TaskRole, TaskSpec,
+    TemporalConstraint, TimelineKind, TimelineSpec,
 };
 use serde::Deserialize;
 use toml::Spanned;
@@ -242,6 +263,18 @@ struct RawNetwork {
     scheduling_window: Option<Spanned<RawNumOrText>>,
     plan_horizon: Option<Spanned<RawNumOrText>>,
     plan_process_interval: Option<Spanned<RawNumOrText>>,
+    max_retries: Option<Spanned<RawBound>>,
+    max_repairs: Option<Spanned<RawBound>>,
+    retry_backoff: Option<Spanned<RawNumOrText>>,
+    retry_backoff_max: Option<Spanned<RawNumOrText>>,
+}
+
+/// A response bound: one number for every cause it applies to, or one per named cause.
+#[derive(Deserialize, Clone)]
+#[serde(untagged)]
+enum RawBound {
+    All(i64),
+    PerCause(BTreeMap<String, i64>),
 }
 
 #[derive(Deserialize)]
@@ -254,6 +287,7 @@ struct RawTimeline {
     min: Option<i64>,
     max: Option<i64>,
     state_key: Option<u16>,
+    after_reset: Option<Spanned<RawNumOrText>>,
 }
 
 #[derive(Deserialize)]
@@ -358,8 +392,10 @@ struct RawTask {
     impacts: Vec<Spanned<RawImpact>>,
     pre_wait_timeout: Option<Spanned<RawNumOrText>>,
     response_timeout: Option<Spanned<RawNumOrText>>,
-    #[serde(default)]
-    max_retries: u8,
+    max_retries: Option<Spanned<RawBound>>,
+    max_repairs: Option<Spanned<RawBound>>,
+    retry_backoff: Option<Spanned<RawNumOrText>>,
+    retry_backoff_max: Option<Spanned<RawNumOrText>>,
     start_condition: Option<Spanned<String>>,
     maintain_condition: Option<Spanned<String>>,
     skip_condition: Option<Spanned<String>>,
@@ -389,7 +425,11 @@ struct RawTemporal {
 #[derive(Default)]
 struct Sites {
     network: Range<usize>,
+    /// Network fields by name (`max_retries`, `max_repairs`, `retry_backoff`).
+    network_fields: BTreeMap<String, Range<usize>>,
     timelines: Vec<Range<usize>>,
+    /// The `after_reset` value of each timeline, where given.
+    timeline_after_reset: Vec<Option<Range<usize>>>,
     conditions: Vec<Range<usize>>,
     tasks: Vec<BTreeMap<String, Range<usize>>>,
     temporal: Vec<Range<usize>>,
@@ -410,6 +450,33 @@ impl RawNumOrText {
     }
 }
 
+/// Failure causes by their names in the file (`contingencies.on`, response bounds).
+const CAUSE_NAMES: [(&str, FailureKind); FailureKind::COUNT] = [
+    ("pre_timeout", FailureKind::PreTimeout),
+    ("response_timeout", FailureKind::ResponseTimeout),
+    ("command_failed", FailureKind::CommandFailed),
+    ("command_rejected", FailureKind::CommandRejected),
+    ("maintain_violation", FailureKind::MaintainViolation),
+    ("unschedulable", FailureKind::Unschedulable),
+    ("post_condition", FailureKind::PostConditionNotMet),
+    ("interrupted", FailureKind::Interrupted),
+];
+
+fn cause_by_name(name: &str) -> Option<FailureKind> {
+    CAUSE_NAMES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map(|&(_, kind)| kind)
+}
+
+fn response_field_name(f: ResponseField) -> &'static str {
+    match f {
+        ResponseField::MaxRetries => "max_retries",
+        ResponseField::MaxRepairs => "max_repairs",
+        ResponseField::Backoff => "retry_backoff",
+    }
+}
+
 fn field_path(kind: &str, index: usize, field: &str) -> String {
     if field.is_empty() {
         format!("{kind}[{index}]")
@@ -426,6 +493,27 @@ impl<'a> Compiler<'a> {
     fn validation_error(&self, e: ValidationError) -> TaskNetError {
         let (span, field) = match e.site {
             ErrorSite::Network => (self.sites.network.clone(), "network".to_string()),
+            ErrorSite::NetworkResponses(f) => {
+                let key = response_field_name(f);
+                (
+                    self.sites
+                        .network_fields
+                        .get(key)
+                        .cloned()
+                        .unwrap_or(self.sites.network.clone()),
+                    format!("network.{key}"),
+                )
+            }
+            ErrorSite::TimelineAfterReset(i) => (
+                self.sites
+                    .timeline_after_reset
+                    .get(usize::from(i))
+                    .cloned()
+                    .flatten()
+                    .or_else(|| self.sites.timelines.get(usize::from(i)).cloned())
+                    .unwrap_or(0..0),
+                format!("timeline[{i}].after_reset"),
+            ),
             ErrorSite::Timeline(i) => (
                 self.sites
                     .timelines
@@ -463,6 +551,7 @@ impl<'a> Compiler<'a> {
                     TaskField::Control => "control".into(),
                     TaskField::Contingency(k) => format!("contingencies[{k}]"),
                     TaskField::Permission(k) => format!("may_add[{k}]"),
+                    TaskField::Responses(f) => response_field_name(f).into(),
                 };
                 let sites = self.sites.tasks.get(usize::from(task));
                 let span = sites
@@ -491,6 +580,80 @@ impl<'a> Compiler<'a> {
         field: &str,
     ) -> Result<i64, TaskNetError> {
         time::parse_offset(&v.as_time_text()).map_err(|m| self.error(span, field, m))
+    }
+
+    /// A response bound: a number sets every cause in `applicable`, a table the causes it
+    /// names (`any` first) on top of `base`.
+    fn bound(
+        &self,
+        v: &Spanned<RawBound>,
+        base: PerCause,
+        applicable: u8,
+        field: &str,
+    ) -> Result<PerCause, TaskNetError> {
+        let count = |n: i64| {
+            u8::try_from(n).map_err(|_| {
+                self.error(
+                    v.span(),
+                    field,
+                    format!(
+                        "{n} is not a bound (a count from 0 to {})",
+                        autonomy::MAX_RESPONSE_BOUND
+                    ),
+                )
+            })
+        };
+        match v.get_ref() {
+            RawBound::All(n) => Ok(PerCause::uniform(count(*n)?, applicable)),
+            RawBound::PerCause(causes) => {
+                let mut out = base;
+                if let Some(&n) = causes.get("any") {
+                    let n = count(n)?;
+                    for kind in FailureKind::ALL {
+                        if applicable & kind.bit() != 0 {
+                            out.set(kind, n);
+                        }
+                    }
+                }
+                for (name, &n) in causes.iter().filter(|(name, _)| *name != "any") {
+                    let kind = cause_by_name(name).ok_or_else(|| {
+                        let names: Vec<&str> = CAUSE_NAMES.iter().map(|(n, _)| *n).collect();
+                        self.error(
+                            v.span(),
+                            field,
+                            format!("unknown failure cause `{name}` (any, {})", names.join(", ")),
+                        )
+                    })?;
+                    out.set(kind, count(n)?);
+                }
+                Ok(out)
+            }
+        }
+    }
+
+    /// `retry_backoff` and `retry_backoff_max` over `base`; None when neither is given.
+    fn backoff(
+        &self,
+        initial: &Option<Spanned<RawNumOrText>>,
+        max: &Option<Spanned<RawNumOrText>>,
+        base: Backoff,
+        path: &dyn Fn(&str) -> String,
+    ) -> Result<Option<Backoff>, TaskNetError> {
+        if initial.is_none() && max.is_none() {
+            return Ok(None);
+        }
+        let value = |v: &Option<Spanned<RawNumOrText>>, name: &str, default: u64| match v {
+            None => Ok(default),
+            Some(v) => {
+                let us = self.duration_us(v, &path(name))?;
+                u64::try_from(us)
+                    .map_err(|_| self.error(v.span(), &path(name), "must not be negative".into()))
+            }
+        };
+        Ok(Some(Backoff {
+            initial_us: value(initial, "retry_backoff", base.initial_us)?,
+            max_us: value(max, "retry_backoff_max", base.max_us)?,
+        }))
     }
 
     fn time(
@@ -558,6 +721,46 @@ impl<'a> Compiler<'a> {
             }
         }
         let mut spec = NetworkSpec::new(n.id, config);
+        let defaults = ResponsePolicy::DEFAULT;
+        let network_path = |f: &str| format!("network.{f}");
+        if let Some(b) = &n.max_retries {
+            self.sites
+                .network_fields
+                .insert("max_retries".into(), b.span());
+            spec.header.responses.max_retries = self.bound(
+                b,
+                defaults.max_retries,
+                FailureKind::RETRYABLE,
+                "network.max_retries",
+            )?;
+        }
+        if let Some(b) = &n.max_repairs {
+            self.sites
+                .network_fields
+                .insert("max_repairs".into(), b.span());
+            spec.header.responses.max_repairs = self.bound(
+                b,
+                defaults.max_repairs,
+                FailureKind::REPAIRABLE,
+                "network.max_repairs",
+            )?;
+        }
+        if let Some(backoff) = self.backoff(
+            &n.retry_backoff,
+            &n.retry_backoff_max,
+            defaults.backoff,
+            &network_path,
+        )? {
+            let span = n
+                .retry_backoff
+                .as_ref()
+                .or(n.retry_backoff_max.as_ref())
+                .map_or(self.sites.network.clone(), |v| v.span());
+            self.sites
+                .network_fields
+                .insert("retry_backoff".into(), span);
+            spec.header.responses.backoff = backoff;
+        }
 
         // Timelines and their value names.
         let mut value_names: Vec<Vec<String>> = Vec::new();
@@ -611,15 +814,33 @@ impl<'a> Compiler<'a> {
                     ))
                 }
             };
+            let after_reset = match (&t.after_reset, kind) {
+                (None, _) => None,
+                (Some(v), TimelineKind::State { .. }) => Some(i64::from(self.state_value(
+                    t.values.as_deref().unwrap_or(&[]),
+                    v.get_ref(),
+                    v.span(),
+                    &path("after_reset"),
+                )?)),
+                // Refused by the validator (only state timelines revert), with its code.
+                (Some(v), _) => Some(match v.get_ref() {
+                    RawNumOrText::Int(i) => *i,
+                    RawNumOrText::Text(_) => 0,
+                }),
+            };
             let timeline = TimelineSpec {
                 name: self.name(&t.name, &path("name"))?,
                 kind,
                 state_key: t.state_key.map(StateKey),
+                after_reset,
             };
             if spec.timelines.push(timeline).is_err() {
                 return Err(self.capacity(span, &path(""), "timelines", autonomy::MAX_TIMELINES));
             }
             self.sites.timelines.push(span);
+            self.sites
+                .timeline_after_reset
+                .push(t.after_reset.as_ref().map(|v| v.span()));
             value_names.push(t.values.clone().unwrap_or_default());
             symbols.timelines.push(TimelineSymbol {
                 name: t.name.get_ref().clone(),
@@ -697,10 +918,12 @@ impl<'a> Compiler<'a> {
         };
         for (i, t) in raw.task.iter().enumerate() {
             let span = t.span();
+            let responses = spec.header.responses;
             let task = self.task(
                 i,
                 t.get_ref(),
                 span.clone(),
+                &responses,
                 epoch,
                 &timeline_index,
                 &value_names,
@@ -884,6 +1107,7 @@ impl<'a> Compiler<'a> {
         i: usize,
         t: &RawTask,
         span: Range<usize>,
+        responses: &ResponsePolicy,
         epoch: Epoch,
         timeline_index: &dyn Fn(&str) -> Option<usize>,
         value_names: &[Vec<String>],
@@ -997,15 +1221,7 @@ impl<'a> Compiler<'a> {
             latest_end,
             constraints: Default::default(),
             impacts: Default::default(),
-            control: ControlSpec {
-                start_condition: None,
-                maintain_condition: None,
-                skip_condition: None,
-                pre_wait_timeout_us: 0,
-                response_timeout_us: 0,
-                max_retries: t.max_retries,
-                on_failure_command: None,
-            },
+            control: ControlSpec::NONE,
             contingencies: Default::default(),
             permissions: Permissions {
                 may_move: t.may_move,
@@ -1135,6 +1351,33 @@ impl<'a> Compiler<'a> {
         };
         spec.control.pre_wait_timeout_us = timeout(&t.pre_wait_timeout, "pre_wait_timeout")?;
         spec.control.response_timeout_us = timeout(&t.response_timeout, "response_timeout")?;
+        if let Some(b) = &t.max_retries {
+            sites.insert("max_retries".into(), b.span());
+            spec.control.max_retries = Some(self.bound(
+                b,
+                responses.max_retries,
+                FailureKind::RETRYABLE,
+                &path("max_retries"),
+            )?);
+        }
+        if let Some(b) = &t.max_repairs {
+            sites.insert("max_repairs".into(), b.span());
+            spec.control.max_repairs = Some(self.bound(
+                b,
+                responses.max_repairs,
+                FailureKind::REPAIRABLE,
+                &path("max_repairs"),
+            )?);
+        }
+        spec.control.backoff = self.backoff(
+            &t.retry_backoff,
+            &t.retry_backoff_max,
+            responses.backoff,
+            &path,
+        )?;
+        if let Some(v) = t.retry_backoff.as_ref().or(t.retry_backoff_max.as_ref()) {
+            sites.insert("retry_backoff".into(), v.span());
+        }
         let condition =
             |c: &Option<Spanned<String>>, f: &str| -> Result<Option<u8>, TaskNetError> {
                 match c {
@@ -1169,15 +1412,10 @@ impl<'a> Compiler<'a> {
             };
             let mut on = 0u8;
             for kind in &kinds {
-                on |= match kind.as_str() {
-                    "any" => FailureKind::ANY,
-                    "pre_timeout" => FailureKind::PreTimeout.bit(),
-                    "response_timeout" => FailureKind::ResponseTimeout.bit(),
-                    "command_failed" => FailureKind::CommandFailed.bit(),
-                    "command_rejected" => FailureKind::CommandRejected.bit(),
-                    "maintain_violation" => FailureKind::MaintainViolation.bit(),
-                    "unschedulable" => FailureKind::Unschedulable.bit(),
-                    other => {
+                on |= match (kind.as_str(), cause_by_name(kind)) {
+                    ("any", _) => FailureKind::ANY,
+                    (_, Some(cause)) => cause.bit(),
+                    (other, None) => {
                         return Err(self.error(
                             s,
                             &path(&f),
@@ -1344,6 +1582,21 @@ fn describe(e: ValidationError) -> &'static str {
         MalformedCondition => "malformed condition",
         ConditionTooDeep => "condition nested too deep",
         EmptyCondition => "empty condition",
+        BadResponseBound => "a response bound is at most 15 per cause",
+        BoundNotApplicable => {
+            "a bound for a cause it cannot apply to (retries: response_timeout, command_failed, \
+             command_rejected, post_condition, and only on a task with a command; repairs: any \
+             cause but unschedulable)"
+        }
+        BadBackoff => {
+            "retry_backoff must not exceed retry_backoff_max (at most 30 days), and is zero \
+             only when the cap is zero"
+        }
+        RevertMeasuredTimeline => {
+            "after_reset is for timelines without a state_key (the state buffer says what a \
+             measured one is after a reset)"
+        }
+        RevertNotState => "only state timelines take an after_reset value",
     }
 }
 
@@ -1527,5 +1780,167 @@ mod tests {
         let src = format!("{HEAD}\n[[condition]]\nname = \"c\"\nexpr = {deep}\n");
         let e = error_of(&src);
         assert_eq!((e.code, e.line()), (Some(61), 12), "{e}");
+    }
+    /// Compiles `src` and returns the error, checking it names `field` at `line` with `code`.
+    fn refused(src: &str, line: usize, field: &str, code: Option<u16>) -> TaskNetError {
+        let e = error_of(src);
+        assert_eq!(
+            (e.line(), e.field.as_str(), e.code),
+            (line, field, code),
+            "{e}"
+        );
+        assert!(e.to_string().starts_with(&format!("t.toml:{line}:")), "{e}");
+        e
+    }
+
+    const TASK: &str = "\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\ncommand = { opcode = 1 }\nresponse_timeout = \"1m\"\n";
+
+    #[test]
+    fn response_bounds_compile_network_wide_and_per_task() {
+        let src = format!(
+            "[network]\nid = 1\nmax_retries = 1\nmax_repairs = {{ any = 3, command_rejected = 0 }}\nretry_backoff = \"5s\"\nretry_backoff_max = \"1m\"\n{TASK}max_retries = {{ command_failed = 2 }}\nmax_repairs = 4\nretry_backoff = \"30s\"\ncontingencies = [ {{ on = [\"interrupted\", \"post_condition\"], action = \"restart\" }} ]\n"
+        );
+        let net = compile_str(&src, "t.toml").unwrap_or_else(|e| panic!("{e}"));
+        let (network, bytes) = (net.network, net.uplink);
+        assert!(TaskNetwork::validate_uplink(&bytes).is_ok());
+        let r = network.responses();
+        assert_eq!(r.max_retries, PerCause::uniform(1, FailureKind::RETRYABLE));
+        let mut repairs = PerCause::uniform(3, FailureKind::REPAIRABLE);
+        repairs.set(FailureKind::CommandRejected, 0);
+        assert_eq!(r.max_repairs, repairs);
+        assert_eq!(
+            r.backoff,
+            Backoff {
+                initial_us: 5_000_000,
+                max_us: 60_000_000
+            }
+        );
+        let control = &network.tasks()[0].control;
+        // A table sets the causes it names on top of the network's values.
+        let mut retries = PerCause::uniform(1, FailureKind::RETRYABLE);
+        retries.set(FailureKind::CommandFailed, 2);
+        assert_eq!(control.max_retries, Some(retries));
+        assert_eq!(
+            control.max_repairs,
+            Some(PerCause::uniform(4, FailureKind::REPAIRABLE))
+        );
+        // The cap not given is the network's.
+        assert_eq!(
+            control.backoff,
+            Some(Backoff {
+                initial_us: 30_000_000,
+                max_us: 60_000_000
+            })
+        );
+        assert_eq!(
+            network.tasks()[0].contingencies[0].on,
+            FailureKind::Interrupted.bit() | FailureKind::PostConditionNotMet.bit()
+        );
+        // Absent everywhere: the built-in defaults.
+        let plain = compile_str(&format!("[network]\nid = 1\n{TASK}"), "t.toml")
+            .unwrap()
+            .network;
+        assert_eq!(plain.responses(), &ResponsePolicy::DEFAULT);
+        assert_eq!(plain.tasks()[0].control.max_retries, None);
+        assert_eq!(plain.tasks()[0].control.backoff, None);
+    }
+
+    #[test]
+    fn bad_response_bounds_are_reported_at_their_field_with_the_target_code() {
+        // Line numbers: HEAD is 8 lines, TASK starts with a blank line 9, [[task]] on 10,
+        // response_timeout on 15; the field under test is on line 16.
+        refused(
+            &format!("{HEAD}{TASK}max_repairs = 16\n"),
+            16,
+            "task[0].max_repairs",
+            Some(70),
+        );
+        refused(
+            &format!("{HEAD}{TASK}max_retries = {{ maintain_violation = 1 }}\n"),
+            16,
+            "task[0].max_retries",
+            Some(71),
+        );
+        refused(
+            &format!(
+                "{HEAD}\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\nmax_retries = 1\n"
+            ),
+            14,
+            "task[0].max_retries",
+            Some(71),
+        );
+        refused(
+            &format!("{HEAD}{TASK}retry_backoff = \"1m\"\nretry_backoff_max = \"10s\"\n"),
+            16,
+            "task[0].retry_backoff",
+            Some(72),
+        );
+        refused(
+            "[network]\nid = 1\nretry_backoff = \"0s\"\n",
+            3,
+            "network.retry_backoff",
+            Some(72),
+        );
+        refused(
+            "[network]\nid = 1\nmax_retries = { unschedulable = 2 }\n",
+            3,
+            "network.max_retries",
+            Some(71),
+        );
+        // Mistakes the compiler catches itself (no target code), also at the field.
+        let e = refused(
+            &format!("{HEAD}{TASK}max_repairs = {{ rejected = 1 }}\n"),
+            16,
+            "task[0].max_repairs",
+            None,
+        );
+        assert!(
+            e.message.contains("unknown failure cause `rejected`"),
+            "{e}"
+        );
+        assert!(e.message.contains("command_rejected"), "{e}");
+        let e = refused(
+            &format!("{HEAD}{TASK}max_repairs = -1\n"),
+            16,
+            "task[0].max_repairs",
+            None,
+        );
+        assert!(e.message.contains("not a bound"), "{e}");
+    }
+
+    #[test]
+    fn after_reset_compiles_and_is_checked() {
+        let heater =
+            "\n[[timeline]]\nname = \"Heater\"\nkind = \"state\"\nvalues = [\"OFF\", \"ON\"]\n";
+        let network = compile_str(&format!("{HEAD}{heater}after_reset = \"OFF\"\n"), "t.toml")
+            .unwrap_or_else(|e| panic!("{e}"))
+            .network;
+        assert_eq!(network.timelines()[1].after_reset, Some(0));
+        assert_eq!(network.timelines()[0].after_reset, None);
+        // On a measured timeline (73), at the value.
+        let e = refused(
+            &HEAD.replace("state_key = 1\n", "state_key = 1\nafter_reset = \"A\"\n"),
+            9,
+            "timeline[0].after_reset",
+            Some(73),
+        );
+        assert_eq!(e.column(), 15, "{e}");
+        // On a claimable timeline (74).
+        refused(
+            &format!(
+                "{HEAD}\n[[timeline]]\nname = \"Slew\"\nkind = \"claimable\"\nafter_reset = 0\n"
+            ),
+            13,
+            "timeline[1].after_reset",
+            Some(74),
+        );
+        // A value the timeline does not have.
+        let e = refused(
+            &format!("{HEAD}{heater}after_reset = \"WARM\"\n"),
+            14,
+            "timeline[1].after_reset",
+            None,
+        );
+        assert!(e.message.contains("[\"OFF\", \"ON\"]"), "{e}");
     }
 }

@@ -101,8 +101,11 @@ pub struct Autonomy {
     loaded: bool,
     /// Emit a `Restored` plan modification at the next step.
     restored: Option<u32>,
-    /// Counts state updates whose value does not fit the timeline's kind.
+    /// Counts state updates whose value does not fit the timeline's kind
+    /// ([`TimelineSpec::measured_value_type`]); each is taken as unknown.
     pub state_type_mismatches: u32,
+    /// The state key of the last such update.
+    pub last_state_type_mismatch: Option<StateKey>,
 }
 
 impl Default for Autonomy {
@@ -123,6 +126,7 @@ impl Autonomy {
             loaded: false,
             restored: None,
             state_type_mismatches: 0,
+            last_state_type_mismatch: None,
         }
     }
 
@@ -197,22 +201,14 @@ impl Autonomy {
         let Some(spec) = self.network.timeline(timeline) else {
             return VALUE_UNKNOWN;
         };
-        let fits = match (spec.kind, value) {
-            (_, StateValue::Unknown) => true,
-            (TimelineKind::State { value_count, .. }, StateValue::Enum(v)) => {
-                v < u16::from(value_count)
-            }
-            (TimelineKind::State { value_count, .. }, StateValue::Bool(_)) => value_count >= 2,
-            (
-                TimelineKind::Cumulative { .. } | TimelineKind::Claimable,
-                StateValue::Int(_) | StateValue::Bool(_),
-            ) => true,
-            _ => false,
-        };
+        let fits = spec
+            .measured_value_type()
+            .is_none_or(|expected| expected.accepts(value));
         if fits {
             state_value_to_i64(value)
         } else {
             self.state_type_mismatches = self.state_type_mismatches.saturating_add(1);
+            self.last_state_type_mismatch = spec.state_key;
             VALUE_UNKNOWN
         }
     }
@@ -263,6 +259,13 @@ impl Autonomy {
                 template: seq as u16,
                 at: now,
             });
+            // Unmeasured timelines declared to revert after a reset (a heater is off) take
+            // that value now, as if measured at the restart.
+            for (t, timeline) in self.network.timelines().iter().enumerate() {
+                if let (Some(value), Ok(t)) = (timeline.after_reset, u8::try_from(t)) {
+                    self.planner.on_measurement(t, value, now);
+                }
+            }
         }
         if !self.loaded {
             let cost = StepCost {
@@ -286,7 +289,7 @@ impl Autonomy {
             network,
             now,
             budget.planner_checks,
-            &mut |c| executive.has_room() && executive.accept(network, c),
+            &mut |c| executive.has_room() && executive.accept(c),
             out,
         );
         let t2 = clock();
@@ -340,6 +343,7 @@ impl Autonomy {
             loaded: self.loaded,
             now: self.now,
             state_type_mismatches: self.state_type_mismatches,
+            last_state_type_mismatch: self.last_state_type_mismatch,
         };
         len += postcard::to_slice(&meta, buf.get_mut(len..)?).ok()?.len();
         // Network length prefix, then the network in uplink format.
@@ -363,8 +367,12 @@ impl Autonomy {
 
     /// Restores the state saved by the newest whole record in `area`. On success the next
     /// [`Autonomy::step`] (after the current state buffer has been published with
-    /// `on_state_update`) checks every task against the present state, aborts what no longer
-    /// holds, applies contingencies and repairs the plan. On error `self` is a cold, empty core.
+    /// `on_state_update`) sets the unmeasured timelines that declare an `after_reset` value to
+    /// it, ends every commanded task that was running at the checkpoint (aborted if a MAINTAIN
+    /// constraint no longer holds, else [`crate::FailureKind::Interrupted`]: never completed),
+    /// checks the other tasks against the present state, applies contingencies and repairs the
+    /// plan. Retry counts, back-offs and failure counts come back with the rest. On error
+    /// `self` is a cold, empty core.
     pub fn restore_from(
         &mut self,
         area: &WarmRestartArea<'_>,
@@ -414,13 +422,15 @@ impl Autonomy {
                 .entries()
                 .iter()
                 .all(|e| usize::from(e.def) < defs)
-            && self.planner.anchors().len() == self.network.timelines().len();
+            && self.planner.anchors().len() == self.network.timelines().len()
+            && self.planner.ledger().len() == self.network.tasks().len();
         if !plan_ok {
             return None;
         }
         self.loaded = meta.loaded;
         self.now = meta.now;
         self.state_type_mismatches = meta.state_type_mismatches;
+        self.last_state_type_mismatch = meta.last_state_type_mismatch;
         Some(())
     }
 }
@@ -430,4 +440,5 @@ struct ImageMeta {
     loaded: bool,
     now: MissionTimeUs,
     state_type_mismatches: u32,
+    last_state_type_mismatch: Option<StateKey>,
 }

@@ -55,5 +55,8 @@ pub const MAX_DURATION_US: u64 = 30 * 86_400 * 1_000_000;
 pub const MAX_OFFSET_US: i64 = 86_400 * 1_000_000;
 /// Largest magnitude of a cumulative value, change or rate (keeps `i64` sums exact).
 pub const MAX_MAGNITUDE: i64 = 1 << 48;
+/// Largest `max_retries` or `max_repairs` bound for one cause: what bounds are for is keeping
+/// the commands a misbehaving subsystem can draw small.
+pub const MAX_RESPONSE_BOUND: u8 = 15;
 /// Task ids at or above this are given by the planner to added and restarted instances.
 pub const FIRST_INSTANCE_ID: u16 = 0x8000;

@@ -72,13 +72,16 @@ impl StateTable {
     }
 }
 
-/// Value a measured timeline has "now" according to the state table: the reported value, or the
+/// Value a measured timeline has "now" according to the state table: the reported value
+/// ([`VALUE_UNKNOWN`] when it is not of the timeline's type, as the planner takes it), or the
 /// timeline's initial value if its key was never reported.
 pub fn measured_value(network: &TaskNetwork, timeline: u8, states: &StateTable) -> Option<i64> {
     let spec = network.timeline(timeline)?;
     let key = spec.state_key?;
+    let expected = spec.measured_value_type()?;
     Some(match states.get(key) {
-        Some(e) => state_value_to_i64(e.value),
+        Some(e) if expected.accepts(e.value) => state_value_to_i64(e.value),
+        Some(_) => VALUE_UNKNOWN,
         None => match spec.kind {
             TimelineKind::State { initial, .. } => i64::from(initial),
             TimelineKind::Claimable => 0,

@@ -1,10 +1,17 @@
 //! The executive (seed 000 IV.A.4, seed 003 "controller"): one state machine per committed task.
 //! Wait for the start time, then for the PRE constraints and the start condition (up to the
 //! wait timeout: flexible execution's task push), dispatch the command, await its response (up
-//! to the response timeout, with automatic retries where the task allows), monitor MAINTAIN
-//! constraints and the maintain condition, complete after the duration. A violated MAINTAIN
+//! to the response timeout), monitor MAINTAIN constraints and the maintain condition, complete
+//! after the duration once the POST assignments on measured timelines hold. A violated MAINTAIN
 //! constraint aborts the task cleanly. Every transition is reported as telemetry and, as a
 //! [`TaskReport`], to the planner.
+//!
+//! Automatic retries (seed 000 III.B) are bounded per instance and per cause (the task's
+//! `max_retries`): a command rejected, failed, unanswered or completed with the wrong state is
+//! dispatched again, the first time at once and then after a back-off that doubles in mission
+//! time; past the bound the task fails with that cause. A commanded task that was running when
+//! the last checkpoint was taken is never continued after a restore: the reset cut it short
+//! ([`FailureKind::Interrupted`], or the MAINTAIN abort if a constraint no longer holds).
 //!
 //! The executive sees the spacecraft only through the state buffer ([`StateTable`]): constraints
 //! on internal timelines (requests, claims) are the planner's business.
@@ -34,7 +41,14 @@ pub struct ExecEntry {
     pub end_at: MissionTimeUs,
     pub command_id: u32,
     pub dispatched_at: MissionTimeUs,
-    pub retries_left: u8,
+    /// Retries granted to this instance, per cause (the one waiting for its back-off
+    /// included).
+    pub retries: PerCause,
+    /// A retry (state WaitingPre after a failed attempt) waits until this time.
+    pub retry_at: MissionTimeUs,
+    /// Restored from a checkpoint in which its command was dispatched (Dispatched or Running):
+    /// a reset came in between, so the next step ends it.
+    pub interrupted: bool,
 }
 
 /// Counters for reports.
@@ -85,11 +99,7 @@ impl Executive {
     }
 
     /// Takes ownership of a committed task. Returns false (and counts it) when full.
-    pub fn accept(&mut self, network: &TaskNetwork, commit: Commit) -> bool {
-        let retries = network
-            .task(commit.def)
-            .map(|t| t.control.max_retries)
-            .unwrap_or(0);
+    pub fn accept(&mut self, commit: Commit) -> bool {
         let entry = ExecEntry {
             instance: commit.instance,
             def: commit.def,
@@ -100,7 +110,9 @@ impl Executive {
             end_at: commit.end,
             command_id: 0,
             dispatched_at: MissionTimeUs::ZERO,
-            retries_left: retries,
+            retries: PerCause::ZERO,
+            retry_at: MissionTimeUs::ZERO,
+            interrupted: false,
         };
         if self.entries.push(entry).is_err() {
             self.stats.dropped_commits = self.stats.dropped_commits.saturating_add(1);
@@ -116,11 +128,19 @@ impl Executive {
         }
     }
 
+    /// After a restore: skip command ids (see [`RESTORE_COMMAND_ID_GAP`]) and mark every task
+    /// whose command was out when the checkpoint was taken as interrupted. No-op tasks (no
+    /// command, nothing running on a subsystem) carry on.
     pub(crate) fn after_restore(&mut self) {
         self.next_command_id = self
             .next_command_id
             .wrapping_add(RESTORE_COMMAND_ID_GAP)
             .max(1);
+        for e in &mut self.entries {
+            if matches!(e.state, TaskState::Dispatched | TaskState::Running) && e.command_id != 0 {
+                e.interrupted = true;
+            }
+        }
     }
 
     /// Whether responses are waiting to be processed.
@@ -145,10 +165,10 @@ impl Executive {
             };
             match e.state {
                 TaskState::Committed => consider(e.planned_start),
-                TaskState::WaitingPre => consider(
-                    e.planned_start
-                        .saturating_add(spec.control.pre_wait_timeout_us),
-                ),
+                TaskState::WaitingPre => {
+                    consider(e.retry_at);
+                    consider(wait_from(e).saturating_add(spec.control.pre_wait_timeout_us));
+                }
                 TaskState::Dispatched | TaskState::Running => {
                     if e.state == TaskState::Dispatched {
                         consider(
@@ -181,14 +201,13 @@ impl Executive {
         out: &mut impl Outputs,
         report: &mut impl FnMut(TaskReport),
     ) {
-        // Responses, in arrival order.
+        // Responses, in arrival order. One to a command sent before a reset does not count:
+        // the task it was for is interrupted.
         let responses = core::mem::take(&mut self.responses);
         for &(id, status) in &responses {
-            let Some(i) = self
-                .entries
-                .iter()
-                .position(|e| e.command_id == id && e.state == TaskState::Dispatched)
-            else {
+            let Some(i) = self.entries.iter().position(|e| {
+                e.command_id == id && e.state == TaskState::Dispatched && !e.interrupted
+            }) else {
                 self.stats.unmatched_responses = self.stats.unmatched_responses.saturating_add(1);
                 continue;
             };
@@ -263,7 +282,7 @@ impl Executive {
         };
         match e.state {
             TaskState::Committed | TaskState::WaitingPre => {
-                if now < e.planned_start {
+                if now < e.planned_start || now < e.retry_at {
                     return;
                 }
                 if e.state == TaskState::Committed {
@@ -284,17 +303,48 @@ impl Executive {
                 }
                 if pre_conditions_hold(network, spec, states) {
                     self.start(network, i, now, out, report);
-                } else if now
-                    >= e.planned_start
-                        .saturating_add(spec.control.pre_wait_timeout_us)
-                {
-                    self.fail(network, i, FailureKind::PreTimeout, false, now, out, report);
+                } else if now >= wait_from(&e).saturating_add(spec.control.pre_wait_timeout_us) {
+                    // A retry that times out waiting had started (its first attempt did).
+                    let started = e.command_id != 0;
+                    self.fail(
+                        network,
+                        i,
+                        FailureKind::PreTimeout,
+                        started,
+                        now,
+                        out,
+                        report,
+                    );
                 } else if e.state == TaskState::Committed {
                     self.transition(i, TaskState::WaitingPre, now, out);
                 }
             }
             TaskState::Dispatched | TaskState::Running => {
+                if e.interrupted {
+                    // Restored with its command out: the reset cut it short. A MAINTAIN
+                    // constraint that no longer holds is the clean abort of seed 003; otherwise
+                    // it is reported interrupted, never completed.
+                    let kind = if maintain_conditions_hold(network, spec, states, &e, now) {
+                        FailureKind::Interrupted
+                    } else {
+                        FailureKind::MaintainViolation
+                    };
+                    self.fail(network, i, kind, true, now, out, report);
+                    return;
+                }
                 if e.state == TaskState::Running && now >= e.end_at {
+                    if spec.command.is_some() && !post_conditions_hold(network, spec, states) {
+                        self.command_failed(
+                            network,
+                            states,
+                            i,
+                            FailureKind::PostConditionNotMet,
+                            now,
+                            out,
+                            report,
+                        );
+                        return;
+                    }
                     self.transition(i, TaskState::Completed, now, out);
                     report(TaskReport {
                         instance: e.instance,
@@ -382,6 +432,8 @@ impl Executive {
         }
     }
 
+    /// An attempt went wrong with `kind`: retry (after the back-off) while the task's bound for
+    /// `kind` allows, else fail the task with `kind`.
     #[allow(clippy::too_many_arguments)]
     fn command_failed(
         &mut self,
@@ -396,15 +448,23 @@ impl Executive {
         let Some(e) = self.entry(i) else {
             return;
         };
-        if e.retries_left > 0 {
-            if let Some(x) = self.entries.get_mut(i) {
-                x.retries_left -= 1;
-            }
+        let retryable = FailureKind::RETRYABLE & kind.bit() != 0;
+        let bound = network.max_retries(e.def).get(kind);
+        if retryable && e.retries.get(kind) < bound {
+            let delay = {
+                let Some(x) = self.entries.get_mut(i) else {
+                    return;
+                };
+                x.retries.bump(kind);
+                let delay = network.backoff(e.def).delay_us(x.retries.total());
+                x.retry_at = now.saturating_add(delay);
+                delay
+            };
             self.transition(i, TaskState::WaitingPre, now, out);
             let pre_ok = network
                 .task(e.def)
                 .is_some_and(|spec| pre_conditions_hold(network, spec, states));
-            if pre_ok {
+            if delay == 0 && pre_ok {
                 self.start(network, i, now, out, report);
             }
             return;
@@ -441,6 +501,26 @@ impl Executive {
             at: now,
         });
     }
+}
+
+/// When a task in WaitingPre started waiting: its planned start, or the end of the back-off of
+/// the retry it waits to make. The wait timeout counts from there.
+fn wait_from(e: &ExecEntry) -> MissionTimeUs {
+    e.planned_start.max(e.retry_at)
+}
+
+/// Whether every POST assignment of `spec` on a measured timeline holds in the state buffer:
+/// the state the command was to bring about is there.
+fn post_conditions_hold(network: &TaskNetwork, spec: &TaskSpec, states: &StateTable) -> bool {
+    spec.impacts
+        .iter()
+        .filter(|i| i.when == ImpactWhen::Post)
+        .all(
+            |i| match (i.effect, measured_value(network, i.timeline, states)) {
+                (Effect::Assign(v), Some(measured)) => measured == v,
+                _ => true, // not an assignment, or an internal timeline: the planner's business
+            },
+        )
 }
 
 /// PRE constraints on measured timelines, and the start condition.

@@ -10,6 +10,11 @@
 //! order. Uplinks arrive as bytes ([`TaskNetwork::validate_uplink`], [`Autonomy::load_uplink`]);
 //! everything the core decides leaves through the [`Outputs`] trait as command dispatches and
 //! [`TelemetryEvent`]s whose codes are defined in [`telemetry`].
+//!
+//! Responses to failures are bounded ([`ResponsePolicy`]): retries per instance and cause,
+//! repairs per task definition and cause, backed off in mission time, so a misbehaving
+//! subsystem draws at most [`TaskNetwork::max_dispatches_per_run`] commands per task between
+//! two completions of it.
 #![no_std]
 #![forbid(unsafe_code)]
 #![deny(

@@ -1,6 +1,8 @@
 //! The task network model (seed 000 IV.A.1, seed 003 "Constraints and Impacts"): timelines,
 //! tasks with constraints, impacts, control conditions, timeouts, contingencies and
-//! permissions, templates, and temporal constraints between tasks.
+//! permissions, templates, temporal constraints between tasks, and the bounds on how often the
+//! core answers a task's failures ([`ResponsePolicy`]: executive retries and planner repairs
+//! per cause, backed off in mission time).
 //!
 //! [`NetworkSpec`] is the plain, unchecked form (what the ground builds and the uplink carries).
 //! [`TaskNetwork`] is the validated form: it can only be made by [`TaskNetwork::from_spec`] or
@@ -10,7 +12,8 @@ use heapless::{String, Vec};
 use serde::{Deserialize, Serialize};
 
 use crate::capacity::*;
-use fsw_bridge::{CommandArgs, MissionTimeUs, Opcode, StateKey};
+use crate::telemetry::FailureKind;
+use fsw_bridge::{CommandArgs, MissionTimeUs, Opcode, StateKey, StateValue};
 
 /// A short name (task, timeline) kept for reports and for the ground tools.
 pub type Name = String<MAX_NAME_LEN>;
@@ -19,8 +22,10 @@ pub type Name = String<MAX_NAME_LEN>;
 /// No requirement is satisfied by it.
 pub const VALUE_UNKNOWN: i64 = i64::MIN;
 
-/// Version of the binary task-network format; the decoder refuses any other.
-pub const UPLINK_FORMAT_VERSION: u16 = 1;
+/// Version of the binary task-network format; the decoder refuses any other. Version 2 added
+/// the response bounds ([`ResponsePolicy`], [`ControlSpec::max_retries`] and the fields after
+/// it) and [`TimelineSpec::after_reset`].
+pub const UPLINK_FORMAT_VERSION: u16 = 2;
 
 /// The windows of the planner cycle (seed 000 IV.A.3), all durations in µs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -46,6 +51,158 @@ impl PlannerConfig {
     };
 }
 
+/// One small count or bound per failure cause, indexed by [`FailureKind`] code.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PerCause(pub [u8; FailureKind::COUNT]);
+
+impl PerCause {
+    pub const ZERO: Self = Self([0; FailureKind::COUNT]);
+
+    /// `value` for every cause in `causes` (a mask of [`FailureKind::bit`]s), 0 for the others.
+    pub const fn uniform(value: u8, causes: u8) -> Self {
+        const fn pick(value: u8, causes: u8, code: u8) -> u8 {
+            if causes & (1 << code) != 0 {
+                value
+            } else {
+                0
+            }
+        }
+        Self([
+            pick(value, causes, 0),
+            pick(value, causes, 1),
+            pick(value, causes, 2),
+            pick(value, causes, 3),
+            pick(value, causes, 4),
+            pick(value, causes, 5),
+            pick(value, causes, 6),
+            pick(value, causes, 7),
+        ])
+    }
+
+    pub fn get(&self, cause: FailureKind) -> u8 {
+        self.0.get(cause as usize).copied().unwrap_or(0)
+    }
+
+    pub fn set(&mut self, cause: FailureKind, value: u8) {
+        if let Some(slot) = self.0.get_mut(cause as usize) {
+            *slot = value;
+        }
+    }
+
+    /// Adds one to the count of `cause` (saturating) and returns the new count.
+    pub fn bump(&mut self, cause: FailureKind) -> u8 {
+        let next = self.get(cause).saturating_add(1);
+        self.set(cause, next);
+        next
+    }
+
+    /// The sum over all causes.
+    pub fn total(&self) -> u32 {
+        self.total_over(FailureKind::ANY)
+    }
+
+    /// The sum over the causes in `causes` (a mask of [`FailureKind::bit`]s).
+    pub fn total_over(&self, causes: u8) -> u32 {
+        self.0
+            .iter()
+            .enumerate()
+            .filter(|(code, _)| causes & (1u8 << code) != 0)
+            .map(|(_, &v)| u32::from(v))
+            .sum()
+    }
+
+    /// The mask of causes with a non-zero value.
+    pub fn nonzero_causes(&self) -> u8 {
+        self.0
+            .iter()
+            .enumerate()
+            .filter(|(_, &v)| v != 0)
+            .fold(0, |m, (code, _)| m | (1u8 << code))
+    }
+}
+
+/// Back-off of repeated responses in mission time: the response to the first failure of a run
+/// of consecutive failures is immediate (seed 000 III.B: flexible execution retries at once),
+/// the one to the `n`-th (n >= 2) waits `initial_us * 2^(n-2)`, at most `max_us`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Backoff {
+    pub initial_us: u64,
+    pub max_us: u64,
+}
+
+impl Backoff {
+    /// How long the response to the `consecutive`-th failure in a row waits.
+    pub fn delay_us(&self, consecutive: u32) -> u64 {
+        if consecutive <= 1 {
+            return 0;
+        }
+        let doublings = consecutive - 2;
+        let delay = if doublings >= 63 {
+            u64::MAX
+        } else {
+            self.initial_us.saturating_mul(1u64 << doublings)
+        };
+        delay.min(self.max_us)
+    }
+}
+
+/// How the core answers a task's failures, network-wide (each task may override any part in
+/// its [`ControlSpec`]). Bounds count per cause, so a subsystem that keeps misbehaving the
+/// same way exhausts its bound, and responses back off, so it can never make the core run
+/// again at the same mission time without end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ResponsePolicy {
+    /// Executive re-dispatches of one task instance's command, per cause (only the causes in
+    /// [`FailureKind::RETRYABLE`]; counted per instance).
+    pub max_retries: PerCause,
+    /// Planner responses that put a new instance of a task definition in the plan (restart,
+    /// move and add-template contingencies; a template added again to enable or repair a
+    /// task), per cause of the failure answered (only [`FailureKind::REPAIRABLE`]), counted
+    /// over consecutive failures of the definition: an instance that completes clears them.
+    /// Past the bound the planner gives up on the definition ([`crate::telemetry::gave_up_code`]).
+    pub max_repairs: PerCause,
+    /// Delays between consecutive retries of one instance and between consecutive repairs
+    /// of one definition.
+    pub backoff: Backoff,
+}
+
+impl ResponsePolicy {
+    /// No automatic retries (as before bounds existed), two repairs per cause, back-off from
+    /// 10 s doubling up to 10 min.
+    pub const DEFAULT: Self = Self {
+        max_retries: PerCause::ZERO,
+        max_repairs: PerCause::uniform(2, FailureKind::REPAIRABLE),
+        backoff: Backoff {
+            initial_us: 10_000_000,
+            max_us: 600_000_000,
+        },
+    };
+}
+
+/// What type of state-buffer value a measured timeline takes. A value of another type is
+/// taken as unknown and counted as a state type mismatch (`Autonomy::state_type_mismatches`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MeasuredValueType {
+    /// `StateValue::Enum(v)` with `v < values` (a state timeline); `Bool` too when `values >= 2`
+    /// (false is value 0, true value 1).
+    Enum { values: u8 },
+    /// `StateValue::Int` or `Bool` (a cumulative or claimable timeline).
+    Int,
+}
+
+impl MeasuredValueType {
+    /// Whether `value` is of this type. `Unknown` always is.
+    pub fn accepts(&self, value: StateValue) -> bool {
+        match (*self, value) {
+            (_, StateValue::Unknown) => true,
+            (Self::Enum { values }, StateValue::Enum(v)) => v < u16::from(values),
+            (Self::Enum { values }, StateValue::Bool(_)) => values >= 2,
+            (Self::Int, StateValue::Int(_) | StateValue::Bool(_)) => true,
+            _ => false,
+        }
+    }
+}
+
 /// What kind of value a timeline holds and how impacts combine on it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum TimelineKind {
@@ -67,6 +224,24 @@ pub struct TimelineSpec {
     /// State-buffer entry that measures this timeline; `None` for internal timelines that only
     /// the planner projects (requests, claims).
     pub state_key: Option<StateKey>,
+    /// Value an unmeasured state timeline takes after a reset (a heater is off after a reset):
+    /// applied at the first step after a restore, as if measured then. `None`: a reset leaves
+    /// the timeline as projected. Only for state timelines without a state key.
+    pub after_reset: Option<i64>,
+}
+
+impl TimelineSpec {
+    /// The type of state-buffer value this timeline takes, or None when no state key
+    /// measures it. The host can check what it will publish against this before boot.
+    pub fn measured_value_type(&self) -> Option<MeasuredValueType> {
+        self.state_key?;
+        Some(match self.kind {
+            TimelineKind::State { value_count, .. } => MeasuredValueType::Enum {
+                values: value_count,
+            },
+            TimelineKind::Claimable | TimelineKind::Cumulative { .. } => MeasuredValueType::Int,
+        })
+    }
 }
 
 /// When a constraint must hold.
@@ -168,10 +343,29 @@ pub struct ControlSpec {
     pub pre_wait_timeout_us: u64,
     /// How long after dispatch the command response may take.
     pub response_timeout_us: u64,
-    /// Automatic re-dispatches after a failed or timed-out command.
-    pub max_retries: u8,
     /// Fire-and-forget command the executive sends when the task fails or is aborted.
     pub on_failure_command: Option<CommandSpec>,
+    /// This task's [`ResponsePolicy::max_retries`]; `None`: the network's.
+    pub max_retries: Option<PerCause>,
+    /// This task's [`ResponsePolicy::max_repairs`]; `None`: the network's.
+    pub max_repairs: Option<PerCause>,
+    /// This task's [`ResponsePolicy::backoff`]; `None`: the network's.
+    pub backoff: Option<Backoff>,
+}
+
+impl ControlSpec {
+    /// No conditions, no timeouts, no failure command, the network's response policy.
+    pub const NONE: Self = Self {
+        start_condition: None,
+        maintain_condition: None,
+        skip_condition: None,
+        pre_wait_timeout_us: 0,
+        response_timeout_us: 0,
+        on_failure_command: None,
+        max_retries: None,
+        max_repairs: None,
+        backoff: None,
+    };
 }
 
 /// Whether the ground asked for this task or only allows the planner to add it.
@@ -336,6 +530,8 @@ pub struct NetworkHeader {
     /// Ground-assigned identifier of this network (echoed in reports).
     pub network_id: u32,
     pub config: PlannerConfig,
+    /// Network-wide response bounds and back-off (tasks may override them).
+    pub responses: ResponsePolicy,
 }
 
 /// A task network as the ground builds it, not yet validated.
@@ -356,6 +552,7 @@ impl NetworkSpec {
                 format_version: UPLINK_FORMAT_VERSION,
                 network_id,
                 config,
+                responses: ResponsePolicy::DEFAULT,
             },
             timelines: Vec::new(),
             conditions: Vec::new(),
@@ -428,6 +625,60 @@ impl TaskNetwork {
             .iter()
             .position(|t| t.id == id)
             .and_then(|i| u8::try_from(i).ok())
+    }
+
+    /// The network-wide response policy.
+    pub fn responses(&self) -> &ResponsePolicy {
+        &self.spec.header.responses
+    }
+
+    /// The executive retry bounds of task definition `def` (its own, or the network's).
+    pub fn max_retries(&self, def: u8) -> PerCause {
+        self.task(def)
+            .and_then(|t| t.control.max_retries)
+            .unwrap_or(self.spec.header.responses.max_retries)
+    }
+
+    /// The planner repair bounds of task definition `def` (its own, or the network's).
+    pub fn max_repairs(&self, def: u8) -> PerCause {
+        self.task(def)
+            .and_then(|t| t.control.max_repairs)
+            .unwrap_or(self.spec.header.responses.max_repairs)
+    }
+
+    /// The back-off of task definition `def` (its own, or the network's).
+    pub fn backoff(&self, def: u8) -> Backoff {
+        self.task(def)
+            .and_then(|t| t.control.backoff)
+            .unwrap_or(self.spec.header.responses.backoff)
+    }
+
+    /// The most instances of definition `def` one run can have: the first and one per
+    /// permitted repair (`1 + sum of max_repairs`). A run ends when an instance of `def`
+    /// completes.
+    pub fn max_instances_per_run(&self, def: u8) -> u32 {
+        1 + self.max_repairs(def).total_over(FailureKind::REPAIRABLE)
+    }
+
+    /// The most commands one run of definition `def` can send: each instance dispatched once,
+    /// and once more per permitted retry (`max_instances_per_run * (1 + sum of
+    /// max_retries)`).
+    pub fn max_dispatches_per_run(&self, def: u8) -> u32 {
+        let retries = self.max_retries(def).total_over(FailureKind::RETRYABLE);
+        self.max_instances_per_run(def) * (1 + retries)
+    }
+
+    /// Every measured timeline: (timeline index, its state key, the value type it takes).
+    pub fn measured_timelines(
+        &self,
+    ) -> impl Iterator<Item = (u8, StateKey, MeasuredValueType)> + '_ {
+        self.spec.timelines.iter().enumerate().filter_map(|(i, t)| {
+            Some((
+                u8::try_from(i).ok()?,
+                t.state_key?,
+                t.measured_value_type()?,
+            ))
+        })
     }
 
     /// Index of the timeline measured by state-buffer entry `key`.

@@ -3,6 +3,12 @@
 //! intervals (adding permitted templates to enable them), repairs conflicts with the permitted
 //! modifiers (move, add, delete) and commits tasks in the commit window to the executive.
 //!
+//! Its responses to failures are bounded ([`FailureLedger`]): per task definition and cause it
+//! counts consecutive failures, delays each new instance it puts in the plan for them by the
+//! definition's back-off, and past the definition's `max_repairs` for a cause it gives up on
+//! that definition (reported with [`crate::telemetry::gave_up_code`]) instead of restarting,
+//! moving or re-adding it, until an instance of it completes.
+//!
 //! It is anytime: [`Planner::step`] is given a budget of validity checks; a scheduling or repair
 //! job that starts finishes, but no new job starts once the budget is spent, and the next call
 //! resumes the cycle where it stopped. Commits happen on every call, whatever the budget.
@@ -20,7 +26,7 @@ use crate::autonomy::Outputs;
 use crate::capacity::*;
 use crate::model::*;
 use crate::plan::{Origin, PlanEntry};
-use crate::telemetry::{FailureKind, PlanModificationKind, TaskState};
+use crate::telemetry::{gave_up_code, FailureKind, PlanModificationKind, TaskState};
 use crate::timeline::{
     consolidate, constraint_holds, constraint_span, shift, Anchors, Candidate, Measurement,
     PlanView, TimelineAnchor,
@@ -75,6 +81,26 @@ pub struct ValidInterval {
     pub end: MissionTimeUs,
 }
 
+/// What the planner remembers of one task definition's failures: how many in a row for each
+/// cause, which causes it gave up on, and until when its next response waits.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FailureLedger {
+    /// Consecutive failures per cause since an instance of the definition last completed
+    /// (causes in [`FailureKind::REPAIRABLE`] only).
+    pub consecutive: PerCause,
+    /// Causes (bits of [`FailureKind::bit`]) whose bound was exceeded: the planner no longer
+    /// restarts, moves or re-adds the definition.
+    pub gave_up: u8,
+    /// The back-off after the last failure: no instance put in the plan in response starts
+    /// earlier.
+    pub not_before: MissionTimeUs,
+    /// Instances of the definition in this run: those live when an instance last completed
+    /// (or the requested one), and every one the planner put in the plan since. At most
+    /// [`TaskNetwork::max_instances_per_run`], so the commands one run can send are bounded
+    /// even when instances are added faster than they fail.
+    pub instances: u8,
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 enum Phase {
     Idle,
@@ -91,6 +117,8 @@ pub struct PlannerStats {
     pub candidate_overflows: u32,
     pub dropped_reports: u32,
     pub plan_full: u32,
+    /// Responses declined because a bound was exceeded (gave-up reports).
+    pub gave_up: u32,
 }
 
 /// Result of one [`Planner::step`].
@@ -120,6 +148,8 @@ pub struct Planner {
     /// (instance, constraint) conflicts already worked on this cycle.
     tried: Vec<(u16, u8), MAX_REPAIRS_PER_CYCLE>,
     reports: Vec<TaskReport, MAX_TASK_REPORTS>,
+    /// One per task definition of the network, in network order.
+    ledger: Vec<FailureLedger, MAX_TASKS>,
     pub stats: PlannerStats,
     #[serde(skip)]
     scratch: Scratch,
@@ -156,12 +186,14 @@ impl Planner {
             passes: 0,
             tried: Vec::new(),
             reports: Vec::new(),
+            ledger: Vec::new(),
             stats: PlannerStats {
                 cycles: 0,
                 validity_checks: 0,
                 candidate_overflows: 0,
                 dropped_reports: 0,
                 plan_full: 0,
+                gave_up: 0,
             },
             scratch: Scratch {
                 candidates: Vec::new(),
@@ -174,6 +206,12 @@ impl Planner {
         *self = Self::new();
         for t in network.timelines() {
             let _ = self.anchors.push(TimelineAnchor::initial(t));
+        }
+        for t in network.tasks() {
+            let _ = self.ledger.push(FailureLedger {
+                instances: u8::from(t.role == TaskRole::Requested),
+                ..FailureLedger::default()
+            });
         }
         for (i, t) in network.tasks().iter().enumerate() {
             if t.role != TaskRole::Requested {
@@ -203,6 +241,16 @@ impl Planner {
     /// The timeline anchors (consolidated past and measurements).
     pub fn anchors(&self) -> &[TimelineAnchor] {
         &self.anchors
+    }
+
+    /// The failure ledger of every task definition, in network order.
+    pub fn ledger(&self) -> &[FailureLedger] {
+        &self.ledger
+    }
+
+    /// The failure ledger of task definition `def`.
+    pub fn ledger_of(&self, def: u8) -> Option<&FailureLedger> {
+        self.ledger.get(usize::from(def))
     }
 
     /// A view of the whole plan, for projections.
@@ -267,6 +315,12 @@ impl Planner {
                 _ => {}
             }
         }
+        // A repair held back by a back-off is tried again when the back-off ends.
+        for l in &self.ledger {
+            if l.gave_up == 0 && l.not_before > now {
+                consider(l.not_before);
+            }
+        }
         if self.entries.iter().any(|e| !e.state.is_terminal()) {
             if let Some(last) = self.last_cycle_at {
                 consider(
@@ -295,7 +349,12 @@ impl Planner {
         let periodic = self
             .last_cycle_at
             .is_none_or(|l| now >= l.saturating_add(network.config().plan_process_interval_us));
-        if self.phase == Phase::Idle && (self.dirty || periodic) {
+        let backoff_ended = self.last_cycle_at.is_some_and(|last| {
+            self.ledger
+                .iter()
+                .any(|l| l.gave_up == 0 && l.not_before > last && l.not_before <= now)
+        });
+        if self.phase == Phase::Idle && (self.dirty || periodic || backoff_ended) {
             self.phase = Phase::Consolidate;
             self.dirty = false;
             self.tried.clear();
@@ -433,6 +492,20 @@ impl Planner {
                 ReportKind::Completed => {
                     e.end = r.at;
                     e.state = TaskState::Completed;
+                    // The run of failures of this definition is over; the next run starts with
+                    // the instances still live.
+                    let def = e.def;
+                    let live = self
+                        .entries
+                        .iter()
+                        .filter(|x| x.def == def && !x.state.is_terminal())
+                        .count();
+                    if let Some(l) = self.ledger.get_mut(usize::from(def)) {
+                        *l = FailureLedger {
+                            instances: u8::try_from(live).unwrap_or(u8::MAX),
+                            ..FailureLedger::default()
+                        };
+                    }
                 }
                 ReportKind::Skipped => e.state = TaskState::Skipped,
                 ReportKind::Failed { kind, started } => {
@@ -442,7 +515,9 @@ impl Planner {
                     }
                     e.state = TaskState::Failed(kind);
                     let entry = *e;
-                    self.apply_contingency(ctx, entry, kind, out);
+                    if self.record_failure(ctx, &entry, kind, out) {
+                        self.apply_contingency(ctx, entry, kind, out);
+                    }
                 }
             }
         }
@@ -467,6 +542,74 @@ impl Planner {
                 );
                 self.apply_contingency(ctx, e, kind, out);
             }
+        }
+    }
+
+    /// Counts a failure of `failed`'s definition with cause `kind` and starts its back-off.
+    /// Returns whether the planner may still respond to it with a new instance; the first time
+    /// the consecutive failures for `kind` exceed the definition's `max_repairs`, reports that
+    /// it gives up. Failures outside [`FailureKind::REPAIRABLE`] are not counted.
+    fn record_failure(
+        &mut self,
+        ctx: &Ctx<'_>,
+        failed: &PlanEntry,
+        kind: FailureKind,
+        out: &mut impl Outputs,
+    ) -> bool {
+        if FailureKind::REPAIRABLE & kind.bit() == 0 {
+            return true;
+        }
+        let bound = ctx.network.max_repairs(failed.def).get(kind);
+        let backoff = ctx.network.backoff(failed.def);
+        let Some(l) = self.ledger.get_mut(usize::from(failed.def)) else {
+            return false;
+        };
+        let n = l.consecutive.bump(kind);
+        l.not_before = l
+            .not_before
+            .max(ctx.now.saturating_add(backoff.delay_us(u32::from(n))));
+        if n <= bound {
+            return true;
+        }
+        if l.gave_up & kind.bit() == 0 {
+            l.gave_up |= kind.bit();
+            self.stats.gave_up = self.stats.gave_up.saturating_add(1);
+            let template = failed.template_id(ctx.network);
+            out.telemetry(TelemetryEvent::PlanModification {
+                kind: gave_up_code(kind),
+                task: failed.instance,
+                template,
+                at: ctx.now,
+            });
+        }
+        false
+    }
+
+    /// Whether the planner may put a new instance of definition `def` in the plan, and the
+    /// earliest start it may have (its back-off). `cause`: the failure the instance answers
+    /// (a contingency; its bound was checked by [`Self::record_failure`]), or None for a
+    /// template added to enable or repair a task, which is refused once the planner gave up on
+    /// any cause of the definition. Either way at most
+    /// [`TaskNetwork::max_instances_per_run`] instances per run.
+    fn may_add(
+        &self,
+        network: &TaskNetwork,
+        def: u8,
+        cause: Option<FailureKind>,
+    ) -> Option<MissionTimeUs> {
+        let l = self.ledger.get(usize::from(def))?;
+        let given_up = match cause {
+            Some(c) => l.gave_up & c.bit() != 0,
+            None => l.gave_up != 0,
+        };
+        let room = u32::from(l.instances) < network.max_instances_per_run(def);
+        (!given_up && room).then_some(l.not_before)
+    }
+
+    /// Counts an instance of `def` put in the plan.
+    fn count_instance(&mut self, def: u8) {
+        if let Some(l) = self.ledger.get_mut(usize::from(def)) {
+            l.instances = l.instances.saturating_add(1);
         }
     }
 
@@ -497,8 +640,11 @@ impl Planner {
                 if kind == FailureKind::Unschedulable {
                     return;
                 }
+                let Some(not_before) = self.may_add(ctx.network, failed.def, Some(kind)) else {
+                    return;
+                };
                 let instance = self.new_instance_id();
-                let earliest = spec.earliest_start.max(ctx.now);
+                let earliest = spec.earliest_start.max(ctx.now).max(not_before);
                 let latest_start = if action == ContingencyAction::Move {
                     MissionTimeUs::MAX
                 } else {
@@ -518,6 +664,7 @@ impl Planner {
                         of_instance: failed.instance,
                     },
                 }) {
+                    self.count_instance(failed.def);
                     Self::emit_modification(
                         out,
                         PlanModificationKind::Restart,
@@ -531,14 +678,23 @@ impl Planner {
                 let Some(def) = ctx.network.def_of_id(id) else {
                     return;
                 };
+                // The response to `failed` (its bound was checked) and an instance of the
+                // template (which must not be given up on, and has its own back-off).
+                let Some(not_before) = self.may_add(ctx.network, failed.def, Some(kind)) else {
+                    return;
+                };
+                let Some(template_not_before) = self.may_add(ctx.network, def, None) else {
+                    return;
+                };
+                let earliest = ctx.now.max(not_before).max(template_not_before);
                 let instance = self.new_instance_id();
                 if self.add_entry(PlanEntry {
                     instance,
                     def,
                     state: TaskState::Unscheduled,
-                    start: ctx.now,
-                    end: ctx.now,
-                    earliest_start: ctx.now,
+                    start: earliest,
+                    end: earliest,
+                    earliest_start: earliest,
                     latest_start: MissionTimeUs::MAX,
                     started: false,
                     persistent: false,
@@ -546,6 +702,7 @@ impl Planner {
                         for_instance: failed.instance,
                     },
                 }) {
+                    self.count_instance(def);
                     Self::emit_modification(out, PlanModificationKind::Add, instance, id, ctx.now);
                 }
             }
@@ -735,7 +892,11 @@ impl Planner {
                 else {
                     continue;
                 };
-                let helper = self.new_helper(tdef, entry, ctx.now, ctx.now, hi);
+                let Some(not_before) = self.may_add(ctx.network, tdef, None) else {
+                    continue;
+                };
+                let earliest = ctx.now.max(not_before);
+                let helper = self.new_helper(tdef, entry, earliest, earliest, hi);
                 let Some(helper_start) = self.earliest_valid(ctx, &helper) else {
                     continue;
                 };
@@ -754,6 +915,7 @@ impl Planner {
                 }
                 if let Some(start) = self.earliest_valid(ctx, entry) {
                     let helper_id = self.new_instance_id();
+                    self.count_instance(tdef);
                     Self::emit_modification(
                         out,
                         PlanModificationKind::Add,
@@ -1164,13 +1326,17 @@ impl Planner {
             else {
                 continue;
             };
-            let helper = self.new_helper(tdef, owner, conflict.from, ctx.now, conflict.from);
+            let Some(not_before) = self.may_add(ctx.network, tdef, None) else {
+                continue;
+            };
+            let earliest = ctx.now.max(not_before);
+            let helper = self.new_helper(tdef, owner, conflict.from, earliest, conflict.from);
             // First try covering the violation exactly (a MAINTAIN impact filling a gap), then
             // the earliest valid placement that ends its changes before the violation.
             let gap = conflict.to.0.saturating_sub(conflict.from.0);
             let cover_duration = gap.max(tspec.min_duration_us).min(tspec.duration_us);
             let mut trials: Vec<(MissionTimeUs, MissionTimeUs), 2> = Vec::new();
-            if conflict.from >= ctx.now {
+            if conflict.from >= earliest {
                 let _ = trials.push((conflict.from, conflict.from.saturating_add(cover_duration)));
             }
             if let Some(s) = self.earliest_valid(ctx, &helper) {
@@ -1188,7 +1354,7 @@ impl Planner {
             // degraded flyby's minimum): make room by starting the movable task that ends the
             // gap that much later, then cover the whole gap.
             let cover_end = conflict.from.saturating_add(cover_duration);
-            if gap < cover_duration && conflict.from >= ctx.now {
+            if gap < cover_duration && conflict.from >= earliest {
                 if let Some((j, before)) = self.make_room(ctx, owner, conflict.from, cover_end) {
                     if self.place_helper(
                         ctx,
@@ -1317,6 +1483,9 @@ impl Planner {
         out: &mut impl Outputs,
     ) {
         let id = self.new_instance_id();
+        if let Some(def) = ctx.network.def_of_id(template_id) {
+            self.count_instance(def);
+        }
         Self::emit_modification(out, PlanModificationKind::Add, id, template_id, ctx.now);
         Self::emit_transition(
             out,

@@ -60,13 +60,9 @@ fn args(a: &[i32]) -> Result<CommandArgs, CapacityExceeded> {
 
 fn control(response_timeout_us: u64, pre_wait_timeout_us: u64) -> ControlSpec {
     ControlSpec {
-        start_condition: None,
-        maintain_condition: None,
-        skip_condition: None,
         pre_wait_timeout_us,
         response_timeout_us,
-        max_retries: 0,
-        on_failure_command: None,
+        ..ControlSpec::NONE
     }
 }
 
@@ -175,6 +171,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
                 initial: INERTIAL,
             },
             state_key: Some(ATTITUDE_KEY),
+            after_reset: None,
         })
         .map_err(|_| CapacityExceeded)?;
     n.timelines
@@ -186,6 +183,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
                 max: 8,
             },
             state_key: None,
+            after_reset: None,
         })
         .map_err(|_| CapacityExceeded)?;
     n.timelines
@@ -193,6 +191,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             name: name("GncSlew")?,
             kind: TimelineKind::Claimable,
             state_key: None,
+            after_reset: None,
         })
         .map_err(|_| CapacityExceeded)?;
     n.timelines
@@ -200,6 +199,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             name: name("Instrument")?,
             kind: TimelineKind::Claimable,
             state_key: None,
+            after_reset: None,
         })
         .map_err(|_| CapacityExceeded)?;
 

@@ -68,7 +68,7 @@ pub enum ValidationCode {
     MaintainAssign = 44,
     /// A condition term on a timeline that has no state key.
     TermNotMeasured = 45,
-    /// A contingency with an empty failure mask or unknown failure bits.
+    /// A contingency with an empty failure mask (every bit names a [`FailureKind`]).
     BadContingency = 46,
     /// earliest_start > latest_start.
     BadTimeWindow = 50,
@@ -92,6 +92,21 @@ pub enum ValidationCode {
     ConditionTooDeep = 61,
     /// A condition with no nodes.
     EmptyCondition = 62,
+    /// A `max_retries` or `max_repairs` bound over [`MAX_RESPONSE_BOUND`].
+    BadResponseBound = 70,
+    /// A non-zero bound where it means nothing: `max_retries` for a cause the executive
+    /// cannot retry (outside [`FailureKind::RETRYABLE`]) or on a task without a command,
+    /// `max_repairs` for a cause the planner never answers (outside
+    /// [`FailureKind::REPAIRABLE`]).
+    BoundNotApplicable = 71,
+    /// A back-off whose initial delay exceeds its cap, whose initial delay is zero while its
+    /// cap is not (zero doubles to zero), or whose cap is over [`MAX_DURATION_US`].
+    BadBackoff = 72,
+    /// `after_reset` on a timeline a state key measures (the state buffer says what it is
+    /// after a reset).
+    RevertMeasuredTimeline = 73,
+    /// `after_reset` on a claimable or cumulative timeline (only state timelines revert).
+    RevertNotState = 74,
 }
 
 impl ValidationCode {
@@ -114,15 +129,35 @@ pub enum TaskField {
     Control,
     Contingency(u8),
     Permission(u8),
+    /// A response-policy field (the task's own override).
+    Responses(ResponseField),
+}
+
+/// Which field of a response policy an error is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ResponseField {
+    MaxRetries,
+    MaxRepairs,
+    Backoff,
 }
 
 /// Where in the network an error is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ErrorSite {
     Network,
+    /// A field of the network-wide response policy.
+    NetworkResponses(ResponseField),
     Timeline(u8),
-    Condition { condition: u8, node: u8 },
-    Task { task: u8, field: TaskField },
+    /// The `after_reset` value of a timeline.
+    TimelineAfterReset(u8),
+    Condition {
+        condition: u8,
+        node: u8,
+    },
+    Task {
+        task: u8,
+        field: TaskField,
+    },
     Temporal(u8),
 }
 
@@ -177,6 +212,57 @@ pub fn validate_header(header: &NetworkHeader) -> VResult {
     if !ok {
         return err(BadPlannerConfig, ErrorSite::Network);
     }
+    validate_responses(
+        Some(&header.responses.max_retries),
+        Some(&header.responses.max_repairs),
+        Some(&header.responses.backoff),
+        true,
+        ErrorSite::NetworkResponses,
+    )
+}
+
+/// Checks the parts of a response policy that are given. `has_command`: whether retries can
+/// apply (a network-wide default applies to tasks with commands).
+fn validate_responses(
+    max_retries: Option<&PerCause>,
+    max_repairs: Option<&PerCause>,
+    backoff: Option<&Backoff>,
+    has_command: bool,
+    site: impl Fn(ResponseField) -> ErrorSite,
+) -> VResult {
+    use ValidationCode::*;
+    let over_bound = |p: &PerCause| p.0.iter().any(|&v| v > MAX_RESPONSE_BOUND);
+    if let Some(retries) = max_retries {
+        let s = site(ResponseField::MaxRetries);
+        if over_bound(retries) {
+            return err(BadResponseBound, s);
+        }
+        let allowed = if has_command {
+            FailureKind::RETRYABLE
+        } else {
+            0
+        };
+        if retries.nonzero_causes() & !allowed != 0 {
+            return err(BoundNotApplicable, s);
+        }
+    }
+    if let Some(repairs) = max_repairs {
+        let s = site(ResponseField::MaxRepairs);
+        if over_bound(repairs) {
+            return err(BadResponseBound, s);
+        }
+        if repairs.nonzero_causes() & !FailureKind::REPAIRABLE != 0 {
+            return err(BoundNotApplicable, s);
+        }
+    }
+    if let Some(b) = backoff {
+        let ok = b.initial_us <= b.max_us
+            && b.max_us <= MAX_DURATION_US
+            && (b.initial_us > 0 || b.max_us == 0);
+        if !ok {
+            return err(BadBackoff, site(ResponseField::Backoff));
+        }
+    }
     Ok(())
 }
 
@@ -205,6 +291,23 @@ pub fn validate_timeline(
             if initial >= u16::from(value_count) {
                 return err(ValueOutOfRange, site);
             }
+            if let Some(v) = timeline.after_reset {
+                let s = ErrorSite::TimelineAfterReset(u8_index(index));
+                if timeline.state_key.is_some() {
+                    return err(RevertMeasuredTimeline, s);
+                }
+                if v < 0 || v >= i64::from(value_count) {
+                    return err(ValueOutOfRange, s);
+                }
+            }
+        }
+        TimelineKind::Claimable | TimelineKind::Cumulative { .. }
+            if timeline.after_reset.is_some() =>
+        {
+            return err(
+                RevertNotState,
+                ErrorSite::TimelineAfterReset(u8_index(index)),
+            );
         }
         TimelineKind::Claimable => {}
         TimelineKind::Cumulative { initial, min, max } => {
@@ -429,6 +532,13 @@ pub fn validate_task(index: usize, task: &TaskSpec, ctx: &TaskContext<'_>) -> VR
     {
         return err(BadTimeout, site(TaskField::Control));
     }
+    validate_responses(
+        control.max_retries.as_ref(),
+        control.max_repairs.as_ref(),
+        control.backoff.as_ref(),
+        task.command.is_some(),
+        |f| site(TaskField::Responses(f)),
+    )?;
     let is_template = |id: u16| {
         ctx.ids
             .iter()
@@ -436,7 +546,7 @@ pub fn validate_task(index: usize, task: &TaskSpec, ctx: &TaskContext<'_>) -> VR
     };
     for (c, contingency) in task.contingencies.iter().enumerate() {
         let s = site(TaskField::Contingency(u8_index(c)));
-        if contingency.on == 0 || contingency.on & !FailureKind::ANY != 0 {
+        if contingency.on == 0 {
             return err(BadContingency, s);
         }
         if let ContingencyAction::AddTemplate(id) = contingency.action {

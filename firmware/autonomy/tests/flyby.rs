@@ -138,7 +138,11 @@ fn two_resets_in_one_flyby_each_recover_and_cover_the_request() {
             "10:15:00-11:05:00 Instrument Flyby Request Completed",
             "10:15:00-10:33:00 Instrument Flyby Failed(MaintainViolation)",
             "10:33:00-10:43:00 GncAttain NADIR (template) Failed(MaintainViolation)",
-            "10:33:00-10:48:00 Instrument Degraded Flyby Completed",
+            // Running at the second reset: the reset stopped the instrument, so it is reported
+            // interrupted (it was reported completed at 10:48 before issue 15), and a new one
+            // covers the request from the restart.
+            "10:33:00-10:43:00 Instrument Degraded Flyby Failed(Interrupted)",
+            "10:43:00-10:48:00 Instrument Degraded Flyby Completed",
             "10:43:00-10:58:00 GncAttain NADIR (template) Completed",
             "10:48:00-10:58:00 Instrument Degraded Flyby Completed",
             "10:58:00-11:05:00 Instrument Flyby Completed",

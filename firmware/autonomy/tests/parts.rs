@@ -19,6 +19,7 @@ fn base(tasks: &[TaskSpec]) -> NetworkSpec {
                 initial: 0,
             },
             state_key: Some(MODE_KEY),
+            after_reset: None,
         })
         .unwrap();
     n.timelines
@@ -30,6 +31,7 @@ fn base(tasks: &[TaskSpec]) -> NetworkSpec {
                 max: 1000,
             },
             state_key: None,
+            after_reset: None,
         })
         .unwrap();
     for t in tasks {
@@ -56,13 +58,9 @@ fn task(id: u16, start: MissionTimeUs) -> TaskSpec {
         constraints: heapless::Vec::new(),
         impacts: heapless::Vec::new(),
         control: ControlSpec {
-            start_condition: None,
-            maintain_condition: None,
-            skip_condition: None,
             pre_wait_timeout_us: 5 * SEC,
             response_timeout_us: 20 * SEC,
-            max_retries: 0,
-            on_failure_command: None,
+            ..ControlSpec::NONE
         },
         contingencies: heapless::Vec::new(),
         permissions: Permissions {
@@ -99,7 +97,7 @@ fn transitions(out: &Recorder) -> Vec<(u16, TaskState, u64)> {
 #[test]
 fn failed_command_is_retried_then_the_task_completes() {
     let mut t = task(1, MissionTimeUs(100 * SEC));
-    t.control.max_retries = 1;
+    t.control.max_retries = Some(PerCause::uniform(1, FailureKind::RETRYABLE));
     let mut a = core(base(&[t]));
     let mut out = Recorder::default();
     step(&mut a, &mut out, 100);

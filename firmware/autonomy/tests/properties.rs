@@ -1,6 +1,7 @@
 //! Property tests: valid intervals agree with a brute-force placement check; the planner never
 //! holds a placed schedule that violates a constraint, whatever its budget; checkpoints
-//! round-trip, and a truncated or bit-flipped record is never used.
+//! round-trip (with the executive's retry state and the planner's failure ledger of a
+//! misbehaving GNC too), and a truncated or bit-flipped record is never used.
 mod common;
 use autonomy::planner::Planner;
 use autonomy::*;
@@ -71,6 +72,7 @@ fn network(tasks: &[RandomTask]) -> Option<TaskNetwork> {
                 name: Name::try_from(name).unwrap(),
                 kind,
                 state_key: None,
+                after_reset: None,
             })
             .unwrap();
     }
@@ -88,15 +90,7 @@ fn network(tasks: &[RandomTask]) -> Option<TaskNetwork> {
             latest_end: MissionTimeUs::MAX,
             constraints: heapless::Vec::new(),
             impacts: heapless::Vec::new(),
-            control: ControlSpec {
-                start_condition: None,
-                maintain_condition: None,
-                skip_condition: None,
-                pre_wait_timeout_us: 0,
-                response_timeout_us: 0,
-                max_retries: 0,
-                on_failure_command: None,
-            },
+            control: ControlSpec::NONE,
             contingencies: heapless::Vec::new(),
             permissions: Permissions {
                 may_move: false,
@@ -236,6 +230,40 @@ proptest! {
         let info = again.restore_from(&area).unwrap();
         prop_assert_eq!(info.sequence, seq);
         prop_assert_eq!(again.plan(), sim.autonomy.plan());
+    }
+
+    /// The same against a misbehaving GNC, with retries allowed: the checkpoint holds the
+    /// executive's retry counts and back-off times and the planner's failure ledger, and a
+    /// core restored from it has exactly the same state.
+    #[test]
+    fn checkpoint_round_trips_retry_state_and_failure_ledger(
+        minute in 0u64..90,
+        fates in proptest::collection::vec(
+            prop_oneof![
+                Just(GncFate::Reject),
+                Just(GncFate::Fail),
+                Just(GncFate::AcceptNoSlew),
+                Just(GncFate::WrongEndState),
+                Just(GncFate::Nominal),
+            ],
+            1..4,
+        ),
+    ) {
+        let mut spec = flyby_spec();
+        spec.header.responses.max_retries = PerCause::uniform(1, FailureKind::RETRYABLE);
+        let mut sim = Sim::new(TaskNetwork::from_spec(spec).unwrap(), hm(9, 50));
+        sim.sc.gnc_fates = fates;
+        sim.run(hm(9, 50).saturating_add(minute * MIN), &[]);
+        let mut first = vec![0u8; WARM_AREA_LEN];
+        let len = sim.autonomy.encode_state(&mut first).unwrap();
+        let mut restored = Box::new(Autonomy::new());
+        restored.decode_state(&first[..len]).unwrap();
+        let mut second = vec![0u8; WARM_AREA_LEN];
+        let len2 = restored.encode_state(&mut second).unwrap();
+        prop_assert_eq!(&first[..len], &second[..len2]);
+        prop_assert_eq!(restored.executive().entries(), sim.autonomy.executive().entries());
+        prop_assert_eq!(restored.planner().ledger(), sim.autonomy.planner().ledger());
+        prop_assert_eq!(restored.plan(), sim.autonomy.plan());
     }
 
     #[test]

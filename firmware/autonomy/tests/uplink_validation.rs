@@ -1,7 +1,7 @@
 //! The uplink validator: each rejection has its precise code and site, and a rejected uplink
 //! leaves the running plan untouched.
 mod common;
-use autonomy::uplink::{validate_uplink, ErrorSite, TaskField, ValidationCode};
+use autonomy::uplink::{validate_uplink, ErrorSite, ResponseField, TaskField, ValidationCode};
 use autonomy::*;
 use common::*;
 
@@ -245,4 +245,157 @@ fn state_values_of_the_wrong_type_count_as_unknown() {
     assert_eq!(core.state_type_mismatches, 2);
     let view = core.planner().view(core.network());
     assert_eq!(view.value_at(TL_ATTITUDE, hm(9, 1)), VALUE_UNKNOWN);
+}
+
+/// The response bounds (issue 15): each bad value is refused with its own code, at the field
+/// (network-wide defaults or one task's override) that holds it.
+#[test]
+fn response_bounds_and_back_off_are_checked_with_their_codes() {
+    let net = |f: ResponseField| ErrorSite::NetworkResponses(f);
+    let own = |i: u8, f: ResponseField| task(i, TaskField::Responses(f));
+    let flyby = 2; // Instrument Flyby (has a command)
+    let request = 1; // Instrument Flyby Request (no command)
+
+    // Accepted: the defaults, generous bounds, no back-off at all, a task's own override.
+    let mut s = flyby_spec();
+    s.header.responses.max_retries = PerCause::uniform(MAX_RESPONSE_BOUND, FailureKind::RETRYABLE);
+    s.header.responses.backoff = Backoff {
+        initial_us: 0,
+        max_us: 0,
+    };
+    s.tasks[flyby].control.max_repairs = Some(PerCause::uniform(0, FailureKind::REPAIRABLE));
+    assert!(validate_uplink(&encode(&s)).is_ok());
+    assert!(TaskNetwork::from_spec(s).is_ok());
+
+    // Over MAX_RESPONSE_BOUND (70).
+    let mut s = flyby_spec();
+    s.header
+        .responses
+        .max_repairs
+        .set(FailureKind::CommandFailed, MAX_RESPONSE_BOUND + 1);
+    assert_eq!(
+        rejected(&s),
+        (
+            ValidationCode::BadResponseBound,
+            net(ResponseField::MaxRepairs)
+        )
+    );
+    let mut s = flyby_spec();
+    let mut retries = PerCause::ZERO;
+    retries.set(FailureKind::ResponseTimeout, 200);
+    s.tasks[flyby].control.max_retries = Some(retries);
+    assert_eq!(
+        rejected(&s),
+        (
+            ValidationCode::BadResponseBound,
+            own(2, ResponseField::MaxRetries)
+        )
+    );
+
+    // A bound where it means nothing (71): the executive cannot retry a MAINTAIN abort; a
+    // task without a command has nothing to retry; nothing answers "unschedulable".
+    let mut s = flyby_spec();
+    s.header
+        .responses
+        .max_retries
+        .set(FailureKind::MaintainViolation, 1);
+    assert_eq!(
+        rejected(&s),
+        (
+            ValidationCode::BoundNotApplicable,
+            net(ResponseField::MaxRetries)
+        )
+    );
+    let mut s = flyby_spec();
+    s.tasks[request].control.max_retries = Some(PerCause::uniform(1, FailureKind::RETRYABLE));
+    assert_eq!(
+        rejected(&s),
+        (
+            ValidationCode::BoundNotApplicable,
+            own(1, ResponseField::MaxRetries)
+        )
+    );
+    let mut s = flyby_spec();
+    let mut repairs = PerCause::ZERO;
+    repairs.set(FailureKind::Unschedulable, 1);
+    s.tasks[flyby].control.max_repairs = Some(repairs);
+    assert_eq!(
+        rejected(&s),
+        (
+            ValidationCode::BoundNotApplicable,
+            own(2, ResponseField::MaxRepairs)
+        )
+    );
+
+    // Back-off (72): initial over the cap, a zero initial delay with a cap (zero doubles to
+    // zero), a cap over 30 days.
+    for (initial_us, max_us) in [
+        (20 * SEC, 10 * SEC),
+        (0, 10 * SEC),
+        (SEC, MAX_DURATION_US + 1),
+    ] {
+        let mut s = flyby_spec();
+        s.header.responses.backoff = Backoff { initial_us, max_us };
+        assert_eq!(
+            rejected(&s),
+            (ValidationCode::BadBackoff, net(ResponseField::Backoff)),
+            "{initial_us} {max_us}"
+        );
+        let mut s = flyby_spec();
+        s.tasks[flyby].control.backoff = Some(Backoff { initial_us, max_us });
+        assert_eq!(
+            rejected(&s),
+            (ValidationCode::BadBackoff, own(2, ResponseField::Backoff))
+        );
+    }
+}
+
+/// `after_reset` (issue 15): only on a state timeline without a state key, with one of its
+/// values.
+#[test]
+fn after_reset_values_are_checked_with_their_codes() {
+    let at = ErrorSite::TimelineAfterReset;
+    let mut s = flyby_spec();
+    s.timelines[TL_ATTITUDE as usize].state_key = None;
+    s.timelines[TL_ATTITUDE as usize].after_reset = Some(i64::from(UNKNOWN));
+    assert!(TaskNetwork::from_spec(s.clone()).is_ok());
+    assert!(validate_uplink(&encode(&s)).is_ok());
+
+    let mut s = flyby_spec();
+    s.timelines[TL_ATTITUDE as usize].after_reset = Some(i64::from(UNKNOWN));
+    assert_eq!(
+        rejected(&s),
+        (ValidationCode::RevertMeasuredTimeline, at(TL_ATTITUDE))
+    );
+    for bad in [5, -1] {
+        let mut s = flyby_spec();
+        s.timelines[TL_ATTITUDE as usize].state_key = None;
+        s.timelines[TL_ATTITUDE as usize].after_reset = Some(bad);
+        assert_eq!(
+            rejected(&s),
+            (ValidationCode::ValueOutOfRange, at(TL_ATTITUDE))
+        );
+    }
+    for timeline in [TL_REQUEST, TL_GNC_SLEW] {
+        let mut s = flyby_spec();
+        s.timelines[timeline as usize].after_reset = Some(0);
+        assert_eq!(rejected(&s), (ValidationCode::RevertNotState, at(timeline)));
+    }
+}
+
+/// Every code keeps its number: they reach the host in `UplinkNak.reason`.
+#[test]
+fn new_validation_codes_have_their_numbers() {
+    assert_eq!(ValidationCode::BadResponseBound.code(), 70);
+    assert_eq!(ValidationCode::BoundNotApplicable.code(), 71);
+    assert_eq!(ValidationCode::BadBackoff.code(), 72);
+    assert_eq!(ValidationCode::RevertMeasuredTimeline.code(), 73);
+    assert_eq!(ValidationCode::RevertNotState.code(), 74);
+    // And an uplink of the previous format is refused as such.
+    let mut bytes = encode(&flyby_spec());
+    bytes[0] = 1;
+    assert_eq!(
+        validate_uplink(&bytes).unwrap_err().code,
+        ValidationCode::FormatVersion
+    );
 }

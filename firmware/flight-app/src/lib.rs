@@ -69,6 +69,16 @@ pub mod metric {
     /// 1 = B (second half).
     pub const RESTORED_SLOT: u16 = 0x1009;
 
+    /// State-buffer updates so far whose value was not of the type their timeline takes (an
+    /// integer for a state timeline, an enumeration value beyond its values, ...): each was
+    /// taken as unknown (`autonomy::Autonomy::state_type_mismatches`; the types are in
+    /// `TaskNetwork::measured_timelines`). Sent with the frame's FrameDone the first time it
+    /// is not zero and in every frame it changed (after a restore: in the first frame), so a
+    /// host can fail the run naming it. A count, not a cost.
+    pub const STATE_TYPE_MISMATCHES: u16 = 0x100A;
+    /// The state key of the last such update; sent right after [`STATE_TYPE_MISMATCHES`].
+    pub const STATE_TYPE_MISMATCH_KEY: u16 = 0x100B;
+
     /// Metrics that are measured CPU costs (timebase ticks). A span measured with the 16.6 MHz
     /// timebase against the 250 MHz instruction clock can come out one tick longer or shorter
     /// depending on where between two ticks it started; the executive starts its work at a
@@ -175,6 +185,8 @@ pub struct FlightApp {
     last_warm_write: Option<(usize, usize)>,
     /// The same for non-volatile memory.
     last_nv_write: Option<(usize, usize)>,
+    /// The state type mismatch count last reported ([`metric::STATE_TYPE_MISMATCHES`]).
+    reported_state_type_mismatches: u32,
 }
 
 impl Default for FlightApp {
@@ -196,6 +208,7 @@ impl FlightApp {
             last_done: None,
             last_warm_write: None,
             last_nv_write: None,
+            reported_state_type_mismatches: 0,
         }
     }
 
@@ -449,6 +462,20 @@ impl FlightApp {
         if failures > 0 {
             downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
         }
+        let mismatches = self.autonomy.state_type_mismatches;
+        if mismatches != self.reported_state_type_mismatches {
+            downlink.send(metric_event(
+                metric::STATE_TYPE_MISMATCHES,
+                u64::from(mismatches),
+            ));
+            if let Some(key) = self.autonomy.last_state_type_mismatch {
+                downlink.send(metric_event(
+                    metric::STATE_TYPE_MISMATCH_KEY,
+                    u64::from(key.0),
+                ));
+            }
+            self.reported_state_type_mismatches = mismatches;
+        }
         if t2 != t0 {
             downlink.send(metric_event(metric::STEP_TICKS, t1.wrapping_sub(t0)));
             downlink.send(metric_event(metric::PLANNER_TICKS, cost.planner));
@@ -599,6 +626,78 @@ mod tests {
         });
         assert_eq!(metrics(&out, metric::RECOVERY_TICKS), [70]);
         assert_eq!(metrics(&out, metric::STEP_TICKS).len(), 2);
+    }
+
+    #[test]
+    fn state_updates_of_the_wrong_type_are_reported_the_first_time_and_when_the_count_changes() {
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let mut warm = std::vec![0u8; 60 * 1024];
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: None,
+        };
+        uplink_flyby(&mut app, &mut mem);
+        let key = autonomy::scenarios::ATTITUDE_KEY;
+        let update = |value| HostToTarget::StateUpdate {
+            key,
+            value,
+            timestamp: MissionTimeUs::from_secs(9 * 3600),
+        };
+        let mut out: Vec<TargetToHost> = Vec::new();
+        let frame = |app: &mut FlightApp, mem: &mut Memories<'_>, n: u32| {
+            let mut out: Vec<TargetToHost> = Vec::new();
+            app.handle(
+                &grant(n, 9 * 3600 + u64::from(n)),
+                mem,
+                &mut NoClock,
+                &mut |m| out.push(m),
+            );
+            (
+                metrics(&out, metric::STATE_TYPE_MISMATCHES),
+                metrics(&out, metric::STATE_TYPE_MISMATCH_KEY),
+            )
+        };
+        assert_eq!(frame(&mut app, &mut mem, 0), (std::vec![], std::vec![]));
+        // An integer for the attitude (a state timeline): counted, reported with its key.
+        app.handle(
+            &update(fsw_bridge::StateValue::Int(1)),
+            &mut mem,
+            &mut NoClock,
+            &mut |m| out.push(m),
+        );
+        assert_eq!(
+            frame(&mut app, &mut mem, 1),
+            (std::vec![1], std::vec![u64::from(key.0)])
+        );
+        // Unchanged: not reported again.
+        assert_eq!(frame(&mut app, &mut mem, 2), (std::vec![], std::vec![]));
+        for _ in 0..2 {
+            app.handle(
+                &update(fsw_bridge::StateValue::Enum(77)),
+                &mut mem,
+                &mut NoClock,
+                &mut |m| out.push(m),
+            );
+        }
+        assert_eq!(
+            frame(&mut app, &mut mem, 3),
+            (std::vec![3], std::vec![u64::from(key.0)])
+        );
+        // After a warm reset the restored count is reported in the first frame.
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        app.boot(&mut mem, &mut NoClock, &mut |m| out.push(m));
+        assert_eq!(
+            frame(&mut app, &mut mem, 4),
+            (std::vec![3], std::vec![u64::from(key.0)])
+        );
+        // Updates of the right type do not count.
+        app.handle(
+            &update(fsw_bridge::StateValue::Enum(1)),
+            &mut mem,
+            &mut NoClock,
+            &mut |m| out.push(m),
+        );
+        assert_eq!(frame(&mut app, &mut mem, 5), (std::vec![], std::vec![]));
     }
 
     #[test]

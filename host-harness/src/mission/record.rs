@@ -79,6 +79,16 @@ impl Instance {
         self.outcome().name()
     }
 
+    /// Why it failed, when it did: "command_rejected".
+    pub fn failure_cause(&self) -> Option<&'static str> {
+        match self.outcome.and_then(TaskState::from_code) {
+            Some(TaskState::Failed(kind)) if self.interrupted_at.is_none() => {
+                Some(failure_name(kind))
+            }
+            _ => None,
+        }
+    }
+
     /// One line: "Instrument Flyby (requested): 10:15:00 to 10:30:00, interrupted by the
     /// reset (aborted after the restart, at 10:33:00)".
     pub fn describe(&self) -> String {
@@ -116,6 +126,30 @@ impl Instance {
             fmt_time(MissionTimeUs(at))
         ))
     }
+}
+
+/// A failure kind as reports and scenario files name it.
+pub fn failure_name(kind: autonomy::FailureKind) -> &'static str {
+    use autonomy::FailureKind::*;
+    match kind {
+        PreTimeout => "pre_timeout",
+        ResponseTimeout => "response_timeout",
+        CommandFailed => "command_failed",
+        CommandRejected => "command_rejected",
+        MaintainViolation => "maintain_violation",
+        Unschedulable => "unschedulable",
+        PostConditionNotMet => "post_condition",
+        Interrupted => "interrupted",
+    }
+}
+
+/// The planner stopped responding to one cause of failure of a task definition (its
+/// `max_repairs` bound for that cause was crossed).
+#[derive(Clone, Debug, Serialize)]
+pub struct GaveUp {
+    pub at: u64,
+    pub task: String,
+    pub cause: &'static str,
 }
 
 /// The outcome a terminal task state means.
@@ -202,6 +236,10 @@ pub struct MissionRecord {
     pub frames: u64,
     /// Injected faults, in order.
     pub faults: Vec<(u64, String)>,
+    /// Where the autonomy gave up on a task and why, in order.
+    pub gave_up: Vec<GaveUp>,
+    /// Commands sent per task definition (ground id): every dispatch, retries included.
+    pub commands_per_definition: BTreeMap<u16, u32>,
 }
 
 /// Instructions per timebase tick under `-icount shift=2` (4 ns per instruction, 16.6 MHz).
@@ -279,6 +317,14 @@ impl MissionRecord {
                     {
                         inst.started_at = Some(at.0)
                     }
+                    _ => {}
+                }
+                if state == Some(TaskState::Dispatched) {
+                    let def = inst.definition;
+                    *self.commands_per_definition.entry(def).or_insert(0) += 1;
+                }
+                let inst = self.instance_mut(task, network);
+                match state {
                     // An instance a reset interrupted keeps its real end; the autonomy's later
                     // verdict on it is recorded beside it.
                     Some(s) if s.is_terminal() && inst.interrupted_at.is_some() => {
@@ -321,6 +367,16 @@ impl MissionRecord {
                     template,
                 });
                 let name = task_name(network, template);
+                if let Some(cause) = autonomy::telemetry::gave_up_cause(kind) {
+                    let cause = failure_name(cause);
+                    self.label(at, format!("{name} gave up on {cause}"));
+                    self.gave_up.push(GaveUp {
+                        at: at.0,
+                        task: name,
+                        cause,
+                    });
+                    return;
+                }
                 let verb = match kind {
                     k if k == PlanModificationKind::Add as u8 => "added",
                     k if k == PlanModificationKind::Delete as u8 => "deleted from the plan",
@@ -396,6 +452,8 @@ impl MissionRecord {
                 "max_recovery_ticks"
             }
             metric::CHECKPOINT_WRITE_FAILURES => "checkpoint_write_failures",
+            metric::STATE_TYPE_MISMATCHES => "state_type_mismatches",
+            metric::STATE_TYPE_MISMATCH_KEY => "state_type_mismatch_key",
             metric::RESTORED_SEQUENCE => {
                 if let Some(r) = self.resets.last_mut() {
                     r.restored_sequence = Some(value);

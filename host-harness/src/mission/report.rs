@@ -25,6 +25,14 @@ pub struct GanttRow {
     pub after_restart: Option<String>,
 }
 
+/// Commands one task definition sent in a mission, and its bound per run.
+#[derive(Clone, Debug, Serialize)]
+pub struct CommandCount {
+    pub task: String,
+    pub commands: u32,
+    pub bound_per_run: u32,
+}
+
 /// The JSON report of a mission run.
 #[derive(Clone, Debug, Serialize)]
 pub struct MissionReport {
@@ -41,6 +49,11 @@ pub struct MissionReport {
     /// Every boot with its boot-to-ready cost (emulated target).
     pub boots: Vec<super::record::BootRecord>,
     pub faults: Vec<(String, String)>,
+    /// Where the autonomy gave up on a task, and the cause.
+    pub gave_up: Vec<super::record::GaveUp>,
+    /// Commands each task definition sent (retries included), with the most one run of it may
+    /// send (`TaskNetwork::max_dispatches_per_run`).
+    pub commands_per_task: Vec<CommandCount>,
     pub metrics: std::collections::BTreeMap<String, u64>,
     pub frames: u64,
     /// Mission time the flight software was down (resets to restarts), in microseconds.
@@ -72,12 +85,28 @@ impl MissionReport {
         wall: std::time::Duration,
     ) -> Self {
         let record = run.record;
-        let expectations: Vec<Verdict> = plan
+        let mut expectations: Vec<Verdict> = plan
             .expectations
             .iter()
             .enumerate()
             .map(|(i, e)| expect::evaluate(i + 1, e, &record, &plan.network, counts_cycles))
             .collect();
+        // Checks every run gets, whatever the scenario expects.
+        if let Some(&n) = record
+            .metrics
+            .get("state_type_mismatches")
+            .filter(|n| **n > 0)
+        {
+            expectations.push(Verdict {
+                index: expectations.len() + 1,
+                what: "every state update has its timeline's value type".into(),
+                passed: false,
+                detail: format!(
+                    "{n} state update(s) of the wrong type, read as UNKNOWN by the target (last: state key {})",
+                    record.metrics.get("state_type_mismatch_key").copied().unwrap_or(0)
+                ),
+            });
+        }
         let t = |x: Option<u64>| x.map(|v| fmt_time(MissionTimeUs(v)));
         let tasks = record
             .instances
@@ -117,6 +146,20 @@ impl MissionReport {
                 .faults
                 .iter()
                 .map(|(at, l)| (fmt_time(MissionTimeUs(*at)), l.clone()))
+                .collect(),
+            gave_up: record.gave_up.clone(),
+            commands_per_task: record
+                .commands_per_definition
+                .iter()
+                .map(|(&id, &commands)| CommandCount {
+                    task: super::record::task_name(&plan.network.network, id),
+                    commands,
+                    bound_per_run: plan
+                        .network
+                        .network
+                        .def_of_id(id)
+                        .map_or(0, |def| plan.network.network.max_dispatches_per_run(def)),
+                })
                 .collect(),
             metrics: record.metrics.clone(),
             frames: record.frames,
@@ -193,6 +236,14 @@ pub fn summary(r: &MissionReport) -> String {
                 Some(from) => format!("plan restored from the {from}"),
                 None => "no plan restored".to_string(),
             },
+        ));
+    }
+    for g in &r.gave_up {
+        out.push_str(&format!(
+            "  the autonomy gave up on {} at {}: {} past its bound\n",
+            g.task,
+            fmt_time(MissionTimeUs(g.at)),
+            g.cause
         ));
     }
     out.push_str("  expectations:\n");

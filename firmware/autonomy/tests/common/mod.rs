@@ -92,14 +92,50 @@ enum SimEvent {
     Response(u32, CommandStatus),
 }
 
+/// What the GNC does with one GncAttain command (issue 15's misbehaving subsystems).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GncFate {
+    /// TURNING at once; after 15 minutes the commanded attitude and an Ok response.
+    Nominal,
+    /// Answers Rejected at once; the attitude does not change.
+    Reject,
+    /// Answers Failed at once; the attitude does not change.
+    Fail,
+    /// Answers Ok at once but never turns: the attitude does not change.
+    AcceptNoSlew,
+    /// TURNING at once, then nothing: no response, never arrives.
+    NoResponse,
+    /// TURNING at once and Ok after 15 minutes, but the attitude stays TURNING.
+    WrongEndState,
+    /// Nothing at all: no response, no state change.
+    Silent,
+}
+
+/// What an instrument does with one flyby command.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InstrumentFate {
+    /// Ok at once.
+    Nominal,
+    Reject,
+    Fail,
+    /// Never answers.
+    Silent,
+}
+
 /// A deterministic fake spacecraft. GNC: on GncAttain it reports TURNING at once and, after
 /// 15 minutes, the commanded attitude and an Ok response. Instruments answer Ok at once. A reset
 /// loses every pending completion and leaves the attitude UNKNOWN until the next GncAttain.
+/// `gnc_fates` and `instrument_fates`, when not empty, say what happens to the n-th command of
+/// each kind (cycling through the list) instead.
 pub struct FakeSpacecraft {
     pending: Vec<(MissionTimeUs, u64, SimEvent)>,
     order: u64,
     pub attitude: StateValue,
     pub attitude_at: MissionTimeUs,
+    pub gnc_fates: Vec<GncFate>,
+    pub instrument_fates: Vec<InstrumentFate>,
+    gnc_commands: usize,
+    instrument_commands: usize,
 }
 
 impl FakeSpacecraft {
@@ -109,6 +145,10 @@ impl FakeSpacecraft {
             order: 0,
             attitude: StateValue::Enum(INERTIAL),
             attitude_at: at,
+            gnc_fates: Vec::new(),
+            instrument_fates: Vec::new(),
+            gnc_commands: 0,
+            instrument_commands: 0,
         };
         sc.push(
             at,
@@ -128,19 +168,41 @@ impl FakeSpacecraft {
 
     pub fn on_dispatch(&mut self, now: MissionTimeUs, id: u32, opcode: Opcode, args: &CommandArgs) {
         if opcode == GNC_ATTAIN {
+            let fate = cycle(&self.gnc_fates, self.gnc_commands).unwrap_or(GncFate::Nominal);
+            self.gnc_commands += 1;
             let target = args.first().copied().unwrap_or(0) as u16;
-            self.push(
-                now,
-                SimEvent::State(ATTITUDE_KEY, StateValue::Enum(TURNING)),
-            );
+            let turning = SimEvent::State(ATTITUDE_KEY, StateValue::Enum(TURNING));
             let done = now.saturating_add(15 * MIN);
-            self.push(
-                done,
-                SimEvent::State(ATTITUDE_KEY, StateValue::Enum(target)),
-            );
-            self.push(done, SimEvent::Response(id, CommandStatus::Ok));
+            match fate {
+                GncFate::Nominal => {
+                    self.push(now, turning);
+                    self.push(
+                        done,
+                        SimEvent::State(ATTITUDE_KEY, StateValue::Enum(target)),
+                    );
+                    self.push(done, SimEvent::Response(id, CommandStatus::Ok));
+                }
+                GncFate::Reject => self.push(now, SimEvent::Response(id, CommandStatus::Rejected)),
+                GncFate::Fail => self.push(now, SimEvent::Response(id, CommandStatus::Failed(9))),
+                GncFate::AcceptNoSlew => self.push(now, SimEvent::Response(id, CommandStatus::Ok)),
+                GncFate::NoResponse => self.push(now, turning),
+                GncFate::WrongEndState => {
+                    self.push(now, turning);
+                    self.push(done, SimEvent::Response(id, CommandStatus::Ok));
+                }
+                GncFate::Silent => {}
+            }
         } else {
-            self.push(now, SimEvent::Response(id, CommandStatus::Ok));
+            let fate = cycle(&self.instrument_fates, self.instrument_commands)
+                .unwrap_or(InstrumentFate::Nominal);
+            self.instrument_commands += 1;
+            let status = match fate {
+                InstrumentFate::Nominal => CommandStatus::Ok,
+                InstrumentFate::Reject => CommandStatus::Rejected,
+                InstrumentFate::Fail => CommandStatus::Failed(9),
+                InstrumentFate::Silent => return,
+            };
+            self.push(now, SimEvent::Response(id, status));
         }
     }
 
@@ -182,6 +244,11 @@ impl FakeSpacecraft {
     }
 }
 
+/// The `n`-th entry of `list`, cycling; None when the list is empty.
+fn cycle<T: Copy>(list: &[T], n: usize) -> Option<T> {
+    list.get(n.checked_rem(list.len())?).copied()
+}
+
 /// A reset at `at`, the core being down for `recovery_us` (fault protection).
 #[derive(Clone, Copy, Debug)]
 pub struct Reset {
@@ -199,6 +266,8 @@ pub struct Sim {
     pub budget: StepBudget,
     pub now: MissionTimeUs,
     pub steps: u64,
+    /// The mission time of every step, in order.
+    pub step_times: Vec<MissionTimeUs>,
     /// Step with `step_timed` and a clock that advances by one per read, recording the costs.
     pub timed: bool,
     pub costs: Vec<StepCost>,
@@ -218,6 +287,7 @@ impl Sim {
             budget: StepBudget::UNLIMITED,
             now: start,
             steps: 0,
+            step_times: Vec::new(),
             timed: false,
             costs: Vec::new(),
         }
@@ -244,6 +314,7 @@ impl Sim {
             self.autonomy.step(t, self.budget, &mut self.out);
         }
         self.steps += 1;
+        self.step_times.push(t);
         for (id, opcode, args) in std::mem::take(&mut self.out.dispatches) {
             self.sc.on_dispatch(t, id, opcode, &args);
         }
@@ -327,6 +398,91 @@ impl Sim {
                 _ => None,
             })
             .unwrap_or(u16::MAX)
+    }
+
+    /// Every command the core dispatched for a task, as (mission time, ground id of the task's
+    /// definition, instance), in order. A dispatch is the task's: the executive reports the
+    /// task's move to Dispatched right after it.
+    pub fn task_dispatches(&self) -> Vec<(MissionTimeUs, u16, u16)> {
+        let mut out = Vec::new();
+        let mut pending: Option<MissionTimeUs> = None;
+        for d in &self.out.decisions {
+            match *d {
+                Decision::Dispatch { at, .. } => pending = Some(at),
+                Decision::Transition {
+                    task,
+                    to: TaskState::Dispatched,
+                    at,
+                    ..
+                } if pending == Some(at) => {
+                    out.push((at, self.template_of(task), task));
+                    pending = None;
+                }
+                _ => pending = None,
+            }
+        }
+        out
+    }
+
+    /// Per task definition (ground id), the commands sent in each run: a run of a definition
+    /// ends when one of its instances completes (what clears the planner's failure counts).
+    pub fn dispatches_per_run(&self) -> std::collections::BTreeMap<u16, Vec<u32>> {
+        let mut runs: std::collections::BTreeMap<u16, Vec<u32>> = Default::default();
+        let mut pending: Option<MissionTimeUs> = None;
+        for d in &self.out.decisions {
+            match *d {
+                Decision::Dispatch { at, .. } => {
+                    pending = Some(at);
+                    continue;
+                }
+                Decision::Transition {
+                    task,
+                    to: TaskState::Dispatched,
+                    at,
+                    ..
+                } if pending == Some(at) => {
+                    let r = runs
+                        .entry(self.template_of(task))
+                        .or_insert_with(|| vec![0]);
+                    if let Some(last) = r.last_mut() {
+                        *last += 1;
+                    }
+                }
+                Decision::Transition {
+                    task,
+                    to: TaskState::Completed,
+                    ..
+                } => runs
+                    .entry(self.template_of(task))
+                    .or_insert_with(|| vec![0])
+                    .push(0),
+                _ => {}
+            }
+            pending = None;
+        }
+        runs
+    }
+
+    /// Dispatches per task definition (ground id).
+    pub fn dispatches_per_definition(&self) -> std::collections::BTreeMap<u16, u32> {
+        let mut counts = std::collections::BTreeMap::new();
+        for (_, def, _) in self.task_dispatches() {
+            *counts.entry(def).or_insert(0) += 1;
+        }
+        counts
+    }
+
+    /// The most steps the core ran at one mission time.
+    pub fn max_steps_at_one_time(&self) -> usize {
+        let mut best = 0;
+        let mut run = 0;
+        let mut last = None;
+        for &t in &self.step_times {
+            run = if last == Some(t) { run + 1 } else { 1 };
+            last = Some(t);
+            best = best.max(run);
+        }
+        best
     }
 
     /// The as-executed timeline: (definition name, instance, start, end, final state) for every

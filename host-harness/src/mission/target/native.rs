@@ -29,6 +29,9 @@ fn new_link() -> Box<TargetEndpoint> {
     )
 }
 
+/// The byte ranges (start, end) one frame's checkpoint wrote: warm-restart area, non-volatile.
+type FrameWrites = (Option<(usize, usize)>, Option<(usize, usize)>);
+
 /// Damage a [`NativeTarget`] does to its checkpoints at the next warm reset.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CheckpointDamage {
@@ -68,7 +71,7 @@ pub struct NativeTarget {
     last_grant: Option<fsw_bridge::MissionTimeUs>,
     /// The byte ranges the last frame's checkpoint wrote (warm, non-volatile), if the last
     /// checkpoint written was a frame's (None after an uplink's, or before any frame).
-    last_frame_write: Option<(Option<(usize, usize)>, Option<(usize, usize)>)>,
+    last_frame_write: Option<FrameWrites>,
     damage_log: Vec<String>,
 }
 
