@@ -177,10 +177,7 @@ fn mission_up() -> BoxedStrategy<HostToTarget> {
 fn mission_down() -> BoxedStrategy<TargetToHost> {
     prop_oneof![
         (0u32..50_000, proptest::option::of(mission_time()))
-            .prop_map(|(frame, next_wakeup)| TargetToHost::FrameDone {
-                frame,
-                next_wakeup,
-            }),
+            .prop_map(|(frame, next_wakeup)| TargetToHost::FrameDone { frame, next_wakeup }),
         (0u32..10_000, 0u16..0x400, vec(-1000i32..1000, 0..=3)).prop_map(|(id, op, args)| {
             TargetToHost::CommandDispatch {
                 id,

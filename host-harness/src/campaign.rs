@@ -656,14 +656,8 @@ fn run_variant_inner(
         make_target(&prepared, &options, &mut |_| {})?
     };
     let mut notes = Vec::new();
-    if variant.reset_point == ResetPoint::MidFrame
-        && !variant.destroy_checkpoints
-        && !target.arm_mid_frame_reset(variant.mid_frame_seed)
-    {
-        notes.push(
-            "this target cannot reset mid-frame yet: the reset landed at a frame boundary"
-                .to_string(),
-        );
+    if variant.reset_point == ResetPoint::MidFrame && !variant.destroy_checkpoints {
+        target.arm_mid_frame_reset(variant.mid_frame_seed);
     }
     let report = run(
         &prepared,
@@ -672,7 +666,7 @@ fn run_variant_inner(
         &mut |_, _, _| {},
     )
     .map_err(|e| e.to_string())?;
-    notes.extend(target.mid_frame_log());
+    notes.extend(target.reset_notes());
     let mut report = report;
     if !target.counts_cycles() {
         // The native target counts no guest cycles: its tick metrics are all 0, not data.

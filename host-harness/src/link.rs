@@ -1,6 +1,8 @@
 //! The host end of the framed link: a serial device (QEMU's pty or a real `/dev/tty*`), a reader
-//! thread that decodes frames as they arrive, and a transcript of every frame in both
-//! directions, in order.
+//! thread that cuts the byte stream into frames as they arrive, and a transcript of every frame
+//! in both directions, in order. What a frame means is the reliable link layer's business
+//! (`fsw_bridge::link`): missions run it in [`crate::mission::link`]; link checks read the
+//! target's expedited messages with [`HostLink::recv`].
 use std::io::{Read, Write};
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
@@ -8,6 +10,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, MAX_FRAME_LEN};
+use fsw_bridge::link::LinkFrame;
 use fsw_bridge::{HostToTarget, LinkCounters, TargetToHost};
 
 /// Baud rate asked of a real serial port (QEMU's pty ignores it).
@@ -24,7 +27,7 @@ pub enum LinkError {
     Write(std::io::Error),
     #[error("the serial device closed: {0}")]
     Closed(String),
-    #[error("timed out after {0:?} waiting for the target")]
+    #[error("timed out after {} waiting for the target", crate::time::fmt_wall(*.0))]
     Timeout(Duration),
 }
 
@@ -33,18 +36,14 @@ pub enum LinkError {
 pub enum TranscriptEntry {
     /// Frame bytes the host sent (exactly as written).
     Sent(Vec<u8>),
-    /// A message the host received and decoded.
-    Received(TargetToHost),
-    /// A frame the host rejected.
-    Rejected(DecodeError),
+    /// A frame the host received (bytes between two delimiters, delimiters included).
+    Received(Vec<u8>),
 }
 
 /// What the reader thread hands over.
 #[derive(Debug)]
 enum Rx {
-    Message(TargetToHost),
-    /// A frame the host rejected (already counted and in the transcript).
-    Rejected,
+    Frame(Vec<u8>),
     Closed(String),
 }
 
@@ -80,15 +79,11 @@ impl HostLink {
         let host_counters = Arc::new(Mutex::new(LinkCounters::default()));
         let bytes_received = Arc::new(std::sync::atomic::AtomicU64::new(0));
         let reader = {
-            let (stop, transcript, counters, bytes) = (
-                stop.clone(),
-                transcript.clone(),
-                host_counters.clone(),
-                bytes_received.clone(),
-            );
+            let (stop, transcript, bytes) =
+                (stop.clone(), transcript.clone(), bytes_received.clone());
             std::thread::Builder::new()
                 .name("hil-link-rx".into())
-                .spawn(move || read_loop(reader_port, tx, stop, transcript, counters, bytes))
+                .spawn(move || read_loop(reader_port, tx, stop, transcript, bytes))
                 .expect("spawn link reader thread")
         };
         Ok(Self {
@@ -103,10 +98,12 @@ impl HostLink {
         })
     }
 
-    /// Encode and send one message.
+    /// Send one message as an expedited (Type-BD) frame: link checks and resets, outside the
+    /// lockstep rounds.
     pub fn send(&mut self, msg: &HostToTarget) -> Result<(), LinkError> {
         let mut frame = [0u8; MAX_FRAME_LEN];
-        let len = encode(msg, &mut frame).expect("every HostToTarget fits in a frame");
+        let len =
+            encode(&LinkFrame::Bd(msg), &mut frame).expect("every HostToTarget fits in a frame");
         self.send_raw(&frame[..len])
     }
 
@@ -120,9 +117,9 @@ impl HostLink {
         self.writer.flush().map_err(LinkError::Write)
     }
 
-    /// The next message from the target, waiting up to `timeout`. Frames the host rejects are
-    /// counted (see [`HostLink::host_counters`]) and skipped.
-    pub fn recv(&mut self, timeout: Duration) -> Result<TargetToHost, LinkError> {
+    /// The next frame from the target (its bytes, delimiters included), waiting up to
+    /// `timeout`.
+    pub fn recv_frame(&mut self, timeout: Duration) -> Result<Vec<u8>, LinkError> {
         let deadline = Instant::now() + timeout;
         loop {
             if let Some(why) = &self.closed {
@@ -130,8 +127,7 @@ impl HostLink {
             }
             let left = deadline.saturating_duration_since(Instant::now());
             match self.rx.recv_timeout(left) {
-                Ok(Rx::Message(msg)) => return Ok(msg),
-                Ok(Rx::Rejected) => continue,
+                Ok(Rx::Frame(frame)) => return Ok(frame),
                 Ok(Rx::Closed(why)) => self.closed = Some(why),
                 Err(RecvTimeoutError::Timeout) => return Err(LinkError::Timeout(timeout)),
                 Err(RecvTimeoutError::Disconnected) => {
@@ -139,6 +135,46 @@ impl HostLink {
                 }
             }
         }
+    }
+
+    /// The next message the target sent outside a lockstep round (an expedited frame: Hello,
+    /// Pong, a panic report, the kernel's last words before a reset), waiting up to
+    /// `timeout`. Frames the host rejects are counted ([`HostLink::host_counters`]) and
+    /// skipped, and so are the frames of lockstep rounds.
+    pub fn recv(&mut self, timeout: Duration) -> Result<TargetToHost, LinkError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let frame = self.recv_frame(left).map_err(|e| match e {
+                LinkError::Timeout(_) => LinkError::Timeout(timeout),
+                e => e,
+            })?;
+            match self.decode(&frame) {
+                Ok(LinkFrame::Bd(msg)) | Ok(LinkFrame::Ad { msg, .. }) => return Ok(msg),
+                Ok(_) | Err(_) => continue,
+            }
+        }
+    }
+
+    /// Decode one received frame, counting it in the host's counters.
+    pub fn decode(&mut self, frame: &[u8]) -> Result<LinkFrame<TargetToHost>, DecodeError> {
+        let mut decoder = FrameDecoder::new();
+        let mut result = Err(DecodeError::Truncated);
+        for &b in frame {
+            if let Some(r) = decoder.push::<LinkFrame<TargetToHost>>(b) {
+                result = r;
+            }
+        }
+        let mut counters = self.host_counters.lock().unwrap();
+        match &result {
+            Ok(_) => counters.frames_ok += 1,
+            Err(DecodeError::BadCrc) => counters.crc_errors += 1,
+            Err(DecodeError::Oversize) => counters.oversize += 1,
+            Err(DecodeError::UnknownType(_)) => counters.unknown_type += 1,
+            Err(DecodeError::Truncated) => counters.truncated += 1,
+            Err(DecodeError::Malformed) => counters.malformed += 1,
+        }
+        result
     }
 
     /// Counters of the host's own decoder (frames from the target it accepted and rejected).
@@ -172,10 +208,10 @@ fn read_loop(
     tx: mpsc::Sender<Rx>,
     stop: Arc<std::sync::atomic::AtomicBool>,
     transcript: Arc<Mutex<Vec<TranscriptEntry>>>,
-    counters: Arc<Mutex<LinkCounters>>,
     bytes_received: Arc<std::sync::atomic::AtomicU64>,
 ) {
-    let mut decoder = FrameDecoder::new();
+    // Bytes since the last delimiter; a frame is a non-empty run between two.
+    let mut current: Vec<u8> = Vec::with_capacity(MAX_FRAME_LEN);
     let mut buf = [0u8; 4096];
     while !stop.load(std::sync::atomic::Ordering::Relaxed) {
         let n = match port.read(&mut buf) {
@@ -190,26 +226,38 @@ fn read_loop(
         };
         bytes_received.fetch_add(n as u64, std::sync::atomic::Ordering::Relaxed);
         for &byte in &buf[..n] {
-            let Some(result) = decoder.push::<TargetToHost>(byte) else {
+            if byte != 0 {
+                // A run longer than any frame is garbage: keep its tail only (the decoder
+                // downstream reports it as oversize when it sees the delimiter).
+                if current.len() > 2 * MAX_FRAME_LEN {
+                    current.clear();
+                }
+                current.push(byte);
                 continue;
-            };
-            *counters.lock().unwrap() = decoder.counters();
-            let (entry, rx) = match result {
-                Ok(msg) => (TranscriptEntry::Received(msg.clone()), Rx::Message(msg)),
-                Err(e) => (TranscriptEntry::Rejected(e), Rx::Rejected),
-            };
-            transcript.lock().unwrap().push(entry);
-            if tx.send(rx).is_err() {
+            }
+            if current.is_empty() {
+                continue;
+            }
+            let mut frame = Vec::with_capacity(current.len() + 2);
+            frame.push(0);
+            frame.append(&mut current);
+            frame.push(0);
+            transcript
+                .lock()
+                .unwrap()
+                .push(TranscriptEntry::Received(frame.clone()));
+            if tx.send(Rx::Frame(frame)).is_err() {
                 return;
             }
         }
     }
 }
 
-/// A frame that carries `msg` with bit `bit` of its payload flipped (taken modulo the payload's
-/// bits), properly COBS-stuffed and delimited: the receiver must reject it as a CRC error.
+/// An expedited frame that carries `msg` with bit `bit` of its payload flipped (taken modulo
+/// the payload's bits), properly COBS-stuffed and delimited: the receiver must reject it as a
+/// CRC error.
 pub fn corrupted_frame(msg: &HostToTarget, bit: usize) -> Vec<u8> {
-    let mut raw = postcard::to_stdvec(msg).expect("HostToTarget serializes");
+    let mut raw = postcard::to_stdvec(&LinkFrame::Bd(msg)).expect("HostToTarget serializes");
     let crc = fsw_bridge::codec::LINK_CRC.checksum(&raw);
     raw.extend_from_slice(&crc.to_le_bytes());
     let payload_bits = (raw.len() - 4) * 8;

@@ -19,7 +19,7 @@ pub enum SessionError {
     Qemu(#[from] QemuError),
     #[error(transparent)]
     Link(#[from] LinkError),
-    #[error("the target said nothing it could be understood by within {waited:?} ({detail})")]
+    #[error("the target said nothing it could be understood by within {} ({detail})", crate::time::fmt_wall(*waited))]
     Silent { waited: Duration, detail: String },
     #[error("protocol mismatch: the target speaks protocol v{target}, this hil speaks v{host}; build the firmware and hil from the same revision")]
     ProtocolMismatch { target: u16, host: u16 },
@@ -134,7 +134,8 @@ impl Session {
         }
     }
 
-    fn take_log(&mut self, bytes: &[u8]) {
+    /// Decode defmt log bytes the target sent, keeping (and echoing) the lines.
+    pub fn take_log(&mut self, bytes: &[u8]) {
         let Some(decoder) = self.log.as_mut() else {
             return;
         };

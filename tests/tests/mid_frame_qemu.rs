@@ -34,7 +34,7 @@ fn flyby_reset_at(kind: ResetKind, tag: &str) -> (MissionReport, Vec<MidFrameRep
     (
         report,
         target.mid_frame_reports().to_vec(),
-        target.mid_frame_log(),
+        target.reset_notes(),
     )
 }
 

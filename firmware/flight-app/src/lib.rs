@@ -94,7 +94,21 @@ pub mod metric {
                 | RECOVERY_TICKS
                 | PLANNER_TICKS
                 | EXECUTIVE_TICKS
+                | FRAME_BUSY_TICKS
         )
+    }
+
+    /// Ticks the whole frame's work took (the step and the checkpoint writes): what FrameDone
+    /// carried in protocol v1. A measured cost, so it travels on the link's Instrument channel
+    /// and FrameDone stays the same on every target.
+    pub const FRAME_BUSY_TICKS: u16 = 0x100C;
+
+    /// The metrics that travel on the reliable link's Instrument channel: the measured costs,
+    /// which only a target with a CPU clock reports (the native target sends none, or zeros).
+    /// Everything else this application sends goes on the Mission channel, identical on the
+    /// native and the emulated target.
+    pub const fn is_instrument(id: u16) -> bool {
+        is_measured_cost(id)
     }
 }
 
@@ -427,11 +441,7 @@ impl FlightApp {
     ) {
         if let Some((done, next_wakeup)) = self.last_done {
             if done == frame {
-                downlink.send(TargetToHost::FrameDone {
-                    frame,
-                    next_wakeup,
-                    busy_ticks: 0,
-                });
+                downlink.send(TargetToHost::FrameDone { frame, next_wakeup });
                 return;
             }
         }
@@ -481,6 +491,7 @@ impl FlightApp {
             downlink.send(metric_event(metric::PLANNER_TICKS, cost.planner));
             downlink.send(metric_event(metric::EXECUTIVE_TICKS, cost.executive));
             downlink.send(metric_event(metric::CHECKPOINT_TICKS, t2.wrapping_sub(t1)));
+            downlink.send(metric_event(metric::FRAME_BUSY_TICKS, t2.wrapping_sub(t0)));
         }
         let next_wakeup = if report.planner_pending {
             Some(now)
@@ -488,11 +499,7 @@ impl FlightApp {
             self.autonomy.next_wakeup()
         };
         self.last_done = Some((frame, next_wakeup));
-        downlink.send(TargetToHost::FrameDone {
-            frame,
-            next_wakeup,
-            busy_ticks: u32::try_from(t2.wrapping_sub(t0)).unwrap_or(u32::MAX),
-        });
+        downlink.send(TargetToHost::FrameDone { frame, next_wakeup });
     }
 }
 

@@ -181,12 +181,8 @@ pub fn pong() -> impl Strategy<Value = TargetToHost> {
     (u32s(), link_counters()).prop_map(|(seq, link)| TargetToHost::Pong { seq, link })
 }
 pub fn frame_done() -> impl Strategy<Value = TargetToHost> {
-    (u32s(), proptest::option::of(times())).prop_map(|(frame, next_wakeup)| {
-        TargetToHost::FrameDone {
-            frame,
-            next_wakeup,
-        }
-    })
+    (u32s(), proptest::option::of(times()))
+        .prop_map(|(frame, next_wakeup)| TargetToHost::FrameDone { frame, next_wakeup })
 }
 pub fn command_dispatch() -> impl Strategy<Value = TargetToHost> {
     (u32s(), u16s(), hvec::<i32, _, MAX_COMMAND_ARGS>(i32s)).prop_map(|(id, opcode, args)| {

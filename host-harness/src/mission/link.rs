@@ -25,7 +25,7 @@ use fsw_bridge::codec::FrameDecoder;
 use fsw_bridge::link::channel::LossyChannel;
 use fsw_bridge::link::faults::{Direction, FaultRates};
 use fsw_bridge::link::{
-    downlink_service, uplink_service, HostEndpoint, LinkConfig, LinkFrame, LinkLost,
+    downlink_service, uplink_service, HostEndpoint, LinkConfig, LinkFrame, LinkLost, LinkMessage,
     MessageClass, Received, Role, Service, VirtualChannel,
 };
 use fsw_bridge::{HostToTarget, TargetToHost, TelemetryEvent};
@@ -36,8 +36,10 @@ use super::plan::LinkFaults;
 use super::target::{MissionTarget, TargetError};
 
 /// Rounds one exchange may take before the link is declared lost even though the transmission
-/// limit was not reached (a target that keeps answering without ever settling).
-pub const MAX_ROUNDS_PER_EXCHANGE: u32 = 4_096;
+/// limit was not reached (a target that keeps answering without ever settling, e.g. because it
+/// keeps saying it is busy). A flyby uplink over a link that corrupts 5 % of the bytes takes a
+/// few hundred rounds.
+pub const MAX_ROUNDS_PER_EXCHANGE: u32 = 20_000;
 
 /// True for the metrics only the emulated target sends (measured guest costs and the kernel's
 /// metrics): they travel on the Instrument channel. The same answer on both targets.
@@ -75,12 +77,16 @@ pub enum LinkFailure {
 /// Retransmissions and faults, for the report.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct LinkSummary {
+    /// Lockstep rounds (each one burst each way).
     pub rounds: u64,
-    /// Per message class: (class name, sent including retransmissions, retransmissions).
+    /// Per message class, both directions.
     pub classes: Vec<ClassSummary>,
+    /// Data frames sent again: the host's retransmissions, plus the target's as the host saw
+    /// them arrive again (or discarded them for a gap before them).
     pub retransmissions: u64,
+    /// Frames the host's decoder rejected (damaged on the way).
     pub frames_rejected: u64,
-    pub duplicates_discarded: u64,
+    /// Host messages unacknowledged when the target reset (lost with it, as in flight).
     pub lost_to_reset: u64,
     /// Faults injected: (uplink, downlink) frames corrupted, dropped, duplicated, delayed.
     pub injected_uplink: u64,
@@ -92,8 +98,12 @@ pub struct LinkSummary {
 #[derive(Clone, Debug, Serialize)]
 pub struct ClassSummary {
     pub class: &'static str,
+    /// Sent by the host (first transmissions) and sent again.
     pub sent: u64,
     pub retransmitted: u64,
+    /// Delivered to the host, and arrived again or out of sequence (the target's resends).
+    pub received: u64,
+    pub received_again: u64,
 }
 
 /// The host's end of the link for one mission.
@@ -105,10 +115,9 @@ pub struct LinkSession {
     expedited: Vec<HostToTarget>,
     rounds: u64,
     transcript: Transcript,
-    /// Target-to-host frames retransmitted, as the host saw them (duplicates of accepted
-    /// frames plus out-of-sequence frames discarded).
-    downlink_duplicates: u64,
-    downlink_retransmissions: u64,
+    /// Target-to-host data frames the host discarded as duplicates or out of sequence, per
+    /// message class: what the target had to send (or sent) again.
+    downlink_discards: std::collections::BTreeMap<&'static str, u64>,
 }
 
 impl LinkSession {
@@ -125,8 +134,7 @@ impl LinkSession {
             expedited: Vec::new(),
             rounds: 0,
             transcript: Transcript::default(),
-            downlink_duplicates: 0,
-            downlink_retransmissions: 0,
+            downlink_discards: Default::default(),
         }
     }
 
@@ -155,19 +163,20 @@ impl LinkSession {
     /// Record the Hello that opened the session (it comes from the target's boot, outside any
     /// round).
     pub fn hello(&mut self, hello: &TargetToHost) {
-        self.transcript.line(true, format!("< BD {}", describe(hello)));
+        self.transcript
+            .line(true, format!("< BD {}", describe(hello)));
     }
 
     /// Run rounds until everything queued is acknowledged, the target has nothing more on the
     /// Mission channel, and `until` matched a delivered message (`until` = None: settling is
-    /// enough). Every delivered message goes to `deliver`, in order.
+    /// enough). Returns how it ended and every message delivered, in order.
     pub fn exchange(
         &mut self,
         target: &mut dyn MissionTarget,
         mut until: Option<&mut dyn FnMut(&TargetToHost) -> bool>,
-        deliver: &mut dyn FnMut(TargetToHost),
-    ) -> Result<Exchanged, LinkFailure> {
+    ) -> Result<(Exchanged, Vec<TargetToHost>), LinkFailure> {
         let mut matched = until.is_none();
+        let mut delivered = Vec::new();
         for _ in 0..MAX_ROUNDS_PER_EXCHANGE {
             let mut burst: Vec<Vec<u8>> = Vec::new();
             for msg in std::mem::take(&mut self.expedited) {
@@ -186,30 +195,35 @@ impl LinkSession {
             let wire = self
                 .channel
                 .carry::<HostToTarget>(Direction::Uplink, round, &burst, |_| false);
-            self.transcript.burst::<HostToTarget>(round, '>', &burst, &wire);
+            self.transcript
+                .burst::<HostToTarget>(round, '>', &burst, &wire);
             let reply = target.round(&wire, round)?;
-            let received = self.channel.carry::<TargetToHost>(
-                Direction::Downlink,
-                round,
-                &reply,
-                |m| matches!(m, TargetToHost::Hello { .. } | TargetToHost::Panic { .. }),
-            );
-            self.transcript.burst::<TargetToHost>(round, '<', &reply, &received);
+            // The target's expedited frames are its boot and reset announcements (Hello, a
+            // panic report, the kernel's last words before a reset): never damaged.
+            let received =
+                self.channel
+                    .carry::<TargetToHost>(Direction::Downlink, round, &reply, |_| true);
+            self.transcript
+                .burst::<TargetToHost>(round, '<', &reply, &received);
             for bytes in &received {
                 for &b in bytes {
                     let Some(frame) = self.decoder.push::<LinkFrame<TargetToHost>>(b) else {
                         continue;
+                    };
+                    let class = match &frame {
+                        Ok(LinkFrame::Ad { msg, .. }) => Some(msg.class()),
+                        _ => None,
                     };
                     match self.endpoint.on_frame(frame, |_| true) {
                         Received::Delivered { msg, .. } => {
                             if let Some(until) = until.as_mut() {
                                 matched |= until(&msg);
                             }
-                            deliver(msg);
+                            delivered.push(msg);
                         }
                         Received::Expedited(msg @ TargetToHost::Hello { .. }) => {
                             self.reset();
-                            return Ok(Exchanged::TargetReset(msg));
+                            return Ok((Exchanged::TargetReset(msg), delivered));
                         }
                         Received::Expedited(TargetToHost::Panic { file, line }) => {
                             return Err(LinkFailure::Target(TargetError::Panic {
@@ -217,13 +231,17 @@ impl LinkSession {
                                 line,
                             }));
                         }
-                        Received::Discarded(fsw_bridge::link::Discard::Duplicate { .. }) => {
-                            self.downlink_duplicates += 1;
-                        }
-                        Received::Discarded(fsw_bridge::link::Discard::OutOfSequence {
-                            ..
-                        }) => {
-                            self.downlink_retransmissions += 1;
+                        // The kernel's last words before a reset it makes (events, logs).
+                        Received::Expedited(msg) => delivered.push(msg),
+                        Received::Discarded(
+                            fsw_bridge::link::Discard::Duplicate { .. }
+                            | fsw_bridge::link::Discard::OutOfSequence { .. },
+                        ) => {
+                            // A frame the target sent again, or will have to: counted as the
+                            // target's retransmission of its class.
+                            if let Some(class) = class {
+                                *self.downlink_discards.entry(class.name()).or_insert(0) += 1;
+                            }
                         }
                         _ => {}
                     }
@@ -233,7 +251,7 @@ impl LinkSession {
                 return Err(LinkFailure::Lost(*lost));
             }
             if matched && self.endpoint.is_settled(VirtualChannel::Mission) {
-                return Ok(Exchanged::Settled);
+                return Ok((Exchanged::Settled, delivered));
             }
         }
         let fop = self.endpoint.fop(VirtualChannel::Mission);
@@ -253,32 +271,37 @@ impl LinkSession {
     pub fn summary(&self) -> LinkSummary {
         let stats = self.endpoint.stats();
         let mut classes = Vec::new();
-        let mut retransmissions = 0;
-        let mut frames = 0u64;
+        let (mut retransmissions, mut frames) = (0u64, 0u64);
         for class in MessageClass::ALL {
             let c = stats.class(class);
-            if c.sent == 0 && c.retransmitted == 0 {
+            let received_again = self
+                .downlink_discards
+                .get(class.name())
+                .copied()
+                .unwrap_or(0);
+            if c.sent == 0 && c.retransmissions == 0 && c.delivered == 0 && received_again == 0 {
                 continue;
             }
-            retransmissions += u64::from(c.retransmitted);
-            frames += u64::from(c.sent);
+            retransmissions += u64::from(c.retransmissions) + received_again;
+            frames += u64::from(c.sent)
+                + u64::from(c.retransmissions)
+                + u64::from(c.delivered)
+                + received_again;
             classes.push(ClassSummary {
                 class: class.name(),
                 sent: u64::from(c.sent),
-                retransmitted: u64::from(c.retransmitted),
+                retransmitted: u64::from(c.retransmissions),
+                received: u64::from(c.delivered),
+                received_again,
             });
         }
-        // The target's retransmissions, as seen arriving here.
-        retransmissions += self.downlink_duplicates + self.downlink_retransmissions;
-        frames += u64::from(stats.received_total()) + self.downlink_duplicates;
         let injected = |d| self.channel.injected(d).total();
         LinkSummary {
             rounds: self.rounds,
             classes,
             retransmissions,
             frames_rejected: u64::from(stats.frames_rejected),
-            duplicates_discarded: self.downlink_duplicates,
-            lost_to_reset: u64::from(stats.lost_to_reset_total()),
+            lost_to_reset: stats.sent.iter().map(|s| u64::from(s.lost_to_reset)).sum(),
             injected_uplink: injected(Direction::Uplink),
             injected_downlink: injected(Direction::Downlink),
             retransmissions_per_1000_frames: (retransmissions * 1000)
@@ -317,7 +340,11 @@ impl Transcript {
         if std::env::var_os("HIL_DEBUG_TRANSCRIPT").is_some() {
             eprintln!("{text}");
         }
-        self.lines.push(if hashed { text } else { format!("{text}  (not hashed)") });
+        self.lines.push(if hashed {
+            text
+        } else {
+            format!("{text}  (not hashed)")
+        });
     }
 
     /// One burst: what the sender wrote (`sent`) and what crossed the link (`crossed`).
@@ -371,7 +398,10 @@ impl Describe for HostToTarget {
     fn describe(&self) -> String {
         match self {
             HostToTarget::UplinkChunk { seq, total, bytes } => {
-                format!("UplinkChunk {{ seq: {seq}, total: {total}, {} bytes }}", bytes.len())
+                format!(
+                    "UplinkChunk {{ seq: {seq}, total: {total}, {} bytes }}",
+                    bytes.len()
+                )
             }
             other => format!("{other:?}"),
         }

@@ -10,6 +10,7 @@
 pub mod driver;
 pub mod expect;
 pub mod gantt;
+pub mod link;
 pub mod metrics;
 pub mod plan;
 pub mod record;

@@ -33,6 +33,8 @@ pub struct MissionPlan {
     pub end: MissionTimeUs,
     /// Longest single grant (None: as long as nothing happens).
     pub max_frame_us: Option<u64>,
+    /// How often the whole state buffer is published again (None: only after resets).
+    pub republish_us: Option<u64>,
     /// Scenario events in time order (ties in file order).
     pub events: Vec<Event>,
     pub link: LinkFaults,
@@ -261,6 +263,26 @@ impl MissionPlan {
                 ));
             }
         }
+        let republish_us = scenario
+            .spacecraft
+            .republish_every
+            .as_ref()
+            .map(|d| duration_at("spacecraft.republish_every", d))
+            .transpose()?;
+        if let Some(every) = republish_us {
+            let times = (end.0 - start.0) / every.max(1);
+            if every == 0 || times > MAX_MISSION_FRAMES {
+                return Err(src.error_at(
+                    "spacecraft.republish_every",
+                    format!(
+                        "{} would publish the state buffer {} times in the {} mission (at most {MAX_MISSION_FRAMES})",
+                        fmt_duration_us(every),
+                        if every == 0 { "endless".to_string() } else { times.to_string() },
+                        fmt_duration_us(end.0 - start.0),
+                    ),
+                ));
+            }
+        }
         let mut events = Vec::new();
         for (index, ev) in scenario.events.iter().enumerate() {
             let field = format!("events[{index}]");
@@ -297,6 +319,7 @@ impl MissionPlan {
             start,
             end,
             max_frame_us,
+            republish_us,
             events,
             link,
             expectations,

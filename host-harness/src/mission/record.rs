@@ -582,6 +582,11 @@ impl MissionRecord {
         }
     }
 
+    /// The frame count as a metric (at the end of a run).
+    pub fn frames_metric(&mut self) {
+        self.metrics.insert("frames".into(), self.frames);
+    }
+
     /// Decision lines ("10:30:00 Instrument Flyby aborted"), for the terminal and diffs.
     pub fn timeline_lines(&self) -> Vec<String> {
         self.labels

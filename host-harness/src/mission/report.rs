@@ -58,6 +58,10 @@ pub struct MissionReport {
     pub frames: u64,
     /// Mission time the flight software was down (resets to restarts), in microseconds.
     pub downtime_us: u64,
+    /// The reliable link: rounds, retransmissions per message class, faults injected.
+    pub link: super::link::LinkSummary,
+    /// What ended the run before the mission's end, if something did.
+    pub ended_early: Option<String>,
     pub transcript_sha256: String,
     pub transcript_frames: u64,
     pub injected_link_faults: u64,
@@ -92,6 +96,14 @@ impl MissionReport {
             .map(|(i, e)| expect::evaluate(i + 1, e, &record, &plan.network, counts_cycles))
             .collect();
         // Checks every run gets, whatever the scenario expects.
+        if let Some(why) = &run.ended_early {
+            expectations.push(Verdict {
+                index: expectations.len() + 1,
+                what: "the run reaches the end of the mission".into(),
+                passed: false,
+                detail: format!("it ended early {why}"),
+            });
+        }
         if let Some(&n) = record
             .metrics
             .get("state_type_mismatches")
@@ -164,6 +176,8 @@ impl MissionReport {
             metrics: record.metrics.clone(),
             frames: record.frames,
             downtime_us,
+            link: run.link,
+            ended_early: run.ended_early,
             transcript_sha256: run.transcript_sha256,
             transcript_frames: run.transcript_frames,
             transcript: run.transcript,
@@ -244,6 +258,32 @@ pub fn summary(r: &MissionReport) -> String {
             g.task,
             fmt_time(MissionTimeUs(g.at)),
             g.cause
+        ));
+    }
+    let l = &r.link;
+    out.push_str(&format!(
+        "  link: {} rounds, {} faults injected, {} retransmissions ({} per 1000 frames), {} frames rejected{}\n",
+        l.rounds,
+        l.injected_uplink + l.injected_downlink,
+        l.retransmissions,
+        l.retransmissions_per_1000_frames,
+        l.frames_rejected,
+        if l.lost_to_reset > 0 {
+            format!(", {} lost to resets", l.lost_to_reset)
+        } else {
+            String::new()
+        }
+    ));
+    let resent: Vec<String> = l
+        .classes
+        .iter()
+        .filter(|c| c.retransmitted + c.received_again > 0)
+        .map(|c| format!("{} {}+{}", c.class, c.retransmitted, c.received_again))
+        .collect();
+    if !resent.is_empty() {
+        out.push_str(&format!(
+            "        retransmitted by class (host+target): {}\n",
+            resent.join(", ")
         ));
     }
     out.push_str("  expectations:\n");

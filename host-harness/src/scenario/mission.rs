@@ -199,6 +199,9 @@ pub struct SpacecraftConfig {
     pub thermal: Option<ThermalConfig>,
     /// How long commands without a model take to answer (default: at once).
     pub response_delay: Option<TimeText>,
+    /// Publish the whole state buffer again this often (as well as after every reset), so
+    /// that a value the target missed or let go stale heals (default: only after resets).
+    pub republish_every: Option<TimeText>,
 }
 
 #[derive(Clone, Debug, Deserialize)]

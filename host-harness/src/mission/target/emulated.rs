@@ -1,130 +1,29 @@
-//! Targets a mission runs on: the emulated RAD750 proxy (QEMU, or a real board on a serial
-//! port) and the native target (the same flight application compiled into `hil`, no QEMU).
-//!
-//! The driver hands a target raw frame bytes (so injected corruption reaches the target's own
-//! decoder) and gets back every message up to the FrameDone of the frame it granted.
+//! The emulated target: the RAD750 proxy under QEMU, driven over its link. Each lockstep
+//! round writes the host's burst to the target's serial line and reads the target's frames
+//! back up to the RoundEnd that closes its burst (or up to its Hello, when it reset in the
+//! round). A warm reset either goes through QMP between frames, or, when a campaign armed one,
+//! lands inside the next frame at a seeded point of the executive's work, carried out by the
+//! target's own kernel.
 use std::path::PathBuf;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use flight_app::{FlightApp, Memories, NoClock};
-use fsw_bridge::codec::FrameDecoder;
-use fsw_bridge::{
-    HostToTarget, MissionTimeUs, ResetCause, ResetKind, TargetToHost, TelemetryEvent,
-    PROTOCOL_VERSION,
-};
+use fsw_bridge::codec::{encode, FrameDecoder, MAX_FRAME_LEN};
+use fsw_bridge::link::LinkFrame;
+use fsw_bridge::{HostToTarget, MissionTimeUs, ResetKind, TargetToHost, TelemetryEvent};
 use kernel_config::abi::{metric as kernel_metric, reset_at};
 
+use super::native::NV_BYTES;
+use super::{Hello, MissionTarget, ResetLanding, TargetError};
 use crate::defmt_log::LogLine;
 use crate::firmware::FirmwareImage;
+use crate::mission::rng::Rng;
 use crate::qemu::{LaunchOptions, QemuProfile};
-use crate::session::{Hello, Session, SessionError};
+use crate::session::{Session, SessionError};
+use crate::time::fmt_wall;
 
-/// How long an emulated target may take to finish one granted frame (wall time; a liveness
-/// bound, not a measurement).
-pub const FRAME_TIMEOUT: Duration = Duration::from_secs(60);
-/// Bytes of the warm-restart area given to the flight application (as on the target).
-pub const WARM_AREA_BYTES: usize = 60 * 1024;
-/// Bytes of non-volatile memory given to the flight application (as on the target).
-pub const NV_BYTES: usize = 1 << 20;
-/// Build id the native target reports in its Hello.
-pub const NATIVE_BUILD_ID: [u8; 8] = *b"native\0\0";
-
-#[derive(Debug, thiserror::Error)]
-pub enum TargetError {
-    #[error(transparent)]
-    Session(#[from] SessionError),
-    #[error("the target did not finish frame {frame} within {waited:?}: {detail}")]
-    FrameTimeout {
-        frame: u32,
-        waited: Duration,
-        detail: String,
-    },
-    #[error("the target reported a panic at {file}:{line}")]
-    Panic { file: String, line: u32 },
-    #[error("{0}")]
-    Other(String),
-}
-
-/// A target the lockstep driver can run a mission on.
-pub trait MissionTarget {
-    /// Human-readable description (for reports).
-    fn describe(&self) -> String;
-    /// Start (first boot, or after a reset or power cycle) and return its Hello.
-    fn boot(&mut self) -> Result<Hello, TargetError>;
-    /// Send `frames` (encoded, possibly corrupted on purpose) and return every message the
-    /// target sends until it reports FrameDone for `frame`.
-    fn exchange(
-        &mut self,
-        frames: &[Vec<u8>],
-        frame: u32,
-    ) -> Result<Vec<TargetToHost>, TargetError>;
-    /// Send `frames` and return what the target sent in response until `until` matches one of
-    /// its messages (uplink acknowledgements).
-    fn exchange_until(
-        &mut self,
-        frames: &[Vec<u8>],
-        until: &dyn Fn(&TargetToHost) -> bool,
-    ) -> Result<Vec<TargetToHost>, TargetError>;
-    /// Warm reset (RAM kept). Call `boot` afterwards.
-    fn warm_reset(&mut self) -> Result<(), TargetError>;
-    /// Power cycle (RAM lost, non-volatile memory kept). Call `boot` afterwards.
-    fn power_cycle(&mut self) -> Result<(), TargetError>;
-    /// Log lines decoded so far (drained).
-    fn take_logs(&mut self) -> Vec<LogLine>;
-    /// True for the emulated target (costs are guest ticks), false for native.
-    fn counts_cycles(&self) -> bool;
-    /// Make the next warm reset land in the middle of a frame (a "random instruction point")
-    /// instead of at a frame boundary; `seed` picks the instant. Returns false if this target
-    /// cannot do that (the reset then happens at the frame boundary as usual).
-    ///
-    /// The native target models it as a torn checkpoint (see
-    /// [`NativeTarget::damage_on_next_warm_reset`]): the reset lands while the last frame's
-    /// checkpoint is written.
-    ///
-    /// The emulated target really resets inside a frame, deterministically: for a warm reset
-    /// due at mission time T the driver grants the frame at T together with a
-    /// `ResetRequest { kind: WarmAfterTicks | WarmDuringCheckpointWrite }` (see
-    /// [`mid_frame_reset_request`](Self::mid_frame_reset_request)), and the target's kernel
-    /// warm-resets the module at that point of the executive partition's work on the frame,
-    /// counted in the executive's own CPU ticks from the start of that work (the start of its
-    /// window after the grant arrived; counted with the decrementer, so the point does not
-    /// depend on host timing): 3 in 4 after a seeded number of ticks spread over the work the
-    /// previous frame took, 1 in 4 part-way (a seeded permille) through the copy of the frame's
-    /// checkpoint into the warm-restart area, which tears the newest slot. If the
-    /// executive finishes the frame before the point, the kernel resets when it finishes,
-    /// before its FrameDone leaves the target. Either way the target answers with a Hello
-    /// (cause Warm) and no FrameDone; [`mid_frame_log`](Self::mid_frame_log) says where the
-    /// reset landed and which checkpoint the restart restored.
-    fn arm_mid_frame_reset(&mut self, seed: u64) -> bool {
-        let _ = seed;
-        false
-    }
-    /// What the mid-frame resets armed with `arm_mid_frame_reset` actually did, in order.
-    fn mid_frame_log(&self) -> Vec<String> {
-        Vec::new()
-    }
-    /// For a target whose armed mid-frame reset is carried out by the target itself inside the
-    /// frame granted at `at`: the ResetRequest to send with that frame, just before its grant
-    /// (then call [`exchange_until_reset`](Self::exchange_until_reset) instead of `warm_reset`).
-    /// None: reset at the frame boundary with `warm_reset` (any armed damage applies there).
-    fn mid_frame_reset_request(&mut self, at: MissionTimeUs) -> Option<HostToTarget> {
-        let _ = at;
-        None
-    }
-    /// Send `frames` (inputs, the request from `mid_frame_reset_request`, the grant of `frame`)
-    /// and return what the target sent until it reset, its Hello last (kept for the next
-    /// `boot`).
-    fn exchange_until_reset(
-        &mut self,
-        frames: &[Vec<u8>],
-        frame: u32,
-    ) -> Result<Vec<TargetToHost>, TargetError> {
-        let _ = (frames, frame);
-        Err(TargetError::Other(
-            "this target does not reset inside a frame".into(),
-        ))
-    }
-}
+/// How long the emulated target may take to answer one round (wall time; a liveness bound for
+/// a hung target, not a measurement: a round's work is a frame's).
+pub const ROUND_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// Bytes of the emulated target's warm-restart area that hold checkpoints (slots A and B).
 const EMULATED_WARM_CHECKPOINT_BYTES: u32 =
@@ -143,7 +42,7 @@ pub const EXPECTED_WORK_QUANTUM: u32 = 1_024;
 /// of the executive's ticks drawn uniformly from 1 to `expected_ticks` (rounded up to
 /// [`EXPECTED_WORK_QUANTUM`]).
 pub fn mid_frame_reset_kind(seed: u64, expected_ticks: u32) -> ResetKind {
-    let mut rng = super::rng::Rng::new(seed).fork(0x71);
+    let mut rng = Rng::new(seed).fork(0x71);
     if rng.below(4) == 0 {
         ResetKind::WarmDuringCheckpointWrite {
             permille: rng.below(1000) as u16,
@@ -288,8 +187,10 @@ pub struct EmulatedTarget {
     echo_logs: bool,
     /// The mid-frame reset armed for the next warm reset.
     mid_frame_arm: Option<MidFrameArm>,
-    /// Busy ticks of the last frame the executive stepped (from its FrameDone).
+    /// Busy ticks of the last frame the executive stepped (its FRAME_BUSY_TICKS metric).
     last_busy_ticks: u32,
+    /// A mid-frame reset armed for the next round: its request goes out ahead of the burst.
+    pending_request: Option<ResetKind>,
     /// The Hello that ended a frame with a mid-frame reset, for the next `boot`.
     pending_hello: Option<Hello>,
     /// Mid-frame resets carried out, in order.
@@ -321,6 +222,7 @@ impl EmulatedTarget {
             echo_logs,
             mid_frame_arm: None,
             last_busy_ticks: 0,
+            pending_request: None,
             pending_hello: None,
             mid_frame_reports: Vec::new(),
             awaiting_restore: false,
@@ -338,12 +240,20 @@ impl EmulatedTarget {
         &self.mid_frame_reports
     }
 
-    /// Keep what the driver needs to know from the target's messages: the cost of the last
-    /// frame, the restore after a mid-frame reset.
-    fn observe(&mut self, msg: &TargetToHost) {
+    /// Keep what a mid-frame reset needs from the target's messages: the cost of the last
+    /// frame, the restore after the reset.
+    fn note(&mut self, msg: &TargetToHost) {
         match *msg {
-            TargetToHost::FrameDone { busy_ticks, .. } if busy_ticks > 0 => {
-                self.last_busy_ticks = busy_ticks;
+            TargetToHost::Telemetry(TelemetryEvent::Metric {
+                id: flight_app::metric::FRAME_BUSY_TICKS,
+                value,
+            }) if value > 0 => {
+                self.last_busy_ticks = u32::try_from(value).unwrap_or(u32::MAX);
+            }
+            TargetToHost::Log { ref bytes } => {
+                if let Some(s) = self.session.as_mut() {
+                    s.take_log(bytes);
+                }
             }
             TargetToHost::Telemetry(TelemetryEvent::Metric { id, value })
                 if self.awaiting_restore =>
@@ -423,6 +333,70 @@ impl EmulatedTarget {
         }
         Ok(())
     }
+
+    /// The frames of one round's answer, read up to the RoundEnd of `round` or a Hello.
+    fn read_answer(&mut self, round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
+        let deadline = Instant::now() + ROUND_TIMEOUT;
+        let mut frames = Vec::new();
+        let mut last_words = Vec::new();
+        let session = self.session()?;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let frame = match session.link.recv_frame(left) {
+                Ok(frame) => frame,
+                Err(crate::link::LinkError::Timeout(_)) => {
+                    return Err(TargetError::RoundTimeout {
+                        round,
+                        waited: fmt_wall(ROUND_TIMEOUT),
+                        detail: format!(
+                            "received {} frames of its answer; QEMU output: {}",
+                            frames.len(),
+                            session
+                                .qemu_log()
+                                .map(|p| p.display().to_string())
+                                .unwrap_or_default()
+                        ),
+                    })
+                }
+                Err(e) => return Err(TargetError::Session(e.into())),
+            };
+            // Only the transport looks inside here, and only at what the link never damages:
+            // the RoundEnd doorbell and the target's expedited announcements.
+            let decoded = decode_one(&frame);
+            frames.push(frame);
+            match decoded {
+                Some(LinkFrame::RoundEnd { round: r }) if r == round => return Ok(frames),
+                Some(LinkFrame::Bd(msg @ TargetToHost::Hello { .. })) => {
+                    let hello = session
+                        .check_hello(&msg)?
+                        .expect("a Hello message is a Hello");
+                    self.pending_hello = Some(hello);
+                    if let Some(last) = self.mid_frame_reports.pop() {
+                        let report = Self::landing(last.kind, last.frame_at, &last_words);
+                        self.mid_frame_reports.push(report);
+                        self.awaiting_restore = true;
+                    }
+                    return Ok(frames);
+                }
+                Some(LinkFrame::Bd(msg)) => last_words.push(msg),
+                _ => {}
+            }
+        }
+    }
+}
+
+/// The single link frame `bytes` hold, if they hold exactly one valid frame.
+fn decode_one(bytes: &[u8]) -> Option<LinkFrame<TargetToHost>> {
+    let mut decoder = FrameDecoder::new();
+    let mut found = None;
+    for &b in bytes {
+        match decoder.push::<LinkFrame<TargetToHost>>(b) {
+            Some(Ok(frame)) if found.is_none() => found = Some(frame),
+            Some(_) => return None,
+            None => {}
+        }
+    }
+    found
 }
 
 impl MissionTarget for EmulatedTarget {
@@ -433,9 +407,13 @@ impl MissionTarget for EmulatedTarget {
         }
     }
 
+    fn counts_cycles(&self) -> bool {
+        true
+    }
+
     fn boot(&mut self) -> Result<Hello, TargetError> {
         if let Some(hello) = self.pending_hello.take() {
-            // The target already said Hello when its mid-frame reset ended the frame.
+            // The target already said Hello when it reset inside the last round.
             return Ok(hello);
         }
         if self.session.is_none() {
@@ -443,96 +421,36 @@ impl MissionTarget for EmulatedTarget {
             session.echo_logs = self.echo_logs;
             self.session = Some(session);
         }
-        let hello = self.session()?.expect_hello(Duration::from_secs(30))?;
+        let hello = self.session()?.expect_hello(ROUND_TIMEOUT)?;
         self.drain_logs();
         Ok(hello)
     }
 
-    fn exchange(
-        &mut self,
-        frames: &[Vec<u8>],
-        frame: u32,
-    ) -> Result<Vec<TargetToHost>, TargetError> {
-        self.send_all(frames)?;
-        let session = self.session()?;
-        let mut out = Vec::new();
-        receive_until(
-            session,
-            frame,
-            &mut out,
-            |_, msg| {
-                Ok(
-                    matches!(msg, TargetToHost::FrameDone { frame: f, .. } if *f == frame)
-                        .then_some(()),
-                )
-            },
-            |n| format!("received {n} messages this frame"),
-        )?;
-        for msg in &out {
-            self.observe(msg);
+    fn round(&mut self, wire: &[Vec<u8>], round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
+        if let Some(kind) = self.pending_request.take() {
+            // The armed reset's request, ahead of the burst with the frame's grant: a test
+            // instrument, like QMP, so an expedited frame outside the mission's stream.
+            let mut frame = [0u8; MAX_FRAME_LEN];
+            let len = encode(
+                &LinkFrame::Bd(HostToTarget::ResetRequest { kind }),
+                &mut frame,
+            )
+            .expect("a reset request fits a frame");
+            self.send_all(&[frame[..len].to_vec()])?;
         }
+        self.send_all(wire)?;
+        let answer = self.read_answer(round);
         self.drain_logs();
-        Ok(out)
+        answer
     }
 
-    fn exchange_until(
-        &mut self,
-        frames: &[Vec<u8>],
-        until: &dyn Fn(&TargetToHost) -> bool,
-    ) -> Result<Vec<TargetToHost>, TargetError> {
-        self.send_all(frames)?;
-        let session = self.session()?;
-        let mut out = Vec::new();
-        loop {
-            let msg = session.recv(FRAME_TIMEOUT)?;
-            let stop = until(&msg);
-            out.push(msg);
-            if stop {
-                break;
-            }
-        }
-        self.drain_logs();
-        Ok(out)
-    }
-
-    fn warm_reset(&mut self) -> Result<(), TargetError> {
+    fn warm_reset(&mut self, at: MissionTimeUs) -> Result<ResetLanding, TargetError> {
         self.awaiting_restore = false;
-        self.session()?.warm_reset_qmp()?;
-        Ok(())
-    }
-
-    fn power_cycle(&mut self) -> Result<(), TargetError> {
-        self.awaiting_restore = false;
-        self.drain_logs();
-        // Dropping the session ends QEMU (RAM gone); the NV file stays for the next process.
-        self.session = None;
-        Ok(())
-    }
-
-    fn take_logs(&mut self) -> Vec<LogLine> {
-        self.drain_logs();
-        std::mem::take(&mut self.logs)
-    }
-
-    fn counts_cycles(&self) -> bool {
-        true
-    }
-
-    /// A real reset inside the frame, on the target (see the trait's documentation).
-    fn arm_mid_frame_reset(&mut self, seed: u64) -> bool {
-        self.mid_frame_arm = Some(MidFrameArm::Seeded(seed));
-        true
-    }
-
-    fn mid_frame_log(&self) -> Vec<String> {
-        self.mid_frame_reports
-            .iter()
-            .flat_map(MidFrameReport::describe)
-            .collect()
-    }
-
-    fn mid_frame_reset_request(&mut self, at: MissionTimeUs) -> Option<HostToTarget> {
-        let kind = match self.mid_frame_arm.take()? {
+        let Some(arm) = self.mid_frame_arm.take() else {
+            self.session()?.warm_reset_qmp()?;
+            return Ok(ResetLanding::Now);
+        };
+        let kind = match arm {
             MidFrameArm::Exact(kind) => kind,
             MidFrameArm::Seeded(seed) => mid_frame_reset_kind(
                 seed,
@@ -547,81 +465,36 @@ impl MissionTarget for EmulatedTarget {
             checkpoint_write: None,
             restored: None,
         });
+        self.pending_request = Some(kind);
+        Ok(ResetLanding::InsideNextFrame)
+    }
+
+    fn power_cycle(&mut self) -> Result<(), TargetError> {
         self.awaiting_restore = false;
-        Some(HostToTarget::ResetRequest { kind })
-    }
-
-    fn exchange_until_reset(
-        &mut self,
-        frames: &[Vec<u8>],
-        frame: u32,
-    ) -> Result<Vec<TargetToHost>, TargetError> {
-        self.send_all(frames)?;
-        let session = self.session()?;
-        let mut out = Vec::new();
-        let hello = receive_until(
-            session,
-            frame,
-            &mut out,
-            |session, msg| Ok(session.check_hello(msg)?),
-            |n| {
-                format!(
-                    "a mid-frame reset was armed in this frame but the target did not reset (received {n} messages, no Hello)"
-                )
-            },
-        )?;
-        self.pending_hello = Some(hello);
-        if let Some(last) = self.mid_frame_reports.pop() {
-            let report = Self::landing(last.kind, last.frame_at, &out);
-            self.mid_frame_reports.push(report);
-            self.awaiting_restore = true;
-        }
         self.drain_logs();
-        Ok(out)
+        // Dropping the session ends QEMU (RAM gone); the NV file stays for the next process.
+        self.session = None;
+        Ok(())
     }
-}
 
-/// Receive messages into `out` until `stop` picks one (its value is returned), for at most
-/// FRAME_TIMEOUT from now; `detail` says what had arrived (given how many) if none did.
-fn receive_until<T>(
-    session: &mut Session,
-    frame: u32,
-    out: &mut Vec<TargetToHost>,
-    mut stop: impl FnMut(&Session, &TargetToHost) -> Result<Option<T>, TargetError>,
-    detail: impl Fn(usize) -> String,
-) -> Result<T, TargetError> {
-    let deadline = std::time::Instant::now() + FRAME_TIMEOUT;
-    loop {
-        let left = deadline.saturating_duration_since(std::time::Instant::now());
-        match session.recv(left) {
-            Ok(msg) => {
-                let picked = stop(session, &msg)?;
-                out.push(msg);
-                if let Some(value) = picked {
-                    return Ok(value);
-                }
-            }
-            Err(e) => return Err(frame_error(e, frame, detail(out.len()), session)),
-        }
+    fn observe(&mut self, msg: &TargetToHost) {
+        self.note(msg);
     }
-}
 
-/// What went wrong while waiting for the target during frame `frame`: its panic, a timeout
-/// (with `what` it had received and where QEMU's output is), or the link error itself.
-fn frame_error(e: SessionError, frame: u32, what: String, session: &Session) -> TargetError {
-    match e {
-        SessionError::TargetPanic { file, line } => TargetError::Panic { file, line },
-        SessionError::Link(crate::link::LinkError::Timeout(_)) => TargetError::FrameTimeout {
-            frame,
-            waited: FRAME_TIMEOUT,
-            detail: format!(
-                "{what}; QEMU output: {}",
-                session
-                    .qemu_log()
-                    .map(|p| p.display().to_string())
-                    .unwrap_or_default()
-            ),
-        },
-        e => e.into(),
+    fn take_logs(&mut self) -> Vec<LogLine> {
+        self.drain_logs();
+        std::mem::take(&mut self.logs)
+    }
+
+    /// A real reset inside the frame, on the target: see the module documentation.
+    fn arm_mid_frame_reset(&mut self, seed: u64) {
+        self.mid_frame_arm = Some(MidFrameArm::Seeded(seed));
+    }
+
+    fn reset_notes(&self) -> Vec<String> {
+        self.mid_frame_reports
+            .iter()
+            .flat_map(MidFrameReport::describe)
+            .collect()
     }
 }

@@ -163,7 +163,9 @@ impl NativeTarget {
         let outbox = &mut self.outbox;
         let handled = self
             .app
-            .handle(&msg, &mut memories, &mut NoClock, &mut |m| outbox.push_back(m));
+            .handle(&msg, &mut memories, &mut NoClock, &mut |m| {
+                outbox.push_back(m)
+            });
         // What the checkpoint writes of this message covered, for the torn-write model.
         let writes = (self.app.take_warm_write(), self.app.take_nv_write());
         if writes != (None, None) {
@@ -273,9 +275,7 @@ impl MissionTarget for NativeTarget {
                 continue;
             };
             match self.link.on_frame(frame, |_| true) {
-                Received::Delivered { msg, .. } | Received::Expedited(msg) => {
-                    delivered.push(msg)
-                }
+                Received::Delivered { msg, .. } | Received::Expedited(msg) => delivered.push(msg),
                 Received::RoundEnd { round } => answer = Some(round),
                 _ => {}
             }
