@@ -358,6 +358,17 @@ impl MissionPlan {
         self.events.sort_by_key(|e| (e.at, e.index));
     }
 
+    /// Arm a command fault at `at` (campaign variants), after the file's events at that time.
+    pub fn add_command_fault(&mut self, at: MissionTimeUs, fault: CommandFault) {
+        let index = self.scenario.events.len() + self.events.len();
+        self.events.push(Event {
+            at,
+            index,
+            action: Action::CommandFault(fault),
+        });
+        self.events.sort_by_key(|e| (e.at, e.index));
+    }
+
     /// The same mission with another seed (campaign variants).
     pub fn set_seed(&mut self, seed: u64) {
         self.seed = seed;
