@@ -73,6 +73,7 @@ fn network(tasks: &[RandomTask]) -> Option<TaskNetwork> {
                 kind,
                 state_key: None,
                 after_reset: None,
+                stale_after_us: None,
             })
             .unwrap();
     }

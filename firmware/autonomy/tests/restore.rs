@@ -29,6 +29,7 @@ fn network(tasks: &[TaskSpec], heater_reset: Option<i64>) -> TaskNetwork {
                 },
                 state_key,
                 after_reset,
+                stale_after_us: None,
             })
             .unwrap();
     }
