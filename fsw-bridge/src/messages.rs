@@ -156,4 +156,13 @@ pub enum TelemetryEvent {
     },
     /// A named measurement (ids defined by the firmware; values in the unit the id names).
     Metric { id: u16, value: u64 },
+    /// The autonomy found the state-buffer value of `key`, measured at `measured_at`, older
+    /// than its timeline's staleness bound at the step at mission time `at` (the first step at
+    /// or after `measured_at + bound + 1 µs`): from then on it reads the value as unknown,
+    /// until a newer measurement of `key` arrives. Reported once per measurement.
+    StateStale {
+        key: StateKey,
+        measured_at: MissionTimeUs,
+        at: MissionTimeUs,
+    },
 }

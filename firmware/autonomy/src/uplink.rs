@@ -107,6 +107,10 @@ pub enum ValidationCode {
     RevertMeasuredTimeline = 73,
     /// `after_reset` on a claimable or cumulative timeline (only state timelines revert).
     RevertNotState = 74,
+    /// A `stale_after_us` bound of zero or over [`MAX_STALE_AFTER_US`].
+    BadStaleBound = 75,
+    /// `stale_after_us` on a timeline no state key measures (only measurements age).
+    StaleNotMeasured = 76,
 }
 
 impl ValidationCode {
@@ -150,6 +154,8 @@ pub enum ErrorSite {
     Timeline(u8),
     /// The `after_reset` value of a timeline.
     TimelineAfterReset(u8),
+    /// The `stale_after_us` bound of a timeline.
+    TimelineStaleAfter(u8),
     Condition {
         condition: u8,
         node: u8,
@@ -266,6 +272,13 @@ fn validate_responses(
     Ok(())
 }
 
+/// Whether `bound_us` may be a staleness bound ([`TimelineSpec::stale_after_us`]): positive
+/// and at most [`MAX_STALE_AFTER_US`]. The ground compiler checks a network-wide default with
+/// it too.
+pub fn stale_bound_in_range(bound_us: u64) -> bool {
+    (1..=MAX_STALE_AFTER_US).contains(&bound_us)
+}
+
 /// Checks timeline `index` against the ones before it.
 pub fn validate_timeline(
     index: usize,
@@ -279,6 +292,15 @@ pub fn validate_timeline(
     }
     if timeline.state_key.is_some() && earlier.iter().any(|t| t.state_key == timeline.state_key) {
         return err(DuplicateStateKey, site);
+    }
+    if let Some(bound) = timeline.stale_after_us {
+        let s = ErrorSite::TimelineStaleAfter(u8_index(index));
+        if timeline.state_key.is_none() {
+            return err(StaleNotMeasured, s);
+        }
+        if !stale_bound_in_range(bound) {
+            return err(BadStaleBound, s);
+        }
     }
     match timeline.kind {
         TimelineKind::State {

@@ -113,6 +113,13 @@ pub fn telemetry_events() -> impl Strategy<Value = TelemetryEvent> {
             }
         ),
         (u16s(), u64s()).prop_map(|(id, value)| TelemetryEvent::Metric { id, value }),
+        (u16s(), times(), times()).prop_map(|(key, measured_at, at)| {
+            TelemetryEvent::StateStale {
+                key: StateKey(key),
+                measured_at,
+                at,
+            }
+        }),
     ]
 }
 

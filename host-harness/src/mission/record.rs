@@ -33,6 +33,9 @@ pub enum Decision {
         task: u16,
         template: u16,
     },
+    /// The value of state key `key`, measured at `measured_at`, was older than its staleness
+    /// bound at `at`: the autonomy reads it as unknown from then on.
+    StateStale { at: u64, key: u16, measured_at: u64 },
 }
 
 /// One task instance as executed.
@@ -401,6 +404,25 @@ impl MissionRecord {
                 }
                 self.label(at, format!("{name} {verb}"));
             }
+            TelemetryEvent::StateStale {
+                key,
+                measured_at,
+                at,
+            } => {
+                self.decisions.push(Decision::StateStale {
+                    at: at.0,
+                    key: key.0,
+                    measured_at: measured_at.0,
+                });
+                let name = network
+                    .timeline_of_key(key)
+                    .and_then(|t| network.timeline(t))
+                    .map_or_else(|| format!("state key {}", key.0), |t| t.name.to_string());
+                self.label(
+                    at,
+                    format!("{name} stale (measured at {})", fmt_time(measured_at)),
+                );
+            }
             TelemetryEvent::Metric { id, value } => self.metric_event(id, value),
             TelemetryEvent::HealthMonitor {
                 partition,
@@ -657,5 +679,32 @@ mod tests {
         assert_eq!(m["max_recovery_ticks"], 20_000);
         assert_eq!(m["max_reset_recovery_ticks"], 90_000);
         assert_eq!(m["max_reset_recovery_instructions"], 90_000 * 15_060 / 1000);
+    }
+
+    #[test]
+    fn a_stale_report_is_a_decision_labelled_with_its_timeline() {
+        let network = autonomy::scenarios::flyby_network().unwrap();
+        let mut rec = MissionRecord::default();
+        let (measured_at, at) = (MissionTimeUs(36_900_000_000), MissionTimeUs(37_500_000_001));
+        rec.telemetry(
+            &TelemetryEvent::StateStale {
+                key: StateKey(1),
+                measured_at,
+                at,
+            },
+            &network,
+        );
+        assert_eq!(
+            rec.decisions,
+            [Decision::StateStale {
+                at: at.0,
+                key: 1,
+                measured_at: measured_at.0
+            }]
+        );
+        assert_eq!(
+            rec.labels,
+            [(at.0, "GncAttitude stale (measured at 10:15:00)".to_string())]
+        );
     }
 }
