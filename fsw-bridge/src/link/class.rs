@@ -123,7 +123,9 @@ impl LinkMessage for TargetToHost {
                 MessageClass::HealthEvent
             }
             TargetToHost::Telemetry(
-                TelemetryEvent::TaskTransition { .. } | TelemetryEvent::PlanModification { .. },
+                TelemetryEvent::TaskTransition { .. }
+                | TelemetryEvent::PlanModification { .. }
+                | TelemetryEvent::StateStale { .. },
             ) => MessageClass::Telemetry,
             TargetToHost::UplinkAck { .. } | TargetToHost::UplinkNak { .. } => {
                 MessageClass::UplinkReply
@@ -188,7 +190,9 @@ pub fn downlink_service(
         TargetToHost::FrameDone { .. }
         | TargetToHost::CommandDispatch { .. }
         | TargetToHost::Telemetry(
-            TelemetryEvent::TaskTransition { .. } | TelemetryEvent::PlanModification { .. },
+            TelemetryEvent::TaskTransition { .. }
+            | TelemetryEvent::PlanModification { .. }
+            | TelemetryEvent::StateStale { .. },
         )
         | TargetToHost::UplinkAck { .. }
         | TargetToHost::UplinkNak { .. } => Service::Sequenced(Mission),

@@ -263,7 +263,7 @@ impl Flight<'_, '_> {
         self.inputs.extend(self.sim.due(now));
         if self.next_republish.is_some_and(|t| t <= now) {
             // The whole state buffer again, so that a value the target missed heals.
-            self.inputs.extend(self.sim.publish_all(now));
+            self.inputs.extend(self.sim.republish_all(now));
             self.next_republish = self.plan.republish_us.map(|p| now.saturating_add(p.max(1)));
         }
         for msg in std::mem::take(&mut self.inputs) {
