@@ -20,7 +20,7 @@ mod warm;
 use core::panic::PanicInfo;
 
 use board::escc::EsccChannelA;
-use board::{pci, timebase};
+use board::{heathrow, pci, timebase};
 use fsw_bridge::messages::PANIC_FILE_MAX;
 use fsw_bridge::{ResetCause, TargetToHost, PROTOCOL_VERSION};
 
@@ -56,8 +56,11 @@ pub extern "C" fn rust_start(reset_tb_hi: u32, reset_tb_lo: u32) -> ! {
         warm::set_pending_cause(ResetCause::HealthMonitor);
         boot::software_reset();
     }
-    // SAFETY: mac-io was just mapped at MAC_IO_BASE; from now on only the I/O partition (and
-    // the kernel's direct reports) use the channel.
+    // Nothing may interrupt before the kernel asks for it (QEMU keeps the controller's mask and
+    // latched events across a warm reset).
+    heathrow::init();
+    // SAFETY: mac-io was just mapped at MAC_IO_BASE; from now on the kernel owns the receiver
+    // and the I/O partition (and the kernel's direct reports) the transmitter.
     let _ = unsafe { EsccChannelA::init() };
     // Goes to the kernel's log ring; the I/O partition sends it right after its Hello.
     defmt::info!(

@@ -38,7 +38,46 @@ fn result(r3: i32) -> Result<u32, i32> {
 
 /// Give up the rest of this window; returns at the start of the next one.
 pub fn wait_next_window() {
-    raw(SYS_WAIT_NEXT_WINDOW, [0; 5]);
+    raw(SYS_WAIT_NEXT_WINDOW, [wait::NEXT_WINDOW, 0, 0, 0, 0]);
+}
+
+/// Give up the rest of this window with nothing to do until a message arrives on one of this
+/// partition's ports (the module may stop its schedule meanwhile); returns at a window start.
+pub fn wait_idle() {
+    raw(SYS_WAIT_NEXT_WINDOW, [wait::IDLE, 0, 0, 0, 0]);
+}
+
+/// Link owner: move received link bytes into `buffer`; (bytes moved, bytes the receiver lost
+/// since boot).
+pub fn link_read(buffer: &mut [u8]) -> (usize, u32) {
+    let (r3, lost, _) = raw(
+        SYS_LINK_READ,
+        [buffer.as_mut_ptr() as u32, buffer.len() as u32, 0, 0, 0],
+    );
+    (result(r3).unwrap_or(0) as usize, lost)
+}
+
+/// What [`wait_for_input`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputWait {
+    /// The module stopped its schedule until input arrived; this is a fresh major frame.
+    Parked,
+    /// Input was already waiting.
+    InputPending,
+    /// Something else had work; this is the caller's next window. `reasons` are
+    /// `abi::wait_input` bits, `busy` the busy partitions.
+    NextWindow { reasons: u32, busy: u32 },
+}
+
+/// Link owner: everything is sent and the caller waits for the host (see
+/// `abi::SYS_WAIT_FOR_INPUT`).
+pub fn wait_for_input() -> InputWait {
+    let (r3, reasons, busy) = raw(SYS_WAIT_FOR_INPUT, [0; 5]);
+    match r3 as u32 {
+        wait_input::PARKED => InputWait::Parked,
+        wait_input::INPUT_PENDING => InputWait::InputPending,
+        _ => InputWait::NextWindow { reasons, busy },
+    }
 }
 
 pub fn port_send(port: usize, message: &[u8]) -> Result<(), i32> {

@@ -61,6 +61,10 @@ impl EventQueue {
     pub fn pop(&mut self) -> Option<EventRecord> {
         self.queue.pop_front()
     }
+
+    pub fn is_empty(&self) -> bool {
+        self.queue.is_empty()
+    }
 }
 
 /// The message an event record stands for.

@@ -37,6 +37,10 @@ impl LogRing {
         }
     }
 
+    pub fn is_empty(&self) -> bool {
+        self.bytes.is_empty()
+    }
+
     /// Move up to `out.len()` bytes out; returns how many.
     pub fn drain(&mut self, out: &mut [u8]) -> usize {
         let mut n = 0;
