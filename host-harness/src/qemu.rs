@@ -1,6 +1,13 @@
 //! Launching the emulated target: a QEMU profile from `qemu/`, the process started paused with
-//! a pty serial port and a QMP socket, and a guard that ends that process by its PID whatever
-//! happens (normal return, error, panic, Ctrl-C or SIGTERM, or `hil` itself being killed).
+//! its serial port on a Unix socket and a QMP socket, and a guard that ends that process by its
+//! PID whatever happens (normal return, error, panic, Ctrl-C or SIGTERM, or `hil` itself being
+//! killed).
+//!
+//! The serial port (the target's ESCC channel A, the same UART a real board uses) is a
+//! `-chardev socket` server that `hil` connects to before the guest runs. It used to be a pty,
+//! but QEMU 7.2's pty backend only notices that the host opened the pty on a once-a-second
+//! poll (`pty_chr_timer`): until then it does not read what the host writes, so the first bytes
+//! after every QEMU start waited up to a second. A socket connection is accepted at once.
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
@@ -117,12 +124,13 @@ fn install_signal_handler() {
     });
 }
 
-/// Where a running QEMU's files are: its output log and QMP socket.
+/// Where a running QEMU's files are: its output log, QMP socket and serial socket.
 #[derive(Clone, Debug)]
 pub struct RunFiles {
     pub dir: PathBuf,
     pub log: PathBuf,
     pub qmp_socket: PathBuf,
+    pub serial_socket: PathBuf,
 }
 
 impl RunFiles {
@@ -135,6 +143,7 @@ impl RunFiles {
         Ok(Self {
             log: dir.join("qemu.log"),
             qmp_socket: dir.join("qmp.sock"),
+            serial_socket: dir.join("serial.sock"),
             dir,
         })
     }
@@ -144,13 +153,13 @@ impl RunFiles {
 pub struct Qemu {
     child: Child,
     qmp: Qmp,
-    pty: PathBuf,
     files: RunFiles,
 }
 
 impl Qemu {
-    /// Start QEMU paused (`-S`) with `firmware` as its ROM. Call [`Qemu::resume`] after the pty
-    /// is open so that no byte the target sends is lost.
+    /// Start QEMU paused (`-S`) with `firmware` as its ROM. Connect to
+    /// [`Qemu::serial_socket`] and wait for [`Qemu::wait_serial_connected`] before
+    /// [`Qemu::resume`], so that no byte the target sends is lost.
     pub fn launch(
         profile: &QemuProfile,
         firmware: &Path,
@@ -177,7 +186,13 @@ impl Qemu {
             } else {
                 &profile.icount_lockstep
             })
-            .args(["-S", "-chardev", "pty,id=s0", "-serial", "chardev:s0"])
+            .arg("-S")
+            .arg("-chardev")
+            .arg(format!(
+                "socket,id=s0,path={},server=on,wait=off",
+                files.serial_socket.display()
+            ))
+            .args(["-serial", "chardev:s0"])
             .arg("-qmp")
             .arg(format!(
                 "unix:{},server=on,wait=off",
@@ -219,32 +234,37 @@ impl Qemu {
                 return Err(e);
             }
         };
-        let mut qemu = Self {
-            child,
-            qmp,
-            pty: PathBuf::new(),
-            files,
-        };
-        qemu.pty = qemu.find_pty()?;
-        Ok(qemu)
+        Ok(Self { child, qmp, files })
     }
 
-    fn find_pty(&mut self) -> Result<PathBuf, QemuError> {
-        let chardevs = self.qmp.execute("query-chardev", json!({}))?;
-        chardevs
-            .as_array()
-            .into_iter()
-            .flatten()
-            .find(|c| c["label"] == "s0")
-            .and_then(|c| c["filename"].as_str())
-            .and_then(|f| f.strip_prefix("pty:"))
-            .map(PathBuf::from)
-            .ok_or_else(|| QemuError::Qmp(format!("no pty chardev s0 in {chardevs}")))
+    /// The Unix socket QEMU listens on for the target's serial port (one connection).
+    pub fn serial_socket(&self) -> &Path {
+        &self.files.serial_socket
     }
 
-    /// The host end of the target's serial port.
-    pub fn pty(&self) -> &Path {
-        &self.pty
+    /// Wait until QEMU has accepted the connection to the serial socket (its chardev is no
+    /// longer "disconnected"): only then does it deliver what the guest sends.
+    pub fn wait_serial_connected(&mut self, timeout: Duration) -> Result<(), QemuError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let chardevs = self.qmp.execute("query-chardev", json!({}))?;
+            let filename = chardevs
+                .as_array()
+                .into_iter()
+                .flatten()
+                .find(|c| c["label"] == "s0")
+                .and_then(|c| c["filename"].as_str())
+                .ok_or_else(|| QemuError::Qmp(format!("no chardev s0 in {chardevs}")))?;
+            if !filename.starts_with("disconnected") {
+                return Ok(());
+            }
+            if Instant::now() >= deadline {
+                return Err(QemuError::Qmp(format!(
+                    "QEMU did not accept the serial connection within {timeout:?} ({filename})"
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
     }
 
     pub fn pid(&self) -> u32 {
@@ -275,6 +295,12 @@ impl Qemu {
         &self.qmp.events
     }
 
+    /// Host CPU time (user and system) the QEMU process has used so far, from
+    /// `/proc/<pid>/stat` (None where that is not readable).
+    pub fn cpu_time(&self) -> Option<Duration> {
+        process_cpu_time(self.child.id())
+    }
+
     /// True while the QEMU process is running.
     pub fn is_running(&mut self) -> bool {
         matches!(self.child.try_wait(), Ok(None))
@@ -290,6 +316,7 @@ impl Drop for Qemu {
     fn drop(&mut self) {
         end_child(&mut self.child);
         let _ = std::fs::remove_file(&self.files.qmp_socket);
+        let _ = std::fs::remove_file(&self.files.serial_socket);
     }
 }
 
@@ -302,6 +329,25 @@ fn end_child(child: &mut Child) {
     if let Ok(mut children) = CHILDREN.lock() {
         children.remove(&pid);
     }
+}
+
+/// User plus system CPU time of process `pid` (fields 14 and 15 of `/proc/<pid>/stat`, in
+/// clock ticks).
+pub fn process_cpu_time(pid: u32) -> Option<Duration> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    // The command name (field 2) is in parentheses and may contain spaces: count from after it.
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let utime: u64 = fields.get(11)?.parse().ok()?;
+    let stime: u64 = fields.get(12)?.parse().ok()?;
+    // SAFETY: sysconf has no preconditions.
+    let ticks_per_second = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
+    if ticks_per_second <= 0 {
+        return None;
+    }
+    Some(Duration::from_secs_f64(
+        (utime + stime) as f64 / ticks_per_second as f64,
+    ))
 }
 
 fn find_on_path(binary: &str) -> Option<PathBuf> {

@@ -60,7 +60,7 @@ pub struct Session {
 }
 
 impl Session {
-    /// Start QEMU paused, open its pty, then let the CPU run: no byte is lost.
+    /// Start QEMU paused, connect to its serial port, then let the CPU run: no byte is lost.
     pub fn boot_qemu(
         profile: &QemuProfile,
         firmware: &FirmwareImage,
@@ -68,13 +68,14 @@ impl Session {
     ) -> Result<Self, SessionError> {
         let started = Instant::now();
         let mut qemu = Qemu::launch(profile, &firmware.elf, options)?;
-        let link = HostLink::open(&qemu.pty().display().to_string(), crate::link::DEFAULT_BAUD)?;
+        let link = HostLink::connect_unix(qemu.serial_socket())?;
+        qemu.wait_serial_connected(Duration::from_secs(20))?;
         qemu.resume()?;
         let describe = format!(
-            "{} (QEMU pid {}, pty {}, log {})",
+            "{} (QEMU pid {}, serial {}, log {})",
             profile.name,
             qemu.pid(),
-            qemu.pty().display(),
+            qemu.serial_socket().display(),
             qemu.files().log.display()
         );
         Ok(Self {
