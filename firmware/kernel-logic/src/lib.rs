@@ -6,9 +6,12 @@
 //! - [`heathrow`]: where an interrupt line's bits live in the Heathrow PIC's registers, and the
 //!   lines QEMU's g3beige wires to it;
 //! - [`park`]: whether the module may stop its schedule and wait for the host
-//!   (`SYS_WAIT_FOR_INPUT`), and the check of that call's arguments.
+//!   (`SYS_WAIT_FOR_INPUT`), and the check of that call's arguments;
+//! - [`shm_link`]: the shared-memory link transport's layout and ring logic, used by the
+//!   target's kernel and by the host (`hil`) alike.
 #![no_std]
 
 pub mod byte_ring;
 pub mod heathrow;
 pub mod park;
+pub mod shm_link;
