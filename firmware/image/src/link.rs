@@ -1,7 +1,8 @@
-//! The framed serial link to the host (used by the I/O partition, in its own region): frames out
-//! (blocking on the UART), and frames in from the kernel's receive ring (`SYS_LINK_READ`)
-//! through the streaming decoder, whose counters the target reports in every Pong.
-use embedded_io::Write;
+//! The framed link to the host (used by the I/O partition, in its own region): frames out
+//! through the kernel (`SYS_LINK_WRITE`), and frames in from the kernel (`SYS_LINK_READ`)
+//! through the streaming decoder, whose counters the target reports in every Pong. The kernel
+//! moves the bytes over the board's transport (the serial line, or shared memory on the
+//! emulated target); the frames are the same either way.
 use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, MAX_FRAME_LEN};
 use fsw_bridge::{HostToTarget, LinkCounters, TargetToHost};
 
@@ -10,8 +11,7 @@ use crate::sys;
 /// Bytes taken from the kernel's receive ring at a time.
 pub const RX_CHUNK_BYTES: usize = 256;
 
-pub struct Link<U> {
-    uart: U,
+pub struct Link {
     /// Where frames are encoded (kept, so a message does not clear a frame's worth of stack).
     tx_frame: [u8; MAX_FRAME_LEN],
     /// Bytes read from the kernel and not yet decoded: `rx_chunk[rx_next..rx_len]`.
@@ -25,10 +25,9 @@ pub struct Link<U> {
     pub rx_lost: u32,
 }
 
-impl<U: Write> Link<U> {
-    pub fn new(uart: U) -> Self {
+impl Link {
+    pub fn new() -> Self {
         Self {
-            uart,
             tx_frame: [0; MAX_FRAME_LEN],
             rx_chunk: [0; RX_CHUNK_BYTES],
             rx_next: 0,
@@ -39,13 +38,20 @@ impl<U: Write> Link<U> {
         }
     }
 
-    /// Encode and send one message; waits for the UART.
+    /// Encode and send one message. Waits (a window at a time) while the transport has no room:
+    /// the host has not read what went before.
     pub fn send(&mut self, msg: &TargetToHost) {
-        match encode(msg, &mut self.tx_frame) {
-            Ok(len) => {
-                let _ = self.uart.write_all(&self.tx_frame[..len]);
+        let Ok(len) = encode(msg, &mut self.tx_frame) else {
+            self.tx_encode_errors = self.tx_encode_errors.saturating_add(1);
+            return;
+        };
+        let mut sent = 0;
+        while sent < len {
+            let n = sys::link_write(&self.tx_frame[sent..len]);
+            if n == 0 {
+                sys::wait_next_window();
             }
-            Err(_) => self.tx_encode_errors = self.tx_encode_errors.saturating_add(1),
+            sent += n;
         }
     }
 

@@ -57,6 +57,15 @@ pub fn link_read(buffer: &mut [u8]) -> (usize, u32) {
     (result(r3).unwrap_or(0) as usize, lost)
 }
 
+/// Link owner: send bytes to the host; how many the kernel took (0: no room yet).
+pub fn link_write(data: &[u8]) -> usize {
+    let (r3, _, _) = raw(
+        SYS_LINK_WRITE,
+        [data.as_ptr() as u32, data.len() as u32, 0, 0, 0],
+    );
+    result(r3).unwrap_or(0) as usize
+}
+
 /// What [`wait_for_input`] did.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum InputWait {

@@ -92,9 +92,10 @@ pub const SYS_NV_WRITE: u32 = 17;
 /// the same every boot of the same kind, unlike the uptime, which includes every other
 /// partition's windows and the idle time spent waiting for the host).
 pub const SYS_UPTIME: u32 = 18;
-/// (ptr, cap) -> bytes moved from the kernel's link receive ring into the buffer (0: nothing
-/// received); r4 = bytes the receiver lost since boot (UART overruns). The kernel drains the
-/// UART into the ring on its receive interrupt and on this call. Link owner only.
+/// (ptr, cap) -> bytes received from the host moved into the buffer (0: nothing received);
+/// r4 = bytes the receiver lost since boot (UART overruns). The kernel is the link's byte pipe
+/// over the board's transport (the serial line, or shared memory on the emulated target: see
+/// `kernel_logic::shm_link`). Link owner only.
 pub const SYS_LINK_READ: u32 = 19;
 /// () -> r3 = one of [`wait_input`]: the caller (the link owner) has sent everything and waits
 /// for the host. If the whole module has nothing to do until input arrives (see
@@ -106,8 +107,12 @@ pub const SYS_LINK_READ: u32 = 19;
 /// reasons (`wait_input::*` bits), r5 = the partitions that were busy (bit p). Every argument
 /// register must be 0 (E_RANGE otherwise). Link owner only.
 pub const SYS_WAIT_FOR_INPUT: u32 = 20;
+/// (ptr, len) -> bytes taken for the host: all of them over the serial line (the call waits for
+/// the UART); over shared memory what fits in the ring (0 while the host has not read; the
+/// caller tries again later). Link owner only.
+pub const SYS_LINK_WRITE: u32 = 21;
 /// Number of system calls (one past the highest number; unassigned numbers get E_UNKNOWN_CALL).
-pub const SYSCALL_COUNT: u32 = 21;
+pub const SYSCALL_COUNT: u32 = 22;
 
 /// SYS_WAIT_NEXT_WINDOW's argument.
 pub mod wait {
@@ -243,6 +248,11 @@ pub mod metric {
     pub const LINK_RX_RING_FULL: u16 = 0x0214;
     /// Times the module stopped its schedule to wait for input (SYS_WAIT_FOR_INPUT parked).
     pub const PARKS: u16 = 0x0215;
+    /// The link's transport: 0 the serial line, 1 shared memory (the emulated target with the
+    /// link device).
+    pub const LINK_TRANSPORT: u16 = 0x0216;
+    /// Shared-memory rings whose counts made no sense, dropped (the host wrote garbage).
+    pub const LINK_RING_ERRORS: u16 = 0x0217;
 }
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the

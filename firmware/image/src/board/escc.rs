@@ -1,10 +1,10 @@
 //! ESCC (Zilog 8530) channel A, QEMU's first `-serial`: the link to the host. mac-io + 0x13000,
 //! register stride 0x10: channel A control at +0x20, data at +0x30.
 //!
-//! Transmit is polled, behind the `embedded-io` write traits (the I/O partition sends; the kernel
-//! sends its own reports with [`kernel_write`]). Receive belongs to the kernel: the channel
-//! raises its interrupt (Heathrow line 0x0f) for every received character, and the kernel drains
-//! it with [`EsccChannelA::try_read_byte`] into its receive ring.
+//! The channel belongs to the kernel (`kernel::link`), which moves the link's bytes for the I/O
+//! partition. Transmit is polled, behind the `embedded-io` write traits; the channel raises its
+//! interrupt (Heathrow line 0x0f) for every received character, and the kernel drains it with
+//! [`EsccChannelA::try_read_byte`].
 //!
 //! What QEMU 7.2's `hw/char/escc.c` does, observed in its source:
 //! - It ignores the baud rate and holds back the next received byte until the guest has read the
@@ -59,7 +59,7 @@ impl EsccChannelA {
     ///
     /// # Safety
     /// 1. mac-io has been mapped at [`MAC_IO_BASE`] (see `pci::init_mac_io`).
-    /// 2. No other `EsccChannelA` exists.
+    /// 2. Only the kernel uses the channel (through [`kernel_channel`]), with the MMU off.
     pub unsafe fn init() -> Self {
         for (reg, value) in INIT_SEQUENCE {
             mmio_write8(CHANNEL_A_CONTROL, reg);
@@ -76,24 +76,12 @@ impl EsccChannelA {
         Self(())
     }
 
-    /// The channel the kernel initialised at boot, for the I/O partition's transmitter (it has
-    /// mac-io mapped at the same address).
-    ///
-    /// # Safety
-    /// 1. [`EsccChannelA::init`] ran in this boot.
-    /// 2. The caller only transmits (the kernel owns the receiver), and is the only one to do
-    ///    so apart from the kernel's [`kernel_write`], which only runs while the partition is
-    ///    stopped.
-    pub unsafe fn attach() -> Self {
-        Self(())
-    }
-
     fn status(&self) -> u8 {
         // SAFETY: the instance exists only after `init` mapped the device.
         unsafe { mmio_read8(CHANNEL_A_CONTROL) }
     }
 
-    /// Take one received byte if there is one. Kernel only (the receiver is the kernel's).
+    /// Take one received byte if there is one.
     pub fn try_read_byte(&mut self) -> Option<u8> {
         if self.status() & RR0_RX_AVAILABLE != 0 {
             // SAFETY: as in `status`.
@@ -103,7 +91,7 @@ impl EsccChannelA {
         }
     }
 
-    /// True if a received character waits (it stays there). Kernel only.
+    /// True if a received character waits (it stays there).
     pub fn try_peek_available(&self) -> bool {
         self.status() & RR0_RX_AVAILABLE != 0
     }
@@ -158,16 +146,7 @@ impl WriteReady for EsccChannelA {
     }
 }
 
-/// Kernel only (MMU off, partition stopped): write bytes to channel A, waiting for the
-/// transmitter. For reports the kernel sends itself (faults, module reset).
-pub fn kernel_write(bytes: &[u8]) {
-    let mut channel = EsccChannelA(());
-    for &b in bytes {
-        channel.write_byte(b);
-    }
-}
-
-/// Kernel only: the channel, for draining its receiver.
-pub fn kernel_receiver() -> EsccChannelA {
+/// Kernel only (MMU off): the channel [`EsccChannelA::init`] set up at boot.
+pub fn kernel_channel() -> EsccChannelA {
     EsccChannelA(())
 }

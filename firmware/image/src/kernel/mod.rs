@@ -10,7 +10,7 @@
 //! also have the module warm-reset at a chosen point inside a partition's work
 //! ([`armed_reset`]).
 //!
-//! The kernel owns the link's receiver ([`link_rx`]). When the whole module has nothing to do
+//! The kernel is the link's byte pipe ([`link`]). When the whole module has nothing to do
 //! until the host sends something, the I/O partition asks to wait for input
 //! (`SYS_WAIT_FOR_INPUT`) and the kernel stops the schedule ("parks"): the CPU dozes with no
 //! timer armed, which under QEMU's `-icount sleep=off` costs no host CPU, and the UART's
@@ -21,7 +21,7 @@
 pub mod armed_reset;
 pub mod health;
 pub mod klog;
-pub mod link_rx;
+pub mod link;
 pub mod mmu;
 pub mod ports;
 pub mod sched;
@@ -166,8 +166,8 @@ pub struct Kernel {
     pub armed: armed_reset::ArmedReset,
     /// Partition whose regions DBAT1..3 map now.
     mapped: Option<usize>,
-    /// The link's receive path (ring and counters).
-    pub link_rx: link_rx::LinkRx,
+    /// The link to the host (transport, receive ring, counters).
+    pub link: link::KernelLink,
     /// Partitions that have nothing to do until a message arrives for them.
     pub idle_declared: IdleDeclarations,
     /// The link's receive interrupt is let through the Heathrow controller (only while idle).
@@ -190,7 +190,7 @@ static mut KERNEL: Kernel = Kernel {
     boot_ticks: 0,
     armed: armed_reset::ArmedReset::new(),
     mapped: None,
-    link_rx: link_rx::LinkRx::new(),
+    link: link::KernelLink::new(),
     idle_declared: IdleDeclarations::new(),
     link_interrupt_enabled: false,
     parks: 0,
@@ -206,12 +206,21 @@ pub unsafe fn kernel() -> &'static mut Kernel {
     &mut *addr_of_mut!(KERNEL)
 }
 
-/// Start the partitions: called once at boot, never returns.
-pub fn start(boot_cause: u32, boot_count: u32, nv_bytes: u32) -> ! {
+/// Start the partitions: called once at boot, never returns. `link_device`: the shared-memory
+/// link transport, when the board has it.
+pub fn start(
+    boot_cause: u32,
+    boot_count: u32,
+    nv_bytes: u32,
+    link_device: Option<link::SharedMemoryDevice>,
+) -> ! {
     boot::enable_doze();
     mmu::init();
     // SAFETY: boot, interrupts off, nothing else holds the kernel state.
     let k = unsafe { kernel() };
+    if let Some(device) = link_device {
+        k.link.use_shared_memory(device);
+    }
     k.boot_cause = boot_cause;
     k.boot_count = boot_count;
     k.nv_bytes = nv_bytes;
@@ -271,7 +280,7 @@ impl Kernel {
     /// The link's receive interrupt: clear its event, move what the UART holds into the ring.
     fn on_link_interrupt(&mut self) {
         heathrow::take_link_event();
-        self.link_rx.drain_uart();
+        self.link.drain_uart();
     }
 
     /// (Re)start partition `p` from its entry: fresh statics, next generation.

@@ -47,7 +47,7 @@ use kernel_config::ErrorKind;
 
 use super::{Kernel, Next, RunState};
 use crate::board::timebase;
-use crate::config::{PARTITION_COUNT, SYSTEM, WINDOW_COUNT};
+use crate::config::{LINK_OWNER, PARTITION_COUNT, SYSTEM, WINDOW_COUNT};
 
 /// Lead time from the kernel's start to the first frame.
 const START_LEAD_TICKS: u64 = 1_000;
@@ -210,6 +210,10 @@ impl Kernel {
 
     /// Stop charging `p` (switch-out; the time up to the kernel entry).
     pub fn charge(&mut self, p: usize, _now: u64) {
+        if p == LINK_OWNER {
+            // What it wrote for the host since it last gave up the CPU (shared memory).
+            self.link.ring_doorbell();
+        }
         let used = u64::from(self.stint_ticks());
         let state = &mut self.parts[p];
         state.cpu_total += used;
@@ -289,10 +293,10 @@ impl Kernel {
     }
 
     /// The receive interrupt came while the kernel idled (the UART is drained): if the
-    /// schedule is parked and a whole frame has arrived (see `link_rx`), restart it with a major
+    /// schedule is parked and a whole frame has arrived (see `link`), restart it with a major
     /// frame that starts now; otherwise keep idling.
     pub fn on_input_while_idle(&mut self, now: u64) -> Next {
-        if self.sched.phase != Phase::Parked || !self.link_rx.holds_frame_end() {
+        if self.sched.phase != Phase::Parked || !self.link.holds_frame_end() {
             return Next::Idle;
         }
         self.sched.frame_start = now;
@@ -403,13 +407,17 @@ impl Kernel {
             metric::SWITCH_MAX_TICKS,
             u64::from(self.sched.switch_max_ticks),
         );
-        self.events
-            .metric(metric::LINK_RX_BYTES, u64::from(self.link_rx.received));
-        self.events
-            .metric(metric::LINK_RX_LOST, u64::from(self.link_rx.lost));
-        self.events
-            .metric(metric::LINK_RX_RING_FULL, u64::from(self.link_rx.ring_full));
-        self.events.metric(metric::PARKS, u64::from(self.parks));
+        let link = &self.link;
+        for (id, value) in [
+            (metric::LINK_RX_BYTES, link.received),
+            (metric::LINK_RX_LOST, link.lost),
+            (metric::LINK_RX_RING_FULL, link.ring_full),
+            (metric::PARKS, self.parks),
+            (metric::LINK_TRANSPORT, u32::from(link.over_shared_memory())),
+            (metric::LINK_RING_ERRORS, link.ring_errors),
+        ] {
+            self.events.metric(id, u64::from(value));
+        }
         self.events.metric(
             metric::LOG_BYTES_DROPPED,
             u64::from(super::klog::with_ring(|ring| ring.dropped)),

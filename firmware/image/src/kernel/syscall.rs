@@ -244,8 +244,13 @@ impl Kernel {
             SYS_LINK_READ => {
                 Self::link_owner(p)?;
                 let buffer = USlice::from_raw(a[0], a[1])?.writable_by(p)?;
-                let n = self.link_rx.read(buffer);
-                Ok(Return(n as u32, self.link_rx.lost, 0))
+                let n = self.link.read(buffer);
+                Ok(Return(n as u32, self.link.lost, 0))
+            }
+            SYS_LINK_WRITE => {
+                Self::link_owner(p)?;
+                let data = USlice::from_raw(a[0], a[1])?.readable_by(p)?;
+                Ok(Return(self.link.write(data) as u32, 0, 0))
             }
             SYS_WAIT_FOR_INPUT => {
                 Self::link_owner(p)?;
@@ -278,7 +283,7 @@ impl Kernel {
             .filter(|&q| self.parts[q].run == RunState::Halted)
             .fold(0u32, |bits, q| bits | 1 << q);
         ModuleState {
-            input_pending: self.link_rx.pending(),
+            input_pending: self.link.pending(),
             busy_partitions: self.idle_declared.busy(caller, halted, PARTITION_COUNT),
             message_in_flight: self.ports.any_queued(),
             log_pending: klog::with_ring(|ring| !ring.is_empty()),

@@ -1,6 +1,6 @@
-//! The I/O partition: the only one with the UART (mac-io is mapped into it alone; it transmits,
-//! and reads what the kernel received through `SYS_LINK_READ`). It runs the
-//! frame codec, says Hello once per boot (with the reset cause the kernel determined), answers
+//! The I/O partition: the link's owner. The kernel moves the link's bytes (`SYS_LINK_READ`,
+//! `SYS_LINK_WRITE`, over the serial line or shared memory); this partition runs the frame
+//! codec, says Hello once per boot (with the reset cause the kernel determined), answers
 //! Ping with its decoder counters, honours ResetRequest through the kernel (a mid-frame kind is
 //! held until the next TimeGrant has been routed, then armed on the executive's work on that
 //! grant), and routes:
@@ -26,12 +26,11 @@ use kernel_config::system::{
     PORT_PLANNER_TO_IO, ROUTED_MESSAGE_SIZE,
 };
 
-use crate::board::escc::EsccChannelA;
 use crate::link::Link;
 use crate::sys;
 
 #[link_section = ".bss.part.io"]
-static mut LINK: MaybeUninit<Link<EsccChannelA>> = MaybeUninit::uninit();
+static mut LINK: MaybeUninit<Link> = MaybeUninit::uninit();
 
 fn reset_cause(code: u32) -> ResetCause {
     match code {
@@ -44,12 +43,9 @@ fn reset_cause(code: u32) -> ResetCause {
 
 #[no_mangle]
 pub extern "C" fn partition_io_main() -> ! {
-    // SAFETY:
-    // 1. LINK is this partition's own static; entry runs once per (re)start, so this is the only
-    //    reference. `write` initialises it before use.
-    // 2. The kernel initialised the ESCC at boot and maps mac-io only into this partition; the
-    //    partition only transmits (the kernel owns the receiver).
-    let link = unsafe { (*addr_of_mut!(LINK)).write(Link::new(EsccChannelA::attach())) };
+    // SAFETY: LINK is this partition's own static; entry runs once per (re)start, so this is the
+    // only reference. `write` initialises it before use.
+    let link = unsafe { (*addr_of_mut!(LINK)).write(Link::new()) };
     let (_, generation) = sys::identity();
     if generation == 0 {
         let (cause, boot_count) = sys::boot_info();
@@ -97,7 +93,7 @@ pub extern "C" fn partition_io_main() -> ! {
 }
 
 /// Everything waiting for the host: kernel log bytes, kernel events, partitions' messages.
-fn pump_outbound(link: &mut Link<EsccChannelA>) {
+fn pump_outbound(link: &mut Link) {
     loop {
         let mut chunk = [0u8; LOG_CHUNK_MAX];
         let n = sys::log_drain(&mut chunk);
@@ -193,7 +189,7 @@ fn deliver(mut routing: Routing, reset_in_next_frame: &mut Option<(u32, u32)>) -
 
 /// Act on one host message; a message still on its way to a full port is returned.
 fn handle(
-    link: &mut Link<EsccChannelA>,
+    link: &mut Link,
     reset_in_next_frame: &mut Option<(u32, u32)>,
     msg: HostToTarget,
 ) -> Option<Routing> {

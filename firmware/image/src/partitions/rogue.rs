@@ -74,7 +74,7 @@ fn bad_pointers() {
     let kernel_data = kernel_config::KERNEL_DATA_BASE;
     let planner = kernel_config::system::PLANNER_REGION.base;
     let device = kernel_config::system::MAC_IO_BASE + 0x13000;
-    let cases: [(u32, [u32; 5]); 25] = [
+    let cases: [(u32, [u32; 5]); 26] = [
         (
             abi::SYS_PORT_SEND,
             [PORT_IO_TO_ROGUE as u32, kernel_data, 16, 0, 0],
@@ -114,6 +114,7 @@ fn bad_pointers() {
         (abi::SYS_WAIT_NEXT_WINDOW, [7, 0, 0, 0, 0]),
         // Link owner only.
         (abi::SYS_LINK_READ, [own, 16, 0, 0, 0]),
+        (abi::SYS_LINK_WRITE, [own, 16, 0, 0, 0]),
         (abi::SYS_WAIT_FOR_INPUT, [0; 5]),
         (abi::SYSCALL_COUNT, [0; 5]),
         (0xffff_ffff, [kernel_data; 5]),
