@@ -17,6 +17,7 @@ pub mod qemu;
 pub mod run;
 pub mod scenario;
 pub mod session;
+pub mod shm;
 pub mod tasknet;
 
 use std::path::PathBuf;

@@ -1,6 +1,8 @@
-//! The host end of the framed link: a serial device (a real board's `/dev/tty*`) or the Unix
-//! socket QEMU connects the emulated target's serial port to, a reader thread that decodes frames
-//! as they arrive, and a transcript of every frame in both directions, in order.
+//! The host end of the framed link: a serial device (a real board's `/dev/tty*`), the Unix
+//! socket QEMU connects the emulated target's serial port to, or the emulated target's
+//! shared-memory link with that socket as its doorbell; a reader thread that decodes frames as
+//! they arrive, and a transcript of every frame in both directions, in order. The frames are
+//! the same on every transport.
 use std::io::{Read, Write};
 use std::os::unix::net::UnixStream;
 use std::path::Path;
@@ -97,6 +99,19 @@ impl HostLink {
         let reader = stream.try_clone().map_err(error)?;
         reader.set_read_timeout(Some(READ_POLL)).map_err(error)?;
         Ok(Self::start(Box::new(reader), Box::new(stream), true))
+    }
+
+    /// Connect to the emulated target's serial socket and use it as the doorbell of the
+    /// shared-memory link in `link_file` (see [`crate::shm`]): frames go through the rings.
+    pub fn connect_shm(socket: &Path, link_file: &Path) -> Result<Self, LinkError> {
+        let error = |source| LinkError::Connect {
+            path: socket.display().to_string(),
+            source,
+        };
+        let stream = UnixStream::connect(socket).map_err(error)?;
+        stream.set_read_timeout(Some(READ_POLL)).map_err(error)?;
+        let (reader, writer) = crate::shm::open(link_file, stream).map_err(error)?;
+        Ok(Self::start(Box::new(reader), Box::new(writer), true))
     }
 
     /// Start the reader thread on `reader`; `end_of_file_closes`: a read of 0 bytes means the

@@ -347,19 +347,7 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             if json {
                 println!("{}", serde_json::to_string_pretty(&bench).unwrap());
             } else {
-                println!("link benchmark (wall time; depends on the host)");
-                println!("  boot to Hello        {:>10.1} ms", bench.boot_to_hello_ms);
-                println!(
-                    "  ping round trip      median {} us, p99 {} us, max {} us over {} pings",
-                    bench.pings.median_us,
-                    bench.pings.p99_us,
-                    bench.pings.max_us,
-                    bench.pings.count
-                );
-                println!(
-                    "  frames per second    {:>10.0} (both directions, {} pings, 8 in flight)",
-                    bench.frames_per_second, bench.burst
-                );
+                print!("{}", hil::bench::link_table(&bench));
             }
             Ok(ExitCode::SUCCESS)
         }

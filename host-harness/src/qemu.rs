@@ -8,6 +8,13 @@
 //! but QEMU 7.2's pty backend only notices that the host opened the pty on a once-a-second
 //! poll (`pty_chr_timer`): until then it does not read what the host writes, so the first bytes
 //! after every QEMU start waited up to a second. A socket connection is accepted at once.
+//!
+//! The link's transport is the profile's `transport` (or `HIL_TRANSPORT` in the environment):
+//! `serial`, the frames on the serial line as on a real board; or `shared-memory`, the same
+//! frames through rings in a second `ivshmem-plain` device backed by a file in `/dev/shm`, with
+//! the serial line as the doorbell (see `kernel_logic::shm_link` and [`crate::shm`]). QEMU hands
+//! the guest one serial byte per turn of its main loop; shared memory moves a batch of frames
+//! per turn. The firmware picks the shared-memory link up by itself when the device is there.
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
@@ -22,6 +29,35 @@ use serde_json::{json, Value};
 
 use crate::repo_root;
 
+/// How the link's frames travel between `hil` and an emulated target.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Transport {
+    /// On the serial line, as on a real board.
+    #[default]
+    Serial,
+    /// Through rings in a shared-memory device, the serial line as the doorbell.
+    SharedMemory,
+}
+
+impl Transport {
+    pub fn name(self) -> &'static str {
+        match self {
+            Transport::Serial => "serial",
+            Transport::SharedMemory => "shared-memory",
+        }
+    }
+
+    fn parse(name: &str) -> Option<Self> {
+        [Transport::Serial, Transport::SharedMemory]
+            .into_iter()
+            .find(|t| t.name() == name)
+    }
+}
+
+/// The environment variable that overrides a profile's transport (`serial`, `shared-memory`).
+pub const TRANSPORT_ENV: &str = "HIL_TRANSPORT";
+
 /// A machine profile (`qemu/<name>.toml`).
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -33,6 +69,9 @@ pub struct QemuProfile {
     pub memory_mib: u32,
     pub icount_lockstep: String,
     pub icount_realtime: String,
+    /// The link's transport (default: serial).
+    #[serde(default)]
+    pub transport: Transport,
     #[serde(default)]
     pub extra_args: Vec<String>,
 }
@@ -79,10 +118,28 @@ impl QemuProfile {
             path: path.clone(),
             source,
         })?;
-        toml::from_str(&text).map_err(|e| QemuError::ProfileInvalid {
-            path: path.clone(),
-            message: e.to_string(),
-        })
+        let mut profile: QemuProfile =
+            toml::from_str(&text).map_err(|e| QemuError::ProfileInvalid {
+                path: path.clone(),
+                message: e.to_string(),
+            })?;
+        if let Some(name) = std::env::var_os(TRANSPORT_ENV) {
+            let name = name.to_string_lossy();
+            profile.transport =
+                Transport::parse(&name).ok_or_else(|| QemuError::ProfileInvalid {
+                    path: path.clone(),
+                    message: format!(
+                        "{TRANSPORT_ENV}={name} is not a transport (serial, shared-memory)"
+                    ),
+                })?;
+        }
+        Ok(profile)
+    }
+
+    /// The same profile with the link over `transport`.
+    pub fn with_transport(mut self, transport: Transport) -> Self {
+        self.transport = transport;
+        self
     }
 }
 
@@ -124,13 +181,15 @@ fn install_signal_handler() {
     });
 }
 
-/// Where a running QEMU's files are: its output log, QMP socket and serial socket.
+/// Where a running QEMU's files are: its output log, QMP socket, serial socket and (with the
+/// shared-memory transport) the link device's backing file.
 #[derive(Clone, Debug)]
 pub struct RunFiles {
     pub dir: PathBuf,
     pub log: PathBuf,
     pub qmp_socket: PathBuf,
     pub serial_socket: PathBuf,
+    pub link_shm: PathBuf,
 }
 
 impl RunFiles {
@@ -140,10 +199,18 @@ impl RunFiles {
         // Short path: a Unix socket path must stay under 108 bytes.
         let dir = std::env::temp_dir().join(format!("hil-{}-{n}", std::process::id()));
         std::fs::create_dir_all(&dir)?;
+        // In memory where the host has it: the link's rings are touched for every frame.
+        let shm_dir = Path::new("/dev/shm");
+        let link_shm = if shm_dir.is_dir() {
+            shm_dir.join(format!("hil-{}-{n}-link", std::process::id()))
+        } else {
+            dir.join("link.shm")
+        };
         Ok(Self {
             log: dir.join("qemu.log"),
             qmp_socket: dir.join("qmp.sock"),
             serial_socket: dir.join("serial.sock"),
+            link_shm,
             dir,
         })
     }
@@ -154,6 +221,7 @@ pub struct Qemu {
     child: Child,
     qmp: Qmp,
     files: RunFiles,
+    transport: Transport,
 }
 
 impl Qemu {
@@ -199,6 +267,16 @@ impl Qemu {
                 files.qmp_socket.display()
             ))
             .args(&profile.extra_args);
+        if profile.transport == Transport::SharedMemory {
+            crate::shm::MappedLink::create(&files.link_shm)?;
+            cmd.arg("-object")
+                .arg(format!(
+                    "memory-backend-file,id=link,size={},mem-path={},share=on",
+                    kernel_logic::shm_link::DEVICE_BYTES,
+                    files.link_shm.display()
+                ))
+                .args(["-device", "ivshmem-plain,memdev=link"]);
+        }
         if let Some(nv) = &options.nv_file {
             let size = options.nv_size.unwrap_or(1 << 20);
             cmd.arg("-object")
@@ -231,10 +309,21 @@ impl Qemu {
             Ok(qmp) => qmp,
             Err(e) => {
                 end_child(&mut child);
+                let _ = std::fs::remove_file(&files.link_shm);
                 return Err(e);
             }
         };
-        Ok(Self { child, qmp, files })
+        Ok(Self {
+            child,
+            qmp,
+            files,
+            transport: profile.transport,
+        })
+    }
+
+    /// The link's transport.
+    pub fn transport(&self) -> Transport {
+        self.transport
     }
 
     /// The Unix socket QEMU listens on for the target's serial port (one connection).
@@ -317,6 +406,7 @@ impl Drop for Qemu {
         end_child(&mut self.child);
         let _ = std::fs::remove_file(&self.files.qmp_socket);
         let _ = std::fs::remove_file(&self.files.serial_socket);
+        let _ = std::fs::remove_file(&self.files.link_shm);
     }
 }
 

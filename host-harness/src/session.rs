@@ -11,7 +11,7 @@ use fsw_bridge::{
 use crate::defmt_log::{LogDecoder, LogLine};
 use crate::firmware::{build_id_hex, FirmwareImage};
 use crate::link::{HostLink, LinkError};
-use crate::qemu::{LaunchOptions, Qemu, QemuError, QemuProfile};
+use crate::qemu::{LaunchOptions, Qemu, QemuError, QemuProfile, Transport};
 
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
@@ -68,13 +68,19 @@ impl Session {
     ) -> Result<Self, SessionError> {
         let started = Instant::now();
         let mut qemu = Qemu::launch(profile, &firmware.elf, options)?;
-        let link = HostLink::connect_unix(qemu.serial_socket())?;
+        let link = match qemu.transport() {
+            Transport::Serial => HostLink::connect_unix(qemu.serial_socket())?,
+            Transport::SharedMemory => {
+                HostLink::connect_shm(qemu.serial_socket(), &qemu.files().link_shm)?
+            }
+        };
         qemu.wait_serial_connected(Duration::from_secs(20))?;
         qemu.resume()?;
         let describe = format!(
-            "{} (QEMU pid {}, serial {}, log {})",
+            "{} (QEMU pid {}, link over {}, serial {}, log {})",
             profile.name,
             qemu.pid(),
+            qemu.transport().name(),
             qemu.serial_socket().display(),
             qemu.files().log.display()
         );

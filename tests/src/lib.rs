@@ -8,7 +8,7 @@ use std::sync::{Mutex, MutexGuard, OnceLock};
 use std::time::Duration;
 
 use hil::firmware::{self, FirmwareImage};
-use hil::qemu::{LaunchOptions, QemuProfile};
+use hil::qemu::{LaunchOptions, QemuProfile, Transport};
 use hil::session::Session;
 
 /// Generous liveness timeout (wall time) for anything the target must send: a bound that only
@@ -62,9 +62,9 @@ impl DerefMut for Booted {
     }
 }
 
-fn boot_image(image: &FirmwareImage) -> Booted {
+fn boot_image(image: &FirmwareImage, profile: QemuProfile) -> Booted {
     let slot = exclusive_qemu();
-    let session = Session::boot_qemu(&profile(), image, &LaunchOptions::default())
+    let session = Session::boot_qemu(&profile, image, &LaunchOptions::default())
         .unwrap_or_else(|e| panic!("cannot boot {}: {e}", image.elf.display()));
     Booted {
         session,
@@ -74,16 +74,31 @@ fn boot_image(image: &FirmwareImage) -> Booted {
 
 /// Boot the test image under QEMU.
 pub fn boot_test_image() -> Booted {
-    boot_image(test_firmware())
+    boot_image(test_firmware(), profile())
 }
 
+/// The shipped profile (the link over shared memory, unless HIL_TRANSPORT says otherwise).
 pub fn profile() -> QemuProfile {
     QemuProfile::load("rad750-proxy").expect("qemu/rad750-proxy.toml")
 }
 
+/// Both link transports an emulated target has: the serial line a real board uses, and the
+/// shared-memory link.
+pub const TRANSPORTS: [Transport; 2] = [Transport::Serial, Transport::SharedMemory];
+
+/// The shipped profile with the link over `transport`.
+pub fn profile_over(transport: Transport) -> QemuProfile {
+    profile().with_transport(transport)
+}
+
 /// Boot the RAD750 proxy under QEMU and wait for nothing yet.
 pub fn boot() -> Booted {
-    boot_image(firmware())
+    boot_image(firmware(), profile())
+}
+
+/// Boot the RAD750 proxy with the link over `transport`.
+pub fn boot_over(transport: Transport) -> Booted {
+    boot_image(firmware(), profile_over(transport))
 }
 
 /// A pseudo-terminal pair: the test writes the "target" side on `master`; a `Session` opens

@@ -2,12 +2,13 @@
 //! until the host sends something, the kernel stops the schedule and the guest dozes with no
 //! timer armed, which under `-icount sleep=off` costs the host no CPU; the link's receive
 //! interrupt brings it back. Input arriving faster than a partition takes it is held back, not
-//! lost.
+//! lost. Each over both link transports (the serial line, the shared-memory link).
 use std::time::{Duration, Instant};
 
 use fsw_bridge::{HostToTarget, MissionTimeUs, StateKey, StateValue, TargetToHost, TelemetryEvent};
+use hil::qemu::Transport;
 use hil::session::Session;
-use hil_tests::{boot, PATIENCE};
+use hil_tests::{boot_over, PATIENCE, TRANSPORTS};
 use kernel_config::abi::{control, metric};
 use kernel_config::system::PORT_IO_TO_EXECUTIVE;
 
@@ -48,7 +49,13 @@ fn metric_value(target: &mut Session, id: u16) -> u64 {
 
 #[test]
 fn a_target_waiting_for_the_host_costs_no_host_cpu() {
-    let mut target = boot();
+    for transport in TRANSPORTS {
+        waiting_costs_no_host_cpu(transport);
+    }
+}
+
+fn waiting_costs_no_host_cpu(transport: Transport) {
+    let mut target = boot_over(transport);
     target.expect_hello(PATIENCE).unwrap();
     // Answered only once the boot is through; then nothing in the module has work.
     target.ping(1, PATIENCE).unwrap();
@@ -60,7 +67,7 @@ fn a_target_waiting_for_the_host_costs_no_host_cpu() {
     // under sleep=off QEMU jumps to each window start as soon as the guest idles.
     assert!(
         used < IDLE_WATCH / 20,
-        "QEMU used {used:?} of CPU in {IDLE_WATCH:?} while the target waited for the host"
+        "{transport:?}: QEMU used {used:?} of CPU in {IDLE_WATCH:?} while the target waited for the host"
     );
     // And it still answers at once.
     target.ping(2, PATIENCE).unwrap();
@@ -69,12 +76,26 @@ fn a_target_waiting_for_the_host_costs_no_host_cpu() {
         .send(&state_update(control::REQUEST_METRICS, StateValue::Int(0)))
         .unwrap();
     let parks = metric_value(&mut target, metric::PARKS);
-    assert!(parks >= 2, "the schedule was stopped {parks} times");
+    assert!(
+        parks >= 2,
+        "{transport:?}: the schedule was stopped {parks} times"
+    );
+    let shared_memory = metric_value(&mut target, metric::LINK_TRANSPORT);
+    assert_eq!(
+        shared_memory,
+        u64::from(transport == Transport::SharedMemory)
+    );
 }
 
 #[test]
 fn the_kernel_counts_what_it_received_and_lost_nothing() {
-    let mut target = boot();
+    for transport in TRANSPORTS {
+        counts_what_it_received(transport);
+    }
+}
+
+fn counts_what_it_received(transport: Transport) {
+    let mut target = boot_over(transport);
     target.expect_hello(PATIENCE).unwrap();
     for seq in 0..20 {
         target.ping(seq, PATIENCE).unwrap();
@@ -86,6 +107,7 @@ fn the_kernel_counts_what_it_received_and_lost_nothing() {
     let received = metric_value(&mut target, metric::LINK_RX_BYTES);
     let lost = metric_value(&mut target, metric::LINK_RX_LOST);
     let ring_full = metric_value(&mut target, metric::LINK_RX_RING_FULL);
+    let ring_errors = metric_value(&mut target, metric::LINK_RING_ERRORS);
     let sent: usize = target
         .link
         .transcript()
@@ -97,14 +119,20 @@ fn the_kernel_counts_what_it_received_and_lost_nothing() {
         .sum();
     assert_eq!(
         received as usize, sent,
-        "every byte the host sent reached the kernel"
+        "{transport:?}: every byte the host sent reached the kernel"
     );
-    assert_eq!((lost, ring_full), (0, 0));
+    assert_eq!((lost, ring_full, ring_errors), (0, 0, 0), "{transport:?}");
 }
 
 #[test]
 fn a_burst_larger_than_a_port_reaches_the_executive_whole() {
-    let mut target = boot();
+    for transport in TRANSPORTS {
+        burst_reaches_the_executive_whole(transport);
+    }
+}
+
+fn burst_reaches_the_executive_whole(transport: Transport) {
+    let mut target = boot_over(transport);
     target.expect_hello(PATIENCE).unwrap();
     target.ping(1, PATIENCE).unwrap();
     // Several times the depth of the port to the executive (8), in one write: the I/O
@@ -137,7 +165,10 @@ fn a_burst_larger_than_a_port_reaches_the_executive_whole() {
         .send(&state_update(control::SYSCALL_BENCH, StateValue::Unknown))
         .unwrap();
     let handled = metric_value(&mut target, metric::EXECUTIVE_STATE_UPDATES);
-    assert_eq!(handled, updates, "state updates the executive handled");
+    assert_eq!(
+        handled, updates,
+        "{transport:?}: state updates the executive handled"
+    );
     let rejected: Vec<_> = target
         .logs
         .iter()
