@@ -1,8 +1,9 @@
 //! The framed link to the host (used by the I/O partition, in its own region): frames out
-//! through the kernel (`SYS_LINK_WRITE`), and frames in from the kernel (`SYS_LINK_READ`)
-//! through the streaming decoder, whose counters the target reports in every Pong. The kernel
-//! moves the bytes over the board's transport (the serial line, or shared memory on the
-//! emulated target); the frames are the same either way.
+//! through the kernel (`SYS_LINK_WRITE`), gathered into batches so that a burst of messages (a
+//! kernel report, a frame's telemetry) costs one system call, and frames in from the kernel
+//! (`SYS_LINK_READ`) through the streaming decoder, whose counters the target reports in every
+//! Pong. The kernel moves the bytes over the board's transport (the serial line, or shared
+//! memory on the emulated target); the frames are the same either way.
 use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, MAX_FRAME_LEN};
 use fsw_bridge::{HostToTarget, LinkCounters, TargetToHost};
 
@@ -10,10 +11,13 @@ use crate::sys;
 
 /// Bytes taken from the kernel's receive ring at a time.
 pub const RX_CHUNK_BYTES: usize = 256;
+/// Bytes of encoded frames gathered before they go to the kernel in one call.
+pub const TX_BATCH_BYTES: usize = 1024;
 
 pub struct Link {
-    /// Where frames are encoded (kept, so a message does not clear a frame's worth of stack).
-    tx_frame: [u8; MAX_FRAME_LEN],
+    /// Encoded frames not yet handed to the kernel: `tx_batch[..tx_len]`.
+    tx_batch: [u8; TX_BATCH_BYTES],
+    tx_len: usize,
     /// Bytes read from the kernel and not yet decoded: `rx_chunk[rx_next..rx_len]`.
     rx_chunk: [u8; RX_CHUNK_BYTES],
     rx_next: usize,
@@ -28,7 +32,8 @@ pub struct Link {
 impl Link {
     pub fn new() -> Self {
         Self {
-            tx_frame: [0; MAX_FRAME_LEN],
+            tx_batch: [0; TX_BATCH_BYTES],
+            tx_len: 0,
             rx_chunk: [0; RX_CHUNK_BYTES],
             rx_next: 0,
             rx_len: 0,
@@ -38,21 +43,30 @@ impl Link {
         }
     }
 
-    /// Encode and send one message. Waits (a window at a time) while the transport has no room:
-    /// the host has not read what went before.
+    /// Encode one message for the host. It leaves with the batch: at the next [`Link::flush`],
+    /// or now if the batch has no room for a frame.
     pub fn send(&mut self, msg: &TargetToHost) {
-        let Ok(len) = encode(msg, &mut self.tx_frame) else {
-            self.tx_encode_errors = self.tx_encode_errors.saturating_add(1);
-            return;
-        };
+        if TX_BATCH_BYTES - self.tx_len < MAX_FRAME_LEN {
+            self.flush();
+        }
+        match encode(msg, &mut self.tx_batch[self.tx_len..]) {
+            Ok(len) => self.tx_len += len,
+            Err(_) => self.tx_encode_errors = self.tx_encode_errors.saturating_add(1),
+        }
+    }
+
+    /// Hand the batch to the kernel. Waits (a window at a time) while the transport has no room:
+    /// the host has not read what went before.
+    pub fn flush(&mut self) {
         let mut sent = 0;
-        while sent < len {
-            let n = sys::link_write(&self.tx_frame[sent..len]);
+        while sent < self.tx_len {
+            let n = sys::link_write(&self.tx_batch[sent..self.tx_len]);
             if n == 0 {
                 sys::wait_next_window();
             }
             sent += n;
         }
+        self.tx_len = 0;
     }
 
     /// The next complete frame, if the bytes received so far finish one.

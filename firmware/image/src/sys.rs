@@ -244,24 +244,30 @@ pub fn log_drain(buffer: &mut [u8]) -> usize {
     result(r3).unwrap_or(0) as usize
 }
 
-/// Link owner: the next kernel event record, if any.
-pub fn event_drain() -> Option<[u32; 4]> {
-    let mut record = [0u8; EVENT_RECORD_SIZE];
-    let (r3, _, _) = raw(SYS_EVENT_DRAIN, [record.as_mut_ptr() as u32, 0, 0, 0, 0]);
-    if r3 != 1 {
-        return None;
+/// Link owner: kernel event records, oldest first, into `records`; how many were written
+/// (0: none waiting).
+pub fn event_drain(records: &mut [[u32; 4]]) -> usize {
+    let mut bytes = [0u8; EVENT_RECORD_SIZE * EVENT_DRAIN_BATCH];
+    let batch = records.len().min(EVENT_DRAIN_BATCH);
+    let (r3, _, _) = raw(
+        SYS_EVENT_DRAIN,
+        [bytes.as_mut_ptr() as u32, batch as u32, 0, 0, 0],
+    );
+    let n = result(r3).unwrap_or(0) as usize;
+    for (record, raw) in records
+        .iter_mut()
+        .zip(bytes.chunks_exact(EVENT_RECORD_SIZE))
+        .take(n)
+    {
+        for (word, be) in record.iter_mut().zip(raw.chunks_exact(4)) {
+            *word = u32::from_be_bytes([be[0], be[1], be[2], be[3]]);
+        }
     }
-    let mut words = [0u32; 4];
-    for (i, w) in words.iter_mut().enumerate() {
-        *w = u32::from_be_bytes([
-            record[i * 4],
-            record[i * 4 + 1],
-            record[i * 4 + 2],
-            record[i * 4 + 3],
-        ]);
-    }
-    Some(words)
+    n
 }
+
+/// Event records taken per SYS_EVENT_DRAIN (a kernel report is about 30).
+pub const EVENT_DRAIN_BATCH: usize = 16;
 
 /// Link owner: the host granted mission time `us`.
 pub fn set_mission_time(us: u64) {

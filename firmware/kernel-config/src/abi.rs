@@ -38,7 +38,8 @@ pub const SYS_PANIC: u32 = 9;
 pub const SYS_BOOT_INFO: u32 = 10;
 /// (ptr, cap) -> bytes of the kernel's defmt stream moved into the buffer. Link owner only.
 pub const SYS_LOG_DRAIN: u32 = 11;
-/// (ptr to EVENT_RECORD_SIZE bytes) -> 1 if a kernel event was written, 0 if none. Link owner.
+/// (ptr, records) -> kernel events written into the buffer, up to `records` of
+/// EVENT_RECORD_SIZE bytes each (0 counts as 1), oldest first; 0 if none. Link owner.
 pub const SYS_EVENT_DRAIN: u32 = 12;
 /// (high, low): mission time granted by the host, in µs. Link owner only.
 pub const SYS_SET_MISSION_TIME: u32 = 13;

@@ -208,14 +208,18 @@ impl Kernel {
             }
             SYS_EVENT_DRAIN => {
                 Self::link_owner(p)?;
-                let buffer = USlice::from_raw(a[0], EVENT_RECORD_SIZE as u32)?.writable_by(p)?;
-                match self.events.pop() {
-                    Some(record) => {
-                        copy(buffer, &health::record_bytes(&record));
-                        Ok(Return(1, 0, 0))
-                    }
-                    None => Ok(Return(0, 0, 0)),
+                let records = a[1].clamp(1, health::EVENT_QUEUE_DEPTH as u32);
+                let bytes = records * EVENT_RECORD_SIZE as u32;
+                let buffer = USlice::from_raw(a[0], bytes)?.writable_by(p)?;
+                let mut written = 0;
+                for slot in buffer.chunks_exact_mut(EVENT_RECORD_SIZE) {
+                    let Some(record) = self.events.pop() else {
+                        break;
+                    };
+                    copy(slot, &health::record_bytes(&record));
+                    written += 1;
                 }
+                Ok(Return(written, 0, 0))
             }
             SYS_SET_MISSION_TIME => {
                 Self::link_owner(p)?;

@@ -80,6 +80,7 @@ pub extern "C" fn partition_io_main() -> ! {
             }
             pump_outbound(link);
         }
+        link.flush();
         if held.is_some() {
             // Its destination takes messages in its own window.
             sys::wait_next_window();
@@ -104,9 +105,16 @@ fn pump_outbound(link: &mut Link) {
             bytes: heapless::Vec::from_slice(&chunk[..n]).unwrap_or_default(),
         });
     }
-    while let Some(record) = sys::event_drain() {
-        if let Some(msg) = crate::kernel::health::event_message(&record) {
-            link.send(&msg);
+    loop {
+        let mut records = [[0u32; 4]; sys::EVENT_DRAIN_BATCH];
+        let n = sys::event_drain(&mut records);
+        for record in &records[..n] {
+            if let Some(msg) = crate::kernel::health::event_message(record) {
+                link.send(&msg);
+            }
+        }
+        if n < records.len() {
+            break;
         }
     }
     for port in [PORT_EXECUTIVE_TO_IO, PORT_PLANNER_TO_IO] {
@@ -205,6 +213,8 @@ fn handle(
             match kind {
                 ResetKind::Warm => {
                     defmt::info!("reset requested by host: warm");
+                    // What was answered before the request leaves first.
+                    link.flush();
                     sys::reset_module();
                 }
                 ResetKind::WarmAfterTicks { ticks } => {
