@@ -4,7 +4,7 @@ use std::ffi::CStr;
 use std::fs::File;
 use std::ops::{Deref, DerefMut};
 use std::os::fd::FromRawFd;
-use std::sync::{Mutex, MutexGuard, OnceLock};
+use std::sync::{Condvar, Mutex, OnceLock};
 use std::time::Duration;
 
 use hil::firmware::{self, FirmwareImage};
@@ -31,22 +31,52 @@ pub fn test_firmware() -> &'static FirmwareImage {
     })
 }
 
-/// One QEMU at a time per test process. Under `-icount sleep=off` a QEMU keeps a host core
-/// busy even while its guest idles, and the main loop that feeds its serial port then competes
-/// with the other QEMUs' CPUs: on a 2-core machine, two or more at once can starve each other's
-/// serial input for tens of seconds. Every test that starts QEMU holds this while it runs.
-pub fn exclusive_qemu() -> MutexGuard<'static, ()> {
-    static ONE_QEMU: Mutex<()> = Mutex::new(());
-    // A test that panicked while holding it has ended its QEMU (by PID, on drop) already.
-    ONE_QEMU
+/// A slot for a QEMU: at most one QEMU per host core per test process; every test that starts
+/// QEMU holds one while it runs (a test that runs several QEMUs itself, a campaign with jobs,
+/// holds one for all of them).
+///
+/// It used to be one QEMU at a time: under `-icount sleep=off` a guest whose schedule kept
+/// running while it waited for the host kept a host core busy, and on a 2-core machine two such
+/// QEMUs starved each other's serial input for tens of seconds. A target with nothing to do now
+/// stops its schedule and costs no host CPU while it waits (`tests/tests/waiting.rs`), so QEMUs
+/// compete for the CPU only while their guests work.
+pub fn exclusive_qemu() -> QemuSlot {
+    static SLOTS: (Mutex<usize>, Condvar) = (Mutex::new(0), Condvar::new());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let (taken, freed) = &SLOTS;
+    // A test that panicked while holding a slot has ended its QEMU (by PID, on drop) already.
+    let mut guard = taken
         .lock()
-        .unwrap_or_else(|poisoned| poisoned.into_inner())
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    while *guard >= cores {
+        guard = freed
+            .wait(guard)
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+    }
+    *guard += 1;
+    QemuSlot { slots: &SLOTS }
 }
 
-/// A booted target that holds the one-QEMU slot until it is dropped (QEMU ends first).
+/// A taken QEMU slot, given back on drop.
+pub struct QemuSlot {
+    slots: &'static (Mutex<usize>, Condvar),
+}
+
+impl Drop for QemuSlot {
+    fn drop(&mut self) {
+        let (taken, freed) = self.slots;
+        let mut guard = taken
+            .lock()
+            .unwrap_or_else(|poisoned| poisoned.into_inner());
+        *guard -= 1;
+        freed.notify_one();
+    }
+}
+
+/// A booted target that holds a QEMU slot until it is dropped (QEMU ends first).
 pub struct Booted {
     session: Session,
-    _slot: MutexGuard<'static, ()>,
+    _slot: QemuSlot,
 }
 
 impl Deref for Booted {
