@@ -299,9 +299,12 @@ impl Qemu {
                 Ok(())
             });
         }
-        let mut child = cmd.spawn().map_err(|source| QemuError::Spawn {
-            binary: binary.display().to_string(),
-            source,
+        let mut child = cmd.spawn().map_err(|source| {
+            let _ = std::fs::remove_file(&files.link_shm);
+            QemuError::Spawn {
+                binary: binary.display().to_string(),
+                source,
+            }
         })?;
         CHILDREN.lock().unwrap().insert(child.id());
 

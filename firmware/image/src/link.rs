@@ -25,8 +25,6 @@ pub struct Link {
     decoder: FrameDecoder,
     /// Frames that could not be encoded (a message larger than a frame: a firmware bug).
     tx_encode_errors: u32,
-    /// Bytes the kernel's receiver lost, as last reported.
-    pub rx_lost: u32,
 }
 
 impl Link {
@@ -39,7 +37,6 @@ impl Link {
             rx_len: 0,
             decoder: FrameDecoder::new(),
             tx_encode_errors: 0,
-            rx_lost: 0,
         }
     }
 
@@ -73,8 +70,7 @@ impl Link {
     pub fn poll(&mut self) -> Option<Result<HostToTarget, DecodeError>> {
         loop {
             if self.rx_next == self.rx_len {
-                let (n, lost) = sys::link_read(&mut self.rx_chunk);
-                self.rx_lost = lost;
+                let n = sys::link_read(&mut self.rx_chunk);
                 self.rx_next = 0;
                 self.rx_len = n;
                 if n == 0 {

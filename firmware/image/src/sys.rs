@@ -47,14 +47,14 @@ pub fn wait_idle() {
     raw(SYS_WAIT_NEXT_WINDOW, [wait::IDLE, 0, 0, 0, 0]);
 }
 
-/// Link owner: move received link bytes into `buffer`; (bytes moved, bytes the receiver lost
-/// since boot).
-pub fn link_read(buffer: &mut [u8]) -> (usize, u32) {
-    let (r3, lost, _) = raw(
+/// Link owner: move received link bytes into `buffer`; how many (the kernel reports bytes its
+/// receiver lost in its accounting reports).
+pub fn link_read(buffer: &mut [u8]) -> usize {
+    let (r3, _, _) = raw(
         SYS_LINK_READ,
         [buffer.as_mut_ptr() as u32, buffer.len() as u32, 0, 0, 0],
     );
-    (result(r3).unwrap_or(0) as usize, lost)
+    result(r3).unwrap_or(0) as usize
 }
 
 /// Link owner: send bytes to the host; how many the kernel took (0: no room yet).

@@ -104,15 +104,12 @@ pub struct KernelLink {
     doorbell_due: bool,
     /// Bytes received since boot.
     pub received: u32,
-    /// Bytes sent since boot.
-    pub sent: u32,
     /// Bytes the UART lost since boot (overruns).
     pub lost: u32,
     /// Times the serial receive ring was full with bytes still waiting in the UART.
     pub ring_full: u32,
-    /// Shared memory: doorbells sent to the host.
-    pub doorbells: u32,
-    /// Shared memory: rings whose counts made no sense, dropped.
+    /// Shared memory: rings whose counts made no sense (what they held, or what was to be
+    /// written into them, dropped).
     pub ring_errors: u32,
 }
 
@@ -124,10 +121,8 @@ impl KernelLink {
             delimiters: 0,
             doorbell_due: false,
             received: 0,
-            sent: 0,
             lost: 0,
             ring_full: 0,
-            doorbells: 0,
             ring_errors: 0,
         }
     }
@@ -196,16 +191,20 @@ impl KernelLink {
     /// Move received bytes into `out`; returns how many.
     pub fn read(&mut self, out: &mut [u8]) -> usize {
         self.drain_uart();
-        let n = match &mut self.transport {
+        match &mut self.transport {
+            // Counted as received when they left the UART.
             Transport::Serial => {
                 let n = self.ring.pop_into(out);
                 let taken = out[..n].iter().filter(|&&b| b == FRAME_DELIMITER).count();
                 self.delimiters = self.delimiters.saturating_sub(taken);
-                return n;
+                n
             }
             Transport::SharedMemory(device) => {
                 match shm_link::consume(device, &HOST_TO_TARGET, out) {
-                    Ok(n) => n,
+                    Ok(n) => {
+                        self.received = self.received.wrapping_add(n as u32);
+                        n
+                    }
                     Err(_) => {
                         shm_link::discard(device, &HOST_TO_TARGET);
                         self.ring_errors = self.ring_errors.saturating_add(1);
@@ -213,36 +212,32 @@ impl KernelLink {
                     }
                 }
             }
-        };
-        self.received = self.received.wrapping_add(n as u32);
-        n
+        }
     }
 
     /// Send bytes; returns how many were taken (serial: all, waiting for the UART; shared
     /// memory: what fits in the ring, 0 while the host has not read).
     pub fn write(&mut self, data: &[u8]) -> usize {
-        let n = match &mut self.transport {
+        match &mut self.transport {
             Transport::Serial => {
                 let _ = escc::kernel_channel().write_all(data);
                 data.len()
             }
             Transport::SharedMemory(device) => {
-                let n = match shm_link::produce(device, &TARGET_TO_HOST, data) {
-                    Ok(n) => n,
-                    Err(_) => {
-                        // The host's read count is garbage: start the ring afresh from our side.
-                        let write = device.load_word(TARGET_TO_HOST.write_count);
-                        device.store_word(TARGET_TO_HOST.read_count, write);
-                        self.ring_errors = self.ring_errors.saturating_add(1);
-                        0
+                match shm_link::produce(device, &TARGET_TO_HOST, data) {
+                    Ok(n) => {
+                        self.doorbell_due |= n > 0;
+                        n
                     }
-                };
-                self.doorbell_due |= n > 0;
-                n
+                    // The host's read count is garbage (only the host writes it): the bytes are
+                    // dropped and counted rather than waiting for a host that will never read.
+                    Err(_) => {
+                        self.ring_errors = self.ring_errors.saturating_add(1);
+                        data.len()
+                    }
+                }
             }
-        };
-        self.sent = self.sent.wrapping_add(n as u32);
-        n
+        }
     }
 
     /// Shared memory: tell the host that bytes are in its ring, if any were written since the
@@ -251,7 +246,6 @@ impl KernelLink {
     pub fn ring_doorbell(&mut self) {
         if core::mem::take(&mut self.doorbell_due) {
             escc::kernel_channel().write_byte(DOORBELL);
-            self.doorbells = self.doorbells.wrapping_add(1);
         }
     }
 

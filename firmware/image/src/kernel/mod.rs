@@ -170,7 +170,7 @@ pub struct Kernel {
     pub link: link::KernelLink,
     /// Partitions that have nothing to do until a message arrives for them.
     pub idle_declared: IdleDeclarations,
-    /// The link's receive interrupt is let through the Heathrow controller (only while idle).
+    /// The link's receive interrupt is let through the Heathrow controller (only while parked).
     link_interrupt_enabled: bool,
     /// Times the schedule was stopped to wait for input.
     pub parks: u32,

@@ -25,8 +25,8 @@
 //!
 //! The schedule can be stopped ("parked", see `SYS_WAIT_FOR_INPUT`) when the module has nothing
 //! to do until the host sends something: the frame in progress is cut short there, no
-//! decrementer deadline is set again, and the CPU dozes until the link's receive interrupt; input then
-//! restarts the schedule at a fresh major frame that starts at once. Frame offsets are relative
+//! decrementer deadline is set again, and the CPU dozes until the link's receive interrupt;
+//! input then restarts the schedule at a fresh major frame that starts at once. Frame offsets are relative
 //! to the frame's start and CPU time is counted with the decrementer, so a frame's costs do not
 //! depend on how long the module was parked. Under `-icount sleep=off` virtual time stands still
 //! while the CPU dozes with no deadline pending (QEMU warns once "icount sleep disabled and no
@@ -38,8 +38,9 @@
 //! taken as soon as interrupts are on again, e.g. right after a parked schedule restarts, ending
 //! the new window at once. Such an interrupt finds the decrementer still far from zero and is
 //! ignored ([`is_stale_decrementer_interrupt`]). For that test to hold, the kernel never writes a
-//! value below [`MIN_DEC_TICKS`]: QEMU 7.2 raises the interrupt at once for values below 3
-//! without moving its deadline, so the decrementer then reads from the previous deadline.
+//! value below [`MIN_DEC_TICKS`]: QEMU 7.2 as released raises the interrupt at once for values
+//! below 3 without moving its deadline (a later stable fix removed that special case), so the
+//! decrementer would then read from the previous deadline.
 use core::arch::asm;
 
 use kernel_config::abi::{metric, JITTER_BOUND_TICKS};
@@ -208,10 +209,11 @@ impl Kernel {
         self.parts[p].cpu_total + stint
     }
 
-    /// Stop charging `p` (switch-out; the time up to the kernel entry).
+    /// Stop charging `p` (switch-out; the time up to the kernel entry). When `p` is the link
+    /// owner, what it wrote for the host since it last gave up the CPU is announced (the
+    /// shared-memory link's doorbell): every way it stops running passes here.
     pub fn charge(&mut self, p: usize, _now: u64) {
         if p == LINK_OWNER {
-            // What it wrote for the host since it last gave up the CPU (shared memory).
             self.link.ring_doorbell();
         }
         let used = u64::from(self.stint_ticks());
@@ -243,6 +245,7 @@ impl Kernel {
         self.sched.running = Some(p);
         let w = match self.sched.phase {
             Phase::Window(w) | Phase::Gap(w) => w,
+            // Nothing is switched in while parked (a restart enters window 0 first).
             Phase::Parked => 0,
         };
         let mut dec = window_end_dec(w, self.sched.window_end, now);
