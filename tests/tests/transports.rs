@@ -18,12 +18,7 @@ fn run_over(transport: Transport, path: &Path) -> MissionReport {
     let _one = hil_tests::exclusive_qemu();
     let loaded = hil::scenario::load(path).unwrap_or_else(|e| panic!("{e}"));
     let prepared = prepare(path, loaded).unwrap_or_else(|e| panic!("{e}"));
-    let nv = std::env::temp_dir().join(format!(
-        "hil-test-nv-{}-{}-{}.bin",
-        std::process::id(),
-        transport.name(),
-        path.file_stem().unwrap().to_string_lossy()
-    ));
+    let nv = hil_tests::unique_nv_file(&path.file_stem().unwrap().to_string_lossy());
     let mut target = EmulatedTarget::new(
         profile_over(transport),
         firmware().clone(),
