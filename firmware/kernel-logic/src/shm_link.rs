@@ -117,15 +117,20 @@ pub fn check_header(memory: &impl SharedMemory) -> Result<(), HeaderError> {
     }
 }
 
-/// Bytes waiting in `ring`.
-pub fn readable(memory: &impl SharedMemory, ring: &Ring) -> Result<u32, RingError> {
+/// `ring`'s write and read counts and the bytes it holds, checked.
+fn counts(memory: &impl SharedMemory, ring: &Ring) -> Result<(u32, u32, u32), RingError> {
     let write = memory.load_word(ring.write_count);
     let read = memory.load_word(ring.read_count);
     let used = write.wrapping_sub(read);
     if used > RING_BYTES {
         return Err(RingError::Corrupt { write, read });
     }
-    Ok(used)
+    Ok((write, read, used))
+}
+
+/// Bytes waiting in `ring`.
+pub fn readable(memory: &impl SharedMemory, ring: &Ring) -> Result<u32, RingError> {
+    counts(memory, ring).map(|(_, _, used)| used)
 }
 
 /// The two contiguous pieces (offset within the ring's data, length) of `len` bytes at
@@ -142,12 +147,7 @@ pub fn produce(
     ring: &Ring,
     data: &[u8],
 ) -> Result<usize, RingError> {
-    let write = memory.load_word(ring.write_count);
-    let read = memory.load_word(ring.read_count);
-    let used = write.wrapping_sub(read);
-    if used > RING_BYTES {
-        return Err(RingError::Corrupt { write, read });
-    }
+    let (write, _, used) = counts(memory, ring)?;
     let n = data.len().min((RING_BYTES - used) as usize);
     let mut taken = 0;
     for (at, len) in pieces(write, n) {
@@ -164,12 +164,7 @@ pub fn consume(
     ring: &Ring,
     out: &mut [u8],
 ) -> Result<usize, RingError> {
-    let write = memory.load_word(ring.write_count);
-    let read = memory.load_word(ring.read_count);
-    let used = write.wrapping_sub(read);
-    if used > RING_BYTES {
-        return Err(RingError::Corrupt { write, read });
-    }
+    let (_, read, used) = counts(memory, ring)?;
     let n = out.len().min(used as usize);
     let mut given = 0;
     for (at, len) in pieces(read, n) {
