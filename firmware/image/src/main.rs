@@ -21,10 +21,10 @@ use core::panic::PanicInfo;
 
 use board::escc::EsccChannelA;
 use board::{heathrow, pci, timebase};
-use kernel::link::SharedMemoryDevice;
-use kernel_logic::shm_link;
 use fsw_bridge::messages::PANIC_FILE_MAX;
 use fsw_bridge::{ResetCause, TargetToHost, PROTOCOL_VERSION};
+use kernel::link::SharedMemoryDevice;
+use kernel_logic::shm_link;
 
 include!(concat!(env!("OUT_DIR"), "/build_id.rs"));
 
