@@ -104,15 +104,16 @@ enum BenchWhat {
         #[arg(long)]
         json: bool,
     },
-    /// Mission speed: the flyby's lockstep speed-up on the emulated target, the native target
-    /// and the ratio, wall time per campaign run, recovery instructions (wall times depend on
-    /// the host).
+    /// Mission speed: the flybys' lockstep speed-up on the emulated target over each link
+    /// transport (whole run and after boot), the native target and the ratio, a campaign's
+    /// throughput with one and two emulated targets at once, recovery instructions (wall times
+    /// depend on the host).
     Missions {
         /// Native repetitions per scenario (averaged).
         #[arg(long, default_value_t = 20)]
         native_runs: u32,
-        /// Runs of the campaign part (emulated and native).
-        #[arg(long, default_value_t = 4)]
+        /// Runs of the campaign part (emulated one and two at once, and native).
+        #[arg(long, default_value_t = 8)]
         campaign_runs: u32,
         /// Print JSON instead of a table.
         #[arg(long)]
@@ -332,19 +333,7 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             if json {
                 println!("{}", serde_json::to_string_pretty(&bench).unwrap());
             } else {
-                println!("link benchmark (wall time; depends on the host)");
-                println!("  boot to Hello        {:>10.1} ms", bench.boot_to_hello_ms);
-                println!(
-                    "  ping round trip      median {} us, p99 {} us, max {} us over {} pings",
-                    bench.pings.median_us,
-                    bench.pings.p99_us,
-                    bench.pings.max_us,
-                    bench.pings.count
-                );
-                println!(
-                    "  frames per second    {:>10.0} (both directions, {} pings, 8 in flight)",
-                    bench.frames_per_second, bench.burst
-                );
+                print!("{}", hil::bench::link_table(&bench));
             }
             Ok(ExitCode::SUCCESS)
         }

@@ -25,6 +25,7 @@ pub mod qemu;
 pub mod run;
 pub mod scenario;
 pub mod session;
+pub mod shm;
 pub mod tasknet;
 pub mod time;
 

@@ -1,9 +1,13 @@
-//! The host end of the framed link: a serial device (QEMU's pty or a real `/dev/tty*`), a reader
-//! thread that cuts the byte stream into frames as they arrive, and a transcript of every frame
-//! in both directions, in order. What a frame means is the reliable link layer's business
-//! (`fsw_bridge::link`): missions run it in [`crate::mission::link`]; link checks read the
-//! target's expedited messages with [`HostLink::recv`].
+//! The host end of the framed link: a serial device (a real board's `/dev/tty*`), the Unix
+//! socket QEMU connects the emulated target's serial port to, or the emulated target's
+//! shared-memory link with that socket as its doorbell; a reader thread that cuts the byte
+//! stream into frames as they arrive, and a transcript of every frame in both directions, in
+//! order. The frames are the same on every transport. What a frame means is the reliable link
+//! layer's business (`fsw_bridge::link`): missions run it in [`crate::mission::link`]; link
+//! checks read the target's expedited messages with [`HostLink::recv`].
 use std::io::{Read, Write};
+use std::os::unix::net::UnixStream;
+use std::path::Path;
 use std::sync::mpsc::{self, Receiver, RecvTimeoutError};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -22,6 +26,11 @@ pub enum LinkError {
     Open {
         path: String,
         source: serialport::Error,
+    },
+    #[error("cannot connect to the target's serial socket {path}: {source}")]
+    Connect {
+        path: String,
+        source: std::io::Error,
     },
     #[error("serial write failed: {0}")]
     Write(std::io::Error),
@@ -47,9 +56,12 @@ enum Rx {
     Closed(String),
 }
 
+/// How long the reader thread blocks in one read before it looks at its stop flag.
+const READ_POLL: Duration = Duration::from_millis(50);
+
 /// A framed link to one target.
 pub struct HostLink {
-    writer: Box<dyn serialport::SerialPort>,
+    writer: Box<dyn Write + Send>,
     rx: Receiver<Rx>,
     reader: Option<JoinHandle<()>>,
     stop: Arc<std::sync::atomic::AtomicBool>,
@@ -60,10 +72,10 @@ pub struct HostLink {
 }
 
 impl HostLink {
-    /// Open a serial device (a pty of QEMU, or a real port) in raw mode.
+    /// Open a serial device (a real port, or a pty standing in for one) in raw mode.
     pub fn open(path: &str, baud: u32) -> Result<Self, LinkError> {
         let port = serialport::new(path, baud)
-            .timeout(Duration::from_millis(50))
+            .timeout(READ_POLL)
             .open()
             .map_err(|source| LinkError::Open {
                 path: path.to_string(),
@@ -73,6 +85,41 @@ impl HostLink {
             path: path.to_string(),
             source,
         })?;
+        Ok(Self::start(Box::new(reader_port), Box::new(port), false))
+    }
+
+    /// Connect to the Unix socket QEMU serves the emulated target's serial port on.
+    pub fn connect_unix(path: &Path) -> Result<Self, LinkError> {
+        let error = |source| LinkError::Connect {
+            path: path.display().to_string(),
+            source,
+        };
+        let stream = UnixStream::connect(path).map_err(error)?;
+        let reader = stream.try_clone().map_err(error)?;
+        reader.set_read_timeout(Some(READ_POLL)).map_err(error)?;
+        Ok(Self::start(Box::new(reader), Box::new(stream), true))
+    }
+
+    /// Connect to the emulated target's serial socket and use it as the doorbell of the
+    /// shared-memory link in `link_file` (see [`crate::shm`]): frames go through the rings.
+    pub fn connect_shm(socket: &Path, link_file: &Path) -> Result<Self, LinkError> {
+        let error = |source| LinkError::Connect {
+            path: socket.display().to_string(),
+            source,
+        };
+        let stream = UnixStream::connect(socket).map_err(error)?;
+        stream.set_read_timeout(Some(READ_POLL)).map_err(error)?;
+        let (reader, writer) = crate::shm::open(link_file, stream).map_err(error)?;
+        Ok(Self::start(Box::new(reader), Box::new(writer), true))
+    }
+
+    /// Start the reader thread on `reader`; `end_of_file_closes`: a read of 0 bytes means the
+    /// other side is gone (a socket), rather than nothing yet (a serial port's timeout).
+    fn start(
+        reader_port: Box<dyn Read + Send>,
+        writer: Box<dyn Write + Send>,
+        end_of_file_closes: bool,
+    ) -> Self {
         let (tx, rx) = mpsc::channel();
         let stop = Arc::new(std::sync::atomic::AtomicBool::new(false));
         let transcript = Arc::new(Mutex::new(Vec::new()));
@@ -83,11 +130,13 @@ impl HostLink {
                 (stop.clone(), transcript.clone(), bytes_received.clone());
             std::thread::Builder::new()
                 .name("hil-link-rx".into())
-                .spawn(move || read_loop(reader_port, tx, stop, transcript, bytes))
+                .spawn(move || {
+                    read_loop(reader_port, end_of_file_closes, tx, stop, transcript, bytes)
+                })
                 .expect("spawn link reader thread")
         };
-        Ok(Self {
-            writer: port,
+        Self {
+            writer,
             rx,
             reader: Some(reader),
             stop,
@@ -95,15 +144,15 @@ impl HostLink {
             host_counters,
             bytes_received,
             closed: None,
-        })
+        }
     }
 
     /// Send one message as an expedited (Type-BD) frame: link checks and resets, outside the
     /// lockstep rounds.
     pub fn send(&mut self, msg: &HostToTarget) -> Result<(), LinkError> {
         let mut frame = [0u8; MAX_FRAME_LEN];
-        let len =
-            encode(&LinkFrame::Bd(msg), &mut frame).expect("every HostToTarget fits in a frame");
+        let len = encode(&LinkFrame::Bd(msg), &mut frame)
+            .expect("every HostToTarget fits in a frame");
         self.send_raw(&frame[..len])
     }
 
@@ -204,7 +253,8 @@ impl Drop for HostLink {
 }
 
 fn read_loop(
-    mut port: Box<dyn serialport::SerialPort>,
+    mut port: Box<dyn Read + Send>,
+    end_of_file_closes: bool,
     tx: mpsc::Sender<Rx>,
     stop: Arc<std::sync::atomic::AtomicBool>,
     transcript: Arc<Mutex<Vec<TranscriptEntry>>>,
@@ -215,10 +265,22 @@ fn read_loop(
     let mut buf = [0u8; 4096];
     while !stop.load(std::sync::atomic::Ordering::Relaxed) {
         let n = match port.read(&mut buf) {
+            Ok(0) if end_of_file_closes => {
+                let _ = tx.send(Rx::Closed("the target's end closed".into()));
+                return;
+            }
             Ok(0) => continue,
             Ok(n) => n,
-            Err(e) if e.kind() == std::io::ErrorKind::TimedOut => continue,
-            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e)
+                if matches!(
+                    e.kind(),
+                    std::io::ErrorKind::TimedOut
+                        | std::io::ErrorKind::WouldBlock
+                        | std::io::ErrorKind::Interrupted
+                ) =>
+            {
+                continue
+            }
             Err(e) => {
                 let _ = tx.send(Rx::Closed(e.to_string()));
                 return;

@@ -1,6 +1,20 @@
 //! Launching the emulated target: a QEMU profile from `qemu/`, the process started paused with
-//! a pty serial port and a QMP socket, and a guard that ends that process by its PID whatever
-//! happens (normal return, error, panic, Ctrl-C or SIGTERM, or `hil` itself being killed).
+//! its serial port on a Unix socket and a QMP socket, and a guard that ends that process by its
+//! PID whatever happens (normal return, error, panic, Ctrl-C or SIGTERM, or `hil` itself being
+//! killed).
+//!
+//! The serial port (the target's ESCC channel A, the same UART a real board uses) is a
+//! `-chardev socket` server that `hil` connects to before the guest runs. It used to be a pty,
+//! but QEMU 7.2's pty backend only notices that the host opened the pty on a once-a-second
+//! poll (`pty_chr_timer`): until then it does not read what the host writes, so the first bytes
+//! after every QEMU start waited up to a second. A socket connection is accepted at once.
+//!
+//! The link's transport is the profile's `transport` (or `HIL_TRANSPORT` in the environment):
+//! `serial`, the frames on the serial line as on a real board; or `shared-memory`, the same
+//! frames through rings in a second `ivshmem-plain` device backed by a file in `/dev/shm`, with
+//! the serial line as the doorbell (see `kernel_logic::shm_link` and [`crate::shm`]). QEMU hands
+//! the guest one serial byte per turn of its main loop; shared memory moves a batch of frames
+//! per turn. The firmware picks the shared-memory link up by itself when the device is there.
 use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
@@ -15,6 +29,35 @@ use serde_json::{json, Value};
 
 use crate::repo_root;
 
+/// How the link's frames travel between `hil` and an emulated target.
+#[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum Transport {
+    /// On the serial line, as on a real board.
+    #[default]
+    Serial,
+    /// Through rings in a shared-memory device, the serial line as the doorbell.
+    SharedMemory,
+}
+
+impl Transport {
+    pub fn name(self) -> &'static str {
+        match self {
+            Transport::Serial => "serial",
+            Transport::SharedMemory => "shared-memory",
+        }
+    }
+
+    fn parse(name: &str) -> Option<Self> {
+        [Transport::Serial, Transport::SharedMemory]
+            .into_iter()
+            .find(|t| t.name() == name)
+    }
+}
+
+/// The environment variable that overrides a profile's transport (`serial`, `shared-memory`).
+pub const TRANSPORT_ENV: &str = "HIL_TRANSPORT";
+
 /// A machine profile (`qemu/<name>.toml`).
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -26,6 +69,9 @@ pub struct QemuProfile {
     pub memory_mib: u32,
     pub icount_lockstep: String,
     pub icount_realtime: String,
+    /// The link's transport (default: serial).
+    #[serde(default)]
+    pub transport: Transport,
     #[serde(default)]
     pub extra_args: Vec<String>,
 }
@@ -72,10 +118,28 @@ impl QemuProfile {
             path: path.clone(),
             source,
         })?;
-        toml::from_str(&text).map_err(|e| QemuError::ProfileInvalid {
-            path: path.clone(),
-            message: e.to_string(),
-        })
+        let mut profile: QemuProfile =
+            toml::from_str(&text).map_err(|e| QemuError::ProfileInvalid {
+                path: path.clone(),
+                message: e.to_string(),
+            })?;
+        if let Some(name) = std::env::var_os(TRANSPORT_ENV) {
+            let name = name.to_string_lossy();
+            profile.transport =
+                Transport::parse(&name).ok_or_else(|| QemuError::ProfileInvalid {
+                    path: path.clone(),
+                    message: format!(
+                        "{TRANSPORT_ENV}={name} is not a transport (serial, shared-memory)"
+                    ),
+                })?;
+        }
+        Ok(profile)
+    }
+
+    /// The same profile with the link over `transport`.
+    pub fn with_transport(mut self, transport: Transport) -> Self {
+        self.transport = transport;
+        self
     }
 }
 
@@ -117,12 +181,15 @@ fn install_signal_handler() {
     });
 }
 
-/// Where a running QEMU's files are: its output log and QMP socket.
+/// Where a running QEMU's files are: its output log, QMP socket, serial socket and (with the
+/// shared-memory transport) the link device's backing file.
 #[derive(Clone, Debug)]
 pub struct RunFiles {
     pub dir: PathBuf,
     pub log: PathBuf,
     pub qmp_socket: PathBuf,
+    pub serial_socket: PathBuf,
+    pub link_shm: PathBuf,
 }
 
 impl RunFiles {
@@ -132,9 +199,18 @@ impl RunFiles {
         // Short path: a Unix socket path must stay under 108 bytes.
         let dir = std::env::temp_dir().join(format!("hil-{}-{n}", std::process::id()));
         std::fs::create_dir_all(&dir)?;
+        // In memory where the host has it: the link's rings are touched for every frame.
+        let shm_dir = Path::new("/dev/shm");
+        let link_shm = if shm_dir.is_dir() {
+            shm_dir.join(format!("hil-{}-{n}-link", std::process::id()))
+        } else {
+            dir.join("link.shm")
+        };
         Ok(Self {
             log: dir.join("qemu.log"),
             qmp_socket: dir.join("qmp.sock"),
+            serial_socket: dir.join("serial.sock"),
+            link_shm,
             dir,
         })
     }
@@ -144,13 +220,14 @@ impl RunFiles {
 pub struct Qemu {
     child: Child,
     qmp: Qmp,
-    pty: PathBuf,
     files: RunFiles,
+    transport: Transport,
 }
 
 impl Qemu {
-    /// Start QEMU paused (`-S`) with `firmware` as its ROM. Call [`Qemu::resume`] after the pty
-    /// is open so that no byte the target sends is lost.
+    /// Start QEMU paused (`-S`) with `firmware` as its ROM. Connect to
+    /// [`Qemu::serial_socket`] and wait for [`Qemu::wait_serial_connected`] before
+    /// [`Qemu::resume`], so that no byte the target sends is lost.
     pub fn launch(
         profile: &QemuProfile,
         firmware: &Path,
@@ -177,13 +254,29 @@ impl Qemu {
             } else {
                 &profile.icount_lockstep
             })
-            .args(["-S", "-chardev", "pty,id=s0", "-serial", "chardev:s0"])
+            .arg("-S")
+            .arg("-chardev")
+            .arg(format!(
+                "socket,id=s0,path={},server=on,wait=off",
+                files.serial_socket.display()
+            ))
+            .args(["-serial", "chardev:s0"])
             .arg("-qmp")
             .arg(format!(
                 "unix:{},server=on,wait=off",
                 files.qmp_socket.display()
             ))
             .args(&profile.extra_args);
+        if profile.transport == Transport::SharedMemory {
+            crate::shm::MappedLink::create(&files.link_shm)?;
+            cmd.arg("-object")
+                .arg(format!(
+                    "memory-backend-file,id=link,size={},mem-path={},share=on",
+                    kernel_logic::shm_link::DEVICE_BYTES,
+                    files.link_shm.display()
+                ))
+                .args(["-device", "ivshmem-plain,memdev=link"]);
+        }
         if let Some(nv) = &options.nv_file {
             let size = options.nv_size.unwrap_or(1 << 20);
             cmd.arg("-object")
@@ -206,9 +299,12 @@ impl Qemu {
                 Ok(())
             });
         }
-        let mut child = cmd.spawn().map_err(|source| QemuError::Spawn {
-            binary: binary.display().to_string(),
-            source,
+        let mut child = cmd.spawn().map_err(|source| {
+            let _ = std::fs::remove_file(&files.link_shm);
+            QemuError::Spawn {
+                binary: binary.display().to_string(),
+                source,
+            }
         })?;
         CHILDREN.lock().unwrap().insert(child.id());
 
@@ -216,35 +312,51 @@ impl Qemu {
             Ok(qmp) => qmp,
             Err(e) => {
                 end_child(&mut child);
+                let _ = std::fs::remove_file(&files.link_shm);
                 return Err(e);
             }
         };
-        let mut qemu = Self {
+        Ok(Self {
             child,
             qmp,
-            pty: PathBuf::new(),
             files,
-        };
-        qemu.pty = qemu.find_pty()?;
-        Ok(qemu)
+            transport: profile.transport,
+        })
     }
 
-    fn find_pty(&mut self) -> Result<PathBuf, QemuError> {
-        let chardevs = self.qmp.execute("query-chardev", json!({}))?;
-        chardevs
-            .as_array()
-            .into_iter()
-            .flatten()
-            .find(|c| c["label"] == "s0")
-            .and_then(|c| c["filename"].as_str())
-            .and_then(|f| f.strip_prefix("pty:"))
-            .map(PathBuf::from)
-            .ok_or_else(|| QemuError::Qmp(format!("no pty chardev s0 in {chardevs}")))
+    /// The link's transport.
+    pub fn transport(&self) -> Transport {
+        self.transport
     }
 
-    /// The host end of the target's serial port.
-    pub fn pty(&self) -> &Path {
-        &self.pty
+    /// The Unix socket QEMU listens on for the target's serial port (one connection).
+    pub fn serial_socket(&self) -> &Path {
+        &self.files.serial_socket
+    }
+
+    /// Wait until QEMU has accepted the connection to the serial socket (its chardev is no
+    /// longer "disconnected"): only then does it deliver what the guest sends.
+    pub fn wait_serial_connected(&mut self, timeout: Duration) -> Result<(), QemuError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let chardevs = self.qmp.execute("query-chardev", json!({}))?;
+            let filename = chardevs
+                .as_array()
+                .into_iter()
+                .flatten()
+                .find(|c| c["label"] == "s0")
+                .and_then(|c| c["filename"].as_str())
+                .ok_or_else(|| QemuError::Qmp(format!("no chardev s0 in {chardevs}")))?;
+            if !filename.starts_with("disconnected") {
+                return Ok(());
+            }
+            if Instant::now() >= deadline {
+                return Err(QemuError::Qmp(format!(
+                    "QEMU did not accept the serial connection within {timeout:?} ({filename})"
+                )));
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
     }
 
     pub fn pid(&self) -> u32 {
@@ -275,6 +387,12 @@ impl Qemu {
         &self.qmp.events
     }
 
+    /// Host CPU time (user and system) the QEMU process has used so far, from
+    /// `/proc/<pid>/stat` (None where that is not readable).
+    pub fn cpu_time(&self) -> Option<Duration> {
+        process_cpu_time(self.child.id())
+    }
+
     /// True while the QEMU process is running.
     pub fn is_running(&mut self) -> bool {
         matches!(self.child.try_wait(), Ok(None))
@@ -290,6 +408,8 @@ impl Drop for Qemu {
     fn drop(&mut self) {
         end_child(&mut self.child);
         let _ = std::fs::remove_file(&self.files.qmp_socket);
+        let _ = std::fs::remove_file(&self.files.serial_socket);
+        let _ = std::fs::remove_file(&self.files.link_shm);
     }
 }
 
@@ -302,6 +422,25 @@ fn end_child(child: &mut Child) {
     if let Ok(mut children) = CHILDREN.lock() {
         children.remove(&pid);
     }
+}
+
+/// User plus system CPU time of process `pid` (fields 14 and 15 of `/proc/<pid>/stat`, in
+/// clock ticks).
+pub fn process_cpu_time(pid: u32) -> Option<Duration> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat")).ok()?;
+    // The command name (field 2) is in parentheses and may contain spaces: count from after it.
+    let rest = &stat[stat.rfind(')')? + 1..];
+    let fields: Vec<&str> = rest.split_whitespace().collect();
+    let utime: u64 = fields.get(11)?.parse().ok()?;
+    let stime: u64 = fields.get(12)?.parse().ok()?;
+    // SAFETY: sysconf has no preconditions.
+    let ticks_per_second = unsafe { libc::sysconf(libc::_SC_CLK_TCK) };
+    if ticks_per_second <= 0 {
+        return None;
+    }
+    Some(Duration::from_secs_f64(
+        (utime + stime) as f64 / ticks_per_second as f64,
+    ))
 }
 
 fn find_on_path(binary: &str) -> Option<PathBuf> {

@@ -11,7 +11,7 @@ use fsw_bridge::{
 use crate::defmt_log::{LogDecoder, LogLine};
 use crate::firmware::{build_id_hex, FirmwareImage};
 use crate::link::{HostLink, LinkError};
-use crate::qemu::{LaunchOptions, Qemu, QemuError, QemuProfile};
+use crate::qemu::{LaunchOptions, Qemu, QemuError, QemuProfile, Transport};
 
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
@@ -60,7 +60,7 @@ pub struct Session {
 }
 
 impl Session {
-    /// Start QEMU paused, open its pty, then let the CPU run: no byte is lost.
+    /// Start QEMU paused, connect to its serial port, then let the CPU run: no byte is lost.
     pub fn boot_qemu(
         profile: &QemuProfile,
         firmware: &FirmwareImage,
@@ -68,13 +68,20 @@ impl Session {
     ) -> Result<Self, SessionError> {
         let started = Instant::now();
         let mut qemu = Qemu::launch(profile, &firmware.elf, options)?;
-        let link = HostLink::open(&qemu.pty().display().to_string(), crate::link::DEFAULT_BAUD)?;
+        let link = match qemu.transport() {
+            Transport::Serial => HostLink::connect_unix(qemu.serial_socket())?,
+            Transport::SharedMemory => {
+                HostLink::connect_shm(qemu.serial_socket(), &qemu.files().link_shm)?
+            }
+        };
+        qemu.wait_serial_connected(Duration::from_secs(20))?;
         qemu.resume()?;
         let describe = format!(
-            "{} (QEMU pid {}, pty {}, log {})",
+            "{} (QEMU pid {}, link over {}, serial {}, log {})",
             profile.name,
             qemu.pid(),
-            qemu.pty().display(),
+            qemu.transport().name(),
+            qemu.serial_socket().display(),
             qemu.files().log.display()
         );
         Ok(Self {

@@ -16,14 +16,13 @@ fn scenario(name: &str) -> PathBuf {
 fn run_emulated(path: &Path) -> MissionReport {
     let _one = hil_tests::exclusive_qemu();
     let prepared = prepare(path).unwrap_or_else(|e| panic!("{e}"));
-    let nv = std::env::temp_dir().join(format!(
-        "hil-test-nv-{}-{}.bin",
-        std::process::id(),
-        path.file_stem().unwrap().to_string_lossy()
-    ));
-    let mut target = EmulatedTarget::new(profile(), firmware().clone(), false, nv, false);
-    run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    let nv = hil_tests::unique_nv_file(&path.file_stem().unwrap().to_string_lossy());
+    let mut target = EmulatedTarget::new(profile(), firmware().clone(), false, nv.clone(), false);
+    let report = run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    drop(target);
+    let _ = std::fs::remove_file(&nv);
+    report
 }
 
 fn run_native(path: &Path) -> MissionReport {

@@ -208,7 +208,13 @@ pub extern "C" fn partition_executive_main() -> ! {
             state.batch_complete |= answer_awaited;
         }
         let _ = sys::port_send(PORT_EXECUTIVE_STATUS, &state.state_updates.to_be_bytes());
-        sys::wait_next_window();
+        if state.batch_complete || !state.outbox.is_empty() {
+            sys::wait_next_window();
+        } else {
+            // Nothing to do until the host sends more (a batch still waiting for its grant
+            // included): the module may stop its schedule meanwhile.
+            sys::wait_idle();
+        }
     }
 }
 
