@@ -95,7 +95,7 @@ fn link_over(
             })?;
             sent += 1;
         }
-        if let TargetToHost::Pong { .. } = session.recv(Duration::from_secs(5))? {
+        if let TargetToHost::Pong { .. } = session.recv_expedited(Duration::from_secs(5))? {
             received += 1;
         }
     }

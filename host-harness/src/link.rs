@@ -151,8 +151,8 @@ impl HostLink {
     /// lockstep rounds.
     pub fn send(&mut self, msg: &HostToTarget) -> Result<(), LinkError> {
         let mut frame = [0u8; MAX_FRAME_LEN];
-        let len = encode(&LinkFrame::Bd(msg), &mut frame)
-            .expect("every HostToTarget fits in a frame");
+        let len =
+            encode(&LinkFrame::Bd(msg), &mut frame).expect("every HostToTarget fits in a frame");
         self.send_raw(&frame[..len])
     }
 
@@ -200,7 +200,14 @@ impl HostLink {
             })?;
             match self.decode(&frame) {
                 Ok(LinkFrame::Bd(msg)) | Ok(LinkFrame::Ad { msg, .. }) => return Ok(msg),
-                Ok(_) | Err(_) => continue,
+                Ok(_) => continue,
+                // A target from before the reliable link (protocol v1) says Hello as a bare
+                // message: taken so that the session can refuse it by name.
+                Err(_) => {
+                    if let Some(hello @ TargetToHost::Hello { .. }) = legacy_message(&frame) {
+                        return Ok(hello);
+                    }
+                }
             }
         }
     }
@@ -250,6 +257,16 @@ impl Drop for HostLink {
             let _ = reader.join();
         }
     }
+}
+
+/// `frame` as protocol v1 framed its messages (no link envelope), if it decodes so.
+fn legacy_message(frame: &[u8]) -> Option<TargetToHost> {
+    let mut decoder = FrameDecoder::new();
+    frame
+        .iter()
+        .filter_map(|&b| decoder.push::<TargetToHost>(b))
+        .last()?
+        .ok()
 }
 
 fn read_loop(

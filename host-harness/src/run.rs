@@ -16,6 +16,8 @@ use crate::session::{Session, SessionError};
 
 /// How long one ping may take before the step fails.
 pub const PING_TIMEOUT: Duration = Duration::from_secs(5);
+/// Lockstep rounds a link check runs after a Hello to take in what the boot queued.
+pub const SYNC_ROUNDS: u32 = 64;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -206,6 +208,10 @@ fn run_step(
             let hello = session
                 .expect_hello(hello_timeout)
                 .map_err(|e| e.to_string())?;
+            // Open the reliable link and take in what the boot queued (its log lines).
+            session
+                .sync(SYNC_ROUNDS, PING_TIMEOUT)
+                .map_err(|e| format!("after the Hello, the link did not settle: {e}"))?;
             *build_id = Some(build_id_hex(&hello.build_id));
             let detail = format!(
                 "reset cause {}, boot {}, build {}",

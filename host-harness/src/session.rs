@@ -57,6 +57,12 @@ pub struct Session {
     pub started: Instant,
     /// Human-readable name of the target, for messages.
     pub describe: String,
+    /// The host's end of the reliable link for link checks ([`Session::recv`],
+    /// [`Session::sync`]); missions run their own ([`crate::mission::link`]). Restarted at every
+    /// Hello.
+    endpoint: Option<Box<fsw_bridge::link::HostEndpoint>>,
+    /// Messages the link delivered that nobody has taken yet.
+    inbox: std::collections::VecDeque<TargetToHost>,
 }
 
 impl Session {
@@ -94,6 +100,8 @@ impl Session {
             unsolicited: Vec::new(),
             started,
             describe,
+            endpoint: None,
+            inbox: Default::default(),
         })
     }
 
@@ -115,6 +123,8 @@ impl Session {
             unsolicited: Vec::new(),
             started: Instant::now(),
             describe: format!("serial device {path}"),
+            endpoint: None,
+            inbox: Default::default(),
         })
     }
 
@@ -127,16 +137,90 @@ impl Session {
     pub fn recv(&mut self, timeout: Duration) -> Result<TargetToHost, SessionError> {
         let deadline = Instant::now() + timeout;
         loop {
+            if let Some(msg) = self.inbox.pop_front() {
+                return Ok(msg);
+            }
             let left = deadline.saturating_duration_since(Instant::now());
-            match self.link.recv(left)? {
-                TargetToHost::Log { bytes } => self.take_log(&bytes),
-                TargetToHost::Panic { file, line } => {
-                    return Err(SessionError::TargetPanic {
-                        file: String::from_utf8_lossy(&file).into_owned(),
-                        line,
-                    })
+            if left.is_zero() {
+                return Err(LinkError::Timeout(timeout).into());
+            }
+            // What the target queued travels on the reliable link in lockstep rounds.
+            self.round(left).map_err(|e| match e {
+                SessionError::Link(LinkError::Timeout(_)) => LinkError::Timeout(timeout).into(),
+                e => e,
+            })?;
+        }
+    }
+
+    /// The next message the target sends outside the lockstep rounds (an expedited frame: a
+    /// Hello, a Pong, a panic report, the kernel's last words before a reset), waiting up to
+    /// `timeout`; logs among them are decoded and kept.
+    pub fn recv_expedited(&mut self, timeout: Duration) -> Result<TargetToHost, SessionError> {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let msg = self.link.recv(left)?;
+            if let Some(msg) = self.take(msg)? {
+                return Ok(msg);
+            }
+        }
+    }
+
+    /// Logs are decoded and kept, a panic report is an error, anything else is for the caller.
+    fn take(&mut self, msg: TargetToHost) -> Result<Option<TargetToHost>, SessionError> {
+        match msg {
+            TargetToHost::Log { bytes } => {
+                self.take_log(&bytes);
+                Ok(None)
+            }
+            TargetToHost::Panic { file, line } => Err(SessionError::TargetPanic {
+                file: String::from_utf8_lossy(&file).into_owned(),
+                line,
+            }),
+            other => Ok(Some(other)),
+        }
+    }
+
+    /// One lockstep round of the reliable link (no faults): the host's burst, then the
+    /// target's answer up to its RoundEnd; what it delivers goes to `inbox`. A Hello restarts
+    /// the link.
+    fn round(&mut self, timeout: Duration) -> Result<(), SessionError> {
+        use fsw_bridge::link::{HostEndpoint, LinkConfig, Received, Role};
+        let endpoint = self.endpoint.get_or_insert_with(|| {
+            Box::new(
+                HostEndpoint::new(Role::Initiator, LinkConfig::DEFAULT)
+                    .expect("the default link configuration is valid"),
+            )
+        });
+        let mut burst: Vec<Vec<u8>> = Vec::new();
+        let round = endpoint
+            .produce_burst(&mut |f: &[u8]| burst.push(f.to_vec()))
+            .round;
+        for f in &burst {
+            self.link.send_raw(f)?;
+        }
+        let deadline = Instant::now() + timeout;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            let frame = self.link.recv_frame(left)?;
+            let decoded = self.link.decode(&frame);
+            let Some(endpoint) = self.endpoint.as_mut() else {
+                return Ok(());
+            };
+            match endpoint.on_frame(decoded, |_| true) {
+                Received::Delivered { msg, .. } | Received::Expedited(msg) => {
+                    if matches!(msg, TargetToHost::Hello { .. }) {
+                        // The target restarted: so does the link.
+                        self.endpoint = None;
+                        self.inbox.push_back(msg);
+                        return Ok(());
+                    }
+                    if let Some(msg) = self.take(msg)? {
+                        self.inbox.push_back(msg);
+                    }
                 }
-                other => return Ok(other),
+                Received::RoundEnd { round: r } if r == round => return Ok(()),
+                _ => {}
             }
         }
     }
@@ -159,7 +243,7 @@ impl Session {
         let deadline = Instant::now() + timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            let msg = match self.recv(left) {
+            let msg = match self.recv_expedited(left) {
                 Ok(msg) => msg,
                 Err(SessionError::Link(LinkError::Timeout(_))) => {
                     return Err(self.silent(timeout));
@@ -167,10 +251,26 @@ impl Session {
                 Err(e) => return Err(e),
             };
             if let Some(hello) = self.check_hello(&msg)? {
+                // A new boot: the link starts over.
+                self.endpoint = None;
                 return Ok(hello);
             }
             self.unsolicited.push(msg);
         }
+    }
+
+    /// Link checks: run lockstep rounds of the reliable link (no faults) until both ends have
+    /// nothing more to send, taking in what the target queued meanwhile: its logs (decoded and
+    /// kept) and its messages (for [`Session::recv`]). At most `max_rounds` rounds, each
+    /// answered within `timeout`.
+    pub fn sync(&mut self, max_rounds: u32, timeout: Duration) -> Result<(), SessionError> {
+        for _ in 0..max_rounds {
+            self.round(timeout)?;
+            if self.endpoint.as_ref().is_some_and(|e| e.is_all_settled()) {
+                return Ok(());
+            }
+        }
+        Ok(())
     }
 
     /// If `msg` is a Hello: what it said, or the protocol or firmware mismatch it shows.
@@ -231,7 +331,7 @@ impl Session {
         let deadline = sent + timeout;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            match self.recv(left)? {
+            match self.recv_expedited(left)? {
                 TargetToHost::Pong { seq: s, link } if s == seq => {
                     return Ok((sent.elapsed(), link))
                 }

@@ -10,7 +10,15 @@ use hil::qemu::{LaunchOptions, Qemu, QemuError};
 use hil::session::{Session, SessionError};
 use hil_tests::{firmware, profile, pty_pair};
 
+/// `msg` as a protocol v2 target sends it outside the rounds (an expedited frame).
 fn frame(msg: &TargetToHost) -> Vec<u8> {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = encode(&fsw_bridge::link::LinkFrame::Bd(msg), &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+/// `msg` as a protocol v1 target sent it (a bare message in the frame).
+fn v1_frame(msg: &TargetToHost) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let n = encode(msg, &mut buf).unwrap();
     buf[..n].to_vec()
@@ -58,6 +66,20 @@ fn a_target_speaking_another_protocol_version_is_refused_by_name() {
         "{err:?}"
     );
     assert!(err.to_string().contains("protocol mismatch"), "{err}");
+}
+
+/// A target from before the reliable link frames its Hello without the link's envelope: it is
+/// still recognised, and refused by name rather than as garbage.
+#[test]
+fn a_protocol_v1_target_is_refused_by_name() {
+    let mut pty = pty_pair();
+    let mut session = Session::open_serial(&pty.slave_path, 115_200, None).unwrap();
+    pty.master.write_all(&v1_frame(&hello(1, [0; 8]))).unwrap();
+    let err = session.expect_hello(Duration::from_secs(10)).unwrap_err();
+    assert!(
+        matches!(err, SessionError::ProtocolMismatch { target: 1, host } if host == PROTOCOL_VERSION),
+        "{err:?}"
+    );
 }
 
 #[test]

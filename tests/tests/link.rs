@@ -51,8 +51,8 @@ fn pings_come_back_over(transport: hil::qemu::Transport) {
 fn the_boot_log_line_is_decoded_from_defmt_with_a_timestamp() {
     let mut target = boot();
     target.expect_hello(PATIENCE).unwrap();
-    // The boot log follows the Hello; a ping round trip guarantees it has been received.
-    target.ping(1, PATIENCE).unwrap();
+    // The boot log travels on the reliable link's Instrument channel, in lockstep rounds.
+    target.sync(64, PATIENCE).unwrap();
     let line = target
         .logs
         .iter()

@@ -1,10 +1,12 @@
-//! The framed link to the host (used by the I/O partition, in its own region): frames out
-//! through the kernel (`SYS_LINK_WRITE`), gathered into batches so that a burst of messages (a
-//! kernel report, a frame's telemetry) costs one system call, and frames in from the kernel
-//! (`SYS_LINK_READ`) through the streaming decoder, whose counters the target reports in every
-//! Pong. The kernel moves the bytes over the board's transport (the serial line, or shared
-//! memory on the emulated target); the frames are the same either way.
+//! The framed link to the host (used by the I/O partition, in its own region): encoded frames
+//! out through the kernel (`SYS_LINK_WRITE`), gathered into batches so that a burst (a lockstep
+//! round's answer) costs one system call, and frames in from the kernel (`SYS_LINK_READ`)
+//! through the streaming decoder, whose counters the target reports in every Pong. The kernel
+//! moves the bytes over the board's transport (the serial line, or shared memory on the
+//! emulated target); the frames are the same either way. What the frames mean (the reliable
+//! link's data frames, reports and round ends) is `fsw_bridge::link`'s business.
 use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, MAX_FRAME_LEN};
+use fsw_bridge::link::{FrameSink, LinkFrame};
 use fsw_bridge::{HostToTarget, LinkCounters, TargetToHost};
 
 use crate::sys;
@@ -40,13 +42,13 @@ impl Link {
         }
     }
 
-    /// Encode one message for the host. It leaves with the batch: at the next [`Link::flush`],
-    /// or now if the batch has no room for a frame.
-    pub fn send(&mut self, msg: &TargetToHost) {
+    /// Encode one message for the host as an expedited (Type-BD) frame: the Hello, a Pong.
+    /// It leaves with the batch: at the next [`Link::flush`], or now if the batch has no room.
+    pub fn send_expedited(&mut self, msg: &TargetToHost) {
         if TX_BATCH_BYTES - self.tx_len < MAX_FRAME_LEN {
             self.flush();
         }
-        match encode(msg, &mut self.tx_batch[self.tx_len..]) {
+        match encode(&LinkFrame::Bd(msg), &mut self.tx_batch[self.tx_len..]) {
             Ok(len) => self.tx_len += len,
             Err(_) => self.tx_encode_errors = self.tx_encode_errors.saturating_add(1),
         }
@@ -67,7 +69,7 @@ impl Link {
     }
 
     /// The next complete frame, if the bytes received so far finish one.
-    pub fn poll(&mut self) -> Option<Result<HostToTarget, DecodeError>> {
+    pub fn poll(&mut self) -> Option<Result<LinkFrame<HostToTarget>, DecodeError>> {
         loop {
             if self.rx_next == self.rx_len {
                 let n = sys::link_read(&mut self.rx_chunk);
@@ -79,7 +81,7 @@ impl Link {
             }
             let byte = self.rx_chunk[self.rx_next];
             self.rx_next += 1;
-            if let Some(result) = self.decoder.push::<HostToTarget>(byte) {
+            if let Some(result) = self.decoder.push::<LinkFrame<HostToTarget>>(byte) {
                 return Some(result);
             }
         }
@@ -87,5 +89,24 @@ impl Link {
 
     pub fn counters(&self) -> LinkCounters {
         self.decoder.counters()
+    }
+}
+
+/// The reliable link's bursts go out with the batch, frame by frame.
+impl FrameSink for Link {
+    fn send_frame(&mut self, frame: &[u8]) {
+        if TX_BATCH_BYTES - self.tx_len < frame.len() {
+            self.flush();
+        }
+        match self
+            .tx_batch
+            .get_mut(self.tx_len..self.tx_len + frame.len())
+        {
+            Some(slot) => {
+                slot.copy_from_slice(frame);
+                self.tx_len += frame.len();
+            }
+            None => self.tx_encode_errors = self.tx_encode_errors.saturating_add(1),
+        }
     }
 }

@@ -89,6 +89,13 @@ pub fn wait_for_input() -> InputWait {
     }
 }
 
+/// Link owner: why the module could not park now (`abi::wait_input` reason bits, 0: everyone
+/// else is done and nothing is in flight) and which partitions are busy, without waiting.
+pub fn link_quiet() -> (u32, u32) {
+    let (_, reasons, busy) = raw(SYS_WAIT_FOR_INPUT, [wait_input::QUERY, 0, 0, 0, 0]);
+    (reasons, busy)
+}
+
 pub fn port_send(port: usize, message: &[u8]) -> Result<(), i32> {
     let (r3, _, _) = raw(
         SYS_PORT_SEND,

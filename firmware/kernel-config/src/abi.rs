@@ -105,8 +105,11 @@ pub const SYS_LINK_READ: u32 = 19;
 /// the schedule at a fresh major frame when input arrives: r3 = PARKED, returned in the
 /// caller's first window. Input already waiting: r3 = INPUT_PENDING at once. Otherwise it acts
 /// as SYS_WAIT_NEXT_WINDOW: r3 = NOT_PARKED at the caller's next window start, r4 = the
-/// reasons (`wait_input::*` bits), r5 = the partitions that were busy (bit p). Every argument
-/// register must be 0 (E_RANGE otherwise). Link owner only.
+/// reasons (`wait_input::*` bits), r5 = the partitions that were busy (bit p). With
+/// r3 = [`wait_input::QUERY`] it does not wait at all: it returns at once with r3 =
+/// [`wait_input::NOT_PARKED`], r4 = the reasons the module could not park now (0: quiet) and
+/// r5 = the busy partitions (the reliable link's end of round: answer when everyone else is
+/// done). Every other argument register must be 0 (E_RANGE otherwise). Link owner only.
 pub const SYS_WAIT_FOR_INPUT: u32 = 20;
 /// (ptr, len) -> bytes taken for the host: all of them over the serial line (the call waits for
 /// the UART); over shared memory what fits in the ring (0 while the host has not read; the
@@ -131,6 +134,9 @@ pub mod wait_input {
     pub const PARKED: u32 = 1;
     /// Input was already waiting; returned at once.
     pub const INPUT_PENDING: u32 = 2;
+
+    /// The argument that asks without waiting (see `SYS_WAIT_FOR_INPUT`).
+    pub const QUERY: u32 = 1;
 
     /// Another partition has work (it has not declared itself idle since it last ran; r5 says
     /// which).

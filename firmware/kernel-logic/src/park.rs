@@ -46,17 +46,7 @@ pub fn decide(state: &ModuleState) -> Decision {
     if state.input_pending {
         return Decision::InputPending;
     }
-    let reasons = [
-        (state.busy_partitions != 0, wait_input::PARTITION_BUSY),
-        (state.message_in_flight, wait_input::MESSAGE_IN_FLIGHT),
-        (state.log_pending, wait_input::LOG_PENDING),
-        (state.events_pending, wait_input::EVENTS_PENDING),
-        (state.periodic_reports, wait_input::PERIODIC_REPORTS),
-        (state.reset_armed, wait_input::RESET_ARMED),
-    ]
-    .iter()
-    .filter(|(holds, _)| *holds)
-    .fold(0, |bits, (_, bit)| bits | bit);
+    let reasons = reasons_not_to_park(state);
     if reasons == 0 {
         Decision::Park
     } else {
@@ -67,11 +57,32 @@ pub fn decide(state: &ModuleState) -> Decision {
     }
 }
 
-/// `SYS_WAIT_FOR_INPUT` takes no arguments: every argument register must be 0, so that a later
-/// revision can give them a meaning without old callers passing garbage.
-pub fn check_wait_for_input_args(args: &[u32; 5]) -> Result<(), i32> {
-    if args.iter().all(|&a| a == 0) {
-        Ok(())
+/// Why the module could not park now, input aside (`wait_input::*` bits; 0: quiet).
+pub fn reasons_not_to_park(state: &ModuleState) -> u32 {
+    [
+        (state.busy_partitions != 0, wait_input::PARTITION_BUSY),
+        (state.message_in_flight, wait_input::MESSAGE_IN_FLIGHT),
+        (state.log_pending, wait_input::LOG_PENDING),
+        (state.events_pending, wait_input::EVENTS_PENDING),
+        (state.periodic_reports, wait_input::PERIODIC_REPORTS),
+        (state.reset_armed, wait_input::RESET_ARMED),
+    ]
+    .iter()
+    .filter(|(holds, _)| *holds)
+    .fold(0, |bits, (_, bit)| bits | bit)
+}
+
+/// `SYS_WAIT_FOR_INPUT`'s arguments: r3 is 0 (wait) or `wait_input::QUERY` (ask without
+/// waiting), every other register 0, so that a later revision can give them a meaning without
+/// old callers passing garbage. Returns true for a query.
+pub fn check_wait_for_input_args(args: &[u32; 5]) -> Result<bool, i32> {
+    let query = match args[0] {
+        0 => false,
+        wait_input::QUERY => true,
+        _ => return Err(E_RANGE),
+    };
+    if args[1..].iter().all(|&a| a == 0) {
+        Ok(query)
     } else {
         Err(E_RANGE)
     }
@@ -219,9 +230,14 @@ mod tests {
     }
 
     #[test]
-    fn wait_for_input_refuses_any_nonzero_argument() {
-        assert_eq!(check_wait_for_input_args(&[0; 5]), Ok(()));
-        for i in 0..5 {
+    fn wait_for_input_takes_only_its_query_mode() {
+        assert_eq!(check_wait_for_input_args(&[0; 5]), Ok(false));
+        assert_eq!(
+            check_wait_for_input_args(&[wait_input::QUERY, 0, 0, 0, 0]),
+            Ok(true)
+        );
+        assert_eq!(check_wait_for_input_args(&[2, 0, 0, 0, 0]), Err(E_RANGE));
+        for i in 1..5 {
             let mut args = [0; 5];
             args[i] = 1;
             assert_eq!(

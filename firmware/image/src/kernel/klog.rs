@@ -76,7 +76,10 @@ pub fn with_ring<R>(f: impl FnOnce(&mut LogRing) -> R) -> R {
 /// any frame the I/O partition was in the middle of, so this one arrives whole.
 pub fn send_direct(link: &mut KernelLink, msg: &TargetToHost) {
     let mut frame = [0u8; MAX_FRAME_LEN + 1];
-    if let Ok(len) = encode(msg, &mut frame[1..]) {
+    // The kernel's last words before a reset it makes: an expedited frame (the reliable link's
+    // sequence numbers die with the I/O partition; the host takes these like the Hello after
+    // them).
+    if let Ok(len) = encode(&fsw_bridge::link::LinkFrame::Bd(msg), &mut frame[1..]) {
         link.write_direct(&frame[..=len]);
     }
 }

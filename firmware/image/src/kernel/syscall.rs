@@ -7,7 +7,8 @@ use fsw_bridge::ResetCause;
 use kernel_config::abi::*;
 use kernel_config::{NV_BASE, WARM_AREA_BASE, WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 use kernel_logic::park::{
-    check_wait_for_input_args, decide, wait_declares_idle, Decision, ModuleState,
+    check_wait_for_input_args, decide, reasons_not_to_park, wait_declares_idle, Decision,
+    ModuleState,
 };
 
 use super::umem::{copy, USlice};
@@ -258,7 +259,14 @@ impl Kernel {
             }
             SYS_WAIT_FOR_INPUT => {
                 Self::link_owner(p)?;
-                check_wait_for_input_args(&a)?;
+                if check_wait_for_input_args(&a)? {
+                    let state = self.module_state(p);
+                    return Ok(Return(
+                        wait_input::NOT_PARKED,
+                        reasons_not_to_park(&state),
+                        state.busy_partitions,
+                    ));
+                }
                 match decide(&self.module_state(p)) {
                     Decision::InputPending => Ok(Return(wait_input::INPUT_PENDING, 0, 0)),
                     Decision::Park => {

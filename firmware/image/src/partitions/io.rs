@@ -1,26 +1,35 @@
-//! The I/O partition: the link's owner. The kernel moves the link's bytes (`SYS_LINK_READ`,
-//! `SYS_LINK_WRITE`, over the serial line or shared memory); this partition runs the frame
-//! codec, says Hello once per boot (with the reset cause the kernel determined), answers
-//! Ping with its decoder counters, honours ResetRequest through the kernel (a mid-frame kind is
-//! held until the next TimeGrant has been routed, then armed on the executive's work on that
-//! grant), and routes:
-//! TimeGrant, StateUpdate, CommandResponse and UplinkChunk to the executive (where the flight
-//! application runs), StateUpdate to the planner, and reserved control keys (`abi::control`) to whoever they address; in the
-//! other direction the executive's and planner's outbound ports, the kernel's log stream and
-//! the kernel's events (health monitor, metrics) go to the host. A message for a full port is
-//! held (and nothing more decoded) until its destination has made room.
+//! The I/O partition: the link's owner, and the target's end of the reliable link
+//! (`fsw_bridge::link`, CCSDS COP-1 style). The kernel moves the link's bytes (`SYS_LINK_READ`,
+//! `SYS_LINK_WRITE`, over the serial line or shared memory); this partition decodes frames,
+//! says Hello once per boot (an expedited frame, with the reset cause the kernel determined),
+//! answers Ping at once with its decoder counters, and runs the lockstep rounds: every data
+//! frame the host's burst carries goes through the link's receiver (delivered exactly once and
+//! in order), and at the burst's RoundEnd it answers with its own burst once the round's work is
+//! done (the messages it routed handled, the executive's answers and the kernel's news taken in,
+//! nobody else busy): retransmissions, new frames within the window, its Report, RoundEnd.
 //!
-//! When everything received is handled and everything for the host has left, it waits for the
-//! host with `SYS_WAIT_FOR_INPUT`: at the end of a lockstep round (FrameDone and what came
-//! before it sent, nobody else busy) the kernel stops the schedule until the host's next bytes.
+//! It routes TimeGrant, StateUpdate, CommandResponse and UplinkChunk to the executive (where the
+//! flight application runs), StateUpdate to the planner, reserved control keys (`abi::control`)
+//! to whoever they address, and honours ResetRequest through the kernel (a mid-frame kind is
+//! held until the next TimeGrant has been routed, then armed on the executive's work on that
+//! grant). In the other direction the executive's and planner's outbound ports, the kernel's
+//! log stream and the kernel's events go to the host on the link's Mission or Instrument
+//! channel. A message for a full port is refused with the link's wait flag (the host sends it
+//! again), and a message for the host waits for room in the send window: flow control, not loss.
+//!
+//! After answering a round, with everything handled and sent, it waits for the host with
+//! `SYS_WAIT_FOR_INPUT`: the kernel stops the schedule until the host's next burst.
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
+use fsw_bridge::link::{
+    downlink_service, LinkConfig, Received, Role, Service, SubmitError, TargetEndpoint,
+};
 use fsw_bridge::messages::LOG_CHUNK_MAX;
 use fsw_bridge::{
     HostToTarget, ResetCause, ResetKind, StateKey, StateValue, TargetToHost, PROTOCOL_VERSION,
 };
-use kernel_config::abi::{control, reset_at, E_FULL, REPORT_OFF};
+use kernel_config::abi::{control, reset_at, wait_input, E_FULL, REPORT_OFF};
 use kernel_config::system::{
     OUTBOUND_MESSAGE_SIZE, PORT_EXECUTIVE_TO_IO, PORT_IO_TO_EXECUTIVE, PORT_IO_TO_PLANNER,
     PORT_PLANNER_TO_IO, ROUTED_MESSAGE_SIZE,
@@ -31,6 +40,30 @@ use crate::sys;
 
 #[link_section = ".bss.part.io"]
 static mut LINK: MaybeUninit<Link> = MaybeUninit::uninit();
+
+#[link_section = ".bss.part.io"]
+static mut ENDPOINT: MaybeUninit<TargetEndpoint> = MaybeUninit::uninit();
+
+/// The reliable link's parameters (the host uses the same).
+const LINK_CONFIG: LinkConfig = LinkConfig::DEFAULT;
+
+/// The metrics only a target with a CPU clock sends (costs) and the kernel's own: they travel
+/// on the Instrument channel, so the Mission stream is the native target's too.
+fn is_instrument_metric(id: u16) -> bool {
+    id < 0x1000 || flight_app::metric::is_instrument(id)
+}
+
+/// Messages for the host taken from the kernel or a port and not yet in the link's send queue
+/// (which was full): at most a batch of kernel events.
+const OUTBOUND_HELD_CAPACITY: usize = sys::EVENT_DRAIN_BATCH;
+
+/// The partition's round state.
+struct Rounds {
+    /// A RoundEnd came in and its answer has not gone out.
+    answer_due: bool,
+    /// Messages for the host that found the send window and its backlog full, in order.
+    outbound_held: heapless::Deque<TargetToHost, OUTBOUND_HELD_CAPACITY>,
+}
 
 fn reset_cause(code: u32) -> ResetCause {
     match code {
@@ -43,75 +76,153 @@ fn reset_cause(code: u32) -> ResetCause {
 
 #[no_mangle]
 pub extern "C" fn partition_io_main() -> ! {
-    // SAFETY: LINK is this partition's own static; entry runs once per (re)start, so this is the
-    // only reference. `write` initialises it before use.
+    // SAFETY: LINK and ENDPOINT are this partition's own statics; entry runs once per
+    // (re)start, so these are the only references. `write` initialises them before use.
     let link = unsafe { (*addr_of_mut!(LINK)).write(Link::new()) };
+    // SAFETY: as above.
+    let endpoint = unsafe {
+        (*addr_of_mut!(ENDPOINT)).write(match TargetEndpoint::new(Role::Responder, LINK_CONFIG) {
+            Ok(e) => e,
+            // The configuration is a constant checked by the link's tests; a partition restart
+            // would meet the same error.
+            Err(_) => panic!("bad link configuration"),
+        })
+    };
     let (_, generation) = sys::identity();
     if generation == 0 {
         let (cause, boot_count) = sys::boot_info();
-        link.send(&TargetToHost::Hello {
+        link.send_expedited(&TargetToHost::Hello {
             protocol_version: PROTOCOL_VERSION,
             build_id: crate::BUILD_ID,
             reset_cause: reset_cause(cause),
             boot_count,
         });
+        link.flush();
     } else {
+        // A restarted I/O partition lost the link's state: the host's next round finds the
+        // channels closed and opens them again (what was in flight is sent again).
         defmt::warn!("io: restarted, generation {=u32}", generation);
     }
     // A mid-frame reset the host asked for, waiting for the grant it applies to: (mode, value).
     let mut reset_in_next_frame: Option<(u32, u32)> = None;
-    // A message waiting for room in a port (nothing more is decoded until it is delivered, so
-    // the host's bytes wait in the kernel's ring and then in the UART: flow control, not loss).
+    // A delivered message waiting for room in a port (the link refuses further data frames
+    // with its wait flag until it is routed: the host sends them again).
     let mut held: Option<Routing> = None;
+    let mut rounds = Rounds {
+        answer_due: false,
+        outbound_held: heapless::Deque::new(),
+    };
     loop {
-        pump_outbound(link);
+        pump_outbound(endpoint, &mut rounds);
         if let Some(routing) = held.take() {
             held = deliver(routing, &mut reset_in_next_frame);
         }
-        while held.is_none() {
-            let Some(next) = link.poll() else {
-                break;
-            };
-            match next {
-                Ok(msg) => held = handle(link, &mut reset_in_next_frame, msg),
-                Err(error) => {
+        while let Some(next) = link.poll() {
+            let has_room = held.is_none();
+            match endpoint.on_frame(next, |_| has_room) {
+                Received::Delivered { msg, .. } | Received::Expedited(msg) => {
+                    if let Some(h) = handle(link, &mut reset_in_next_frame, msg) {
+                        held = Some(h);
+                    }
+                }
+                Received::RoundEnd { .. } => rounds.answer_due = true,
+                Received::Discarded(fsw_bridge::link::Discard::Rejected(error)) => {
                     defmt::warn!("link: frame rejected: {=str}", decode_error_name(error))
                 }
+                Received::Noted | Received::Discarded(_) => {}
             }
-            pump_outbound(link);
+        }
+        pump_outbound(endpoint, &mut rounds);
+        if rounds.answer_due && round_work_done(&held, &rounds) {
+            endpoint.produce_burst(link);
+            rounds.answer_due = false;
         }
         link.flush();
-        if held.is_some() {
-            // Its destination takes messages in its own window.
+        if held.is_some() || rounds.answer_due {
+            // The round's work goes on in the other partitions' windows.
             sys::wait_next_window();
             continue;
         }
-        // Everything received is handled and everything for the host has left: wait for the
-        // host. The kernel stops the schedule if nothing else has work either, and comes back
-        // at once if input is already waiting.
+        // The round is answered and nothing is left: wait for the host. The kernel stops the
+        // schedule if nothing else has work either, and comes back at once if input is already
+        // waiting.
         sys::wait_for_input();
     }
 }
 
-/// Everything waiting for the host: kernel log bytes, kernel events, partitions' messages.
-fn pump_outbound(link: &mut Link) {
+/// The round's answer can go: every message it delivered is routed, and either the send queue
+/// is full (the answer carries what fits, its Report says more is waiting, and the host comes
+/// back for it: waiting would deadlock, as acknowledgements only come with the host's next
+/// burst) or the partitions it reached are done with them (idle) and their answers and the
+/// kernel's news are in the send queue. An armed reset and periodic reports do not hold the
+/// answer (the reset happens inside the executive's work; the reports are for link checks).
+fn round_work_done(held: &Option<Routing>, rounds: &Rounds) -> bool {
+    if held.is_some() {
+        return false;
+    }
+    if !rounds.outbound_held.is_empty() {
+        return true;
+    }
+    let (reasons, _busy) = sys::link_quiet();
+    reasons & !(wait_input::RESET_ARMED | wait_input::PERIODIC_REPORTS) == 0
+}
+
+/// Move the held messages into the link's send queue, in order, while it has room; true when
+/// none is left held.
+fn submit_held(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) -> bool {
+    while let Some(msg) = rounds.outbound_held.front() {
+        let vc = match downlink_service(msg, is_instrument_metric) {
+            Service::Sequenced(vc) => vc,
+            // Hello and Pong go out directly; nothing else is expedited from here.
+            Service::Expedited => fsw_bridge::link::VirtualChannel::Instrument,
+        };
+        match endpoint.submit(vc, msg) {
+            Ok(_) => {}
+            Err(SubmitError::Full) => return false,
+            Err(_) => defmt::warn!("io: a message for the host could not be queued"),
+        }
+        rounds.outbound_held.pop_front();
+    }
+    true
+}
+
+/// Queue `msg` for the host on its channel; false when the send queue is full (it is held).
+fn submit(endpoint: &mut TargetEndpoint, rounds: &mut Rounds, msg: TargetToHost) -> bool {
+    // There is room: the held queue is empty whenever more is taken from the kernel or a port.
+    let _ = rounds.outbound_held.push_back(msg);
+    submit_held(endpoint, rounds)
+}
+
+/// Everything waiting for the host, into the link's send queue until it is full: the held
+/// messages first, then kernel log bytes, kernel events (a batch at a time), partitions'
+/// messages.
+fn pump_outbound(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
+    if !submit_held(endpoint, rounds) {
+        return;
+    }
     loop {
         let mut chunk = [0u8; LOG_CHUNK_MAX];
         let n = sys::log_drain(&mut chunk);
         if n == 0 {
             break;
         }
-        link.send(&TargetToHost::Log {
+        let log = TargetToHost::Log {
             bytes: heapless::Vec::from_slice(&chunk[..n]).unwrap_or_default(),
-        });
+        };
+        if !submit(endpoint, rounds, log) {
+            return;
+        }
     }
     loop {
-        let mut records = [[0u32; 4]; sys::EVENT_DRAIN_BATCH];
+        let mut records = [[0u32; 4]; OUTBOUND_HELD_CAPACITY];
         let n = sys::event_drain(&mut records);
-        for record in &records[..n] {
+        for record in records.iter().take(n) {
             if let Some(msg) = crate::kernel::health::event_message(record) {
-                link.send(&msg);
+                let _ = rounds.outbound_held.push_back(msg);
             }
+        }
+        if !submit_held(endpoint, rounds) {
+            return;
         }
         if n < records.len() {
             break;
@@ -121,7 +232,11 @@ fn pump_outbound(link: &mut Link) {
         let mut buf = [0u8; OUTBOUND_MESSAGE_SIZE as usize];
         while let Ok(got) = sys::port_receive(port, &mut buf) {
             match postcard::from_bytes::<TargetToHost>(&buf[..got.len]) {
-                Ok(msg) => link.send(&msg),
+                Ok(msg) => {
+                    if !submit(endpoint, rounds, msg) {
+                        return;
+                    }
+                }
                 Err(_) => defmt::warn!("io: undecodable message on port {=usize}", port),
             }
         }
@@ -203,10 +318,12 @@ fn handle(
 ) -> Option<Routing> {
     let routing = match msg {
         HostToTarget::Ping { seq } => {
-            link.send(&TargetToHost::Pong {
+            // A link check, outside the rounds: answered at once.
+            link.send_expedited(&TargetToHost::Pong {
                 seq,
                 link: link.counters(),
             });
+            link.flush();
             return None;
         }
         HostToTarget::ResetRequest { kind } => {
