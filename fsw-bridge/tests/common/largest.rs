@@ -104,10 +104,10 @@ pub fn largest_t2h(i: usize) -> TargetToHost {
         4 => TargetToHost::Log {
             bytes: full::<LOG_CHUNK_MAX>(0xff),
         },
-        5 => TargetToHost::Telemetry(TelemetryEvent::PlanModification {
-            kind: u8::MAX,
-            task: u16::MAX,
-            template: u16::MAX,
+        // The longest telemetry event: a key and two times.
+        5 => TargetToHost::Telemetry(TelemetryEvent::StateStale {
+            key: StateKey(u16::MAX),
+            measured_at: MissionTimeUs::MAX,
             at: MissionTimeUs::MAX,
         }),
         6 => TargetToHost::UplinkAck { seq: u16::MAX },
