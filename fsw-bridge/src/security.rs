@@ -56,12 +56,11 @@ pub enum SecurityRefusal {
     Truncated,
     /// The MAC does not match: forged or altered data, or signed with another key.
     BadMac,
-    /// Authentic, but its sequence number is not greater than the last one accepted.
+    /// Authentic, but its sequence number is not greater than the last one accepted. (Once
+    /// `u32::MAX` has been accepted every number is a replay: provision a new key.)
     Replay,
     /// Longer than the length its header announces (an uplink with trailing bytes).
     BadLength,
-    /// The last accepted sequence number is `u32::MAX`: no number is left (provision a new key).
-    SequenceExhausted,
     /// Authentic and fresh, but the new anti-replay counter could not be written to
     /// non-volatile memory, so the target did not act on it (acting would allow a replay after
     /// a reset).
@@ -70,7 +69,7 @@ pub enum SecurityRefusal {
 
 impl SecurityRefusal {
     /// Number of reasons (size of per-reason counters).
-    pub const COUNT: usize = 8;
+    pub const COUNT: usize = 7;
 
     /// Every reason, in index order.
     pub const ALL: [SecurityRefusal; SecurityRefusal::COUNT] = [
@@ -80,7 +79,6 @@ impl SecurityRefusal {
         SecurityRefusal::BadMac,
         SecurityRefusal::Replay,
         SecurityRefusal::BadLength,
-        SecurityRefusal::SequenceExhausted,
         SecurityRefusal::CounterNotStored,
     ];
 
@@ -113,7 +111,6 @@ impl SecurityRefusal {
             SecurityRefusal::BadMac => "bad-mac",
             SecurityRefusal::Replay => "replay",
             SecurityRefusal::BadLength => "bad-length",
-            SecurityRefusal::SequenceExhausted => "sequence-exhausted",
             SecurityRefusal::CounterNotStored => "counter-not-stored",
         }
     }

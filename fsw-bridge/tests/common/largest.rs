@@ -3,8 +3,9 @@
 use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
 use fsw_bridge::security::{SecurityRefusal, MAC_LEN};
 use fsw_bridge::{
-    CommandRefusal, CommandStatus, GroundCommand, SecurityHeader, HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, ResetKind,
-    StateKey, StateValue, TargetToHost, TelemetryEvent, MAX_COMMAND_ARGS,
+    CommandRefusal, CommandStatus, GroundCommand, HostToTarget, LinkCounters, MissionTimeUs,
+    Opcode, ResetCause, ResetKind, SecurityHeader, StateKey, StateValue, TargetToHost,
+    TelemetryEvent, MAX_COMMAND_ARGS,
 };
 
 /// Variants of each message set.

@@ -171,11 +171,13 @@ pub fn ground_command() -> impl Strategy<Value = HostToTarget> {
         ground_commands(),
         hvec::<u8, _, { fsw_bridge::security::MAC_LEN }>(any::<u8>),
     )
-        .prop_map(|(spi, sequence, command, mac)| HostToTarget::GroundCommand {
-            header: fsw_bridge::SecurityHeader { spi, sequence },
-            command,
-            mac,
-        })
+        .prop_map(
+            |(spi, sequence, command, mac)| HostToTarget::GroundCommand {
+                header: fsw_bridge::SecurityHeader { spi, sequence },
+                command,
+                mac,
+            },
+        )
 }
 
 pub fn host_to_target() -> impl Strategy<Value = HostToTarget> {
