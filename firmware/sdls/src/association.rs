@@ -52,7 +52,7 @@ impl SecurityAssociation {
     }
 
     /// The association `store` holds (none without a store, or if it cannot be read).
-    pub fn load(store: Option<&mut dyn SecurityStore>) -> Self {
+    pub fn load(store: Option<&mut (dyn SecurityStore + '_)>) -> Self {
         let mut area = [0u8; SECURITY_AREA_BYTES];
         match store.map(|s| s.read(&mut area)) {
             Some(Ok(())) => Self::from_area(&area),
@@ -167,7 +167,7 @@ impl SecurityAssociation {
         &mut self,
         sequence: u32,
         holds: u32,
-        store: Option<&mut dyn SecurityStore>,
+        store: Option<&mut (dyn SecurityStore + '_)>,
     ) -> Result<(), SecurityRefusal> {
         if self.key.is_none() {
             return Err(SecurityRefusal::NoKey);
