@@ -170,7 +170,7 @@ fn handle(
             route(PORT_IO_TO_EXECUTIVE, &msg);
         }
         // The flight application (autonomy core) runs in the executive partition.
-        HostToTarget::UplinkChunk { .. } => {
+        HostToTarget::UplinkChunk { .. } | HostToTarget::GroundCommand { .. } => {
             route(PORT_IO_TO_EXECUTIVE, &msg);
         }
     }
