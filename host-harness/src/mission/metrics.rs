@@ -121,6 +121,11 @@ pub const METRICS: &[MetricDef] = &[
         "max_uplink_verify_ticks in guest instructions",
     ),
     count(
+        "ground_holds",
+        "mask",
+        "the ground holds as the target last reported them (bit h: hold h; absent until one is set)",
+    ),
+    count(
         "authenticated_accepted",
         "messages",
         "authenticated uplinks and ground commands the target accepted",

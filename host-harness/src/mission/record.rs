@@ -503,6 +503,11 @@ impl MissionRecord {
             metric::CHECKPOINT_WRITE_FAILURES => "checkpoint_write_failures",
             metric::STATE_TYPE_MISMATCHES => "state_type_mismatches",
             metric::STATE_TYPE_MISMATCH_KEY => "state_type_mismatch_key",
+            metric::GROUND_HOLDS => {
+                // The last value, not a maximum: the holds as the target last reported them.
+                self.metrics.insert("ground_holds".into(), value);
+                return;
+            }
             metric::UPLINK_VERIFY_TICKS => {
                 self.max_metric("max_uplink_verify_instructions", to_instructions(value));
                 "max_uplink_verify_ticks"
