@@ -35,11 +35,11 @@ pub trait WireMessage: Serialize + DeserializeOwned {
 }
 
 impl WireMessage for HostToTarget {
-    const VARIANT_COUNT: u8 = 6;
+    const VARIANT_COUNT: u8 = 7;
 }
 
 impl WireMessage for TargetToHost {
-    const VARIANT_COUNT: u8 = 9;
+    const VARIANT_COUNT: u8 = 11;
 }
 
 /// Why a message could not be put in a frame.

@@ -17,9 +17,11 @@ extern crate std;
 pub mod codec;
 pub mod link;
 pub mod messages;
+pub mod security;
 pub mod types;
 
 pub use messages::{HostToTarget, LinkCounters, TargetToHost, TelemetryEvent};
+pub use security::{CommandRefusal, GroundCommand, SecurityHeader, SecurityRefusal};
 pub use types::*;
 
 /// Version of the message set. Both sides refuse a peer that speaks another version.

@@ -7,6 +7,7 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
+use crate::security::{CommandRefusal, GroundCommand, SecurityHeader, MAC_LEN};
 use crate::types::{
     CommandArgs, CommandStatus, MissionTimeUs, Opcode, ResetCause, ResetKind, StateKey, StateValue,
 };
@@ -81,6 +82,15 @@ pub enum HostToTarget {
     },
     /// Ask the target to reset itself.
     ResetRequest { kind: ResetKind },
+    /// A command from the ground, authenticated in the manner of CCSDS SDLS: security header,
+    /// command, security trailer (HMAC-SHA-256 over the header and the command, see
+    /// `sdls::command_mac`). The target answers GroundCommandAck or GroundCommandNak with the
+    /// header's sequence number. A `mac` shorter than [`MAC_LEN`] is refused as truncated.
+    GroundCommand {
+        header: SecurityHeader,
+        command: GroundCommand,
+        mac: Vec<u8, MAC_LEN>,
+    },
 }
 
 /// Messages the target sends to the host (in protocol v2 inside the reliable link's frames,
@@ -125,6 +135,16 @@ pub enum TargetToHost {
     Panic {
         file: Vec<u8, PANIC_FILE_MAX>,
         line: u32,
+    },
+    /// The ground command with this sequence number was authentic and fresh, its sequence
+    /// number is stored, and it was carried out.
+    GroundCommandAck { sequence: u32 },
+    /// The ground command with this sequence number was refused, and why. A security refusal
+    /// leaves everything as it was (counter included); any other was authentic, so its sequence
+    /// number is spent.
+    GroundCommandNak {
+        sequence: u32,
+        reason: CommandRefusal,
     },
 }
 

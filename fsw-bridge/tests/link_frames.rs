@@ -181,6 +181,7 @@ fn every_uplink_message_has_its_service_and_class() {
         (Service::Sequenced(Mission), MessageClass::CommandResponse),
         (Service::Sequenced(Mission), MessageClass::UplinkChunk),
         (Service::Sequenced(Mission), MessageClass::ResetRequest),
+        (Service::Sequenced(Mission), MessageClass::GroundCommand),
     ];
     for (i, (service, class)) in expected.into_iter().enumerate() {
         let msg = largest_h2t(i);
@@ -203,6 +204,14 @@ fn every_downlink_message_has_its_service_and_class() {
         (Service::Sequenced(Mission), MessageClass::UplinkReply),
         (Service::Sequenced(Mission), MessageClass::UplinkReply),
         (Service::Expedited, MessageClass::Panic),
+        (
+            Service::Sequenced(Mission),
+            MessageClass::GroundCommandReply,
+        ),
+        (
+            Service::Sequenced(Mission),
+            MessageClass::GroundCommandReply,
+        ),
     ];
     for (i, (service, class)) in expected.into_iter().enumerate() {
         let msg = largest_t2h(i);

@@ -104,6 +104,9 @@ impl MissionTarget for BootTimer<'_> {
     fn counts_cycles(&self) -> bool {
         self.inner.counts_cycles()
     }
+    fn provision_key(&mut self, key: &sdls::Key) -> Result<(), TargetError> {
+        self.inner.provision_key(key)
+    }
     fn boot(&mut self) -> Result<Hello, TargetError> {
         let hello = self.inner.boot()?;
         self.booted.get_or_insert_with(Instant::now);

@@ -90,6 +90,41 @@ enum Command {
     /// Campaign: many seeded random-reset variants of a mission scenario, in parallel,
     /// shardable across machines, merged into one report.
     Campaign(hil::campaign::CampaignArgs),
+    /// The target's non-volatile memory image: provision the key that authenticates uplinks and
+    /// ground commands, or show what it holds.
+    Nv {
+        #[command(subcommand)]
+        what: NvWhat,
+    },
+}
+
+#[derive(Subcommand)]
+enum NvWhat {
+    /// Write a key into the security area of a non-volatile memory image (QEMU's ivshmem
+    /// backing file, or an image for a board), creating the file if it is not there. The
+    /// anti-replay counter stays: a new key starts at sequence 0, the same key keeps its
+    /// counter.
+    Provision {
+        /// Key file: 32 raw bytes or 64 hexadecimal digits.
+        #[arg(long, value_name = "FILE")]
+        key_file: PathBuf,
+        /// The key's security parameter index (the ground signs with the same).
+        #[arg(long, default_value_t = hil::mission::auth::TEST_KEY.spi)]
+        spi: u16,
+        /// The non-volatile memory image.
+        #[arg(long, value_name = "FILE")]
+        nv: PathBuf,
+        /// Size of the image if it is created or shorter (default: the emulated target's 1 MiB).
+        #[arg(long, default_value_t = hil::mission::target::native::NV_BYTES as u64)]
+        size: u64,
+    },
+    /// Print the provisioned key's SPI and check (never the key), the last accepted sequence
+    /// number and the ground holds.
+    Show {
+        /// The non-volatile memory image.
+        #[arg(long, value_name = "FILE")]
+        nv: PathBuf,
+    },
 }
 
 #[derive(Subcommand)]
@@ -350,6 +385,35 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             } else {
                 print_kernel_bench(&b);
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Nv {
+            what:
+                NvWhat::Provision {
+                    key_file,
+                    spi,
+                    nv,
+                    size,
+                },
+        } => {
+            let key = sdls::Key {
+                spi,
+                bytes: hil::mission::auth::read_key_file(&key_file)?,
+            };
+            hil::mission::auth::provision_nv_file(&nv, &key, size)?;
+            println!(
+                "provisioned key SPI {spi} (check {:08x}) into {} at offset {:#x}",
+                key.check(),
+                nv.display(),
+                hil::mission::auth::NV_SECURITY_OFFSET
+            );
+            println!("{}", hil::mission::auth::describe_nv_file(&nv)?);
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Nv {
+            what: NvWhat::Show { nv },
+        } => {
+            println!("{}", hil::mission::auth::describe_nv_file(&nv)?);
             Ok(ExitCode::SUCCESS)
         }
         Command::Build => {

@@ -39,11 +39,15 @@ pub enum MessageClass {
     Log,
     /// Panic reports.
     Panic,
+    /// Authenticated ground commands.
+    GroundCommand,
+    /// The target's GroundCommandAck and GroundCommandNak.
+    GroundCommandReply,
 }
 
 impl MessageClass {
     /// Number of classes (size of per-class arrays).
-    pub const COUNT: usize = 15;
+    pub const COUNT: usize = 17;
 
     /// Every class, in index order.
     pub const ALL: [MessageClass; MessageClass::COUNT] = [
@@ -62,6 +66,8 @@ impl MessageClass {
         MessageClass::HealthEvent,
         MessageClass::Log,
         MessageClass::Panic,
+        MessageClass::GroundCommand,
+        MessageClass::GroundCommandReply,
     ];
 
     /// Index into per-class arrays.
@@ -87,6 +93,8 @@ impl MessageClass {
             MessageClass::HealthEvent => "health event",
             MessageClass::Log => "log",
             MessageClass::Panic => "panic",
+            MessageClass::GroundCommand => "ground command",
+            MessageClass::GroundCommandReply => "ground command ack/nak",
         }
     }
 }
@@ -106,6 +114,7 @@ impl LinkMessage for HostToTarget {
             HostToTarget::CommandResponse { .. } => MessageClass::CommandResponse,
             HostToTarget::UplinkChunk { .. } => MessageClass::UplinkChunk,
             HostToTarget::ResetRequest { .. } => MessageClass::ResetRequest,
+            HostToTarget::GroundCommand { .. } => MessageClass::GroundCommand,
         }
     }
 }
@@ -131,6 +140,9 @@ impl LinkMessage for TargetToHost {
                 MessageClass::UplinkReply
             }
             TargetToHost::Panic { .. } => MessageClass::Panic,
+            TargetToHost::GroundCommandAck { .. } | TargetToHost::GroundCommandNak { .. } => {
+                MessageClass::GroundCommandReply
+            }
         }
     }
 }
@@ -147,7 +159,8 @@ pub enum Service {
 
 /// The service of a host-to-target message: Ping is expedited (a link check must not wait
 /// behind retransmissions); everything else is on the Mission channel, ResetRequest included
-/// (a mid-frame reset must arrive before the grant it applies to).
+/// (a mid-frame reset must arrive before the grant it applies to), and so are ground commands
+/// (exactly once and in order: their anti-replay sequence numbers must arrive increasing).
 pub fn uplink_service(msg: &HostToTarget) -> Service {
     match msg {
         HostToTarget::Ping { .. } => Service::Expedited,
@@ -155,7 +168,8 @@ pub fn uplink_service(msg: &HostToTarget) -> Service {
         | HostToTarget::StateUpdate { .. }
         | HostToTarget::CommandResponse { .. }
         | HostToTarget::UplinkChunk { .. }
-        | HostToTarget::ResetRequest { .. } => Service::Sequenced(VirtualChannel::Mission),
+        | HostToTarget::ResetRequest { .. }
+        | HostToTarget::GroundCommand { .. } => Service::Sequenced(VirtualChannel::Mission),
     }
 }
 
@@ -195,6 +209,8 @@ pub fn downlink_service(
             | TelemetryEvent::StateStale { .. },
         )
         | TargetToHost::UplinkAck { .. }
-        | TargetToHost::UplinkNak { .. } => Service::Sequenced(Mission),
+        | TargetToHost::UplinkNak { .. }
+        | TargetToHost::GroundCommandAck { .. }
+        | TargetToHost::GroundCommandNak { .. } => Service::Sequenced(Mission),
     }
 }

@@ -1,14 +1,16 @@
 //! Variant indices and the largest instance of every message variant (every varint at its
 //! longest, every Vec full, every Option Some), shared by the codec and link encoding tests.
 use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
+use fsw_bridge::security::{SecurityRefusal, MAC_LEN};
 use fsw_bridge::{
-    CommandStatus, HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, ResetKind,
-    StateKey, StateValue, TargetToHost, TelemetryEvent, MAX_COMMAND_ARGS,
+    CommandRefusal, CommandStatus, GroundCommand, HostToTarget, LinkCounters, MissionTimeUs,
+    Opcode, ResetCause, ResetKind, SecurityHeader, StateKey, StateValue, TargetToHost,
+    TelemetryEvent, MAX_COMMAND_ARGS,
 };
 
 /// Variants of each message set.
-pub const H2T_VARIANTS: usize = 6;
-pub const T2H_VARIANTS: usize = 9;
+pub const H2T_VARIANTS: usize = 7;
+pub const T2H_VARIANTS: usize = 11;
 
 /// Declaration index of each variant. Exhaustive on purpose: adding a variant breaks the build
 /// here, which is the reminder to bump VARIANT_COUNT and extend these tests.
@@ -20,6 +22,7 @@ pub fn h2t_index(m: &HostToTarget) -> usize {
         HostToTarget::CommandResponse { .. } => 3,
         HostToTarget::UplinkChunk { .. } => 4,
         HostToTarget::ResetRequest { .. } => 5,
+        HostToTarget::GroundCommand { .. } => 6,
     }
 }
 
@@ -34,6 +37,8 @@ pub fn t2h_index(m: &TargetToHost) -> usize {
         TargetToHost::UplinkAck { .. } => 6,
         TargetToHost::UplinkNak { .. } => 7,
         TargetToHost::Panic { .. } => 8,
+        TargetToHost::GroundCommandAck { .. } => 9,
+        TargetToHost::GroundCommandNak { .. } => 10,
     }
 }
 
@@ -68,6 +73,14 @@ pub fn largest_h2t(i: usize) -> HostToTarget {
         },
         5 => HostToTarget::ResetRequest {
             kind: ResetKind::WarmAfterTicks { ticks: u32::MAX },
+        },
+        6 => HostToTarget::GroundCommand {
+            header: SecurityHeader {
+                spi: u16::MAX,
+                sequence: u32::MAX,
+            },
+            command: GroundCommand::ReleaseHold(u8::MAX),
+            mac: full::<MAC_LEN>(0xff),
         },
         _ => panic!("HostToTarget has no variant {i}"),
     }
@@ -118,6 +131,11 @@ pub fn largest_t2h(i: usize) -> TargetToHost {
         8 => TargetToHost::Panic {
             file: full::<PANIC_FILE_MAX>(0xff),
             line: u32::MAX,
+        },
+        9 => TargetToHost::GroundCommandAck { sequence: u32::MAX },
+        10 => TargetToHost::GroundCommandNak {
+            sequence: u32::MAX,
+            reason: CommandRefusal::Security(SecurityRefusal::CounterNotStored),
         },
         _ => panic!("TargetToHost has no variant {i}"),
     }

@@ -163,6 +163,30 @@ pub fn reset_request() -> impl Strategy<Value = HostToTarget> {
     reset_kinds().prop_map(|kind| HostToTarget::ResetRequest { kind })
 }
 
+pub fn ground_commands() -> impl Strategy<Value = fsw_bridge::GroundCommand> {
+    use fsw_bridge::GroundCommand;
+    prop_oneof![
+        Just(GroundCommand::NoOp),
+        any::<u8>().prop_map(GroundCommand::SetHold),
+        any::<u8>().prop_map(GroundCommand::ReleaseHold),
+    ]
+}
+pub fn ground_command() -> impl Strategy<Value = HostToTarget> {
+    (
+        u16s(),
+        u32s(),
+        ground_commands(),
+        hvec::<u8, _, { fsw_bridge::security::MAC_LEN }>(any::<u8>),
+    )
+        .prop_map(
+            |(spi, sequence, command, mac)| HostToTarget::GroundCommand {
+                header: fsw_bridge::SecurityHeader { spi, sequence },
+                command,
+                mac,
+            },
+        )
+}
+
 pub fn host_to_target() -> impl Strategy<Value = HostToTarget> {
     prop_oneof![
         ping(),
@@ -171,6 +195,7 @@ pub fn host_to_target() -> impl Strategy<Value = HostToTarget> {
         command_response(),
         uplink_chunk(),
         reset_request(),
+        ground_command(),
     ]
 }
 
@@ -218,6 +243,21 @@ pub fn panic_report() -> impl Strategy<Value = TargetToHost> {
         .prop_map(|(file, line)| TargetToHost::Panic { file, line })
 }
 
+pub fn command_refusals() -> impl Strategy<Value = fsw_bridge::CommandRefusal> {
+    use fsw_bridge::{CommandRefusal, SecurityRefusal};
+    prop_oneof![
+        proptest::sample::select(SecurityRefusal::ALL.to_vec()).prop_map(CommandRefusal::Security),
+        Just(CommandRefusal::HoldOutOfRange),
+    ]
+}
+pub fn ground_command_reply() -> impl Strategy<Value = TargetToHost> {
+    prop_oneof![
+        u32s().prop_map(|sequence| TargetToHost::GroundCommandAck { sequence }),
+        (u32s(), command_refusals())
+            .prop_map(|(sequence, reason)| TargetToHost::GroundCommandNak { sequence, reason }),
+    ]
+}
+
 pub fn target_to_host() -> impl Strategy<Value = TargetToHost> {
     prop_oneof![
         hello(),
@@ -229,6 +269,7 @@ pub fn target_to_host() -> impl Strategy<Value = TargetToHost> {
         uplink_ack(),
         uplink_nak(),
         panic_report(),
+        ground_command_reply(),
     ]
 }
 

@@ -12,15 +12,26 @@
 //! seed gives the same decisions on a clean and on a faulty link. A link that cannot deliver
 //! ends the run with a "link lost" verdict.
 //!
+//! Uplinks and ground commands are authenticated ([`super::auth`]): the plan's key is
+//! provisioned into the target's non-volatile memory before the first boot, the task network
+//! goes up secured (security header, image, MAC) with the host's next anti-replay sequence
+//! number, and so does every `ground_command` event. `attack` events send deliberately bad ones;
+//! every answer is recorded ([`MissionRecord::authenticated`]) and counted in the `refused_*`
+//! and `authenticated_accepted` metrics, and an attack the target does not refuse with the
+//! reason it owed fails the run.
+//!
 //! Once the mission has started (the target booted and took its task network), whatever goes
 //! wrong ends the run with a FAIL verdict that names it ([`MissionRun::ended_early`]) and the
 //! record of everything up to then; only a target that cannot start is an error.
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
-use fsw_bridge::{HostToTarget, MissionTimeUs, Opcode, ResetCause, TargetToHost};
+use fsw_bridge::{
+    CommandRefusal, GroundCommand, HostToTarget, MissionTimeUs, Opcode, ResetCause, TargetToHost,
+};
 
+use super::auth::{uplink_reason_name, Attack, Signer};
 use super::link::{Exchanged, LinkFailure, LinkSession, LinkSummary};
-use super::plan::{Action, CommandFault, MissionPlan};
-use super::record::MissionRecord;
+use super::plan::{Action, AttackOn, CommandFault, MissionPlan};
+use super::record::{AuthenticatedRecord, MissionRecord};
 use super::rng::Rng;
 use super::sim::{CommandFate, Spacecraft};
 use super::target::{hello_message, hello_of, Hello, MissionTarget, ResetLanding, TargetError};
@@ -43,8 +54,12 @@ pub enum MissionError {
     Target(#[from] TargetError),
     #[error(transparent)]
     Link(#[from] LinkFailure),
-    #[error("the target refused the task-network uplink (reason code {reason:#06x})")]
-    UplinkRefused { reason: u16 },
+    #[error("the target refused the task-network uplink: {name} (reason code {reason:#06x})")]
+    UplinkRefused { reason: u16, name: String },
+    #[error("the target reset itself during the uplink: {0}")]
+    ResetDuringUplink(String),
+    #[error("the target never gave its verdict on the task-network uplink")]
+    UplinkUnanswered,
     #[error("the task network is too large to uplink ({chunks} chunks, at most 65535)")]
     UplinkTooLarge { chunks: usize },
 }
@@ -69,6 +84,29 @@ enum EndedEarly {
     ArmedResetMissed { at: String },
     #[error("the simulated spacecraft refused an event at {at}: {why}")]
     Simulation { at: String, why: String },
+    #[error(transparent)]
+    Uplink(#[from] MissionError),
+    #[error("the target reset itself (or never answered) during the {what} at {at}")]
+    ResetDuringExchange { what: String, at: String },
+    #[error("the {what} at {at} has nothing to replay: no {kind} was accepted before it")]
+    NothingToReplay {
+        what: String,
+        at: String,
+        kind: &'static str,
+    },
+}
+
+/// The target's verdict on a whole uplink.
+enum UplinkVerdict {
+    /// UplinkAck with seq == total: authentic, fresh, valid and loaded.
+    Accepted,
+    /// UplinkNak: the reason code.
+    Refused(u16),
+    /// The target said Hello before it answered.
+    TargetReset(TargetToHost),
+    /// The exchange settled without a verdict (the link's exchange waits for one, so this
+    /// means the target answered something else).
+    Unanswered,
 }
 
 /// What a mission run produced.
@@ -105,6 +143,12 @@ struct Flight<'p, 't> {
     next_republish: Option<MissionTimeUs>,
     /// A warm reset the target armed inside the next frame: (time due, recovery).
     armed_reset: Option<(MissionTimeUs, u64)>,
+    /// The key and the host's anti-replay counter.
+    signer: Signer,
+    /// The bytes of the last secured uplink the target accepted (replay attacks resend them).
+    last_uplink: Option<Vec<u8>>,
+    /// The last ground command the target accepted.
+    last_command: Option<HostToTarget>,
 }
 
 /// Fly `plan` on `target`.
@@ -133,7 +177,12 @@ pub fn drive(
         inputs: Vec::new(),
         next_republish: plan.republish_us.map(|p| plan.start.saturating_add(p)),
         armed_reset: None,
+        signer: Signer::new(plan.key.clone()),
+        last_uplink: None,
+        last_command: None,
     };
+    f.rec.start_security_counts();
+    f.target.provision_key(&plan.key)?;
     let hello = f.target.boot()?;
     f.link.reset();
     f.link.hello(&hello_message(&hello));
@@ -168,11 +217,46 @@ pub fn drive(
 }
 
 impl Flight<'_, '_> {
-    /// Send the task network in chunks, all acknowledged and the last one validated (UplinkAck
-    /// with seq == total). Telemetry that arrives meanwhile (the boot's metrics) is recorded.
+    /// Send the task network, secured with the next sequence number, and have it accepted
+    /// (UplinkAck with seq == total). Telemetry that arrives meanwhile (the boot's metrics) is
+    /// recorded.
     fn uplink(&mut self) -> Result<(), MissionError> {
-        let bytes = &self.plan.network.uplink;
-        let chunks: Vec<&[u8]> = bytes
+        let (sequence, secured) = self.signer.sign_uplink(&self.plan.network.uplink);
+        let verdict = self.transfer_uplink(&secured)?;
+        let refused = match &verdict {
+            UplinkVerdict::Accepted => None,
+            UplinkVerdict::Refused(reason) => Some(uplink_reason_name(*reason)),
+            UplinkVerdict::TargetReset(_) | UplinkVerdict::Unanswered => None,
+        };
+        if matches!(verdict, UplinkVerdict::Accepted | UplinkVerdict::Refused(_)) {
+            self.rec.authenticated(AuthenticatedRecord {
+                at: self.now.0,
+                what: "task-network uplink".into(),
+                sequence,
+                refused: refused.clone(),
+                expected_refusal: None,
+            });
+        }
+        match verdict {
+            UplinkVerdict::Accepted => {
+                self.last_uplink = Some(secured);
+                Ok(())
+            }
+            UplinkVerdict::Refused(reason) => Err(MissionError::UplinkRefused {
+                reason,
+                name: refused.unwrap_or_default(),
+            }),
+            UplinkVerdict::TargetReset(hello) => {
+                Err(MissionError::ResetDuringUplink(format!("{hello:?}")))
+            }
+            UplinkVerdict::Unanswered => Err(MissionError::UplinkUnanswered),
+        }
+    }
+
+    /// Send `secured` (a secured uplink) in chunks and exchange until the target's verdict on
+    /// the whole of it.
+    fn transfer_uplink(&mut self, secured: &[u8]) -> Result<UplinkVerdict, MissionError> {
+        let chunks: Vec<&[u8]> = secured
             .chunks(UPLINK_CHUNK_BYTES.min(UPLINK_CHUNK_MAX))
             .collect();
         let total = u16::try_from(chunks.len()).map_err(|_| MissionError::UplinkTooLarge {
@@ -196,18 +280,137 @@ impl Flight<'_, '_> {
         )?;
         for msg in delivered {
             match &msg {
-                TargetToHost::UplinkNak { reason, .. } => verdict = Some(*reason),
+                TargetToHost::UplinkNak { reason, .. } => {
+                    verdict.get_or_insert(UplinkVerdict::Refused(*reason));
+                }
+                TargetToHost::UplinkAck { seq } if *seq == total => {
+                    verdict.get_or_insert(UplinkVerdict::Accepted);
+                }
                 other => self.take(other.clone()),
             }
         }
-        if let Some(reason) = verdict {
-            return Err(MissionError::UplinkRefused { reason });
+        Ok(match (end, verdict) {
+            (Exchanged::TargetReset(hello), _) => UplinkVerdict::TargetReset(hello),
+            (Exchanged::Settled, Some(verdict)) => verdict,
+            (Exchanged::Settled, None) => UplinkVerdict::Unanswered,
+        })
+    }
+
+    /// Send an authenticated ground command and exchange until the target's Ack or Nak for
+    /// `sequence`; None if acknowledged, else the refusal.
+    fn transfer_command(
+        &mut self,
+        msg: HostToTarget,
+        sequence: u32,
+        what: &str,
+    ) -> Result<Option<CommandRefusal>, EndedEarly> {
+        self.link.send(msg)?;
+        let (end, delivered) = self.link.exchange(
+            &mut *self.target,
+            Some(&mut |m: &TargetToHost| match m {
+                TargetToHost::GroundCommandAck { sequence: s }
+                | TargetToHost::GroundCommandNak { sequence: s, .. } => *s == sequence,
+                _ => false,
+            }),
+        )?;
+        let mut verdict = None;
+        for msg in delivered {
+            match msg {
+                TargetToHost::GroundCommandAck { sequence: s } if s == sequence => {
+                    verdict.get_or_insert(None);
+                }
+                TargetToHost::GroundCommandNak {
+                    sequence: s,
+                    reason,
+                } if s == sequence => {
+                    verdict.get_or_insert(Some(reason));
+                }
+                other => self.take(other),
+            }
         }
-        if let Exchanged::TargetReset(hello) = end {
-            return Err(MissionError::Target(TargetError::Other(format!(
-                "the target reset itself during the uplink: {hello:?}"
-            ))));
+        match (end, verdict) {
+            (Exchanged::Settled, Some(verdict)) => Ok(verdict),
+            _ => Err(EndedEarly::ResetDuringExchange {
+                what: what.into(),
+                at: fmt_time(self.now),
+            }),
         }
+    }
+
+    /// A `ground_command` event: signed with the next sequence number, sent, its answer
+    /// recorded.
+    fn ground_command(&mut self, command: GroundCommand) -> Result<(), EndedEarly> {
+        let (sequence, msg) = self.signer.sign_command(command);
+        let what = format!("ground command {command:?}");
+        let refused = self.transfer_command(msg.clone(), sequence, &what)?;
+        if refused.is_none() {
+            self.last_command = Some(msg);
+        }
+        self.rec.authenticated(AuthenticatedRecord {
+            at: self.now.0,
+            what,
+            sequence,
+            refused: refused.map(|r| r.name().to_string()),
+            expected_refusal: None,
+        });
+        Ok(())
+    }
+
+    /// An `attack` event: a deliberately bad uplink or ground command (with a sequence number
+    /// of its own, so that one the target wrongly accepted never collides with the next good
+    /// one), sent, its answer recorded next to the refusal it was owed.
+    fn attack(&mut self, attack: Attack, on: AttackOn) -> Result<(), EndedEarly> {
+        let what = format!("{} {}", attack.name(), on.name());
+        let at = fmt_time(self.now);
+        let nothing_to_replay = |kind| EndedEarly::NothingToReplay {
+            what: what.clone(),
+            at: at.clone(),
+            kind,
+        };
+        let sequence = self.signer.burn_sequence();
+        let key = self.signer.key().clone();
+        let (sequence, refused) = match on {
+            AttackOn::Uplink => {
+                let last = self.last_uplink.clone().unwrap_or_default();
+                if attack == Attack::Replayed && last.is_empty() {
+                    return Err(nothing_to_replay("uplink"));
+                }
+                let bytes = attack.uplink(&key, sequence, &self.plan.network.uplink, &last);
+                // The sequence number the bytes carry (the replayed one for a replay).
+                let carried = sdls::uplink::parse(&bytes)
+                    .map(|u| u.header.sequence)
+                    .unwrap_or(sequence);
+                let refused = match self.transfer_uplink(&bytes)? {
+                    UplinkVerdict::Accepted => None,
+                    UplinkVerdict::Refused(reason) => Some(uplink_reason_name(reason)),
+                    UplinkVerdict::TargetReset(_) | UplinkVerdict::Unanswered => {
+                        return Err(EndedEarly::ResetDuringExchange { what, at })
+                    }
+                };
+                (carried, refused)
+            }
+            AttackOn::Command => {
+                let last = self.last_command.clone();
+                if attack == Attack::Replayed && last.is_none() {
+                    return Err(nothing_to_replay("ground command"));
+                }
+                let last = last.unwrap_or(HostToTarget::Ping { seq: 0 });
+                let msg = attack.command(&key, sequence, GroundCommand::SetHold(0), &last);
+                let carried = match &msg {
+                    HostToTarget::GroundCommand { header, .. } => header.sequence,
+                    _ => sequence,
+                };
+                let refused = self.transfer_command(msg, carried, &what)?;
+                (carried, refused.map(|r| r.name().to_string()))
+            }
+        };
+        self.rec.authenticated(AuthenticatedRecord {
+            at: self.now.0,
+            what,
+            sequence,
+            refused,
+            expected_refusal: Some(attack.expected().name().to_string()),
+        });
         Ok(())
     }
 
@@ -377,6 +580,8 @@ impl Flight<'_, '_> {
                     .faults
                     .push((now.0, format!("{name} forced to {value:?}")));
             }
+            Action::GroundCommand(command) => self.ground_command(*command)?,
+            Action::Attack { attack, on } => self.attack(*attack, *on)?,
             Action::Change { key, by, name } => {
                 self.sim
                     .add_to(*key, *by, now)

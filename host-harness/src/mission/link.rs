@@ -403,6 +403,18 @@ impl Describe for HostToTarget {
                     bytes.len()
                 )
             }
+            HostToTarget::GroundCommand {
+                header,
+                command,
+                mac,
+            } => format!(
+                "GroundCommand {{ spi: {}, sequence: {}, {command:?}, mac {} bytes {:02x}{:02x}.. }}",
+                header.spi,
+                header.sequence,
+                mac.len(),
+                mac.first().copied().unwrap_or(0),
+                mac.get(1).copied().unwrap_or(0),
+            ),
             other => format!("{other:?}"),
         }
     }

@@ -243,6 +243,30 @@ pub struct MissionRecord {
     pub gave_up: Vec<GaveUp>,
     /// Commands sent per task definition (ground id): every dispatch, retries included.
     pub commands_per_definition: BTreeMap<u16, u32>,
+    /// Every authenticated uplink and ground command the host sent, with the target's answer.
+    pub authenticated: Vec<AuthenticatedRecord>,
+}
+
+/// One authenticated uplink or ground command the host sent, and what the target said.
+#[derive(Clone, Debug, Serialize)]
+pub struct AuthenticatedRecord {
+    /// Mission time (µs) it was sent.
+    pub at: u64,
+    /// "task-network uplink", "ground command SetHold(2)", "forged uplink", ...
+    pub what: String,
+    /// Its anti-replay sequence number.
+    pub sequence: u32,
+    /// None: accepted; else the refusal's name ("bad-mac", "replay", ...).
+    pub refused: Option<String>,
+    /// For a deliberately bad message: the refusal the target owed it.
+    pub expected_refusal: Option<String>,
+}
+
+impl AuthenticatedRecord {
+    /// A deliberately bad message that was not refused as it should have been.
+    pub fn attack_not_refused(&self) -> bool {
+        self.expected_refusal.is_some() && self.refused != self.expected_refusal
+    }
 }
 
 /// Instructions per timebase tick under `-icount shift=2` (4 ns per instruction, 16.6 MHz).
@@ -282,6 +306,31 @@ impl MissionRecord {
             after_restart: None,
         });
         self.instances.last_mut().expect("just pushed")
+    }
+
+    /// Every security count at 0, so that an expectation on one holds when nothing happened.
+    pub fn start_security_counts(&mut self) {
+        for m in super::metrics::METRICS {
+            if m.name == "authenticated_accepted" || m.name.starts_with("refused_") {
+                self.metrics.entry(m.name.to_string()).or_insert(0);
+            }
+        }
+    }
+
+    /// An authenticated message and the target's answer (`refused`: None when accepted).
+    pub fn authenticated(&mut self, entry: AuthenticatedRecord) {
+        let at = MissionTimeUs(entry.at);
+        let metric = match &entry.refused {
+            None => "authenticated_accepted".to_string(),
+            Some(reason) => super::metrics::refused_metric(reason),
+        };
+        *self.metrics.entry(metric).or_insert(0) += 1;
+        let outcome = match &entry.refused {
+            None => "accepted".to_string(),
+            Some(reason) => format!("refused ({reason})"),
+        };
+        self.label(at, format!("{} #{} {outcome}", entry.what, entry.sequence));
+        self.authenticated.push(entry);
     }
 
     pub fn label(&mut self, at: MissionTimeUs, text: impl Into<String>) {
@@ -476,6 +525,15 @@ impl MissionRecord {
             metric::CHECKPOINT_WRITE_FAILURES => "checkpoint_write_failures",
             metric::STATE_TYPE_MISMATCHES => "state_type_mismatches",
             metric::STATE_TYPE_MISMATCH_KEY => "state_type_mismatch_key",
+            metric::GROUND_HOLDS => {
+                // The last value, not a maximum: the holds as the target last reported them.
+                self.metrics.insert("ground_holds".into(), value);
+                return;
+            }
+            metric::UPLINK_VERIFY_TICKS => {
+                self.max_metric("max_uplink_verify_instructions", to_instructions(value));
+                "max_uplink_verify_ticks"
+            }
             metric::RESTORED_SEQUENCE => {
                 if let Some(r) = self.resets.last_mut() {
                     r.restored_sequence = Some(value);

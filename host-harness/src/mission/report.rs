@@ -51,6 +51,9 @@ pub struct MissionReport {
     pub faults: Vec<(String, String)>,
     /// Where the autonomy gave up on a task, and the cause.
     pub gave_up: Vec<super::record::GaveUp>,
+    /// Every authenticated uplink and ground command sent (deliberately bad ones included),
+    /// with the target's answer.
+    pub authenticated: Vec<super::record::AuthenticatedRecord>,
     /// Commands each task definition sent (retries included), with the most one run of it may
     /// send (`TaskNetwork::max_dispatches_per_run`).
     pub commands_per_task: Vec<CommandCount>,
@@ -119,6 +122,45 @@ impl MissionReport {
                 ),
             });
         }
+        let unrefused: Vec<String> = record
+            .authenticated
+            .iter()
+            .filter(|a| a.attack_not_refused())
+            .map(|a| {
+                format!(
+                    "the {} #{} at {} was {} (owed: {})",
+                    a.what,
+                    a.sequence,
+                    fmt_time(MissionTimeUs(a.at)),
+                    a.refused
+                        .as_deref()
+                        .map_or("accepted".to_string(), |r| format!("refused as {r}")),
+                    a.expected_refusal.as_deref().unwrap_or("-"),
+                )
+            })
+            .collect();
+        if record
+            .authenticated
+            .iter()
+            .any(|a| a.expected_refusal.is_some())
+        {
+            let attacks = record
+                .authenticated
+                .iter()
+                .filter(|a| a.expected_refusal.is_some())
+                .count();
+            expectations.push(Verdict {
+                index: expectations.len() + 1,
+                what: "every deliberately bad uplink and ground command is refused with its reason"
+                    .into(),
+                passed: unrefused.is_empty(),
+                detail: if unrefused.is_empty() {
+                    format!("{attacks} refused, each with the reason it was owed")
+                } else {
+                    unrefused.join("; ")
+                },
+            });
+        }
         let t = |x: Option<u64>| x.map(|v| fmt_time(MissionTimeUs(v)));
         let tasks = record
             .instances
@@ -160,6 +202,7 @@ impl MissionReport {
                 .map(|(at, l)| (fmt_time(MissionTimeUs(*at)), l.clone()))
                 .collect(),
             gave_up: record.gave_up.clone(),
+            authenticated: record.authenticated.clone(),
             commands_per_task: record
                 .commands_per_definition
                 .iter()
@@ -259,6 +302,50 @@ pub fn summary(r: &MissionReport) -> String {
             fmt_time(MissionTimeUs(g.at)),
             g.cause
         ));
+    }
+    if !r.authenticated.is_empty() {
+        let accepted = r
+            .authenticated
+            .iter()
+            .filter(|a| a.refused.is_none())
+            .count();
+        let mut refused: std::collections::BTreeMap<&str, usize> = Default::default();
+        for a in &r.authenticated {
+            if let Some(reason) = &a.refused {
+                *refused.entry(reason.as_str()).or_default() += 1;
+            }
+        }
+        let refused_text = if refused.is_empty() {
+            "none refused".to_string()
+        } else {
+            format!(
+                "{} refused ({})",
+                refused.values().sum::<usize>(),
+                refused
+                    .iter()
+                    .map(|(reason, n)| format!("{reason} {n}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        };
+        out.push_str(&format!(
+            "  authenticated uplinks and ground commands: {accepted} accepted, {refused_text}\n"
+        ));
+        for a in r
+            .authenticated
+            .iter()
+            .filter(|a| a.expected_refusal.is_some())
+        {
+            out.push_str(&format!(
+                "    {} {} #{}: {}\n",
+                fmt_time(MissionTimeUs(a.at)),
+                a.what,
+                a.sequence,
+                a.refused
+                    .as_deref()
+                    .map_or("ACCEPTED".to_string(), |r| format!("refused ({r})"))
+            ));
+        }
     }
     let l = &r.link;
     out.push_str(&format!(

@@ -358,9 +358,9 @@ fn handle(
             to: [Some(PORT_IO_TO_EXECUTIVE), Some(PORT_IO_TO_PLANNER)],
         },
         // The flight application (autonomy core) runs in the executive partition.
-        HostToTarget::CommandResponse { .. } | HostToTarget::UplinkChunk { .. } => {
-            Routing::to(msg, PORT_IO_TO_EXECUTIVE)
-        }
+        HostToTarget::CommandResponse { .. }
+        | HostToTarget::UplinkChunk { .. }
+        | HostToTarget::GroundCommand { .. } => Routing::to(msg, PORT_IO_TO_EXECUTIVE),
     };
     deliver(routing, reset_in_next_frame)
 }

@@ -411,6 +411,18 @@ impl MissionTarget for EmulatedTarget {
         true
     }
 
+    /// Into the non-volatile memory file QEMU maps (created at its full size if it is not
+    /// there yet: `EmulatedTarget::new` removed the old one).
+    fn provision_key(&mut self, key: &sdls::Key) -> Result<(), TargetError> {
+        let Some(path) = self.options.nv_file.clone() else {
+            return Err(TargetError::Other(
+                "this target has no non-volatile memory to hold a key".into(),
+            ));
+        };
+        crate::mission::auth::provision_nv_file(&path, key, NV_BYTES as u64)
+            .map_err(TargetError::Other)
+    }
+
     fn boot(&mut self) -> Result<Hello, TargetError> {
         if let Some(hello) = self.pending_hello.take() {
             // The target already said Hello when it reset inside the last round.

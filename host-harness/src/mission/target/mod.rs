@@ -50,6 +50,9 @@ pub trait MissionTarget {
     fn describe(&self) -> String;
     /// True for the emulated target (costs are guest ticks), false for native.
     fn counts_cycles(&self) -> bool;
+    /// Write `key` into the key slot of the target's non-volatile memory (before the first
+    /// boot: the target reads its key at boot). The anti-replay counters stay as they are.
+    fn provision_key(&mut self, key: &sdls::Key) -> Result<(), TargetError>;
     /// Start (first boot, or after a reset or power cycle) and return its Hello.
     fn boot(&mut self) -> Result<Hello, TargetError>;
     /// One lockstep round: put `wire` (whole frames, faults applied) on the link and return

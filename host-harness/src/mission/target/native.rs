@@ -3,15 +3,20 @@
 //! runs) in this process, without the kernel and without QEMU. RAM is a fresh application per
 //! boot; the warm-restart area and non-volatile memory are byte buffers that outlive resets
 //! exactly as on the target. A mid-frame reset is modelled as a torn checkpoint write.
+//!
+//! The non-volatile memory has the board's layout: the checkpoint A/B areas in its first
+//! `NV_CHECKPOINT_BYTES` (the executive partition's size), then the security area with the
+//! key slot and the anti-replay counter records ([`crate::mission::auth::NV_SECURITY_OFFSET`]).
 use std::collections::VecDeque;
 
-use flight_app::{FlightApp, Memories, NoClock};
+use flight_app::{FlightApp, Memories, NoClock, SecurityStore, StoreError};
 use fsw_bridge::codec::FrameDecoder;
 use fsw_bridge::link::{LinkFrame, Received, Role, Service, SubmitError, TargetEndpoint};
 use fsw_bridge::{HostToTarget, MissionTimeUs, ResetCause, TargetToHost};
 
 use super::{Hello, MissionTarget, ResetLanding, TargetError};
 use crate::defmt_log::LogLine;
+use crate::mission::auth::{NV_SECURITY_BYTES, NV_SECURITY_OFFSET};
 use crate::mission::link::service_of;
 use crate::mission::rng::Rng;
 
@@ -19,6 +24,37 @@ use crate::mission::rng::Rng;
 pub const WARM_AREA_BYTES: usize = 60 * 1024;
 /// Bytes of non-volatile memory given to the flight application (as on the target).
 pub const NV_BYTES: usize = 1 << 20;
+/// Bytes of non-volatile memory holding checkpoints (as on the target: the security area
+/// follows them).
+pub const NV_CHECKPOINT_BYTES: usize = NV_SECURITY_OFFSET;
+
+/// The security area of the native non-volatile memory: a byte slice (a write is in "NV" once
+/// it returns, as on the board).
+struct SecurityArea<'a>(&'a mut [u8]);
+
+impl SecurityStore for SecurityArea<'_> {
+    fn read(&mut self, area: &mut [u8; NV_SECURITY_BYTES]) -> Result<(), StoreError> {
+        area.copy_from_slice(self.0.get(..NV_SECURITY_BYTES).ok_or(StoreError)?);
+        Ok(())
+    }
+
+    fn write(&mut self, offset: usize, bytes: &[u8]) -> Result<(), StoreError> {
+        let end = offset.checked_add(bytes.len()).ok_or(StoreError)?;
+        self.0
+            .get_mut(offset..end)
+            .ok_or(StoreError)?
+            .copy_from_slice(bytes);
+        Ok(())
+    }
+}
+
+/// Split the native non-volatile memory as the executive partition uses it's board's: the
+/// checkpoint areas, and the security area.
+fn split_nv(nv: &mut [u8]) -> (&mut [u8], SecurityArea<'_>) {
+    let (checkpoints, rest) = nv.split_at_mut(NV_CHECKPOINT_BYTES);
+    (checkpoints, SecurityArea(&mut rest[..NV_SECURITY_BYTES]))
+}
+
 /// Build id the native target reports in its Hello.
 pub const NATIVE_BUILD_ID: [u8; 8] = *b"native\0\0";
 
@@ -117,7 +153,7 @@ impl NativeTarget {
         let line = match damage {
             CheckpointDamage::DestroyAll => {
                 self.warm.iter_mut().for_each(|b| *b = 0);
-                self.nv.iter_mut().for_each(|b| *b = 0);
+                self.nv[..NV_CHECKPOINT_BYTES].fill(0);
                 "every checkpoint destroyed (warm slots A and B, non-volatile memory)".to_string()
             }
             CheckpointDamage::TornWarm { .. } | CheckpointDamage::TornNv { .. }
@@ -133,7 +169,7 @@ impl NativeTarget {
             } => {
                 let (warm, nv) = self.last_frame_write.unwrap_or_default();
                 let torn = tear_range(&mut self.warm, warm, offset_permille, seed);
-                let nv = invalidate_range(&mut self.nv, nv);
+                let nv = invalidate_range(&mut self.nv[..NV_CHECKPOINT_BYTES], nv);
                 format!(
                     "reset during the warm checkpoint write of the frame at {frame}: {torn}; {nv}"
                 )
@@ -143,7 +179,12 @@ impl NativeTarget {
                 seed,
             } => {
                 let (_, nv) = self.last_frame_write.unwrap_or_default();
-                let torn = tear_range(&mut self.nv, nv, offset_permille, seed);
+                let torn = tear_range(
+                    &mut self.nv[..NV_CHECKPOINT_BYTES],
+                    nv,
+                    offset_permille,
+                    seed,
+                );
                 format!("reset during the non-volatile checkpoint write of the frame at {frame}: {torn}")
             }
         };
@@ -156,9 +197,11 @@ impl NativeTarget {
         if let HostToTarget::TimeGrant { now, .. } = msg {
             self.last_grant = Some(now);
         }
+        let (checkpoints, mut security) = split_nv(&mut self.nv);
         let mut memories = Memories {
             warm: &mut self.warm,
-            nv: Some(&mut self.nv),
+            nv: Some(checkpoints),
+            security: Some(&mut security),
         };
         let outbox = &mut self.outbox;
         let handled = self
@@ -243,6 +286,10 @@ impl MissionTarget for NativeTarget {
         "native (flight application compiled into hil, no QEMU)".into()
     }
 
+    fn provision_key(&mut self, key: &sdls::Key) -> Result<(), TargetError> {
+        crate::mission::auth::provision_nv_image(&mut self.nv, key).map_err(TargetError::Other)
+    }
+
     fn boot(&mut self) -> Result<Hello, TargetError> {
         self.app = new_app();
         self.link = new_link();
@@ -250,9 +297,11 @@ impl MissionTarget for NativeTarget {
         self.outbox.clear();
         self.boot_count += 1;
         let cause = std::mem::replace(&mut self.next_cause, ResetCause::Warm);
+        let (checkpoints, mut security) = split_nv(&mut self.nv);
         let mut memories = Memories {
             warm: &mut self.warm,
-            nv: Some(&mut self.nv),
+            nv: Some(checkpoints),
+            security: Some(&mut security),
         };
         let outbox = &mut self.outbox;
         self.app
