@@ -259,6 +259,11 @@ impl Session {
         }
     }
 
+    /// Everything the link delivered that nobody has taken with [`Session::recv`] yet.
+    pub fn take_delivered(&mut self) -> Vec<TargetToHost> {
+        self.inbox.drain(..).collect()
+    }
+
     /// Link checks: run lockstep rounds of the reliable link (no faults) until both ends have
     /// nothing more to send, taking in what the target queued meanwhile: its logs (decoded and
     /// kept) and its messages (for [`Session::recv`]). At most `max_rounds` rounds, each

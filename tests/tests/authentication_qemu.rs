@@ -89,6 +89,11 @@ fn uplink(target: &mut Session, secured: &[u8]) -> Vec<TargetToHost> {
         matches!(m, TargetToHost::UplinkNak { .. })
             || matches!(m, TargetToHost::UplinkAck { seq } if *seq == total)
     }));
+    // Its costs and counters travel on the link's Instrument channel, beside the verdict.
+    target.sync(64, PATIENCE).unwrap();
+    let verdict = got.pop();
+    got.extend(target.take_delivered());
+    got.extend(verdict);
     got
 }
 

@@ -14,8 +14,9 @@
 //! held until the next TimeGrant has been routed, then armed on the executive's work on that
 //! grant). In the other direction the executive's and planner's outbound ports, the kernel's
 //! log stream and the kernel's events go to the host on the link's Mission or Instrument
-//! channel. A message for a full port is refused with the link's wait flag (the host sends it
-//! again), and a message for the host waits for room in the send window: flow control, not loss.
+//! channel. Host messages wait in order for room in their ports (a full inbound queue refuses
+//! further data frames with the link's wait flag: the host sends them again), and a message for
+//! the host waits for room in the send window: flow control, not loss.
 //!
 //! After answering a round, with everything handled and sent, it waits for the host with
 //! `SYS_WAIT_FOR_INPUT`: the kernel stops the schedule until the host's next burst.
@@ -29,7 +30,7 @@ use fsw_bridge::messages::LOG_CHUNK_MAX;
 use fsw_bridge::{
     HostToTarget, ResetCause, ResetKind, StateKey, StateValue, TargetToHost, PROTOCOL_VERSION,
 };
-use kernel_config::abi::{control, reset_at, wait_input, E_FULL, REPORT_OFF};
+use kernel_config::abi::{control, reset_at, E_FULL, REPORT_OFF};
 use kernel_config::system::{
     OUTBOUND_MESSAGE_SIZE, PORT_EXECUTIVE_TO_IO, PORT_IO_TO_EXECUTIVE, PORT_IO_TO_PLANNER,
     PORT_PLANNER_TO_IO, ROUTED_MESSAGE_SIZE,
@@ -43,6 +44,18 @@ static mut LINK: MaybeUninit<Link> = MaybeUninit::uninit();
 
 #[link_section = ".bss.part.io"]
 static mut ENDPOINT: MaybeUninit<TargetEndpoint> = MaybeUninit::uninit();
+
+#[link_section = ".bss.part.io"]
+static mut INBOUND: MaybeUninit<Inbound> = MaybeUninit::uninit();
+
+/// Delivered host messages still on their way to their ports, in the link's order: a round
+/// carries at most a window of new frames on each of the two channels, so a round's messages
+/// always fit, whenever the partitions they go to run. Only a host that outruns the window, or
+/// partitions that stop taking their messages, meet a full queue: further data frames are then
+/// refused with the link's wait flag (sent again by the host), never lost.
+const INBOUND_CAPACITY: usize = 2 * LINK_CONFIG.window_width as usize + 4;
+
+type Inbound = heapless::Deque<Routing, INBOUND_CAPACITY>;
 
 /// The reliable link's parameters (the host uses the same).
 const LINK_CONFIG: LinkConfig = LinkConfig::DEFAULT;
@@ -88,6 +101,8 @@ pub extern "C" fn partition_io_main() -> ! {
             Err(_) => panic!("bad link configuration"),
         })
     };
+    // SAFETY: as above.
+    let inbound = unsafe { (*addr_of_mut!(INBOUND)).write(Inbound::new()) };
     let (_, generation) = sys::identity();
     if generation == 0 {
         let (cause, boot_count) = sys::boot_info();
@@ -105,24 +120,24 @@ pub extern "C" fn partition_io_main() -> ! {
     }
     // A mid-frame reset the host asked for, waiting for the grant it applies to: (mode, value).
     let mut reset_in_next_frame: Option<(u32, u32)> = None;
-    // A delivered message waiting for room in a port (the link refuses further data frames
-    // with its wait flag until it is routed: the host sends them again).
-    let mut held: Option<Routing> = None;
     let mut rounds = Rounds {
         answer_due: false,
         outbound_held: heapless::Deque::new(),
     };
     loop {
         pump_outbound(endpoint, &mut rounds);
-        if let Some(routing) = held.take() {
-            held = deliver(routing, &mut reset_in_next_frame);
-        }
+        route_inbound(inbound, &mut reset_in_next_frame);
         while let Some(next) = link.poll() {
-            let has_room = held.is_none();
+            let has_room = !inbound.is_full();
             match endpoint.on_frame(next, |_| has_room) {
                 Received::Delivered { msg, .. } | Received::Expedited(msg) => {
-                    if let Some(h) = handle(link, &mut reset_in_next_frame, msg) {
-                        held = Some(h);
+                    if let Some(routing) = handle(link, &mut reset_in_next_frame, msg) {
+                        // Room was checked before the frame was accepted (expedited frames
+                        // routed here are control keys, which a full queue refuses too).
+                        if inbound.push_back(routing).is_err() {
+                            defmt::warn!("io: inbound queue full, a host message dropped");
+                        }
+                        route_inbound(inbound, &mut reset_in_next_frame);
                     }
                 }
                 Received::RoundEnd { .. } => rounds.answer_due = true,
@@ -133,12 +148,12 @@ pub extern "C" fn partition_io_main() -> ! {
             }
         }
         pump_outbound(endpoint, &mut rounds);
-        if rounds.answer_due && round_work_done(&held, &rounds) {
+        if rounds.answer_due && round_work_done(inbound, &rounds) {
             endpoint.produce_burst(link);
             rounds.answer_due = false;
         }
         link.flush();
-        if held.is_some() || rounds.answer_due {
+        if !inbound.is_empty() || rounds.answer_due {
             // The round's work goes on in the other partitions' windows.
             sys::wait_next_window();
             continue;
@@ -153,18 +168,20 @@ pub extern "C" fn partition_io_main() -> ! {
 /// The round's answer can go: every message it delivered is routed, and either the send queue
 /// is full (the answer carries what fits, its Report says more is waiting, and the host comes
 /// back for it: waiting would deadlock, as acknowledgements only come with the host's next
-/// burst) or the partitions it reached are done with them (idle) and their answers and the
-/// kernel's news are in the send queue. An armed reset and periodic reports do not hold the
-/// answer (the reset happens inside the executive's work; the reports are for link checks).
-fn round_work_done(held: &Option<Routing>, rounds: &Rounds) -> bool {
-    if held.is_some() {
+/// burst) or the executive, which answers the host's grants and uplink chunks, is done with
+/// what it was sent (it declared itself idle since; a message to it withdraws that) and its
+/// answers are in the send queue (drained by [`pump_outbound`] just before). Other partitions
+/// do not hold the answer: the planner's work spans frames, and a partition that never stops
+/// (a rogue in an endless loop) must not stop the link.
+fn round_work_done(inbound: &Inbound, rounds: &Rounds) -> bool {
+    if !inbound.is_empty() {
         return false;
     }
     if !rounds.outbound_held.is_empty() {
         return true;
     }
-    let (reasons, _busy) = sys::link_quiet();
-    reasons & !(wait_input::RESET_ARMED | wait_input::PERIODIC_REPORTS) == 0
+    let (_reasons, busy) = sys::link_quiet();
+    busy & (1 << kernel_config::system::EXECUTIVE) == 0
 }
 
 /// Move the held messages into the link's send queue, in order, while it has room; true when
@@ -284,6 +301,18 @@ fn route(port: usize, msg: &HostToTarget) -> Result<(), RouteError> {
     }
 }
 
+/// Route the inbound messages, oldest first, until one meets a full port (it and those behind
+/// it wait: the order the host sent them in is the order their partitions see).
+fn route_inbound(inbound: &mut Inbound, reset_in_next_frame: &mut Option<(u32, u32)>) {
+    while let Some(routing) = inbound.pop_front() {
+        if let Some(left) = deliver(routing, reset_in_next_frame) {
+            // Cannot fail: one was just taken off.
+            let _ = inbound.push_front(left);
+            return;
+        }
+    }
+}
+
 /// Deliver `routing` to the ports it still has to reach; what is left if one is full.
 fn deliver(mut routing: Routing, reset_in_next_frame: &mut Option<(u32, u32)>) -> Option<Routing> {
     let mut delivered = false;
@@ -310,7 +339,7 @@ fn deliver(mut routing: Routing, reset_in_next_frame: &mut Option<(u32, u32)>) -
     None
 }
 
-/// Act on one host message; a message still on its way to a full port is returned.
+/// Act on one host message; a message for partitions is returned, to be routed in order.
 fn handle(
     link: &mut Link,
     reset_in_next_frame: &mut Option<(u32, u32)>,
@@ -362,7 +391,7 @@ fn handle(
         | HostToTarget::UplinkChunk { .. }
         | HostToTarget::GroundCommand { .. } => Routing::to(msg, PORT_IO_TO_EXECUTIVE),
     };
-    deliver(routing, reset_in_next_frame)
+    Some(routing)
 }
 
 /// A reserved control key: acted on here, or the routing to whoever it addresses.
