@@ -382,6 +382,16 @@ impl Qemu {
         self.qmp.execute("system_reset", json!({})).map(drop)
     }
 
+    /// The guest CPU's registers (`info registers` through QMP's human monitor), as QEMU
+    /// prints them: for diagnosing a target that stopped answering.
+    pub fn cpu_registers(&mut self) -> Result<String, QemuError> {
+        let text = self.qmp.execute(
+            "human-monitor-command",
+            json!({ "command-line": "info registers" }),
+        )?;
+        Ok(text.as_str().unwrap_or_default().to_string())
+    }
+
     /// QMP events received so far (RESET, STOP, ...), in arrival order.
     pub fn events(&self) -> &[Value] {
         &self.qmp.events

@@ -339,7 +339,11 @@ impl EmulatedTarget {
         let deadline = Instant::now() + ROUND_TIMEOUT;
         let mut frames = Vec::new();
         let mut last_words = Vec::new();
-        let session = self.session()?;
+        let firmware = &self.firmware;
+        let session = self
+            .session
+            .as_mut()
+            .ok_or_else(|| TargetError::Other("the target is not running".into()))?;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             let frame = match session.link.recv_frame(left) {
@@ -349,8 +353,9 @@ impl EmulatedTarget {
                         round,
                         waited: fmt_wall(ROUND_TIMEOUT),
                         detail: format!(
-                            "received {} frames of its answer; QEMU output: {}",
+                            "received {} frames of its answer; {}; QEMU output: {}",
                             frames.len(),
+                            cpu_whereabouts(session, firmware),
                             session
                                 .qemu_log()
                                 .map(|p| p.display().to_string())
@@ -509,4 +514,68 @@ impl MissionTarget for EmulatedTarget {
             .flat_map(MidFrameReport::describe)
             .collect()
     }
+}
+
+/// CPU samples taken when a target stops answering.
+const STALL_SAMPLES: usize = 24;
+
+/// Where the guest CPU spends its time, for a target that stopped answering: a few samples of
+/// the instruction address (with its function) and the stack pointer (whose region names the
+/// partition, or the kernel), most frequent first.
+fn cpu_whereabouts(session: &mut Session, firmware: &FirmwareImage) -> String {
+    let Some(qemu) = session.qemu.as_mut() else {
+        return "no QEMU to ask where the CPU is".into();
+    };
+    let mut seen: Vec<(String, usize)> = Vec::new();
+    for _ in 0..STALL_SAMPLES {
+        let text = match qemu.cpu_registers() {
+            Ok(text) => text,
+            Err(e) => return format!("the CPU's registers could not be read ({e})"),
+        };
+        let place = cpu_place(&text, firmware);
+        match seen.iter_mut().find(|(p, _)| *p == place) {
+            Some((_, n)) => *n += 1,
+            None => seen.push((place, 1)),
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    seen.sort_by_key(|(_, n)| std::cmp::Reverse(*n));
+    let places: Vec<String> = seen
+        .iter()
+        .take(4)
+        .map(|(place, n)| format!("{n}x {place}"))
+        .collect();
+    format!(
+        "the CPU, sampled {STALL_SAMPLES} times: {}",
+        places.join(", ")
+    )
+}
+
+/// One sample from QEMU's `info registers`: `NIP 0000368c   LR 00000000 ...` and `GPR00 <r0>
+/// <r1> <r2> <r3>` (64-bit wide).
+fn cpu_place(text: &str, firmware: &FirmwareImage) -> String {
+    let field = |name: &str, nth: usize| -> Option<u32> {
+        let at = text.find(name)? + name.len();
+        let value = text[at..].split_whitespace().nth(nth)?;
+        u64::from_str_radix(value, 16).ok().map(|v| v as u32)
+    };
+    let function = match field("NIP ", 0) {
+        Some(a) => firmware
+            .symbolize(a)
+            .unwrap_or_else(|| format!("{a:#010x}")),
+        None => "?".into(),
+    };
+    let owner = field("GPR00", 1).map_or("?".to_string(), |sp| {
+        // The test image's partitions include the product's, at the same places.
+        kernel_config::system::TEST
+            .partitions
+            .iter()
+            .find(|p| {
+                p.regions
+                    .iter()
+                    .any(|r| (r.base as u64..r.end()).contains(&u64::from(sp)))
+            })
+            .map_or("kernel".to_string(), |p| p.name.to_string())
+    });
+    format!("{owner}: {function}")
 }
