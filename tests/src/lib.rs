@@ -173,3 +173,87 @@ pub fn pty_pair() -> PtyPair {
         }
     }
 }
+
+/// A shipped scenario's path.
+pub fn scenario(name: &str) -> std::path::PathBuf {
+    hil::repo_root().join("scenarios").join(name)
+}
+
+/// A shipped scenario, loaded and validated.
+pub fn prepared(name: &str) -> hil::mission::plan::MissionPlan {
+    hil::mission::runner::prepare(&scenario(name)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Fly `plan` on the native target.
+pub fn fly_native(plan: &hil::mission::plan::MissionPlan) -> hil::mission::report::MissionReport {
+    let mut target = hil::mission::target::NativeTarget::new();
+    hil::mission::runner::run(plan, &mut target, None, &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{} natively: {e}", plan.scenario.name))
+}
+
+/// Fly `plan` on an emulated target booted with `profile` (a QEMU slot held, a fresh
+/// non-volatile memory file removed afterwards).
+pub fn fly_emulated(
+    plan: &hil::mission::plan::MissionPlan,
+    profile: QemuProfile,
+) -> hil::mission::report::MissionReport {
+    let _one = exclusive_qemu();
+    let nv = unique_nv_file(&plan.scenario.name);
+    let mut target = hil::mission::target::EmulatedTarget::new(
+        profile,
+        firmware().clone(),
+        false,
+        nv.clone(),
+        false,
+    );
+    let report = hil::mission::runner::run(plan, &mut target, Some(firmware()), &mut |_, _, _| {});
+    drop(target);
+    let _ = std::fs::remove_file(&nv);
+    report.unwrap_or_else(|e| panic!("{} on the emulated target: {e}", plan.scenario.name))
+}
+
+/// A run's decisions without the command ids, which each target numbers from its own counter
+/// (equal too, but not part of what the autonomy decided).
+pub fn decisions(r: &hil::mission::report::MissionReport) -> Vec<hil::mission::record::Decision> {
+    use hil::mission::record::Decision;
+    r.decisions
+        .iter()
+        .map(|d| match d {
+            Decision::Dispatch {
+                at, opcode, args, ..
+            } => Decision::Dispatch {
+                at: *at,
+                id: 0,
+                opcode: *opcode,
+                args: args.clone(),
+            },
+            other => other.clone(),
+        })
+        .collect()
+}
+
+/// One message class's link figures: class, sent, retransmitted, received, received again.
+pub type ClassFigures = (&'static str, u64, u64, u64, u64);
+
+/// The link's figures for the Mission channel's message classes (what the autonomy's exchange
+/// needs): class, sent, retransmitted, received, received again; and the rounds. The Instrument
+/// channel (logs, cost metrics, health events) carries what only one kind of target sends.
+pub fn mission_link_figures(r: &hil::mission::report::MissionReport) -> (u64, Vec<ClassFigures>) {
+    const INSTRUMENT: [&str; 3] = ["metric", "log", "health event"];
+    let classes = r
+        .link
+        .classes
+        .iter()
+        .filter(|c| !INSTRUMENT.contains(&c.class))
+        .map(|c| {
+            (
+                c.class,
+                c.sent,
+                c.retransmitted,
+                c.received,
+                c.received_again,
+            )
+        })
+        .collect();
+    (r.link.rounds, classes)
+}

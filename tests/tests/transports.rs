@@ -89,25 +89,11 @@ fn missions_give_the_same_transcript_decisions_and_costs_over_both_transports() 
         // retransmissions. The Instrument channel carries the kernel's log (whose boot lines
         // name the link device) and cost metrics, so its traffic, and the faults it meets,
         // differ between the boards.
-        let instrument = ["metric", "log", "health event"];
-        let mission_classes = |r: &MissionReport| {
-            r.link
-                .classes
-                .iter()
-                .filter(|c| !instrument.contains(&c.class))
-                .map(|c| {
-                    (
-                        c.class,
-                        c.sent,
-                        c.retransmitted,
-                        c.received,
-                        c.received_again,
-                    )
-                })
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(mission_classes(&serial), mission_classes(&shared), "{name}");
-        assert_eq!(serial.link.rounds, shared.link.rounds, "{name}");
+        assert_eq!(
+            hil_tests::mission_link_figures(&serial),
+            hil_tests::mission_link_figures(&shared),
+            "{name}"
+        );
         assert_eq!(
             serial.metrics.keys().collect::<Vec<_>>(),
             shared.metrics.keys().collect::<Vec<_>>()
