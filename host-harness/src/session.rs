@@ -1,7 +1,6 @@
 //! A session with one target: the target itself (a QEMU we started, or a real board on a serial
 //! port), its link, and its decoded logs. Higher-level steps (handshake, ping, resets) live here
 //! so that `hil run`, `hil bench` and the integration tests share them.
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use fsw_bridge::{
@@ -83,12 +82,11 @@ impl Session {
         qemu.wait_serial_connected(Duration::from_secs(20))?;
         qemu.resume()?;
         let describe = format!(
-            "{} (QEMU pid {}, link over {}, serial {}, log {})",
+            "{} (QEMU pid {}, link over {}, serial {})",
             profile.name,
             qemu.pid(),
             qemu.transport().name(),
             qemu.serial_socket().display(),
-            qemu.files().log.display()
         );
         Ok(Self {
             qemu: Some(qemu),
@@ -128,9 +126,10 @@ impl Session {
         })
     }
 
-    /// The QEMU log file, when the target is emulated.
-    pub fn qemu_log(&self) -> Option<PathBuf> {
-        self.qemu.as_ref().map(|q| q.files().log.clone())
+    /// The end of QEMU's output, when the target is emulated (for error messages: the log
+    /// file itself is removed with the QEMU).
+    pub fn qemu_output_tail(&self) -> Option<String> {
+        self.qemu.as_ref().map(Qemu::output_tail)
     }
 
     /// The next message that is not a log frame (logs are decoded and kept on the way).
@@ -318,8 +317,8 @@ impl Session {
             counters.frames_ok,
             counters.errors()
         );
-        if let Some(log) = self.qemu_log() {
-            detail.push_str(&format!("; QEMU output is in {}", log.display()));
+        if let Some(tail) = self.qemu_output_tail() {
+            detail.push_str(&format!("; the end of QEMU's output: {tail:?}"));
         }
         detail.push_str(&format!("; target: {}", self.describe));
         SessionError::Silent { waited, detail }

@@ -121,14 +121,6 @@ pub fn profile_over(transport: Transport) -> QemuProfile {
     profile().with_transport(transport)
 }
 
-/// A fresh path for an emulated target's non-volatile memory file, unique in this test process
-/// (tests run QEMUs side by side: two targets must never share one).
-pub fn unique_nv_file(name: &str) -> std::path::PathBuf {
-    static COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    std::env::temp_dir().join(format!("hil-test-nv-{}-{n}-{name}.bin", std::process::id()))
-}
-
 /// Boot the RAD750 proxy under QEMU and wait for nothing yet.
 pub fn boot() -> Booted {
     boot_image(firmware(), profile())

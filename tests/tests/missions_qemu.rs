@@ -16,13 +16,10 @@ fn scenario(name: &str) -> PathBuf {
 fn run_emulated(path: &Path) -> MissionReport {
     let _one = hil_tests::exclusive_qemu();
     let prepared = prepare(path).unwrap_or_else(|e| panic!("{e}"));
-    let nv = hil_tests::unique_nv_file(&path.file_stem().unwrap().to_string_lossy());
-    let mut target = EmulatedTarget::new(profile(), firmware().clone(), false, nv.clone(), false);
-    let report = run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    drop(target);
-    let _ = std::fs::remove_file(&nv);
-    report
+    let mut target =
+        EmulatedTarget::with_temporary_nv(profile(), firmware().clone(), false, false).unwrap();
+    run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 fn run_native(path: &Path) -> MissionReport {

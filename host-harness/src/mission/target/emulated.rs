@@ -14,6 +14,7 @@ use kernel_config::abi::{metric as kernel_metric, reset_at};
 
 use super::native::NV_BYTES;
 use super::{Hello, MissionTarget, ResetLanding, TargetError};
+use crate::cleanup::ScratchFile;
 use crate::defmt_log::LogLine;
 use crate::firmware::FirmwareImage;
 use crate::mission::rng::Rng;
@@ -197,10 +198,33 @@ pub struct EmulatedTarget {
     mid_frame_reports: Vec<MidFrameReport>,
     /// The last report still waits for the restart's restore metrics.
     awaiting_restore: bool,
+    /// The non-volatile memory file when it is temporary: removed with the target.
+    temporary_nv: Option<ScratchFile>,
 }
 
 impl EmulatedTarget {
-    /// A QEMU target with a non-volatile memory file in `nv_dir` (created fresh).
+    /// A QEMU target whose non-volatile memory file is temporary: it outlives every QEMU the
+    /// target starts (power cycles) and is removed with the target.
+    pub fn with_temporary_nv(
+        profile: QemuProfile,
+        firmware: FirmwareImage,
+        realtime: bool,
+        echo_logs: bool,
+    ) -> std::io::Result<Self> {
+        let nv = ScratchFile::new("nv")?;
+        let mut target = Self::new(
+            profile,
+            firmware,
+            realtime,
+            nv.path().to_path_buf(),
+            echo_logs,
+        );
+        target.temporary_nv = Some(nv);
+        Ok(target)
+    }
+
+    /// A QEMU target with its non-volatile memory in the file `nv_file` (created fresh), which
+    /// stays after the run.
     pub fn new(
         profile: QemuProfile,
         firmware: FirmwareImage,
@@ -226,6 +250,7 @@ impl EmulatedTarget {
             pending_hello: None,
             mid_frame_reports: Vec::new(),
             awaiting_restore: false,
+            temporary_nv: None,
         }
     }
 
@@ -349,12 +374,9 @@ impl EmulatedTarget {
                         round,
                         waited: fmt_wall(ROUND_TIMEOUT),
                         detail: format!(
-                            "received {} frames of its answer; QEMU output: {}",
+                            "received {} frames of its answer; the end of QEMU's output: {:?}",
                             frames.len(),
-                            session
-                                .qemu_log()
-                                .map(|p| p.display().to_string())
-                                .unwrap_or_default()
+                            session.qemu_output_tail().unwrap_or_default()
                         ),
                     })
                 }

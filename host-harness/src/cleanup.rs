@@ -1,0 +1,247 @@
+//! Everything `hil` must undo when it is done: the QEMU processes it started, and the temporary
+//! files and directories of its runs (QEMU's sockets and output, the shared-memory link file,
+//! a non-volatile memory image nobody asked to keep).
+//!
+//! On the normal paths (success, failure, an error returned, a panic that unwinds) ownership
+//! does it: a [`ScratchDir`] or [`ScratchFile`] (the `tempfile` crate's `TempDir` and
+//! `NamedTempFile`, named by the crate) removes itself when dropped, and [`crate::qemu::Qemu`]
+//! ends its process by PID when dropped. Ctrl-C and SIGTERM end the process without running
+//! destructors, so both are also recorded here, and the handler [`install_interrupt_handler`]
+//! ends every recorded QEMU by PID, removes every recorded temporary path, and exits 130. Each
+//! temporary path is created and removed with the record's lock held, so the handler never
+//! misses one that exists. `hil` never ends a process it did not start.
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard, Once};
+use std::time::{Duration, Instant};
+
+/// PIDs of the QEMU processes this process started and has not yet ended.
+static STARTED: Mutex<BTreeSet<u32>> = Mutex::new(BTreeSet::new());
+/// Temporary paths of this process that exist now.
+static SCRATCH: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
+static HANDLER: Once = Once::new();
+
+/// How long the interrupt handler waits for a killed QEMU to be gone before it removes files
+/// (a liveness bound: a SIGKILLed process is gone in milliseconds).
+const KILLED_PATIENCE: Duration = Duration::from_secs(2);
+
+fn locked<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
+    // A thread that panicked while holding the lock left the set itself consistent.
+    mutex
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// Record a QEMU this process started (and make sure Ctrl-C and SIGTERM end it).
+pub fn track_process(pid: u32) {
+    install_interrupt_handler();
+    locked(&STARTED).insert(pid);
+}
+
+/// Forget a QEMU that has been ended and reaped.
+pub fn forget_process(pid: u32) {
+    locked(&STARTED).remove(&pid);
+}
+
+/// PIDs of the QEMU processes this process started that are still recorded as running.
+pub fn started_processes() -> Vec<u32> {
+    locked(&STARTED).iter().copied().collect()
+}
+
+/// SIGKILL a process this process started and has not reaped.
+pub fn kill_started(pid: u32) {
+    // SAFETY: kill(2) has no memory-safety preconditions. The callers made true that `pid` is
+    // a child this process spawned and has not reaped (it stays a zombie until we wait), so
+    // the PID cannot have been reused by someone else's process.
+    unsafe {
+        libc::kill(pid as libc::pid_t, libc::SIGKILL);
+    }
+}
+
+/// True once `pid` has exited (a zombie waiting to be reaped, or gone).
+fn has_exited(pid: u32) -> bool {
+    match std::fs::read_to_string(format!("/proc/{pid}/stat")) {
+        // The state follows the command name, which is in parentheses.
+        Ok(stat) => stat
+            .rfind(')')
+            .and_then(|i| stat[i + 1..].split_whitespace().next())
+            .is_none_or(|state| state == "Z" || state == "X"),
+        Err(_) => true,
+    }
+}
+
+/// On Ctrl-C or SIGTERM: end every recorded QEMU by PID, remove every recorded temporary path,
+/// exit 130. Installed once per process, by the first QEMU or temporary path.
+pub fn install_interrupt_handler() {
+    HANDLER.call_once(|| {
+        let _ = ctrlc::set_handler(|| {
+            let pids = started_processes();
+            for &pid in &pids {
+                kill_started(pid);
+            }
+            // A QEMU still running could create a socket in a directory being removed.
+            let deadline = Instant::now() + KILLED_PATIENCE;
+            while !pids.iter().all(|&pid| has_exited(pid)) && Instant::now() < deadline {
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            // Held until exit: no thread creates or removes a temporary path from here on.
+            let scratch = locked(&SCRATCH);
+            for path in scratch.iter() {
+                remove_path(path);
+            }
+            eprintln!(
+                "hil: interrupted; ended the {} QEMU process(es) it had started and removed its {} temporary path(s)",
+                pids.len(),
+                scratch.len()
+            );
+            std::process::exit(130);
+        });
+    });
+}
+
+fn remove_path(path: &Path) {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.is_dir() => {
+            let _ = std::fs::remove_dir_all(path);
+        }
+        Ok(_) => {
+            let _ = std::fs::remove_file(path);
+        }
+        Err(_) => {}
+    }
+}
+
+/// Create a temporary thing with the record locked, and record its path.
+fn create_recorded<T>(
+    create: impl FnOnce() -> std::io::Result<T>,
+    path_of: impl FnOnce(&T) -> PathBuf,
+) -> std::io::Result<T> {
+    install_interrupt_handler();
+    let mut scratch = locked(&SCRATCH);
+    let made = create()?;
+    scratch.insert(path_of(&made));
+    Ok(made)
+}
+
+/// Remove a temporary thing (by dropping it) with the record locked, and forget its path.
+fn remove_recorded<T>(path: &Path, thing: T) {
+    let mut scratch = locked(&SCRATCH);
+    drop(thing);
+    scratch.remove(path);
+}
+
+/// `hil-<pid>-<what>-`: a temporary path names the `hil` process it belongs to.
+fn prefix(what: &str) -> String {
+    format!("hil-{}-{what}-", std::process::id())
+}
+
+/// A temporary directory in the system's temporary directory (`TMPDIR`), removed with
+/// everything in it when dropped (or on Ctrl-C).
+#[derive(Debug)]
+pub struct ScratchDir {
+    dir: Option<tempfile::TempDir>,
+    path: PathBuf,
+}
+
+impl ScratchDir {
+    /// A new directory named `hil-<pid>-<what>-<random>`.
+    pub fn new(what: &str) -> std::io::Result<Self> {
+        let dir = create_recorded(
+            || tempfile::Builder::new().prefix(&prefix(what)).tempdir(),
+            |d| d.path().to_path_buf(),
+        )?;
+        Ok(Self {
+            path: dir.path().to_path_buf(),
+            dir: Some(dir),
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for ScratchDir {
+    fn drop(&mut self) {
+        remove_recorded(&self.path, self.dir.take());
+    }
+}
+
+/// A temporary file, removed when dropped (or on Ctrl-C).
+#[derive(Debug)]
+pub struct ScratchFile {
+    file: Option<tempfile::NamedTempFile>,
+    path: PathBuf,
+}
+
+impl ScratchFile {
+    /// A new empty file named `hil-<pid>-<what>-<random>` in the system's temporary directory.
+    pub fn new(what: &str) -> std::io::Result<Self> {
+        Self::new_in(&std::env::temp_dir(), what)
+    }
+
+    /// A new empty file named `hil-<pid>-<what>-<random>` in `dir`.
+    pub fn new_in(dir: &Path, what: &str) -> std::io::Result<Self> {
+        let file = create_recorded(
+            || {
+                tempfile::Builder::new()
+                    .prefix(&prefix(what))
+                    .tempfile_in(dir)
+            },
+            |f| f.path().to_path_buf(),
+        )?;
+        Ok(Self {
+            path: file.path().to_path_buf(),
+            file: Some(file),
+        })
+    }
+
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+}
+
+impl Drop for ScratchFile {
+    fn drop(&mut self) {
+        remove_recorded(&self.path, self.file.take());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scratch_paths_are_recorded_while_they_exist_and_removed_on_drop() {
+        let dir = ScratchDir::new("unit").unwrap();
+        std::fs::write(dir.path().join("inside"), b"x").unwrap();
+        let file = ScratchFile::new_in(dir.path(), "unit").unwrap();
+        let (dir_path, file_path) = (dir.path().to_path_buf(), file.path().to_path_buf());
+        assert!(file_path
+            .file_name()
+            .unwrap()
+            .to_string_lossy()
+            .starts_with(&format!("hil-{}-unit-", std::process::id())));
+        assert!(locked(&SCRATCH).contains(&dir_path));
+        assert!(locked(&SCRATCH).contains(&file_path));
+        drop(file);
+        assert!(!file_path.exists());
+        assert!(!locked(&SCRATCH).contains(&file_path));
+        drop(dir);
+        assert!(!dir_path.exists());
+        assert!(!locked(&SCRATCH).contains(&dir_path));
+    }
+
+    #[test]
+    fn a_process_that_has_exited_is_seen_as_exited() {
+        let mut child = std::process::Command::new("true").spawn().unwrap();
+        let pid = child.id();
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while !has_exited(pid) {
+            assert!(Instant::now() < deadline, "`true` did not exit");
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        child.wait().unwrap();
+        assert!(!has_exited(std::process::id()));
+    }
+}
