@@ -12,6 +12,7 @@
 //! misses one that exists. `hil` never ends a process it did not start.
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
+use std::process::{Child, ExitStatus};
 use std::sync::{Mutex, MutexGuard, Once};
 use std::time::{Duration, Instant};
 
@@ -32,30 +33,59 @@ fn locked<T>(mutex: &Mutex<T>) -> MutexGuard<'_, T> {
         .unwrap_or_else(|poisoned| poisoned.into_inner())
 }
 
-/// Record a QEMU this process started (and make sure Ctrl-C and SIGTERM end it).
-pub fn track_process(pid: u32) {
+/// Record a QEMU this process has just spawned (and make sure Ctrl-C and SIGTERM end it).
+///
+/// A recorded PID is always a child this process has not reaped: it stays a zombie until it is
+/// waited for, so its PID cannot have been reused by anyone else's process. Every wait for a
+/// recorded child therefore goes through [`try_reap`] or [`end`], which forget it first.
+pub fn track_process(child: &Child) {
     install_interrupt_handler();
-    locked(&STARTED).insert(pid);
+    locked(&STARTED).insert(child.id());
 }
 
-/// Forget a QEMU that has been ended and reaped.
-pub fn forget_process(pid: u32) {
-    locked(&STARTED).remove(&pid);
-}
-
-/// PIDs of the QEMU processes this process started that are still recorded as running.
+/// PIDs of the QEMU processes this process started and has not ended.
 pub fn started_processes() -> Vec<u32> {
     locked(&STARTED).iter().copied().collect()
 }
 
-/// SIGKILL a process this process started and has not reaped.
-pub fn kill_started(pid: u32) {
+/// SIGKILL `pid` if it is a recorded QEMU (see [`track_process`]); false if it is not.
+pub fn kill_if_started(pid: u32) -> bool {
+    let started = locked(&STARTED);
+    if started.contains(&pid) {
+        kill_unreaped(pid);
+    }
+    started.contains(&pid)
+}
+
+/// SIGKILL a child that has not been reaped.
+fn kill_unreaped(pid: u32) {
     // SAFETY: kill(2) has no memory-safety preconditions. The callers made true that `pid` is
-    // a child this process spawned and has not reaped (it stays a zombie until we wait), so
-    // the PID cannot have been reused by someone else's process.
+    // recorded, so (see `track_process`) a child of this process that has not been reaped: the
+    // PID cannot belong to anyone else's process.
     unsafe {
         libc::kill(pid as libc::pid_t, libc::SIGKILL);
     }
+}
+
+/// The exit status of a recorded child if it has exited (it is reaped and forgotten then).
+pub fn try_reap(child: &mut Child) -> Option<ExitStatus> {
+    let mut started = locked(&STARTED);
+    let status = child.try_wait().ok().flatten();
+    if status.is_some() {
+        started.remove(&child.id());
+    }
+    status
+}
+
+/// End a recorded child by PID (if it still runs), reap it and forget it.
+pub fn end(child: &mut Child) {
+    {
+        let mut started = locked(&STARTED);
+        if started.remove(&child.id()) && matches!(child.try_wait(), Ok(None)) {
+            kill_unreaped(child.id());
+        }
+    }
+    let _ = child.wait();
 }
 
 /// True once `pid` has exited (a zombie waiting to be reaped, or gone).
@@ -77,7 +107,7 @@ pub fn install_interrupt_handler() {
         let _ = ctrlc::set_handler(|| {
             let pids = started_processes();
             for &pid in &pids {
-                kill_started(pid);
+                kill_if_started(pid);
             }
             // A QEMU still running could create a socket in a directory being removed.
             let deadline = Instant::now() + KILLED_PATIENCE;

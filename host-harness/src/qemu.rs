@@ -404,12 +404,12 @@ impl Qemu {
             binary: binary.display().to_string(),
             source,
         })?;
-        cleanup::track_process(child.id());
+        cleanup::track_process(&child);
 
         let qmp = match Qmp::connect(&files.qmp_socket, &mut child, &files.log) {
             Ok(qmp) => qmp,
             Err(e) => {
-                end_child(&mut child);
+                cleanup::end(&mut child);
                 return Err(e);
             }
         };
@@ -498,29 +498,25 @@ impl Qemu {
 
     /// True while the QEMU process is running.
     pub fn is_running(&mut self) -> bool {
-        matches!(self.child.try_wait(), Ok(None))
+        self.exit_status().is_none()
+    }
+
+    /// How the QEMU process ended, once it has.
+    pub fn exit_status(&mut self) -> Option<std::process::ExitStatus> {
+        cleanup::try_reap(&mut self.child)
     }
 
     /// End the process now (power off), by PID.
     pub fn kill(mut self) {
-        end_child(&mut self.child);
+        cleanup::end(&mut self.child);
     }
 }
 
 impl Drop for Qemu {
     /// Ends the process; then its files go (the fields drop after this).
     fn drop(&mut self) {
-        end_child(&mut self.child);
+        cleanup::end(&mut self.child);
     }
-}
-
-fn end_child(child: &mut Child) {
-    let pid = child.id();
-    if matches!(child.try_wait(), Ok(None)) {
-        cleanup::kill_started(pid);
-    }
-    let _ = child.wait();
-    cleanup::forget_process(pid);
 }
 
 /// User plus system CPU time of process `pid` (fields 14 and 15 of `/proc/<pid>/stat`, in
@@ -559,7 +555,7 @@ impl Qmp {
     fn connect(socket: &Path, child: &mut Child, log: &Path) -> Result<Self, QemuError> {
         let deadline = Instant::now() + Duration::from_secs(20);
         let stream = loop {
-            if let Ok(Some(status)) = child.try_wait() {
+            if let Some(status) = cleanup::try_reap(child) {
                 return Err(QemuError::ExitedEarly {
                     status: status.to_string(),
                     tail: log_tail(log),

@@ -407,3 +407,106 @@ fn processes_mentioning(path: &Path) -> Vec<u32> {
         })
         .collect()
 }
+
+/// A QEMU that dies in the middle of a campaign is one failed run that says so; the campaign
+/// goes on with the next run and ends (exit 1), leaving nothing behind.
+#[test]
+fn a_campaign_whose_qemu_is_killed_fails_that_run_naming_it_and_goes_on() {
+    let _one = one_qemu_at_a_time();
+    let sandbox = Sandbox::new();
+    let out = tempfile::tempdir().unwrap();
+    let report = out.path().join("campaign.json");
+    let path = scenario("flyby-campaign.toml");
+    let child = sandbox
+        .hil(&[
+            "campaign",
+            path.to_str().unwrap(),
+            "--runs",
+            "2",
+            "--jobs",
+            "1",
+            "--firmware",
+            firmware().to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let pid = child.id();
+    // The first run's QEMU: the one process whose command line names the sandbox's TMPDIR.
+    let deadline = Instant::now() + PATIENCE;
+    let qemu = loop {
+        if let [qemu] = processes_mentioning(sandbox.tmp.path())[..] {
+            break qemu;
+        }
+        assert!(Instant::now() < deadline, "the campaign started no QEMU");
+        std::thread::sleep(Duration::from_millis(5));
+    };
+    // SAFETY: kill(2) has no memory-safety preconditions; `qemu` was started by our child
+    // `hil` for this test (its command line names this test's own TMPDIR) and is alive.
+    assert_eq!(unsafe { libc::kill(qemu as libc::pid_t, libc::SIGKILL) }, 0);
+    let (_, output) = finish(child);
+    assert_eq!(output.status.code(), Some(1), "{}", text(&output));
+    assert_clean(&sandbox, pid, &output);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+    let results = report["results"].as_array().unwrap();
+    assert_eq!(results.len(), 2, "{report:#}");
+    assert_eq!(results[0]["passed"], false, "{report:#}");
+    // Killed while it started (a run error) or while it flew (the mission ended early): either
+    // way the failure says the QEMU ended and how.
+    let failures = results[0]["failures"].to_string();
+    assert!(
+        failures.contains("QEMU") && failures.contains("(SIGKILL)"),
+        "the failure does not name the QEMU's end: {failures}"
+    );
+    assert_eq!(results[1]["passed"], true, "{report:#}");
+}
+
+/// A QEMU that dies in the middle of a mission (here: killed at 10:30) ends the run at once
+/// with an error naming it and how it ended, rather than a link error or a timeout. This runs
+/// in this test process: no other test of this file starts a QEMU of its own (theirs belong
+/// to child `hil` processes), so the only QEMU recorded here is this mission's.
+#[test]
+fn a_qemu_that_dies_mid_mission_ends_the_run_with_an_error_naming_it() {
+    use hil::mission::runner;
+    use hil::mission::target::EmulatedTarget;
+    let _one = one_qemu_at_a_time();
+    let plan = runner::prepare(&scenario("flyby-nominal.toml")).unwrap();
+    let fw = hil::firmware::FirmwareImage::open(firmware()).unwrap();
+    let profile = hil::qemu::QemuProfile::load("rad750-proxy").unwrap();
+    let mut target = EmulatedTarget::with_temporary_nv(profile, fw.clone(), false, false).unwrap();
+    let kill_at = hil::time::parse_time(&"10:30".into(), hil::time::Epoch::default()).unwrap();
+    let mut killed = None;
+    let started = Instant::now();
+    let result = runner::run(&plan, &mut target, Some(&fw), &mut |now, _, _| {
+        if now >= kill_at && killed.is_none() {
+            let qemus = hil::cleanup::started_processes();
+            assert_eq!(qemus.len(), 1, "one QEMU: {qemus:?}");
+            assert!(hil::cleanup::kill_if_started(qemus[0]));
+            killed = Some(qemus[0]);
+        }
+    });
+    let pid = killed.expect("the mission reached 10:30");
+    // The driver ends the mission early and the report says why (an emulated run that cannot
+    // go on is a failed run, not a run that could not start).
+    let report = result.unwrap_or_else(|e| panic!("the run ended without a report: {e}"));
+    assert!(!report.passed);
+    let summary = hil::mission::report::summary(&report);
+    assert!(
+        summary.contains("the run reaches the end of the mission: it ended early at ")
+            && summary.contains(&format!(
+                "the target's QEMU (pid {pid}) ended (signal: 9 (SIGKILL))"
+            )),
+        "{summary}"
+    );
+    // Ended by the closed link, not by a round's timeout.
+    assert!(
+        started.elapsed() < hil::mission::target::emulated::ROUND_TIMEOUT,
+        "{summary}"
+    );
+    drop(target);
+    assert!(hil::cleanup::started_processes().is_empty());
+}

@@ -405,6 +405,32 @@ impl EmulatedTarget {
             }
         }
     }
+
+    /// One round: the armed reset's request if any, the burst, the answer.
+    fn exchange(&mut self, wire: &[Vec<u8>], round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
+        if let Some(kind) = self.pending_request.take() {
+            // The armed reset's request, ahead of the burst with the frame's grant: a test
+            // instrument, like QMP, so an expedited frame outside the mission's stream.
+            let mut frame = [0u8; MAX_FRAME_LEN];
+            let len = encode(
+                &LinkFrame::Bd(HostToTarget::ResetRequest { kind }),
+                &mut frame,
+            )
+            .expect("a reset request fits a frame");
+            self.send_all(&[frame[..len].to_vec()])?;
+        }
+        self.send_all(wire)?;
+        self.read_answer(round)
+    }
+
+    /// `error`, or that QEMU ended if it did: the cause of a closed link or a silent target.
+    fn explain(&mut self, error: TargetError) -> TargetError {
+        let ended = self
+            .session
+            .as_mut()
+            .and_then(|s| s.qemu_ended(&error.to_string()));
+        ended.map_or(error, TargetError::Session)
+    }
 }
 
 /// The single link frame `bytes` hold, if they hold exactly one valid frame.
@@ -455,27 +481,18 @@ impl MissionTarget for EmulatedTarget {
             session.echo_logs = self.echo_logs;
             self.session = Some(session);
         }
-        let hello = self.session()?.expect_hello(ROUND_TIMEOUT)?;
+        let hello = self
+            .session()?
+            .expect_hello(ROUND_TIMEOUT)
+            .map_err(|e| self.explain(e.into()))?;
         self.drain_logs();
         Ok(hello)
     }
 
     fn round(&mut self, wire: &[Vec<u8>], round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
-        if let Some(kind) = self.pending_request.take() {
-            // The armed reset's request, ahead of the burst with the frame's grant: a test
-            // instrument, like QMP, so an expedited frame outside the mission's stream.
-            let mut frame = [0u8; MAX_FRAME_LEN];
-            let len = encode(
-                &LinkFrame::Bd(HostToTarget::ResetRequest { kind }),
-                &mut frame,
-            )
-            .expect("a reset request fits a frame");
-            self.send_all(&[frame[..len].to_vec()])?;
-        }
-        self.send_all(wire)?;
-        let answer = self.read_answer(round);
+        let answer = self.exchange(wire, round);
         self.drain_logs();
-        answer
+        answer.map_err(|e| self.explain(e))
     }
 
     fn warm_reset(&mut self, at: MissionTimeUs) -> Result<ResetLanding, TargetError> {
