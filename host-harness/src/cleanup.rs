@@ -141,48 +141,40 @@ fn remove_path(path: &Path) {
     }
 }
 
-/// Create a temporary thing with the record locked, and record its path.
-fn create_recorded<T>(
-    create: impl FnOnce() -> std::io::Result<T>,
-    path_of: impl FnOnce(&T) -> PathBuf,
-) -> std::io::Result<T> {
-    install_interrupt_handler();
-    let mut scratch = locked(&SCRATCH);
-    let made = create()?;
-    scratch.insert(path_of(&made));
-    Ok(made)
-}
-
-/// Remove a temporary thing (by dropping it) with the record locked, and forget its path.
-fn remove_recorded<T>(path: &Path, thing: T) {
-    let mut scratch = locked(&SCRATCH);
-    drop(thing);
-    scratch.remove(path);
-}
-
 /// `hil-<pid>-<what>-`: a temporary path names the `hil` process it belongs to.
 fn prefix(what: &str) -> String {
     format!("hil-{}-{what}-", std::process::id())
 }
 
-/// A temporary directory in the system's temporary directory (`TMPDIR`), removed with
-/// everything in it when dropped (or on Ctrl-C).
+/// A temporary directory ([`ScratchDir`]) or file ([`ScratchFile`]), recorded while it exists
+/// and removed when dropped (or on Ctrl-C).
 #[derive(Debug)]
-pub struct ScratchDir {
-    dir: Option<tempfile::TempDir>,
+pub struct Scratch<T> {
+    /// The `tempfile` crate's owner; dropping it removes the path.
+    owner: Option<T>,
     path: PathBuf,
 }
 
-impl ScratchDir {
-    /// A new directory named `hil-<pid>-<what>-<random>`.
-    pub fn new(what: &str) -> std::io::Result<Self> {
-        let dir = create_recorded(
-            || tempfile::Builder::new().prefix(&prefix(what)).tempdir(),
-            |d| d.path().to_path_buf(),
-        )?;
+/// A temporary directory, removed with everything in it.
+pub type ScratchDir = Scratch<tempfile::TempDir>;
+/// A temporary file.
+pub type ScratchFile = Scratch<tempfile::NamedTempFile>;
+
+impl<T> Scratch<T> {
+    /// Create it with the record locked (so the interrupt handler sees every path that exists)
+    /// and record its path.
+    fn recorded(
+        create: impl FnOnce() -> std::io::Result<T>,
+        path_of: impl FnOnce(&T) -> &Path,
+    ) -> std::io::Result<Self> {
+        install_interrupt_handler();
+        let mut scratch = locked(&SCRATCH);
+        let owner = create()?;
+        let path = path_of(&owner).to_path_buf();
+        scratch.insert(path.clone());
         Ok(Self {
-            path: dir.path().to_path_buf(),
-            dir: Some(dir),
+            owner: Some(owner),
+            path,
         })
     }
 
@@ -191,17 +183,24 @@ impl ScratchDir {
     }
 }
 
-impl Drop for ScratchDir {
+impl<T> Drop for Scratch<T> {
+    /// Removes the path with the record locked, and forgets it.
     fn drop(&mut self) {
-        remove_recorded(&self.path, self.dir.take());
+        let mut scratch = locked(&SCRATCH);
+        drop(self.owner.take());
+        scratch.remove(&self.path);
     }
 }
 
-/// A temporary file, removed when dropped (or on Ctrl-C).
-#[derive(Debug)]
-pub struct ScratchFile {
-    file: Option<tempfile::NamedTempFile>,
-    path: PathBuf,
+impl ScratchDir {
+    /// A new directory named `hil-<pid>-<what>-<random>` in the system's temporary directory
+    /// (`TMPDIR`).
+    pub fn new(what: &str) -> std::io::Result<Self> {
+        Self::recorded(
+            || tempfile::Builder::new().prefix(&prefix(what)).tempdir(),
+            tempfile::TempDir::path,
+        )
+    }
 }
 
 impl ScratchFile {
@@ -212,28 +211,14 @@ impl ScratchFile {
 
     /// A new empty file named `hil-<pid>-<what>-<random>` in `dir`.
     pub fn new_in(dir: &Path, what: &str) -> std::io::Result<Self> {
-        let file = create_recorded(
+        Self::recorded(
             || {
                 tempfile::Builder::new()
                     .prefix(&prefix(what))
                     .tempfile_in(dir)
             },
-            |f| f.path().to_path_buf(),
-        )?;
-        Ok(Self {
-            path: file.path().to_path_buf(),
-            file: Some(file),
-        })
-    }
-
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-}
-
-impl Drop for ScratchFile {
-    fn drop(&mut self) {
-        remove_recorded(&self.path, self.file.take());
+            tempfile::NamedTempFile::path,
+        )
     }
 }
 

@@ -37,6 +37,19 @@ fn scenario(name: &str) -> PathBuf {
     hil::repo_root().join("scenarios").join(name)
 }
 
+/// `run SCENARIO --firmware ELF --no-logs EXTRA...`: a run on the emulated target.
+fn emulated<'a>(scenario: &'a Path, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut args = vec![
+        "run",
+        scenario.to_str().unwrap(),
+        "--firmware",
+        firmware().to_str().unwrap(),
+        "--no-logs",
+    ];
+    args.extend_from_slice(extra);
+    args
+}
+
 /// A fresh temporary directory for one child, and a fresh "checkout" for its run outputs.
 struct Sandbox {
     tmp: TempDir,
@@ -167,13 +180,7 @@ fn an_emulated_mission_with_a_power_cycle_leaves_nothing_behind() {
     let _one = one_qemu_at_a_time();
     let sandbox = Sandbox::new();
     let path = scenario("flyby-power-cycle.toml");
-    let (pid, output) = run(sandbox.hil(&[
-        "run",
-        path.to_str().unwrap(),
-        "--firmware",
-        firmware().to_str().unwrap(),
-        "--no-logs",
-    ]));
+    let (pid, output) = run(sandbox.hil(&emulated(&path, &[])));
     assert_eq!(output.status.code(), Some(0), "{}", text(&output));
     assert_clean(&sandbox, pid, &output);
 }
@@ -196,15 +203,7 @@ fn a_failing_emulated_mission_leaves_nothing_behind_but_the_nv_image_it_was_aske
         );
         failing
     });
-    let (pid, output) = run(sandbox.hil(&[
-        "run",
-        path.to_str().unwrap(),
-        "--firmware",
-        firmware().to_str().unwrap(),
-        "--no-logs",
-        "--keep-nv",
-        nv.to_str().unwrap(),
-    ]));
+    let (pid, output) = run(sandbox.hil(&emulated(&path, &["--keep-nv", nv.to_str().unwrap()])));
     assert_eq!(output.status.code(), Some(1), "{}", text(&output));
     assert!(
         String::from_utf8_lossy(&output.stdout).contains("FAIL flyby-nominal"),
@@ -237,12 +236,7 @@ fn a_missing_qemu_is_named_with_where_it_was_looked_for_and_how_to_install_it() 
     let empty_path = tempfile::tempdir().unwrap();
     let files = tempfile::tempdir().unwrap();
     let scenario = link_check(files.path(), "rad750-proxy");
-    let args = [
-        "run",
-        scenario.to_str().unwrap(),
-        "--firmware",
-        firmware().to_str().unwrap(),
-    ];
+    let args = emulated(&scenario, &[]);
 
     let mut cmd = sandbox.hil(&args);
     cmd.env("PATH", empty_path.path()).env_remove("HIL_QEMU");
@@ -296,15 +290,7 @@ fn a_copy_of_hil_outside_the_checkout_uses_its_built_in_profiles() {
     let elsewhere = tempfile::tempdir().unwrap();
     for profile in ["rad750-proxy", "rad750-proxy-serial"] {
         let scenario = link_check(elsewhere.path(), profile);
-        let mut cmd = sandbox.command(
-            &binary,
-            &[
-                "run",
-                scenario.to_str().unwrap(),
-                "--firmware",
-                firmware().to_str().unwrap(),
-            ],
-        );
+        let mut cmd = sandbox.command(&binary, &emulated(&scenario, &[]));
         cmd.current_dir(elsewhere.path())
             .env_remove("HIL_TRANSPORT");
         let (pid, output) = run(cmd);
@@ -334,14 +320,7 @@ fn an_interrupted_emulated_run_ends_its_qemu_and_leaves_nothing_behind() {
         // In real time the 100-minute flyby is still flying when the signal comes.
         let path = scenario("flyby-nominal.toml");
         let child = sandbox
-            .hil(&[
-                "run",
-                path.to_str().unwrap(),
-                "--firmware",
-                firmware().to_str().unwrap(),
-                "--no-logs",
-                "--realtime",
-            ])
+            .hil(&emulated(&path, &["--realtime"]))
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
