@@ -121,6 +121,19 @@ pub fn profile_over(transport: Transport) -> QemuProfile {
     profile().with_transport(transport)
 }
 
+/// A temporary directory with the shipped flyby task network at `tasknets/flyby.toml`, where a
+/// scenario written into the directory finds it.
+pub fn beside_the_flyby_tasknet() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("tasknets")).unwrap();
+    std::fs::copy(
+        hil::repo_root().join("scenarios/tasknets/flyby.toml"),
+        dir.path().join("tasknets/flyby.toml"),
+    )
+    .unwrap();
+    dir
+}
+
 /// Boot the RAD750 proxy under QEMU and wait for nothing yet.
 pub fn boot() -> Booted {
     boot_image(firmware(), profile())

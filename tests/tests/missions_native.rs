@@ -88,13 +88,7 @@ fn another_seed_gives_another_link_fault_pattern() {
     let text = std::fs::read_to_string(&path)
         .unwrap()
         .replace("seed = 11", "seed = 12");
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("tasknets")).unwrap();
-    std::fs::copy(
-        hil::repo_root().join("scenarios/tasknets/flyby.toml"),
-        dir.path().join("tasknets/flyby.toml"),
-    )
-    .unwrap();
+    let dir = hil_tests::beside_the_flyby_tasknet();
     std::fs::write(dir.path().join("s.toml"), text).unwrap();
     let a = run_native(&path);
     let b = run_native(&dir.path().join("s.toml"));
@@ -103,13 +97,7 @@ fn another_seed_gives_another_link_fault_pattern() {
 
 #[test]
 fn realtime_mode_paces_the_grants_by_the_wall_clock() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::create_dir_all(dir.path().join("tasknets")).unwrap();
-    std::fs::copy(
-        hil::repo_root().join("scenarios/tasknets/flyby.toml"),
-        dir.path().join("tasknets/flyby.toml"),
-    )
-    .unwrap();
+    let dir = hil_tests::beside_the_flyby_tasknet();
     let path = dir.path().join("rt.toml");
     std::fs::write(
         &path,
