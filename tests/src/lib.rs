@@ -121,12 +121,17 @@ pub fn profile_over(transport: Transport) -> QemuProfile {
     profile().with_transport(transport)
 }
 
-/// A fresh path for an emulated target's non-volatile memory file, unique in this test process
-/// (tests run QEMUs side by side: two targets must never share one).
-pub fn unique_nv_file(name: &str) -> std::path::PathBuf {
-    static COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    std::env::temp_dir().join(format!("hil-test-nv-{}-{n}-{name}.bin", std::process::id()))
+/// A temporary directory with the shipped flyby task network at `tasknets/flyby.toml`, where a
+/// scenario written into the directory finds it.
+pub fn beside_the_flyby_tasknet() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("tasknets")).unwrap();
+    std::fs::copy(
+        hil::repo_root().join("scenarios/tasknets/flyby.toml"),
+        dir.path().join("tasknets/flyby.toml"),
+    )
+    .unwrap();
+    dir
 }
 
 /// Boot the RAD750 proxy under QEMU and wait for nothing yet.
@@ -192,24 +197,21 @@ pub fn fly_native(plan: &hil::mission::plan::MissionPlan) -> hil::mission::repor
 }
 
 /// Fly `plan` on an emulated target booted with `profile` (a QEMU slot held, a fresh
-/// non-volatile memory file removed afterwards).
+/// temporary non-volatile memory).
 pub fn fly_emulated(
     plan: &hil::mission::plan::MissionPlan,
     profile: QemuProfile,
 ) -> hil::mission::report::MissionReport {
     let _one = exclusive_qemu();
-    let nv = unique_nv_file(&plan.scenario.name);
-    let mut target = hil::mission::target::EmulatedTarget::new(
+    let mut target = hil::mission::target::EmulatedTarget::with_temporary_nv(
         profile,
         firmware().clone(),
         false,
-        nv.clone(),
         false,
-    );
-    let report = hil::mission::runner::run(plan, &mut target, Some(firmware()), &mut |_, _, _| {});
-    drop(target);
-    let _ = std::fs::remove_file(&nv);
-    report.unwrap_or_else(|e| panic!("{} on the emulated target: {e}", plan.scenario.name))
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    hil::mission::runner::run(plan, &mut target, Some(firmware()), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{} on the emulated target: {e}", plan.scenario.name))
 }
 
 /// A run's decisions without the command ids, which each target numbers from its own counter

@@ -18,19 +18,15 @@ fn scenario(name: &str) -> PathBuf {
 fn run_over(transport: Transport, path: &Path) -> MissionReport {
     let _one = hil_tests::exclusive_qemu();
     let prepared = prepare(path).unwrap_or_else(|e| panic!("{e}"));
-    let nv = hil_tests::unique_nv_file(&path.file_stem().unwrap().to_string_lossy());
-    let mut target = EmulatedTarget::new(
+    let mut target = EmulatedTarget::with_temporary_nv(
         profile_over(transport),
         firmware().clone(),
         false,
-        nv.clone(),
         false,
-    );
-    let report = run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
-        .unwrap_or_else(|e| panic!("{} over {}: {e}", path.display(), transport.name()));
-    drop(target);
-    let _ = std::fs::remove_file(&nv);
-    report
+    )
+    .unwrap();
+    run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{} over {}: {e}", path.display(), transport.name()))
 }
 
 /// Resets through QMP and over the link, a power cycle (a new QEMU, the plan from non-volatile

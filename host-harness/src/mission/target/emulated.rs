@@ -14,6 +14,7 @@ use kernel_config::abi::{metric as kernel_metric, reset_at};
 
 use super::native::NV_BYTES;
 use super::{Hello, MissionTarget, ResetLanding, TargetError};
+use crate::cleanup::ScratchFile;
 use crate::defmt_log::LogLine;
 use crate::firmware::FirmwareImage;
 use crate::mission::rng::Rng;
@@ -197,10 +198,33 @@ pub struct EmulatedTarget {
     mid_frame_reports: Vec<MidFrameReport>,
     /// The last report still waits for the restart's restore metrics.
     awaiting_restore: bool,
+    /// The non-volatile memory file when it is temporary: removed with the target.
+    temporary_nv: Option<ScratchFile>,
 }
 
 impl EmulatedTarget {
-    /// A QEMU target with a non-volatile memory file in `nv_dir` (created fresh).
+    /// A QEMU target whose non-volatile memory file is temporary: it outlives every QEMU the
+    /// target starts (power cycles) and is removed with the target.
+    pub fn with_temporary_nv(
+        profile: QemuProfile,
+        firmware: FirmwareImage,
+        realtime: bool,
+        echo_logs: bool,
+    ) -> std::io::Result<Self> {
+        let nv = ScratchFile::new("nv")?;
+        let mut target = Self::new(
+            profile,
+            firmware,
+            realtime,
+            nv.path().to_path_buf(),
+            echo_logs,
+        );
+        target.temporary_nv = Some(nv);
+        Ok(target)
+    }
+
+    /// A QEMU target with its non-volatile memory in the file `nv_file` (created fresh), which
+    /// stays after the run.
     pub fn new(
         profile: QemuProfile,
         firmware: FirmwareImage,
@@ -226,6 +250,7 @@ impl EmulatedTarget {
             pending_hello: None,
             mid_frame_reports: Vec::new(),
             awaiting_restore: false,
+            temporary_nv: None,
         }
     }
 
@@ -353,13 +378,10 @@ impl EmulatedTarget {
                         round,
                         waited: fmt_wall(ROUND_TIMEOUT),
                         detail: format!(
-                            "received {} frames of its answer; {}; QEMU output: {}",
+                            "received {} frames of its answer; {}; the end of QEMU's output: {:?}",
                             frames.len(),
                             cpu_whereabouts(session, firmware),
-                            session
-                                .qemu_log()
-                                .map(|p| p.display().to_string())
-                                .unwrap_or_default()
+                            session.qemu_output_tail().unwrap_or_default()
                         ),
                     })
                 }
@@ -387,6 +409,32 @@ impl EmulatedTarget {
                 _ => {}
             }
         }
+    }
+
+    /// One round: the armed reset's request if any, the burst, the answer.
+    fn exchange(&mut self, wire: &[Vec<u8>], round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
+        if let Some(kind) = self.pending_request.take() {
+            // The armed reset's request, ahead of the burst with the frame's grant: a test
+            // instrument, like QMP, so an expedited frame outside the mission's stream.
+            let mut frame = [0u8; MAX_FRAME_LEN];
+            let len = encode(
+                &LinkFrame::Bd(HostToTarget::ResetRequest { kind }),
+                &mut frame,
+            )
+            .expect("a reset request fits a frame");
+            self.send_all(&[frame[..len].to_vec()])?;
+        }
+        self.send_all(wire)?;
+        self.read_answer(round)
+    }
+
+    /// `error`, or that QEMU ended if it did: the cause of a closed link or a silent target.
+    fn explain(&mut self, error: TargetError) -> TargetError {
+        let ended = self
+            .session
+            .as_mut()
+            .and_then(|s| s.qemu_ended(&error.to_string()));
+        ended.map_or(error, TargetError::Session)
     }
 }
 
@@ -438,27 +486,18 @@ impl MissionTarget for EmulatedTarget {
             session.echo_logs = self.echo_logs;
             self.session = Some(session);
         }
-        let hello = self.session()?.expect_hello(ROUND_TIMEOUT)?;
+        let hello = self
+            .session()?
+            .expect_hello(ROUND_TIMEOUT)
+            .map_err(|e| self.explain(e.into()))?;
         self.drain_logs();
         Ok(hello)
     }
 
     fn round(&mut self, wire: &[Vec<u8>], round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
-        if let Some(kind) = self.pending_request.take() {
-            // The armed reset's request, ahead of the burst with the frame's grant: a test
-            // instrument, like QMP, so an expedited frame outside the mission's stream.
-            let mut frame = [0u8; MAX_FRAME_LEN];
-            let len = encode(
-                &LinkFrame::Bd(HostToTarget::ResetRequest { kind }),
-                &mut frame,
-            )
-            .expect("a reset request fits a frame");
-            self.send_all(&[frame[..len].to_vec()])?;
-        }
-        self.send_all(wire)?;
-        let answer = self.read_answer(round);
+        let answer = self.exchange(wire, round);
         self.drain_logs();
-        answer
+        answer.map_err(|e| self.explain(e))
     }
 
     fn warm_reset(&mut self, at: MissionTimeUs) -> Result<ResetLanding, TargetError> {
