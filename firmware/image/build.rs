@@ -41,7 +41,9 @@ fn main() {
     for dir in [
         "firmware/image/src",
         "firmware/kernel-config/src",
+        "firmware/kernel-logic/src",
         "firmware/autonomy/src",
+        "firmware/flight-app/src",
         "fsw-bridge/src",
     ] {
         collect(&repo.join(dir), &mut files);

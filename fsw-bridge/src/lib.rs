@@ -2,20 +2,27 @@
 //!
 //! Both sides compile this crate: the firmware for `powerpc-unknown-linux-gnu` (no_std, no heap),
 //! the host natively. It holds the message set ([`messages`]), the frame codec ([`codec`]: postcard
-//! payload, CRC-32, COBS framing) and the plain types the autonomy core sees ([`types`]).
+//! payload, CRC-32, COBS framing), the reliable link layer carried inside those frames
+//! ([`link`]: CCSDS COP-1 style, counted in lockstep rounds) and the plain types the autonomy core
+//! sees ([`types`]).
+//!
+//! Features: `std` adds the host-only lossy channel simulator (`link::channel`).
 #![no_std]
 #![forbid(unsafe_code)]
 
-// Unit tests use std (Vec, proptest); the library itself never does.
-#[cfg(test)]
+// Unit tests and the `std` feature's host-only modules use std; the target build never does.
+#[cfg(any(test, feature = "std"))]
 extern crate std;
 
 pub mod codec;
+pub mod link;
 pub mod messages;
+pub mod security;
 pub mod types;
 
 pub use messages::{HostToTarget, LinkCounters, TargetToHost, TelemetryEvent};
+pub use security::{CommandRefusal, GroundCommand, SecurityHeader, SecurityRefusal};
 pub use types::*;
 
 /// Version of the message set. Both sides refuse a peer that speaks another version.
-pub const PROTOCOL_VERSION: u16 = 1;
+pub const PROTOCOL_VERSION: u16 = 2;

@@ -7,6 +7,7 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
+use crate::security::{CommandRefusal, GroundCommand, SecurityHeader, MAC_LEN};
 use crate::types::{
     CommandArgs, CommandStatus, MissionTimeUs, Opcode, ResetCause, ResetKind, StateKey, StateValue,
 };
@@ -81,9 +82,19 @@ pub enum HostToTarget {
     },
     /// Ask the target to reset itself.
     ResetRequest { kind: ResetKind },
+    /// A command from the ground, authenticated in the manner of CCSDS SDLS: security header,
+    /// command, security trailer (HMAC-SHA-256 over the header and the command, see
+    /// `sdls::command_mac`). The target answers GroundCommandAck or GroundCommandNak with the
+    /// header's sequence number. A `mac` shorter than [`MAC_LEN`] is refused as truncated.
+    GroundCommand {
+        header: SecurityHeader,
+        command: GroundCommand,
+        mac: Vec<u8, MAC_LEN>,
+    },
 }
 
-/// Messages the target sends to the host.
+/// Messages the target sends to the host (in protocol v2 inside the reliable link's frames,
+/// [`crate::link::LinkFrame`]).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum TargetToHost {
     /// Sent once on every boot, before anything else.
@@ -98,11 +109,13 @@ pub enum TargetToHost {
     Pong { seq: u32, link: LinkCounters },
     /// The target finished the frame granted by TimeGrant `frame`. `next_wakeup` is the earliest
     /// mission time at which it needs to run again (None: only when input arrives).
+    ///
+    /// It carries no measured cost (the frame's guest ticks go out as an Instrument metric,
+    /// `flight_app::metric::FRAME_BUSY_TICKS`): the Mission stream is the same on the native
+    /// and the emulated target, byte for byte.
     FrameDone {
         frame: u32,
         next_wakeup: Option<MissionTimeUs>,
-        /// Guest timebase ticks the frame's work took (a duration, never an absolute value).
-        busy_ticks: u32,
     },
     /// The executive asks a subsystem to carry out a command.
     CommandDispatch {
@@ -122,6 +135,16 @@ pub enum TargetToHost {
     Panic {
         file: Vec<u8, PANIC_FILE_MAX>,
         line: u32,
+    },
+    /// The ground command with this sequence number was authentic and fresh, its sequence
+    /// number is stored, and it was carried out.
+    GroundCommandAck { sequence: u32 },
+    /// The ground command with this sequence number was refused, and why. A security refusal
+    /// leaves everything as it was (counter included); any other was authentic, so its sequence
+    /// number is spent.
+    GroundCommandNak {
+        sequence: u32,
+        reason: CommandRefusal,
     },
 }
 
@@ -153,4 +176,13 @@ pub enum TelemetryEvent {
     },
     /// A named measurement (ids defined by the firmware; values in the unit the id names).
     Metric { id: u16, value: u64 },
+    /// The autonomy found the state-buffer value of `key`, measured at `measured_at`, older
+    /// than its timeline's staleness bound at the step at mission time `at` (the first step at
+    /// or after `measured_at + bound + 1 µs`): from then on it reads the value as unknown,
+    /// until a newer measurement of `key` arrives. Reported once per measurement.
+    StateStale {
+        key: StateKey,
+        measured_at: MissionTimeUs,
+        at: MissionTimeUs,
+    },
 }

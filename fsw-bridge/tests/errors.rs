@@ -64,7 +64,6 @@ fn t2h_samples() -> Vec<TargetToHost> {
         TargetToHost::FrameDone {
             frame: 0,
             next_wakeup: None,
-            busy_ticks: 0,
         },
         TargetToHost::Log {
             bytes: (0..LOG_CHUNK_MAX).map(|i| (i * 7) as u8).collect(),
@@ -386,7 +385,7 @@ fn malformed_is_counted() {
     let t2h: &[&[u8]] = &[
         &[0x02, 0x00, 0x02, 0x00], // FrameDone, next_wakeup Option tag 2
         &[0x00, 0x01, 0x00, 0, 0, 0, 0, 0, 0, 0, 0, 0x04, 0x01], // Hello, ResetCause 4
-        &[0x05, 0x04, 0x00, 0x00], // Telemetry, TelemetryEvent variant 4
+        &[0x05, 0x05, 0x00, 0x00], // Telemetry, TelemetryEvent variant 5 (there are 5)
         &log,
     ];
     for payload in t2h {

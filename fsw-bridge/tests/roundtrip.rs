@@ -3,130 +3,14 @@
 //! `WireMessage::VARIANT_COUNT` is the real number of variants.
 mod common;
 
+use common::largest::*;
 use common::*;
 use fsw_bridge::codec::{
     encode, EncodeError, FrameDecoder, WireMessage, MAX_FRAME_LEN, MAX_PAYLOAD_LEN,
 };
-use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
-use fsw_bridge::{
-    CommandStatus, HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, ResetKind,
-    StateKey, StateValue, TargetToHost, TelemetryEvent, MAX_COMMAND_ARGS,
-};
+use fsw_bridge::messages::UPLINK_CHUNK_MAX;
+use fsw_bridge::{HostToTarget, LinkCounters, ResetKind, TargetToHost};
 use proptest::prelude::*;
-
-/// Declaration index of each variant. Exhaustive on purpose: adding a variant breaks the build
-/// here, which is the reminder to bump VARIANT_COUNT and extend these tests.
-fn h2t_index(m: &HostToTarget) -> usize {
-    match m {
-        HostToTarget::Ping { .. } => 0,
-        HostToTarget::TimeGrant { .. } => 1,
-        HostToTarget::StateUpdate { .. } => 2,
-        HostToTarget::CommandResponse { .. } => 3,
-        HostToTarget::UplinkChunk { .. } => 4,
-        HostToTarget::ResetRequest { .. } => 5,
-    }
-}
-
-fn t2h_index(m: &TargetToHost) -> usize {
-    match m {
-        TargetToHost::Hello { .. } => 0,
-        TargetToHost::Pong { .. } => 1,
-        TargetToHost::FrameDone { .. } => 2,
-        TargetToHost::CommandDispatch { .. } => 3,
-        TargetToHost::Log { .. } => 4,
-        TargetToHost::Telemetry(_) => 5,
-        TargetToHost::UplinkAck { .. } => 6,
-        TargetToHost::UplinkNak { .. } => 7,
-        TargetToHost::Panic { .. } => 8,
-    }
-}
-
-fn full<const N: usize>(byte: u8) -> heapless::Vec<u8, N> {
-    heapless::Vec::from_slice(&[byte; N]).unwrap()
-}
-
-/// The largest instance of variant `i`: every varint at its longest (u*::MAX, i*::MIN), every
-/// Vec full, every Option Some, the longest inner variant.
-fn largest_h2t(i: usize) -> HostToTarget {
-    match i {
-        0 => HostToTarget::Ping { seq: u32::MAX },
-        1 => HostToTarget::TimeGrant {
-            frame: u32::MAX,
-            now: MissionTimeUs::MAX,
-            until: MissionTimeUs::MAX,
-        },
-        2 => HostToTarget::StateUpdate {
-            key: StateKey(u16::MAX),
-            value: StateValue::Int(i64::MIN),
-            timestamp: MissionTimeUs::MAX,
-        },
-        3 => HostToTarget::CommandResponse {
-            id: u32::MAX,
-            status: CommandStatus::Failed(u16::MAX),
-            data: Some(i64::MIN),
-        },
-        4 => HostToTarget::UplinkChunk {
-            seq: u16::MAX,
-            total: u16::MAX,
-            bytes: full::<UPLINK_CHUNK_MAX>(0xff),
-        },
-        5 => HostToTarget::ResetRequest {
-            kind: ResetKind::WarmAfterTicks { ticks: u32::MAX },
-        },
-        _ => panic!("HostToTarget has no variant {i}"),
-    }
-}
-
-fn largest_t2h(i: usize) -> TargetToHost {
-    match i {
-        0 => TargetToHost::Hello {
-            protocol_version: u16::MAX,
-            build_id: [0xff; 8],
-            reset_cause: ResetCause::HealthMonitor,
-            boot_count: u32::MAX,
-        },
-        1 => TargetToHost::Pong {
-            seq: u32::MAX,
-            link: LinkCounters {
-                frames_ok: u32::MAX,
-                crc_errors: u32::MAX,
-                oversize: u32::MAX,
-                unknown_type: u32::MAX,
-                truncated: u32::MAX,
-                malformed: u32::MAX,
-            },
-        },
-        2 => TargetToHost::FrameDone {
-            frame: u32::MAX,
-            next_wakeup: Some(MissionTimeUs::MAX),
-            busy_ticks: u32::MAX,
-        },
-        3 => TargetToHost::CommandDispatch {
-            id: u32::MAX,
-            opcode: Opcode(u16::MAX),
-            args: heapless::Vec::from_slice(&[i32::MIN; MAX_COMMAND_ARGS]).unwrap(),
-        },
-        4 => TargetToHost::Log {
-            bytes: full::<LOG_CHUNK_MAX>(0xff),
-        },
-        5 => TargetToHost::Telemetry(TelemetryEvent::PlanModification {
-            kind: u8::MAX,
-            task: u16::MAX,
-            template: u16::MAX,
-            at: MissionTimeUs::MAX,
-        }),
-        6 => TargetToHost::UplinkAck { seq: u16::MAX },
-        7 => TargetToHost::UplinkNak {
-            seq: u16::MAX,
-            reason: u16::MAX,
-        },
-        8 => TargetToHost::Panic {
-            file: full::<PANIC_FILE_MAX>(0xff),
-            line: u32::MAX,
-        },
-        _ => panic!("TargetToHost has no variant {i}"),
-    }
-}
 
 fn assert_round_trip<M>(msg: &M)
 where

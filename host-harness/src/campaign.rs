@@ -28,7 +28,9 @@
 //! `--shard k/n` (1-based) runs the indices `i` with `i % n == k - 1`; the shard reports
 //! (`--report`) merge with `--merge` into the report the unsharded campaign would have written
 //! (wall times aside). Results are always in run-index order, whatever order the worker threads
-//! finish in.
+//! finish in. The workers are [`run_pool`]'s (why it is written with the standard library only
+//! is said there): a run that panics, or whose QEMU dies, is one failed run with its reason,
+//! and the campaign goes on.
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
@@ -182,6 +184,15 @@ pub enum Failure {
         at: String,
         restart: String,
     },
+    /// A task definition sent more commands than its responses allow.
+    BoundExceeded {
+        task: String,
+        commands: u32,
+        allowed: u32,
+    },
+    /// The mission failed but the report names no cause (no task failed with a reason, the
+    /// autonomy gave up on nothing).
+    NoNamedCause,
 }
 
 impl std::fmt::Display for Failure {
@@ -202,6 +213,133 @@ impl std::fmt::Display for Failure {
                 f,
                 "campaign: lost checkpoint: no \"{RESTORED_LABEL}\" after the {reset} at {at} (restart {restart})"
             ),
+            Failure::BoundExceeded {
+                task,
+                commands,
+                allowed,
+            } => write!(
+                f,
+                "campaign: {task} sent {commands} commands, more than its bound allows ({allowed})"
+            ),
+            Failure::NoNamedCause => write!(
+                f,
+                "campaign: the mission failed and the report names no cause"
+            ),
+        }
+    }
+}
+
+/// How a misbehaving subsystem treats a command (campaigns with `--misbehave`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MisbehaviourMode {
+    /// Refuses it.
+    Reject,
+    /// Tries and fails.
+    Fail,
+    /// Never answers.
+    Silent,
+    /// Answers Ok and does nothing ("accepted but never completed").
+    NoEffect,
+    /// Answers Ok but ends in another state than commanded.
+    WrongState,
+}
+
+impl MisbehaviourMode {
+    pub const ALL: [MisbehaviourMode; 5] = [
+        MisbehaviourMode::Reject,
+        MisbehaviourMode::Fail,
+        MisbehaviourMode::Silent,
+        MisbehaviourMode::NoEffect,
+        MisbehaviourMode::WrongState,
+    ];
+}
+
+/// A subsystem that misbehaves from `from` to the end of the mission: every dispatch of
+/// `opcode` meets `mode` (for `WrongState`, the attitude ends at value `value`).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Misbehaviour {
+    pub opcode: u16,
+    pub mode: MisbehaviourMode,
+    pub from: String,
+    pub from_us: u64,
+    /// The attitude value a `WrongState` command ends at.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub value: Option<u16>,
+}
+
+impl Misbehaviour {
+    /// Drawn from `seed`: one of `opcodes` (the network's commands), a mode, a start in
+    /// `window`. `attitude_values` is the GNC's attitude value count when `gnc_opcode` is its
+    /// attain opcode (a wrong state needs a value to end at; other subsystems get `NoEffect`).
+    pub fn derive(
+        seed: u64,
+        opcodes: &[u16],
+        window: (MissionTimeUs, MissionTimeUs),
+        gnc: Option<(u16, u16)>,
+    ) -> Option<Self> {
+        let mut rng = Rng::new(seed).fork(0x3b);
+        let opcode = *opcodes.get(rng.below(opcodes.len() as u64) as usize)?;
+        let mut mode = MisbehaviourMode::ALL[rng.below(5) as usize];
+        let span_s = (window.1 .0 - window.0 .0).div_ceil(SEC).max(1);
+        let from = MissionTimeUs(window.0 .0 + rng.below(span_s) * SEC);
+        let value = match (mode, gnc) {
+            (MisbehaviourMode::WrongState, Some((attain, values)))
+                if attain == opcode && values > 0 =>
+            {
+                Some(rng.below(u64::from(values)) as u16)
+            }
+            (MisbehaviourMode::WrongState, _) => {
+                mode = MisbehaviourMode::NoEffect;
+                None
+            }
+            _ => None,
+        };
+        Some(Self {
+            opcode,
+            mode,
+            from: fmt_time(from),
+            from_us: from.0,
+            value,
+        })
+    }
+
+    pub fn describe(&self) -> String {
+        let mode = match self.mode {
+            MisbehaviourMode::Reject => "rejects",
+            MisbehaviourMode::Fail => "fails",
+            MisbehaviourMode::Silent => "never answers",
+            MisbehaviourMode::NoEffect => "accepts and ignores",
+            MisbehaviourMode::WrongState => "completes in the wrong state",
+        };
+        format!(
+            "from {} the subsystem {mode} every command {:#06x}{}",
+            self.from,
+            self.opcode,
+            self.value
+                .map(|v| format!(" (ends at value {v})"))
+                .unwrap_or_default()
+        )
+    }
+
+    /// The command fault that plays it.
+    fn fault(&self) -> crate::mission::plan::CommandFault {
+        use crate::mission::sim::CommandFate;
+        use fsw_bridge::{CommandStatus, StateValue};
+        crate::mission::plan::CommandFault {
+            opcode: fsw_bridge::Opcode(self.opcode),
+            skip: None,
+            probability: 1.0,
+            fate: match self.mode {
+                MisbehaviourMode::Reject => CommandFate::Answer(CommandStatus::Rejected),
+                MisbehaviourMode::Fail => CommandFate::Answer(CommandStatus::Failed(1)),
+                MisbehaviourMode::Silent => CommandFate::Silent,
+                MisbehaviourMode::NoEffect => CommandFate::NoEffect,
+                MisbehaviourMode::WrongState => {
+                    CommandFate::WrongState(StateValue::Enum(self.value.unwrap_or(0)))
+                }
+            },
+            spent: false,
         }
     }
 }
@@ -221,6 +359,9 @@ pub struct Variant {
     /// Test knob: every checkpoint destroyed at the reset (recovery must fail).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub destroy_checkpoints: bool,
+    /// With `--misbehave`: the subsystem that misbehaves in this run.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub misbehaviour: Option<Misbehaviour>,
 }
 
 impl Variant {
@@ -257,13 +398,14 @@ impl Variant {
             },
             mid_frame_seed,
             destroy_checkpoints: false,
+            misbehaviour: None,
         }
     }
 
     /// "run 7 (seed 8): warm reset at 10:31:12, mid-frame, recovery 180s".
     pub fn describe(&self) -> String {
         format!(
-            "run {} (seed {}): warm reset at {}, {}, recovery {}{}",
+            "run {} (seed {}): warm reset at {}, {}, recovery {}{}{}",
             self.run,
             self.seed,
             self.reset_at,
@@ -273,7 +415,11 @@ impl Variant {
                 ", every checkpoint destroyed (test knob)"
             } else {
                 ""
-            }
+            },
+            self.misbehaviour
+                .as_ref()
+                .map(|m| format!("; {}", m.describe()))
+                .unwrap_or_default()
         )
     }
 }
@@ -355,6 +501,9 @@ pub struct CampaignReport {
     pub shards: Vec<String>,
     /// Set when the report holds one reproduced run (`--only`).
     pub only: Option<u32>,
+    /// Every run had a misbehaving subsystem (`--misbehave`).
+    #[serde(default)]
+    pub misbehave: bool,
     pub results: Vec<RunResult>,
     #[serde(default)]
     pub stats: CampaignStats,
@@ -410,7 +559,7 @@ impl CampaignReport {
             } else {
                 ""
             }
-        )
+        ) + if self.misbehave { " --misbehave" } else { "" }
     }
 
     /// Results without wall-clock-dependent numbers (for comparing campaigns).
@@ -448,6 +597,11 @@ pub struct CampaignOptions {
     /// Test knob: runs whose checkpoints are all destroyed at the reset (warm slots and NV);
     /// native only. Proves the campaign's checks notice a lost checkpoint.
     pub destroy_checkpoints_in: Vec<u32>,
+    /// Every run also has a subsystem that misbehaves from a random time on (rejects, fails,
+    /// never answers, ignores, or completes in the wrong state every command of one opcode).
+    /// Such a run passes the campaign when it ends cleanly, no task sends more commands than
+    /// its bounds allow, and a failed mission names its cause.
+    pub misbehave: bool,
 }
 
 impl CampaignOptions {
@@ -464,6 +618,7 @@ impl CampaignOptions {
             only: None,
             firmware: None,
             destroy_checkpoints_in: Vec::new(),
+            misbehave: false,
         }
     }
 }
@@ -479,6 +634,7 @@ struct Plan {
 pub fn variants(
     opts: &CampaignOptions,
     window: (MissionTimeUs, MissionTimeUs),
+    misbehaving: &MisbehaviourChoices,
 ) -> Result<Vec<Variant>, String> {
     let indices: Vec<u32> = match (opts.only, opts.shard) {
         (Some(_), Some(_)) => return Err("--only and --shard do not go together".into()),
@@ -491,9 +647,40 @@ pub fn variants(
         .map(|i| {
             let mut v = Variant::derive(i, opts.seed, window, opts.recovery);
             v.destroy_checkpoints = opts.destroy_checkpoints_in.contains(&i);
+            if opts.misbehave {
+                v.misbehaviour =
+                    Misbehaviour::derive(v.seed, &misbehaving.opcodes, window, misbehaving.gnc);
+            }
             v
         })
         .collect())
+}
+
+/// What a misbehaving subsystem can be drawn from: the opcodes the task network commands, and
+/// the GNC's attain opcode with its attitude value count (for wrong-state attitudes).
+#[derive(Clone, Debug, Default)]
+pub struct MisbehaviourChoices {
+    pub opcodes: Vec<u16>,
+    pub gnc: Option<(u16, u16)>,
+}
+
+impl MisbehaviourChoices {
+    fn of(plan: &crate::mission::plan::MissionPlan) -> Self {
+        let mut opcodes: Vec<u16> = plan
+            .network
+            .network
+            .tasks()
+            .iter()
+            .filter_map(|t| t.command.as_ref().map(|c| c.opcode.0))
+            .collect();
+        opcodes.sort_unstable();
+        opcodes.dedup();
+        let gnc = plan.scenario.spacecraft.gnc.as_ref().and_then(|g| {
+            let values = plan.network.timeline(&g.attitude)?.values.len();
+            Some((g.attain_opcode, values as u16))
+        });
+        Self { opcodes, gnc }
+    }
 }
 
 /// Run a campaign (or one shard of it, or one variant). `progress` is called on the calling
@@ -531,7 +718,7 @@ pub fn run_campaign(
     if !native && !opts.destroy_checkpoints_in.is_empty() {
         return Err("destroying checkpoints is a native-target test knob".into());
     }
-    let variants = variants(opts, window)?;
+    let variants = variants(opts, window, &MisbehaviourChoices::of(&prepared))?;
     let firmware = match (&opts.firmware, native) {
         (_, true) => None,
         (Some(f), false) => Some(f.clone()),
@@ -549,38 +736,13 @@ pub fn run_campaign(
     .min(variants.len())
     .max(1);
 
-    let mut slots: Vec<Option<RunResult>> = vec![None; variants.len()];
-    let next = AtomicUsize::new(0);
-    let (tx, rx) = std::sync::mpsc::channel::<(usize, RunResult)>();
-    std::thread::scope(|s| -> Result<(), String> {
-        for _ in 0..jobs {
-            let tx = tx.clone();
-            let (next, variants, plan) = (&next, &variants, &plan);
-            std::thread::Builder::new()
-                .name("campaign-worker".into())
-                .stack_size(64 << 20)
-                .spawn_scoped(s, move || loop {
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(v) = variants.get(k) else { break };
-                    let result = run_variant(plan, v);
-                    if tx.send((k, result)).is_err() {
-                        break;
-                    }
-                })
-                .map_err(|e| format!("cannot start a worker thread: {e}"))?;
-        }
-        drop(tx);
-        for (k, result) in rx {
-            progress(&result);
-            slots[k] = Some(result);
-        }
-        Ok(())
-    })?;
-    let results: Vec<RunResult> = slots
-        .into_iter()
-        .zip(&variants)
-        .map(|(r, v)| r.unwrap_or_else(|| failed(v.clone(), "the worker running it died".into())))
-        .collect();
+    let results = run_pool(
+        &variants,
+        jobs,
+        |v| run_variant(&plan, v),
+        |v, panic| failed(v.clone(), format!("panicked: {panic}")),
+        progress,
+    )?;
     let mut report = CampaignReport {
         scenario: prepared.name().to_string(),
         scenario_file: opts.scenario.display().to_string(),
@@ -595,6 +757,7 @@ pub fn run_campaign(
         recovery: fmt_recovery(opts.recovery),
         shards: opts.shard.iter().map(|s| s.to_string()).collect(),
         only: opts.only,
+        misbehave: opts.misbehave,
         results,
         stats: CampaignStats::default(),
     };
@@ -614,18 +777,10 @@ fn failed(variant: Variant, error: String) -> RunResult {
     }
 }
 
-/// Run one variant on a fresh target; never panics (a panic is a failed run).
+/// Run one variant on a fresh target (a panic is caught by [`run_pool`]: a failed run).
 fn run_variant(plan: &Plan, variant: &Variant) -> RunResult {
     let started = Instant::now();
-    let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| run_variant_inner(plan, variant)))
-        .unwrap_or_else(|panic| {
-            let msg = panic
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "panic".into());
-            Err(format!("panicked: {msg}"))
-        });
+    let outcome = run_variant_inner(plan, variant);
     let wall_ms = started.elapsed().as_millis() as u64;
     let mut result = match outcome {
         Ok((report, mid_frame)) => judge(variant, &report, mid_frame),
@@ -635,6 +790,70 @@ fn run_variant(plan: &Plan, variant: &Variant) -> RunResult {
     result
 }
 
+/// The campaign's worker pool: `work` on every item with `jobs` threads, the results in item
+/// order. `progress` sees each result on the calling thread as it finishes. A panic in `work`
+/// does not take the campaign down: it becomes `on_panic(item, message)`, that item's result.
+///
+/// Why by hand, with the standard library only: `std::thread::scope` lets the workers borrow
+/// the items and the plan, an atomic index hands out the next item (no queue to fill), and an
+/// `mpsc` channel brings results back as they finish so `progress` runs on the caller's
+/// thread. That is the whole pool; rayon would bring a global thread pool and work stealing
+/// that runs of seconds each do not need, and would still need `catch_unwind` to turn a panic
+/// into one failed run rather than a panic of the whole campaign. No run can hang the pool:
+/// every wait on a target is bounded (a round, a Hello, a QMP answer, a full shared-memory
+/// ring), and a QEMU that ends closes the link at once, so its run fails naming that.
+pub fn run_pool<T: Sync, R: Send>(
+    items: &[T],
+    jobs: usize,
+    work: impl Fn(&T) -> R + Sync,
+    on_panic: impl Fn(&T, String) -> R + Sync,
+    progress: &mut dyn FnMut(&R),
+) -> Result<Vec<R>, String> {
+    let next = AtomicUsize::new(0);
+    let (tx, rx) = std::sync::mpsc::channel::<(usize, R)>();
+    let mut slots: Vec<Option<R>> = std::iter::repeat_with(|| None).take(items.len()).collect();
+    std::thread::scope(|s| -> Result<(), String> {
+        for _ in 0..jobs.clamp(1, items.len().max(1)) {
+            let tx = tx.clone();
+            let (next, work, on_panic) = (&next, &work, &on_panic);
+            std::thread::Builder::new()
+                .name("campaign-worker".into())
+                .stack_size(64 << 20)
+                .spawn_scoped(s, move || loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(item) = items.get(k) else { break };
+                    let result = std::panic::catch_unwind(AssertUnwindSafe(|| work(item)))
+                        .unwrap_or_else(|panic| on_panic(item, panic_message(panic.as_ref())));
+                    if tx.send((k, result)).is_err() {
+                        break;
+                    }
+                })
+                .map_err(|e| format!("cannot start a worker thread: {e}"))?;
+        }
+        drop(tx);
+        for (k, result) in rx {
+            progress(&result);
+            slots[k] = Some(result);
+        }
+        Ok(())
+    })?;
+    // A worker only stops early when the receiver is gone, or if `on_panic` itself panicked.
+    Ok(slots
+        .into_iter()
+        .zip(items)
+        .map(|(r, item)| r.unwrap_or_else(|| on_panic(item, "the worker running it died".into())))
+        .collect())
+}
+
+/// The message a panic was raised with.
+fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_else(|| "a panic without a message".into())
+}
+
 fn run_variant_inner(
     plan: &Plan,
     variant: &Variant,
@@ -642,6 +861,9 @@ fn run_variant_inner(
     let mut prepared = prepare(&plan.scenario_file).map_err(|e| e.to_string())?;
     prepared.set_seed(variant.seed);
     prepared.add_warm_reset(MissionTimeUs(variant.reset_at_us), variant.recovery_us);
+    if let Some(m) = &variant.misbehaviour {
+        prepared.add_command_fault(MissionTimeUs(m.from_us), m.fault());
+    }
     let (mut target, firmware): (Box<dyn MissionTarget>, _) = if plan.native {
         let mut t = NativeTarget::new();
         if variant.destroy_checkpoints {
@@ -656,14 +878,8 @@ fn run_variant_inner(
         make_target(&prepared, &options, &mut |_| {})?
     };
     let mut notes = Vec::new();
-    if variant.reset_point == ResetPoint::MidFrame
-        && !variant.destroy_checkpoints
-        && !target.arm_mid_frame_reset(variant.mid_frame_seed)
-    {
-        notes.push(
-            "this target cannot reset mid-frame yet: the reset landed at a frame boundary"
-                .to_string(),
-        );
+    if variant.reset_point == ResetPoint::MidFrame && !variant.destroy_checkpoints {
+        target.arm_mid_frame_reset(variant.mid_frame_seed);
     }
     let report = run(
         &prepared,
@@ -672,7 +888,7 @@ fn run_variant_inner(
         &mut |_, _, _| {},
     )
     .map_err(|e| e.to_string())?;
-    notes.extend(target.mid_frame_log());
+    notes.extend(target.reset_notes());
     let mut report = report;
     if !target.counts_cycles() {
         // The native target counts no guest cycles: its tick metrics are all 0, not data.
@@ -722,7 +938,24 @@ fn judge(variant: &Variant, report: &MissionReport, mid_frame: Vec<String>) -> R
         })
         .collect();
     failures.extend(campaign_checks(variant, report));
+    if variant.misbehaviour.is_some() {
+        // A broken subsystem may well fail the mission: the campaign asks that the run ended
+        // cleanly, within its response bounds, with its cause named.
+        let mission_failed = failures
+            .iter()
+            .any(|f| matches!(f, Failure::Expectation { .. }));
+        failures
+            .retain(|f| !matches!(f, Failure::Expectation { .. }) || report.ended_early.is_some());
+        if mission_failed && !names_a_cause(report) {
+            failures.push(Failure::NoNamedCause);
+        }
+    }
+    failures.extend(bound_checks(report));
     let mut metrics = report.metrics.clone();
+    if let Some(most) = report.commands_per_task.iter().max_by_key(|c| c.commands) {
+        metrics.insert("max_commands_per_task".into(), u64::from(most.commands));
+        metrics.insert("its_bound_per_run".into(), u64::from(most.bound_per_run));
+    }
     metrics.insert("frames".into(), report.frames);
     let passed = failures.is_empty();
     RunResult {
@@ -738,6 +971,41 @@ fn judge(variant: &Variant, report: &MissionReport, mid_frame: Vec<String>) -> R
             report.record.timeline_lines()
         },
     }
+}
+
+/// True if the report says why the mission failed: a task failed with a reason, or the autonomy
+/// gave up on one.
+fn names_a_cause(report: &MissionReport) -> bool {
+    !report.gave_up.is_empty()
+        || report
+            .record
+            .instances
+            .iter()
+            .any(|i| i.failure_cause().is_some())
+        || report.ended_early.is_some()
+}
+
+/// No task definition sent more commands than its bound per run allows, counting one run per
+/// completed instance plus the one still open.
+pub fn bound_checks(report: &MissionReport) -> Vec<Failure> {
+    report
+        .commands_per_task
+        .iter()
+        .filter_map(|c| {
+            let runs = 1 + report
+                .record
+                .instances
+                .iter()
+                .filter(|i| i.name == c.task && i.outcome_name() == "completed")
+                .count() as u32;
+            let allowed = c.bound_per_run.saturating_mul(runs);
+            (c.commands > allowed).then(|| Failure::BoundExceeded {
+                task: c.task.clone(),
+                commands: c.commands,
+                allowed,
+            })
+        })
+        .collect()
 }
 
 /// Merge shard reports into one. Refuses reports of different campaigns and overlapping runs.
@@ -789,6 +1057,9 @@ pub fn merge(reports: Vec<CampaignReport>) -> Result<CampaignReport, String> {
         }
         if other.only.is_some() {
             differences.push("one is a reproduced single run (--only)".into());
+        }
+        if other.misbehave != merged.misbehave {
+            differences.push("one has misbehaving subsystems (--misbehave), the other not".into());
         }
         if !differences.is_empty() {
             return Err(format!(
@@ -952,6 +1223,11 @@ pub struct CampaignArgs {
     /// Firmware ELF for the emulated target (default: build firmware/image once).
     #[arg(long, value_name = "ELF")]
     pub firmware: Option<PathBuf>,
+    /// Every run also gets a misbehaving subsystem (rejects, fails, never answers, ignores or
+    /// completes in the wrong state every command of one opcode, from a random time on); a
+    /// run passes when it ends cleanly within its response bounds and names why it failed.
+    #[arg(long)]
+    pub misbehave: bool,
 }
 
 fn write_report(report: &CampaignReport, path: &Option<PathBuf>) -> Result<(), String> {
@@ -981,6 +1257,7 @@ pub fn cli(args: CampaignArgs) -> Result<ExitCode, String> {
         opts.recovery = parse_recovery(&args.recovery)?;
         opts.only = args.only;
         opts.firmware = args.firmware.clone();
+        opts.misbehave = args.misbehave;
         let count = match (opts.only, opts.shard) {
             (Some(_), _) => 1,
             (None, Some(s)) => s.runs(opts.runs).len() as u64,
@@ -1024,6 +1301,42 @@ mod tests {
 
     fn window() -> (MissionTimeUs, MissionTimeUs) {
         parse_window("09:50..11:10").unwrap()
+    }
+
+    #[test]
+    fn a_panicking_run_is_a_failed_result_in_its_place_and_the_others_still_run() {
+        let items: Vec<u32> = (0..9).collect();
+        let mut seen = Vec::new();
+        let results = run_pool(
+            &items,
+            3,
+            |&i| {
+                if i % 4 == 1 {
+                    panic!("run {i} misbehaved");
+                }
+                Ok(i * 10)
+            },
+            |&i, why| Err(format!("{i}: {why}")),
+            &mut |r: &Result<u32, String>| seen.push(r.clone()),
+        )
+        .unwrap();
+        assert_eq!(seen.len(), 9, "progress sees every result once");
+        for (i, r) in (0u32..).zip(&results) {
+            if i % 4 == 1 {
+                assert_eq!(r, &Err(format!("{i}: run {i} misbehaved")));
+            } else {
+                assert_eq!(r, &Ok(i * 10));
+            }
+        }
+    }
+
+    #[test]
+    fn a_pool_with_more_jobs_than_items_or_no_items_finishes() {
+        let none: Vec<u32> = Vec::new();
+        let results = run_pool(&none, 4, |&i| i, |&i, _| i, &mut |_| {}).unwrap();
+        assert!(results.is_empty());
+        let results = run_pool(&[7u32], 0, |&i| i + 1, |&i, _| i, &mut |_| {}).unwrap();
+        assert_eq!(results, [8]);
     }
 
     #[test]

@@ -90,6 +90,41 @@ enum Command {
     /// Campaign: many seeded random-reset variants of a mission scenario, in parallel,
     /// shardable across machines, merged into one report.
     Campaign(hil::campaign::CampaignArgs),
+    /// The target's non-volatile memory image: provision the key that authenticates uplinks and
+    /// ground commands, or show what it holds.
+    Nv {
+        #[command(subcommand)]
+        what: NvWhat,
+    },
+}
+
+#[derive(Subcommand)]
+enum NvWhat {
+    /// Write a key into the security area of a non-volatile memory image (QEMU's ivshmem
+    /// backing file, or an image for a board), creating the file if it is not there. The
+    /// anti-replay counter stays: a new key starts at sequence 0, the same key keeps its
+    /// counter.
+    Provision {
+        /// Key file: 32 raw bytes or 64 hexadecimal digits.
+        #[arg(long, value_name = "FILE")]
+        key_file: PathBuf,
+        /// The key's security parameter index (the ground signs with the same).
+        #[arg(long, default_value_t = hil::mission::auth::TEST_KEY.spi)]
+        spi: u16,
+        /// The non-volatile memory image.
+        #[arg(long, value_name = "FILE")]
+        nv: PathBuf,
+        /// Size of the image if it is created or shorter (default: the emulated target's 1 MiB).
+        #[arg(long, default_value_t = hil::mission::target::native::NV_BYTES as u64)]
+        size: u64,
+    },
+    /// Print the provisioned key's SPI and check (never the key), the last accepted sequence
+    /// number and the ground holds.
+    Show {
+        /// The non-volatile memory image.
+        #[arg(long, value_name = "FILE")]
+        nv: PathBuf,
+    },
 }
 
 #[derive(Subcommand)]
@@ -104,15 +139,16 @@ enum BenchWhat {
         #[arg(long)]
         json: bool,
     },
-    /// Mission speed: the flyby's lockstep speed-up on the emulated target, the native target
-    /// and the ratio, wall time per campaign run, recovery instructions (wall times depend on
-    /// the host).
+    /// Mission speed: the flybys' lockstep speed-up on the emulated target over each link
+    /// transport (whole run and after boot), the native target and the ratio, a campaign's
+    /// throughput with one and two emulated targets at once, recovery instructions (wall times
+    /// depend on the host).
     Missions {
         /// Native repetitions per scenario (averaged).
         #[arg(long, default_value_t = 20)]
         native_runs: u32,
-        /// Runs of the campaign part (emulated and native).
-        #[arg(long, default_value_t = 4)]
+        /// Runs of the campaign part (emulated one and two at once, and native).
+        #[arg(long, default_value_t = 8)]
         campaign_runs: u32,
         /// Print JSON instead of a table.
         #[arg(long)]
@@ -332,19 +368,7 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             if json {
                 println!("{}", serde_json::to_string_pretty(&bench).unwrap());
             } else {
-                println!("link benchmark (wall time; depends on the host)");
-                println!("  boot to Hello        {:>10.1} ms", bench.boot_to_hello_ms);
-                println!(
-                    "  ping round trip      median {} us, p99 {} us, max {} us over {} pings",
-                    bench.pings.median_us,
-                    bench.pings.p99_us,
-                    bench.pings.max_us,
-                    bench.pings.count
-                );
-                println!(
-                    "  frames per second    {:>10.0} (both directions, {} pings, 8 in flight)",
-                    bench.frames_per_second, bench.burst
-                );
+                print!("{}", hil::bench::link_table(&bench));
             }
             Ok(ExitCode::SUCCESS)
         }
@@ -361,6 +385,35 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             } else {
                 print_kernel_bench(&b);
             }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Nv {
+            what:
+                NvWhat::Provision {
+                    key_file,
+                    spi,
+                    nv,
+                    size,
+                },
+        } => {
+            let key = sdls::Key {
+                spi,
+                bytes: hil::mission::auth::read_key_file(&key_file)?,
+            };
+            hil::mission::auth::provision_nv_file(&nv, &key, size)?;
+            println!(
+                "provisioned key SPI {spi} (check {:08x}) into {} at offset {:#x}",
+                key.check(),
+                nv.display(),
+                hil::mission::auth::NV_SECURITY_OFFSET
+            );
+            println!("{}", hil::mission::auth::describe_nv_file(&nv)?);
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Nv {
+            what: NvWhat::Show { nv },
+        } => {
+            println!("{}", hil::mission::auth::describe_nv_file(&nv)?);
             Ok(ExitCode::SUCCESS)
         }
         Command::Build => {

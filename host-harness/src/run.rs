@@ -1,5 +1,4 @@
 //! `hil run`: execute a scenario against a target and produce a verdict and a report.
-use std::path::PathBuf;
 
 pub use crate::options::RunOptions;
 use std::time::{Duration, Instant};
@@ -16,6 +15,8 @@ use crate::session::{Session, SessionError};
 
 /// How long one ping may take before the step fails.
 pub const PING_TIMEOUT: Duration = Duration::from_secs(5);
+/// Lockstep rounds a link check runs after a Hello to take in what the boot queued.
+pub const SYNC_ROUNDS: u32 = 64;
 
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -91,7 +92,8 @@ pub struct RunReport {
     pub host_rejected_frames: u32,
     pub logs: Vec<LogReport>,
     pub wall_time_ms: u64,
-    pub qemu_log: Option<PathBuf>,
+    /// The end of QEMU's output at the end of the run (emulated targets).
+    pub qemu_output_tail: Option<String>,
 }
 
 /// Run `scenario`; `progress` receives human-readable lines as the run goes.
@@ -189,7 +191,7 @@ pub fn run_scenario(
         host_rejected_frames: session.link.host_counters().errors(),
         logs: session.logs.iter().map(LogReport::from).collect(),
         wall_time_ms: started.elapsed().as_millis() as u64,
-        qemu_log: session.qemu_log(),
+        qemu_output_tail: session.qemu_output_tail(),
     };
     Ok(report)
 }
@@ -206,6 +208,10 @@ fn run_step(
             let hello = session
                 .expect_hello(hello_timeout)
                 .map_err(|e| e.to_string())?;
+            // Open the reliable link and take in what the boot queued (its log lines).
+            session
+                .sync(SYNC_ROUNDS, PING_TIMEOUT)
+                .map_err(|e| format!("after the Hello, the link did not settle: {e}"))?;
             *build_id = Some(build_id_hex(&hello.build_id));
             let detail = format!(
                 "reset cause {}, boot {}, build {}",
@@ -299,8 +305,8 @@ pub fn summary(report: &RunReport) -> String {
         out.push_str(&format!("\n  step {} ({}): {}", s.index, s.step, s.detail));
     }
     if !report.passed {
-        if let Some(log) = &report.qemu_log {
-            out.push_str(&format!("\n  QEMU output: {}", log.display()));
+        if let Some(tail) = report.qemu_output_tail.as_deref().filter(|t| !t.is_empty()) {
+            out.push_str(&format!("\n  the end of QEMU's output:\n{tail}"));
         }
     }
     out

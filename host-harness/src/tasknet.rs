@@ -24,6 +24,8 @@
 //! max_repairs = 2                   # planner restarts/re-adds per definition and cause
 //! retry_backoff = "10s"             # 1st response at once, then 10s, 20s, 40s, ...
 //! retry_backoff_max = "10m"         # ... capped here
+//! stale_after = "15min"             # staleness bound of every measured timeline that sets
+//!                                   # none itself (default: none, values never go stale)
 //!
 //! [[timeline]]
 //! name = "GncAttitude"
@@ -31,6 +33,8 @@
 //! values = ["INERTIAL", "NADIR", "TURNING", "UNKNOWN", "EARTH"]
 //! initial = "INERTIAL"
 //! state_key = 1                     # measured by this state-buffer entry
+//! stale_after = "10min"             # a measurement older than this reads UNKNOWN; "never"
+//!                                   # opts out of the network's default
 //!
 //! [[timeline]]
 //! name = "FlybyRequest"
@@ -100,6 +104,15 @@
 //! max = "1h"
 //! ```
 //!
+//! Staleness (`stale_after`, a duration): a state-buffer value measured at `t` reads UNKNOWN to
+//! the autonomy (conditions, constraints, the planner) from the first step at which
+//! `now - t > stale_after`, until a newer measurement arrives; the target reports it
+//! (`TelemetryEvent::StateStale`) and reacts as to any state change. Only timelines with a
+//! `state_key` take one; it must be positive and at most 30 days. `[network] stale_after` is
+//! the default for every measured timeline that does not set its own (`"never"` opts out); the
+//! uplink carries the resulting bound of each timeline. The host must publish each measured
+//! value again, stamped with the time it is published, more often than its bound.
+//!
 //! Response bounds (`max_retries`, `max_repairs`) are per failure cause. One number sets every
 //! cause it applies to (retries: response_timeout, command_failed, command_rejected,
 //! post_condition; repairs: all but unschedulable); a table sets the causes it names (`any`
@@ -152,6 +165,9 @@ pub struct TimelineSymbol {
     /// Value names of a state timeline (empty for the others).
     pub values: Vec<String>,
     pub state_key: Option<StateKey>,
+    /// Staleness bound in µs (its own or the network's default): the host must publish the
+    /// value again more often than this, or the target reads it as unknown.
+    pub stale_after_us: Option<u64>,
 }
 
 /// The kind of a timeline, which fixes the type of value a measurement of it must carry.
@@ -267,6 +283,7 @@ struct RawNetwork {
     max_repairs: Option<Spanned<RawBound>>,
     retry_backoff: Option<Spanned<RawNumOrText>>,
     retry_backoff_max: Option<Spanned<RawNumOrText>>,
+    stale_after: Option<Spanned<RawNumOrText>>,
 }
 
 /// A response bound: one number for every cause it applies to, or one per named cause.
@@ -288,6 +305,7 @@ struct RawTimeline {
     max: Option<i64>,
     state_key: Option<u16>,
     after_reset: Option<Spanned<RawNumOrText>>,
+    stale_after: Option<Spanned<RawNumOrText>>,
 }
 
 #[derive(Deserialize)]
@@ -430,6 +448,9 @@ struct Sites {
     timelines: Vec<Range<usize>>,
     /// The `after_reset` value of each timeline, where given.
     timeline_after_reset: Vec<Option<Range<usize>>>,
+    /// Where each timeline's staleness bound came from (its own field, or the network's
+    /// default) and that field's path.
+    timeline_stale_after: Vec<Option<(Range<usize>, String)>>,
     conditions: Vec<Range<usize>>,
     tasks: Vec<BTreeMap<String, Range<usize>>>,
     temporal: Vec<Range<usize>>,
@@ -514,6 +535,22 @@ impl<'a> Compiler<'a> {
                     .unwrap_or(0..0),
                 format!("timeline[{i}].after_reset"),
             ),
+            ErrorSite::TimelineStaleAfter(i) => self
+                .sites
+                .timeline_stale_after
+                .get(usize::from(i))
+                .cloned()
+                .flatten()
+                .unwrap_or_else(|| {
+                    (
+                        self.sites
+                            .timelines
+                            .get(usize::from(i))
+                            .cloned()
+                            .unwrap_or(0..0),
+                        format!("timeline[{i}].stale_after"),
+                    )
+                }),
             ErrorSite::Timeline(i) => (
                 self.sites
                     .timelines
@@ -656,6 +693,26 @@ impl<'a> Compiler<'a> {
         }))
     }
 
+    /// A staleness bound: a duration, or `"never"` (None). Zero and over-long bounds are left
+    /// to the target's validator (with its code); a negative one is refused here.
+    fn stale_after(
+        &self,
+        v: &Spanned<RawNumOrText>,
+        field: &str,
+    ) -> Result<Option<u64>, TaskNetError> {
+        if matches!(v.get_ref(), RawNumOrText::Text(t) if t == "never") {
+            return Ok(None);
+        }
+        let us = self.duration_us(v, field)?;
+        u64::try_from(us).map(Some).map_err(|_| {
+            self.error(
+                v.span(),
+                field,
+                "must be a positive duration (or \"never\")".into(),
+            )
+        })
+    }
+
     fn time(
         &self,
         v: &Spanned<RawNumOrText>,
@@ -761,6 +818,29 @@ impl<'a> Compiler<'a> {
                 .insert("retry_backoff".into(), span);
             spec.header.responses.backoff = backoff;
         }
+        // The network's staleness bound, for every measured timeline without its own. The
+        // target's own range check, with its code: the uplink only carries the bounds it
+        // gives the timelines, and there may be none to carry it.
+        let default_stale_after = match &n.stale_after {
+            None => None,
+            Some(v) => {
+                let bound = self.stale_after(v, "network.stale_after")?;
+                if bound.is_some_and(|us| !autonomy::uplink::stale_bound_in_range(us)) {
+                    let e = ValidationError::new(
+                        autonomy::ValidationCode::BadStaleBound,
+                        ErrorSite::Network,
+                    );
+                    return Err(self
+                        .error(
+                            v.span(),
+                            "network.stale_after",
+                            format!("{} (validation code {})", describe(e), e.code.code()),
+                        )
+                        .with_code(e.code.code()));
+                }
+                bound.map(|us| (us, v.span()))
+            }
+        };
 
         // Timelines and their value names.
         let mut value_names: Vec<Vec<String>> = Vec::new();
@@ -828,11 +908,23 @@ impl<'a> Compiler<'a> {
                     RawNumOrText::Text(_) => 0,
                 }),
             };
+            let (stale_after_us, stale_after_site) = match (&t.stale_after, &default_stale_after) {
+                (Some(v), _) => {
+                    let field = path("stale_after");
+                    (self.stale_after(v, &field)?, Some((v.span(), field)))
+                }
+                (None, Some((us, span))) if t.state_key.is_some() => (
+                    Some(*us),
+                    Some((span.clone(), "network.stale_after".to_string())),
+                ),
+                (None, _) => (None, None),
+            };
             let timeline = TimelineSpec {
                 name: self.name(&t.name, &path("name"))?,
                 kind,
                 state_key: t.state_key.map(StateKey),
                 after_reset,
+                stale_after_us,
             };
             if spec.timelines.push(timeline).is_err() {
                 return Err(self.capacity(span, &path(""), "timelines", autonomy::MAX_TIMELINES));
@@ -841,6 +933,7 @@ impl<'a> Compiler<'a> {
             self.sites
                 .timeline_after_reset
                 .push(t.after_reset.as_ref().map(|v| v.span()));
+            self.sites.timeline_stale_after.push(stale_after_site);
             value_names.push(t.values.clone().unwrap_or_default());
             symbols.timelines.push(TimelineSymbol {
                 name: t.name.get_ref().clone(),
@@ -851,6 +944,7 @@ impl<'a> Compiler<'a> {
                 },
                 values: t.values.clone().unwrap_or_default(),
                 state_key: t.state_key.map(StateKey),
+                stale_after_us,
             });
         }
         let timeline_index = |name: &str| {
@@ -1598,6 +1692,10 @@ fn describe(e: ValidationError) -> &'static str {
              measured one is after a reset)"
         }
         RevertNotState => "only state timelines take an after_reset value",
+        BadStaleBound => "a staleness bound must be positive and at most 30 days",
+        StaleNotMeasured => {
+            "stale_after is for timelines with a state_key (only measured values age)"
+        }
     }
 }
 
@@ -1943,5 +2041,99 @@ mod tests {
             None,
         );
         assert!(e.message.contains("[\"OFF\", \"ON\"]"), "{e}");
+    }
+
+    #[test]
+    fn stale_after_compiles_per_timeline_and_network_wide() {
+        let heater =
+            "\n[[timeline]]\nname = \"Heater\"\nkind = \"state\"\nvalues = [\"OFF\", \"ON\"]\n";
+        let own = HEAD.replace(
+            "state_key = 1\n",
+            "state_key = 1\nstale_after = \"10min\"\n",
+        );
+        let net =
+            compile_str(&format!("{own}{heater}"), "t.toml").unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(net.network.timelines()[0].stale_after_us, Some(600_000_000));
+        assert_eq!(net.network.timelines()[1].stale_after_us, None);
+        assert_eq!(net.symbols.timelines[0].stale_after_us, Some(600_000_000));
+        // The uplink carries it.
+        let mut decoded = TaskNetwork::EMPTY;
+        autonomy::uplink::decode_into(&mut decoded, &net.uplink).unwrap();
+        assert_eq!(decoded.timelines()[0].stale_after_us, Some(600_000_000));
+
+        // A network-wide default: every measured timeline without its own takes it; the
+        // unmeasured one does not; a timeline's own bound (or "never") wins.
+        let with_default = |head: &str| {
+            compile_str(
+                &format!(
+                    "{}{heater}\n[[timeline]]\nname = \"Temp\"\nkind = \"cumulative\"\nmin = 0\nmax = 100\nstate_key = 2\n",
+                    head.replace("id = 1\n", "id = 1\nstale_after = \"15min\"\n")
+                ),
+                "t.toml",
+            )
+            .unwrap_or_else(|e| panic!("{e}"))
+            .network
+        };
+        let n = with_default(HEAD);
+        let bounds: Vec<Option<u64>> = n.timelines().iter().map(|t| t.stale_after_us).collect();
+        assert_eq!(bounds, [Some(900_000_000), None, Some(900_000_000)]);
+        let n = with_default(&own);
+        assert_eq!(n.timelines()[0].stale_after_us, Some(600_000_000));
+        let never = HEAD.replace(
+            "state_key = 1\n",
+            "state_key = 1\nstale_after = \"never\"\n",
+        );
+        let n = with_default(&never);
+        assert_eq!(n.timelines()[0].stale_after_us, None);
+        assert_eq!(n.timelines()[2].stale_after_us, Some(900_000_000));
+
+        // Absent everywhere: no bound (the shipped flyby has none).
+        let flyby = compile_str(FLYBY, "flyby.toml").unwrap().network;
+        assert!(flyby.timelines().iter().all(|t| t.stale_after_us.is_none()));
+    }
+
+    #[test]
+    fn bad_stale_after_is_reported_at_its_field_with_the_target_code() {
+        let own = |v: &str| {
+            HEAD.replace(
+                "state_key = 1\n",
+                &format!("state_key = 1\nstale_after = {v}\n"),
+            )
+        };
+        // Zero and over 30 days: BadStaleBound (75), at the value.
+        for v in ["\"0s\"", "0", "\"721h\""] {
+            let e = refused(&own(v), 9, "timeline[0].stale_after", Some(75));
+            assert_eq!(e.column(), 15, "{e}");
+            assert!(e.message.contains("positive and at most 30 days"), "{e}");
+        }
+        // Exactly 30 days is accepted.
+        compile_str(&own("\"720h\""), "t.toml").unwrap_or_else(|e| panic!("{e}"));
+        // On a timeline without a state key: StaleNotMeasured (76).
+        let e = refused(
+            &format!("{HEAD}\n[[timeline]]\nname = \"Slew\"\nkind = \"claimable\"\nstale_after = \"1min\"\n"),
+            13,
+            "timeline[1].stale_after",
+            Some(76),
+        );
+        assert!(e.message.contains("state_key"), "{e}");
+        // A bad network-wide default is refused at it, with the same code, even when no
+        // timeline would take it.
+        refused(
+            "[network]\nid = 1\nstale_after = \"0s\"\n",
+            3,
+            "network.stale_after",
+            Some(75),
+        );
+        refused(
+            &HEAD.replace("id = 1\n", "id = 1\nstale_after = \"31d\"\n"),
+            3,
+            "network.stale_after",
+            Some(75),
+        );
+        // Mistakes the compiler catches itself (no target code).
+        let e = refused(&own("\"-5min\""), 9, "timeline[0].stale_after", None);
+        assert!(e.message.contains("positive duration"), "{e}");
+        let e = refused(&own("\"soon\""), 9, "timeline[0].stale_after", None);
+        assert!(e.message.contains("not a duration"), "{e}");
     }
 }

@@ -165,13 +165,12 @@ fn shards_one_and_two_of_two_merge_into_the_unsharded_campaign() {
     assert!(a.results.iter().all(|r| r.variant.run % 2 == 0));
     assert_eq!(a.stats.missing_runs, [1, 3, 5, 7]);
     // Merge through JSON, as shard reports from other machines arrive.
+    let dir = tempfile::tempdir().unwrap();
     let through_json = |r: &CampaignReport| {
         hil::campaign::load_report(&{
-            let p = std::env::temp_dir().join(format!(
-                "hil-campaign-{}-{}.json",
-                std::process::id(),
-                r.shards.join("_").replace('/', "of")
-            ));
+            let p = dir
+                .path()
+                .join(format!("{}.json", r.shards.join("_").replace('/', "of")));
             hil::campaign::save_report(r, &p).unwrap();
             p
         })
@@ -235,7 +234,8 @@ fn campaign_on_the_emulated_target() {
     let _one = hil_tests::exclusive_qemu();
     let mut opts = flyby_campaign(20);
     opts.native = false;
-    // One QEMU at a time (see `exclusive_qemu`), on the image the other tests use.
+    // One QEMU at a time (it holds one slot, see `exclusive_qemu`), on the image the other
+    // tests use.
     opts.jobs = 1;
     opts.firmware = Some(hil_tests::firmware().elf.clone());
     let report = run(&opts);
@@ -280,4 +280,28 @@ fn campaign_on_the_emulated_target() {
         mid.len()
     );
     assert!(inside * 2 > mid.len(), "{summary}");
+}
+
+/// Two emulated targets at once on a two-core machine, and every run passes: a target waiting
+/// for the host stops its schedule (no host CPU), so the two QEMUs no longer starve each other.
+/// Before, with each guest busy-polling while it waited, such a campaign lost runs to "timed out
+/// after 60 s waiting for the target".
+#[test]
+fn an_emulated_campaign_runs_two_targets_at_once_and_every_run_passes() {
+    let _one = hil_tests::exclusive_qemu();
+    let mut opts = flyby_campaign(4);
+    opts.native = false;
+    // Two QEMUs on one slot (see `exclusive_qemu`): other tests may run theirs meanwhile.
+    opts.jobs = 2;
+    opts.firmware = Some(hil_tests::firmware().elf.clone());
+    let report = run(&opts);
+    let summary = hil::campaign::summary(&report);
+    assert_eq!(report.target, TargetKind::Qemu);
+    assert_eq!(report.results.len(), 4, "{summary}");
+    assert_eq!(report.stats.passed, 4, "{summary}");
+    assert!(report.passed(), "{summary}");
+    for r in &report.results {
+        assert!(r.failures.is_empty(), "{summary}");
+        assert!(r.metrics["frames"] > 0, "{summary}");
+    }
 }

@@ -10,7 +10,15 @@ use hil::qemu::{LaunchOptions, Qemu, QemuError};
 use hil::session::{Session, SessionError};
 use hil_tests::{firmware, profile, pty_pair};
 
+/// `msg` as a protocol v2 target sends it outside the rounds (an expedited frame).
 fn frame(msg: &TargetToHost) -> Vec<u8> {
+    let mut buf = [0u8; MAX_FRAME_LEN];
+    let n = encode(&fsw_bridge::link::LinkFrame::Bd(msg), &mut buf).unwrap();
+    buf[..n].to_vec()
+}
+
+/// `msg` as a protocol v1 target sent it (a bare message in the frame).
+fn v1_frame(msg: &TargetToHost) -> Vec<u8> {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let n = encode(msg, &mut buf).unwrap();
     buf[..n].to_vec()
@@ -32,16 +40,26 @@ fn a_missing_qemu_says_how_to_install_it() {
     let err = Qemu::launch(&p, &firmware().elf, &LaunchOptions::default())
         .err()
         .expect("launch must fail");
-    assert!(matches!(err, QemuError::Missing { .. }), "{err:?}");
+    assert!(matches!(err, QemuError::Missing(_)), "{err:?}");
     let text = err.to_string();
     assert!(
-        text.contains("qemu-system-ppc-not-installed-here"),
+        text.contains(
+            "`qemu-system-ppc-not-installed-here` (the binary of QEMU profile rad750-proxy)"
+        ),
+        "{text}"
+    );
+    // Where it was looked for: every directory on PATH.
+    let path = std::env::var_os("PATH").unwrap();
+    let first = std::env::split_paths(&path).next().unwrap();
+    assert!(
+        text.contains(&format!("searched: {}", first.display())),
         "{text}"
     );
     assert!(
         text.contains("apt-get install -y qemu-system-ppc"),
         "{text}"
     );
+    assert!(text.contains("HIL_QEMU"), "{text}");
 }
 
 #[test]
@@ -58,6 +76,20 @@ fn a_target_speaking_another_protocol_version_is_refused_by_name() {
         "{err:?}"
     );
     assert!(err.to_string().contains("protocol mismatch"), "{err}");
+}
+
+/// A target from before the reliable link frames its Hello without the link's envelope: it is
+/// still recognised, and refused by name rather than as garbage.
+#[test]
+fn a_protocol_v1_target_is_refused_by_name() {
+    let mut pty = pty_pair();
+    let mut session = Session::open_serial(&pty.slave_path, 115_200, None).unwrap();
+    pty.master.write_all(&v1_frame(&hello(1, [0; 8]))).unwrap();
+    let err = session.expect_hello(Duration::from_secs(10)).unwrap_err();
+    assert!(
+        matches!(err, SessionError::ProtocolMismatch { target: 1, host } if host == PROTOCOL_VERSION),
+        "{err:?}"
+    );
 }
 
 #[test]
@@ -101,9 +133,8 @@ fn a_silent_target_reports_what_was_received() {
 
 #[test]
 fn bad_scenario_files_name_file_line_and_field() {
-    let dir = std::env::temp_dir().join(format!("hil-scn-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("bad.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
     std::fs::write(
         &path,
         "name = \"bad\"\n\n[[steps]]\nexpect_hello = { reset_cause = \"lukewarm\" }\n",

@@ -68,6 +68,18 @@ fn kernel_metrics(target: &mut Session) -> BTreeMap<u16, u64> {
     collect_report(target)
 }
 
+/// An accounting report taken while the schedule runs frame after frame: periodic reports
+/// keep it running (a module with nothing to do stops it until the host sends something, and
+/// its last complete frame is then whatever it last did), every second frame, the second one
+/// kept; then periodic reports off again.
+fn running_metrics(target: &mut Session) -> BTreeMap<u16, u64> {
+    send_control(target, control::REQUEST_METRICS, StateValue::Int(2));
+    let _ = collect_report(target);
+    let report = collect_report(target);
+    send_control(target, control::REQUEST_METRICS, StateValue::Int(-1));
+    report
+}
+
 /// The metrics of the next kernel report (FRAME_NUMBER .. EVENTS_DROPPED).
 fn collect_report(target: &mut Session) -> BTreeMap<u16, u64> {
     let mut report = BTreeMap::new();
@@ -122,14 +134,19 @@ fn wait_for_log(target: &mut Session, text: &str) {
             target.logs.iter().map(|l| &l.message).collect::<Vec<_>>()
         );
         seq += 1;
-        if let Err(e) = target.ping(seq, PATIENCE) {
+        // Logs travel on the reliable link's Instrument channel: a few lockstep rounds bring
+        // in what the target queued (other messages are kept for the checks).
+        if let Err(e) = target.sync(8, PATIENCE) {
             panic!(
-                "the target stopped answering pings ({e}); QEMU log {:?}; logs: {:#?}\nother messages: {:?}",
-                target.qemu_log(),
+                "the target stopped answering rounds ({e}); the end of QEMU's output {:?}; logs: {:#?}\nother messages: {:?}",
+                target.qemu_output_tail(),
                 target.logs.iter().map(|l| &l.message).collect::<Vec<_>>(),
                 target.unsolicited
             );
         }
+        let delivered = target.take_delivered();
+        target.unsolicited.extend(delivered);
+        let _ = seq;
         std::thread::sleep(Duration::from_millis(20));
     }
 }
@@ -199,7 +216,7 @@ fn a_rogue_partition_in_an_endless_loop_delays_nobody() {
     let mut target = boot_test_image();
     target.expect_hello(PATIENCE).unwrap();
     wait_for_log(&mut target, "rogue: started, generation 0");
-    let before = kernel_metrics(&mut target);
+    let before = running_metrics(&mut target);
 
     rogue(&mut target, rogue::ENDLESS_LOOP);
     wait_for_log(&mut target, "rogue: spinning forever");
@@ -267,14 +284,14 @@ fn bad_pointers_to_every_syscall_get_errors_and_the_kernel_keeps_running() {
         .unwrap()
         .message
         .clone();
-    assert_eq!(done, "rogue: bad pointers done, 22 of 22 calls refused");
+    assert_eq!(done, "rogue: bad pointers done, 26 of 26 calls refused");
     target.ping(2, PATIENCE).expect("the kernel keeps running");
     let events = health_events(&target);
     let illegal: Vec<_> = events
         .iter()
         .filter(|e| e.0 == ROGUE as u8 && e.1 == ErrorKind::IllegalSyscall as u8)
         .collect();
-    assert_eq!(illegal.len(), 22, "{events:?}");
+    assert_eq!(illegal.len(), 26, "{events:?}");
     assert!(illegal.iter().all(|e| e.3 == HmAction::Log as u8));
     // Log and continue: the rogue was not restarted, and nobody else was touched.
     let report = kernel_metrics(&mut target);
@@ -335,7 +352,7 @@ fn accounting_run() -> Vec<BTreeMap<u16, u64>> {
 }
 
 #[test]
-fn the_same_image_gives_identical_per_window_accounting_twice() {
+fn the_same_image_gives_the_same_per_window_accounting_twice() {
     let first = accounting_run();
     let second = accounting_run();
     // Frame numbers differ with when the request arrived; the ticks must not.
@@ -349,7 +366,38 @@ fn the_same_image_gives_identical_per_window_accounting_twice() {
             })
             .collect()
     };
-    assert_eq!(ticks(&first), ticks(&second));
+    // The I/O partition's work depends on the link's traffic (it answers the lockstep rounds
+    // that bring the reports in, whenever the host runs them): its cost is budgeted
+    // (`io_frame_processing`), not compared here.
+    let without_io = |run: Vec<Vec<(u16, u64)>>| -> Vec<Vec<(u16, u64)>> {
+        run.into_iter()
+            .map(|r| {
+                r.into_iter()
+                    .filter(|(id, _)| *id & 0x000f != IO as u16)
+                    .collect()
+            })
+            .collect()
+    };
+    let (a, b) = (without_io(ticks(&first)), without_io(ticks(&second)));
+    // Within a run, every frame costs the executive and the planner exactly the same.
+    for run in [&a, &b] {
+        assert!(run.windows(2).all(|w| w[0] == w[1]), "{run:?}");
+    }
+    // Between runs, to within the one tick per span of the README: QEMU 7.2's icount now and
+    // then takes a decrementer access one instruction early or late, which moves a count that
+    // lies within an instruction of a tick boundary (seen: the planner at 1026 or 1027 ticks,
+    // the same in every frame of a run).
+    assert_eq!(a.len(), b.len());
+    for (x, y) in a.iter().zip(&b) {
+        let ids = |r: &Vec<(u16, u64)>| r.iter().map(|(id, _)| *id).collect::<Vec<_>>();
+        assert_eq!(ids(x), ids(y));
+        for ((id, u), (_, v)) in x.iter().zip(y) {
+            assert!(
+                u.abs_diff(*v) <= 1,
+                "metric {id:#x}: {u} then {v}\n{a:?}\n{b:?}"
+            );
+        }
+    }
     for report in &first {
         for p in [IO, EXECUTIVE, PLANNER] {
             assert!(report[&(metric::FRAME_TICKS + p as u16)] > 0, "{report:?}");

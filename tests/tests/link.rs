@@ -1,10 +1,12 @@
 //! The foundation under qemu-system-ppc: handshake, pings, defmt logs, warm resets with the
-//! right reset cause, corrupted frames counted by the target while the link keeps working.
+//! right reset cause, corrupted frames counted by the target while the link keeps working. The
+//! link tests run over both transports: the serial line a real board uses, and the emulated
+//! target's shared-memory link.
 use std::time::Duration;
 
 use fsw_bridge::{HostToTarget, ResetCause, TargetToHost, PROTOCOL_VERSION};
 use hil::link::corrupted_frame;
-use hil_tests::{boot, firmware, PATIENCE};
+use hil_tests::{boot, boot_over, firmware, PATIENCE, TRANSPORTS};
 
 #[test]
 fn handshake_reports_power_on_and_the_build_that_was_booted() {
@@ -17,7 +19,13 @@ fn handshake_reports_power_on_and_the_build_that_was_booted() {
 
 #[test]
 fn pings_come_back_with_their_sequence_numbers() {
-    let mut target = boot();
+    for transport in TRANSPORTS {
+        pings_come_back_over(transport);
+    }
+}
+
+fn pings_come_back_over(transport: hil::qemu::Transport) {
+    let mut target = boot_over(transport);
     target.expect_hello(PATIENCE).unwrap();
     for seq in [0u32, 1, 2, 77, 1_000_000, u32::MAX] {
         target.link.send(&HostToTarget::Ping { seq }).unwrap();
@@ -31,10 +39,10 @@ fn pings_come_back_with_their_sequence_numbers() {
         };
         match reply {
             TargetToHost::Pong { seq: got, link } => {
-                assert_eq!(got, seq);
+                assert_eq!(got, seq, "{transport:?}");
                 assert_eq!(link.errors(), 0, "no frame was corrupted: {link:?}");
             }
-            other => panic!("expected Pong {seq}, got {other:?}"),
+            other => panic!("{transport:?}: expected Pong {seq}, got {other:?}"),
         }
     }
 }
@@ -43,8 +51,8 @@ fn pings_come_back_with_their_sequence_numbers() {
 fn the_boot_log_line_is_decoded_from_defmt_with_a_timestamp() {
     let mut target = boot();
     target.expect_hello(PATIENCE).unwrap();
-    // The boot log follows the Hello; a ping round trip guarantees it has been received.
-    target.ping(1, PATIENCE).unwrap();
+    // The boot log travels on the reliable link's Instrument channel, in lockstep rounds.
+    target.sync(64, PATIENCE).unwrap();
     let line = target
         .logs
         .iter()
@@ -71,7 +79,13 @@ fn the_boot_log_line_is_decoded_from_defmt_with_a_timestamp() {
 
 #[test]
 fn qmp_system_reset_restarts_the_target_with_reset_cause_warm() {
-    let mut target = boot();
+    for transport in TRANSPORTS {
+        qmp_system_reset_over(transport);
+    }
+}
+
+fn qmp_system_reset_over(transport: hil::qemu::Transport) {
+    let mut target = boot_over(transport);
     target.expect_hello(PATIENCE).unwrap();
     target.ping(1, PATIENCE).unwrap();
     target.warm_reset_qmp().unwrap();
@@ -91,7 +105,13 @@ fn qmp_system_reset_restarts_the_target_with_reset_cause_warm() {
 
 #[test]
 fn a_reset_request_on_the_link_restarts_the_target_warm() {
-    let mut target = boot();
+    for transport in TRANSPORTS {
+        let mut target = boot_over(transport);
+        reset_request(&mut target);
+    }
+}
+
+fn reset_request(target: &mut hil::session::Session) {
     target.expect_hello(PATIENCE).unwrap();
     target.request_reset().unwrap();
     let hello = target
@@ -103,7 +123,13 @@ fn a_reset_request_on_the_link_restarts_the_target_warm() {
 
 #[test]
 fn corrupted_frames_are_counted_as_crc_errors_and_the_link_keeps_working() {
-    let mut target = boot();
+    for transport in TRANSPORTS {
+        let mut target = boot_over(transport);
+        corrupted_frames(&mut target);
+    }
+}
+
+fn corrupted_frames(target: &mut hil::session::Session) {
     target.expect_hello(PATIENCE).unwrap();
     let (_, before) = target.ping(1, PATIENCE).unwrap();
     assert_eq!(before.crc_errors, 0);
@@ -140,5 +166,35 @@ fn the_qemu_process_is_ended_when_the_session_is_dropped() {
     assert!(
         !std::path::Path::new(&format!("/proc/{pid}")).exists(),
         "QEMU pid {pid} outlived its session"
+    );
+}
+
+#[test]
+fn corrupt_frames_at_its_documented_maximum_passes() {
+    let _one = hil_tests::exclusive_qemu();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("corrupt-max.toml");
+    let max = hil::scenario::MAX_CORRUPT_PER_STEP;
+    std::fs::write(
+        &path,
+        format!(
+            "name = \"corrupt-max\"\n[[steps]]\nexpect_hello = {{ reset_cause = \"power-on\" }}\n\
+             [[steps]]\ncorrupt_frames = {{ count = {max} }}\n"
+        ),
+    )
+    .unwrap();
+    let scenario = hil::scenario::load(&path).unwrap();
+    let options = hil::options::RunOptions {
+        firmware: Some(firmware().elf.clone()),
+        ..Default::default()
+    };
+    let report = hil::run::run_scenario(&scenario, &options, &mut |_| {}).unwrap();
+    assert!(report.passed, "{}", hil::run::summary(&report));
+    assert!(
+        report.steps[1].detail.contains(&format!(
+            "target counted {max} CRC errors and still answers"
+        )),
+        "{}",
+        report.steps[1].detail
     );
 }

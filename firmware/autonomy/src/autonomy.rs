@@ -19,6 +19,17 @@
 //! 5. After the step, [`Autonomy::checkpoint_to`] the warm-restart area, and report
 //!    [`Autonomy::next_wakeup`] to the time driver.
 //!
+//! Measured values age: each state-buffer entry keeps the mission time it was measured at, and
+//! at the start of every step the core marks stale every value older than its timeline's
+//! bound ([`TimelineSpec::stale_after_us`]). A stale value reads unknown to the executive
+//! (constraints, conditions) and to the planner (the timeline is unknown from that step on,
+//! as if its owner had published unknown then), is reported once as
+//! [`TelemetryEvent::StateStale`], and is a state change like any other: MAINTAIN constraints
+//! on it are violated, the planner repairs. A newer measurement makes it fresh again. The
+//! instant a value goes stale is a wake-up ([`Autonomy::next_wakeup`]), so the core reacts at
+//! exactly that instant in lockstep. Ages are part of the checkpoint: a value restored after a
+//! long recovery goes stale when its bound says, not a bound after the restart.
+//!
 //! Partitioned later: the planner ([`crate::planner::Planner`]) and the executive
 //! ([`crate::executive::Executive`]) only exchange [`crate::planner::Commit`]s (planner to
 //! executive) and [`crate::planner::TaskReport`]s (executive to planner), so each can run in its
@@ -28,7 +39,7 @@ use crate::checkpoint::{
     self, CheckpointError, PayloadDefect, PayloadError, PayloadSite, Record, RestoreInfo,
     RestoredState, WarmRestartArea,
 };
-use crate::condition::{state_value_to_i64, StateTable};
+use crate::condition::{state_value_to_i64, StateTable, UpdateOutcome};
 use crate::executive::Executive;
 use crate::model::*;
 use crate::plan::PlanEntry;
@@ -160,7 +171,9 @@ impl Autonomy {
     fn after_load(&mut self) {
         self.planner.load(&self.network);
         self.loaded = true;
-        // Re-apply what the state buffer already told us to the new timelines.
+        // Re-apply what the state buffer already told us to the new timelines; the new
+        // network's bounds judge the ages again at the next step.
+        self.states.clear_staleness();
         let states = self.states.clone();
         for e in states.entries() {
             if let Some(t) = self.network.timeline_of_key(e.key) {
@@ -205,31 +218,89 @@ impl Autonomy {
         let Some(spec) = self.network.timeline(timeline) else {
             return VALUE_UNKNOWN;
         };
-        let fits = spec
-            .measured_value_type()
-            .is_none_or(|expected| expected.accepts(value));
-        if fits {
-            state_value_to_i64(value)
-        } else {
-            self.state_type_mismatches = self.state_type_mismatches.saturating_add(1);
-            self.last_state_type_mismatch = spec.state_key;
-            VALUE_UNKNOWN
+        match fitted_value(spec, value) {
+            Some(v) => v,
+            None => {
+                self.state_type_mismatches = self.state_type_mismatches.saturating_add(1);
+                self.last_state_type_mismatch = spec.state_key;
+                VALUE_UNKNOWN
+            }
         }
     }
 
     /// Records a state-buffer value (measured at `at`). Values of the wrong type for their
-    /// timeline are taken as unknown and counted in `state_type_mismatches`. An update
-    /// measured after [`MAX_MISSION_TIME_US`] is ignored (no time the core keeps may be later;
-    /// see [`checkpoint::MAX_RESTORED_TIME_US`]).
+    /// timeline are taken as unknown and counted in `state_type_mismatches`. An update older
+    /// than the one the core holds is ignored; a newer one is fresh until the next step judges
+    /// its age. An update measured after [`MAX_MISSION_TIME_US`] is ignored (no time the core
+    /// keeps may be later; see [`checkpoint::MAX_RESTORED_TIME_US`]).
     pub fn on_state_update(&mut self, key: StateKey, value: StateValue, at: MissionTimeUs) {
         if at.0 > MAX_MISSION_TIME_US {
             return;
         }
-        self.states.update(key, value, at);
+        let outcome = self.states.update(key, value, at);
         if let Some(t) = self.network.timeline_of_key(key) {
             let v = self.timeline_value(t, value);
-            self.planner.on_measurement(t, v, at);
+            match outcome {
+                // The table has put it in order; it replaces even a stale mark made later
+                // than `at`.
+                UpdateOutcome::Stored => self.planner.set_measurement(t, v, at),
+                // Not in the table: the planner orders its own copy by time.
+                UpdateOutcome::TableFull => self.planner.on_measurement(t, v, at),
+                UpdateOutcome::Ignored => {}
+            }
         }
+    }
+
+    /// Judges the age of every measured value whose timeline has a staleness bound at `now`:
+    /// a value older than its bound is marked stale (it reads unknown), handed to the planner
+    /// as unknown from `now`, and reported once. Values never measured keep reading as the
+    /// timeline's initial value.
+    fn judge_ages(&mut self, now: MissionTimeUs, out: &mut impl Outputs) {
+        let Self {
+            network,
+            planner,
+            states,
+            ..
+        } = self;
+        for (t, timeline) in network.timelines().iter().enumerate() {
+            let (Some(key), Some(bound), Ok(t)) =
+                (timeline.state_key, timeline.stale_after_us, u8::try_from(t))
+            else {
+                continue;
+            };
+            let Some(entry) = states.get(key).copied() else {
+                continue;
+            };
+            let stale = entry.is_older_than(bound, now);
+            if states.set_stale(key, stale).is_none() {
+                continue;
+            }
+            if stale {
+                planner.set_measurement(t, VALUE_UNKNOWN, now);
+                out.telemetry(TelemetryEvent::StateStale {
+                    key,
+                    measured_at: entry.at,
+                    at: now,
+                });
+            } else {
+                // Fresh again with no newer measurement (time stepped back): as measured.
+                let v = fitted_value(timeline, entry.value).unwrap_or(VALUE_UNKNOWN);
+                planner.set_measurement(t, v, entry.at);
+            }
+        }
+    }
+
+    /// The first instant after which a fresh measured value will be older than its bound.
+    fn next_staleness(&self) -> Option<MissionTimeUs> {
+        self.network
+            .timelines()
+            .iter()
+            .filter_map(|timeline| {
+                let bound = timeline.stale_after_us?;
+                let entry = self.states.get(timeline.state_key?)?;
+                (!entry.stale).then(|| entry.stale_from(bound))
+            })
+            .min()
     }
 
     /// Records the response to command `id`; processed at the next step, in arrival order.
@@ -287,6 +358,7 @@ impl Autonomy {
             };
             return (StepReport::default(), cost);
         }
+        self.judge_ages(now, out);
         let Self {
             network,
             planner,
@@ -330,15 +402,14 @@ impl Autonomy {
         if self.executive.work_pending() || self.restored.is_some() {
             return Some(self.now);
         }
-        let a = self.planner.next_wakeup(&self.network, self.now);
-        let b = self
+        let planner = self.planner.next_wakeup(&self.network, self.now);
+        let executive = self
             .executive
             .next_wakeup(&self.network, self.now)
             .map(|t| t.max(self.now));
-        match (a, b) {
-            (Some(a), Some(b)) => Some(a.min(b)),
-            (a, b) => a.or(b),
-        }
+        // A value going stale is a state change the core must see when it happens.
+        let staleness = self.next_staleness().map(|t| t.max(self.now));
+        [planner, executive, staleness].into_iter().flatten().min()
     }
 
     /// Writes the whole plan and execution state as a new record in `area` (the slot not
@@ -386,7 +457,9 @@ impl Autonomy {
     /// it, ends every commanded task that was running at the checkpoint (aborted if a MAINTAIN
     /// constraint no longer holds, else [`crate::FailureKind::Interrupted`]: never completed),
     /// checks the other tasks against the present state, applies contingencies and repairs the
-    /// plan. Retry counts, back-offs and failure counts come back with the rest. On error
+    /// plan. Retry counts, back-offs and failure counts come back with the rest, and so does
+    /// every state-buffer value with the time it was measured: one not published again goes
+    /// stale at the first step past its bound, however long the recovery took. On error
     /// `self` is a cold, empty core; [`CheckpointError::BadPayload`] carries why the newest
     /// record was refused.
     pub fn restore_from(
@@ -470,6 +543,13 @@ impl Autonomy {
         self.last_state_type_mismatch = meta.last_state_type_mismatch;
         Ok(())
     }
+}
+
+/// `value` as the integer timelines use, or None when it is not of `spec`'s measured type.
+fn fitted_value(spec: &TimelineSpec, value: StateValue) -> Option<i64> {
+    spec.measured_value_type()
+        .is_none_or(|expected| expected.accepts(value))
+        .then(|| state_value_to_i64(value))
 }
 
 #[derive(serde::Serialize, serde::Deserialize)]

@@ -51,6 +51,9 @@ pub const MAX_REPAIRS_PER_CYCLE: usize = 16;
 pub const MAX_MISSION_TIME_US: u64 = 1 << 60;
 /// Longest task duration or timeout an uplink may name (30 days).
 pub const MAX_DURATION_US: u64 = 30 * 86_400 * 1_000_000;
+/// Longest staleness bound a measured timeline may declare (`TimelineSpec::stale_after_us`,
+/// 30 days): a value older than its bound reads unknown to the autonomy.
+pub const MAX_STALE_AFTER_US: u64 = MAX_DURATION_US;
 /// Largest magnitude of an impact or constraint offset (1 day).
 pub const MAX_OFFSET_US: i64 = 86_400 * 1_000_000;
 /// Largest magnitude of a cumulative value, change or rate (keeps `i64` sums exact).

@@ -28,8 +28,10 @@ use fsw_bridge::MissionTimeUs;
 
 const MAGIC: u32 = 0x4D58_4350; // "MXCP"
 /// Version of the checkpoint payload layout; a record of another version is ignored. Version 2:
-/// uplink format 2 inside, the executive's retry state, the planner's failure ledger.
-pub const CHECKPOINT_FORMAT: u16 = 2;
+/// uplink format 2 inside, the executive's retry state, the planner's failure ledger. Version
+/// 3: uplink format 3 inside (staleness bounds), and each state-table entry's stale mark (its
+/// measurement time was there already).
+pub const CHECKPOINT_FORMAT: u16 = 3;
 /// Bytes of each record header.
 pub const RECORD_HEADER_LEN: usize = 20;
 

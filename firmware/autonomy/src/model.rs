@@ -24,8 +24,8 @@ pub const VALUE_UNKNOWN: i64 = i64::MIN;
 
 /// Version of the binary task-network format; the decoder refuses any other. Version 2 added
 /// the response bounds ([`ResponsePolicy`], [`ControlSpec::max_retries`] and the fields after
-/// it) and [`TimelineSpec::after_reset`].
-pub const UPLINK_FORMAT_VERSION: u16 = 2;
+/// it) and [`TimelineSpec::after_reset`]; version 3 [`TimelineSpec::stale_after_us`].
+pub const UPLINK_FORMAT_VERSION: u16 = 3;
 
 /// The windows of the planner cycle (seed 000 IV.A.3), all durations in µs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -228,6 +228,12 @@ pub struct TimelineSpec {
     /// applied at the first step after a restore, as if measured then. `None`: a reset leaves
     /// the timeline as projected. Only for state timelines without a state key.
     pub after_reset: Option<i64>,
+    /// Staleness bound of a measured timeline, in µs: a state-buffer value measured at `at`
+    /// reads [`VALUE_UNKNOWN`] to the whole core (conditions, constraints, the planner) at
+    /// every step `now` with `now - at > stale_after_us`, until a newer measurement arrives.
+    /// `None`: a measurement never goes stale. Only for timelines with a state key; positive
+    /// and at most [`MAX_STALE_AFTER_US`].
+    pub stale_after_us: Option<u64>,
 }
 
 impl TimelineSpec {

@@ -273,6 +273,19 @@ impl Planner {
         }
     }
 
+    /// Sets the measurement of `timeline` to `value` at `at`, replacing the one it holds even
+    /// if that is newer: for the core's state table, which has already put its updates in
+    /// order, and for a measurement that went stale (unknown from the step that found it so).
+    /// A change of value makes the planner run a cycle, as any state change does.
+    pub fn set_measurement(&mut self, timeline: u8, value: i64, at: MissionTimeUs) {
+        if let Some(a) = self.anchors.get_mut(usize::from(timeline)) {
+            if a.measured.is_none_or(|m| m.value != value) {
+                self.dirty = true;
+            }
+            a.measured = Some(Measurement { value, at });
+        }
+    }
+
     /// Queues an execution report from the executive (processed at the next step, in order).
     pub fn on_report(&mut self, report: TaskReport) {
         if self.reports.push(report).is_err() {

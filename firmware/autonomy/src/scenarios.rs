@@ -172,6 +172,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             },
             state_key: Some(ATTITUDE_KEY),
             after_reset: None,
+            stale_after_us: None,
         })
         .map_err(|_| CapacityExceeded)?;
     n.timelines
@@ -184,6 +185,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             },
             state_key: None,
             after_reset: None,
+            stale_after_us: None,
         })
         .map_err(|_| CapacityExceeded)?;
     n.timelines
@@ -192,6 +194,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             kind: TimelineKind::Claimable,
             state_key: None,
             after_reset: None,
+            stale_after_us: None,
         })
         .map_err(|_| CapacityExceeded)?;
     n.timelines
@@ -200,6 +203,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             kind: TimelineKind::Claimable,
             state_key: None,
             after_reset: None,
+            stale_after_us: None,
         })
         .map_err(|_| CapacityExceeded)?;
 

@@ -8,6 +8,10 @@
 //!   or a [`gave_up_code`] (the planner stopped responding to one cause of failure of a task
 //!   definition), `task` the instance concerned, `template` the ground id of its task
 //!   definition, `at` the mission time of the decision.
+//! * `StateStale { key, measured_at, at }`: the value of state key `key`, measured at
+//!   `measured_at`, was older than its timeline's staleness bound at the step at `at`; the
+//!   core reads it as unknown from then until a newer measurement arrives (once per
+//!   measurement).
 use serde::{Deserialize, Serialize};
 
 /// Why a task failed. The code is `FailureKind as u8`; contingencies select kinds with the bit

@@ -32,16 +32,28 @@ pub enum ValidationCode {
     TrailingBytes = 2,
     /// `format_version` is not [`UPLINK_FORMAT_VERSION`].
     FormatVersion = 3,
+    // 10-21: a list or name over its capacity, refused at the first item that does not fit.
+    /// More than [`MAX_TIMELINES`] timelines.
     TooManyTimelines = 10,
+    /// More than [`MAX_TASKS`] tasks.
     TooManyTasks = 11,
+    /// More than [`MAX_CONSTRAINTS_PER_TASK`] constraints in a task.
     TooManyConstraints = 12,
+    /// More than [`MAX_IMPACTS_PER_TASK`] impacts in a task.
     TooManyImpacts = 13,
+    /// More than [`MAX_CONDITIONS`] conditions.
     TooManyConditions = 14,
+    /// More than [`MAX_CONDITION_TERMS`] nodes in a condition.
     TooManyConditionTerms = 15,
+    /// More than [`MAX_CONTINGENCIES_PER_TASK`] contingencies in a task.
     TooManyContingencies = 16,
+    /// More than [`MAX_ADD_PERMISSIONS_PER_TASK`] templates a task may add.
     TooManyPermissions = 17,
+    /// More than [`MAX_TEMPORAL_CONSTRAINTS`] temporal constraints.
     TooManyTemporalConstraints = 18,
+    /// A state timeline with no values or more than [`MAX_STATE_VALUES`].
     TooManyStateValues = 19,
+    /// A name over [`MAX_NAME_LEN`] bytes.
     NameTooLong = 20,
     /// A command (a task's, or its `on_failure_command`) with more than
     /// [`fsw_bridge::MAX_COMMAND_ARGS`] arguments.
@@ -115,6 +127,10 @@ pub enum ValidationCode {
     RevertMeasuredTimeline = 73,
     /// `after_reset` on a claimable or cumulative timeline (only state timelines revert).
     RevertNotState = 74,
+    /// A `stale_after_us` bound of zero or over [`MAX_STALE_AFTER_US`].
+    BadStaleBound = 75,
+    /// `stale_after_us` on a timeline no state key measures (only measurements age).
+    StaleNotMeasured = 76,
 }
 
 impl ValidationCode {
@@ -158,6 +174,8 @@ pub enum ErrorSite {
     Timeline(u8),
     /// The `after_reset` value of a timeline.
     TimelineAfterReset(u8),
+    /// The `stale_after_us` bound of a timeline.
+    TimelineStaleAfter(u8),
     Condition {
         condition: u8,
         node: u8,
@@ -274,6 +292,13 @@ fn validate_responses(
     Ok(())
 }
 
+/// Whether `bound_us` may be a staleness bound ([`TimelineSpec::stale_after_us`]): positive
+/// and at most [`MAX_STALE_AFTER_US`]. The ground compiler checks a network-wide default with
+/// it too.
+pub fn stale_bound_in_range(bound_us: u64) -> bool {
+    (1..=MAX_STALE_AFTER_US).contains(&bound_us)
+}
+
 /// Checks timeline `index` against the ones before it.
 pub fn validate_timeline(
     index: usize,
@@ -287,6 +312,15 @@ pub fn validate_timeline(
     }
     if timeline.state_key.is_some() && earlier.iter().any(|t| t.state_key == timeline.state_key) {
         return err(DuplicateStateKey, site);
+    }
+    if let Some(bound) = timeline.stale_after_us {
+        let s = ErrorSite::TimelineStaleAfter(u8_index(index));
+        if timeline.state_key.is_none() {
+            return err(StaleNotMeasured, s);
+        }
+        if !stale_bound_in_range(bound) {
+            return err(BadStaleBound, s);
+        }
     }
     match timeline.kind {
         TimelineKind::State {
@@ -727,11 +761,13 @@ impl<'a> Reader<'a> {
         let kind = self.take(site)?;
         let state_key = self.take(site)?;
         let after_reset = self.take(ErrorSite::TimelineAfterReset(u8_index(index)))?;
+        let stale_after_us = self.take(ErrorSite::TimelineStaleAfter(u8_index(index)))?;
         Ok(TimelineSpec {
             name,
             kind,
             state_key,
             after_reset,
+            stale_after_us,
         })
     }
 

@@ -20,6 +20,7 @@ fn base(tasks: &[TaskSpec]) -> NetworkSpec {
             },
             state_key: Some(MODE_KEY),
             after_reset: None,
+            stale_after_us: None,
         })
         .unwrap();
     n.timelines
@@ -32,6 +33,7 @@ fn base(tasks: &[TaskSpec]) -> NetworkSpec {
             },
             state_key: None,
             after_reset: None,
+            stale_after_us: None,
         })
         .unwrap();
     for t in tasks {

@@ -29,6 +29,7 @@ fn network(tasks: &[TaskSpec], heater_reset: Option<i64>) -> TaskNetwork {
                 },
                 state_key,
                 after_reset,
+                stale_after_us: None,
             })
             .unwrap();
     }
@@ -236,6 +237,147 @@ fn a_violated_maintain_constraint_at_the_restore_is_reported_as_the_abort() {
             203
         )]
     );
+}
+
+/// `network` with a staleness bound on Mode.
+fn with_mode_bound(network: TaskNetwork, stale_after_us: u64) -> TaskNetwork {
+    let mut spec = network.spec().clone();
+    spec.timelines[usize::from(TL_MODE)].stale_after_us = Some(stale_after_us);
+    TaskNetwork::from_spec(spec).expect("valid")
+}
+
+fn stale_reports(out: &Recorder) -> Vec<(StateKey, MissionTimeUs, MissionTimeUs)> {
+    out.decisions
+        .iter()
+        .filter_map(|d| match *d {
+            Decision::Stale {
+                key,
+                measured_at,
+                at,
+            } => Some((key, measured_at, at)),
+            _ => None,
+        })
+        .collect()
+}
+
+/// Issue 10: a value comes back from the checkpoint with the time it was measured, so one not
+/// published again after the restart goes stale when its bound says (measured at 100 s, bound
+/// 10 min: unknown from 700 s + 1 µs), not a bound after the restart; and one already stale at
+/// the checkpoint stays stale and is not reported again.
+#[test]
+fn a_restored_value_keeps_its_measurement_time_and_goes_stale_on_time() {
+    let bound = 600 * SEC;
+    let mut a = Box::new(Autonomy::new());
+    a.load_network(with_mode_bound(network(&[], None), bound))
+        .unwrap();
+    let measured_at = MissionTimeUs(100 * SEC);
+    a.on_state_update(MODE_KEY, StateValue::Enum(1), measured_at);
+    let mut out = Recorder::default();
+    step(&mut a, &mut out, 100);
+    // Reset at 200 s, back at 400 s; the value is not published again.
+    let mut a = warm_reset(&a);
+    assert_eq!(a.states().get(MODE_KEY).map(|e| e.at), Some(measured_at));
+    let mut out = Recorder::default();
+    step(&mut a, &mut out, 400);
+    let mode = |a: &Autonomy| condition::measured_value(a.network(), TL_MODE, a.states());
+    assert_eq!(mode(&a), Some(1));
+    let stale_at = measured_at.saturating_add(bound + 1);
+    assert_eq!(a.next_wakeup(), Some(stale_at));
+    out.now = MissionTimeUs(700 * SEC);
+    a.step(MissionTimeUs(700 * SEC), StepBudget::UNLIMITED, &mut out);
+    assert_eq!(mode(&a), Some(1));
+    out.now = stale_at;
+    a.step(stale_at, StepBudget::UNLIMITED, &mut out);
+    assert_eq!(mode(&a), Some(VALUE_UNKNOWN));
+    assert_eq!(stale_reports(&out), [(MODE_KEY, measured_at, stale_at)]);
+    // Stale at the checkpoint: still stale after the next reset, and reported only once.
+    let mut a = warm_reset(&a);
+    let mut out = Recorder::default();
+    step(&mut a, &mut out, 900);
+    assert_eq!(mode(&a), Some(VALUE_UNKNOWN));
+    assert_eq!(
+        a.planner().view(a.network()).value_at(TL_MODE, a.now()),
+        VALUE_UNKNOWN
+    );
+    assert!(stale_reports(&out).is_empty());
+}
+
+/// A task running with a MAINTAIN constraint on Mode (measured ON at 190 s) is cut short by a
+/// reset; fault protection takes 30 minutes and Mode is not published again. With a 10-minute
+/// bound the restored measurement is stale at the restart: the clean abort of seed 003, after
+/// the stale report. Without a bound the core would go on trusting the 30-minute-old value:
+/// the task is merely interrupted.
+#[test]
+fn after_a_long_recovery_a_restored_value_past_its_bound_aborts_what_it_held() {
+    let run = |bound: Option<u64>| {
+        let mut t = task(1, 200, 3600);
+        t.constraints
+            .push(ConstraintSpec {
+                when: ConstraintWhen::Maintain,
+                timeline: TL_MODE,
+                require: Requirement::OneOf { mask: 0b10 },
+                start_offset_us: 0,
+                end_offset_us: 0,
+            })
+            .unwrap();
+        let plain = network(&[t], None);
+        let net = bound.map_or(plain.clone(), |b| with_mode_bound(plain, b));
+        let mut a = Box::new(Autonomy::new());
+        a.load_network(net).unwrap();
+        a.on_state_update(MODE_KEY, StateValue::Enum(1), MissionTimeUs(190 * SEC));
+        let mut out = Recorder::default();
+        step(&mut a, &mut out, 190);
+        step(&mut a, &mut out, 200);
+        let (id, _, _) = out.dispatches[0].clone();
+        a.on_command_response(id, CommandStatus::Ok);
+        step(&mut a, &mut out, 201);
+        // Reset at 300 s; back 30 minutes later.
+        let mut a = warm_reset(&a);
+        let mut out = Recorder::default();
+        step(&mut a, &mut out, 300 + 1800);
+        (transitions_of(&out, 1), stale_reports(&out), out.decisions)
+    };
+    let (transitions, stale, decisions) = run(Some(600 * SEC));
+    assert_eq!(
+        transitions,
+        [(
+            TaskState::Running,
+            TaskState::Failed(FailureKind::MaintainViolation),
+            2100
+        )]
+    );
+    assert_eq!(
+        stale,
+        [(
+            MODE_KEY,
+            MissionTimeUs(190 * SEC),
+            MissionTimeUs(2100 * SEC)
+        )]
+    );
+    let first_stale = decisions
+        .iter()
+        .position(|d| matches!(d, Decision::Stale { .. }));
+    let abort = decisions.iter().position(|d| {
+        matches!(
+            d,
+            Decision::Transition {
+                task: 1,
+                to: TaskState::Failed(_),
+                ..
+            }
+        )
+    });
+    assert!(first_stale < abort);
+    let (transitions, stale, _) = run(None);
+    assert_eq!(
+        transitions,
+        [(
+            TaskState::Running,
+            TaskState::Failed(FailureKind::Interrupted),
+            2100
+        )]
+    );
+    assert!(stale.is_empty());
 }
 
 /// A heater task turns the planner-only Heater timeline ON (POST impact); an observation

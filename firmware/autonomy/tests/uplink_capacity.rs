@@ -42,6 +42,7 @@ struct WideTimeline {
     kind: TimelineKind,
     state_key: Option<StateKey>,
     after_reset: Option<i64>,
+    stale_after_us: Option<u64>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -104,6 +105,7 @@ impl From<&NetworkSpec> for WideNetwork {
                     kind: t.kind,
                     state_key: t.state_key,
                     after_reset: t.after_reset,
+                    stale_after_us: t.stale_after_us,
                 })
                 .collect(),
             conditions: n

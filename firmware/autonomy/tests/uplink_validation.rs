@@ -383,6 +383,52 @@ fn after_reset_values_are_checked_with_their_codes() {
     }
 }
 
+/// `stale_after_us` (issue 10): only on a measured timeline, positive, at most 30 days.
+#[test]
+fn staleness_bounds_are_checked_with_their_codes() {
+    let at = ErrorSite::TimelineStaleAfter;
+    for fine in [1, 10 * MIN, MAX_STALE_AFTER_US] {
+        let mut s = flyby_spec();
+        s.timelines[TL_ATTITUDE as usize].stale_after_us = Some(fine);
+        let network = TaskNetwork::from_spec(s.clone()).expect("accepted");
+        let bytes = encode(&s);
+        assert!(validate_uplink(&bytes).is_ok());
+        // The bound survives the uplink.
+        let mut decoded = TaskNetwork::EMPTY;
+        autonomy::uplink::decode_into(&mut decoded, &bytes).unwrap();
+        assert_eq!(decoded, network);
+        assert_eq!(
+            decoded.timelines()[TL_ATTITUDE as usize].stale_after_us,
+            Some(fine)
+        );
+    }
+    for bad in [0, MAX_STALE_AFTER_US + 1, u64::MAX] {
+        let mut s = flyby_spec();
+        s.timelines[TL_ATTITUDE as usize].stale_after_us = Some(bad);
+        assert_eq!(
+            rejected(&s),
+            (ValidationCode::BadStaleBound, at(TL_ATTITUDE)),
+            "{bad}"
+        );
+    }
+    // Timelines no state key measures: nothing ages there.
+    for timeline in [TL_REQUEST, TL_GNC_SLEW, TL_INSTRUMENT] {
+        let mut s = flyby_spec();
+        s.timelines[timeline as usize].stale_after_us = Some(10 * MIN);
+        assert_eq!(
+            rejected(&s),
+            (ValidationCode::StaleNotMeasured, at(timeline))
+        );
+    }
+    // Both wrong: the missing state key is named first.
+    let mut s = flyby_spec();
+    s.timelines[TL_REQUEST as usize].stale_after_us = Some(0);
+    assert_eq!(
+        rejected(&s),
+        (ValidationCode::StaleNotMeasured, at(TL_REQUEST))
+    );
+}
+
 /// Every code keeps its number: they reach the host in `UplinkNak.reason`.
 #[test]
 fn new_validation_codes_have_their_numbers() {
@@ -391,11 +437,16 @@ fn new_validation_codes_have_their_numbers() {
     assert_eq!(ValidationCode::BadBackoff.code(), 72);
     assert_eq!(ValidationCode::RevertMeasuredTimeline.code(), 73);
     assert_eq!(ValidationCode::RevertNotState.code(), 74);
-    // And an uplink of the previous format is refused as such.
-    let mut bytes = encode(&flyby_spec());
-    bytes[0] = 1;
-    assert_eq!(
-        validate_uplink(&bytes).unwrap_err().code,
-        ValidationCode::FormatVersion
-    );
+    assert_eq!(ValidationCode::BadStaleBound.code(), 75);
+    assert_eq!(ValidationCode::StaleNotMeasured.code(), 76);
+    // And an uplink of a previous format is refused as such.
+    assert_eq!(UPLINK_FORMAT_VERSION, 3);
+    for previous in [1, 2] {
+        let mut bytes = encode(&flyby_spec());
+        bytes[0] = previous;
+        assert_eq!(
+            validate_uplink(&bytes).unwrap_err().code,
+            ValidationCode::FormatVersion
+        );
+    }
 }

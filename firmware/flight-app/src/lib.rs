@@ -9,6 +9,15 @@
 //! contents validate, comparing sequence numbers with wrap-around, and falls back to the next
 //! newest when one is refused.
 //!
+//! Task-network uplinks and ground commands are authenticated ([`sdls`], in the manner of CCSDS
+//! SDLS): a reassembled uplink is verified (key, MAC, anti-replay sequence number) before it is
+//! validated and loaded, a ground command before it is carried out, and in both cases the new
+//! anti-replay counter is written to non-volatile memory before anything takes effect. A
+//! refused one is answered with its typed reason ([`fsw_bridge::SecurityRefusal`]: as the
+//! `UplinkNak` reason code, or in `GroundCommandNak`), counted in a metric
+//! ([`metric::SECURITY_REFUSALS_FIRST`]), and changes nothing: the running plan, the counter and
+//! the holds stay as they were.
+//!
 //! The firmware runs it inside its partitions; `hil`'s native target runs the very same code in
 //! the host process, which is what makes the native-versus-emulated comparison meaningful.
 #![no_std]
@@ -17,9 +26,15 @@
 use autonomy::checkpoint::{self, Record};
 use autonomy::{Autonomy, Outputs, RestoreInfo, StepBudget, WarmRestartArea};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
-use fsw_bridge::{CommandArgs, HostToTarget, MissionTimeUs, Opcode, TargetToHost, TelemetryEvent};
+use fsw_bridge::security::{MAC_LEN, MAX_GROUND_HOLDS};
+use fsw_bridge::{
+    CommandArgs, CommandRefusal, GroundCommand, HostToTarget, MissionTimeUs, Opcode,
+    SecurityHeader, SecurityRefusal, TargetToHost, TelemetryEvent,
+};
+pub use sdls::{SecurityAssociation, SecurityStore, StoreError};
 
-/// Largest task-network uplink the application accepts, in bytes.
+/// Largest secured task-network uplink the application accepts, in bytes: the image plus its
+/// security header and trailer (`sdls::uplink::OVERHEAD`, 42 bytes).
 pub const MAX_UPLINK_BYTES: usize = 16 * 1024;
 
 /// `UplinkNak` reasons of the transfer itself (validation failures use the autonomy core's
@@ -33,6 +48,7 @@ pub mod uplink_reason {
     pub const BUSY: u16 = 0xff03;
     /// `total` was zero, or changed in the middle of a transfer.
     pub const BAD_TOTAL: u16 = 0xff04;
+    // 0xff10 and up: the security refusals, `fsw_bridge::SecurityRefusal::code()`.
 }
 
 /// Ids of the `TelemetryEvent::Metric` records this application emits (values in timebase
@@ -97,7 +113,51 @@ pub mod metric {
                 | RECOVERY_TICKS
                 | PLANNER_TICKS
                 | EXECUTIVE_TICKS
+                | FRAME_BUSY_TICKS
+                | UPLINK_VERIFY_TICKS
         )
+    }
+
+    /// Ticks the whole frame's work took (the step and the checkpoint writes): what FrameDone
+    /// carried in protocol v1. A measured cost, so it travels on the link's Instrument channel
+    /// and FrameDone stays the same on every target.
+    pub const FRAME_BUSY_TICKS: u16 = 0x100C;
+
+    /// Ground holds after an accepted SetHold or ReleaseHold (bit h: hold h), and at boot when
+    /// any is set. A mask, not a cost.
+    pub const GROUND_HOLDS: u16 = 0x100D;
+    /// Ticks the security checks of a reassembled uplink took (header, HMAC-SHA-256 over the
+    /// whole image, sequence number), from the last chunk's receipt to the verdict; the counter
+    /// write and the loading are not included. A measured cost.
+    pub const UPLINK_VERIFY_TICKS: u16 = 0x100E;
+    /// Ground commands refused since boot although authentic (their sequence number is spent):
+    /// a hold number out of range. Sent after each.
+    pub const GROUND_COMMANDS_NOT_CARRIED_OUT: u16 = 0x100F;
+    /// Uplinks and ground commands refused by the security checks since boot, one metric per
+    /// reason: id `SECURITY_REFUSALS_FIRST + SecurityRefusal::index()` (0x1010 NoKey, 0x1011
+    /// UnknownKey, 0x1012 Truncated, 0x1013 BadMac, 0x1014 Replay, 0x1015 BadLength, 0x1016
+    /// CounterNotStored), value the count for that reason; sent after each refusal.
+    pub const SECURITY_REFUSALS_FIRST: u16 = 0x1010;
+
+    /// The per-reason refusal count metric of `reason`.
+    pub const fn security_refusals(reason: fsw_bridge::SecurityRefusal) -> u16 {
+        SECURITY_REFUSALS_FIRST + reason.index() as u16
+    }
+
+    /// The reason a refusal count metric counts, if `id` is one.
+    pub fn security_refusal_of(id: u16) -> Option<fsw_bridge::SecurityRefusal> {
+        let index = id.checked_sub(SECURITY_REFUSALS_FIRST)?;
+        fsw_bridge::SecurityRefusal::ALL
+            .get(usize::from(index))
+            .copied()
+    }
+
+    /// The metrics that travel on the reliable link's Instrument channel: the measured costs,
+    /// which only a target with a CPU clock reports (the native target sends none, or zeros).
+    /// Everything else this application sends goes on the Mission channel, identical on the
+    /// native and the emulated target.
+    pub const fn is_instrument(id: u16) -> bool {
+        is_measured_cost(id)
     }
 }
 
@@ -131,12 +191,16 @@ impl CpuClock for NoClock {
     }
 }
 
-/// The memories the application checkpoints into.
+/// The memories the application checkpoints into, and where it keeps its key and counters.
 pub struct Memories<'a> {
     /// Warm-restart area: survives a warm reset.
     pub warm: &'a mut [u8],
-    /// Non-volatile memory: survives a power cycle (None where there is none).
+    /// Non-volatile memory's checkpoint areas: survive a power cycle (None where there is none).
     pub nv: Option<&'a mut [u8]>,
+    /// Non-volatile memory's security area (`sdls::nv`: the key slot and the anti-replay
+    /// counter records). None where there is none: then every authenticated uplink and
+    /// ground command is refused with `NoKey`.
+    pub security: Option<&'a mut dyn SecurityStore>,
 }
 
 /// How the application came up.
@@ -208,6 +272,13 @@ pub struct FlightApp {
     last_nv_write: Option<(usize, usize)>,
     /// The state type mismatch count last reported ([`metric::STATE_TYPE_MISMATCHES`]).
     reported_state_type_mismatches: u32,
+    /// The key, the anti-replay counter and the ground holds, read from non-volatile memory at
+    /// boot.
+    security: SecurityAssociation,
+    /// Refusals by the security checks since boot, per reason.
+    security_refusals: [u32; SecurityRefusal::COUNT],
+    /// Authentic ground commands not carried out since boot.
+    commands_not_carried_out: u32,
 }
 
 impl Default for FlightApp {
@@ -230,7 +301,20 @@ impl FlightApp {
             last_warm_write: None,
             last_nv_write: None,
             reported_state_type_mismatches: 0,
+            security: SecurityAssociation::none(),
+            security_refusals: [0; SecurityRefusal::COUNT],
+            commands_not_carried_out: 0,
         }
+    }
+
+    /// The security association read at boot and updated by every accepted message.
+    pub fn security(&self) -> &SecurityAssociation {
+        &self.security
+    }
+
+    /// Refusals by the security checks since boot for `reason`.
+    pub fn security_refusals(&self, reason: SecurityRefusal) -> u32 {
+        self.security_refusals[reason.index()]
     }
 
     pub fn autonomy(&self) -> &Autonomy {
@@ -296,6 +380,13 @@ impl FlightApp {
         downlink: &mut impl Downlink,
     ) -> BootOutcome {
         let t0 = clock.ticks();
+        self.security = SecurityAssociation::load(memories.security.as_deref_mut());
+        if self.security.holds() != 0 {
+            downlink.send(metric_event(
+                metric::GROUND_HOLDS,
+                u64::from(self.security.holds()),
+            ));
+        }
         let outcome = self.restore_newest(memories);
         if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
             self.recovering = Some(0);
@@ -370,8 +461,13 @@ impl FlightApp {
                 self.autonomy.on_command_response(*id, *status)
             }
             HostToTarget::UplinkChunk { seq, total, bytes } => {
-                self.uplink_chunk(*seq, *total, bytes, memories, downlink)
+                self.uplink_chunk(*seq, *total, bytes, memories, clock, downlink)
             }
+            HostToTarget::GroundCommand {
+                header,
+                command,
+                mac,
+            } => self.ground_command(header, command, mac, memories, downlink),
             HostToTarget::TimeGrant { frame, now, until } => {
                 // Accounts its own recovery time.
                 self.frame(*frame, *now, *until, memories, clock, downlink);
@@ -391,6 +487,7 @@ impl FlightApp {
         total: u16,
         bytes: &heapless::Vec<u8, UPLINK_CHUNK_MAX>,
         memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) {
         let mut nak = |reason| {
@@ -424,7 +521,38 @@ impl FlightApp {
             return;
         }
         self.uplink_progress = None;
-        let image = self.uplink.get(..self.uplink_len).unwrap_or(&[]);
+        let secured = self.uplink.get(..self.uplink_len).unwrap_or(&[]);
+        // Authentic and fresh first; the counter is stored before the network is even
+        // validated, so a reset at any point cannot make this uplink acceptable again.
+        let t0 = clock.ticks();
+        let checked = self.security.check_uplink(secured);
+        let t1 = clock.ticks();
+        if t1 != t0 {
+            downlink.send(metric_event(
+                metric::UPLINK_VERIFY_TICKS,
+                t1.wrapping_sub(t0),
+            ));
+        }
+        let accepted = checked.and_then(|(header, image)| {
+            self.security
+                .accept(
+                    header.sequence,
+                    self.security.holds(),
+                    memories.security.as_deref_mut(),
+                )
+                .map(|()| image)
+        });
+        let image = match accepted {
+            Ok(image) => image,
+            Err(reason) => {
+                let count = count_refusal(&mut self.security_refusals, reason);
+                downlink.send(metric_event(metric::security_refusals(reason), count));
+                return downlink.send(TargetToHost::UplinkNak {
+                    seq: total,
+                    reason: reason.code(),
+                });
+            }
+        };
         match self.autonomy.load_uplink(image) {
             // The whole network was accepted. It is checkpointed before the acknowledgement
             // (seq == total) goes out, so a network the ground saw acknowledged survives a
@@ -447,6 +575,60 @@ impl FlightApp {
         }
     }
 
+    /// An authenticated ground command: checked, its counter stored, then carried out.
+    fn ground_command(
+        &mut self,
+        header: &SecurityHeader,
+        command: &GroundCommand,
+        mac: &heapless::Vec<u8, MAC_LEN>,
+        memories: &mut Memories<'_>,
+        downlink: &mut impl Downlink,
+    ) {
+        let sequence = header.sequence;
+        let holds = self.security.holds();
+        let bit = |hold: u8| (hold < MAX_GROUND_HOLDS).then(|| 1u32 << hold);
+        let holds_after = match *command {
+            GroundCommand::NoOp => Some(holds),
+            GroundCommand::SetHold(hold) => bit(hold).map(|b| holds | b),
+            GroundCommand::ReleaseHold(hold) => bit(hold).map(|b| holds & !b),
+        };
+        // An authentic, fresh command spends its sequence number even if it cannot be carried
+        // out; the holds it sets are written in the same record as the counter.
+        let stored = self
+            .security
+            .check_command(header, command, mac)
+            .and_then(|()| {
+                self.security.accept(
+                    sequence,
+                    holds_after.unwrap_or(holds),
+                    memories.security.as_deref_mut(),
+                )
+            });
+        if let Err(reason) = stored {
+            let count = count_refusal(&mut self.security_refusals, reason);
+            downlink.send(metric_event(metric::security_refusals(reason), count));
+            return downlink.send(TargetToHost::GroundCommandNak {
+                sequence,
+                reason: CommandRefusal::Security(reason),
+            });
+        }
+        let Some(holds_after) = holds_after else {
+            self.commands_not_carried_out = self.commands_not_carried_out.saturating_add(1);
+            downlink.send(metric_event(
+                metric::GROUND_COMMANDS_NOT_CARRIED_OUT,
+                u64::from(self.commands_not_carried_out),
+            ));
+            return downlink.send(TargetToHost::GroundCommandNak {
+                sequence,
+                reason: CommandRefusal::HoldOutOfRange,
+            });
+        };
+        if holds_after != holds {
+            downlink.send(metric_event(metric::GROUND_HOLDS, u64::from(holds_after)));
+        }
+        downlink.send(TargetToHost::GroundCommandAck { sequence });
+    }
+
     fn frame(
         &mut self,
         frame: u32,
@@ -458,11 +640,7 @@ impl FlightApp {
     ) {
         if let Some((done, next_wakeup)) = self.last_done {
             if done == frame {
-                downlink.send(TargetToHost::FrameDone {
-                    frame,
-                    next_wakeup,
-                    busy_ticks: 0,
-                });
+                downlink.send(TargetToHost::FrameDone { frame, next_wakeup });
                 return;
             }
         }
@@ -512,6 +690,7 @@ impl FlightApp {
             downlink.send(metric_event(metric::PLANNER_TICKS, cost.planner));
             downlink.send(metric_event(metric::EXECUTIVE_TICKS, cost.executive));
             downlink.send(metric_event(metric::CHECKPOINT_TICKS, t2.wrapping_sub(t1)));
+            downlink.send(metric_event(metric::FRAME_BUSY_TICKS, t2.wrapping_sub(t0)));
         }
         let next_wakeup = if report.planner_pending {
             Some(now)
@@ -519,12 +698,15 @@ impl FlightApp {
             self.autonomy.next_wakeup()
         };
         self.last_done = Some((frame, next_wakeup));
-        downlink.send(TargetToHost::FrameDone {
-            frame,
-            next_wakeup,
-            busy_ticks: u32::try_from(t2.wrapping_sub(t0)).unwrap_or(u32::MAX),
-        });
+        downlink.send(TargetToHost::FrameDone { frame, next_wakeup });
     }
+}
+
+/// Count a refusal for `reason`; the new count.
+fn count_refusal(counts: &mut [u32; SecurityRefusal::COUNT], reason: SecurityRefusal) -> u64 {
+    let count = &mut counts[reason.index()];
+    *count = count.saturating_add(1);
+    u64::from(*count)
 }
 
 fn metric_event(id: u16, value: u64) -> TargetToHost {
@@ -553,6 +735,7 @@ mod tests {
         let mut mem = Memories {
             warm: &mut warm,
             nv: Some(&mut nv),
+            security: None,
         };
         let mut out: Vec<TargetToHost> = Vec::new();
         app.handle(&grant(7, 10), &mut mem, &mut NoClock, &mut |m| out.push(m));
@@ -591,11 +774,73 @@ mod tests {
             .collect()
     }
 
-    fn uplink_flyby(app: &mut FlightApp, mem: &mut Memories<'_>) {
+    /// The key the tests provision.
+    const TEST_KEY: sdls::Key = sdls::Key {
+        spi: 1,
+        bytes: [0x11; 32],
+    };
+
+    /// A security area in memory; `fail_writes` makes every write fail.
+    struct TestNv {
+        area: [u8; sdls::nv::SECURITY_AREA_BYTES],
+        fail_writes: bool,
+    }
+
+    impl TestNv {
+        fn provisioned(key: &sdls::Key) -> Self {
+            let mut area = [0u8; sdls::nv::SECURITY_AREA_BYTES];
+            sdls::nv::provision(&mut area, key).unwrap();
+            Self {
+                area,
+                fail_writes: false,
+            }
+        }
+    }
+
+    impl SecurityStore for TestNv {
+        fn read(
+            &mut self,
+            area: &mut [u8; sdls::nv::SECURITY_AREA_BYTES],
+        ) -> Result<(), StoreError> {
+            area.copy_from_slice(&self.area);
+            Ok(())
+        }
+        fn write(&mut self, offset: usize, bytes: &[u8]) -> Result<(), StoreError> {
+            if self.fail_writes {
+                return Err(StoreError);
+            }
+            self.area
+                .get_mut(offset..offset + bytes.len())
+                .ok_or(StoreError)?
+                .copy_from_slice(bytes);
+            Ok(())
+        }
+    }
+
+    fn flyby_image() -> Vec<u8> {
         let network = autonomy::scenarios::flyby_network().unwrap();
         let mut image = std::vec![0u8; MAX_UPLINK_BYTES];
         let len = network.encode(&mut image).unwrap();
-        let chunks: Vec<&[u8]> = image[..len].chunks(UPLINK_CHUNK_MAX).collect();
+        image.truncate(len);
+        image
+    }
+
+    /// The flyby network secured with `key` and sequence number `sequence`.
+    fn signed_flyby(key: &sdls::Key, sequence: u32) -> Vec<u8> {
+        let image = flyby_image();
+        let mut out = std::vec![0u8; image.len() + sdls::uplink::OVERHEAD];
+        let n = sdls::uplink::sign_into(key, sequence, &image, &mut out).unwrap();
+        out.truncate(n);
+        out
+    }
+
+    /// Send `secured` in chunks; everything the application answered.
+    fn send_uplink(
+        app: &mut FlightApp,
+        mem: &mut Memories<'_>,
+        secured: &[u8],
+    ) -> Vec<TargetToHost> {
+        let chunks: Vec<&[u8]> = secured.chunks(UPLINK_CHUNK_MAX).collect();
         let mut out: Vec<TargetToHost> = Vec::new();
         for (seq, c) in chunks.iter().enumerate() {
             let msg = HostToTarget::UplinkChunk {
@@ -605,23 +850,37 @@ mod tests {
             };
             app.handle(&msg, mem, &mut NoClock, &mut |m| out.push(m));
         }
-        assert_eq!(
-            out.last(),
-            Some(&TargetToHost::UplinkAck {
-                seq: chunks.len() as u16
-            })
-        );
+        out
+    }
+
+    /// The verdict on a whole uplink: the reply with `seq == total`.
+    fn verdict(out: &[TargetToHost]) -> Option<&TargetToHost> {
+        out.iter().rev().find(|m| {
+            matches!(m, TargetToHost::UplinkNak { .. })
+                || matches!(m, TargetToHost::UplinkAck { .. })
+        })
+    }
+
+    /// Boot `app` (which reads the key) and uplink the flyby with sequence number 1.
+    fn boot_and_uplink_flyby(app: &mut FlightApp, mem: &mut Memories<'_>) {
+        app.boot(mem, &mut NoClock, &mut |_| {});
+        let secured = signed_flyby(&TEST_KEY, 1);
+        let total = secured.len().div_ceil(UPLINK_CHUNK_MAX) as u16;
+        let out = send_uplink(app, mem, &secured);
+        assert_eq!(out.last(), Some(&TargetToHost::UplinkAck { seq: total }));
     }
 
     #[test]
     fn each_frame_reports_its_planner_and_executive_parts_and_a_restore_its_recovery() {
         let mut app = std::boxed::Box::new(FlightApp::new());
         let mut warm = std::vec![0u8; 60 * 1024];
+        let mut security = TestNv::provisioned(&TEST_KEY);
         let mut mem = Memories {
             warm: &mut warm,
             nv: None,
+            security: Some(&mut security),
         };
-        uplink_flyby(&mut app, &mut mem);
+        boot_and_uplink_flyby(&mut app, &mut mem);
         let mut out: Vec<TargetToHost> = Vec::new();
         let mut clock = Counting(0);
         app.handle(&grant(0, 9 * 3600), &mut mem, &mut clock, &mut |m| {
@@ -663,11 +922,13 @@ mod tests {
     fn state_updates_of_the_wrong_type_are_reported_the_first_time_and_when_the_count_changes() {
         let mut app = std::boxed::Box::new(FlightApp::new());
         let mut warm = std::vec![0u8; 60 * 1024];
+        let mut security = TestNv::provisioned(&TEST_KEY);
         let mut mem = Memories {
             warm: &mut warm,
             nv: None,
+            security: Some(&mut security),
         };
-        uplink_flyby(&mut app, &mut mem);
+        boot_and_uplink_flyby(&mut app, &mut mem);
         let key = autonomy::scenarios::ATTITUDE_KEY;
         let update = |value| HostToTarget::StateUpdate {
             key,
@@ -738,6 +999,7 @@ mod tests {
         let mut mem = Memories {
             warm: &mut warm,
             nv: Some(&mut nv),
+            security: None,
         };
         let mut out: Vec<TargetToHost> = Vec::new();
         let chunk = |seq, total| HostToTarget::UplinkChunk {
@@ -770,5 +1032,383 @@ mod tests {
             Some(TargetToHost::UplinkNak { seq: 1, .. })
         ));
         assert!(app.autonomy().network().tasks().is_empty());
+    }
+
+    /// The whole plan and execution state, to show that a refusal left it untouched.
+    fn state_image(app: &FlightApp) -> Vec<u8> {
+        let mut buf = std::vec![0u8; 64 * 1024];
+        let n = app.autonomy().encode_state(&mut buf).unwrap();
+        buf.truncate(n);
+        buf
+    }
+
+    /// Security refusal metrics in `out`: (reason, count so far).
+    fn refusal_metrics(out: &[TargetToHost]) -> Vec<(SecurityRefusal, u64)> {
+        out.iter()
+            .filter_map(|m| match m {
+                TargetToHost::Telemetry(TelemetryEvent::Metric { id, value }) => {
+                    metric::security_refusal_of(*id).map(|r| (r, *value))
+                }
+                _ => None,
+            })
+            .collect()
+    }
+
+    fn nak_reason(out: &[TargetToHost]) -> Option<SecurityRefusal> {
+        match verdict(out) {
+            Some(TargetToHost::UplinkNak { reason, .. }) => SecurityRefusal::from_code(*reason),
+            _ => None,
+        }
+    }
+
+    /// An application with the flyby loaded (sequence 1) and one frame run, so its state is
+    /// not that of a freshly loaded network, with nothing owned by the executive yet (so a
+    /// second uplink, if accepted, would load).
+    fn flying(mem: &mut Memories<'_>) -> std::boxed::Box<FlightApp> {
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        boot_and_uplink_flyby(&mut app, mem);
+        app.handle(&grant(0, 9 * 3600), mem, &mut NoClock, &mut |_| {});
+        assert!(app.autonomy().executive().entries().is_empty());
+        app
+    }
+
+    #[test]
+    fn forged_replayed_wrong_key_unknown_key_and_truncated_uplinks_are_refused_counted_and_change_nothing(
+    ) {
+        let mut warm = std::vec![0u8; 60 * 1024];
+        let mut security = TestNv::provisioned(&TEST_KEY);
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: None,
+            security: Some(&mut security),
+        };
+        let mut app = flying(&mut mem);
+        let before = state_image(&app);
+
+        let mut forged = signed_flyby(&TEST_KEY, 2);
+        forged[sdls::uplink::HEADER_LEN + 7] ^= 0x01;
+        let wrong_key = signed_flyby(
+            &sdls::Key {
+                spi: TEST_KEY.spi,
+                bytes: [0x22; 32],
+            },
+            2,
+        );
+        let unknown_key = signed_flyby(
+            &sdls::Key {
+                spi: 9,
+                bytes: TEST_KEY.bytes,
+            },
+            2,
+        );
+        let good = signed_flyby(&TEST_KEY, 2);
+        let truncated = good[..good.len() - 1].to_vec();
+        let mut long = good.clone();
+        long.push(0);
+        let replayed = signed_flyby(&TEST_KEY, 1);
+        let cases = [
+            (forged, SecurityRefusal::BadMac),
+            (wrong_key, SecurityRefusal::BadMac),
+            (unknown_key, SecurityRefusal::UnknownKey),
+            (truncated, SecurityRefusal::Truncated),
+            (long, SecurityRefusal::BadLength),
+            (replayed, SecurityRefusal::Replay),
+        ];
+        for (bytes, reason) in &cases {
+            let out = send_uplink(&mut app, &mut mem, bytes);
+            assert_eq!(nak_reason(&out), Some(*reason), "{out:?}");
+            let count = cases
+                .iter()
+                .take_while(|(b, _)| !core::ptr::eq(b, bytes))
+                .filter(|(_, r)| r == reason)
+                .count() as u64
+                + 1;
+            assert_eq!(refusal_metrics(&out), [(*reason, count)]);
+            assert_eq!(state_image(&app), before, "{reason:?} changed the plan");
+            assert_eq!(app.security().last_sequence(), 1);
+        }
+        assert_eq!(app.security_refusals(SecurityRefusal::BadMac), 2);
+        // The same network, signed properly with a fresh number, is loaded: the checks above
+        // were what kept the others out.
+        let out = send_uplink(&mut app, &mut mem, &good);
+        assert!(matches!(
+            verdict(&out),
+            Some(TargetToHost::UplinkAck { .. })
+        ));
+        assert_ne!(state_image(&app), before);
+        assert_eq!(app.security().last_sequence(), 2);
+    }
+
+    #[test]
+    fn without_a_key_or_without_non_volatile_memory_every_uplink_is_refused_with_no_key() {
+        fn refused_with_no_key<'a>(warm: &'a mut [u8], store: Option<&'a mut dyn SecurityStore>) {
+            let mut mem = Memories {
+                warm,
+                nv: None,
+                security: store,
+            };
+            let mut app = std::boxed::Box::new(FlightApp::new());
+            app.boot(&mut mem, &mut NoClock, &mut |_| {});
+            let out = send_uplink(&mut app, &mut mem, &signed_flyby(&TEST_KEY, 1));
+            assert_eq!(nak_reason(&out), Some(SecurityRefusal::NoKey));
+            assert!(app.autonomy().network().tasks().is_empty());
+        }
+        let mut blank = TestNv::provisioned(&TEST_KEY);
+        blank.area = [0; sdls::nv::SECURITY_AREA_BYTES];
+        refused_with_no_key(&mut std::vec![0u8; 60 * 1024], Some(&mut blank));
+        refused_with_no_key(&mut std::vec![0u8; 60 * 1024], None);
+    }
+
+    #[test]
+    fn an_uplink_whose_counter_cannot_be_stored_is_refused_and_not_loaded() {
+        let mut warm = std::vec![0u8; 60 * 1024];
+        let mut security = TestNv::provisioned(&TEST_KEY);
+        security.fail_writes = true;
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: None,
+            security: Some(&mut security),
+        };
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        app.boot(&mut mem, &mut NoClock, &mut |_| {});
+        let out = send_uplink(&mut app, &mut mem, &signed_flyby(&TEST_KEY, 1));
+        assert_eq!(nak_reason(&out), Some(SecurityRefusal::CounterNotStored));
+        assert!(app.autonomy().network().tasks().is_empty());
+        assert_eq!(app.security().last_sequence(), 0);
+    }
+
+    #[test]
+    fn the_counter_survives_a_warm_reset_and_a_power_cycle_so_the_last_uplink_cannot_be_replayed() {
+        let mut warm = std::vec![0u8; 60 * 1024];
+        let mut security = TestNv::provisioned(&TEST_KEY);
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: None,
+            security: Some(&mut security),
+        };
+        let _ = flying(&mut mem);
+        let last = signed_flyby(&TEST_KEY, 1);
+        // Warm reset: RAM is a fresh application, the warm area and the NV stay.
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        assert!(matches!(
+            app.boot(&mut mem, &mut NoClock, &mut |_| {}),
+            BootOutcome::RestoredWarm(_)
+        ));
+        let before = state_image(&app);
+        let out = send_uplink(&mut app, &mut mem, &last);
+        assert_eq!(nak_reason(&out), Some(SecurityRefusal::Replay));
+        assert_eq!(state_image(&app), before);
+        // Power cycle: the warm area is gone too (no plan to restore), the NV stays.
+        mem.warm.fill(0);
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        assert_eq!(
+            app.boot(&mut mem, &mut NoClock, &mut |_| {}),
+            BootOutcome::Cold
+        );
+        let out = send_uplink(&mut app, &mut mem, &last);
+        assert_eq!(nak_reason(&out), Some(SecurityRefusal::Replay));
+        assert!(app.autonomy().network().tasks().is_empty());
+        let out = send_uplink(&mut app, &mut mem, &signed_flyby(&TEST_KEY, 2));
+        assert!(matches!(
+            verdict(&out),
+            Some(TargetToHost::UplinkAck { .. })
+        ));
+    }
+
+    fn command(key: &sdls::Key, sequence: u32, command: GroundCommand) -> HostToTarget {
+        let header = SecurityHeader {
+            spi: key.spi,
+            sequence,
+        };
+        HostToTarget::GroundCommand {
+            header,
+            command,
+            mac: heapless::Vec::from_slice(&sdls::command_mac(key, &header, &command)).unwrap(),
+        }
+    }
+
+    fn send(app: &mut FlightApp, mem: &mut Memories<'_>, msg: &HostToTarget) -> Vec<TargetToHost> {
+        let mut out = Vec::new();
+        app.handle(msg, mem, &mut NoClock, &mut |m| out.push(m));
+        out
+    }
+
+    fn security_nak(reason: SecurityRefusal, sequence: u32) -> TargetToHost {
+        TargetToHost::GroundCommandNak {
+            sequence,
+            reason: CommandRefusal::Security(reason),
+        }
+    }
+
+    #[test]
+    fn ground_commands_are_acknowledged_or_refused_with_their_reason_and_holds_survive_resets() {
+        let mut warm = std::vec![0u8; 60 * 1024];
+        let mut security = TestNv::provisioned(&TEST_KEY);
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: None,
+            security: Some(&mut security),
+        };
+        let mut app = flying(&mut mem);
+        let before = state_image(&app);
+        let out = send(
+            &mut app,
+            &mut mem,
+            &command(&TEST_KEY, 2, GroundCommand::NoOp),
+        );
+        assert_eq!(out, [TargetToHost::GroundCommandAck { sequence: 2 }]);
+        let out = send(
+            &mut app,
+            &mut mem,
+            &command(&TEST_KEY, 5, GroundCommand::SetHold(3)),
+        );
+        assert_eq!(
+            out,
+            [
+                metric_event(metric::GROUND_HOLDS, 1 << 3),
+                TargetToHost::GroundCommandAck { sequence: 5 }
+            ]
+        );
+        // Refusals: each with its reason and count, holds and counter unchanged.
+        let mut forged = command(&TEST_KEY, 6, GroundCommand::SetHold(4));
+        if let HostToTarget::GroundCommand { mac, .. } = &mut forged {
+            mac[0] ^= 0x80;
+        }
+        let mut truncated = command(&TEST_KEY, 6, GroundCommand::ReleaseHold(3));
+        if let HostToTarget::GroundCommand { mac, .. } = &mut truncated {
+            mac.truncate(MAC_LEN - 4);
+        }
+        let wrong_key = sdls::Key {
+            spi: TEST_KEY.spi,
+            bytes: [0x33; 32],
+        };
+        let unknown_key = sdls::Key {
+            spi: 2,
+            bytes: TEST_KEY.bytes,
+        };
+        let cases = [
+            (forged, SecurityRefusal::BadMac, 6),
+            (truncated, SecurityRefusal::Truncated, 6),
+            (
+                command(&wrong_key, 6, GroundCommand::ReleaseHold(3)),
+                SecurityRefusal::BadMac,
+                6,
+            ),
+            (
+                command(&unknown_key, 6, GroundCommand::ReleaseHold(3)),
+                SecurityRefusal::UnknownKey,
+                6,
+            ),
+            (
+                command(&TEST_KEY, 5, GroundCommand::SetHold(3)),
+                SecurityRefusal::Replay,
+                5,
+            ),
+            (
+                command(&TEST_KEY, 4, GroundCommand::ReleaseHold(3)),
+                SecurityRefusal::Replay,
+                4,
+            ),
+        ];
+        for (msg, reason, sequence) in &cases {
+            let out = send(&mut app, &mut mem, msg);
+            assert_eq!(
+                out.last(),
+                Some(&security_nak(*reason, *sequence)),
+                "{msg:?}"
+            );
+            assert_eq!(refusal_metrics(&out).len(), 1);
+            assert_eq!(refusal_metrics(&out)[0].0, *reason);
+            assert_eq!(app.security().holds(), 1 << 3);
+            assert_eq!(app.security().last_sequence(), 5);
+        }
+        assert_eq!(app.security_refusals(SecurityRefusal::BadMac), 2);
+        assert_eq!(app.security_refusals(SecurityRefusal::Replay), 2);
+        // Authentic but out of range: refused, its number spent, nothing else changed.
+        let out = send(
+            &mut app,
+            &mut mem,
+            &command(&TEST_KEY, 7, GroundCommand::SetHold(40)),
+        );
+        assert_eq!(
+            out.last(),
+            Some(&TargetToHost::GroundCommandNak {
+                sequence: 7,
+                reason: CommandRefusal::HoldOutOfRange
+            })
+        );
+        assert_eq!(app.security().last_sequence(), 7);
+        assert_eq!(app.security().holds(), 1 << 3);
+        // None of it touched the plan.
+        assert_eq!(state_image(&app), before);
+
+        // Warm reset and power cycle: the hold and the counter come back from NV.
+        for power_cycle in [false, true] {
+            if power_cycle {
+                mem.warm.fill(0);
+            }
+            let mut app = std::boxed::Box::new(FlightApp::new());
+            let mut out = Vec::new();
+            app.boot(&mut mem, &mut NoClock, &mut |m| out.push(m));
+            assert_eq!(
+                out.first(),
+                Some(&metric_event(metric::GROUND_HOLDS, 1 << 3))
+            );
+            assert_eq!(app.security().holds(), 1 << 3);
+            let out = send(
+                &mut app,
+                &mut mem,
+                &command(&TEST_KEY, 5, GroundCommand::ReleaseHold(3)),
+            );
+            assert_eq!(out.last(), Some(&security_nak(SecurityRefusal::Replay, 5)));
+        }
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        app.boot(&mut mem, &mut NoClock, &mut |_| {});
+        let out = send(
+            &mut app,
+            &mut mem,
+            &command(&TEST_KEY, 8, GroundCommand::ReleaseHold(3)),
+        );
+        assert_eq!(
+            out,
+            [
+                metric_event(metric::GROUND_HOLDS, 0),
+                TargetToHost::GroundCommandAck { sequence: 8 }
+            ]
+        );
+    }
+
+    #[test]
+    fn an_uplink_signature_is_not_a_command_signature() {
+        // The same key, header and bytes under the other service: never accepted.
+        let mut warm = std::vec![0u8; 60 * 1024];
+        let mut security = TestNv::provisioned(&TEST_KEY);
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: None,
+            security: Some(&mut security),
+        };
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        app.boot(&mut mem, &mut NoClock, &mut |_| {});
+        let header = SecurityHeader {
+            spi: TEST_KEY.spi,
+            sequence: 3,
+        };
+        let (bytes, len) = sdls::command_bytes(&GroundCommand::NoOp);
+        let uplink_tag = sdls::mac::tag(
+            &TEST_KEY.bytes,
+            &[
+                &[sdls::Service::Uplink as u8],
+                &sdls::mac::header_bytes(&header),
+                &bytes[..len],
+            ],
+        );
+        let msg = HostToTarget::GroundCommand {
+            header,
+            command: GroundCommand::NoOp,
+            mac: heapless::Vec::from_slice(&uplink_tag).unwrap(),
+        };
+        let out = send(&mut app, &mut mem, &msg);
+        assert_eq!(out.last(), Some(&security_nak(SecurityRefusal::BadMac, 3)));
     }
 }

@@ -3,7 +3,9 @@
 //! whose payload validates, comparing numbers with wrap-around as the A/B slot choice does.
 use autonomy::checkpoint::{records, WarmRestartArea};
 use autonomy::scenarios::{ATTITUDE_KEY, NADIR};
-use flight_app::{BootOutcome, FlightApp, Memories, NoClock, MAX_UPLINK_BYTES};
+use flight_app::{
+    BootOutcome, FlightApp, Memories, NoClock, SecurityStore, StoreError, MAX_UPLINK_BYTES,
+};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::{HostToTarget, MissionTimeUs, StateValue, TargetToHost};
 
@@ -27,19 +29,64 @@ fn grant(frame: u32, minutes: u64) -> HostToTarget {
     }
 }
 
+/// A security area holding `KEY` (the anti-replay counter and holds as a fresh board has them).
+struct ProvisionedNv([u8; sdls::nv::SECURITY_AREA_BYTES]);
+
+impl SecurityStore for ProvisionedNv {
+    fn read(&mut self, area: &mut [u8; sdls::nv::SECURITY_AREA_BYTES]) -> Result<(), StoreError> {
+        area.copy_from_slice(&self.0);
+        Ok(())
+    }
+    fn write(&mut self, offset: usize, bytes: &[u8]) -> Result<(), StoreError> {
+        self.0
+            .get_mut(offset..offset + bytes.len())
+            .ok_or(StoreError)?
+            .copy_from_slice(bytes);
+        Ok(())
+    }
+}
+
+const KEY: sdls::Key = sdls::Key {
+    spi: 3,
+    bytes: [0x5c; 32],
+};
+
+/// Boots `app` on `mem` (still empty: it comes up cold) with `KEY` provisioned, and uplinks the
+/// flyby secured with sequence number 1; the network must load.
 fn uplink_flyby(app: &mut FlightApp, mem: &mut Memories<'_>) {
+    let mut area = [0u8; sdls::nv::SECURITY_AREA_BYTES];
+    sdls::nv::provision(&mut area, &KEY).unwrap();
+    let mut store = ProvisionedNv(area);
+    let mut mem = Memories {
+        warm: &mut *mem.warm,
+        nv: mem.nv.as_deref_mut(),
+        security: Some(&mut store),
+    };
+    assert_eq!(
+        app.boot(&mut mem, &mut NoClock, &mut |_| {}),
+        BootOutcome::Cold
+    );
     let network = autonomy::scenarios::flyby_network().unwrap();
     let mut image = vec![0u8; MAX_UPLINK_BYTES];
     let len = network.encode(&mut image).unwrap();
-    let chunks: Vec<&[u8]> = image[..len].chunks(UPLINK_CHUNK_MAX).collect();
+    let mut secured = vec![0u8; len + sdls::uplink::OVERHEAD];
+    let len = sdls::uplink::sign_into(&KEY, 1, &image[..len], &mut secured).unwrap();
+    let chunks: Vec<&[u8]> = secured[..len].chunks(UPLINK_CHUNK_MAX).collect();
+    let mut out = Vec::new();
     for (seq, c) in chunks.iter().enumerate() {
         let msg = HostToTarget::UplinkChunk {
             seq: seq as u16,
             total: chunks.len() as u16,
             bytes: heapless::Vec::from_slice(c).unwrap(),
         };
-        send(app, mem, &msg);
+        out = send(app, &mut mem, &msg);
     }
+    assert_eq!(
+        out.last(),
+        Some(&TargetToHost::UplinkAck {
+            seq: chunks.len() as u16
+        })
+    );
 }
 
 /// Checkpoint payloads of the flyby at 9:50 + `frames` minutes, one per frame.
@@ -48,6 +95,7 @@ fn flyby_payloads(frames: u64) -> Vec<Vec<u8>> {
     let mut mem = Memories {
         warm: &mut warm,
         nv: Some(&mut nv),
+        security: None,
     };
     let mut app = new_app();
     uplink_flyby(&mut app, &mut mem);
@@ -72,7 +120,11 @@ fn put(area: &mut [u8], sequence: u32, payload: &[u8]) {
 
 fn boot(warm: &mut [u8], nv: &mut [u8]) -> (BootOutcome, Box<FlightApp>) {
     let mut app = new_app();
-    let mut mem = Memories { warm, nv: Some(nv) };
+    let mut mem = Memories {
+        warm,
+        nv: Some(nv),
+        security: None,
+    };
     let outcome = app.boot(&mut mem, &mut NoClock, &mut |_| {});
     (outcome, app)
 }
@@ -116,6 +168,7 @@ fn both_memories_carry_one_sequence_number_per_checkpoint_even_after_a_power_cyc
         let mut mem = Memories {
             warm: &mut warm,
             nv: Some(&mut nv),
+            security: None,
         };
         let mut app = new_app();
         uplink_flyby(&mut app, &mut mem);
@@ -132,6 +185,7 @@ fn both_memories_carry_one_sequence_number_per_checkpoint_even_after_a_power_cyc
     let mut mem = Memories {
         warm: &mut warm,
         nv: Some(&mut nv),
+        security: None,
     };
     send(&mut app, &mut mem, &grant(5, 600));
     // The warm area continues the numbering instead of starting again at 1.
@@ -146,6 +200,7 @@ fn a_torn_non_volatile_write_after_a_power_cycle_does_not_hide_the_newer_warm_ch
         let mut mem = Memories {
             warm: &mut warm,
             nv: Some(&mut nv),
+            security: None,
         };
         let mut app = new_app();
         uplink_flyby(&mut app, &mut mem);
@@ -159,6 +214,7 @@ fn a_torn_non_volatile_write_after_a_power_cycle_does_not_hide_the_newer_warm_ch
         let mut mem = Memories {
             warm: &mut warm,
             nv: Some(&mut nv),
+            security: None,
         };
         for f in 40..43 {
             send(&mut app, &mut mem, &grant(f, 590 + u64::from(f)));
@@ -209,6 +265,7 @@ fn a_restored_application_runs_on_from_the_checkpoint_it_chose() {
     let mut mem = Memories {
         warm: &mut warm,
         nv: Some(&mut nv),
+        security: None,
     };
     send(
         &mut app,

@@ -1,11 +1,12 @@
 //! The fuzz targets of `firmware/flight-app/fuzz`, run on stable: each over its seed corpus and
 //! a fixed number of deterministic mutations (the long campaigns run under cargo-fuzz). The
-//! seeds must reach the deep paths: uplinks that load, frames that fly, resets that restore.
+//! seeds must reach the deep paths: uplinks that load, frames that fly, resets that restore,
+//! and every verdict of the security checks.
 #[path = "../fuzz/src/lib.rs"]
 #[allow(dead_code)]
 mod fuzz_logic;
 
-use fsw_bridge::HostToTarget;
+use fsw_bridge::{HostToTarget, SecurityRefusal};
 use fuzz_logic::{bounded, decode_ops, Harness, Op};
 use std::path::Path;
 
@@ -90,4 +91,74 @@ fn chunk_seeds_deliver_whole_networks() {
         acknowledged >= 3,
         "{acknowledged} seeds load a network; {REGENERATE}"
     );
+}
+
+#[test]
+fn message_seeds_reach_every_security_verdict_the_harness_can_produce() {
+    let mut total = fuzz_logic::Verdicts::default();
+    for (_, bytes) in seeds("messages") {
+        let mut h = Harness::new();
+        for op in &decode_ops(&bytes) {
+            h.apply(op);
+        }
+        let v = h.verdicts();
+        for (sum, n) in total.security_refusals.iter_mut().zip(v.security_refusals) {
+            *sum += n;
+        }
+        total.invalid += v.invalid;
+        total.busy += v.busy;
+        total.loaded += v.loaded;
+        total.commands += v.commands;
+        total.commands_not_carried_out += v.commands_not_carried_out;
+    }
+    // The harness always provisions its key, so NoKey cannot happen (flight-app's own tests
+    // cover a board without one).
+    for reason in SecurityRefusal::ALL {
+        let n = total.security_refusals[reason.index()];
+        if reason == SecurityRefusal::NoKey {
+            assert_eq!(n, 0);
+        } else {
+            assert!(
+                n > 0,
+                "no seed is refused as {reason:?}: {total:?}; {REGENERATE}"
+            );
+        }
+    }
+    assert!(total.loaded >= 10, "{total:?}; {REGENERATE}");
+    assert!(
+        total.invalid > 0 && total.busy > 0,
+        "authentic uplinks refused by validation and as busy: {total:?}"
+    );
+    assert!(
+        total.commands > 0 && total.commands_not_carried_out > 0,
+        "{total:?}"
+    );
+}
+
+#[test]
+fn an_unsecured_or_altered_chunked_uplink_is_refused_before_validation() {
+    // The flyby as the chunk seeds carry it, sent unsecured and with one bit flipped: both
+    // refused by the security checks (and the same bytes secured load, see above).
+    let (_, whole) = seeds("uplink_chunks")
+        .into_iter()
+        .find(|(n, _)| n == "flyby-127.chunks")
+        .expect("the flyby chunk seed");
+    let mut unsecured = whole.clone();
+    unsecured[2] |= fuzz_logic::RAW_IMAGE;
+    let mut flipped = whole.clone();
+    flipped.extend([8, 5]);
+    for input in [unsecured, flipped] {
+        let mut h = Harness::new();
+        for op in &fuzz_logic::chunk_ops(&input) {
+            h.apply(op);
+        }
+        assert_eq!(h.verdicts().loaded, 0);
+        assert_eq!(
+            h.verdicts().security_refusals.iter().sum::<u64>(),
+            1,
+            "{:?}",
+            h.verdicts()
+        );
+        assert!(h.app().autonomy().network().tasks().is_empty());
+    }
 }

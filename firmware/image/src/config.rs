@@ -16,6 +16,15 @@ pub const WINDOW_COUNT: usize = SYSTEM.schedule.windows.len();
 pub const PORT_COUNT: usize = SYSTEM.ports.len();
 pub const PORT_STORAGE_BYTES: usize = kc::port_storage_bytes(&SYSTEM);
 
+/// The partition that owns the link (the checker makes sure there is exactly one).
+pub const LINK_OWNER: usize = {
+    let mut p = 0;
+    while !SYSTEM.partitions[p].capabilities.link_owner {
+        p += 1;
+    }
+    p
+};
+
 /// Where the linker put a partition (generated from the configuration by build.rs).
 #[derive(Clone, Copy)]
 pub struct PartitionImage {

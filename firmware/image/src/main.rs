@@ -20,9 +20,11 @@ mod warm;
 use core::panic::PanicInfo;
 
 use board::escc::EsccChannelA;
-use board::{pci, timebase};
+use board::{heathrow, pci, timebase};
 use fsw_bridge::messages::PANIC_FILE_MAX;
 use fsw_bridge::{ResetCause, TargetToHost, PROTOCOL_VERSION};
+use kernel::link::SharedMemoryDevice;
+use kernel_logic::shm_link;
 
 include!(concat!(env!("OUT_DIR"), "/build_id.rs"));
 
@@ -56,8 +58,11 @@ pub extern "C" fn rust_start(reset_tb_hi: u32, reset_tb_lo: u32) -> ! {
         warm::set_pending_cause(ResetCause::HealthMonitor);
         boot::software_reset();
     }
-    // SAFETY: mac-io was just mapped at MAC_IO_BASE; from now on only the I/O partition (and
-    // the kernel's direct reports) use the channel.
+    // Nothing may interrupt before the kernel asks for it (QEMU keeps the controller's mask and
+    // latched events across a warm reset).
+    heathrow::init();
+    // SAFETY: mac-io was just mapped at MAC_IO_BASE; from now on only the kernel uses the
+    // channel (`kernel::link`).
     let _ = unsafe { EsccChannelA::init() };
     // Goes to the kernel's log ring; the I/O partition sends it right after its Hello.
     defmt::info!(
@@ -66,7 +71,16 @@ pub extern "C" fn rust_start(reset_tb_hi: u32, reset_tb_lo: u32) -> ! {
         boot_count,
         PROTOCOL_VERSION
     );
-    let nv_bytes = match pci::init_nv(kernel_config::NV_BASE) {
+    // SAFETY: the link device is mapped at LINK_SHM_BASE when `is_link` is asked, and only the
+    // kernel touches it.
+    let link_device = unsafe { SharedMemoryDevice::at(kernel_config::LINK_SHM_BASE as usize) };
+    let memories = pci::init_shared_memories(
+        kernel_config::NV_BASE,
+        kernel_config::LINK_SHM_BASE,
+        shm_link::DEVICE_BYTES,
+        || shm_link::check_header(&link_device).is_ok(),
+    );
+    let nv_bytes = match memories.nv_bytes {
         Some(size) => {
             defmt::info!(
                 "boot: non-volatile memory, {=u32} KiB at {=u32:#x}",
@@ -77,7 +91,18 @@ pub extern "C" fn rust_start(reset_tb_hi: u32, reset_tb_lo: u32) -> ! {
         }
         None => 0,
     };
-    kernel::start(warm::cause_code(cause), boot_count, nv_bytes)
+    if memories.link {
+        defmt::info!(
+            "boot: link over shared memory at {=u32:#x}, the serial line as its doorbell",
+            kernel_config::LINK_SHM_BASE
+        );
+    }
+    kernel::start(
+        warm::cause_code(cause),
+        boot_count,
+        nv_bytes,
+        memories.link.then_some(link_device),
+    )
 }
 
 static mut PANICKING: bool = false;
@@ -98,10 +123,16 @@ fn panic(info: &PanicInfo) -> ! {
     if first {
         let bytes = file.as_bytes();
         let tail = &bytes[bytes.len().saturating_sub(PANIC_FILE_MAX)..];
-        kernel::klog::send_direct(&TargetToHost::Panic {
-            file: heapless::Vec::from_slice(tail).unwrap_or_default(),
-            line,
-        });
+        // SAFETY: kernel context, interrupts off; whatever the kernel was doing is abandoned
+        // (this ends in a reset), so no other use of its state follows.
+        let k = unsafe { kernel::kernel() };
+        kernel::klog::send_direct(
+            &mut k.link,
+            &TargetToHost::Panic {
+                file: heapless::Vec::from_slice(tail).unwrap_or_default(),
+                line,
+            },
+        );
     }
     warm::set_pending_cause(ResetCause::HealthMonitor);
     boot::software_reset()

@@ -38,7 +38,62 @@ fn result(r3: i32) -> Result<u32, i32> {
 
 /// Give up the rest of this window; returns at the start of the next one.
 pub fn wait_next_window() {
-    raw(SYS_WAIT_NEXT_WINDOW, [0; 5]);
+    raw(SYS_WAIT_NEXT_WINDOW, [wait::NEXT_WINDOW, 0, 0, 0, 0]);
+}
+
+/// Give up the rest of this window with nothing to do until a message arrives on one of this
+/// partition's ports (the module may stop its schedule meanwhile); returns at a window start.
+pub fn wait_idle() {
+    raw(SYS_WAIT_NEXT_WINDOW, [wait::IDLE, 0, 0, 0, 0]);
+}
+
+/// Link owner: move received link bytes into `buffer`; how many (the kernel reports bytes its
+/// receiver lost in its accounting reports).
+pub fn link_read(buffer: &mut [u8]) -> usize {
+    let (r3, _, _) = raw(
+        SYS_LINK_READ,
+        [buffer.as_mut_ptr() as u32, buffer.len() as u32, 0, 0, 0],
+    );
+    result(r3).unwrap_or(0) as usize
+}
+
+/// Link owner: send bytes to the host; how many the kernel took (0: no room yet).
+pub fn link_write(data: &[u8]) -> usize {
+    let (r3, _, _) = raw(
+        SYS_LINK_WRITE,
+        [data.as_ptr() as u32, data.len() as u32, 0, 0, 0],
+    );
+    result(r3).unwrap_or(0) as usize
+}
+
+/// What [`wait_for_input`] did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InputWait {
+    /// The module stopped its schedule until input arrived; this is a fresh major frame.
+    Parked,
+    /// Input was already waiting.
+    InputPending,
+    /// Something else had work; this is the caller's next window. `reasons` are
+    /// `abi::wait_input` bits, `busy` the busy partitions.
+    NextWindow { reasons: u32, busy: u32 },
+}
+
+/// Link owner: everything is sent and the caller waits for the host (see
+/// `abi::SYS_WAIT_FOR_INPUT`).
+pub fn wait_for_input() -> InputWait {
+    let (r3, reasons, busy) = raw(SYS_WAIT_FOR_INPUT, [0; 5]);
+    match r3 as u32 {
+        wait_input::PARKED => InputWait::Parked,
+        wait_input::INPUT_PENDING => InputWait::InputPending,
+        _ => InputWait::NextWindow { reasons, busy },
+    }
+}
+
+/// Link owner: why the module could not park now (`abi::wait_input` reason bits, 0: everyone
+/// else is done and nothing is in flight) and which partitions are busy, without waiting.
+pub fn link_quiet() -> (u32, u32) {
+    let (_, reasons, busy) = raw(SYS_WAIT_FOR_INPUT, [wait_input::QUERY, 0, 0, 0, 0]);
+    (reasons, busy)
 }
 
 pub fn port_send(port: usize, message: &[u8]) -> Result<(), i32> {
@@ -196,24 +251,30 @@ pub fn log_drain(buffer: &mut [u8]) -> usize {
     result(r3).unwrap_or(0) as usize
 }
 
-/// Link owner: the next kernel event record, if any.
-pub fn event_drain() -> Option<[u32; 4]> {
-    let mut record = [0u8; EVENT_RECORD_SIZE];
-    let (r3, _, _) = raw(SYS_EVENT_DRAIN, [record.as_mut_ptr() as u32, 0, 0, 0, 0]);
-    if r3 != 1 {
-        return None;
+/// Link owner: kernel event records, oldest first, into `records`; how many were written
+/// (0: none waiting).
+pub fn event_drain(records: &mut [[u32; 4]]) -> usize {
+    let mut bytes = [0u8; EVENT_RECORD_SIZE * EVENT_DRAIN_BATCH];
+    let batch = records.len().min(EVENT_DRAIN_BATCH);
+    let (r3, _, _) = raw(
+        SYS_EVENT_DRAIN,
+        [bytes.as_mut_ptr() as u32, batch as u32, 0, 0, 0],
+    );
+    let n = result(r3).unwrap_or(0) as usize;
+    for (record, raw) in records
+        .iter_mut()
+        .zip(bytes.chunks_exact(EVENT_RECORD_SIZE))
+        .take(n)
+    {
+        for (word, be) in record.iter_mut().zip(raw.chunks_exact(4)) {
+            *word = u32::from_be_bytes([be[0], be[1], be[2], be[3]]);
+        }
     }
-    let mut words = [0u32; 4];
-    for (i, w) in words.iter_mut().enumerate() {
-        *w = u32::from_be_bytes([
-            record[i * 4],
-            record[i * 4 + 1],
-            record[i * 4 + 2],
-            record[i * 4 + 3],
-        ]);
-    }
-    Some(words)
+    n
 }
+
+/// Event records taken per SYS_EVENT_DRAIN (a kernel report is about 30).
+pub const EVENT_DRAIN_BATCH: usize = 16;
 
 /// Link owner: the host granted mission time `us`.
 pub fn set_mission_time(us: u64) {

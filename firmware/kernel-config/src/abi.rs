@@ -7,7 +7,12 @@
 //! in r3 (negative: one of the `E_*` codes), secondary results in r4 and r5. Pointers and
 //! lengths are checked against the caller's regions before the kernel touches them.
 
-/// Give up the rest of this window; returns 0 at the start of the partition's next window.
+/// (until) -> 0: give up the rest of this window; returns at the start of the partition's next
+/// window. `until` is [`wait::NEXT_WINDOW`] (0: the partition has more to do) or
+/// [`wait::IDLE`] (it has nothing to do until a message arrives on one of its ports: the
+/// module may then stop its schedule while it waits for the host, see
+/// [`SYS_WAIT_FOR_INPUT`]; the partition still resumes at a window start). Any other value:
+/// E_RANGE, and the call does not wait.
 pub const SYS_WAIT_NEXT_WINDOW: u32 = 0;
 /// (port, ptr, len) -> 0. Sampling: replaces the value; queuing: appends (E_FULL when full).
 pub const SYS_PORT_SEND: u32 = 1;
@@ -33,7 +38,8 @@ pub const SYS_PANIC: u32 = 9;
 pub const SYS_BOOT_INFO: u32 = 10;
 /// (ptr, cap) -> bytes of the kernel's defmt stream moved into the buffer. Link owner only.
 pub const SYS_LOG_DRAIN: u32 = 11;
-/// (ptr to EVENT_RECORD_SIZE bytes) -> 1 if a kernel event was written, 0 if none. Link owner.
+/// (ptr, records) -> kernel events written into the buffer, up to `records` of
+/// EVENT_RECORD_SIZE bytes each (0 counts as 1), oldest first; 0 if none. Link owner.
 pub const SYS_EVENT_DRAIN: u32 = 12;
 /// (high, low): mission time granted by the host, in µs. Link owner only.
 pub const SYS_SET_MISSION_TIME: u32 = 13;
@@ -87,8 +93,65 @@ pub const SYS_NV_WRITE: u32 = 17;
 /// the same every boot of the same kind, unlike the uptime, which includes every other
 /// partition's windows and the idle time spent waiting for the host).
 pub const SYS_UPTIME: u32 = 18;
+/// (ptr, cap) -> bytes received from the host moved into the buffer (0: nothing received);
+/// r4 = bytes the receiver lost since boot (UART overruns). The kernel is the link's byte pipe
+/// over the board's transport (the serial line, or shared memory on the emulated target: see
+/// `kernel_logic::shm_link`). Link owner only.
+pub const SYS_LINK_READ: u32 = 19;
+/// () -> r3 = one of [`wait_input`]: the caller (the link owner) has sent everything and waits
+/// for the host. If the whole module has nothing to do until input arrives (see
+/// [`wait_input`]'s reasons), the kernel stops the schedule and waits for the link's receive
+/// interrupt without running anything (an emulated target then costs no host CPU), and restarts
+/// the schedule at a fresh major frame when input arrives: r3 = PARKED, returned in the
+/// caller's first window. Input already waiting: r3 = INPUT_PENDING at once. Otherwise it acts
+/// as SYS_WAIT_NEXT_WINDOW: r3 = NOT_PARKED at the caller's next window start, r4 = the
+/// reasons (`wait_input::*` bits), r5 = the partitions that were busy (bit p). With
+/// r3 = [`wait_input::QUERY`] it does not wait at all: it returns at once with r3 =
+/// [`wait_input::NOT_PARKED`], r4 = the reasons the module could not park now (0: quiet) and
+/// r5 = the busy partitions (the reliable link's end of round: answer when everyone else is
+/// done). Every other argument register must be 0 (E_RANGE otherwise). Link owner only.
+pub const SYS_WAIT_FOR_INPUT: u32 = 20;
+/// (ptr, len) -> bytes taken for the host: all of them over the serial line (the call waits for
+/// the UART); over shared memory what fits in the ring (0 while the host has not read; the
+/// caller tries again later). Link owner only.
+pub const SYS_LINK_WRITE: u32 = 21;
 /// Number of system calls (one past the highest number; unassigned numbers get E_UNKNOWN_CALL).
-pub const SYSCALL_COUNT: u32 = 19;
+pub const SYSCALL_COUNT: u32 = 22;
+
+/// SYS_WAIT_NEXT_WINDOW's argument.
+pub mod wait {
+    /// The partition has more to do in its next window.
+    pub const NEXT_WINDOW: u32 = 0;
+    /// The partition has nothing to do until a message arrives on one of its ports.
+    pub const IDLE: u32 = 1;
+}
+
+/// SYS_WAIT_FOR_INPUT's results (r3) and the reasons it did not stop the schedule (r4 bits).
+pub mod wait_input {
+    /// Not parked: returned at the caller's next window start (r4: why).
+    pub const NOT_PARKED: u32 = 0;
+    /// Parked until input arrived; returned in the caller's first window of a fresh frame.
+    pub const PARKED: u32 = 1;
+    /// Input was already waiting; returned at once.
+    pub const INPUT_PENDING: u32 = 2;
+
+    /// The argument that asks without waiting (see `SYS_WAIT_FOR_INPUT`).
+    pub const QUERY: u32 = 1;
+
+    /// Another partition has work (it has not declared itself idle since it last ran; r5 says
+    /// which).
+    pub const PARTITION_BUSY: u32 = 1 << 0;
+    /// A queuing port holds a message its destination has not taken.
+    pub const MESSAGE_IN_FLIGHT: u32 = 1 << 1;
+    /// The kernel's log ring holds bytes for the host.
+    pub const LOG_PENDING: u32 = 1 << 2;
+    /// The kernel's event queue holds events for the host.
+    pub const EVENTS_PENDING: u32 = 1 << 3;
+    /// The host asked for periodic accounting reports (the schedule must keep running).
+    pub const PERIODIC_REPORTS: u32 = 1 << 4;
+    /// A warm reset is armed inside a partition's work.
+    pub const RESET_ARMED: u32 = 1 << 5;
+}
 
 /// Unknown system-call number.
 pub const E_UNKNOWN_CALL: i32 = -1;
@@ -182,6 +245,26 @@ pub mod metric {
     /// The kernel's part of BOOT_TO_READY_TICKS (reset vector to the start of the schedule),
     /// sent just before it.
     pub const KERNEL_BOOT_TICKS: u16 = 0x0311;
+    /// Bytes the kernel received on the link since boot (in every kernel report).
+    pub const LINK_RX_BYTES: u16 = 0x0212;
+    /// Bytes the link's receiver lost since boot (UART overruns; QEMU's ESCC holds bytes back
+    /// instead, so on the emulated target this stays 0).
+    pub const LINK_RX_LOST: u16 = 0x0213;
+    /// Times the kernel's receive ring was full and the kernel left bytes in the UART until the
+    /// I/O partition read (flow control, nothing lost).
+    pub const LINK_RX_RING_FULL: u16 = 0x0214;
+    /// Times the module stopped its schedule to wait for input (SYS_WAIT_FOR_INPUT parked).
+    pub const PARKS: u16 = 0x0215;
+    /// The link's transport: 0 the serial line, 1 shared memory (the emulated target with the
+    /// link device).
+    pub const LINK_TRANSPORT: u16 = 0x0216;
+    /// Shared-memory rings whose counts made no sense, dropped (the host wrote garbage).
+    pub const LINK_RING_ERRORS: u16 = 0x0217;
+    /// Messages for the host's Instrument channel (costs, kernel events, logs) the I/O
+    /// partition dropped since boot because that channel's send queue and its holding queue
+    /// were full (a link too noisy for the instrumentation), or because the link was lost.
+    /// Sent by the I/O partition, on the Instrument channel, after a drop, once it has room.
+    pub const LINK_INSTRUMENT_DROPPED: u16 = 0x0218;
 }
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the

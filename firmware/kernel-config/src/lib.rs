@@ -60,6 +60,9 @@ pub const WARM_BOOT_RECORD_SIZE: u32 = 64;
 pub const NV_BASE: u32 = 0x9000_0000;
 /// Largest part of the non-volatile device the kernel offers to its owner partition.
 pub const NV_MAX_BYTES: u32 = 0x0010_0000;
+/// Where the kernel maps the shared-memory link device (a second QEMU `ivshmem-plain`, see
+/// `kernel_logic::shm_link`), when the board has one: far above any non-volatile memory.
+pub const LINK_SHM_BASE: u32 = 0x9800_0000;
 /// Hashed page table (64 KiB, all invalid: every translation outside a BAT faults).
 pub const HTAB_BASE: u32 = 0x0011_0000;
 pub const HTAB_SIZE: u32 = 0x0001_0000;

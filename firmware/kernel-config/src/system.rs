@@ -13,7 +13,9 @@
 //! | 0x00400000-0x005fffff   | executive (2 MiB)                      | executive: read/write  |
 //! | 0x00800000-0x00bfffff   | planner (4 MiB)                        | planner: read/write    |
 //! | 0x00c00000-0x00c1ffff   | rogue (128 KiB, test image only)       | rogue: read/write      |
-//! | 0xf3000000-0xf307ffff   | mac-io (ESCC UART)                     | I/O: device            |
+//! | 0x90000000-             | non-volatile memory (ivshmem)          | via system calls only  |
+//! | 0x98000000-0x9801ffff   | shared-memory link (emulated target)   | nothing (kernel only)  |
+//! | 0xf3000000-0xf307ffff   | mac-io (ESCC UART, Heathrow PIC)       | nothing (kernel only)  |
 //!
 //! Major frame: 10 ms (166 000 ticks): I/O 1.5 ms, executive 2 ms, planner 4 ms, (rogue 1 ms in
 //! the test image), the rest idle.
@@ -31,7 +33,9 @@ pub const PLANNER: usize = 2;
 /// Test image only.
 pub const ROGUE: usize = 3;
 
-/// Where the I/O partition finds mac-io (Heathrow BAR0, set by the kernel at boot).
+/// Where the kernel maps mac-io (Heathrow BAR0, set at boot). The kernel drives the UART and the
+/// interrupt controller itself (it is the link's byte pipe), so no partition maps it; the
+/// region stays here for configurations that give a partition a device.
 pub const MAC_IO_BASE: u32 = 0xf300_0000;
 
 pub const IO_REGION: Region = Region {
@@ -64,7 +68,7 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
     Partition {
         name: "io",
         entry: "partition_io_main",
-        regions: &[IO_REGION, MAC_IO_REGION],
+        regions: &[IO_REGION],
         stack_size: 0x4000,
         capabilities: Capabilities {
             link_owner: true,

@@ -2,6 +2,10 @@
 //! independent reference framer, and helpers to run a byte stream through a decoder.
 #![allow(dead_code)] // Each test binary uses a different subset.
 
+pub mod largest;
+pub mod link_sim;
+pub mod link_strategies;
+
 use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, WireMessage, LINK_CRC, MAX_FRAME_LEN};
 use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
 use fsw_bridge::{
@@ -109,6 +113,13 @@ pub fn telemetry_events() -> impl Strategy<Value = TelemetryEvent> {
             }
         ),
         (u16s(), u64s()).prop_map(|(id, value)| TelemetryEvent::Metric { id, value }),
+        (u16s(), times(), times()).prop_map(|(key, measured_at, at)| {
+            TelemetryEvent::StateStale {
+                key: StateKey(key),
+                measured_at,
+                at,
+            }
+        }),
     ]
 }
 
@@ -152,6 +163,30 @@ pub fn reset_request() -> impl Strategy<Value = HostToTarget> {
     reset_kinds().prop_map(|kind| HostToTarget::ResetRequest { kind })
 }
 
+pub fn ground_commands() -> impl Strategy<Value = fsw_bridge::GroundCommand> {
+    use fsw_bridge::GroundCommand;
+    prop_oneof![
+        Just(GroundCommand::NoOp),
+        any::<u8>().prop_map(GroundCommand::SetHold),
+        any::<u8>().prop_map(GroundCommand::ReleaseHold),
+    ]
+}
+pub fn ground_command() -> impl Strategy<Value = HostToTarget> {
+    (
+        u16s(),
+        u32s(),
+        ground_commands(),
+        hvec::<u8, _, { fsw_bridge::security::MAC_LEN }>(any::<u8>),
+    )
+        .prop_map(
+            |(spi, sequence, command, mac)| HostToTarget::GroundCommand {
+                header: fsw_bridge::SecurityHeader { spi, sequence },
+                command,
+                mac,
+            },
+        )
+}
+
 pub fn host_to_target() -> impl Strategy<Value = HostToTarget> {
     prop_oneof![
         ping(),
@@ -160,6 +195,7 @@ pub fn host_to_target() -> impl Strategy<Value = HostToTarget> {
         command_response(),
         uplink_chunk(),
         reset_request(),
+        ground_command(),
     ]
 }
 
@@ -177,13 +213,8 @@ pub fn pong() -> impl Strategy<Value = TargetToHost> {
     (u32s(), link_counters()).prop_map(|(seq, link)| TargetToHost::Pong { seq, link })
 }
 pub fn frame_done() -> impl Strategy<Value = TargetToHost> {
-    (u32s(), proptest::option::of(times()), u32s()).prop_map(|(frame, next_wakeup, busy_ticks)| {
-        TargetToHost::FrameDone {
-            frame,
-            next_wakeup,
-            busy_ticks,
-        }
-    })
+    (u32s(), proptest::option::of(times()))
+        .prop_map(|(frame, next_wakeup)| TargetToHost::FrameDone { frame, next_wakeup })
 }
 pub fn command_dispatch() -> impl Strategy<Value = TargetToHost> {
     (u32s(), u16s(), hvec::<i32, _, MAX_COMMAND_ARGS>(i32s)).prop_map(|(id, opcode, args)| {
@@ -212,6 +243,21 @@ pub fn panic_report() -> impl Strategy<Value = TargetToHost> {
         .prop_map(|(file, line)| TargetToHost::Panic { file, line })
 }
 
+pub fn command_refusals() -> impl Strategy<Value = fsw_bridge::CommandRefusal> {
+    use fsw_bridge::{CommandRefusal, SecurityRefusal};
+    prop_oneof![
+        proptest::sample::select(SecurityRefusal::ALL.to_vec()).prop_map(CommandRefusal::Security),
+        Just(CommandRefusal::HoldOutOfRange),
+    ]
+}
+pub fn ground_command_reply() -> impl Strategy<Value = TargetToHost> {
+    prop_oneof![
+        u32s().prop_map(|sequence| TargetToHost::GroundCommandAck { sequence }),
+        (u32s(), command_refusals())
+            .prop_map(|(sequence, reason)| TargetToHost::GroundCommandNak { sequence, reason }),
+    ]
+}
+
 pub fn target_to_host() -> impl Strategy<Value = TargetToHost> {
     prop_oneof![
         hello(),
@@ -223,6 +269,7 @@ pub fn target_to_host() -> impl Strategy<Value = TargetToHost> {
         uplink_ack(),
         uplink_nak(),
         panic_report(),
+        ground_command_reply(),
     ]
 }
 

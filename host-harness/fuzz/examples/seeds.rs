@@ -1,7 +1,11 @@
 //! Writes the seed corpora of every fuzz target (a few dozen small files each, committed):
 //!
-//! * `fsw-bridge/fuzz/seeds/frame_decoder`: one frame of every message kind of both
-//!   directions, and streams of frames with garbage and a corrupted frame between them;
+//! * `fsw-bridge/fuzz/seeds/frame_decoder`: link frames (protocol v2) of every kind, carrying
+//!   every message kind of both directions, whole bursts of a host and a target endpoint, and
+//!   a stream with garbage and a corrupted frame between frames;
+//! * `fsw-bridge/fuzz/seeds/link_endpoint`: scripts in which the fuzzed endpoint (either role)
+//!   talks with a real peer for a few rounds: opening the channels, messages both ways on both
+//!   virtual channels, a damaged frame, a consumer without room, a reset;
 //! * `firmware/autonomy/fuzz/seeds/uplink`: the shipped task networks compiled by
 //!   `hil::tasknet`, the flyby of `autonomy::scenarios`, and variants refused for each
 //!   capacity (five constraints, a name of 33 bytes, 33 tasks, ...);
@@ -9,10 +13,13 @@
 //!   the native target (resets, power cycles, failing commands, link faults), one every few
 //!   frames;
 //! * `firmware/flight-app/fuzz/seeds/messages`: the host messages, resets and power cycles of
-//!   each shipped mission, as the flight application received them, and a few variants (time
-//!   going backwards, grants repeated, a reset in the middle of the uplink);
-//! * `firmware/flight-app/fuzz/seeds/uplink_chunks`: the shipped networks as chunked uplinks,
-//!   whole and with defects;
+//!   each shipped mission, as the flight application received them from the link (`hil`
+//!   signs its uplinks and commands with the key the harness provisions), a few variants
+//!   (time going backwards, grants repeated, a reset in the middle of the uplink), and the
+//!   security verdicts one by one (uplinks and commands secured by the harness, replayed,
+//!   forged, with the counter's memory failing, across resets);
+//! * `firmware/flight-app/fuzz/seeds/uplink_chunks`: the shipped networks as chunked uplinks
+//!   (secured by the harness), whole and with defects, and one sent unsecured;
 //! * `host-harness/fuzz/seeds/{scenario_toml,tasknet_toml}`: the shipped scenario and task
 //!   network files.
 //!
@@ -23,17 +30,29 @@
 #[allow(dead_code)]
 mod flight_app_fuzz;
 
+// Both fuzz libraries include the shared `bounded.rs`; each keeps its own copy here.
+#[path = "../../../fsw-bridge/fuzz/src/lib.rs"]
+#[allow(dead_code, clippy::duplicate_mod)]
+mod fsw_bridge_fuzz;
+
 use std::path::{Path, PathBuf};
 
 use autonomy::{ConstraintSpec, NetworkSpec, TaskSpec, MAX_CONDITION_TERMS};
 use flight_app_fuzz::{encode_ops, Harness, Op};
 use fsw_bridge::codec::{encode, FrameDecoder, MAX_FRAME_LEN};
+use fsw_bridge::link::{
+    Directive, Endpoint, HostEndpoint, LinkConfig, LinkFrame, LinkMessage, Received, Role,
+    TargetEndpoint, VirtualChannel,
+};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::*;
-use hil::mission::target::{MissionTarget, NativeTarget, TargetError};
+use fsw_bridge_fuzz::script;
+use hil::mission::target::{MissionTarget, NativeTarget, ResetLanding, TargetError};
 use hil::session::Hello;
 
 fn main() {
+    // The harness secures with hil's test key, so that the recorded missions verify in it.
+    assert_eq!(flight_app_fuzz::KEY, hil::mission::auth::TEST_KEY);
     let root = hil::repo_root();
     let scenarios = root.join("scenarios");
     let networks = shipped_networks(&scenarios);
@@ -43,6 +62,10 @@ fn main() {
     write(
         &root.join("fsw-bridge/fuzz/seeds/frame_decoder"),
         &frame_seeds,
+    );
+    write(
+        &root.join("fsw-bridge/fuzz/seeds/link_endpoint"),
+        &link_endpoint_seeds(),
     );
 
     let mut uplinks: Vec<(String, Vec<u8>)> = networks.clone();
@@ -55,9 +78,11 @@ fn main() {
         &root.join("firmware/autonomy/fuzz/seeds/checkpoint"),
         &checkpoint_seeds(&missions),
     );
+    let mut messages = message_seeds(&missions);
+    messages.extend(security_seeds(&networks));
     write(
         &root.join("firmware/flight-app/fuzz/seeds/messages"),
-        &message_seeds(&missions),
+        &messages,
     );
     write(
         &root.join("firmware/flight-app/fuzz/seeds/uplink_chunks"),
@@ -119,9 +144,27 @@ fn frame(msg: &impl serde::Serialize) -> Vec<u8> {
     buf[..n].to_vec()
 }
 
+/// `msg` as the link sends it: Hello, Ping and Pong as Type-BD, anything else as Type-AD on
+/// the Mission channel with sequence number `ns`.
+fn link_frame<M: serde::Serialize>(msg: &M, expedited: bool, ns: u8) -> Vec<u8> {
+    if expedited {
+        frame(&LinkFrame::Bd(msg))
+    } else {
+        frame(&LinkFrame::Ad {
+            vc: VirtualChannel::Mission,
+            ns,
+            msg,
+        })
+    }
+}
+
 fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
     let args: CommandArgs = heapless::Vec::from_slice(&[1, -2, 3]).unwrap();
     let now = MissionTimeUs::from_mins(600);
+    let header = SecurityHeader {
+        spi: 1,
+        sequence: 9,
+    };
     let to_target = [
         HostToTarget::Ping { seq: 7 },
         HostToTarget::TimeGrant {
@@ -147,6 +190,7 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
         HostToTarget::ResetRequest {
             kind: ResetKind::WarmDuringCheckpointWrite { permille: 500 },
         },
+        flight_app_fuzz::secure_command(9, GroundCommand::SetHold(3)),
     ];
     let to_host = [
         TargetToHost::Hello {
@@ -158,6 +202,10 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
         TargetToHost::Pong {
             seq: 7,
             link: LinkCounters::default(),
+        },
+        TargetToHost::FrameDone {
+            frame: 3,
+            next_wakeup: Some(now),
         },
         TargetToHost::CommandDispatch {
             id: 4,
@@ -177,29 +225,288 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
             id: 0x1003,
             value: 123_456,
         }),
+        TargetToHost::Telemetry(TelemetryEvent::StateStale {
+            key: StateKey(1),
+            measured_at: now,
+            at: now.saturating_add(5_000_000),
+        }),
         TargetToHost::UplinkAck { seq: 8 },
         TargetToHost::UplinkNak { seq: 8, reason: 12 },
         TargetToHost::Panic {
             file: heapless::Vec::from_slice(b"src/kernel/mod.rs").unwrap(),
             line: 42,
         },
+        TargetToHost::GroundCommandAck {
+            sequence: header.sequence,
+        },
+        TargetToHost::GroundCommandNak {
+            sequence: header.sequence,
+            reason: CommandRefusal::Security(SecurityRefusal::Replay),
+        },
     ];
     let mut seeds = Vec::new();
     for (i, m) in to_target.iter().enumerate() {
-        seeds.push((format!("to-target-{i}"), frame(m)));
+        let expedited = matches!(m, HostToTarget::Ping { .. });
+        seeds.push((format!("to-target-{i}"), link_frame(m, expedited, i as u8)));
     }
     for (i, m) in to_host.iter().enumerate() {
-        seeds.push((format!("to-host-{i}"), frame(m)));
+        let expedited = matches!(m, TargetToHost::Hello { .. } | TargetToHost::Pong { .. });
+        seeds.push((format!("to-host-{i}"), link_frame(m, expedited, i as u8)));
+    }
+    // The link's own frames (the same bytes in both directions).
+    let control: [(&str, LinkFrame<HostToTarget>); 4] = [
+        (
+            "link-unlock",
+            LinkFrame::Bc {
+                round: 1,
+                directive: Directive::Unlock {
+                    vc: VirtualChannel::Instrument,
+                },
+            },
+        ),
+        (
+            "link-set-vr",
+            LinkFrame::Bc {
+                round: 1,
+                directive: Directive::SetVr {
+                    vc: VirtualChannel::Mission,
+                    vr: 0,
+                },
+            },
+        ),
+        ("link-round-end", LinkFrame::RoundEnd { round: 2 }),
+        ("link-report", LinkFrame::Report(exchange(2).1.report(2))),
+    ];
+    for (name, f) in control {
+        seeds.push((name.into(), frame(&f)));
+    }
+    // Whole bursts of a host and a target endpoint after two rounds.
+    let (host_bursts, target_bursts) = exchange(3).0;
+    for (round, (h, t)) in host_bursts.iter().zip(&target_bursts).enumerate() {
+        seeds.push((format!("burst-host-round{}", round + 1), h.clone()));
+        seeds.push((format!("burst-target-round{}", round + 1), t.clone()));
     }
     // Several frames in one stream, with garbage and a corrupted frame between them.
-    let mut stream = frame(&to_host[6]);
+    let mut stream = link_frame(&to_host[8], false, 0);
     stream.extend([0x13, 0x37, 0xff]); // garbage between frames
-    stream.extend(frame(&to_target[1]));
-    let mut corrupted = frame(&to_target[2]);
+    stream.extend(link_frame(&to_target[1], false, 1));
+    let mut corrupted = link_frame(&to_target[2], false, 2);
     corrupted[3] ^= 0x10;
     stream.extend(corrupted);
-    stream.extend(frame(&to_host[2]));
+    stream.extend(link_frame(&to_host[3], false, 3));
     seeds.push(("stream".into(), stream));
+    seeds
+}
+
+/// A host and a target endpoint (the default configuration) talking for `rounds` rounds, the
+/// host sending a grant and a state update per round, the target a FrameDone and a metric on
+/// the Instrument channel: every burst's bytes, (host's, target's), and the target endpoint.
+#[allow(clippy::type_complexity)]
+fn exchange(rounds: u32) -> ((Vec<Vec<u8>>, Vec<Vec<u8>>), Box<TargetEndpoint>) {
+    let mut host = Box::new(HostEndpoint::new(Role::Initiator, LinkConfig::DEFAULT).unwrap());
+    let mut target = Box::new(TargetEndpoint::new(Role::Responder, LinkConfig::DEFAULT).unwrap());
+    let (mut host_bursts, mut target_bursts) = (Vec::new(), Vec::new());
+    for round in 0..rounds {
+        let now = MissionTimeUs::from_mins(600 + u64::from(round));
+        host.submit(
+            VirtualChannel::Mission,
+            &HostToTarget::StateUpdate {
+                key: StateKey(1),
+                value: StateValue::Enum(round as u16),
+                timestamp: now,
+            },
+        )
+        .unwrap();
+        host.submit(
+            VirtualChannel::Mission,
+            &HostToTarget::TimeGrant {
+                frame: round,
+                now,
+                until: now.saturating_add(60_000_000),
+            },
+        )
+        .unwrap();
+        let mut wire = Vec::new();
+        host.produce_burst(&mut |f: &[u8]| wire.extend_from_slice(f));
+        deliver(&mut *target, &wire);
+        target
+            .submit(
+                VirtualChannel::Mission,
+                &TargetToHost::FrameDone {
+                    frame: round,
+                    next_wakeup: None,
+                },
+            )
+            .unwrap();
+        target
+            .submit(
+                VirtualChannel::Instrument,
+                &TargetToHost::Telemetry(TelemetryEvent::Metric {
+                    id: 0x1000,
+                    value: 1234,
+                }),
+            )
+            .unwrap();
+        let mut answer = Vec::new();
+        target.produce_burst(&mut |f: &[u8]| answer.extend_from_slice(f));
+        deliver(&mut *host, &answer);
+        host_bursts.push(wire);
+        target_bursts.push(answer);
+    }
+    ((host_bursts, target_bursts), target)
+}
+
+/// Feeds `wire` to `endpoint` (its consumer always has room); the messages it delivered.
+fn deliver<Out: LinkMessage, In: LinkMessage, const R: usize, const Q: usize>(
+    endpoint: &mut Endpoint<Out, In, R, Q>,
+    wire: &[u8],
+) -> usize {
+    let mut decoder = FrameDecoder::new();
+    let mut delivered = 0;
+    for &b in wire {
+        if let Some(frame) = decoder.push::<LinkFrame<In>>(b) {
+            if let Received::Delivered { .. } = endpoint.on_frame(frame, |_| true) {
+                delivered += 1;
+            }
+        }
+    }
+    delivered
+}
+
+/// `bytes` arriving raw, in script steps of at most 255 bytes.
+fn push_raw(script: &mut Vec<u8>, bytes: &[u8]) {
+    for piece in bytes.chunks(255) {
+        script.extend([script::RAW, piece.len() as u8]);
+        script.extend_from_slice(piece);
+    }
+}
+
+/// The fuzzed endpoint talking with a real peer: scripts for `fsw_bridge_fuzz::link_endpoint`.
+/// Each is checked against a real endpoint of the fuzzed one's role and configuration, fed
+/// the same: the script must deliver what it delivered.
+fn link_endpoint_seeds() -> Vec<(String, Vec<u8>)> {
+    let mut seeds = Vec::new();
+    // The target (role byte even: a Responder, default configuration) hears a host.
+    for (name, rounds, damage, full, reset) in [
+        ("target-rounds", 4, false, false, false),
+        ("target-damaged-frame", 4, true, false, false),
+        ("target-consumer-full", 4, false, true, false),
+        ("target-reset", 7, false, false, true),
+    ] {
+        let mut host = Box::new(HostEndpoint::new(Role::Initiator, LinkConfig::DEFAULT).unwrap());
+        let mut mirror =
+            Box::new(TargetEndpoint::new(Role::Responder, LinkConfig::DEFAULT).unwrap());
+        let mut s = vec![0u8];
+        let mut delivered = 0;
+        for round in 0..rounds {
+            for n in 0..3u32 {
+                let _ = host.submit(
+                    VirtualChannel::ALL[(n % 2) as usize],
+                    &HostToTarget::Ping {
+                        seq: round * 10 + n,
+                    },
+                );
+            }
+            let mut wire = Vec::new();
+            host.produce_burst(&mut |f: &[u8]| wire.extend_from_slice(f));
+            if damage && round == 1 {
+                let at = wire.len() / 3;
+                wire[at] ^= 0x04;
+            }
+            let room = !(full && round == 2);
+            if !room {
+                s.extend([script::ROOM, 1]);
+            }
+            push_raw(&mut s, &wire);
+            let mut decoder = FrameDecoder::new();
+            for &b in &wire {
+                if let Some(f) = decoder.push::<LinkFrame<HostToTarget>>(b) {
+                    if let Received::Delivered { .. } = mirror.on_frame(f, |_| room) {
+                        delivered += 1;
+                    }
+                }
+            }
+            if !room {
+                s.extend([script::ROOM, 0]);
+            }
+            if reset && round == 3 {
+                // The target resets: both ends start again, the host on the target's Hello.
+                s.push(script::RESET);
+                mirror.reset();
+                host.reset();
+                delivered = 0;
+            }
+            for pick in [2 * round as u8, 2 * round as u8 + 1] {
+                s.extend([script::SUBMIT, pick]);
+                let _ = mirror.submit(
+                    VirtualChannel::ALL[usize::from(pick & 1)],
+                    &TargetToHost::UplinkAck {
+                        seq: u16::from(pick),
+                    },
+                );
+            }
+            s.push(script::BURST);
+            let mut answer = Vec::new();
+            mirror.produce_burst(&mut |f: &[u8]| answer.extend_from_slice(f));
+            deliver(&mut *host, &answer);
+        }
+        let run = fsw_bridge_fuzz::run_link_script(&s);
+        assert_eq!(run.delivered.iter().sum::<u32>(), delivered, "{name}");
+        assert!(delivered > 0, "{name} delivers nothing");
+        seeds.push((name.to_string(), s));
+    }
+    // The host (role byte odd: an Initiator, window 3, transmission limit 2) hears a target.
+    let config = LinkConfig {
+        window_width: 3,
+        transmission_limit: 2,
+        ..LinkConfig::DEFAULT
+    };
+    let mut mirror = Box::new(
+        Endpoint::<HostToTarget, TargetToHost, 1024, 16>::new(Role::Initiator, config).unwrap(),
+    );
+    let mut target = Box::new(TargetEndpoint::new(Role::Responder, config).unwrap());
+    let mut s = vec![1u8];
+    let mut delivered = 0;
+    for round in 0..5u8 {
+        for pick in [2 * round, 2 * round + 1] {
+            s.extend([script::SUBMIT, pick]);
+            let _ = mirror.submit(
+                VirtualChannel::ALL[usize::from(pick & 1)],
+                &HostToTarget::Ping {
+                    seq: u32::from(pick),
+                },
+            );
+        }
+        s.push(script::BURST);
+        let mut wire = Vec::new();
+        mirror.produce_burst(&mut |f: &[u8]| wire.extend_from_slice(f));
+        deliver(&mut *target, &wire);
+        for n in 0..2u32 {
+            let _ = target.submit(
+                VirtualChannel::ALL[n as usize],
+                &TargetToHost::FrameDone {
+                    frame: u32::from(round) * 2 + n,
+                    next_wakeup: None,
+                },
+            );
+        }
+        let mut answer = Vec::new();
+        target.produce_burst(&mut |f: &[u8]| answer.extend_from_slice(f));
+        push_raw(&mut s, &answer);
+        delivered += deliver(&mut *mirror, &answer);
+    }
+    // A frame whose payload arrives behind a correct CRC: a RoundEnd of a round long gone.
+    let stale = postcard::to_stdvec(&LinkFrame::<TargetToHost>::RoundEnd { round: 1 }).unwrap();
+    s.extend([script::PAYLOAD, stale.len() as u8]);
+    s.extend(stale);
+    let run = fsw_bridge_fuzz::run_link_script(&s);
+    assert_eq!(
+        run.delivered.iter().sum::<u32>() as usize,
+        delivered,
+        "host-rounds"
+    );
+    assert!(delivered > 0, "host-rounds delivers nothing");
+    seeds.push(("host-rounds".into(), s));
     seeds
 }
 
@@ -286,6 +593,17 @@ fn task_bytes(
     out
 }
 
+/// A task's name and lists, as plain vectors: name, command arguments, constraints, impacts,
+/// contingencies, templates it may add.
+type TaskLists = (
+    String,
+    Vec<i32>,
+    Vec<ConstraintSpec>,
+    Vec<autonomy::ImpactSpec>,
+    Vec<autonomy::Contingency>,
+    Vec<u16>,
+);
+
 /// The flyby refused for each capacity a list or name can exceed.
 fn capacity_variants(spec: &NetworkSpec) -> Vec<(String, Vec<u8>)> {
     let flyby = 2; // "Instrument Flyby": constraints, impacts, contingencies, may_add
@@ -303,16 +621,7 @@ fn capacity_variants(spec: &NetworkSpec) -> Vec<(String, Vec<u8>)> {
             t.permissions.may_add.to_vec(),
         )
     };
-    let variant = |edit: &dyn Fn(
-        &mut (
-            String,
-            Vec<i32>,
-            Vec<ConstraintSpec>,
-            Vec<autonomy::ImpactSpec>,
-            Vec<autonomy::Contingency>,
-            Vec<u16>,
-        ),
-    )| {
+    let variant = |edit: &dyn Fn(&mut TaskLists)| {
         let mut parts = base(t);
         edit(&mut parts);
         let (name, args, c, i, k, p) = parts;
@@ -397,17 +706,32 @@ fn capacity_variants(spec: &NetworkSpec) -> Vec<(String, Vec<u8>)> {
 }
 
 /// What the flight application received during one shipped mission on the native target.
+/// The native target's own end of the link is not reachable from outside, so the recording
+/// runs a copy of it (a target endpoint, reset at every boot) on the same bytes: what the copy
+/// delivers is what the application was handed, in that order (a FARM's deliveries depend
+/// only on the frames that arrive).
 struct Recording {
     inner: NativeTarget,
+    link: Box<TargetEndpoint>,
     decoder: FrameDecoder,
     ops: Vec<Op>,
 }
 
+fn target_endpoint() -> Box<TargetEndpoint> {
+    Box::new(TargetEndpoint::new(Role::Responder, LinkConfig::DEFAULT).expect("valid"))
+}
+
 impl Recording {
-    fn record(&mut self, frames: &[Vec<u8>]) {
-        for &b in frames.iter().flatten() {
-            if let Some(Ok(msg)) = self.decoder.push::<HostToTarget>(b) {
-                self.ops.push(Op::Message(msg));
+    fn record(&mut self, wire: &[Vec<u8>]) {
+        for &b in wire.iter().flatten() {
+            let Some(frame) = self.decoder.push::<LinkFrame<HostToTarget>>(b) else {
+                continue;
+            };
+            match self.link.on_frame(frame, |_| true) {
+                Received::Delivered { msg, .. } | Received::Expedited(msg) => {
+                    self.ops.push(Op::Message(msg))
+                }
+                _ => {}
             }
         }
     }
@@ -417,39 +741,48 @@ impl MissionTarget for Recording {
     fn describe(&self) -> String {
         self.inner.describe()
     }
+    fn counts_cycles(&self) -> bool {
+        false
+    }
+    fn provision_key(&mut self, key: &sdls::Key) -> Result<(), TargetError> {
+        self.inner.provision_key(key)
+    }
     fn boot(&mut self) -> Result<Hello, TargetError> {
+        self.link = target_endpoint();
         self.decoder = FrameDecoder::new();
         self.inner.boot()
     }
-    fn exchange(
-        &mut self,
-        frames: &[Vec<u8>],
-        frame: u32,
-    ) -> Result<Vec<TargetToHost>, TargetError> {
-        self.record(frames);
-        self.inner.exchange(frames, frame)
+    fn round(&mut self, wire: &[Vec<u8>], round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
+        self.record(wire);
+        let answer = self.inner.round(wire, round)?;
+        self.link.produce_burst(&mut |_: &[u8]| {});
+        Ok(answer)
     }
-    fn exchange_until(
-        &mut self,
-        frames: &[Vec<u8>],
-        until: &dyn Fn(&TargetToHost) -> bool,
-    ) -> Result<Vec<TargetToHost>, TargetError> {
-        self.record(frames);
-        self.inner.exchange_until(frames, until)
-    }
-    fn warm_reset(&mut self) -> Result<(), TargetError> {
+    fn warm_reset(&mut self, at: MissionTimeUs) -> Result<ResetLanding, TargetError> {
+        let landing = self.inner.warm_reset(at)?;
+        assert_eq!(
+            landing,
+            ResetLanding::Now,
+            "the native target resets at once"
+        );
         self.ops.push(Op::WarmReset);
-        self.inner.warm_reset()
+        Ok(landing)
     }
     fn power_cycle(&mut self) -> Result<(), TargetError> {
         self.ops.push(Op::PowerCycle);
         self.inner.power_cycle()
     }
+    fn observe(&mut self, msg: &TargetToHost) {
+        self.inner.observe(msg)
+    }
     fn take_logs(&mut self) -> Vec<hil::defmt_log::LogLine> {
         self.inner.take_logs()
     }
-    fn counts_cycles(&self) -> bool {
-        false
+    fn arm_mid_frame_reset(&mut self, seed: u64) {
+        self.inner.arm_mid_frame_reset(seed)
+    }
+    fn reset_notes(&self) -> Vec<String> {
+        self.inner.reset_notes()
     }
 }
 
@@ -468,11 +801,13 @@ fn recorded_missions(scenarios: &Path) -> Vec<(String, Vec<Op>)> {
         };
         let mut target = Recording {
             inner: NativeTarget::new(),
+            link: target_endpoint(),
             decoder: FrameDecoder::new(),
             ops: Vec::new(),
         };
-        hil::mission::runner::run(&plan, &mut target, None, &mut |_, _, _| {})
+        let report = hil::mission::runner::run(&plan, &mut target, None, &mut |_, _, _| {})
             .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let _ = report;
         let stem = path.file_stem().unwrap().to_string_lossy().into_owned();
         out.push((stem, target.ops));
     }
@@ -548,8 +883,9 @@ fn checkpoint_seeds(missions: &[(String, Vec<Op>)]) -> Vec<(String, Vec<u8>)> {
     out
 }
 
-/// The shipped networks as chunked uplinks ([`flight_app_fuzz::uplink_chunks`]'s layout):
-/// whole, in 128-byte and 7-byte chunks, and with a duplicate, a loss, a swap and a reset.
+/// The shipped networks as chunked uplinks ([`flight_app_fuzz::uplink_chunks`]'s layout,
+/// secured by the harness): whole, in 128-byte and 7-byte chunks, and with a duplicate, a
+/// loss, a swap, a reset, a grant and a flipped bit; and one sent unsecured.
 fn chunk_seeds(networks: &[(String, Vec<u8>)]) -> Vec<(String, Vec<u8>)> {
     let mut out = Vec::new();
     for (name, image) in networks {
@@ -569,7 +905,135 @@ fn chunk_seeds(networks: &[(String, Vec<u8>)]) -> Vec<(String, Vec<u8>)> {
             out.push((format!("{stem}-swap.chunks"), with(99, &[2, 1])));
             out.push((format!("{stem}-reset.chunks"), with(99, &[5, 4])));
             out.push((format!("{stem}-grant.chunks"), with(99, &[4, 2])));
+            out.push((format!("{stem}-flipped.chunks"), with(99, &[8, 5])));
+            out.push((
+                format!("{stem}-unsecured.chunks"),
+                with(127 | flight_app_fuzz::RAW_IMAGE, &[]),
+            ));
         }
     }
     out
+}
+
+/// Every verdict of the security checks, one after the other, on the flyby network: uplinks
+/// and ground commands secured by the harness (fresh, replayed, with a hold out of range, an
+/// invalid image with a fresh number), raw ones forged, truncated, too long and under
+/// another key, the counter's memory failing, and all that across a warm reset and a power
+/// cycle with the executive busy.
+fn security_seeds(networks: &[(String, Vec<u8>)]) -> Vec<(String, Vec<u8>)> {
+    let (_, flyby) = networks
+        .iter()
+        .find(|(n, _)| n == "flyby.uplink")
+        .expect("the flyby network is shipped");
+    let uplink = |step: i32| Op::SecuredUplink {
+        image: flyby.clone(),
+        chunk: 127,
+        step,
+    };
+    let command = |command: GroundCommand, step: i32| Op::SecuredCommand { command, step };
+    let chunks = |secured: &[u8]| -> Vec<Op> {
+        let pieces: Vec<&[u8]> = secured.chunks(UPLINK_CHUNK_MAX).collect();
+        pieces
+            .iter()
+            .enumerate()
+            .map(|(seq, bytes)| {
+                Op::Message(HostToTarget::UplinkChunk {
+                    seq: seq as u16,
+                    total: pieces.len() as u16,
+                    bytes: heapless::Vec::from_slice(bytes).unwrap(),
+                })
+            })
+            .collect()
+    };
+    let grant = |frame: u32, minutes: u64| {
+        let now = MissionTimeUs::from_mins(minutes);
+        Op::Message(HostToTarget::TimeGrant {
+            frame,
+            now,
+            until: now.saturating_add(60_000_000),
+        })
+    };
+    let fresh = 1_000; // above every number the seed accepts before it
+    let mut forged = flight_app_fuzz::secure_uplink(fresh, flyby);
+    forged[20] ^= 0x01;
+    let good = flight_app_fuzz::secure_uplink(fresh, flyby);
+    let truncated = &good[..good.len() - 1];
+    let mut long = good.clone();
+    long.push(0);
+    let mut other_spi = vec![0u8; flyby.len() + sdls::uplink::OVERHEAD];
+    let other = sdls::Key {
+        spi: flight_app_fuzz::KEY.spi + 1,
+        ..flight_app_fuzz::KEY
+    };
+    sdls::uplink::sign_into(&other, fresh, flyby, &mut other_spi).unwrap();
+    let raw_command = |edit: &dyn Fn(&mut HostToTarget)| {
+        let mut msg = flight_app_fuzz::secure_command(fresh, GroundCommand::NoOp);
+        edit(&mut msg);
+        Op::Message(msg)
+    };
+    let mut ops = vec![uplink(1), grant(0, 590)];
+    ops.extend([
+        command(GroundCommand::NoOp, 1),
+        command(GroundCommand::SetHold(3), 1),
+        command(GroundCommand::SetHold(40), 1),
+        command(GroundCommand::ReleaseHold(3), 0),
+        uplink(0),
+        uplink(-2),
+    ]);
+    ops.extend(chunks(&forged));
+    ops.extend(chunks(truncated));
+    ops.extend(chunks(&long));
+    ops.extend(chunks(&other_spi));
+    ops.extend([
+        raw_command(&|m| {
+            if let HostToTarget::GroundCommand { mac, .. } = m {
+                mac[0] ^= 0x80;
+            }
+        }),
+        raw_command(&|m| {
+            if let HostToTarget::GroundCommand { mac, .. } = m {
+                mac.truncate(20);
+            }
+        }),
+        raw_command(&|m| {
+            if let HostToTarget::GroundCommand { header, .. } = m {
+                header.spi = 7;
+            }
+        }),
+        Op::SecurityWritesFail(true),
+        uplink(1),
+        command(GroundCommand::SetHold(1), 1),
+        Op::SecurityWritesFail(false),
+        Op::SecuredUplink {
+            image: flyby[..flyby.len() - 3].to_vec(),
+            chunk: 60,
+            step: 1,
+        },
+        Op::WarmReset,
+        uplink(0),
+    ]);
+    // Fly into the flyby's tasks, then uplink again while the executive owns them (busy), and
+    // once more after a power cycle.
+    for (frame, minutes) in (591..=640).step_by(5).enumerate() {
+        ops.push(grant(frame as u32 + 1, minutes));
+    }
+    ops.extend([uplink(1), command(GroundCommand::ReleaseHold(3), 1)]);
+    ops.extend([Op::PowerCycle, uplink(0), uplink(1), grant(20, 645)]);
+    let mut harness = Harness::new();
+    for op in &ops {
+        harness.apply(op);
+    }
+    println!("  security verdicts: {:?}", harness.verdicts());
+    // The number space ends: once u32::MAX is accepted every number is a replay (0 after the
+    // wrap included) until a new key is provisioned.
+    let wrap = vec![
+        uplink(1),
+        command(GroundCommand::NoOp, -2),
+        uplink(1),
+        command(GroundCommand::SetHold(0), 1),
+    ];
+    vec![
+        ("security-verdicts.ops".into(), encode_ops(&ops)),
+        ("security-sequence-end.ops".into(), encode_ops(&wrap)),
+    ]
 }

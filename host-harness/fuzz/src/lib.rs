@@ -7,8 +7,9 @@
 //!   target's validator accepts and that decodes to the compiled network; an error renders.
 //! * [`scenario_toml`]: any text as a scenario file, parsed and, for a mission, resolved
 //!   against its task network into a mission plan. The network is always one of the shipped
-//!   ones (the file name the scenario gives, if shipped, else the flyby), so a fuzzed path
-//!   never makes the harness read an arbitrary file.
+//!   ones (the file name the scenario gives, if shipped, else the flyby), and a `link.key_file`
+//!   is always one that does not exist (its error path is still taken), so a fuzzed path never
+//!   makes the harness read an arbitrary file.
 //!
 //! Seeds are in `seeds/<target>/`: the shipped scenarios and task networks. `examples/seeds.rs`
 //! writes every fuzz crate's seed corpora.
@@ -62,6 +63,9 @@ pub fn scenario_toml(data: &[u8]) {
         }
         Ok(s) => s,
     };
+    if let Some(file) = scenario.file.link.key_file.as_mut() {
+        *file = NO_KEY_FILE.into();
+    }
     let Some(mission) = scenario.file.mission.as_mut() else {
         return;
     };
@@ -77,6 +81,9 @@ pub fn scenario_toml(data: &[u8]) {
         }
     }
 }
+
+/// What a fuzzed `link.key_file` is replaced with: a file that is not there.
+const NO_KEY_FILE: &str = "fuzz-no-such-key-file.key";
 
 /// `tasknets/<name>` when the file name of `tasknet` is a shipped task network, else the
 /// flyby's.

@@ -1,42 +1,78 @@
 //! The lockstep time driver. The host grants mission time frame by frame: before each grant it
-//! delivers what the spacecraft published and answered since the last one; the target consumes
+//! sends what the spacecraft published and answered since the last one; the target consumes
 //! input only at frame boundaries, runs one frame, reports its decisions and FrameDone with the
 //! earliest time it next needs to run. The next grant is at the earliest of that, the next
-//! spacecraft event, the next scenario event and `max_frame`: idle stretches cost nothing.
+//! spacecraft event, the next scenario event, the next republication of the state buffer and
+//! `max_frame`: idle stretches cost nothing.
 //!
-//! Link faults are injected by the host, seeded: bytes corrupted or frames dropped or delayed
-//! in both directions. A grant or FrameDone lost that way is retransmitted at once (the target
-//! answers a repeated grant with the same FrameDone), so a lossy link costs inputs and
-//! decisions, as it would in flight, but never stalls the run or makes it depend on wall time.
-
-use fsw_bridge::codec::{encode, FrameDecoder, MAX_FRAME_LEN};
+//! Everything travels on the reliable link ([`super::link::LinkSession`]): a frame's inputs and
+//! grant, and the target's decisions and FrameDone, are delivered exactly once and in order
+//! whatever faults the scenario injects, in as many lockstep rounds as the faults cost; mission
+//! time does not move until they are. So link faults cost rounds, never decisions: the same
+//! seed gives the same decisions on a clean and on a faulty link. A link that cannot deliver
+//! ends the run with a "link lost" verdict.
+//!
+//! Uplinks and ground commands are authenticated ([`super::auth`]): the plan's key is
+//! provisioned into the target's non-volatile memory before the first boot, the task network
+//! goes up secured (security header, image, MAC) with the host's next anti-replay sequence
+//! number, and so does every `ground_command` event. `attack` events send deliberately bad ones;
+//! every answer is recorded ([`MissionRecord::authenticated`]) and counted in the `refused_*`
+//! and `authenticated_accepted` metrics, and an attack the target does not refuse with the
+//! reason it owed fails the run.
+//!
+//! Once the mission has started (the target booted and took its task network), whatever goes
+//! wrong ends the run with a FAIL verdict that names it ([`MissionRun::ended_early`]) and the
+//! record of everything up to then; only a target that cannot start is an error.
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
-use fsw_bridge::{HostToTarget, LinkCounters, MissionTimeUs, Opcode, ResetCause, TargetToHost};
-use sha2::{Digest, Sha256};
+use fsw_bridge::{
+    CommandRefusal, GroundCommand, HostToTarget, MissionTimeUs, Opcode, ResetCause, TargetToHost,
+};
 
-use super::plan::{Action, CommandFault, LinkFaults, MissionPlan};
-use super::record::MissionRecord;
+use super::auth::{uplink_reason_name, Attack, Signer};
+use super::link::{Exchanged, LinkFailure, LinkSession, LinkSummary};
+use super::plan::{Action, AttackOn, CommandFault, MissionPlan};
+use super::record::{AuthenticatedRecord, MissionRecord};
 use super::rng::Rng;
 use super::sim::{CommandFate, Spacecraft};
-use super::target::{MissionTarget, TargetError};
-use super::CompiledNetwork;
+use super::target::{hello_message, hello_of, Hello, MissionTarget, ResetLanding, TargetError};
+use crate::scenario::cause_name;
 use crate::time::fmt_time;
 
-/// Consecutive grants at the same mission time after which the run is declared stuck.
+/// Consecutive frames at the same mission time after which the run is declared stuck (the
+/// autonomy bounds its responses and backs off in mission time, so this is a safety net).
 pub const MAX_ZERO_ADVANCE_FRAMES: u32 = 10_000;
-/// Retransmissions of one grant before the run gives up.
-pub const MAX_GRANT_ATTEMPTS: u32 = 50;
+/// Bytes of task network per uplink chunk (the protocol allows up to
+/// `fsw_bridge::messages::UPLINK_CHUNK_MAX`): small frames get through a noisy link far more
+/// often (a 48-byte frame crosses a link that corrupts 5 % of the bytes one time in twelve, a
+/// 150-byte one one time in 2,000), and a lost one costs less to send again.
+pub const UPLINK_CHUNK_BYTES: usize = 32;
 
+/// Why a mission could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum MissionError {
     #[error(transparent)]
     Target(#[from] TargetError),
-    #[error("the target refused the task-network uplink (reason code {reason:#06x})")]
-    UplinkRefused { reason: u16 },
+    #[error(transparent)]
+    Link(#[from] LinkFailure),
+    #[error("the target refused the task-network uplink: {name} (reason code {reason:#06x})")]
+    UplinkRefused { reason: u16, name: String },
+    #[error("the target reset itself during the uplink: {0}")]
+    ResetDuringUplink(String),
+    #[error("the target never gave its verdict on the task-network uplink")]
+    UplinkUnanswered,
+    #[error("the task network is too large to uplink ({chunks} chunks, at most 65535)")]
+    UplinkTooLarge { chunks: usize },
+}
+
+/// Why a mission that had started ended before its end time.
+#[derive(Debug, thiserror::Error)]
+enum EndedEarly {
+    #[error(transparent)]
+    Target(#[from] TargetError),
+    #[error(transparent)]
+    Link(#[from] LinkFailure),
     #[error("the target kept asking to run at {at} ({frames} frames without time advancing)")]
     Stuck { at: String, frames: u32 },
-    #[error("the grant for frame {frame} was lost {attempts} times in a row")]
-    LinkDown { frame: u32, attempts: u32 },
     #[error("expected reset cause {expected} after the {what} at {at}, got {got}")]
     WrongResetCause {
         what: String,
@@ -44,301 +80,501 @@ pub enum MissionError {
         expected: String,
         got: String,
     },
+    #[error("the warm reset armed inside the frame at {at} did not happen: the frame finished")]
+    ArmedResetMissed { at: String },
+    #[error("the simulated spacecraft refused an event at {at}: {why}")]
+    Simulation { at: String, why: String },
+    #[error(transparent)]
+    Uplink(#[from] MissionError),
+    #[error("the target reset itself (or never answered) during the {what} at {at}")]
+    ResetDuringExchange { what: String, at: String },
+    #[error("the {what} at {at} has nothing to replay: no {kind} was accepted before it")]
+    NothingToReplay {
+        what: String,
+        at: String,
+        kind: &'static str,
+    },
 }
 
-/// Host-side link fault injection.
-struct FaultInjector {
-    spec: LinkFaults,
-    tx_rng: Rng,
-    rx_rng: Rng,
-    delayed: Vec<Vec<u8>>,
-    rx_decoder: FrameDecoder,
-    injected_tx: u64,
-    injected_rx: u64,
+/// The target's verdict on a whole uplink.
+enum UplinkVerdict {
+    /// UplinkAck with seq == total: authentic, fresh, valid and loaded.
+    Accepted,
+    /// UplinkNak: the reason code.
+    Refused(u16),
+    /// The target said Hello before it answered.
+    TargetReset(TargetToHost),
+    /// The exchange settled without a verdict (the link's exchange waits for one, so this
+    /// means the target answered something else).
+    Unanswered,
 }
 
-fn frame_of<M: serde::Serialize>(msg: &M) -> Vec<u8> {
-    let mut buf = [0u8; MAX_FRAME_LEN];
-    let n = encode(msg, &mut buf).expect("messages fit a frame");
-    buf[..n].to_vec()
-}
-
-impl FaultInjector {
-    fn new(spec: LinkFaults, seed: u64) -> Self {
-        let rng = Rng::new(seed);
-        Self {
-            spec,
-            tx_rng: rng.fork(0x7e),
-            rx_rng: rng.fork(0x7f),
-            delayed: Vec::new(),
-            rx_decoder: FrameDecoder::new(),
-            injected_tx: 0,
-            injected_rx: 0,
-        }
-    }
-
-    fn active(&self) -> bool {
-        self.spec.active()
-    }
-
-    /// Corrupt bytes of `frame` (not the delimiters); true if anything changed.
-    fn corrupt(rng: &mut Rng, p: f64, frame: &mut [u8]) -> bool {
-        let mut hit = false;
-        let len = frame.len();
-        for b in frame.iter_mut().take(len.saturating_sub(1)).skip(1) {
-            if rng.chance(p) {
-                *b ^= 1 << rng.below(8);
-                hit = true;
-            }
-        }
-        hit
-    }
-
-    /// What goes on the wire for `msg` this frame (nothing, if dropped or delayed). Returns the
-    /// bytes and whether they arrive intact.
-    fn tx(&mut self, msg: &HostToTarget, out: &mut Vec<Vec<u8>>) -> bool {
-        let mut frame = frame_of(msg);
-        if !self.active() {
-            out.push(frame);
-            return true;
-        }
-        if self.tx_rng.chance(self.spec.drop) {
-            self.injected_tx += 1;
-            return false;
-        }
-        if self.tx_rng.chance(self.spec.delay) {
-            self.injected_tx += 1;
-            self.delayed.push(frame);
-            return false;
-        }
-        let hit = Self::corrupt(&mut self.tx_rng, self.spec.corrupt, &mut frame);
-        if hit {
-            self.injected_tx += 1;
-        }
-        out.push(frame);
-        !hit
-    }
-
-    /// Frames held back from the previous frame.
-    fn take_delayed(&mut self) -> Vec<Vec<u8>> {
-        std::mem::take(&mut self.delayed)
-    }
-
-    /// What the host receives of `msg` after the link. Cost metrics are instrumentation that
-    /// only the emulated target sends: they pass untouched and draw nothing from the fault
-    /// stream, so native and emulated runs lose the same decisions to the same seed.
-    fn rx(&mut self, msg: TargetToHost) -> Option<TargetToHost> {
-        if !self.active()
-            || matches!(
-                msg,
-                TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::Metric { .. })
-            )
-        {
-            return Some(msg);
-        }
-        if self.rx_rng.chance(self.spec.drop) {
-            self.injected_rx += 1;
-            return None;
-        }
-        let mut frame = frame_of(&msg);
-        if !Self::corrupt(&mut self.rx_rng, self.spec.corrupt, &mut frame) {
-            return Some(msg);
-        }
-        self.injected_rx += 1;
-        let mut got = None;
-        for b in frame {
-            if let Some(Ok(m)) = self.rx_decoder.push::<TargetToHost>(b) {
-                got = Some(m);
-            }
-        }
-        got
-    }
-}
-
-/// Guest-tick measurements among the target's metrics (costs, and where in its work an armed
-/// reset landed in ticks). Their values go to the run's metrics and reset records, not into the
-/// transcript hash: under QEMU 7.2's icount a measurement can come out one tick apart between
-/// two runs of the same scenario (the instruction at which a decrementer write or read takes
-/// effect is occasionally one off), while everything the target decided and said is the same.
-pub fn is_tick_measurement(id: u16) -> bool {
-    use flight_app::metric as app;
-    use kernel_config::abi::metric as kernel;
-    app::is_measured_cost(id)
-        || matches!(
-            id,
-            kernel::BOOT_TO_READY_TICKS
-                | kernel::KERNEL_BOOT_TICKS
-                | kernel::ARMED_RESET_TICKS
-                | kernel::ARMED_RESET_WARM_WRITE_TICKS
-                | kernel::SYSCALL_BENCH_TICKS
-                | kernel::SWITCH_MILLITICKS
-                | kernel::SWITCH_MAX_TICKS
-                | kernel::MAX_JITTER_ALL
-        )
-        || [
-            kernel::FRAME_TICKS,
-            kernel::WORST_FRAME_TICKS,
-            kernel::MAX_JITTER,
-        ]
-        .iter()
-        .any(|base| (*base..*base + 0x10).contains(&id))
-}
-
-/// `msg` as the transcript hash sees it: guest-tick measurements (FrameDone's `busy_ticks`,
-/// [`is_tick_measurement`] metrics) read as 0.
-pub fn without_tick_measurements(msg: &TargetToHost) -> TargetToHost {
-    match msg {
-        TargetToHost::FrameDone {
-            frame, next_wakeup, ..
-        } => TargetToHost::FrameDone {
-            frame: *frame,
-            next_wakeup: *next_wakeup,
-            busy_ticks: 0,
-        },
-        TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::Metric { id, .. })
-            if is_tick_measurement(*id) =>
-        {
-            TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::Metric { id: *id, value: 0 })
-        }
-        other => other.clone(),
-    }
-}
-
-/// The transcript: every frame both ways, in order (what the target sent without its
-/// guest-tick measurements, see [`without_tick_measurements`]), and its SHA-256; plus one
-/// readable line per frame with the measured values (`hil run` writes them to
-/// `transcript.txt`). With `HIL_DEBUG_TRANSCRIPT` set in the environment every frame is also
-/// printed to stderr.
-pub struct Transcript {
-    hasher: Sha256,
-    pub frames: u64,
-    pub bytes: u64,
-    pub lines: Vec<String>,
-    echo: bool,
-}
-
-impl Default for Transcript {
-    fn default() -> Self {
-        Self {
-            hasher: Sha256::default(),
-            frames: 0,
-            bytes: 0,
-            lines: Vec::new(),
-            echo: std::env::var_os("HIL_DEBUG_TRANSCRIPT").is_some(),
-        }
-    }
-}
-
-impl Transcript {
-    fn sent(&mut self, frame: &[u8]) {
-        if self.echo {
-            eprintln!("T {frame:02x?}");
-        }
-        self.hasher.update(b"T");
-        self.hasher.update((frame.len() as u32).to_be_bytes());
-        self.hasher.update(frame);
-        self.frames += 1;
-        self.bytes += frame.len() as u64;
-        let mut decoder = FrameDecoder::new();
-        let decoded = frame.iter().find_map(|&b| decoder.push::<HostToTarget>(b));
-        self.lines.push(match decoded {
-            Some(Ok(msg)) => format!("-> {msg:?}"),
-            _ => format!("-> (undecodable, {} bytes) {frame:02x?}", frame.len()),
-        });
-    }
-
-    fn received(&mut self, msg: &TargetToHost) {
-        if self.echo {
-            eprintln!("R {msg:?}");
-        }
-        let frame = frame_of(&without_tick_measurements(msg));
-        self.hasher.update(b"R");
-        self.hasher.update((frame.len() as u32).to_be_bytes());
-        self.hasher.update(&frame);
-        self.frames += 1;
-        self.bytes += frame.len() as u64;
-        self.lines.push(format!("<- {msg:?}"));
-    }
-
-    pub fn finish(self) -> (String, Vec<String>) {
-        let hash = self
-            .hasher
-            .finalize()
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect();
-        (hash, self.lines)
-    }
-}
-
-/// The outcome of driving a mission.
+/// What a mission run produced.
 pub struct MissionRun {
     pub record: MissionRecord,
     pub transcript_sha256: String,
     pub transcript_frames: u64,
-    /// One line per frame, in transcript order.
+    /// One line per frame both ways, in transcript order.
     pub transcript: Vec<String>,
     pub injected_link_faults: u64,
-    pub host_link_errors: LinkCounters,
+    /// Rounds, retransmissions per message class, faults injected.
+    pub link: LinkSummary,
+    /// Set when the run ended before the mission's end: what went wrong, and when.
+    pub ended_early: Option<String>,
 }
 
 /// Progress callback: (mission time now, mission start, mission end).
 pub type Progress<'a> = &'a mut dyn FnMut(MissionTimeUs, MissionTimeUs, MissionTimeUs);
 
-/// The host's side of a running mission: the simulated spacecraft, the link fault injector, the
-/// armed command faults, the record and the transcript.
-struct Host<'a> {
-    net: &'a CompiledNetwork,
+/// The host's side of a running mission.
+struct Flight<'p, 't> {
+    plan: &'p MissionPlan,
+    target: &'t mut dyn MissionTarget,
     sim: Spacecraft,
-    faults: FaultInjector,
+    link: LinkSession,
     fault_rng: Rng,
     armed: Vec<CommandFault>,
     rec: MissionRecord,
-    transcript: Transcript,
+    now: MissionTimeUs,
+    frame: u32,
     /// Messages for the next grant.
     inputs: Vec<HostToTarget>,
+    /// When the whole state buffer is published again (None: only after resets).
+    next_republish: Option<MissionTimeUs>,
+    /// A warm reset the target armed inside the next frame: (time due, recovery).
+    armed_reset: Option<(MissionTimeUs, u64)>,
+    /// The key and the host's anti-replay counter.
+    signer: Signer,
+    /// The bytes of the last secured uplink the target accepted (replay attacks resend them).
+    last_uplink: Option<Vec<u8>>,
+    /// The last ground command the target accepted.
+    last_command: Option<HostToTarget>,
 }
 
-impl Host<'_> {
-    /// The frames that go out before the grant at `now`: frames held back from the previous
-    /// frame, then what the spacecraft published and answered (link faults applied).
-    fn input_frames(&mut self, now: MissionTimeUs) -> Vec<Vec<u8>> {
+/// Most rounds run after the mission to bring in what the target still has queued on the
+/// Instrument channel.
+const INSTRUMENT_DRAIN_ROUNDS: u32 = 2_000;
+
+/// Fly `plan` on `target`.
+pub fn drive(
+    plan: &MissionPlan,
+    target: &mut dyn MissionTarget,
+    progress: Progress<'_>,
+) -> Result<MissionRun, MissionError> {
+    let sim = Spacecraft::new(
+        &plan.scenario.spacecraft,
+        &plan.network,
+        plan.start,
+        plan.seed,
+    )
+    .map_err(|e| TargetError::Other(format!("{}: {}", e.field, e.message)))?;
+    let mut f = Flight {
+        plan,
+        target,
+        sim,
+        link: LinkSession::new(plan.seed, &plan.link),
+        fault_rng: Rng::new(plan.seed).fork(0xfa),
+        armed: Vec::new(),
+        rec: MissionRecord::default(),
+        now: plan.start,
+        frame: 0,
+        inputs: Vec::new(),
+        next_republish: plan.republish_us.map(|p| plan.start.saturating_add(p)),
+        armed_reset: None,
+        signer: Signer::new(plan.key.clone()),
+        last_uplink: None,
+        last_command: None,
+    };
+    f.rec.start_security_counts();
+    f.target.provision_key(&plan.key)?;
+    let hello = f.target.boot()?;
+    f.link.reset();
+    f.link.hello(&hello_message(&hello));
+    f.rec.boot(plan.start, hello.reset_cause);
+    f.rec.label(
+        plan.start,
+        format!("boot ({})", cause_name(hello.reset_cause)),
+    );
+    // A refused or oversized network is the inputs' fault: the mission cannot start. From
+    // here on, whatever else goes wrong (a link or a target failing during the first uplink
+    // included) ends the run with a FAIL verdict that names it, and what was received so far
+    // is reported.
+    let flown = match f.uplink() {
+        Err(e @ (MissionError::UplinkRefused { .. } | MissionError::UplinkTooLarge { .. })) => {
+            return Err(e)
+        }
+        Err(e) => Err(EndedEarly::from(e)),
+        Ok(()) => {
+            f.inputs = f.sim.publish_all(f.now);
+            f.fly(progress)
+        }
+    };
+    if flown.is_err() {
+        // What the failed exchange received: the target's last telemetry and logs.
+        for msg in f.link.take_stranded() {
+            f.take(msg);
+        }
+    }
+    let ended_early = flown.err().map(|e| {
+        let at = fmt_time(f.now);
+        f.rec.label(f.now, format!("run ended early: {e}"));
+        format!("at {at}: {e}")
+    });
+    f.rec.frames_metric();
+    let injected = f.link.injected_faults();
+    f.rec
+        .metrics
+        .insert("link_faults_injected".into(), injected);
+    let mut link = f.link.summary();
+    let (transcript_frames, transcript_sha256, transcript) = f.link.finish_transcript();
+    if ended_early.is_none() {
+        // What the target still has queued on the Instrument channel (costs, logs) comes in
+        // before the report is made; a channel that does not empty is reported, not waited on.
+        match f
+            .link
+            .drain_instrument(&mut *f.target, INSTRUMENT_DRAIN_ROUNDS)
+        {
+            Ok((rounds, drained, delivered)) => {
+                link.instrument_drain_rounds = u64::from(rounds);
+                link.instrument_drained = drained;
+                for msg in delivered {
+                    f.take(msg);
+                }
+            }
+            Err(e) => f
+                .rec
+                .label(f.now, format!("draining the Instrument channel: {e}")),
+        }
+    }
+    Ok(MissionRun {
+        record: f.rec,
+        transcript_sha256,
+        transcript_frames,
+        transcript,
+        injected_link_faults: injected,
+        link,
+        ended_early,
+    })
+}
+
+impl Flight<'_, '_> {
+    /// Send the task network, secured with the next sequence number, and have it accepted
+    /// (UplinkAck with seq == total). Telemetry that arrives meanwhile (the boot's metrics) is
+    /// recorded.
+    fn uplink(&mut self) -> Result<(), MissionError> {
+        let (sequence, secured) = self.signer.sign_uplink(&self.plan.network.uplink);
+        let verdict = self.transfer_uplink(&secured)?;
+        let refused = match &verdict {
+            UplinkVerdict::Accepted => None,
+            UplinkVerdict::Refused(reason) => Some(uplink_reason_name(*reason)),
+            UplinkVerdict::TargetReset(_) | UplinkVerdict::Unanswered => None,
+        };
+        if matches!(verdict, UplinkVerdict::Accepted | UplinkVerdict::Refused(_)) {
+            self.rec.authenticated(AuthenticatedRecord {
+                at: self.now.0,
+                what: "task-network uplink".into(),
+                sequence,
+                refused: refused.clone(),
+                expected_refusal: None,
+            });
+        }
+        match verdict {
+            UplinkVerdict::Accepted => {
+                self.last_uplink = Some(secured);
+                Ok(())
+            }
+            UplinkVerdict::Refused(reason) => Err(MissionError::UplinkRefused {
+                reason,
+                name: refused.unwrap_or_default(),
+            }),
+            UplinkVerdict::TargetReset(hello) => {
+                Err(MissionError::ResetDuringUplink(format!("{hello:?}")))
+            }
+            UplinkVerdict::Unanswered => Err(MissionError::UplinkUnanswered),
+        }
+    }
+
+    /// Send `secured` (a secured uplink) in chunks and exchange until the target's verdict on
+    /// the whole of it.
+    fn transfer_uplink(&mut self, secured: &[u8]) -> Result<UplinkVerdict, MissionError> {
+        let chunks: Vec<&[u8]> = secured
+            .chunks(UPLINK_CHUNK_BYTES.min(UPLINK_CHUNK_MAX))
+            .collect();
+        let total = u16::try_from(chunks.len()).map_err(|_| MissionError::UplinkTooLarge {
+            chunks: chunks.len(),
+        })?;
+        for (seq, chunk) in chunks.iter().enumerate() {
+            self.link.send(HostToTarget::UplinkChunk {
+                seq: seq as u16,
+                total,
+                bytes: heapless::Vec::from_slice(chunk).expect("a chunk fits its message"),
+            })?;
+        }
+        let mut verdict = None;
+        let (end, delivered) = self.link.exchange(
+            &mut *self.target,
+            Some(&mut |m: &TargetToHost| match m {
+                TargetToHost::UplinkNak { .. } => true,
+                TargetToHost::UplinkAck { seq } => *seq == total,
+                _ => false,
+            }),
+        )?;
+        for msg in delivered {
+            match &msg {
+                TargetToHost::UplinkNak { reason, .. } => {
+                    verdict.get_or_insert(UplinkVerdict::Refused(*reason));
+                }
+                TargetToHost::UplinkAck { seq } if *seq == total => {
+                    verdict.get_or_insert(UplinkVerdict::Accepted);
+                }
+                other => self.take(other.clone()),
+            }
+        }
+        Ok(match (end, verdict) {
+            (Exchanged::TargetReset(hello), _) => UplinkVerdict::TargetReset(hello),
+            (Exchanged::Settled, Some(verdict)) => verdict,
+            (Exchanged::Settled, None) => UplinkVerdict::Unanswered,
+        })
+    }
+
+    /// Send an authenticated ground command and exchange until the target's Ack or Nak for
+    /// `sequence`; None if acknowledged, else the refusal.
+    fn transfer_command(
+        &mut self,
+        msg: HostToTarget,
+        sequence: u32,
+        what: &str,
+    ) -> Result<Option<CommandRefusal>, EndedEarly> {
+        self.link.send(msg)?;
+        let (end, delivered) = self.link.exchange(
+            &mut *self.target,
+            Some(&mut |m: &TargetToHost| match m {
+                TargetToHost::GroundCommandAck { sequence: s }
+                | TargetToHost::GroundCommandNak { sequence: s, .. } => *s == sequence,
+                _ => false,
+            }),
+        )?;
+        let mut verdict = None;
+        for msg in delivered {
+            match msg {
+                TargetToHost::GroundCommandAck { sequence: s } if s == sequence => {
+                    verdict.get_or_insert(None);
+                }
+                TargetToHost::GroundCommandNak {
+                    sequence: s,
+                    reason,
+                } if s == sequence => {
+                    verdict.get_or_insert(Some(reason));
+                }
+                other => self.take(other),
+            }
+        }
+        match (end, verdict) {
+            (Exchanged::Settled, Some(verdict)) => Ok(verdict),
+            _ => Err(EndedEarly::ResetDuringExchange {
+                what: what.into(),
+                at: fmt_time(self.now),
+            }),
+        }
+    }
+
+    /// A `ground_command` event: signed with the next sequence number, sent, its answer
+    /// recorded.
+    fn ground_command(&mut self, command: GroundCommand) -> Result<(), EndedEarly> {
+        let (sequence, msg) = self.signer.sign_command(command);
+        let what = format!("ground command {command:?}");
+        let refused = self.transfer_command(msg.clone(), sequence, &what)?;
+        if refused.is_none() {
+            self.last_command = Some(msg);
+        }
+        self.rec.authenticated(AuthenticatedRecord {
+            at: self.now.0,
+            what,
+            sequence,
+            refused: refused.map(|r| r.name().to_string()),
+            expected_refusal: None,
+        });
+        Ok(())
+    }
+
+    /// An `attack` event: a deliberately bad uplink or ground command (with a sequence number
+    /// of its own, so that one the target wrongly accepted never collides with the next good
+    /// one), sent, its answer recorded next to the refusal it was owed.
+    fn attack(&mut self, attack: Attack, on: AttackOn) -> Result<(), EndedEarly> {
+        let what = format!("{} {}", attack.name(), on.name());
+        let at = fmt_time(self.now);
+        let nothing_to_replay = |kind| EndedEarly::NothingToReplay {
+            what: what.clone(),
+            at: at.clone(),
+            kind,
+        };
+        let sequence = self.signer.burn_sequence();
+        let key = self.signer.key().clone();
+        let (sequence, refused) = match on {
+            AttackOn::Uplink => {
+                let last = self.last_uplink.clone().unwrap_or_default();
+                if attack == Attack::Replayed && last.is_empty() {
+                    return Err(nothing_to_replay("uplink"));
+                }
+                let bytes = attack.uplink(&key, sequence, &self.plan.network.uplink, &last);
+                // The sequence number the bytes carry (the replayed one for a replay).
+                let carried = sdls::uplink::parse(&bytes)
+                    .map(|u| u.header.sequence)
+                    .unwrap_or(sequence);
+                let refused = match self.transfer_uplink(&bytes)? {
+                    UplinkVerdict::Accepted => None,
+                    UplinkVerdict::Refused(reason) => Some(uplink_reason_name(reason)),
+                    UplinkVerdict::TargetReset(_) | UplinkVerdict::Unanswered => {
+                        return Err(EndedEarly::ResetDuringExchange { what, at })
+                    }
+                };
+                (carried, refused)
+            }
+            AttackOn::Command => {
+                let last = self.last_command.clone();
+                if attack == Attack::Replayed && last.is_none() {
+                    return Err(nothing_to_replay("ground command"));
+                }
+                let last = last.unwrap_or(HostToTarget::Ping { seq: 0 });
+                let msg = attack.command(&key, sequence, GroundCommand::SetHold(0), &last);
+                let carried = match &msg {
+                    HostToTarget::GroundCommand { header, .. } => header.sequence,
+                    _ => sequence,
+                };
+                let refused = self.transfer_command(msg, carried, &what)?;
+                (carried, refused.map(|r| r.name().to_string()))
+            }
+        };
+        self.rec.authenticated(AuthenticatedRecord {
+            at: self.now.0,
+            what,
+            sequence,
+            refused,
+            expected_refusal: Some(attack.expected().name().to_string()),
+        });
+        Ok(())
+    }
+
+    /// The mission, frame by frame, to its end.
+    fn fly(&mut self, progress: Progress<'_>) -> Result<(), EndedEarly> {
+        let plan = self.plan;
+        let wall_start = std::time::Instant::now();
+        let mut events = plan.events.iter().peekable();
+        let mut zero_advance = 0u32;
+        loop {
+            // Scenario events due now happen before the grant.
+            while let Some(ev) = events.next_if(|e| e.at <= self.now) {
+                self.event(ev.at, &ev.action)?;
+            }
+            if plan.realtime {
+                // Real time: the grant for `now` goes out when the wall clock says so.
+                let due = wall_start + std::time::Duration::from_micros(self.now.0 - plan.start.0);
+                if let Some(wait) = due.checked_duration_since(std::time::Instant::now()) {
+                    std::thread::sleep(wait);
+                }
+            }
+            let next_event = events.peek().map(|e| e.at);
+            let next_wakeup = self.frame(next_event)?;
+            progress(self.now, plan.start, plan.end);
+            if self.now >= plan.end {
+                return Ok(());
+            }
+            let next = self.next_stop(next_wakeup, events.peek().map(|e| e.at));
+            if next <= self.now {
+                zero_advance += 1;
+                if zero_advance > MAX_ZERO_ADVANCE_FRAMES {
+                    return Err(EndedEarly::Stuck {
+                        at: fmt_time(self.now),
+                        frames: zero_advance,
+                    });
+                }
+            } else {
+                zero_advance = 0;
+            }
+            self.now = next.max(self.now);
+        }
+    }
+
+    /// One granted frame: the inputs due now and the grant, delivered; the target's decisions
+    /// taken. Returns the target's next wake-up. A frame the target resets in (an armed
+    /// mid-frame reset, or its health monitor) ends with the reset handled and the restart's
+    /// wake-up at once.
+    fn frame(
+        &mut self,
+        next_event: Option<MissionTimeUs>,
+    ) -> Result<Option<MissionTimeUs>, EndedEarly> {
+        let now = self.now;
         self.inputs.extend(self.sim.due(now));
-        for msg in &self.inputs {
+        if self.next_republish.is_some_and(|t| t <= now) {
+            // The whole state buffer again, so that a value the target missed heals.
+            self.inputs.extend(self.sim.republish_all(now));
+            self.next_republish = self.plan.republish_us.map(|p| now.saturating_add(p.max(1)));
+        }
+        for msg in std::mem::take(&mut self.inputs) {
             if let HostToTarget::StateUpdate {
                 key,
                 value,
                 timestamp,
             } = msg
             {
-                self.rec.state(*key, *value, *timestamp);
+                self.rec.state(key, value, timestamp);
+            }
+            self.link.send(msg)?;
+        }
+        let frame = self.frame;
+        let until = self.next_stop(None, next_event);
+        self.link
+            .send(HostToTarget::TimeGrant { frame, now, until })?;
+        self.frame = self.frame.wrapping_add(1);
+        self.rec.frames += 1;
+        let (end, delivered) = self.link.exchange(
+            &mut *self.target,
+            Some(&mut |m: &TargetToHost| {
+                matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame)
+            }),
+        )?;
+        let mut wakeup = None;
+        for msg in delivered {
+            if let TargetToHost::FrameDone {
+                frame: f,
+                next_wakeup,
+            } = msg
+            {
+                if f == frame {
+                    wakeup = next_wakeup;
+                }
+                continue;
+            }
+            self.take(msg);
+        }
+        match end {
+            Exchanged::Settled => {
+                if let Some((at, _)) = self.armed_reset.take() {
+                    return Err(EndedEarly::ArmedResetMissed { at: fmt_time(at) });
+                }
+                Ok(wakeup)
+            }
+            Exchanged::TargetReset(hello) => {
+                let hello = hello_of(&hello).expect("TargetReset carries a Hello");
+                match self.armed_reset.take() {
+                    Some((at, recovery_us)) => {
+                        self.restarted("warm reset", at, recovery_us, ResetCause::Warm, hello)?
+                    }
+                    // The target reset itself (health monitor, watchdog): no fault protection
+                    // delay is modelled; it restarts at once.
+                    None => {
+                        self.restarted("target-initiated reset", now, 0, hello.reset_cause, hello)?
+                    }
+                }
+                Ok(Some(self.now))
             }
         }
-        let mut wire = self.faults.take_delayed();
-        for msg in self.inputs.drain(..) {
-            self.faults.tx(&msg, &mut wire);
-        }
-        wire
     }
 
-    /// Append `grant` to `wire`, retransmitted at once if the link damaged or lost it.
-    fn push_grant(&mut self, grant: &HostToTarget, wire: &mut Vec<Vec<u8>>) {
-        if !self.faults.tx(grant, wire) {
-            wire.push(frame_of(grant));
-        }
-    }
-
-    /// One message the target sent in the frame `frame` granted at `now`, after the link.
-    /// Returns `Some(next_wakeup)` for that frame's FrameDone.
-    #[allow(clippy::option_option)]
-    fn take_output(
-        &mut self,
-        msg: TargetToHost,
-        now: MissionTimeUs,
-        frame: u32,
-    ) -> Option<Option<MissionTimeUs>> {
-        let msg = self.faults.rx(msg)?;
-        self.transcript.received(&msg);
+    /// One message the target sent, delivered by the link.
+    fn take(&mut self, msg: TargetToHost) {
+        self.target.observe(&msg);
+        let now = self.now;
         match &msg {
             TargetToHost::CommandDispatch { id, opcode, args } => {
                 self.rec.dispatch(now, *id, *opcode, args);
@@ -351,264 +587,120 @@ impl Host<'_> {
                 }
                 self.sim.on_dispatch(now, *id, *opcode, args, fate);
             }
-            TargetToHost::Telemetry(ev) => self.rec.telemetry(ev, &self.net.network),
-            TargetToHost::FrameDone {
-                frame: f,
-                next_wakeup,
-                ..
-            } if *f == frame => return Some(*next_wakeup),
-            TargetToHost::Hello { reset_cause, .. } => {
-                // The target reset itself (health monitor, watchdog).
-                self.rec
-                    .reset(now, "target-initiated reset", 0, *reset_cause);
-                self.inputs = self.sim.publish_all(now);
-            }
+            TargetToHost::Telemetry(ev) => self.rec.telemetry(ev, &self.plan.network.network),
             _ => {}
         }
-        None
     }
-}
 
-/// Run `mission` on `target`.
-pub fn drive(
-    mission: &MissionPlan,
-    target: &mut dyn MissionTarget,
-    progress: Progress<'_>,
-) -> Result<MissionRun, MissionError> {
-    let net = &mission.network;
-    let sim = Spacecraft::new(
-        &mission.scenario.spacecraft,
-        net,
-        mission.start,
-        mission.seed,
-    )
-    .map_err(|e| MissionError::Target(TargetError::Other(format!("{}: {}", e.field, e.message))))?;
-    let mut host = Host {
-        net,
-        sim,
-        faults: FaultInjector::new(mission.link.clone(), mission.seed),
-        fault_rng: Rng::new(mission.seed).fork(0xfa),
-        armed: Vec::new(),
-        rec: MissionRecord::default(),
-        transcript: Transcript::default(),
-        inputs: Vec::new(),
-    };
-    let mut events = mission.events.iter().peekable();
-
-    let hello = target.boot()?;
-    host.transcript.received(&hello_message(&hello));
-    host.rec.boot(mission.start, hello.reset_cause);
-    host.rec.label(
-        mission.start,
-        format!("boot ({})", crate::scenario::cause_name(hello.reset_cause)),
-    );
-    uplink(target, net, &mut host.transcript, &mut host.rec)?;
-
-    let mut now = mission.start;
-    let wall_start = std::time::Instant::now();
-    let pace = |now: MissionTimeUs| {
-        if mission.realtime {
-            // Real time: the grant for `now` goes out when the wall clock says so.
-            let due = wall_start + std::time::Duration::from_micros(now.0 - mission.start.0);
-            if let Some(wait) = due.checked_duration_since(std::time::Instant::now()) {
-                std::thread::sleep(wait);
+    /// A scenario event due at `at` (now).
+    fn event(&mut self, at: MissionTimeUs, action: &Action) -> Result<(), EndedEarly> {
+        let now = self.now;
+        match action {
+            Action::WarmReset { recovery_us } => match self.target.warm_reset(at)? {
+                ResetLanding::Now => {
+                    let hello = self.target.boot()?;
+                    self.restarted("warm reset", at, *recovery_us, ResetCause::Warm, hello)?;
+                }
+                ResetLanding::InsideNextFrame => self.armed_reset = Some((at, *recovery_us)),
+            },
+            Action::PowerCycle { recovery_us } => {
+                self.target.power_cycle()?;
+                let hello = self.target.boot()?;
+                self.restarted("power cycle", at, *recovery_us, ResetCause::PowerOn, hello)?;
             }
-        }
-    };
-    let mut frame: u32 = 0;
-    host.inputs = host.sim.publish_all(now);
-    let mut zero_advance = 0u32;
-    loop {
-        // Scenario events due now happen before the grant.
-        while let Some(ev) = events.next_if(|e| e.at <= now) {
-            match &ev.action {
-                Action::WarmReset { recovery_us } | Action::PowerCycle { recovery_us } => {
-                    let power = matches!(ev.action, Action::PowerCycle { .. });
-                    let what = if power { "power cycle" } else { "warm reset" };
-                    let in_frame = if power {
-                        None
-                    } else {
-                        target.mid_frame_reset_request(now)
-                    };
-                    if power {
-                        target.power_cycle()?;
-                    } else if let Some(request) = in_frame {
-                        // The reset lands inside the frame at `now`, on the target itself: that
-                        // frame gets its inputs and grant with the request just before the
-                        // grant, and the target resets instead of finishing it.
-                        let mut wire = host.input_frames(now);
-                        pace(now);
-                        let until =
-                            next_stop(now, mission, &host.sim, None, events.peek().map(|e| e.at));
-                        let grant = HostToTarget::TimeGrant { frame, now, until };
-                        // A test instrument, like QMP: never damaged by injected link faults.
-                        wire.push(frame_of(&request));
-                        host.push_grant(&grant, &mut wire);
-                        for f in &wire {
-                            host.transcript.sent(f);
-                        }
-                        for msg in target.exchange_until_reset(&wire, frame)? {
-                            // The Hello that ends the frame is the boot's, below.
-                            if !matches!(msg, TargetToHost::Hello { .. }) {
-                                let _ = host.take_output(msg, now, frame);
-                            }
-                        }
-                        host.rec.frames += 1;
-                        frame = frame.wrapping_add(1);
-                    } else {
-                        target.warm_reset()?;
-                    }
-                    host.sim.reset(now);
-                    // Fault protection runs; the flight software is down.
-                    now = now.saturating_add(*recovery_us);
-                    let _ = host.sim.due(now);
-                    let hello = target.boot()?;
-                    host.transcript.received(&hello_message(&hello));
-                    let expected = if power {
-                        ResetCause::PowerOn
-                    } else {
-                        ResetCause::Warm
-                    };
-                    if hello.reset_cause != expected {
-                        return Err(MissionError::WrongResetCause {
-                            what: what.into(),
-                            at: fmt_time(ev.at),
-                            expected: crate::scenario::cause_name(expected).into(),
-                            got: crate::scenario::cause_name(hello.reset_cause).into(),
-                        });
-                    }
-                    host.rec.reset(ev.at, what, *recovery_us, hello.reset_cause);
-                    host.rec.label(
-                        now,
-                        format!(
-                            "flight software restarted ({})",
-                            crate::scenario::cause_name(hello.reset_cause)
-                        ),
-                    );
-                    // A power-cycled target has no network in RAM; it restores from NV.
-                    host.inputs = host.sim.publish_all(now);
-                }
-                Action::CommandFault(f) => {
-                    host.rec.faults.push((
-                        now.0,
-                        format!("armed {:?} for opcode {:#06x}", f.fate, f.opcode.0),
-                    ));
-                    host.armed.push(f.clone());
-                }
-                Action::Override { key, value, name } => {
-                    host.sim.override_state(*key, *value, now);
-                    host.rec
-                        .faults
-                        .push((now.0, format!("{name} forced to {value:?}")));
-                }
-                Action::Change { key, by, name } => {
-                    host.sim.add_to(*key, *by, now).map_err(|e| {
-                        MissionError::Target(TargetError::Other(format!(
-                            "state_change of {name}: {e}"
-                        )))
+            Action::CommandFault(f) => {
+                self.rec.faults.push((
+                    now.0,
+                    format!("armed {:?} for opcode {:#06x}", f.fate, f.opcode.0),
+                ));
+                self.armed.push(f.clone());
+            }
+            Action::Override { key, value, name } => {
+                self.sim.override_state(*key, *value, now);
+                self.rec
+                    .faults
+                    .push((now.0, format!("{name} forced to {value:?}")));
+            }
+            Action::GroundCommand(command) => self.ground_command(*command)?,
+            Action::Attack { attack, on } => self.attack(*attack, *on)?,
+            Action::Change { key, by, name } => {
+                self.sim
+                    .add_to(*key, *by, now)
+                    .map_err(|why| EndedEarly::Simulation {
+                        at: fmt_time(now),
+                        why: format!("state_change of {name}: {why}"),
                     })?;
-                    host.rec
-                        .faults
-                        .push((now.0, format!("{name} changed by {by}")));
-                }
+                self.rec
+                    .faults
+                    .push((now.0, format!("{name} changed by {by}")));
             }
         }
-        // Frames for this grant: held-back frames, inputs, the grant.
-        let mut wire = host.input_frames(now);
-        pace(now);
-        let until = next_stop(now, mission, &host.sim, None, events.peek().map(|e| e.at));
-        let grant = HostToTarget::TimeGrant { frame, now, until };
-        host.push_grant(&grant, &mut wire);
-        let mut next_wakeup = None;
-        let mut attempts = 0;
-        loop {
-            for f in &wire {
-                host.transcript.sent(f);
-            }
-            let outputs = target.exchange(&wire, frame)?;
-            let mut done = false;
-            for msg in outputs {
-                if let Some(w) = host.take_output(msg, now, frame) {
-                    done = true;
-                    next_wakeup = w;
-                }
-            }
-            if done {
-                break;
-            }
-            attempts += 1;
-            if attempts >= MAX_GRANT_ATTEMPTS {
-                return Err(MissionError::LinkDown { frame, attempts });
-            }
-            wire = vec![frame_of(&grant)];
+        Ok(())
+    }
+
+    /// The target went down at `at` (`what`) and said `hello` when it came back: fault
+    /// protection ran for `recovery_us` meanwhile (the spacecraft's commands in flight were
+    /// lost and its attitude unknown), the link restarted, and the whole state buffer goes out
+    /// again.
+    fn restarted(
+        &mut self,
+        what: &str,
+        at: MissionTimeUs,
+        recovery_us: u64,
+        expected: ResetCause,
+        hello: Hello,
+    ) -> Result<(), EndedEarly> {
+        self.sim.reset(at);
+        self.link.reset();
+        self.link.hello(&hello_message(&hello));
+        self.now = at.saturating_add(recovery_us);
+        // What the spacecraft did while the software was down is not delivered: it restarts
+        // with the whole state buffer instead.
+        let _ = self.sim.due(self.now);
+        if hello.reset_cause != expected && what != "target-initiated reset" {
+            return Err(EndedEarly::WrongResetCause {
+                what: what.into(),
+                at: fmt_time(at),
+                expected: cause_name(expected).into(),
+                got: cause_name(hello.reset_cause).into(),
+            });
         }
-        host.rec.frames += 1;
-        progress(now, mission.start, mission.end);
-        if now >= mission.end {
-            break;
-        }
-        let next = next_stop(
-            now,
-            mission,
-            &host.sim,
-            next_wakeup,
-            events.peek().map(|e| e.at),
+        self.rec.reset(at, what, recovery_us, hello.reset_cause);
+        self.rec.label(
+            self.now,
+            format!(
+                "flight software restarted ({})",
+                cause_name(hello.reset_cause)
+            ),
         );
-        if next <= now {
-            zero_advance += 1;
-            if zero_advance > MAX_ZERO_ADVANCE_FRAMES {
-                return Err(MissionError::Stuck {
-                    at: fmt_time(now),
-                    frames: zero_advance,
-                });
-            }
-        } else {
-            zero_advance = 0;
+        self.inputs = self.sim.publish_all(self.now);
+        Ok(())
+    }
+
+    /// The next time anything needs to happen, never past the mission's end.
+    fn next_stop(
+        &self,
+        wakeup: Option<MissionTimeUs>,
+        next_event: Option<MissionTimeUs>,
+    ) -> MissionTimeUs {
+        let now = self.now;
+        let mut next = self.plan.end;
+        for t in [
+            wakeup,
+            self.sim.next_event(),
+            next_event,
+            self.next_republish,
+        ]
+        .into_iter()
+        .flatten()
+        {
+            next = next.min(t.max(now));
         }
-        now = next.max(now);
-        frame = frame.wrapping_add(1);
+        if let Some(max) = self.plan.max_frame_us {
+            next = next.min(now.saturating_add(max));
+        }
+        next
     }
-    let injected = host.faults.injected_tx + host.faults.injected_rx;
-    host.rec
-        .metrics
-        .insert("link_faults_injected".into(), injected);
-    let transcript_frames = host.transcript.frames;
-    let (transcript_sha256, transcript) = host.transcript.finish();
-    Ok(MissionRun {
-        record: host.rec,
-        transcript_frames,
-        transcript_sha256,
-        transcript,
-        injected_link_faults: injected,
-        host_link_errors: host.faults.rx_decoder.counters(),
-    })
-}
-
-fn hello_message(h: &crate::session::Hello) -> TargetToHost {
-    TargetToHost::Hello {
-        protocol_version: fsw_bridge::PROTOCOL_VERSION,
-        build_id: h.build_id,
-        reset_cause: h.reset_cause,
-        boot_count: h.boot_count,
-    }
-}
-
-/// The next time anything needs to happen, never past the mission's end.
-fn next_stop(
-    now: MissionTimeUs,
-    mission: &MissionPlan,
-    sim: &Spacecraft,
-    wakeup: Option<MissionTimeUs>,
-    next_event: Option<MissionTimeUs>,
-) -> MissionTimeUs {
-    let mut next = mission.end;
-    for t in [wakeup, sim.next_event(), next_event].into_iter().flatten() {
-        next = next.min(t.max(now));
-    }
-    if let Some(max) = mission.max_frame_us {
-        next = next.min(now.saturating_add(max));
-    }
-    next
 }
 
 fn fate_of(armed: &mut [CommandFault], opcode: Opcode, rng: &mut Rng) -> CommandFate {
@@ -627,49 +719,4 @@ fn fate_of(armed: &mut [CommandFault], opcode: Opcode, rng: &mut Rng) -> Command
         }
     }
     CommandFate::Nominal
-}
-
-/// Send the task network in chunks; every chunk must be acknowledged and the last one
-/// validated (UplinkAck with seq == total). Telemetry that arrives meanwhile (the boot's cost
-/// metrics) is recorded.
-fn uplink(
-    target: &mut dyn MissionTarget,
-    net: &CompiledNetwork,
-    transcript: &mut Transcript,
-    rec: &mut MissionRecord,
-) -> Result<(), MissionError> {
-    let bytes = &net.uplink;
-    let chunks: Vec<&[u8]> = bytes.chunks(UPLINK_CHUNK_MAX).collect();
-    let total = u16::try_from(chunks.len()).map_err(|_| {
-        MissionError::Target(TargetError::Other(
-            "the task network is too large to uplink (more than 65535 chunks)".into(),
-        ))
-    })?;
-    for (seq, chunk) in chunks.iter().enumerate() {
-        let seq = seq as u16;
-        let msg = HostToTarget::UplinkChunk {
-            seq,
-            total,
-            bytes: heapless::Vec::from_slice(chunk).expect("chunk fits"),
-        };
-        let frame = frame_of(&msg);
-        transcript.sent(&frame);
-        let last = seq + 1 == total;
-        let replies = target.exchange_until(&[frame], &|m| match m {
-            TargetToHost::UplinkNak { .. } => true,
-            TargetToHost::UplinkAck { seq: s } => (!last && *s == seq) || (last && *s == total),
-            _ => false,
-        })?;
-        for r in &replies {
-            transcript.received(r);
-            match r {
-                TargetToHost::UplinkNak { reason, .. } => {
-                    return Err(MissionError::UplinkRefused { reason: *reason })
-                }
-                TargetToHost::Telemetry(ev) => rec.telemetry(ev, &net.network),
-                _ => {}
-            }
-        }
-    }
-    Ok(())
 }

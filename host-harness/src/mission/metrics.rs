@@ -109,8 +109,79 @@ pub const METRICS: &[MetricDef] = &[
         "faults",
         "link faults the host injected (corrupted, dropped or delayed frames)",
     ),
+    count(
+        "instrument_messages_dropped",
+        "messages",
+        "Instrument-channel messages (costs, kernel events, logs) the target dropped because that channel was full or the link lost; the most in any one boot (emulated target only)",
+    ),
     count("frames", "frames", "lockstep frames granted"),
+    cost(
+        "max_uplink_verify_ticks",
+        "ticks",
+        "the longest security check of a reassembled uplink (header, HMAC-SHA-256, sequence number)",
+    ),
+    cost(
+        "max_uplink_verify_instructions",
+        "instructions",
+        "max_uplink_verify_ticks in guest instructions",
+    ),
+    count(
+        "ground_holds",
+        "mask",
+        "the ground holds as the target last reported them (bit h: hold h; absent until one is set)",
+    ),
+    count(
+        "authenticated_accepted",
+        "messages",
+        "authenticated uplinks and ground commands the target accepted",
+    ),
+    count(
+        "refused_no_key",
+        "messages",
+        "authenticated messages refused: no key provisioned",
+    ),
+    count(
+        "refused_unknown_key",
+        "messages",
+        "authenticated messages refused: their SPI names a key the target does not hold",
+    ),
+    count(
+        "refused_truncated",
+        "messages",
+        "authenticated messages refused: shorter than their header, trailer or announced length",
+    ),
+    count(
+        "refused_bad_mac",
+        "messages",
+        "authenticated messages refused: the MAC did not match (forged, or another key)",
+    ),
+    count(
+        "refused_replay",
+        "messages",
+        "authenticated messages refused: a sequence number not above the last accepted",
+    ),
+    count(
+        "refused_bad_length",
+        "messages",
+        "authenticated uplinks refused: longer than their header announces",
+    ),
+    count(
+        "refused_counter_not_stored",
+        "messages",
+        "authenticated messages refused: the anti-replay counter could not be written",
+    ),
+    count(
+        "refused_hold_out_of_range",
+        "messages",
+        "authentic ground commands not carried out: a hold number out of range",
+    ),
 ];
+
+/// The metric counting refusals named `reason` (`SecurityRefusal::name`, `CommandRefusal::name`):
+/// `refused_<reason>` with `-` as `_`.
+pub fn refused_metric(reason: &str) -> String {
+    format!("refused_{}", reason.replace('-', "_"))
+}
 
 /// The metric named `name`.
 pub fn lookup(name: &str) -> Option<&'static MetricDef> {
@@ -141,5 +212,16 @@ mod tests {
         assert!(is_guest_cost("max_reset_recovery_instructions"));
         assert!(!is_guest_cost("link_faults_injected"));
         assert!(!is_guest_cost("no_such_metric"));
+    }
+
+    #[test]
+    fn every_refusal_reason_has_its_declared_count() {
+        use fsw_bridge::{CommandRefusal, SecurityRefusal};
+        for reason in SecurityRefusal::ALL {
+            let name = refused_metric(reason.name());
+            assert!(lookup(&name).is_some(), "{name} is not declared");
+        }
+        let name = refused_metric(CommandRefusal::HoldOutOfRange.name());
+        assert!(lookup(&name).is_some(), "{name} is not declared");
     }
 }

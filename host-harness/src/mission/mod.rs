@@ -7,9 +7,11 @@
 //! [`target`] while [`sim`] plays the spacecraft, recording into a [`record::MissionRecord`];
 //! [`expect`] judges the record; [`report`] turns it all into the summary, JSON, JUnit and the
 //! Gantt chart ([`gantt`]); [`runner`] ties the stages together for `hil run` and campaigns.
+pub mod auth;
 pub mod driver;
 pub mod expect;
 pub mod gantt;
+pub mod link;
 pub mod metrics;
 pub mod plan;
 pub mod record;

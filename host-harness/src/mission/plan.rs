@@ -6,7 +6,9 @@
 //!
 //! The next stages take the plan as it is: [`super::driver`] flies it, [`super::expect`]
 //! judges the record against its expectations, [`super::report`] reports.
-use fsw_bridge::{CommandStatus, MissionTimeUs, Opcode, StateKey, StateValue};
+use fsw_bridge::{CommandStatus, GroundCommand, MissionTimeUs, Opcode, StateKey, StateValue};
+
+use super::auth::Attack;
 
 use super::metrics;
 use super::sim::{CommandFate, Spacecraft};
@@ -33,9 +35,14 @@ pub struct MissionPlan {
     pub end: MissionTimeUs,
     /// Longest single grant (None: as long as nothing happens).
     pub max_frame_us: Option<u64>,
+    /// How often the whole state buffer is published again (None: only after resets).
+    pub republish_us: Option<u64>,
     /// Scenario events in time order (ties in file order).
     pub events: Vec<Event>,
     pub link: LinkFaults,
+    /// The key uplinks and ground commands are signed with, provisioned into the target's
+    /// non-volatile memory before boot.
+    pub key: sdls::Key,
     pub expectations: Vec<Expect>,
     /// Seed of everything random in the run.
     pub seed: u64,
@@ -72,6 +79,33 @@ pub enum Action {
         by: i64,
         name: String,
     },
+    /// An authenticated ground command, signed with the mission's key and the next sequence
+    /// number.
+    GroundCommand(GroundCommand),
+    /// A deliberately bad authenticated message the target must refuse with
+    /// `attack.expected()`.
+    Attack {
+        attack: Attack,
+        on: AttackOn,
+    },
+}
+
+/// What an attack is made of.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AttackOn {
+    /// The mission's task-network uplink.
+    Uplink,
+    /// A ground command (SetHold(0); a replay resends the last accepted command).
+    Command,
+}
+
+impl AttackOn {
+    pub fn name(self) -> &'static str {
+        match self {
+            AttackOn::Uplink => "uplink",
+            AttackOn::Command => "ground command",
+        }
+    }
 }
 
 /// A command fault armed from its event on.
@@ -261,6 +295,26 @@ impl MissionPlan {
                 ));
             }
         }
+        let republish_us = scenario
+            .spacecraft
+            .republish_every
+            .as_ref()
+            .map(|d| duration_at("spacecraft.republish_every", d))
+            .transpose()?;
+        if let Some(every) = republish_us {
+            let times = (end.0 - start.0) / every.max(1);
+            if every == 0 || times > MAX_MISSION_FRAMES {
+                return Err(src.error_at(
+                    "spacecraft.republish_every",
+                    format!(
+                        "{} would publish the state buffer {} times in the {} mission (at most {MAX_MISSION_FRAMES})",
+                        fmt_duration_us(every),
+                        if every == 0 { "endless".to_string() } else { times.to_string() },
+                        fmt_duration_us(end.0 - start.0),
+                    ),
+                ));
+            }
+        }
         let mut events = Vec::new();
         for (index, ev) in scenario.events.iter().enumerate() {
             let field = format!("events[{index}]");
@@ -281,6 +335,7 @@ impl MissionPlan {
         }
         events.sort_by_key(|e| (e.at, e.index));
         let link = link_faults(&src, &scenario.link)?;
+        let key = mission_key(&src, &scenario.link, &scenario.path)?;
         // The spacecraft's names and value types are checked now, not halfway into a run.
         Spacecraft::new(&scenario.spacecraft, &network, start, 0)
             .map_err(|e| src.error_at(&e.field, e.message))?;
@@ -297,8 +352,10 @@ impl MissionPlan {
             start,
             end,
             max_frame_us,
+            republish_us,
             events,
             link,
+            key,
             expectations,
             seed,
             realtime: false,
@@ -335,6 +392,17 @@ impl MissionPlan {
         self.events.sort_by_key(|e| (e.at, e.index));
     }
 
+    /// Arm a command fault at `at` (campaign variants), after the file's events at that time.
+    pub fn add_command_fault(&mut self, at: MissionTimeUs, fault: CommandFault) {
+        let index = self.scenario.events.len() + self.events.len();
+        self.events.push(Event {
+            at,
+            index,
+            action: Action::CommandFault(fault),
+        });
+        self.events.sort_by_key(|e| (e.at, e.index));
+    }
+
     /// The same mission with another seed (campaign variants).
     pub fn set_seed(&mut self, seed: u64) {
         self.seed = seed;
@@ -362,6 +430,34 @@ fn link_faults(src: &SourceFile, link: &LinkSection) -> Result<LinkFaults, Diagn
     })
 }
 
+/// The mission's key: `link.key`, `link.key_file` (relative to the scenario), or the test key.
+fn mission_key(
+    src: &SourceFile,
+    link: &LinkSection,
+    scenario_path: &std::path::Path,
+) -> Result<sdls::Key, Diagnostic> {
+    let bytes = match (&link.key, &link.key_file) {
+        (Some(_), Some(_)) => {
+            return Err(src.error_at("link.key_file", "give link.key or link.key_file, not both"))
+        }
+        (Some(hex), None) => {
+            super::auth::parse_key_hex(hex).map_err(|m| src.error_at("link.key", m))?
+        }
+        (None, Some(file)) => {
+            let path = scenario_path
+                .parent()
+                .unwrap_or(std::path::Path::new("."))
+                .join(file);
+            super::auth::read_key_file(&path).map_err(|m| src.error_at("link.key_file", m))?
+        }
+        (None, None) => super::auth::TEST_KEY.bytes,
+    };
+    Ok(sdls::Key {
+        spi: link.spi.unwrap_or(super::auth::TEST_KEY.spi),
+        bytes,
+    })
+}
+
 fn resolve_action(
     src: &SourceFile,
     ev: &EventEntry,
@@ -377,13 +473,15 @@ fn resolve_action(
         ("command_wrong_state", ev.command_wrong_state.is_some()),
         ("state_override", ev.state_override.is_some()),
         ("state_change", ev.state_change.is_some()),
+        ("ground_command", ev.ground_command.is_some()),
+        ("attack", ev.attack.is_some()),
     ]
     .into_iter()
     .filter_map(|(name, present)| present.then_some(name))
     .collect();
     match given.as_slice() {
         [_] => {}
-        [] => return Err(src.error_at(field, "an event needs one action (warm_reset, power_cycle, command_failure, command_timeout, command_no_effect, command_wrong_state, state_override, state_change)")),
+        [] => return Err(src.error_at(field, "an event needs one action (warm_reset, power_cycle, command_failure, command_timeout, command_no_effect, command_wrong_state, state_override, state_change, ground_command, attack)")),
         [_, second, ..] => {
             return Err(src.error_at(
                 &format!("{field}.{second}"),
@@ -500,6 +598,56 @@ fn resolve_action(
             value,
             name: o.timeline.clone(),
         });
+    }
+    if let Some(g) = &ev.ground_command {
+        let f = format!("{field}.ground_command");
+        let hold = |present: bool| match (present, g.hold) {
+            (true, Some(h)) => Ok(h),
+            (true, None) => Err(src.error_at(
+                &f,
+                format!("{:?} needs a hold number (hold = N)", g.command),
+            )),
+            (false, Some(_)) => {
+                Err(src.error_at(&format!("{f}.hold"), "no-op takes no hold number"))
+            }
+            (false, None) => Ok(0),
+        };
+        let command = match g.command.as_str() {
+            "no-op" => hold(false).map(|_| GroundCommand::NoOp)?,
+            "set-hold" => GroundCommand::SetHold(hold(true)?),
+            "release-hold" => GroundCommand::ReleaseHold(hold(true)?),
+            other => {
+                return Err(src.error_at(
+                    &format!("{f}.command"),
+                    format!("{other:?} is not one of \"no-op\", \"set-hold\", \"release-hold\""),
+                ))
+            }
+        };
+        return Ok(Action::GroundCommand(command));
+    }
+    if let Some(a) = &ev.attack {
+        let f = format!("{field}.attack");
+        let attack = Attack::from_name(&a.kind).ok_or_else(|| {
+            src.error_at(
+                &format!("{f}.kind"),
+                format!(
+                    "{:?} is not one of {}",
+                    a.kind,
+                    Attack::ALL.map(|a| format!("{:?}", a.name())).join(", ")
+                ),
+            )
+        })?;
+        let on = match a.on.as_str() {
+            "uplink" => AttackOn::Uplink,
+            "command" => AttackOn::Command,
+            other => {
+                return Err(src.error_at(
+                    &format!("{f}.on"),
+                    format!("{other:?} is not one of \"uplink\", \"command\""),
+                ))
+            }
+        };
+        return Ok(Action::Attack { attack, on });
     }
     let c = ev.state_change.as_ref().expect("one action is given");
     let f = format!("{field}.state_change");

@@ -33,6 +33,9 @@ pub enum Decision {
         task: u16,
         template: u16,
     },
+    /// The value of state key `key`, measured at `measured_at`, was older than its staleness
+    /// bound at `at`: the autonomy reads it as unknown from then on.
+    StateStale { at: u64, key: u16, measured_at: u64 },
 }
 
 /// One task instance as executed.
@@ -240,6 +243,30 @@ pub struct MissionRecord {
     pub gave_up: Vec<GaveUp>,
     /// Commands sent per task definition (ground id): every dispatch, retries included.
     pub commands_per_definition: BTreeMap<u16, u32>,
+    /// Every authenticated uplink and ground command the host sent, with the target's answer.
+    pub authenticated: Vec<AuthenticatedRecord>,
+}
+
+/// One authenticated uplink or ground command the host sent, and what the target said.
+#[derive(Clone, Debug, Serialize)]
+pub struct AuthenticatedRecord {
+    /// Mission time (µs) it was sent.
+    pub at: u64,
+    /// "task-network uplink", "ground command SetHold(2)", "forged uplink", ...
+    pub what: String,
+    /// Its anti-replay sequence number.
+    pub sequence: u32,
+    /// None: accepted; else the refusal's name ("bad-mac", "replay", ...).
+    pub refused: Option<String>,
+    /// For a deliberately bad message: the refusal the target owed it.
+    pub expected_refusal: Option<String>,
+}
+
+impl AuthenticatedRecord {
+    /// A deliberately bad message that was not refused as it should have been.
+    pub fn attack_not_refused(&self) -> bool {
+        self.expected_refusal.is_some() && self.refused != self.expected_refusal
+    }
 }
 
 /// Instructions per timebase tick under `-icount shift=2` (4 ns per instruction, 16.6 MHz).
@@ -279,6 +306,31 @@ impl MissionRecord {
             after_restart: None,
         });
         self.instances.last_mut().expect("just pushed")
+    }
+
+    /// Every security count at 0, so that an expectation on one holds when nothing happened.
+    pub fn start_security_counts(&mut self) {
+        for m in super::metrics::METRICS {
+            if m.name == "authenticated_accepted" || m.name.starts_with("refused_") {
+                self.metrics.entry(m.name.to_string()).or_insert(0);
+            }
+        }
+    }
+
+    /// An authenticated message and the target's answer (`refused`: None when accepted).
+    pub fn authenticated(&mut self, entry: AuthenticatedRecord) {
+        let at = MissionTimeUs(entry.at);
+        let metric = match &entry.refused {
+            None => "authenticated_accepted".to_string(),
+            Some(reason) => super::metrics::refused_metric(reason),
+        };
+        *self.metrics.entry(metric).or_insert(0) += 1;
+        let outcome = match &entry.refused {
+            None => "accepted".to_string(),
+            Some(reason) => format!("refused ({reason})"),
+        };
+        self.label(at, format!("{} #{} {outcome}", entry.what, entry.sequence));
+        self.authenticated.push(entry);
     }
 
     pub fn label(&mut self, at: MissionTimeUs, text: impl Into<String>) {
@@ -401,6 +453,25 @@ impl MissionRecord {
                 }
                 self.label(at, format!("{name} {verb}"));
             }
+            TelemetryEvent::StateStale {
+                key,
+                measured_at,
+                at,
+            } => {
+                self.decisions.push(Decision::StateStale {
+                    at: at.0,
+                    key: key.0,
+                    measured_at: measured_at.0,
+                });
+                let name = network
+                    .timeline_of_key(key)
+                    .and_then(|t| network.timeline(t))
+                    .map_or_else(|| format!("state key {}", key.0), |t| t.name.to_string());
+                self.label(
+                    at,
+                    format!("{name} stale (measured at {})", fmt_time(measured_at)),
+                );
+            }
             TelemetryEvent::Metric { id, value } => self.metric_event(id, value),
             TelemetryEvent::HealthMonitor {
                 partition,
@@ -454,6 +525,15 @@ impl MissionRecord {
             metric::CHECKPOINT_WRITE_FAILURES => "checkpoint_write_failures",
             metric::STATE_TYPE_MISMATCHES => "state_type_mismatches",
             metric::STATE_TYPE_MISMATCH_KEY => "state_type_mismatch_key",
+            metric::GROUND_HOLDS => {
+                // The last value, not a maximum: the holds as the target last reported them.
+                self.metrics.insert("ground_holds".into(), value);
+                return;
+            }
+            metric::UPLINK_VERIFY_TICKS => {
+                self.max_metric("max_uplink_verify_instructions", to_instructions(value));
+                "max_uplink_verify_ticks"
+            }
             metric::RESTORED_SEQUENCE => {
                 if let Some(r) = self.resets.last_mut() {
                     r.restored_sequence = Some(value);
@@ -474,6 +554,7 @@ impl MissionRecord {
                 }
                 return;
             }
+            kernel_config::abi::metric::LINK_INSTRUMENT_DROPPED => "instrument_messages_dropped",
             kernel_config::abi::metric::KERNEL_BOOT_TICKS => {
                 if let Some(boot) = self.boots.last_mut() {
                     boot.kernel_boot_ticks.get_or_insert(value);
@@ -582,6 +663,11 @@ impl MissionRecord {
         }
     }
 
+    /// The frame count as a metric (at the end of a run).
+    pub fn frames_metric(&mut self) {
+        self.metrics.insert("frames".into(), self.frames);
+    }
+
     /// Decision lines ("10:30:00 Instrument Flyby aborted"), for the terminal and diffs.
     pub fn timeline_lines(&self) -> Vec<String> {
         self.labels
@@ -652,5 +738,32 @@ mod tests {
         assert_eq!(m["max_recovery_ticks"], 20_000);
         assert_eq!(m["max_reset_recovery_ticks"], 90_000);
         assert_eq!(m["max_reset_recovery_instructions"], 90_000 * 15_060 / 1000);
+    }
+
+    #[test]
+    fn a_stale_report_is_a_decision_labelled_with_its_timeline() {
+        let network = autonomy::scenarios::flyby_network().unwrap();
+        let mut rec = MissionRecord::default();
+        let (measured_at, at) = (MissionTimeUs(36_900_000_000), MissionTimeUs(37_500_000_001));
+        rec.telemetry(
+            &TelemetryEvent::StateStale {
+                key: StateKey(1),
+                measured_at,
+                at,
+            },
+            &network,
+        );
+        assert_eq!(
+            rec.decisions,
+            [Decision::StateStale {
+                at: at.0,
+                key: 1,
+                measured_at: measured_at.0
+            }]
+        );
+        assert_eq!(
+            rec.labels,
+            [(at.0, "GncAttitude stale (measured at 10:15:00)".to_string())]
+        );
     }
 }

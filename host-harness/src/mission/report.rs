@@ -51,6 +51,9 @@ pub struct MissionReport {
     pub faults: Vec<(String, String)>,
     /// Where the autonomy gave up on a task, and the cause.
     pub gave_up: Vec<super::record::GaveUp>,
+    /// Every authenticated uplink and ground command sent (deliberately bad ones included),
+    /// with the target's answer.
+    pub authenticated: Vec<super::record::AuthenticatedRecord>,
     /// Commands each task definition sent (retries included), with the most one run of it may
     /// send (`TaskNetwork::max_dispatches_per_run`).
     pub commands_per_task: Vec<CommandCount>,
@@ -58,6 +61,10 @@ pub struct MissionReport {
     pub frames: u64,
     /// Mission time the flight software was down (resets to restarts), in microseconds.
     pub downtime_us: u64,
+    /// The reliable link: rounds, retransmissions per message class, faults injected.
+    pub link: super::link::LinkSummary,
+    /// What ended the run before the mission's end, if something did.
+    pub ended_early: Option<String>,
     pub transcript_sha256: String,
     pub transcript_frames: u64,
     pub injected_link_faults: u64,
@@ -92,6 +99,14 @@ impl MissionReport {
             .map(|(i, e)| expect::evaluate(i + 1, e, &record, &plan.network, counts_cycles))
             .collect();
         // Checks every run gets, whatever the scenario expects.
+        if let Some(why) = &run.ended_early {
+            expectations.push(Verdict {
+                index: expectations.len() + 1,
+                what: "the run reaches the end of the mission".into(),
+                passed: false,
+                detail: format!("it ended early {why}"),
+            });
+        }
         if let Some(&n) = record
             .metrics
             .get("state_type_mismatches")
@@ -105,6 +120,45 @@ impl MissionReport {
                     "{n} state update(s) of the wrong type, read as UNKNOWN by the target (last: state key {})",
                     record.metrics.get("state_type_mismatch_key").copied().unwrap_or(0)
                 ),
+            });
+        }
+        let unrefused: Vec<String> = record
+            .authenticated
+            .iter()
+            .filter(|a| a.attack_not_refused())
+            .map(|a| {
+                format!(
+                    "the {} #{} at {} was {} (owed: {})",
+                    a.what,
+                    a.sequence,
+                    fmt_time(MissionTimeUs(a.at)),
+                    a.refused
+                        .as_deref()
+                        .map_or("accepted".to_string(), |r| format!("refused as {r}")),
+                    a.expected_refusal.as_deref().unwrap_or("-"),
+                )
+            })
+            .collect();
+        if record
+            .authenticated
+            .iter()
+            .any(|a| a.expected_refusal.is_some())
+        {
+            let attacks = record
+                .authenticated
+                .iter()
+                .filter(|a| a.expected_refusal.is_some())
+                .count();
+            expectations.push(Verdict {
+                index: expectations.len() + 1,
+                what: "every deliberately bad uplink and ground command is refused with its reason"
+                    .into(),
+                passed: unrefused.is_empty(),
+                detail: if unrefused.is_empty() {
+                    format!("{attacks} refused, each with the reason it was owed")
+                } else {
+                    unrefused.join("; ")
+                },
             });
         }
         let t = |x: Option<u64>| x.map(|v| fmt_time(MissionTimeUs(v)));
@@ -148,6 +202,7 @@ impl MissionReport {
                 .map(|(at, l)| (fmt_time(MissionTimeUs(*at)), l.clone()))
                 .collect(),
             gave_up: record.gave_up.clone(),
+            authenticated: record.authenticated.clone(),
             commands_per_task: record
                 .commands_per_definition
                 .iter()
@@ -164,6 +219,8 @@ impl MissionReport {
             metrics: record.metrics.clone(),
             frames: record.frames,
             downtime_us,
+            link: run.link,
+            ended_early: run.ended_early,
             transcript_sha256: run.transcript_sha256,
             transcript_frames: run.transcript_frames,
             transcript: run.transcript,
@@ -244,6 +301,87 @@ pub fn summary(r: &MissionReport) -> String {
             g.task,
             fmt_time(MissionTimeUs(g.at)),
             g.cause
+        ));
+    }
+    if !r.authenticated.is_empty() {
+        let accepted = r
+            .authenticated
+            .iter()
+            .filter(|a| a.refused.is_none())
+            .count();
+        let mut refused: std::collections::BTreeMap<&str, usize> = Default::default();
+        for a in &r.authenticated {
+            if let Some(reason) = &a.refused {
+                *refused.entry(reason.as_str()).or_default() += 1;
+            }
+        }
+        let refused_text = if refused.is_empty() {
+            "none refused".to_string()
+        } else {
+            format!(
+                "{} refused ({})",
+                refused.values().sum::<usize>(),
+                refused
+                    .iter()
+                    .map(|(reason, n)| format!("{reason} {n}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        };
+        out.push_str(&format!(
+            "  authenticated uplinks and ground commands: {accepted} accepted, {refused_text}\n"
+        ));
+        for a in r
+            .authenticated
+            .iter()
+            .filter(|a| a.expected_refusal.is_some())
+        {
+            out.push_str(&format!(
+                "    {} {} #{}: {}\n",
+                fmt_time(MissionTimeUs(a.at)),
+                a.what,
+                a.sequence,
+                a.refused
+                    .as_deref()
+                    .map_or("ACCEPTED".to_string(), |r| format!("refused ({r})"))
+            ));
+        }
+    }
+    let l = &r.link;
+    out.push_str(&format!(
+        "  link: {} rounds, {} faults injected, {} retransmissions ({} per 1000 frames), {} frames rejected{}\n",
+        l.rounds,
+        l.injected_uplink + l.injected_downlink,
+        l.retransmissions,
+        l.retransmissions_per_1000_frames,
+        l.frames_rejected,
+        if l.lost_to_reset > 0 {
+            format!(", {} lost to resets", l.lost_to_reset)
+        } else {
+            String::new()
+        }
+    ));
+    if !l.instrument_drained {
+        out.push_str(&format!(
+            "        the target's Instrument channel (costs, logs) had not emptied {} rounds after the mission: some instrumentation is missing\n",
+            l.instrument_drain_rounds
+        ));
+    }
+    if let Some(dropped) = r.metrics.get("instrument_messages_dropped") {
+        out.push_str(&format!(
+            "        the target dropped {dropped} Instrument-channel messages (costs, events, logs): that channel was full or lost; the Mission channel lost nothing\n"
+        ));
+    }
+    let resent: Vec<String> = l
+        .classes
+        .iter()
+        .filter(|c| c.retransmitted + c.received_again > 0)
+        .map(|c| format!("{} {}+{}", c.class, c.retransmitted, c.received_again))
+        .collect();
+    if !resent.is_empty() {
+        out.push_str(&format!(
+            "        retransmitted by class (host+target): {}\n",
+            resent.join(", ")
         ));
     }
     out.push_str("  expectations:\n");

@@ -485,6 +485,17 @@ impl Spacecraft {
     /// The whole state buffer at `now`, as published to a target that just (re)started: each
     /// value with the time it took that value (cumulative quantities are sampled now).
     pub fn publish_all(&mut self, now: MissionTimeUs) -> Vec<HostToTarget> {
+        self.publish(now, false)
+    }
+
+    /// The whole state buffer at `now` as a fresh measurement (the scenario's republication
+    /// cadence): every value stamped now, so that it renews the value's age on the target (a
+    /// value older than its timeline's staleness bound reads UNKNOWN there).
+    pub fn republish_all(&mut self, now: MissionTimeUs) -> Vec<HostToTarget> {
+        self.publish(now, true)
+    }
+
+    fn publish(&mut self, now: MissionTimeUs, measured_now: bool) -> Vec<HostToTarget> {
         let keys: Vec<StateKey> = self.state.keys().copied().collect();
         keys.into_iter()
             .map(|key| {
@@ -492,6 +503,8 @@ impl Spacecraft {
                     let v = StateValue::Int(self.cumulative(key, now));
                     self.set(key, v, now);
                     (v, now)
+                } else if measured_now {
+                    (self.state[&key].0, now)
                 } else {
                     self.state[&key]
                 };

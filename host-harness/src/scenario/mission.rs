@@ -17,6 +17,16 @@
 //!
 //! [link]
 //! corrupt = 0.01                     # per byte, both directions
+//! key_file = "keys/mission.key"      # or key = "<64 hex digits>"; default: hil's test key
+//!
+//! [[events]]                         # authenticated traffic (signed with the mission's key)
+//! at = "10:05"
+//! ground_command = { command = "set-hold", hold = 2 }   # or "release-hold", "no-op"
+//!
+//! [[events]]                         # a deliberately bad one, which the target must refuse
+//! at = "10:06"
+//! attack = { kind = "forged", on = "uplink" }   # forged | replayed | wrong-key |
+//!                                               # unknown-key | truncated; uplink | command
 //!
 //! [[expect]]
 //! task = "Instrument Flyby"
@@ -75,6 +85,30 @@ pub struct EventEntry {
     pub command_wrong_state: Option<WrongStateSpec>,
     pub state_override: Option<StateOverrideSpec>,
     pub state_change: Option<StateChangeSpec>,
+    /// An authenticated ground command from the ground, signed with the mission's key.
+    pub ground_command: Option<GroundCommandSpec>,
+    /// A deliberately bad authenticated uplink or ground command the target must refuse.
+    pub attack: Option<AttackSpec>,
+}
+
+/// `ground_command = { command = "set-hold", hold = 2 }`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroundCommandSpec {
+    /// "no-op", "set-hold" or "release-hold".
+    pub command: String,
+    /// The hold number (set-hold, release-hold).
+    pub hold: Option<u8>,
+}
+
+/// `attack = { kind = "forged", on = "uplink" }`.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AttackSpec {
+    /// forged | replayed | wrong-key | unknown-key | truncated.
+    pub kind: String,
+    /// "uplink" (the mission's task network) or "command" (a set-hold).
+    pub on: String,
 }
 
 #[derive(Clone, Debug, Default, Deserialize)]
@@ -140,6 +174,15 @@ pub struct LinkSection {
     /// Probability that a host-to-target frame is held back to the next frame.
     #[serde(default)]
     pub delay: f64,
+    /// The key uplinks and ground commands are signed with (and provisioned into the target's
+    /// non-volatile memory before boot): 64 hexadecimal digits. Default: `hil`'s built-in test
+    /// key (`mission::auth::TEST_KEY`).
+    pub key: Option<String>,
+    /// A file holding the key instead (32 raw bytes or 64 hexadecimal digits), relative to the
+    /// scenario file.
+    pub key_file: Option<String>,
+    /// The key's security parameter index (default 1).
+    pub spi: Option<u16>,
 }
 
 /// One `[[expect]]` entry as written: exactly one kind of check (see
@@ -199,6 +242,9 @@ pub struct SpacecraftConfig {
     pub thermal: Option<ThermalConfig>,
     /// How long commands without a model take to answer (default: at once).
     pub response_delay: Option<TimeText>,
+    /// Publish the whole state buffer again this often (as well as after every reset), so
+    /// that a value the target missed or let go stale heals (default: only after resets).
+    pub republish_every: Option<TimeText>,
 }
 
 #[derive(Clone, Debug, Deserialize)]

@@ -39,6 +39,12 @@ pub enum Decision {
         args: CommandArgs,
         at: MissionTimeUs,
     },
+    /// The value of `key` measured at `measured_at` went stale at `at`.
+    Stale {
+        key: StateKey,
+        measured_at: MissionTimeUs,
+        at: MissionTimeUs,
+    },
 }
 
 /// Records outputs.
@@ -79,6 +85,15 @@ impl Outputs for Recorder {
                 kind,
                 task,
                 template,
+                at,
+            }),
+            TelemetryEvent::StateStale {
+                key,
+                measured_at,
+                at,
+            } => self.decisions.push(Decision::Stale {
+                key,
+                measured_at,
                 at,
             }),
             _ => {}
@@ -126,7 +141,8 @@ pub enum InstrumentFate {
 /// 15 minutes, the commanded attitude and an Ok response. Instruments answer Ok at once. A reset
 /// loses every pending completion and leaves the attitude UNKNOWN until the next GncAttain.
 /// `gnc_fates` and `instrument_fates`, when not empty, say what happens to the n-th command of
-/// each kind (cycling through the list) instead.
+/// each kind (cycling through the list) instead. With `republish`, the attitude is also
+/// published again periodically, stamped with the time of publication.
 pub struct FakeSpacecraft {
     pending: Vec<(MissionTimeUs, u64, SimEvent)>,
     order: u64,
@@ -136,6 +152,29 @@ pub struct FakeSpacecraft {
     pub instrument_fates: Vec<InstrumentFate>,
     gnc_commands: usize,
     instrument_commands: usize,
+    pub republish: Option<Republish>,
+}
+
+/// Periodic publication of the attitude: every `every_us` from `next`, except the ones due in
+/// `[lost_from, lost_until)`, which are lost on the way.
+#[derive(Clone, Copy, Debug)]
+pub struct Republish {
+    pub every_us: u64,
+    pub next: MissionTimeUs,
+    pub lost_from: MissionTimeUs,
+    pub lost_until: MissionTimeUs,
+}
+
+impl Republish {
+    /// Every `every_us` from `first`, none lost.
+    pub fn every(every_us: u64, first: MissionTimeUs) -> Self {
+        Self {
+            every_us,
+            next: first,
+            lost_from: MissionTimeUs::ZERO,
+            lost_until: MissionTimeUs::ZERO,
+        }
+    }
 }
 
 impl FakeSpacecraft {
@@ -149,6 +188,7 @@ impl FakeSpacecraft {
             instrument_fates: Vec::new(),
             gnc_commands: 0,
             instrument_commands: 0,
+            republish: None,
         };
         sc.push(
             at,
@@ -163,7 +203,8 @@ impl FakeSpacecraft {
     }
 
     pub fn next_event(&self) -> Option<MissionTimeUs> {
-        self.pending.iter().map(|p| p.0).min()
+        let republish = self.republish.map(|r| r.next);
+        self.pending.iter().map(|p| p.0).chain(republish).min()
     }
 
     pub fn on_dispatch(&mut self, now: MissionTimeUs, id: u32, opcode: Opcode, args: &CommandArgs) {
@@ -226,6 +267,16 @@ impl FakeSpacecraft {
                     autonomy.on_state_update(key, value, at)
                 }
                 SimEvent::Response(id, status) => autonomy.on_command_response(id, status),
+            }
+        }
+        if let Some(r) = self.republish.as_mut() {
+            if r.next <= now {
+                if !(r.lost_from..r.lost_until).contains(&now) {
+                    autonomy.on_state_update(ATTITUDE_KEY, self.attitude, now);
+                }
+                while r.next <= now {
+                    r.next = r.next.saturating_add(r.every_us);
+                }
             }
         }
     }
@@ -597,6 +648,16 @@ pub fn decision_lines(sim: &Sim) -> Vec<String> {
                 id,
                 opcode.0,
                 args
+            ),
+            Decision::Stale {
+                key,
+                measured_at,
+                at,
+            } => format!(
+                "{} stale key {} measured {}",
+                fmt_time(*at),
+                key.0,
+                fmt_time(*measured_at)
             ),
         })
         .collect()

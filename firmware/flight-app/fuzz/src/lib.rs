@@ -2,31 +2,50 @@
 //! wrappers (`fuzz_targets/`) and the bounded run on stable
 //! (`firmware/flight-app/tests/fuzz_bounded.rs`).
 //!
-//! Both targets drive a [`Harness`]: a [`FlightApp`] with a warm-restart area and
-//! non-volatile memory, fed [`Op`]s (a decoded host message, a warm reset, a power cycle),
-//! checking after each one:
+//! Both targets drive a [`Harness`]: a [`FlightApp`] with a warm-restart area, non-volatile
+//! checkpoint areas and a security area provisioned with [`KEY`], fed [`Op`]s (a decoded host
+//! message, an uplink or ground command the harness secures itself, a warm reset, a power
+//! cycle, security-area writes failing or not), checking after each one:
 //! * a time grant is answered by exactly one `FrameDone`, for that frame, last;
 //! * every uplink chunk gets the answers of [`UplinkModel`] (the transfer protocol written
-//!   out as a specification), and a completed transfer loads exactly the network its bytes
-//!   validate to, or is refused with the validator's code, or as busy;
+//!   out as a specification); a completed transfer is judged by [`SecurityModel`] (the
+//!   documented order of the security checks and the anti-replay rule, written out again):
+//!   refused with its security reason, counted, and nothing changed (plan, counter, holds);
+//!   or, authentic and fresh, its sequence number stored in non-volatile memory first and
+//!   then the image loaded exactly as it validates, or refused with the validator's code, or
+//!   as busy (the number stays spent either way);
+//! * every ground command gets [`SecurityModel`]'s answer, and sets or releases exactly the
+//!   hold it names, never touching the plan;
 //! * every checkpoint written restores, and restores to the same bytes;
 //! * a boot restores the newest record of either memory (every record is one the application
-//!   wrote, so every one validates), or comes up cold when there is none.
+//!   wrote, so every one validates), or comes up cold when there is none; it reads back the
+//!   anti-replay counter and the holds the model expects.
 //!
-//! * [`messages`]: any sequence of host messages and resets (postcard-encoded [`Op`]s back to
-//!   back): time going backwards, grants repeated or out of order, arbitrary command
-//!   responses, state updates of any key and type, uplink chunks, resets at any point.
-//! * [`uplink_chunks`]: an uplink image cut into chunks and delivered with a script of
-//!   defects (duplicates, losses, reordering, wrong totals, resets and grants in between).
+//! * [`messages`]: any sequence of [`Op`]s (postcard-encoded back to back): time going
+//!   backwards, grants repeated or out of order, arbitrary command responses, state updates of
+//!   any key and type, raw uplink chunks and ground commands (forged, replayed, truncated),
+//!   properly secured ones with any sequence number, resets at any point.
+//! * [`uplink_chunks`]: an uplink image, secured by the harness or sent as it is, cut into
+//!   chunks and delivered with a script of defects (duplicates, losses, reordering, wrong
+//!   totals, flipped bits, resets and grants in between).
 //!
 //! Seeds are in `seeds/<target>/`: the message sequences of the shipped scenarios flown on the
-//! native target, and the shipped networks as chunked uplinks (regenerate them with
+//! native target (`hil` signs with the key the harness provisions), and the shipped networks
+//! as chunked uplinks (regenerate them with
 //! `cargo run --manifest-path host-harness/fuzz/Cargo.toml --example seeds`).
 use autonomy::checkpoint::records;
 use autonomy::{Autonomy, TaskNetwork, TaskRole};
-use flight_app::{uplink_reason, BootOutcome, FlightApp, Memories, NoClock, MAX_UPLINK_BYTES};
+use flight_app::{
+    metric, uplink_reason, BootOutcome, FlightApp, Memories, NoClock, SecurityStore, StoreError,
+    MAX_UPLINK_BYTES,
+};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
-use fsw_bridge::{HostToTarget, MissionTimeUs, TargetToHost};
+use fsw_bridge::security::{MAC_LEN, MAX_GROUND_HOLDS};
+use fsw_bridge::{
+    CommandRefusal, GroundCommand, HostToTarget, MissionTimeUs, SecurityHeader, SecurityRefusal,
+    TargetToHost, TelemetryEvent,
+};
+use sdls::nv::SECURITY_AREA_BYTES;
 use serde::{Deserialize, Serialize};
 
 #[path = "../../../../fsw-bridge/fuzz/src/bounded.rs"]
@@ -39,10 +58,19 @@ pub const TARGETS: &[bounded::Target] = &[("messages", messages), ("uplink_chunk
 /// that a large fuzzed network overflows it now and then (a failed checkpoint write) while
 /// non-volatile memory still takes it.
 pub const WARM_BYTES: usize = 16 * 1024;
-/// Bytes of non-volatile memory in the harness.
+/// Bytes of non-volatile checkpoint memory in the harness (the security area is apart).
 pub const NV_BYTES: usize = 64 * 1024;
 /// Most operations one input is cut to (keeps one input's run time bounded).
 pub const MAX_OPS: usize = 1_000;
+
+/// The key the harness provisions and secures its uplinks and commands with: `hil`'s built-in
+/// test key (`hil::mission::auth::TEST_KEY`, repeated here because the flight application
+/// cannot depend on `hil`; the seed generator checks that they are equal), so that the
+/// missions `hil` flew and recorded as seeds verify in the harness too.
+pub const KEY: sdls::Key = sdls::Key {
+    spi: 1,
+    bytes: *b"hil test key - not a secret (v1)",
+};
 
 /// One thing that happens to the flight application.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -53,6 +81,21 @@ pub enum Op {
     WarmReset,
     /// A power cycle: RAM and the warm-restart area are lost; the application boots.
     PowerCycle,
+    /// The ground uplinks `image`: the harness secures it with [`KEY`] and sequence number
+    /// `step` after the last one the application accepted (wrapping: 1 is what the ground
+    /// sends, 0 or below a replay, more a gap), cuts it into chunks of `1 + chunk % 128`
+    /// bytes and sends them in order.
+    SecuredUplink {
+        image: Vec<u8>,
+        chunk: u8,
+        step: i32,
+    },
+    /// The ground sends `command` signed with [`KEY`], its sequence number chosen as for
+    /// [`Op::SecuredUplink`].
+    SecuredCommand { command: GroundCommand, step: i32 },
+    /// From now on writes to the security area fail (true) or succeed (false): the
+    /// non-volatile memory that keeps the anti-replay counter is faulty.
+    SecurityWritesFail(bool),
 }
 
 /// `data` as operations: postcard-encoded [`Op`]s back to back, up to the first that does not
@@ -90,9 +133,11 @@ pub fn messages(data: &[u8]) {
 }
 
 /// An uplink image cut into chunks and delivered with a script of defects. Layout: image
-/// length (2 bytes, big-endian), chunk size (1 byte: 1 + b % 128), the image, then the
-/// script, two bytes per defect (see [`chunk_ops`]). A grant follows the last chunk, so a
-/// network that loads is flown for a frame and checkpointed.
+/// length (2 bytes, big-endian), a control byte (low 7 bits: chunk size - 1; high bit clear:
+/// the harness secures the image with [`KEY`] and the next sequence number first, set: the
+/// image is sent as it is), the image, then the script, two bytes per defect (see
+/// [`chunk_ops`]). A grant follows the last chunk, so a network that loads is flown for a
+/// frame and checkpointed.
 pub fn uplink_chunks(data: &[u8]) {
     let mut harness = Harness::new();
     for op in chunk_ops(data) {
@@ -100,18 +145,31 @@ pub fn uplink_chunks(data: &[u8]) {
     }
 }
 
-/// The operations [`uplink_chunks`] performs for `data`.
+/// The control byte's bit that sends an [`uplink_chunks`] image without securing it.
+pub const RAW_IMAGE: u8 = 0x80;
+// Chunk sizes up to 128 (the control byte's low 7 bits) all fit a chunk.
+const _: () = assert!(UPLINK_CHUNK_MAX >= 128);
+
+/// The operations [`uplink_chunks`] performs for `data`. The image is secured with sequence
+/// number 1: the harness starts with a freshly provisioned key, so that is the next one.
 pub fn chunk_ops(data: &[u8]) -> Vec<Op> {
-    let [hi, lo, size, rest @ ..] = data else {
+    let [hi, lo, control, rest @ ..] = data else {
         return Vec::new();
     };
     let image_len = usize::from(u16::from_be_bytes([*hi, *lo])).min(rest.len());
-    let chunk = 1 + usize::from(*size) % UPLINK_CHUNK_MAX;
+    let chunk = 1 + usize::from(*control & 0x7f);
     let (image, script) = rest.split_at(image_len);
-    let pieces: Vec<&[u8]> = if image.is_empty() {
+    let secured;
+    let sent = if control & RAW_IMAGE != 0 {
+        image
+    } else {
+        secured = secure_uplink(1, image);
+        &secured[..]
+    };
+    let pieces: Vec<&[u8]> = if sent.is_empty() {
         vec![&[]]
     } else {
-        image.chunks(chunk).collect()
+        sent.chunks(chunk).collect()
     };
     let total = u16::try_from(pieces.len()).unwrap_or(u16::MAX);
     let mut ops: Vec<Op> = pieces
@@ -128,7 +186,7 @@ pub fn chunk_ops(data: &[u8]) -> Vec<Op> {
     for (n, defect) in script.chunks(2).take(64).enumerate() {
         let [kind, arg] = defect else { break };
         let i = usize::from(*arg) % ops.len();
-        match kind % 8 {
+        match kind % 9 {
             0 => {
                 let again = ops[i].clone();
                 ops.insert(i, again);
@@ -149,9 +207,18 @@ pub fn chunk_ops(data: &[u8]) -> Vec<Op> {
                     *seq = u16::from(*arg);
                 }
             }
-            _ => {
+            7 => {
                 if let Op::Message(HostToTarget::UplinkChunk { bytes, .. }) = &mut ops[i] {
                     bytes.clear();
+                }
+            }
+            _ => {
+                // A bit flipped on the way (the link's CRC would catch it; a forger would not).
+                if let Op::Message(HostToTarget::UplinkChunk { bytes, .. }) = &mut ops[i] {
+                    if !bytes.is_empty() {
+                        let at = usize::from(*arg) % bytes.len();
+                        bytes[at] ^= 1 << (arg % 8);
+                    }
                 }
             }
         }
@@ -168,6 +235,30 @@ fn grant(frame: u32, minutes: u64) -> Op {
         now,
         until: now.saturating_add(60_000_000),
     })
+}
+
+/// `image` secured with [`KEY`] and `sequence` (`sdls::uplink`'s layout), as the ground sends
+/// it.
+pub fn secure_uplink(sequence: u32, image: &[u8]) -> Vec<u8> {
+    let mut out = vec![0u8; image.len() + sdls::uplink::OVERHEAD];
+    let len = sdls::uplink::sign_into(&KEY, sequence, image, &mut out)
+        .expect("the output has room for the image and its header and trailer");
+    out.truncate(len);
+    out
+}
+
+/// `command` signed with [`KEY`] and `sequence`, as the ground sends it.
+pub fn secure_command(sequence: u32, command: GroundCommand) -> HostToTarget {
+    let header = SecurityHeader {
+        spi: KEY.spi,
+        sequence,
+    };
+    HostToTarget::GroundCommand {
+        header,
+        command,
+        mac: heapless::Vec::from_slice(&sdls::command_mac(&KEY, &header, &command))
+            .expect("a MAC fits"),
+    }
 }
 
 /// The uplink transfer protocol written out as a specification: what the application must
@@ -191,14 +282,14 @@ pub enum ChunkAnswer {
     Nak(u16),
     /// `UplinkAck { seq }` and nothing else.
     Ack,
-    /// `UplinkAck { seq }`, then the whole image is loaded or refused.
+    /// `UplinkAck { seq }`, then the whole transfer (a secured uplink) is judged.
     Complete(Vec<u8>),
 }
 
 impl UplinkModel {
     /// The answer to chunk `seq` of `total` carrying `bytes`. A chunk 0 starts a new transfer;
     /// any other chunk must be the next one of the transfer in progress, with its total; the
-    /// image may not grow past [`MAX_UPLINK_BYTES`]; a refused chunk ends the transfer.
+    /// transfer may not grow past [`MAX_UPLINK_BYTES`]; a refused chunk ends the transfer.
     pub fn answer(&mut self, seq: u16, total: u16, bytes: &[u8]) -> ChunkAnswer {
         if seq == 0 {
             self.transfer = Some(Transfer {
@@ -234,12 +325,190 @@ impl UplinkModel {
     }
 }
 
-/// A flight application with its two memories, checked after every operation.
+/// The security rules of `sdls` (its crate documentation) written out as a specification,
+/// for a target provisioned with [`KEY`]: the order of the checks, the anti-replay rule
+/// (fresh iff greater than the last number accepted; the last one accepted lives in
+/// non-volatile memory and survives every reset; stored before the message takes effect, and
+/// refused with `CounterNotStored` when it cannot be), and the ground holds. Only the MAC is
+/// computed with `sdls::mac` (the oracle for "authentic").
+#[derive(Debug, Default)]
+pub struct SecurityModel {
+    /// The last sequence number accepted (0: none yet).
+    pub last_sequence: u32,
+    /// Ground holds set (bit h: hold h).
+    pub holds: u32,
+    /// Writes to the security area fail.
+    pub writes_fail: bool,
+    /// Refusals per reason since the last boot.
+    refusals: [u64; SecurityRefusal::COUNT],
+    /// Authentic commands not carried out since the last boot.
+    not_carried_out: u64,
+    /// Refusals per reason over the harness's life.
+    total_refusals: [u64; SecurityRefusal::COUNT],
+}
+
+/// A secured uplink's parts, as `sdls::uplink` documents its layout.
+struct SecuredParts<'a> {
+    spi: u16,
+    sequence: u32,
+    /// Header and image: what the MAC covers after the service byte.
+    covered: &'a [u8],
+    image: &'a [u8],
+    mac: &'a [u8],
+}
+
+/// Header: SPI (2 bytes), sequence number (4), image length L (4), big-endian; then the image,
+/// then a 32-byte MAC. Shorter than that: truncated; longer: a bad length.
+fn split_secured(bytes: &[u8]) -> Result<SecuredParts<'_>, SecurityRefusal> {
+    const HEADER: usize = 10;
+    if bytes.len() < HEADER {
+        return Err(SecurityRefusal::Truncated);
+    }
+    let word =
+        |at: usize| u32::from_be_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]]);
+    let length = u64::from(word(6));
+    let whole = HEADER as u64 + length + MAC_LEN as u64;
+    let len = bytes.len() as u64;
+    if len < whole {
+        return Err(SecurityRefusal::Truncated);
+    }
+    if len > whole {
+        return Err(SecurityRefusal::BadLength);
+    }
+    let image_end = bytes.len() - MAC_LEN;
+    Ok(SecuredParts {
+        spi: u16::from_be_bytes([bytes[0], bytes[1]]),
+        sequence: word(2),
+        covered: &bytes[..image_end],
+        image: &bytes[HEADER..image_end],
+        mac: &bytes[image_end..],
+    })
+}
+
+impl SecurityModel {
+    /// The number `step` after the last one accepted.
+    pub fn sequence_after(&self, step: i32) -> u32 {
+        self.last_sequence.wrapping_add(step as u32)
+    }
+
+    fn fresh(&self, sequence: u32) -> Result<(), SecurityRefusal> {
+        if sequence > self.last_sequence {
+            Ok(())
+        } else {
+            Err(SecurityRefusal::Replay)
+        }
+    }
+
+    /// A whole transfer: its sequence number and image if authentic and fresh.
+    fn check_uplink<'a>(&self, bytes: &'a [u8]) -> Result<(u32, &'a [u8]), SecurityRefusal> {
+        let parts = split_secured(bytes)?;
+        if parts.spi != KEY.spi {
+            return Err(SecurityRefusal::UnknownKey);
+        }
+        let expected = sdls::mac::tag(&KEY.bytes, &[&[sdls::Service::Uplink as u8], parts.covered]);
+        if parts.mac != expected {
+            return Err(SecurityRefusal::BadMac);
+        }
+        self.fresh(parts.sequence)?;
+        Ok((parts.sequence, parts.image))
+    }
+
+    /// A ground command: Ok if authentic and fresh.
+    fn check_command(
+        &self,
+        header: &SecurityHeader,
+        command: &GroundCommand,
+        mac: &[u8],
+    ) -> Result<(), SecurityRefusal> {
+        if mac.len() < MAC_LEN {
+            return Err(SecurityRefusal::Truncated);
+        }
+        if header.spi != KEY.spi {
+            return Err(SecurityRefusal::UnknownKey);
+        }
+        if mac != sdls::command_mac(&KEY, header, command) {
+            return Err(SecurityRefusal::BadMac);
+        }
+        self.fresh(header.sequence)
+    }
+
+    /// Store `sequence` and `holds` (non-volatile memory first).
+    fn accept(&mut self, sequence: u32, holds: u32) -> Result<(), SecurityRefusal> {
+        if self.writes_fail {
+            return Err(SecurityRefusal::CounterNotStored);
+        }
+        self.last_sequence = sequence;
+        self.holds = holds;
+        Ok(())
+    }
+
+    /// Count a refusal; the count since boot.
+    fn refuse(&mut self, reason: SecurityRefusal) -> u64 {
+        self.total_refusals[reason.index()] += 1;
+        self.refusals[reason.index()] += 1;
+        self.refusals[reason.index()]
+    }
+
+    /// A reboot: the counter and the holds are in non-volatile memory, the counts are not.
+    fn boot(&mut self) {
+        self.refusals = [0; SecurityRefusal::COUNT];
+        self.not_carried_out = 0;
+    }
+}
+
+/// The security area of the harness's non-volatile memory, with writes that can be made to
+/// fail.
+struct SecurityNv {
+    area: [u8; SECURITY_AREA_BYTES],
+    writes_fail: bool,
+}
+
+impl SecurityStore for SecurityNv {
+    fn read(&mut self, area: &mut [u8; SECURITY_AREA_BYTES]) -> Result<(), StoreError> {
+        area.copy_from_slice(&self.area);
+        Ok(())
+    }
+
+    fn write(&mut self, offset: usize, bytes: &[u8]) -> Result<(), StoreError> {
+        if self.writes_fail {
+            return Err(StoreError);
+        }
+        let end = offset.checked_add(bytes.len()).ok_or(StoreError)?;
+        self.area
+            .get_mut(offset..end)
+            .ok_or(StoreError)?
+            .copy_from_slice(bytes);
+        Ok(())
+    }
+}
+
+/// What the verdicts on whole uplinks and ground commands were, over a harness's life (the
+/// bounded run's tests check that the seeds reach each).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Verdicts {
+    /// Uplinks and ground commands refused by the security checks, per reason.
+    pub security_refusals: [u64; SecurityRefusal::COUNT],
+    /// Authentic, fresh uplinks refused by the validator.
+    pub invalid: u64,
+    /// Authentic, fresh, valid uplinks refused because the executive was busy.
+    pub busy: u64,
+    /// Uplinks loaded.
+    pub loaded: u64,
+    /// Ground commands carried out.
+    pub commands: u64,
+    /// Authentic ground commands not carried out (hold out of range).
+    pub commands_not_carried_out: u64,
+}
+
+/// A flight application with its memories, checked after every operation.
 pub struct Harness {
     app: Box<FlightApp>,
     warm: Vec<u8>,
     nv: Vec<u8>,
+    security_nv: SecurityNv,
     model: UplinkModel,
+    security: SecurityModel,
+    verdicts: Verdicts,
 }
 
 impl Default for Harness {
@@ -248,14 +517,46 @@ impl Default for Harness {
     }
 }
 
+/// The security refusal metrics among `out`: (reason, count).
+fn refusal_metrics(out: &[TargetToHost]) -> Vec<(SecurityRefusal, u64)> {
+    out.iter()
+        .filter_map(|m| match m {
+            TargetToHost::Telemetry(TelemetryEvent::Metric { id, value }) => {
+                metric::security_refusal_of(*id).map(|r| (r, *value))
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// The values of metric `id` among `out`.
+fn metric_values(out: &[TargetToHost], id: u16) -> Vec<u64> {
+    out.iter()
+        .filter_map(|m| match m {
+            TargetToHost::Telemetry(TelemetryEvent::Metric { id: i, value }) if *i == id => {
+                Some(*value)
+            }
+            _ => None,
+        })
+        .collect()
+}
+
 impl Harness {
-    /// A power-on with both memories empty: cold.
+    /// A power-on with both checkpoint memories empty and [`KEY`] provisioned: cold.
     pub fn new() -> Self {
+        let mut area = [0u8; SECURITY_AREA_BYTES];
+        sdls::nv::provision(&mut area, &KEY).expect("a whole security area");
         let mut h = Self {
             app: Box::new(FlightApp::new()),
             warm: vec![0; WARM_BYTES],
             nv: vec![0; NV_BYTES],
+            security_nv: SecurityNv {
+                area,
+                writes_fail: false,
+            },
             model: UplinkModel::default(),
+            security: SecurityModel::default(),
+            verdicts: Verdicts::default(),
         };
         assert_eq!(h.boot(), BootOutcome::Cold);
         h
@@ -264,6 +565,16 @@ impl Harness {
     /// The application.
     pub fn app(&self) -> &FlightApp {
         &self.app
+    }
+
+    /// The security model (what the application must have accepted so far).
+    pub fn security(&self) -> &SecurityModel {
+        &self.security
+    }
+
+    /// The verdicts so far.
+    pub fn verdicts(&self) -> &Verdicts {
+        &self.verdicts
     }
 
     /// The payload of the newest checkpoint in the warm-restart area.
@@ -282,11 +593,34 @@ impl Harness {
                 self.boot();
             }
             Op::Message(msg) => self.message(msg),
+            Op::SecuredUplink { image, chunk, step } => {
+                let secured = secure_uplink(self.security.sequence_after(*step), image);
+                let size = 1 + usize::from(*chunk) % UPLINK_CHUNK_MAX;
+                let pieces: Vec<&[u8]> = secured.chunks(size).collect();
+                let total = u16::try_from(pieces.len()).unwrap_or(u16::MAX);
+                for (seq, bytes) in pieces.iter().enumerate() {
+                    let Ok(seq) = u16::try_from(seq) else { break };
+                    self.message(&HostToTarget::UplinkChunk {
+                        seq,
+                        total,
+                        bytes: heapless::Vec::from_slice(bytes).expect("a chunk fits"),
+                    });
+                }
+            }
+            Op::SecuredCommand { command, step } => {
+                let sequence = self.security.sequence_after(*step);
+                self.message(&secure_command(sequence, *command));
+            }
+            Op::SecurityWritesFail(fail) => {
+                self.security.writes_fail = *fail;
+                self.security_nv.writes_fail = *fail;
+            }
         }
     }
 
     /// Boots a fresh application on the memories; it must restore the newest record of
-    /// either (all were written by the application and checked to restore).
+    /// either (all were written by the application and checked to restore), and read back
+    /// the anti-replay counter and the holds.
     fn boot(&mut self) -> BootOutcome {
         let newest = [&self.warm, &self.nv]
             .into_iter()
@@ -300,11 +634,16 @@ impl Harness {
             });
         *self.app = FlightApp::new();
         self.model = UplinkModel::default();
+        self.security.boot();
         let mut memories = Memories {
             warm: &mut self.warm,
             nv: Some(&mut self.nv),
+            security: Some(&mut self.security_nv),
         };
-        let outcome = self.app.boot(&mut memories, &mut NoClock, &mut |_| {});
+        let mut out = Vec::new();
+        let outcome = self
+            .app
+            .boot(&mut memories, &mut NoClock, &mut |m| out.push(m));
         match (newest, outcome) {
             (None, BootOutcome::Cold) => {}
             (Some(seq), BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info)) => {
@@ -312,7 +651,32 @@ impl Harness {
             }
             (newest, outcome) => panic!("newest record {newest:?}, boot {outcome:?}"),
         }
+        let sa = self.app.security();
+        assert!(sa.has_key(), "the provisioned key was not read");
+        assert_eq!(
+            (sa.last_sequence(), sa.holds()),
+            (self.security.last_sequence, self.security.holds),
+            "boot read another counter or other holds than were stored"
+        );
+        let holds = metric_values(&out, metric::GROUND_HOLDS);
+        let expected: &[u64] = match self.security.holds {
+            0 => &[],
+            h => &[u64::from(h)],
+        };
+        assert_eq!(holds, expected, "holds announced at boot");
         outcome
+    }
+
+    /// The whole plan and execution state, to show that something left it untouched.
+    fn state_image(&self) -> Vec<u8> {
+        let mut buf = vec![0u8; 2 * MAX_UPLINK_BYTES + 64 * 1024];
+        let len = self
+            .app
+            .autonomy()
+            .encode_state(&mut buf)
+            .expect("the state fits");
+        buf.truncate(len);
+        buf
     }
 
     fn message(&mut self, msg: &HostToTarget) {
@@ -323,11 +687,15 @@ impl Harness {
             }
             _ => None,
         };
+        let judged = matches!(expected, Some(ChunkAnswer::Complete(_)))
+            || matches!(msg, HostToTarget::GroundCommand { .. });
+        let before = judged.then(|| (self.state_image(), self.security_nv.area));
         let mut out = Vec::new();
         let handled = {
             let mut memories = Memories {
                 warm: &mut self.warm,
                 nv: Some(&mut self.nv),
+                security: Some(&mut self.security_nv),
             };
             self.app
                 .handle(msg, &mut memories, &mut NoClock, &mut |m| out.push(m))
@@ -352,26 +720,37 @@ impl Harness {
             }
             HostToTarget::UplinkChunk { seq, total, .. } => {
                 let expected = expected.expect("computed for chunks");
-                self.check_chunk(*seq, *total, expected, busy, &out);
+                self.check_chunk(*seq, *total, expected, busy, before, &out);
+            }
+            HostToTarget::GroundCommand {
+                header,
+                command,
+                mac,
+            } => {
+                let before = before.expect("taken for commands");
+                self.check_command(header, command, mac, before, &out);
             }
         }
+        self.verdicts.security_refusals = self.security.total_refusals;
+        self.check_security_state();
         self.check_checkpoints();
     }
 
     fn check_chunk(
-        &self,
+        &mut self,
         seq: u16,
         total: u16,
         expected: ChunkAnswer,
         busy: bool,
+        before: Option<(Vec<u8>, [u8; SECURITY_AREA_BYTES])>,
         out: &[TargetToHost],
     ) {
-        // Checkpoint write failures may be reported between the answers.
+        // Checkpoint write failures and refusal counts may be reported between the answers.
         let answers: Vec<&TargetToHost> = out
             .iter()
             .filter(|m| !matches!(m, TargetToHost::Telemetry(_)))
             .collect();
-        let image = match expected {
+        let secured = match expected {
             ChunkAnswer::Nak(reason) => {
                 assert_eq!(answers, [&TargetToHost::UplinkNak { seq, reason }]);
                 return;
@@ -380,20 +759,70 @@ impl Harness {
                 assert_eq!(answers, [&TargetToHost::UplinkAck { seq }]);
                 return;
             }
-            ChunkAnswer::Complete(image) => image,
+            ChunkAnswer::Complete(secured) => secured,
         };
-        let last = match TaskNetwork::validate_uplink(&image) {
-            Err(e) => TargetToHost::UplinkNak {
-                seq: total,
-                reason: e.code.code(),
-            },
-            Ok(()) if busy => TargetToHost::UplinkNak {
-                seq: total,
-                reason: uplink_reason::BUSY,
-            },
+        let (state_before, area_before) = before.expect("taken for a whole transfer");
+        // Authentic and fresh first; the number is stored before the image is validated.
+        let accepted = self
+            .security
+            .check_uplink(&secured)
+            .and_then(|(sequence, image)| {
+                let holds = self.security.holds;
+                self.security.accept(sequence, holds).map(|()| image)
+            });
+        let image = match accepted {
+            Err(reason) => {
+                let count = self.security.refuse(reason);
+                let nak = TargetToHost::UplinkNak {
+                    seq: total,
+                    reason: reason.code(),
+                };
+                assert_eq!(answers, [&TargetToHost::UplinkAck { seq }, &nak]);
+                assert_eq!(
+                    refusal_metrics(out),
+                    [(reason, count)],
+                    "{reason:?} counted"
+                );
+                assert_eq!(
+                    self.state_image(),
+                    state_before,
+                    "an uplink refused as {reason:?} changed the plan"
+                );
+                assert_eq!(
+                    self.security_nv.area, area_before,
+                    "an uplink refused as {reason:?} wrote the security area"
+                );
+                return;
+            }
+            Ok(image) => image,
+        };
+        assert!(refusal_metrics(out).is_empty(), "accepted, yet {out:?}");
+        let stored = sdls::nv::current_counter(&self.security_nv.area)
+            .map(|(_, record)| record.last_sequence);
+        assert_eq!(
+            stored,
+            Some(self.security.last_sequence),
+            "the accepted number is not in non-volatile memory"
+        );
+        let last = match TaskNetwork::validate_uplink(image) {
+            Err(e) => {
+                self.verdicts.invalid += 1;
+                TargetToHost::UplinkNak {
+                    seq: total,
+                    reason: e.code.code(),
+                }
+            }
+            Ok(()) if busy => {
+                self.verdicts.busy += 1;
+                TargetToHost::UplinkNak {
+                    seq: total,
+                    reason: uplink_reason::BUSY,
+                }
+            }
             Ok(()) => {
+                self.verdicts.loaded += 1;
                 let mut network = TaskNetwork::EMPTY;
-                autonomy::uplink::decode_into(&mut network, &image).expect("validated");
+                autonomy::uplink::decode_into(&mut network, image).expect("validated");
                 assert_eq!(self.app.autonomy().network(), &network, "loaded network");
                 let requested = network
                     .tasks()
@@ -404,7 +833,112 @@ impl Harness {
                 TargetToHost::UplinkAck { seq: total }
             }
         };
+        if matches!(last, TargetToHost::UplinkNak { .. }) {
+            assert_eq!(
+                self.state_image(),
+                state_before,
+                "a refused network changed the plan"
+            );
+        }
         assert_eq!(answers, [&TargetToHost::UplinkAck { seq }, &last]);
+    }
+
+    fn check_command(
+        &mut self,
+        header: &SecurityHeader,
+        command: &GroundCommand,
+        mac: &[u8],
+        (state_before, area_before): (Vec<u8>, [u8; SECURITY_AREA_BYTES]),
+        out: &[TargetToHost],
+    ) {
+        let sequence = header.sequence;
+        let holds = self.security.holds;
+        let bit = |hold: u8| (hold < MAX_GROUND_HOLDS).then(|| 1u32 << hold);
+        let holds_after = match *command {
+            GroundCommand::NoOp => Some(holds),
+            GroundCommand::SetHold(h) => bit(h).map(|b| holds | b),
+            GroundCommand::ReleaseHold(h) => bit(h).map(|b| holds & !b),
+        };
+        // An authentic, fresh command spends its number even when it cannot be carried out.
+        let verdict = self
+            .security
+            .check_command(header, command, mac)
+            .and_then(|()| self.security.accept(sequence, holds_after.unwrap_or(holds)));
+        let answers: Vec<&TargetToHost> = out
+            .iter()
+            .filter(|m| !matches!(m, TargetToHost::Telemetry(_)))
+            .collect();
+        assert_eq!(
+            self.state_image(),
+            state_before,
+            "a ground command changed the plan"
+        );
+        match (verdict, holds_after) {
+            (Err(reason), _) => {
+                let count = self.security.refuse(reason);
+                let nak = TargetToHost::GroundCommandNak {
+                    sequence,
+                    reason: CommandRefusal::Security(reason),
+                };
+                assert_eq!(answers, [&nak]);
+                assert_eq!(
+                    refusal_metrics(out),
+                    [(reason, count)],
+                    "{reason:?} counted"
+                );
+                assert_eq!(
+                    self.security_nv.area, area_before,
+                    "a command refused as {reason:?} wrote the security area"
+                );
+            }
+            (Ok(()), None) => {
+                self.security.not_carried_out += 1;
+                self.verdicts.commands_not_carried_out += 1;
+                let nak = TargetToHost::GroundCommandNak {
+                    sequence,
+                    reason: CommandRefusal::HoldOutOfRange,
+                };
+                assert_eq!(answers, [&nak]);
+                assert_eq!(
+                    metric_values(out, metric::GROUND_COMMANDS_NOT_CARRIED_OUT),
+                    [self.security.not_carried_out]
+                );
+            }
+            (Ok(()), Some(after)) => {
+                self.verdicts.commands += 1;
+                assert_eq!(answers, [&TargetToHost::GroundCommandAck { sequence }]);
+                let expected: &[u64] = if after == holds {
+                    &[]
+                } else {
+                    &[u64::from(after)]
+                };
+                assert_eq!(metric_values(out, metric::GROUND_HOLDS), expected);
+            }
+        }
+    }
+
+    /// The application holds the counter and the holds the model expects, and non-volatile
+    /// memory holds them too (once anything was stored).
+    fn check_security_state(&self) {
+        let sa = self.app.security();
+        assert_eq!(
+            (sa.last_sequence(), sa.holds()),
+            (self.security.last_sequence, self.security.holds),
+            "the application's counter and holds differ from the model's"
+        );
+        if let Some((_, record)) = sdls::nv::current_counter(&self.security_nv.area) {
+            assert_eq!(
+                (record.last_sequence, record.holds, record.key_check),
+                (
+                    self.security.last_sequence,
+                    self.security.holds,
+                    KEY.check()
+                ),
+                "non-volatile memory's counter record"
+            );
+        } else {
+            assert_eq!((self.security.last_sequence, self.security.holds), (0, 0));
+        }
     }
 
     /// Every record the last message wrote restores, to the same bytes. Both memories are
@@ -417,7 +951,10 @@ impl Harness {
             let (w, n) = (records(&self.warm)[0], records(&self.nv)[0]);
             let (w, n) = (w.expect("written"), n.expect("written"));
             assert_eq!(w.sequence, n.sequence, "both memories carry one number");
-            assert_eq!(w.payload, n.payload, "both memories hold the same checkpoint");
+            assert_eq!(
+                w.payload, n.payload,
+                "both memories hold the same checkpoint"
+            );
         }
         for (written, memory) in [(warm, &self.warm), (nv && !warm, &self.nv)] {
             if !written {

@@ -1,6 +1,7 @@
-//! Drivers for the g3beige board as QEMU emulates it: Grackle PCI host bridge, Heathrow mac-io,
-//! the ESCC (Zilog 8530) serial controller, and the 750's timebase.
+//! Drivers for the g3beige board as QEMU emulates it: Grackle PCI host bridge, Heathrow mac-io
+//! and its interrupt controller, the ESCC (Zilog 8530) serial controller, and the 750's timebase.
 pub mod escc;
+pub mod heathrow;
 pub mod pci;
 pub mod timebase;
 

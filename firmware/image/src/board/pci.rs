@@ -23,7 +23,8 @@ const BAR_TYPE_64: u32 = 0x4;
 const BAR_FLAGS_MASK: u32 = 0xf;
 
 /// Vendor/device word of QEMU's `ivshmem-plain` (Red Hat 0x1af4, device 0x1110): shared memory
-/// backed by a host file, the board's non-volatile memory.
+/// backed by a host file: the board's non-volatile memory, and on the emulated target the
+/// shared-memory link.
 pub const IVSHMEM: u32 = 0x1110_1af4;
 /// Command register: memory space + bus master.
 const COMMAND_MEMORY_AND_MASTER: u32 = 0x6;
@@ -66,12 +67,10 @@ pub fn map_bar(devfn: DevFn, bar_reg: u8, base: u32) {
     config_write(devfn, REG_COMMAND, COMMAND_MEMORY_AND_MASTER);
 }
 
-/// Find the non-volatile memory (ivshmem, BAR2: 64-bit memory of the backing file's size) and
-/// map it at `base`. Returns its size in bytes, or None when the board has none (or its BAR is
-/// not what QEMU's ivshmem-plain offers).
-pub fn init_nv(base: u32) -> Option<u32> {
-    let devfn = find(IVSHMEM)?;
-    // Size the BAR: write all ones, read back which address bits stick.
+/// The size of an ivshmem device's BAR2 (64-bit memory of the backing file's size), found by
+/// writing all ones and reading back which address bits stick; None if it is not what QEMU's
+/// ivshmem-plain offers. Leaves the BAR unmapped until [`map_ivshmem`].
+fn ivshmem_size(devfn: DevFn) -> Option<u32> {
     config_write(devfn, REG_BAR2, u32::MAX);
     config_write(devfn, REG_BAR3, u32::MAX);
     let low = config_read(devfn, REG_BAR2);
@@ -84,12 +83,54 @@ pub fn init_nv(base: u32) -> Option<u32> {
         return None;
     }
     let size = (!mask).wrapping_add(1);
-    if size == 0 || !base.is_multiple_of(size) {
-        return None;
-    }
+    (size != 0).then_some(size)
+}
+
+/// Map an ivshmem device's BAR2 at `base` (aligned to its size).
+fn map_ivshmem(devfn: DevFn, base: u32) {
     config_write(devfn, REG_BAR3, 0);
     map_bar(devfn, REG_BAR2, base);
-    Some(size)
+}
+
+/// What the board's shared-memory devices turned out to be.
+#[derive(Clone, Copy, Default)]
+pub struct SharedMemories {
+    /// Bytes of non-volatile memory mapped at the NV base, if the board has it.
+    pub nv_bytes: Option<u32>,
+    /// The shared-memory link device is mapped at the link base.
+    pub link: bool,
+}
+
+/// Find the board's ivshmem devices (QEMU `ivshmem-plain`: shared memory backed by a host
+/// file): the link device, `link_bytes` long and recognised by `is_link` once mapped at
+/// `link_base`, and the non-volatile memory (the first other one), mapped at `nv_base`.
+pub fn init_shared_memories(
+    nv_base: u32,
+    link_base: u32,
+    link_bytes: u32,
+    is_link: impl Fn() -> bool,
+) -> SharedMemories {
+    let mut found = SharedMemories::default();
+    for devfn in (0..32u8).map(|dev| DevFn(dev << 3)) {
+        if config_read(devfn, REG_ID) != IVSHMEM {
+            continue;
+        }
+        let Some(size) = ivshmem_size(devfn) else {
+            continue;
+        };
+        if !found.link && size == link_bytes {
+            map_ivshmem(devfn, link_base);
+            if is_link() {
+                found.link = true;
+                continue;
+            }
+        }
+        if found.nv_bytes.is_none() && nv_base.is_multiple_of(size) {
+            map_ivshmem(devfn, nv_base);
+            found.nv_bytes = Some(size);
+        }
+    }
+    found
 }
 
 /// Find mac-io and map it at [`MAC_IO_BASE`]. Returns where it was found.

@@ -87,6 +87,12 @@ impl ArmedReset {
         }
     }
 
+    /// True when no reset is armed.
+    #[inline]
+    pub fn is_off(&self) -> bool {
+        matches!(self.state, State::Off)
+    }
+
     /// True while `p`'s ticks are being counted.
     #[inline]
     pub fn counting(&self, p: usize) -> bool {

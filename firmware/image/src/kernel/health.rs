@@ -61,6 +61,10 @@ impl EventQueue {
     pub fn pop(&mut self) -> Option<EventRecord> {
         self.queue.pop_front()
     }
+
+    pub fn is_empty(&self) -> bool {
+        self.queue.is_empty()
+    }
 }
 
 /// The message an event record stands for.
@@ -190,10 +194,10 @@ impl Kernel {
         boot::disable_interrupts();
         while let Some(record) = self.events.pop() {
             if let Some(msg) = event_message(&record) {
-                klog::send_direct(&msg);
+                klog::send_direct(&mut self.link, &msg);
             }
         }
-        klog::with_ring(klog::flush_direct);
+        klog::with_ring(|ring| klog::flush_direct(&mut self.link, ring));
         warm::set_pending_cause(cause);
         boot::software_reset()
     }

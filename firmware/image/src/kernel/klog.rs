@@ -1,13 +1,13 @@
 //! The kernel's side of logging and reporting: a ring of whole defmt frames (from the kernel's
 //! own log calls and from partitions' SYS_LOG) that the I/O partition drains into Log frames,
-//! and a direct path to the UART for when the kernel must speak itself (a fault in the kernel,
+//! and a direct path to the link for when the kernel must speak itself (a fault in the kernel,
 //! a module reset): it flushes what is pending, then its own message.
 use fsw_bridge::codec::{encode, MAX_FRAME_LEN};
 use fsw_bridge::messages::LOG_CHUNK_MAX;
 use fsw_bridge::TargetToHost;
 use heapless::Deque;
 
-use crate::board::escc;
+use super::link::KernelLink;
 
 /// Bytes of defmt stream the kernel holds for the I/O partition.
 pub const LOG_RING_BYTES: usize = 2048;
@@ -35,6 +35,10 @@ impl LogRing {
         for &b in frame {
             let _ = self.bytes.push_back(b);
         }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.bytes.is_empty()
     }
 
     /// Move up to `out.len()` bytes out; returns how many.
@@ -68,26 +72,31 @@ pub fn with_ring<R>(f: impl FnOnce(&mut LogRing) -> R) -> R {
     f(unsafe { &mut *RING.0.get() })
 }
 
-/// Send a message straight to the UART (kernel only, MMU off). A leading frame delimiter ends
+/// Send a message straight to the link (kernel only, MMU off). A leading frame delimiter ends
 /// any frame the I/O partition was in the middle of, so this one arrives whole.
-pub fn send_direct(msg: &TargetToHost) {
-    let mut frame = [0u8; MAX_FRAME_LEN];
-    if let Ok(len) = encode(msg, &mut frame) {
-        escc::kernel_write(&[0]);
-        escc::kernel_write(&frame[..len]);
+pub fn send_direct(link: &mut KernelLink, msg: &TargetToHost) {
+    let mut frame = [0u8; MAX_FRAME_LEN + 1];
+    // The kernel's last words before a reset it makes: an expedited frame (the reliable link's
+    // sequence numbers die with the I/O partition; the host takes these like the Hello after
+    // them).
+    if let Ok(len) = encode(&fsw_bridge::link::LinkFrame::Bd(msg), &mut frame[1..]) {
+        link.write_direct(&frame[..=len]);
     }
 }
 
-/// Send everything in the ring as Log frames, straight to the UART.
-pub fn flush_direct(ring: &mut LogRing) {
+/// Send everything in the ring as Log frames, straight to the link.
+pub fn flush_direct(link: &mut KernelLink, ring: &mut LogRing) {
     loop {
         let mut chunk = [0u8; LOG_CHUNK_MAX];
         let n = ring.drain(&mut chunk);
         if n == 0 {
             return;
         }
-        send_direct(&TargetToHost::Log {
-            bytes: heapless::Vec::from_slice(&chunk[..n]).unwrap_or_default(),
-        });
+        send_direct(
+            link,
+            &TargetToHost::Log {
+                bytes: heapless::Vec::from_slice(&chunk[..n]).unwrap_or_default(),
+            },
+        );
     }
 }

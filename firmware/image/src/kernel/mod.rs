@@ -9,9 +9,19 @@
 //! action and reports it; a fault in the kernel itself warm-resets the module. The host can
 //! also have the module warm-reset at a chosen point inside a partition's work
 //! ([`armed_reset`]).
+//!
+//! The kernel is the link's byte pipe ([`link`]). When the whole module has nothing to do
+//! until the host sends something, the I/O partition asks to wait for input
+//! (`SYS_WAIT_FOR_INPUT`) and the kernel stops the schedule ("parks"): the CPU dozes with no
+//! timer armed, which under QEMU's `-icount sleep=off` costs no host CPU, and the UART's
+//! receive interrupt (the external interrupt, 0x500, through the Heathrow controller) is let
+//! through; it restarts the schedule at a fresh major frame once a whole frame has arrived.
+//! While the schedule runs the interrupt is held back and the I/O partition's reads drain the
+//! UART, so no partition's CPU time includes a handler and no window start is delayed by one.
 pub mod armed_reset;
 pub mod health;
 pub mod klog;
+pub mod link;
 pub mod mmu;
 pub mod ports;
 pub mod sched;
@@ -20,7 +30,9 @@ pub mod umem;
 
 use core::ptr::addr_of_mut;
 
-use crate::board::timebase;
+use kernel_logic::park::IdleDeclarations;
+
+use crate::board::{heathrow, timebase};
 use crate::boot;
 use crate::config::{partition_image, PARTITION_COUNT};
 use crate::shared;
@@ -154,6 +166,14 @@ pub struct Kernel {
     pub armed: armed_reset::ArmedReset,
     /// Partition whose regions DBAT1..3 map now.
     mapped: Option<usize>,
+    /// The link to the host (transport, receive ring, counters).
+    pub link: link::KernelLink,
+    /// Partitions that have nothing to do until a message arrives for them.
+    pub idle_declared: IdleDeclarations,
+    /// The link's receive interrupt is let through the Heathrow controller (only while parked).
+    link_interrupt_enabled: bool,
+    /// Times the schedule was stopped to wait for input.
+    pub parks: u32,
 }
 
 static mut KERNEL: Kernel = Kernel {
@@ -170,6 +190,10 @@ static mut KERNEL: Kernel = Kernel {
     boot_ticks: 0,
     armed: armed_reset::ArmedReset::new(),
     mapped: None,
+    link: link::KernelLink::new(),
+    idle_declared: IdleDeclarations::new(),
+    link_interrupt_enabled: false,
+    parks: 0,
 };
 
 /// The kernel's state, for kernel code only.
@@ -182,12 +206,21 @@ pub unsafe fn kernel() -> &'static mut Kernel {
     &mut *addr_of_mut!(KERNEL)
 }
 
-/// Start the partitions: called once at boot, never returns.
-pub fn start(boot_cause: u32, boot_count: u32, nv_bytes: u32) -> ! {
+/// Start the partitions: called once at boot, never returns. `link_device`: the shared-memory
+/// link transport, when the board has it.
+pub fn start(
+    boot_cause: u32,
+    boot_count: u32,
+    nv_bytes: u32,
+    link_device: Option<link::SharedMemoryDevice>,
+) -> ! {
     boot::enable_doze();
     mmu::init();
     // SAFETY: boot, interrupts off, nothing else holds the kernel state.
     let k = unsafe { kernel() };
+    if let Some(device) = link_device {
+        k.link.use_shared_memory(device);
+    }
     k.boot_cause = boot_cause;
     k.boot_count = boot_count;
     k.nv_bytes = nv_bytes;
@@ -209,6 +242,10 @@ impl Kernel {
     /// Prepare `next` to run: map its regions, account the switch, and say which context the
     /// resume code enters.
     fn resume(&mut self, next: Next, entry: u64) -> *const Context {
+        // The receive interrupt only while the schedule is stopped waiting for input: a
+        // partition's CPU time, counted with the decrementer, never includes a handler, and no
+        // handler ever delays a window start (the I/O partition reads what arrives meanwhile).
+        self.set_link_interrupt(next == Next::Idle && self.is_parked());
         match next {
             Next::Partition(p) => {
                 if self.mapped != Some(p) {
@@ -233,8 +270,22 @@ impl Kernel {
         }
     }
 
+    fn set_link_interrupt(&mut self, enabled: bool) {
+        if self.link_interrupt_enabled != enabled {
+            heathrow::enable_link_interrupt(enabled);
+            self.link_interrupt_enabled = enabled;
+        }
+    }
+
+    /// The link's receive interrupt: clear its event, move what the UART holds into the ring.
+    fn on_link_interrupt(&mut self) {
+        heathrow::take_link_event();
+        self.link.drain_uart();
+    }
+
     /// (Re)start partition `p` from its entry: fresh statics, next generation.
     pub fn restart(&mut self, p: usize) {
+        self.idle_declared.withdraw(p);
         self.contexts[p] = Context::partition_start(p);
         let state = &mut self.parts[p];
         state.generation = state.generation.wrapping_add(1);
@@ -267,12 +318,27 @@ pub extern "C" fn kernel_trap(
     // SAFETY: kernel context, interrupts off; the reference ends when this trap returns.
     let k = unsafe { kernel() };
     k.sched.entry_dec = entry_dec;
+    if vector == 0x900 && sched::is_stale_decrementer_interrupt(entry_dec) {
+        // Raised by a deadline the kernel has replaced since (see `sched`): whoever was
+        // interrupted continues as if nothing happened.
+        let next = match k.sched.running {
+            Some(p) => Next::Partition(p),
+            None => Next::Idle,
+        };
+        return k.resume(next, entry);
+    }
     let next = match k.sched.running {
         Some(p) => {
             debug_assert!(core::ptr::eq(ctx, &k.contexts[p]));
             match vector {
                 0x900 => k.on_timer(entry),
                 0xc00 => k.syscall(p, entry),
+                // Held back at the controller while partitions run; should one get through
+                // anyway, the partition continues (its stint includes this handler).
+                0x500 => {
+                    k.on_link_interrupt();
+                    Next::Partition(p)
+                }
                 _ => {
                     let srr0 = k.contexts[p].srr0;
                     let address = if vector == 0x300 { dar } else { srr0 };
@@ -286,6 +352,9 @@ pub extern "C" fn kernel_trap(
             let c = unsafe { &*ctx };
             if vector == 0x900 && c.srr1 & boot::msr::PR == 0 {
                 k.on_timer(entry)
+            } else if vector == 0x500 && c.srr1 & boot::msr::PR == 0 {
+                k.on_link_interrupt();
+                k.on_input_while_idle(timebase::now().0)
             } else {
                 health::kernel_fault(vector, c.srr0, c.srr1, dar, dsisr)
             }

@@ -92,6 +92,15 @@ impl Ports {
         Ok(())
     }
 
+    /// True if any queuing port holds a message its destination has not taken.
+    pub fn any_queued(&self) -> bool {
+        SYSTEM
+            .ports
+            .iter()
+            .zip(self.state.iter())
+            .any(|(config, state)| config.kind == PortKind::Queuing && state.count > 0)
+    }
+
     /// Messages waiting in `port` (queuing ports; 0 or 1 for a sampling port).
     pub fn queued(&self, port: usize) -> u16 {
         self.state.get(port).map_or(0, |s| s.count)

@@ -22,6 +22,25 @@
 //! scheduled end; a late switch-in gets what is left before it). The partition's CPU time in the
 //! stint is the value written minus DEC at the next kernel entry: the instructions it ran
 //! (through fixed code paths), the same on every run for the same work.
+//!
+//! The schedule can be stopped ("parked", see `SYS_WAIT_FOR_INPUT`) when the module has nothing
+//! to do until the host sends something: the frame in progress is cut short there, no
+//! decrementer deadline is set again, and the CPU dozes until the link's receive interrupt;
+//! input then restarts the schedule at a fresh major frame that starts at once. Frame offsets are relative
+//! to the frame's start and CPU time is counted with the decrementer, so a frame's costs do not
+//! depend on how long the module was parked. Under `-icount sleep=off` virtual time stands still
+//! while the CPU dozes with no deadline pending (QEMU warns once "icount sleep disabled and no
+//! active timers"), so the guest neither runs nor costs host CPU while the host thinks.
+//!
+//! A decrementer interrupt can outlive the deadline that raised it: if it fires while the kernel
+//! runs with interrupts off and the kernel then writes a new deadline, QEMU keeps the interrupt
+//! pending (the 750's decrementer is edge-triggered; a write does not lower it), and it would be
+//! taken as soon as interrupts are on again, e.g. right after a parked schedule restarts, ending
+//! the new window at once. Such an interrupt finds the decrementer still far from zero and is
+//! ignored ([`is_stale_decrementer_interrupt`]). For that test to hold, the kernel never writes a
+//! value below [`MIN_DEC_TICKS`]: QEMU 7.2 as released raises the interrupt at once for values
+//! below 3 without moving its deadline (a later stable fix removed that special case), so the
+//! decrementer would then read from the previous deadline.
 use core::arch::asm;
 
 use kernel_config::abi::{metric, JITTER_BOUND_TICKS};
@@ -29,7 +48,7 @@ use kernel_config::ErrorKind;
 
 use super::{Kernel, Next, RunState};
 use crate::board::timebase;
-use crate::config::{PARTITION_COUNT, SYSTEM, WINDOW_COUNT};
+use crate::config::{LINK_OWNER, PARTITION_COUNT, SYSTEM, WINDOW_COUNT};
 
 /// Lead time from the kernel's start to the first frame.
 const START_LEAD_TICKS: u64 = 1_000;
@@ -40,6 +59,8 @@ enum Phase {
     Gap(usize),
     /// Inside window `w`.
     Window(usize),
+    /// Stopped until input arrives (no deadline set).
+    Parked,
 }
 
 pub struct Scheduler {
@@ -77,6 +98,17 @@ pub struct Scheduler {
 /// value expires up to a nanosecond early, by an amount that depends on the value.
 pub const DEC_EXACT_TICKS: u32 = 83;
 
+/// The smallest decrementer value the kernel writes (see the module docs).
+pub const MIN_DEC_TICKS: i32 = 3;
+
+/// True for a decrementer interrupt whose deadline is not the current one: the decrementer,
+/// read at the kernel's entry, has not run out. A current deadline reads 0 or less by then (the
+/// interrupt is raised when it runs out, and every write is at least MIN_DEC_TICKS).
+#[inline]
+pub fn is_stale_decrementer_interrupt(entry_dec: i32) -> bool {
+    entry_dec >= MIN_DEC_TICKS
+}
+
 /// The decrementer (counts down; negative once expired). Also a compiler barrier: the kernel
 /// reads it at fixed points (its entry), and the code around must not move across the read.
 #[inline]
@@ -99,7 +131,11 @@ pub fn write_dec(ticks: i32) {
 
 fn set_decrementer_at(deadline: u64) {
     let now = timebase::now().0;
-    write_dec(deadline.saturating_sub(now).clamp(1, 0x7fff_ffff) as i32);
+    write_dec(
+        deadline
+            .saturating_sub(now)
+            .clamp(MIN_DEC_TICKS as u64, 0x7fff_ffff) as i32,
+    );
 }
 
 /// Decrementer value for window `w` whose scheduled end is `deadline`, entered at `now`: its
@@ -173,8 +209,13 @@ impl Kernel {
         self.parts[p].cpu_total + stint
     }
 
-    /// Stop charging `p` (switch-out; the time up to the kernel entry).
+    /// Stop charging `p` (switch-out; the time up to the kernel entry). When `p` is the link
+    /// owner, what it wrote for the host since it last gave up the CPU is announced (the
+    /// shared-memory link's doorbell): every way it stops running passes here.
     pub fn charge(&mut self, p: usize, _now: u64) {
+        if p == LINK_OWNER {
+            self.link.ring_doorbell();
+        }
         let used = u64::from(self.stint_ticks());
         let state = &mut self.parts[p];
         state.cpu_total += used;
@@ -204,11 +245,14 @@ impl Kernel {
         self.sched.running = Some(p);
         let w = match self.sched.phase {
             Phase::Window(w) | Phase::Gap(w) => w,
+            // Nothing is switched in while parked (a restart enters window 0 first).
+            Phase::Parked => 0,
         };
         let mut dec = window_end_dec(w, self.sched.window_end, now);
         if self.armed.counts_stint(p) {
-            dec = self.armed_reset_stint(p, dec);
+            dec = self.armed_reset_stint(p, dec).max(MIN_DEC_TICKS);
         }
+        self.idle_declared.withdraw(p);
         write_dec(dec);
         self.sched.stint_dec = dec;
         self.sched.switch_end = timebase::now().0;
@@ -228,7 +272,38 @@ impl Kernel {
                 self.after_window(w, now)
             }
             Phase::Gap(w) => self.begin_window(w, now),
+            // The deadline of the window in which the schedule stopped: nothing to start.
+            Phase::Parked => Next::Idle,
         }
+    }
+
+    /// The link owner `p` (running) waits for input and nothing else has work: end the frame
+    /// (cut short: it counts as a frame, with what its windows used) and stop the schedule until
+    /// input arrives ([`Kernel::on_input_while_idle`]).
+    pub fn park(&mut self, p: usize, now: u64) -> Next {
+        self.charge(p, now);
+        self.parts[p].run = RunState::Waiting;
+        self.end_frame();
+        self.sched.phase = Phase::Parked;
+        self.sched.pending_start = None;
+        self.parks = self.parks.wrapping_add(1);
+        Next::Idle
+    }
+
+    /// True while the schedule is stopped waiting for input.
+    pub fn is_parked(&self) -> bool {
+        self.sched.phase == Phase::Parked
+    }
+
+    /// The receive interrupt came while the kernel idled (the UART is drained): if the
+    /// schedule is parked and a whole frame has arrived (see `link`), restart it with a major
+    /// frame that starts now; otherwise keep idling.
+    pub fn on_input_while_idle(&mut self, now: u64) -> Next {
+        if self.sched.phase != Phase::Parked || !self.link.holds_frame_end() {
+            return Next::Idle;
+        }
+        self.sched.frame_start = now;
+        self.enter_gap_or_window(0, now)
     }
 
     /// The running partition `p` gave up the rest of its window.
@@ -335,6 +410,17 @@ impl Kernel {
             metric::SWITCH_MAX_TICKS,
             u64::from(self.sched.switch_max_ticks),
         );
+        let link = &self.link;
+        for (id, value) in [
+            (metric::LINK_RX_BYTES, link.received),
+            (metric::LINK_RX_LOST, link.lost),
+            (metric::LINK_RX_RING_FULL, link.ring_full),
+            (metric::PARKS, self.parks),
+            (metric::LINK_TRANSPORT, u32::from(link.over_shared_memory())),
+            (metric::LINK_RING_ERRORS, link.ring_errors),
+        ] {
+            self.events.metric(id, u64::from(value));
+        }
         self.events.metric(
             metric::LOG_BYTES_DROPPED,
             u64::from(super::klog::with_ring(|ring| ring.dropped)),

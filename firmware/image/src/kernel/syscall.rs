@@ -6,10 +6,14 @@
 use fsw_bridge::ResetCause;
 use kernel_config::abi::*;
 use kernel_config::{NV_BASE, WARM_AREA_BASE, WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
+use kernel_logic::park::{
+    check_wait_for_input_args, decide, reasons_not_to_park, wait_declares_idle, Decision,
+    ModuleState,
+};
 
 use super::umem::{copy, USlice};
-use super::{health, klog, Kernel, Next};
-use crate::config::SYSTEM;
+use super::{health, klog, Kernel, Next, RunState};
+use crate::config::{PARTITION_COUNT, SYSTEM};
 
 enum Outcome {
     /// Return to the caller with r3, r4, r5.
@@ -84,14 +88,24 @@ impl Kernel {
     fn dispatch(&mut self, p: usize, call: u32, a: [u32; 5], now: u64) -> Result<Outcome, i32> {
         match call {
             SYS_WAIT_NEXT_WINDOW => {
+                if wait_declares_idle(a[0])? {
+                    self.idle_declared.declare(p);
+                }
                 self.context(p).gpr[3] = 0;
                 Ok(Outcome::Switch(self.wait_next_window(p, now)))
             }
             SYS_PORT_SEND => {
                 let message = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
                 let generation = self.parts[p].generation;
-                self.ports
-                    .send(p, a[0] as usize, message, generation, now)?;
+                let port = a[0] as usize;
+                self.ports.send(p, port, message, generation, now)?;
+                // A queued message is work for its destination.
+                let config = &SYSTEM.ports[port];
+                if config.kind == kernel_config::PortKind::Queuing {
+                    for &destination in config.destinations {
+                        self.idle_declared.withdraw(destination);
+                    }
+                }
                 ok()
             }
             SYS_PORT_RECEIVE => {
@@ -195,14 +209,18 @@ impl Kernel {
             }
             SYS_EVENT_DRAIN => {
                 Self::link_owner(p)?;
-                let buffer = USlice::from_raw(a[0], EVENT_RECORD_SIZE as u32)?.writable_by(p)?;
-                match self.events.pop() {
-                    Some(record) => {
-                        copy(buffer, &health::record_bytes(&record));
-                        Ok(Return(1, 0, 0))
-                    }
-                    None => Ok(Return(0, 0, 0)),
+                let records = a[1].clamp(1, health::EVENT_QUEUE_DEPTH as u32);
+                let bytes = records * EVENT_RECORD_SIZE as u32;
+                let buffer = USlice::from_raw(a[0], bytes)?.writable_by(p)?;
+                let mut written = 0;
+                for slot in buffer.chunks_exact_mut(EVENT_RECORD_SIZE) {
+                    let Some(record) = self.events.pop() else {
+                        break;
+                    };
+                    copy(slot, &health::record_bytes(&record));
+                    written += 1;
                 }
+                Ok(Return(written, 0, 0))
             }
             SYS_SET_MISSION_TIME => {
                 Self::link_owner(p)?;
@@ -228,7 +246,62 @@ impl Kernel {
                 }
                 ok()
             }
+            SYS_LINK_READ => {
+                Self::link_owner(p)?;
+                let buffer = USlice::from_raw(a[0], a[1])?.writable_by(p)?;
+                let n = self.link.read(buffer);
+                Ok(Return(n as u32, self.link.lost, 0))
+            }
+            SYS_LINK_WRITE => {
+                Self::link_owner(p)?;
+                let data = USlice::from_raw(a[0], a[1])?.readable_by(p)?;
+                Ok(Return(self.link.write(data) as u32, 0, 0))
+            }
+            SYS_WAIT_FOR_INPUT => {
+                Self::link_owner(p)?;
+                if check_wait_for_input_args(&a)? {
+                    let state = self.module_state(p);
+                    return Ok(Return(
+                        wait_input::NOT_PARKED,
+                        reasons_not_to_park(&state),
+                        state.busy_partitions,
+                    ));
+                }
+                match decide(&self.module_state(p)) {
+                    Decision::InputPending => Ok(Return(wait_input::INPUT_PENDING, 0, 0)),
+                    Decision::Park => {
+                        let ctx = self.context(p);
+                        ctx.gpr[3] = wait_input::PARKED;
+                        ctx.gpr[4] = 0;
+                        ctx.gpr[5] = 0;
+                        Ok(Outcome::Switch(self.park(p, now)))
+                    }
+                    Decision::NextWindow { reasons, busy } => {
+                        let ctx = self.context(p);
+                        ctx.gpr[3] = wait_input::NOT_PARKED;
+                        ctx.gpr[4] = reasons;
+                        ctx.gpr[5] = busy;
+                        Ok(Outcome::Switch(self.wait_next_window(p, now)))
+                    }
+                }
+            }
             _ => Err(E_UNKNOWN_CALL),
+        }
+    }
+
+    /// What SYS_WAIT_FOR_INPUT from `caller` decides on.
+    fn module_state(&self, caller: usize) -> ModuleState {
+        let halted = (0..PARTITION_COUNT)
+            .filter(|&q| self.parts[q].run == RunState::Halted)
+            .fold(0u32, |bits, q| bits | 1 << q);
+        ModuleState {
+            input_pending: self.link.pending(),
+            busy_partitions: self.idle_declared.busy(caller, halted, PARTITION_COUNT),
+            message_in_flight: self.ports.any_queued(),
+            log_pending: klog::with_ring(|ring| !ring.is_empty()),
+            events_pending: !self.events.is_empty(),
+            periodic_reports: self.sched.report_period != 0,
+            reset_armed: !self.armed.is_off(),
         }
     }
 }

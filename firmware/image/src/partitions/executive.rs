@@ -14,13 +14,20 @@
 //! instructions per tick) come out the same run to run; handled as it trickled in, a frame's
 //! step could start at a different point in the window and its tick count differ by one.
 //!
+//! The key and the anti-replay counter of authenticated uplinks and ground commands (`sdls`)
+//! live in non-volatile memory's security area, right after the checkpoint areas
+//! ([`NV_SECURITY_OFFSET`]); the flight application reads it at boot and writes a counter
+//! record through [`NvSecurityStore`] (a `SYS_NV_WRITE` that has returned before the message
+//! takes effect). A board without non-volatile memory, or with less than the checkpoint and
+//! security areas, has no key: authenticated traffic is refused with `NoKey`.
+//!
 //! The planner and the executive of the core still run together here; they exchange only
 //! commits and task reports, so splitting them over the planner partition is a move of code,
 //! not of design.
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
-use flight_app::{CpuClock, Downlink, FlightApp, Memories};
+use flight_app::{CpuClock, Downlink, FlightApp, Memories, SecurityStore, StoreError};
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
 use heapless::Deque;
 use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
@@ -35,6 +42,13 @@ use crate::sys;
 pub const WARM_CHECKPOINT_BYTES: usize = (WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE) as usize;
 /// Bytes of non-volatile memory used for checkpoints (the same A/B layout as the warm area).
 pub const NV_CHECKPOINT_BYTES: usize = WARM_CHECKPOINT_BYTES;
+/// Offset of the security area (`sdls::nv`: key slot, A/B anti-replay counter records) in
+/// non-volatile memory: right after the checkpoint areas. `hil` provisions keys at the same
+/// offset (`host-harness/src/mission/auth.rs`).
+pub const NV_SECURITY_OFFSET: usize = NV_CHECKPOINT_BYTES;
+/// Bytes of non-volatile memory the partition uses: checkpoints and the security area.
+pub const NV_USED_BYTES: usize = NV_SECURITY_OFFSET + sdls::nv::SECURITY_AREA_BYTES;
+const _: () = assert!(NV_USED_BYTES <= kernel_config::NV_MAX_BYTES as usize);
 /// Messages for the host the partition holds while the outbound port is full.
 pub const OUTBOX_CAPACITY: usize = 128;
 /// Host messages held until their batch is complete (a frame's state updates and responses).
@@ -56,6 +70,9 @@ pub struct ExecutiveState {
     pub nv: [u8; NV_CHECKPOINT_BYTES],
     /// The board has non-volatile memory (the boot read of `nv` succeeded).
     pub has_nv: bool,
+    /// The non-volatile memory also holds the security area (it is at least
+    /// [`NV_USED_BYTES`] long).
+    pub has_security_area: bool,
     pub outbox: Deque<TargetToHost, OUTBOX_CAPACITY>,
     /// Host messages received, in order, not handled yet.
     pub pending: Deque<HostToTarget, PENDING_CAPACITY>,
@@ -87,6 +104,34 @@ impl CpuClock for PartitionClock {
     }
 }
 
+/// The security area in non-volatile memory, through the kernel (this partition owns NV).
+struct NvSecurityStore;
+
+impl SecurityStore for NvSecurityStore {
+    fn read(&mut self, area: &mut [u8; sdls::nv::SECURITY_AREA_BYTES]) -> Result<(), StoreError> {
+        sys::nv_read(NV_SECURITY_OFFSET as u32, area)
+            .map(|_| ())
+            .map_err(|_| StoreError)
+    }
+
+    /// Returns once the kernel has copied the bytes into the device.
+    fn write(&mut self, offset: usize, bytes: &[u8]) -> Result<(), StoreError> {
+        let at = NV_SECURITY_OFFSET
+            .checked_add(offset)
+            .and_then(|at| u32::try_from(at).ok())
+            .ok_or(StoreError)?;
+        sys::nv_write(at, bytes).map_err(|_| StoreError)
+    }
+}
+
+/// The security store of a board that has the security area.
+fn security_store(
+    has_security_area: bool,
+    store: &mut NvSecurityStore,
+) -> Option<&mut dyn SecurityStore> {
+    has_security_area.then_some(store as &mut dyn SecurityStore)
+}
+
 /// Queues messages for the host.
 struct Outbox<'a> {
     queue: &'a mut Deque<TargetToHost, OUTBOX_CAPACITY>,
@@ -114,7 +159,16 @@ pub extern "C" fn partition_executive_main() -> ! {
     // Probe the size first (a read of 0 bytes), so a small device is refused here rather
     // than by the kernel as an out-of-range access.
     state.has_nv = match sys::nv_read(0, &mut []) {
-        Ok(size) if size as usize >= NV_CHECKPOINT_BYTES => sys::nv_read(0, &mut state.nv).is_ok(),
+        Ok(size) if size as usize >= NV_CHECKPOINT_BYTES => {
+            state.has_security_area = size as usize >= NV_USED_BYTES;
+            if !state.has_security_area {
+                defmt::warn!(
+                    "executive: non-volatile memory of {=u32} bytes has no room for the security area; authenticated uplinks and commands will be refused (no key)",
+                    size
+                );
+            }
+            sys::nv_read(0, &mut state.nv).is_ok()
+        }
         Ok(size) => {
             defmt::warn!(
                 "executive: non-volatile memory of {=u32} bytes is smaller than a checkpoint area ({=usize}); warm area only",
@@ -136,9 +190,11 @@ pub extern "C" fn partition_executive_main() -> ! {
             queue: &mut state.outbox,
             overflows: &mut state.outbox_overflows,
         };
+        let mut store = NvSecurityStore;
         let mut memories = Memories {
             warm: &mut state.warm,
             nv: state.has_nv.then_some(&mut state.nv[..]),
+            security: security_store(state.has_nv && state.has_security_area, &mut store),
         };
         let outcome = app.boot(&mut memories, &mut PartitionClock, &mut outbox);
         // Ready: the first grant can be taken. Once per boot (a restart by the health
@@ -190,7 +246,9 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
             let answer_awaited = matches!(
                 msg,
-                HostToTarget::TimeGrant { .. } | HostToTarget::UplinkChunk { .. }
+                HostToTarget::TimeGrant { .. }
+                    | HostToTarget::UplinkChunk { .. }
+                    | HostToTarget::GroundCommand { .. }
             );
             if let Err(msg) = state.pending.push_back(msg) {
                 // More than a batch can hold: handle what there is now (correct, but this
@@ -208,7 +266,13 @@ pub extern "C" fn partition_executive_main() -> ! {
             state.batch_complete |= answer_awaited;
         }
         let _ = sys::port_send(PORT_EXECUTIVE_STATUS, &state.state_updates.to_be_bytes());
-        sys::wait_next_window();
+        if state.batch_complete || !state.outbox.is_empty() {
+            sys::wait_next_window();
+        } else {
+            // Nothing to do until the host sends more (a batch still waiting for its grant
+            // included): the module may stop its schedule meanwhile.
+            sys::wait_idle();
+        }
     }
 }
 
@@ -260,9 +324,11 @@ fn handle(state: &mut ExecutiveState, app: &mut FlightApp, msg: HostToTarget) {
         queue: &mut state.outbox,
         overflows: &mut state.outbox_overflows,
     };
+    let mut store = NvSecurityStore;
     let mut memories = Memories {
         warm: &mut state.warm,
         nv: state.has_nv.then_some(&mut state.nv[..]),
+        security: security_store(state.has_nv && state.has_security_area, &mut store),
     };
     app.handle(&msg, &mut memories, &mut PartitionClock, &mut outbox);
     if let Some((start, end)) = app.take_warm_write() {

@@ -27,7 +27,7 @@ pub extern "C" fn partition_rogue_main() -> ! {
                 act(mode);
             }
         }
-        sys::wait_next_window();
+        sys::wait_idle();
     }
 }
 
@@ -74,7 +74,7 @@ fn bad_pointers() {
     let kernel_data = kernel_config::KERNEL_DATA_BASE;
     let planner = kernel_config::system::PLANNER_REGION.base;
     let device = kernel_config::system::MAC_IO_BASE + 0x13000;
-    let cases: [(u32, [u32; 5]); 22] = [
+    let cases: [(u32, [u32; 5]); 26] = [
         (
             abi::SYS_PORT_SEND,
             [PORT_IO_TO_ROGUE as u32, kernel_data, 16, 0, 0],
@@ -110,6 +110,12 @@ fn bad_pointers() {
         (abi::SYS_RESET_MODULE, [0; 5]),
         (abi::SYS_REQUEST_METRICS, [0; 5]),
         (abi::SYS_LOG, [own, 0x1000, 0, 0, 0]),
+        // Not a mode of the call (and so no wait either).
+        (abi::SYS_WAIT_NEXT_WINDOW, [7, 0, 0, 0, 0]),
+        // Link owner only.
+        (abi::SYS_LINK_READ, [own, 16, 0, 0, 0]),
+        (abi::SYS_LINK_WRITE, [own, 16, 0, 0, 0]),
+        (abi::SYS_WAIT_FOR_INPUT, [0; 5]),
         (abi::SYSCALL_COUNT, [0; 5]),
         (0xffff_ffff, [kernel_data; 5]),
     ];
