@@ -148,7 +148,7 @@ pub fn failure_name(kind: autonomy::FailureKind) -> &'static str {
 
 /// The planner stopped responding to one cause of failure of a task definition (its
 /// `max_repairs` bound for that cause was crossed).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct GaveUp {
     pub at: u64,
     pub task: String,
