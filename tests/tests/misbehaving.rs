@@ -3,7 +3,7 @@
 //! run reaches the mission's end (no livelock, no "could not start"), ends FAIL naming the
 //! cause, and no task sends more commands than its bounds allow. A seeded campaign draws such
 //! subsystems at random.
-use hil::campaign::{bound_checks, run_campaign, CampaignOptions, MisbehaviourMode};
+use hil::campaign::{run_campaign, CampaignOptions, MisbehaviourMode};
 use hil::mission::report::MissionReport;
 use hil::mission::sim::CommandFate;
 use hil_tests::{assert_bounded_fail, fly_native, flyby_with_misbehaving_gnc};
