@@ -20,7 +20,7 @@
 //! (earliest first) and then tries leaving it out; the upper bound at every node is the
 //! surrogate relaxation (all residual capacities summed into one knapsack) solved as a linear
 //! programme (Dantzig's bound), counting only the items that still fit some residual capacity
-//! they may use; and a greedy first solution. It is anytime: [`MultipleKnapsack::step`] visits
+//! they may use; and a greedy first solution (the search's own first leaf). It is anytime: [`MultipleKnapsack::step`] visits
 //! at most `budget` nodes and resumes where it stopped; the best assignment so far and whether
 //! it is proven optimal can be read at any time. No heap, no recursion: the search state is an
 //! array of choices, one per item.
@@ -94,14 +94,6 @@ const NOT_STARTED: u8 = u8::MAX;
 /// "Not in any knapsack" (equation 12 allows it).
 pub const UNASSIGNED: u8 = u8::MAX - 1;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Incumbent {
-    /// The greedy start: a later search leaf of equal value replaces it (tie rule).
-    Greedy,
-    /// Found by the search.
-    Search,
-}
-
 /// Exact, anytime branch and bound for the multiple knapsack problem with availability.
 #[derive(Clone, Debug)]
 pub struct MultipleKnapsack {
@@ -116,7 +108,6 @@ pub struct MultipleKnapsack {
     value: u64,
     best: Vec<u8, MAX_DATA_PRODUCTS>,
     best_value: u64,
-    incumbent: Incumbent,
     root_bound: u64,
     done: bool,
     nodes: u64,
@@ -158,7 +149,6 @@ impl MultipleKnapsack {
             value: 0,
             best: Vec::new(),
             best_value: 0,
-            incumbent: Incumbent::Greedy,
             root_bound: 0,
             done: true,
             nodes: 0,
@@ -227,12 +217,15 @@ impl MultipleKnapsack {
         self.nodes = 0;
         self.greedy();
         self.root_bound = self.bound_from(0);
-        self.done = false;
+        // The greedy solution is the search's first leaf; if it meets the bound it is final.
+        self.done = self.best_value >= self.root_bound;
         Ok(())
     }
 
     /// Greedy first solution: each item in the solver's order into the earliest knapsack it
-    /// fits.
+    /// fits. It is exactly the first leaf of the depth-first search (which tries the earliest
+    /// knapsack first), so starting from it keeps the tie rule: a later leaf replaces it only
+    /// when strictly better.
     fn greedy(&mut self) {
         let mut residual = self.residual.clone();
         let mut value = 0u64;
@@ -252,7 +245,6 @@ impl MultipleKnapsack {
             }
         }
         self.best_value = value;
-        self.incumbent = Incumbent::Greedy;
     }
 
     /// Upper bound on the value the items from `depth` on can add, given the residual
@@ -302,12 +294,10 @@ impl MultipleKnapsack {
         bound
     }
 
-    /// Whether a subtree with this upper bound can still change the result.
+    /// Whether a subtree with this upper bound can still change the result: only a strictly
+    /// better leaf replaces the best, since an equal one comes later in the tie order.
     fn worth_exploring(&self, bound: u64) -> bool {
-        match self.incumbent {
-            Incumbent::Greedy => bound >= self.best_value,
-            Incumbent::Search => bound > self.best_value,
-        }
+        bound > self.best_value
     }
 
     fn apply(&mut self, item: u8, option: u8, sign_add: bool) {
@@ -356,11 +346,7 @@ impl MultipleKnapsack {
             self.nodes += 1;
             if self.depth == n {
                 // A complete assignment.
-                let better = match self.incumbent {
-                    Incumbent::Greedy => self.value >= self.best_value,
-                    Incumbent::Search => self.value > self.best_value,
-                };
-                if better {
+                if self.value > self.best_value {
                     for (d, &i) in self.order.iter().enumerate() {
                         if let (Some(slot), Some(&c)) =
                             (self.best.get_mut(usize::from(i)), self.choice.get(d))
@@ -369,7 +355,6 @@ impl MultipleKnapsack {
                         }
                     }
                     self.best_value = self.value;
-                    self.incumbent = Incumbent::Search;
                     if self.best_value >= self.root_bound {
                         self.done = true; // nothing later in the order can beat it
                         break;
