@@ -318,9 +318,15 @@ impl MultipleKnapsack {
         }
     }
 
-    /// The next option after `after` for `item`: a knapsack it may use and fits, then
-    /// [`UNASSIGNED`], then none.
-    fn next_option(&self, item: u8, after: u8) -> Option<u8> {
+    /// The next option after `after` for the item at `depth`: a knapsack it may use and fits,
+    /// then [`UNASSIGNED`], then none. Two dominance rules skip knapsacks whose subtrees cannot
+    /// hold the first optimum in the tie order:
+    /// - an item left out earlier that may use the knapsack, is no larger and worth at least as
+    ///   much could take this item's place: a solution at least as good that comes earlier;
+    /// - a knapsack with the same residual capacity as an earlier one, which every item still
+    ///   to decide may use exactly when it may use the earlier one, is a mirror of it.
+    fn next_option(&self, depth: usize, after: u8) -> Option<u8> {
+        let item = *self.order.get(depth)?;
         let it = self.items.get(usize::from(item))?;
         let from = if after == NOT_STARTED {
             0
@@ -330,9 +336,42 @@ impl MultipleKnapsack {
             usize::from(after) + 1
         };
         for j in from..self.residual.len() {
-            if it.allowed & (1 << j) != 0 && self.residual.get(j).is_some_and(|&r| r >= it.size) {
-                return Some(j as u8);
+            let bit = 1u16 << j;
+            let Some(&r) = self.residual.get(j) else {
+                break;
+            };
+            if it.allowed & bit == 0 || r < it.size {
+                continue;
             }
+            let dominated =
+                self.order
+                    .iter()
+                    .zip(self.choice.iter())
+                    .take(depth)
+                    .any(|(&i, &c)| {
+                        c == UNASSIGNED
+                            && self.items.get(usize::from(i)).is_some_and(|left_out| {
+                                left_out.allowed & bit != 0
+                                    && left_out.size <= it.size
+                                    && left_out.value >= it.value
+                            })
+                    });
+            if dominated {
+                continue;
+            }
+            let mirrored = (0..j).any(|earlier| {
+                let earlier_bit = 1u16 << earlier;
+                self.residual.get(earlier) == Some(&r)
+                    && self.order.iter().skip(depth).all(|&k| {
+                        self.items.get(usize::from(k)).is_some_and(|x| {
+                            (x.allowed & bit == 0) == (x.allowed & earlier_bit == 0)
+                        })
+                    })
+            });
+            if mirrored {
+                continue;
+            }
+            return Some(j as u8);
         }
         Some(UNASSIGNED)
     }
@@ -373,7 +412,7 @@ impl MultipleKnapsack {
                 break;
             };
             let after = self.choice.get(self.depth).copied().unwrap_or(NOT_STARTED);
-            match self.next_option(item, after) {
+            match self.next_option(self.depth, after) {
                 None => {
                     if let Some(c) = self.choice.get_mut(self.depth) {
                         *c = NOT_STARTED;

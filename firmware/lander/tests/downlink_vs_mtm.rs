@@ -1,6 +1,6 @@
 //! The downlink manager's branch and bound against an independent exact solver on larger
 //! instances: Martello and Toth's MTM (the PyPI package `mknapsack`), whose optima for 40
-//! seeded instances of 20-48 items and 2-6 knapsacks are in `tests/mtm/instances.txt`, made by
+//! seeded instances of 14-21 items and 2-3 knapsacks are in `tests/mtm/instances.txt`, made by
 //! `tests/mtm/crosscheck.py`. The ignored test reruns that script (when
 //! `LANDER_MKNAPSACK_PYTHON` names a Python with `mknapsack` and numpy 1.x) and checks that the
 //! committed file is what MTM computes.
