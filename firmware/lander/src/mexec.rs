@@ -42,6 +42,16 @@ pub struct MexecPlacement<'a> {
 
 type Entries = Vec<PlanEntry, MAX_PLAN_ENTRIES>;
 
+/// An instance id no entry uses: above every planner-given id (held entries keep the ids the
+/// MEXEC planner gave them, which need not be dense), and never a ground id. Reusing a held
+/// entry's id would make [`placement_valid`] check the candidate without that entry.
+fn fresh_instance(entries: &[PlanEntry]) -> Option<u16> {
+    match entries.iter().map(|e| e.instance).max() {
+        Some(highest) if highest >= FIRST_INSTANCE_ID => highest.checked_add(1),
+        _ => Some(FIRST_INSTANCE_ID),
+    }
+}
+
 impl MexecPlacement<'_> {
     fn entry(&self, instance: u16, def: u8, start: MissionTimeUs) -> Option<PlanEntry> {
         let spec = self.network.task(def)?;
@@ -74,7 +84,7 @@ impl MexecPlacement<'_> {
         let mut at = start;
         for &primitive in &c.primitives {
             let def = *self.definition_of.get(usize::from(primitive))?;
-            let instance = FIRST_INSTANCE_ID.checked_add(u16::try_from(entries.len()).ok()?)?;
+            let instance = fresh_instance(entries)?;
             let entry = self.entry(instance, def, at)?;
             if check
                 && !placement_valid(

@@ -66,6 +66,8 @@ struct Builder {
 }
 
 impl Builder {
+    /// One row of the model's primitive table (the arguments are its columns).
+    #[allow(clippy::too_many_arguments)]
     fn primitive(
         &mut self,
         kind: PrimitiveKind,

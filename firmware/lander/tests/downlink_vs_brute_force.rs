@@ -142,7 +142,7 @@ fn dp_optimum(items: &[KnapsackItem], capacities: &[u64]) -> u64 {
             for y in 0..b {
                 for z in 0..c {
                     let mut v = best[idx(x, y, z)];
-                    if item.allowed & 1 != 0 && x >= s && capacities.len() > 0 {
+                    if item.allowed & 1 != 0 && x >= s && !capacities.is_empty() {
                         v = v.max(best[idx(x - s, y, z)] + item.value);
                     }
                     if item.allowed & 2 != 0 && y >= s && capacities.len() > 1 {
