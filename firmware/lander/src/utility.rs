@@ -198,11 +198,27 @@ pub const MIN_RATIO_COST_MJ: u64 = 1;
 
 /// T.utility / T.cost for ranked utility: per rank the exact rational `sum_k / cost_mj`,
 /// compared lexicographically from the Mission rank down (see the module docs for why).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+/// Equality is equality of the rationals (2/2 equals 1/1), as the order needs.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct UtilityRate {
     utility: RankedUtility,
     cost_mj: u64,
 }
+
+impl Default for UtilityRate {
+    /// Zero utility per [`MIN_RATIO_COST_MJ`].
+    fn default() -> Self {
+        Self::new(RankedUtility::ZERO, MIN_RATIO_COST_MJ)
+    }
+}
+
+impl PartialEq for UtilityRate {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+
+impl Eq for UtilityRate {}
 
 impl UtilityRate {
     /// `utility / cost_mj`; the cost is clamped into `[MIN_RATIO_COST_MJ, MAX_ENERGY_MJ]`.
@@ -246,11 +262,19 @@ impl PartialOrd for UtilityRate {
 
 /// The search's priority h(P, T) = P.utility + T.utility / T.cost: per rank the exact rational
 /// `P_k + T_k / cost`, compared lexicographically from the Mission rank down.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Priority {
     plan: RankedUtility,
     chain: UtilityRate,
 }
+
+impl PartialEq for Priority {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+
+impl Eq for Priority {}
 
 impl Priority {
     pub fn new(plan: RankedUtility, chain: UtilityRate) -> Self {
