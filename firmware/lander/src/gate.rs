@@ -32,7 +32,7 @@ pub struct GateStats {
     pub vetoes: u32,
     /// Chains refused because the products exceeded [`MAX_DATA_PRODUCTS`].
     pub capacity_vetoes: u32,
-    /// Knapsack nodes over all checks.
+    /// Knapsack nodes over all checks (branch and bound and surrogate checks).
     pub knapsack_nodes: u64,
     /// Largest knapsack node count of one check.
     pub max_knapsack_nodes: u64,
@@ -133,7 +133,8 @@ impl<P: ChainPlacement> ChainPlacement for DownlinkGate<P> {
             }
             None => self.manager.solve(),
         }
-        let nodes = self.manager.knapsack().nodes();
+        let knapsack = self.manager.knapsack();
+        let nodes = knapsack.nodes() + knapsack.bound_nodes();
         self.stats.checks += 1;
         self.stats.knapsack_nodes += nodes;
         self.stats.max_knapsack_nodes = self.stats.max_knapsack_nodes.max(nodes);

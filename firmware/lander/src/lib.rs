@@ -26,6 +26,9 @@
     clippy::indexing_slicing
 )]
 
+#[cfg(test)]
+extern crate std;
+
 pub mod capacity;
 pub mod downlink;
 pub mod gate;
