@@ -82,7 +82,7 @@ fn main() {
             search.best_value().0.sums()
         );
     }
-    println!("\nknapsack to the proof (at most {KNAPSACK_NODE_CAP} nodes with the surrogate checks'), random downlink problems (uncorrelated values, 10 per size):");
+    println!("\nknapsack to the proof (at most {KNAPSACK_NODE_CAP} nodes with the surrogate checks), random downlink problems (uncorrelated values, 10 per size):");
     println!(
         "{:>9} {:>6} {:>12} {:>12} {:>13} {:>13} {:>8}",
         "products", "opps", "median nodes", "max nodes", "median +check", "max +check", "proven"
