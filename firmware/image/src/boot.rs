@@ -1,11 +1,30 @@
 //! Reset vector, exception vectors, and the two halves of every kernel entry: saving the
 //! interrupted context and resuming a context.
 //!
-//! The 750 starts at `0xfff00100` with MSR[IP]=1 and the MMU off. The reset stub (in ROM) reads
-//! the timebase first (the start of boot to ready, passed on to [`crate::rust_start`]), copies
-//! the shared code (vectors, text, rodata, `.kshared`) to 0x0 and the kernel data to its region,
-//! clears `.bss` and the hashed page table, sets up the kernel stack and enters
-//! [`crate::rust_start`] through `rfi` with MSR[IP]=0 (vectors at 0x0), MSR[ME] and MSR[FP].
+//! The 750 starts at `0xfff00100` with MSR[IP]=1 and the MMU off. The reset vector (in ROM)
+//! reads the timebase first (the start of boot to ready, passed on to [`crate::rust_start`])
+//! and branches to the stub's body, which lies in ROM after the image. The body makes the RAM
+//! image (vectors, text, rodata: everything the partitions map as shared code) good:
+//! - after a warm reset RAM still holds it, so it is checked rather than copied again: the
+//!   image record in the warm-restart area (after the boot record; [`IMAGE_RECORD_OFFSET`])
+//!   names the ROM it was copied from (its build id), its length and its checksum, and the
+//!   stub sums the RAM copy and compares;
+//! - without a valid record for this ROM (power-on, new firmware, a damaged record), or when
+//!   the sums differ (a damaged image), it copies the image from ROM, summing as it copies,
+//!   and writes the record.
+//!
+//! The checksum is Fletcher's construction over 32-bit words modulo 2^32 (the sum of the words,
+//! and the sum of those running sums), not a CRC: a table-driven CRC-32 costs about 14
+//! instructions per word, twice a copy from ROM, whereas these sums cost 3.25 (a load and two
+//! adds; eight words per loop turn). Any damage confined to one word changes the first sum;
+//! words swapped or shifted change the second. On a real board the check also avoids reading
+//! the boot ROM, which is many times slower than RAM (under QEMU both cost one instruction per
+//! word). Then, on every boot, the stub reloads `.kshared` (the words the kernel writes at
+//! run time, so outside the checksum) and the kernel data from ROM, clears `.bss` and the
+//! hashed page table (eight stores per loop turn), sets up the kernel stack and enters
+//! [`crate::rust_start`] through `rfi` with MSR[IP]=0 (vectors at 0x0), MSR[ME] and MSR[FP],
+//! with the timebase at the reset vector, how the image was made good ([`ImageCheck`]) and
+//! the timebase after each of its two steps (the boot breakdown the host prints).
 //!
 //! Every exception vector saves r3 in SPRG1, loads its vector offset and branches to
 //! `__exception_common`, which stores all of the interrupted context (GPRs, CR, LR, CTR, XER,
@@ -36,6 +55,47 @@ pub mod msr {
 /// Address of the 6xx system-reset vector with MSR[IP]=1.
 pub const RESET_VECTOR: u32 = 0xfff0_0100;
 
+/// How the reset stub made the RAM image good (its r5 to [`crate::rust_start`]; the kernel
+/// reports it as `metric::BOOT_IMAGE`).
+#[derive(Clone, Copy, PartialEq, Eq, Debug, defmt::Format)]
+pub enum ImageCheck {
+    /// After a warm reset: the RAM copy matched the image record's checksum.
+    Verified,
+    /// Copied from ROM: no valid image record for this ROM (power-on, new firmware, a
+    /// damaged record).
+    Copied,
+    /// Copied from ROM because the RAM copy did not match its record's checksum.
+    Repaired,
+}
+
+impl ImageCheck {
+    /// The stub's code (1, 2, 3); anything else is taken as a copy.
+    pub fn from_stub(code: u32) -> ImageCheck {
+        match code {
+            1 => ImageCheck::Verified,
+            3 => ImageCheck::Repaired,
+            _ => ImageCheck::Copied,
+        }
+    }
+
+    /// `metric::BOOT_IMAGE`'s value (`kernel_config::abi::boot_image`).
+    pub fn code(self) -> u64 {
+        match self {
+            ImageCheck::Verified => kernel_config::abi::boot_image::VERIFIED,
+            ImageCheck::Copied => kernel_config::abi::boot_image::COPIED,
+            ImageCheck::Repaired => kernel_config::abi::boot_image::REPAIRED,
+        }
+    }
+}
+
+/// The image record's magic ("RADI"), in the warm-restart area after the boot record.
+pub const IMAGE_RECORD_MAGIC: u32 = 0x5241_4449;
+/// Byte offset of the image record in the warm-restart area (the linker's `__image_record`).
+pub const IMAGE_RECORD_OFFSET: usize = 32;
+/// Bytes of the image record: magic, ROM build id (2 words), checked words, the two sums, and
+/// a check word (the complement of the XOR of the six others).
+pub const IMAGE_RECORD_BYTES: usize = 28;
+
 global_asm!(
     r#"
     .section .reset.entry, "ax"
@@ -48,15 +108,95 @@ _reset:
     mftbu %r16
     cmpw %r14, %r16
     bne 30b
-    # Copy the shared code (vectors, text, rodata, .kshared) from ROM to RAM.
-    lis %r3, __ram_image_lma@ha
+    b __reset_body
+
+    .section .reset.body, "ax"
+    .globl __reset_body
+__reset_body:
+    # The RAM image (vectors, text, rodata): after a warm reset RAM still holds it, so it is
+    # checked against the image record rather than copied again; it is copied from ROM when
+    # there is no valid record for this ROM (power-on, new firmware, record damaged: r17 = 2)
+    # or when its checksum does not match (r17 = 3). r17 = 1: verified in RAM.
+    lis %r20, (__warm_area_base + {record})@ha
+    addi %r20, %r20, (__warm_area_base + {record})@l
+    lwz %r21, 0(%r20)
+    lwz %r22, 4(%r20)
+    lwz %r23, 8(%r20)
+    lwz %r24, 12(%r20)
+    lwz %r25, 16(%r20)
+    lwz %r26, 20(%r20)
+    lwz %r27, 24(%r20)
+    li %r17, 2
+    xor %r0, %r21, %r22
+    xor %r0, %r0, %r23
+    xor %r0, %r0, %r24
+    xor %r0, %r0, %r25
+    xor %r0, %r0, %r26
+    not %r0, %r0
+    cmpw %r0, %r27
+    bne 50f
+    lis %r0, ({magic} >> 16)
+    ori %r0, %r0, ({magic} & 0xffff)
+    cmpw %r21, %r0
+    bne 50f
+    lis %r3, __rom_build_id@ha
+    addi %r3, %r3, __rom_build_id@l
+    lwz %r0, 0(%r3)
+    cmpw %r22, %r0
+    bne 50f
+    lwz %r0, 4(%r3)
+    cmpw %r23, %r0
+    bne 50f
+    lis %r5, __image_checked_words@ha
+    addi %r5, %r5, __image_checked_words@l
+    cmpw %r24, %r5
+    bne 50f
+    li %r17, 3
+    lis %r3, __ram_image_start@ha
+    addi %r3, %r3, __ram_image_start@l
+    bl 40f
+    cmpw %r8, %r25
+    bne 50f
+    cmpw %r9, %r26
+    bne 50f
+    li %r17, 1
+    b 60f
+    # Copy the image from ROM, summing what is written, and record it for the next warm reset.
+50: lis %r3, __ram_image_lma@ha
     addi %r3, %r3, __ram_image_lma@l
     lis %r4, __ram_image_start@ha
     addi %r4, %r4, __ram_image_start@l
+    lis %r5, __image_checked_words@ha
+    addi %r5, %r5, __image_checked_words@l
+    bl 45f
+    lis %r3, __rom_build_id@ha
+    addi %r3, %r3, __rom_build_id@l
+    lwz %r22, 0(%r3)
+    lwz %r23, 4(%r3)
+    lis %r21, ({magic} >> 16)
+    ori %r21, %r21, ({magic} & 0xffff)
+    xor %r0, %r21, %r22
+    xor %r0, %r0, %r23
+    xor %r0, %r0, %r5
+    xor %r0, %r0, %r8
+    xor %r0, %r0, %r9
+    not %r0, %r0
+    stw %r22, 4(%r20)
+    stw %r23, 8(%r20)
+    stw %r5, 12(%r20)
+    stw %r8, 16(%r20)
+    stw %r9, 20(%r20)
+    stw %r0, 24(%r20)
+    stw %r21, 0(%r20)
+    # Every boot: the words the kernel writes at run time (.kshared) and the kernel's
+    # initialised data, from ROM; then the timebase after the image step in r18.
+60: lis %r3, __kshared_lma@ha
+    addi %r3, %r3, __kshared_lma@l
+    lis %r4, __kshared_start@ha
+    addi %r4, %r4, __kshared_start@l
     lis %r5, __ram_image_end@ha
     addi %r5, %r5, __ram_image_end@l
     bl 10f
-    # Copy the kernel's initialised data to its region.
     lis %r3, __kdata_lma@ha
     addi %r3, %r3, __kdata_lma@l
     lis %r4, __kdata_start@ha
@@ -64,7 +204,8 @@ _reset:
     lis %r5, __kdata_end@ha
     addi %r5, %r5, __kdata_end@l
     bl 10f
-    # Clear .bss and the hashed page table (every PTE invalid).
+    mftb %r18
+    # Clear .bss and the hashed page table (every PTE invalid); the timebase after in r19.
     lis %r4, __bss_start@ha
     addi %r4, %r4, __bss_start@l
     lis %r5, __bss_end@ha
@@ -76,6 +217,7 @@ _reset:
     addi %r5, %r5, __htab_size@l
     add %r5, %r5, %r4
     bl 20f
+    mftb %r19
     sync
     isync
     # Kernel stack with a terminating back-chain word.
@@ -85,8 +227,8 @@ _reset:
     stwu %r0, -16(%r1)
     li %r2, 0
     li %r13, 0
-    # Enter Rust with MSR = ME | FP (IP cleared: exception vectors now at 0x0) and the
-    # timebase at the reset vector as its arguments.
+    # Enter Rust with MSR = ME | FP (IP cleared: exception vectors now at 0x0), the timebase
+    # at the reset vector, how the image was made good and the two timebase marks.
     lis %r3, rust_start@ha
     addi %r3, %r3, rust_start@l
     mtspr 26, %r3
@@ -94,8 +236,12 @@ _reset:
     mtspr 27, %r4
     mr %r3, %r14
     mr %r4, %r15
+    mr %r5, %r17
+    mr %r6, %r18
+    mr %r7, %r19
     rfi
-    # Copy words [r4, r5) from r3.
+
+    # Copy words [r4, r5) from r3 (the few words of .kshared and .kdata).
 10: cmplw %r4, %r5
     bgelr
     lwz %r6, 0(%r3)
@@ -103,13 +249,109 @@ _reset:
     addi %r3, %r3, 4
     addi %r4, %r4, 4
     b 10b
-    # Zero words [r4, r5).
+
+    # Zero words [r4, r5), eight per turn (both ends word-aligned).
 20: li %r6, 0
-21: cmplw %r4, %r5
-    bgelr
-    stw %r6, 0(%r4)
+    subf %r0, %r4, %r5
+    srwi %r0, %r0, 2
+    srwi. %r7, %r0, 3
+    beq 22f
+    mtctr %r7
+21: stw %r6, 0(%r4)
+    stw %r6, 4(%r4)
+    stw %r6, 8(%r4)
+    stw %r6, 12(%r4)
+    stw %r6, 16(%r4)
+    stw %r6, 20(%r4)
+    stw %r6, 24(%r4)
+    stw %r6, 28(%r4)
+    addi %r4, %r4, 32
+    bdnz 21b
+22: andi. %r7, %r0, 7
+    beqlr
+    mtctr %r7
+23: stw %r6, 0(%r4)
     addi %r4, %r4, 4
-    b 21b
+    bdnz 23b
+    blr
+
+    # The image checksum of r5 words at r3 (r5 a non-zero multiple of 8): two 32-bit sums,
+    # r8 = sum of the words, r9 = sum of the running r8 (Fletcher's construction, modulo
+    # 2^32), so a changed word and words in the wrong order both change it.
+40: li %r8, 0
+    li %r9, 0
+    srwi %r0, %r5, 3
+    mtctr %r0
+41: lwz %r10, 0(%r3)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 4(%r3)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 8(%r3)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 12(%r3)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 16(%r3)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 20(%r3)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 24(%r3)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 28(%r3)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    addi %r3, %r3, 32
+    bdnz 41b
+    blr
+
+    # Copy r5 words from r3 to r4 (r5 a non-zero multiple of 8), with the checksum of 40:
+    # of what was written in r8, r9.
+45: li %r8, 0
+    li %r9, 0
+    srwi %r0, %r5, 3
+    mtctr %r0
+46: lwz %r10, 0(%r3)
+    stw %r10, 0(%r4)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 4(%r3)
+    stw %r10, 4(%r4)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 8(%r3)
+    stw %r10, 8(%r4)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 12(%r3)
+    stw %r10, 12(%r4)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 16(%r3)
+    stw %r10, 16(%r4)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 20(%r3)
+    stw %r10, 20(%r4)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 24(%r3)
+    stw %r10, 24(%r4)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    lwz %r10, 28(%r3)
+    stw %r10, 28(%r4)
+    add %r8, %r8, %r10
+    add %r9, %r9, %r8
+    addi %r3, %r3, 32
+    addi %r4, %r4, 32
+    bdnz 46b
+    blr
 
     .section .vectors, "ax"
     .globl __vectors
@@ -184,15 +426,30 @@ __context_resume:
 
     # A partition's first instructions after a (re)start, in problem state with its BATs:
     # r3 = start of its memory, r4 = end of its statics (both 32-byte aligned),
-    # r5 = entry function, r6 = stack top. Zero statics and stack, then call the entry.
+    # r5 = entry function, r6 = stack top. Zero statics and stack (one cache line per dcbz,
+    # four per loop turn), then call the entry.
     .globl __partition_start
 __partition_start:
     li %r7, 0
-1:  cmplw %r3, %r4
-    bge 2f
-    dcbz 0, %r3
+    subf %r8, %r3, %r4
+    srwi. %r9, %r8, 7
+    beq 3f
+    mtctr %r9
+    li %r10, 32
+    li %r11, 64
+    li %r12, 96
+1:  dcbz 0, %r3
+    dcbz %r10, %r3
+    dcbz %r11, %r3
+    dcbz %r12, %r3
+    addi %r3, %r3, 128
+    bdnz 1b
+3:  rlwinm. %r9, %r8, 27, 30, 31
+    beq 2f
+    mtctr %r9
+4:  dcbz 0, %r3
     addi %r3, %r3, 32
-    b 1b
+    bdnz 4b
 2:  mr %r1, %r6
     stwu %r7, -16(%r1)
     li %r2, 0
@@ -211,7 +468,9 @@ __kernel_idle:
     mtmsr %r3
     isync
     b __kernel_idle
-"#
+"#,
+    magic = const IMAGE_RECORD_MAGIC,
+    record = const IMAGE_RECORD_OFFSET,
 );
 
 extern "C" {

@@ -4,8 +4,10 @@
 //! share their alignment; they are on every hot path (struct moves in the checkpoint decode and
 //! the planner, port and link copies, the warm-restart area's reads and writes). A word loop
 //! took 6 instructions per word; the 32-byte loop takes 19 per 8 words. Pointers of different
-//! alignment (rare: byte buffers) are copied a byte at a time, with no misaligned word access,
-//! which a 750 only tolerates within limits. `memcmp` and `bcmp` are rare and stay in Rust.
+//! alignment (common in the checkpoint decode, which moves values built from byte buffers)
+//! are copied with aligned loads whose halves are shifted together, 6 instructions per word
+//! (3 per byte, 12 per word, before): no misaligned word access, which a 750 only tolerates
+//! within limits. `memcmp` and `bcmp` are rare and stay in Rust.
 //!
 //! Only general-purpose registers are used (r0, r3-r12, CR0/CR1, CTR: all volatile in the
 //! SysV ABI), so partitions, which run without the FPU, can call them too.
@@ -26,7 +28,7 @@ memcpy:
     blt .Lcopy_bytes
     xor %r0, %r6, %r4
     andi. %r0, %r0, 3
-    bne .Lcopy_bytes
+    bne .Lcopy_shifted
     # Same alignment: bytes until dest (and so src) is word-aligned.
     andi. %r0, %r6, 3
     beq .Lcopy_aligned
@@ -82,6 +84,51 @@ memcpy:
     stbu %r7, 1(%r6)
     bdnz 4b
     blr
+    # Different alignment: bytes until dest is word-aligned, then each dest word is put
+    # together from the two aligned source words it straddles (shifted and or-ed), two words
+    # per loop turn. Only aligned words holding source bytes are read.
+.Lcopy_shifted:
+    andi. %r0, %r6, 3
+    beq 8f
+    subfic %r0, %r0, 4
+    sub %r5, %r5, %r0
+    mtctr %r0
+7:  lbz %r7, 0(%r4)
+    addi %r4, %r4, 1
+    stb %r7, 0(%r6)
+    addi %r6, %r6, 1
+    bdnz 7b
+8:  rlwinm %r9, %r4, 3, 27, 28
+    subfic %r10, %r9, 32
+    rlwinm %r11, %r4, 0, 0, 29
+    lwz %r7, 0(%r11)
+    srwi. %r0, %r5, 3
+    beq 10f
+    mtctr %r0
+9:  lwz %r8, 4(%r11)
+    slw %r12, %r7, %r9
+    srw %r0, %r8, %r10
+    or %r12, %r12, %r0
+    stw %r12, 0(%r6)
+    lwzu %r7, 8(%r11)
+    slw %r12, %r8, %r9
+    srw %r0, %r7, %r10
+    or %r12, %r12, %r0
+    stw %r12, 4(%r6)
+    addi %r6, %r6, 8
+    bdnz 9b
+10: andi. %r0, %r5, 4
+    beq 11f
+    lwz %r8, 4(%r11)
+    slw %r12, %r7, %r9
+    srw %r0, %r8, %r10
+    or %r12, %r12, %r0
+    stw %r12, 0(%r6)
+    addi %r6, %r6, 4
+11: rlwinm %r0, %r5, 0, 0, 29
+    add %r4, %r4, %r0
+    andi. %r5, %r5, 3
+    b .Lcopy_bytes
     .size memcpy, . - memcpy
 
     .section .text.memmove, "ax"
