@@ -95,14 +95,16 @@ pub mod metric {
     /// The state key of the last such update; sent right after [`STATE_TYPE_MISMATCHES`].
     pub const STATE_TYPE_MISMATCH_KEY: u16 = 0x100B;
 
-    /// The parts of [`RESTORE_TICKS`] (the boot breakdown): the security area read and its key
-    /// checked.
+    /// The parts of the application's boot (the boot breakdown; sent at every boot, whereas
+    /// [`RESTORE_TICKS`], their sum, only when a checkpoint was restored): the security area
+    /// read and its key checked.
     pub const BOOT_SECURITY_TICKS: u16 = 0x1020;
     /// Finding the checkpoint to restore: the records' headers and the records needed read in
     /// (on a target whose memories sit behind system calls), their CRCs checked, and the
     /// memory chosen.
     pub const RESTORE_CHECK_TICKS: u16 = 0x1021;
-    /// Decoding and validating the chosen checkpoint and the restart adjustments.
+    /// Decoding and validating the chosen checkpoint and the restart adjustments (a few ticks
+    /// when there is nothing to restore).
     pub const RESTORE_DECODE_TICKS: u16 = 0x1022;
 
     /// Metrics that are measured CPU costs (timebase ticks). A span measured with the 16.6 MHz
@@ -545,28 +547,28 @@ impl FlightApp {
                 }
             }
         }
+        let t_end = clock.ticks();
+        if t_end != t0 {
+            downlink.send(metric_event(
+                metric::BOOT_SECURITY_TICKS,
+                t_security.wrapping_sub(t0),
+            ));
+            downlink.send(metric_event(
+                metric::RESTORE_CHECK_TICKS,
+                t_check.wrapping_sub(t_security),
+            ));
+            downlink.send(metric_event(
+                metric::RESTORE_DECODE_TICKS,
+                t_end.wrapping_sub(t_check),
+            ));
+        }
         if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
             self.recovering = Some(0);
             let from = match outcome {
                 BootOutcome::RestoredNv(_) => metric::RESTORED_FROM_NV,
                 _ => metric::RESTORED_FROM_WARM,
             };
-            let t_end = clock.ticks();
             downlink.send(metric_event(metric::RESTORE_TICKS, t_end.wrapping_sub(t0)));
-            if t_end != t0 {
-                downlink.send(metric_event(
-                    metric::BOOT_SECURITY_TICKS,
-                    t_security.wrapping_sub(t0),
-                ));
-                downlink.send(metric_event(
-                    metric::RESTORE_CHECK_TICKS,
-                    t_check.wrapping_sub(t_security),
-                ));
-                downlink.send(metric_event(
-                    metric::RESTORE_DECODE_TICKS,
-                    t_end.wrapping_sub(t_check),
-                ));
-            }
             downlink.send(metric_event(
                 metric::RESTORED_SEQUENCE,
                 u64::from(info.sequence),
