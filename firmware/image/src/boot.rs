@@ -13,15 +13,17 @@
 //!   the sums differ (a damaged image), it copies the image from ROM, summing as it copies,
 //!   and writes the record.
 //!
-//! The checksum is Fletcher's construction over 32-bit words modulo 2^32 (the sum of the words,
-//! and the sum of those running sums), not a CRC: a table-driven CRC-32 costs about 14
-//! instructions per word, twice a copy from ROM, whereas these sums cost 3.25 (a load and two
-//! adds; eight words per loop turn). Any damage confined to one word changes the first sum;
-//! words swapped or shifted change the second. On a real board the check also avoids reading
-//! the boot ROM, which is many times slower than RAM (under QEMU both cost one instruction per
-//! word). Then, on every boot, the stub reloads `.kshared` (the words the kernel writes at
-//! run time, so outside the checksum) and the kernel data from ROM, clears `.bss` and the
-//! hashed page table (eight stores per loop turn), sets up the kernel stack and enters
+//! The checksum is two 32-bit words (routine 40 in the stub): a chain that takes the image's
+//! words in turn, adding one and XORing the next (both steps are bijections, so any damage
+//! confined to one word changes it, and since they do not commute, so do words swapped), and
+//! the sum of the chain after each 24-word block (Fletcher's second sum at block granularity:
+//! blocks in the wrong order change it). It is not a CRC: a table-driven CRC-32 costs about
+//! 14 instructions per word, twice a word-by-word copy from ROM, whereas the chain costs one
+//! per word, the words being read 24 at a time with `lmw` (1.17 instructions per word in all).
+//! On a real board the check also avoids reading the boot ROM, which is many times slower
+//! than RAM (under QEMU both cost one instruction per access). Then, on every boot, the stub
+//! reloads `.kshared` (the words the kernel writes at run time, so outside the checksum) and
+//! the kernel data from ROM, clears `.bss` and the hashed page table (24 words per `stmw`), sets up the kernel stack and enters
 //! [`crate::rust_start`] through `rfi` with MSR[IP]=0 (vectors at 0x0), MSR[ME] and MSR[FP],
 //! with the timebase at the reset vector, how the image was made good ([`ImageCheck`]) and
 //! the timebase after each of its two steps (the boot breakdown the host prints).
@@ -90,8 +92,8 @@ impl ImageCheck {
 
 /// The image record's magic ("RADI"), in the warm-restart area after the boot record.
 pub const IMAGE_RECORD_MAGIC: u32 = 0x5241_4449;
-/// Byte offset of the image record in the warm-restart area (the linker's `__image_record`).
-pub const IMAGE_RECORD_OFFSET: usize = 32;
+/// Byte offset of the image record in the warm-restart area.
+pub const IMAGE_RECORD_OFFSET: usize = kernel_config::WARM_IMAGE_RECORD_OFFSET as usize;
 /// Bytes of the image record: magic, ROM build id (2 words), checked words, the two sums, and
 /// a check word (the complement of the XOR of the six others).
 pub const IMAGE_RECORD_BYTES: usize = 28;
@@ -250,107 +252,166 @@ __reset_body:
     addi %r4, %r4, 4
     b 10b
 
-    # Zero words [r4, r5), eight per turn (both ends word-aligned).
-20: li %r6, 0
+    # Routines 20, 40 and 45 move 24 words (r8-r31) per lmw/stmw: one instruction each, where
+    # a word at a time cost one per word (on a real 750 they take about a cycle per register,
+    # still without the loop's per-word overhead). They save and restore r14-r31 (the stub's
+    # own values) in the first 72 bytes of the kernel stack, which nothing uses yet, through r1
+    # (the stack pointer is set only after them); r0-r7 are theirs.
+
+    # Zero words [r4, r5) (both ends word-aligned): 24 words per stmw, then one at a time.
+20: lis %r1, __kernel_stack_bottom@ha
+    addi %r1, %r1, __kernel_stack_bottom@l
+    stmw %r14, 0(%r1)
+    li %r8, 0
+    li %r9, 0
+    li %r10, 0
+    li %r11, 0
+    li %r12, 0
+    li %r13, 0
+    li %r14, 0
+    li %r15, 0
+    li %r16, 0
+    li %r17, 0
+    li %r18, 0
+    li %r19, 0
+    li %r20, 0
+    li %r21, 0
+    li %r22, 0
+    li %r23, 0
+    li %r24, 0
+    li %r25, 0
+    li %r26, 0
+    li %r27, 0
+    li %r28, 0
+    li %r29, 0
+    li %r30, 0
+    li %r31, 0
     subf %r0, %r4, %r5
     srwi %r0, %r0, 2
-    srwi. %r7, %r0, 3
+    li %r6, 24
+    divwu %r7, %r0, %r6
+    mullw %r6, %r7, %r6
+    subf %r0, %r6, %r0
+    cmpwi %r7, 0
     beq 22f
     mtctr %r7
-21: stw %r6, 0(%r4)
-    stw %r6, 4(%r4)
-    stw %r6, 8(%r4)
-    stw %r6, 12(%r4)
-    stw %r6, 16(%r4)
-    stw %r6, 20(%r4)
-    stw %r6, 24(%r4)
-    stw %r6, 28(%r4)
-    addi %r4, %r4, 32
+21: stmw %r8, 0(%r4)
+    addi %r4, %r4, 96
     bdnz 21b
-22: andi. %r7, %r0, 7
-    beqlr
-    mtctr %r7
-23: stw %r6, 0(%r4)
+22: cmpwi %r0, 0
+    beq 24f
+    mtctr %r0
+23: stw %r8, 0(%r4)
     addi %r4, %r4, 4
     bdnz 23b
+24: lmw %r14, 0(%r1)
     blr
 
-    # The image checksum of r5 words at r3 (r5 a non-zero multiple of 8): two 32-bit sums,
-    # r8 = sum of the words, r9 = sum of the running r8 (Fletcher's construction, modulo
-    # 2^32), so a changed word and words in the wrong order both change it.
-40: li %r8, 0
-    li %r9, 0
-    srwi %r0, %r5, 3
-    mtctr %r0
-41: lwz %r10, 0(%r3)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 4(%r3)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 8(%r3)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 12(%r3)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 16(%r3)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 20(%r3)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 24(%r3)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 28(%r3)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    addi %r3, %r3, 32
+    # One step of the image checksum per word: the chain r6 takes the words in turn, adding
+    # one and XORing the next. Either step is a bijection of r6 and of the word, so any change
+    # confined to one word changes the chain's end; since addition and XOR do not commute,
+    # two words swapped change it too (but for rare values).
+    .macro __rad_mix even, odd
+    add %r6, %r6, %r\even
+    xor %r6, %r6, %r\odd
+    .endm
+
+    # The image checksum of r5 words at r3 (r5 a multiple of 8): r8 = the chain's end, r9 =
+    # the sum of the chain after each block (a second sum, as in Fletcher's construction:
+    # blocks in the wrong order change it). Blocks of 24 words (lmw into r8-r31), then blocks
+    # of 8 (into r24-r31) for the rest; routine 45 takes the same blocks.
+40: lis %r1, __kernel_stack_bottom@ha
+    addi %r1, %r1, __kernel_stack_bottom@l
+    stmw %r14, 0(%r1)
+    li %r6, 0
+    li %r7, 0
+    li %r0, 24
+    divwu %r2, %r5, %r0
+    mullw %r0, %r2, %r0
+    cmpwi %r2, 0
+    mtctr %r2
+    subf %r2, %r0, %r5
+    beq 42f
+41: lmw %r8, 0(%r3)
+    __rad_mix 8, 9
+    __rad_mix 10, 11
+    __rad_mix 12, 13
+    __rad_mix 14, 15
+    __rad_mix 16, 17
+    __rad_mix 18, 19
+    __rad_mix 20, 21
+    __rad_mix 22, 23
+    __rad_mix 24, 25
+    __rad_mix 26, 27
+    __rad_mix 28, 29
+    __rad_mix 30, 31
+    add %r7, %r7, %r6
+    addi %r3, %r3, 96
     bdnz 41b
+42: srwi. %r0, %r2, 3
+    beq 44f
+    mtctr %r0
+43: lmw %r24, 0(%r3)
+    __rad_mix 24, 25
+    __rad_mix 26, 27
+    __rad_mix 28, 29
+    __rad_mix 30, 31
+    add %r7, %r7, %r6
+    addi %r3, %r3, 32
+    bdnz 43b
+44: lmw %r14, 0(%r1)
+    mr %r8, %r6
+    mr %r9, %r7
     blr
 
-    # Copy r5 words from r3 to r4 (r5 a non-zero multiple of 8), with the checksum of 40:
-    # of what was written in r8, r9.
-45: li %r8, 0
-    li %r9, 0
-    srwi %r0, %r5, 3
+    # Copy r5 words from r3 to r4 (r5 a multiple of 8), with the checksum of 40 of what was
+    # written in r8, r9; r5 is kept.
+45: lis %r1, __kernel_stack_bottom@ha
+    addi %r1, %r1, __kernel_stack_bottom@l
+    stmw %r14, 0(%r1)
+    li %r6, 0
+    li %r7, 0
+    li %r0, 24
+    divwu %r2, %r5, %r0
+    mullw %r0, %r2, %r0
+    cmpwi %r2, 0
+    mtctr %r2
+    subf %r2, %r0, %r5
+    beq 47f
+46: lmw %r8, 0(%r3)
+    stmw %r8, 0(%r4)
+    __rad_mix 8, 9
+    __rad_mix 10, 11
+    __rad_mix 12, 13
+    __rad_mix 14, 15
+    __rad_mix 16, 17
+    __rad_mix 18, 19
+    __rad_mix 20, 21
+    __rad_mix 22, 23
+    __rad_mix 24, 25
+    __rad_mix 26, 27
+    __rad_mix 28, 29
+    __rad_mix 30, 31
+    add %r7, %r7, %r6
+    addi %r3, %r3, 96
+    addi %r4, %r4, 96
+    bdnz 46b
+47: srwi. %r0, %r2, 3
+    beq 49f
     mtctr %r0
-46: lwz %r10, 0(%r3)
-    stw %r10, 0(%r4)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 4(%r3)
-    stw %r10, 4(%r4)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 8(%r3)
-    stw %r10, 8(%r4)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 12(%r3)
-    stw %r10, 12(%r4)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 16(%r3)
-    stw %r10, 16(%r4)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 20(%r3)
-    stw %r10, 20(%r4)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 24(%r3)
-    stw %r10, 24(%r4)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
-    lwz %r10, 28(%r3)
-    stw %r10, 28(%r4)
-    add %r8, %r8, %r10
-    add %r9, %r9, %r8
+48: lmw %r24, 0(%r3)
+    stmw %r24, 0(%r4)
+    __rad_mix 24, 25
+    __rad_mix 26, 27
+    __rad_mix 28, 29
+    __rad_mix 30, 31
+    add %r7, %r7, %r6
     addi %r3, %r3, 32
     addi %r4, %r4, 32
-    bdnz 46b
+    bdnz 48b
+49: lmw %r14, 0(%r1)
+    mr %r8, %r6
+    mr %r9, %r7
     blr
 
     .section .vectors, "ax"
