@@ -487,31 +487,62 @@ __context_resume:
 
     # A partition's first instructions after a (re)start, in problem state with its BATs:
     # r3 = start of its memory, r4 = end of its statics (both 32-byte aligned),
-    # r5 = entry function, r6 = stack top. Zero statics and stack (one cache line per dcbz,
-    # four per loop turn), then call the entry.
+    # r5 = entry function, r6 = stack top. Zero the statics, then call the entry.
     .globl __partition_start
 __partition_start:
-    li %r7, 0
-    subf %r8, %r3, %r4
-    srwi. %r9, %r8, 7
+    # Zero [r3, r4): 768 bytes per loop turn (eight stmw of r8-r31, all zero: nothing of the
+    # partition is live yet), then 32 bytes per dcbz.
+    subf %r0, %r3, %r4
+    li %r7, 768
+    divwu %r9, %r0, %r7
+    mullw %r7, %r9, %r7
+    subf %r0, %r7, %r0
+    cmpwi %r9, 0
     beq 3f
     mtctr %r9
-    li %r10, 32
-    li %r11, 64
-    li %r12, 96
-1:  dcbz 0, %r3
-    dcbz %r10, %r3
-    dcbz %r11, %r3
-    dcbz %r12, %r3
-    addi %r3, %r3, 128
+    li %r8, 0
+    li %r9, 0
+    li %r10, 0
+    li %r11, 0
+    li %r12, 0
+    li %r13, 0
+    li %r14, 0
+    li %r15, 0
+    li %r16, 0
+    li %r17, 0
+    li %r18, 0
+    li %r19, 0
+    li %r20, 0
+    li %r21, 0
+    li %r22, 0
+    li %r23, 0
+    li %r24, 0
+    li %r25, 0
+    li %r26, 0
+    li %r27, 0
+    li %r28, 0
+    li %r29, 0
+    li %r30, 0
+    li %r31, 0
+1:
+    stmw %r8, 0(%r3)
+    stmw %r8, 96(%r3)
+    stmw %r8, 192(%r3)
+    stmw %r8, 288(%r3)
+    stmw %r8, 384(%r3)
+    stmw %r8, 480(%r3)
+    stmw %r8, 576(%r3)
+    stmw %r8, 672(%r3)
+    addi %r3, %r3, 768
     bdnz 1b
-3:  rlwinm. %r9, %r8, 27, 30, 31
+3:  srwi. %r9, %r0, 5
     beq 2f
     mtctr %r9
 4:  dcbz 0, %r3
     addi %r3, %r3, 32
     bdnz 4b
-2:  mr %r1, %r6
+2:  li %r7, 0
+    mr %r1, %r6
     stwu %r7, -16(%r1)
     li %r2, 0
     li %r13, 0
