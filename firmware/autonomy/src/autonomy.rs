@@ -37,7 +37,7 @@
 use crate::capacity::MAX_MISSION_TIME_US;
 use crate::checkpoint::{
     self, CheckpointError, PayloadDefect, PayloadError, PayloadSite, Record, RestoreInfo,
-    RestoredState, WarmRestartArea,
+    RestoredState, WarmRestartArea, WrittenRecord,
 };
 use crate::condition::{state_value_to_i64, StateTable, UpdateOutcome};
 use crate::executive::Executive;
@@ -415,8 +415,28 @@ impl Autonomy {
     /// Writes the whole plan and execution state as a new record in `area` (the slot not
     /// holding the newest record). Returns the record's sequence number.
     pub fn checkpoint_to(&self, area: &mut WarmRestartArea<'_>) -> Result<u32, CheckpointError> {
-        let (_, seq) = area.write(|buf| self.encode_state(buf))?;
-        Ok(seq)
+        self.checkpoint_record_to(area)
+            .map(|written| written.sequence)
+    }
+
+    /// As [`Autonomy::checkpoint_to`], and says where the record went and which bytes of the
+    /// area it wrote.
+    pub fn checkpoint_record_to(
+        &self,
+        area: &mut WarmRestartArea<'_>,
+    ) -> Result<WrittenRecord, CheckpointError> {
+        self.checkpoint_record_after(area, None)
+    }
+
+    /// As [`Autonomy::checkpoint_record_to`], numbered after both `area`'s newest record and
+    /// `newest_elsewhere` (see [`WarmRestartArea::write_after`]): for a caller that keeps the
+    /// same checkpoints in several memories under one sequence number.
+    pub fn checkpoint_record_after(
+        &self,
+        area: &mut WarmRestartArea<'_>,
+        newest_elsewhere: Option<u32>,
+    ) -> Result<WrittenRecord, CheckpointError> {
+        area.write_after(newest_elsewhere, |buf| self.encode_state(buf))
     }
 
     /// Encodes the whole plan and execution state (the checkpoint payload) into `buf`;
@@ -467,8 +487,16 @@ impl Autonomy {
         area: &WarmRestartArea<'_>,
     ) -> Result<RestoreInfo, CheckpointError> {
         let mut refused = None;
-        for record in area.records().into_iter().flatten() {
-            match self.restore_record(record) {
+        // Newest claim first; a CRC is computed only for a record tried (usually one).
+        for slot in area.candidates().into_iter().flatten() {
+            let Some((sequence, payload)) = area.record(slot) else {
+                continue;
+            };
+            match self.restore_record(Record {
+                slot,
+                sequence,
+                payload,
+            }) {
                 Ok(info) => return Ok(info),
                 Err(e) => {
                     refused.get_or_insert(e);
@@ -478,8 +506,10 @@ impl Autonomy {
         Err(refused.map_or(CheckpointError::NoValidRecord, CheckpointError::BadPayload))
     }
 
-    /// Restores from one whole record (see [`Autonomy::restore_from`]; a caller with several
-    /// memories picks the record). On error `self` is a cold, empty core.
+    /// Restores from one record the caller already found whole (with
+    /// [`WarmRestartArea::record`] or [`checkpoint::records`]; its CRC is not checked again):
+    /// see [`Autonomy::restore_from`]; a caller with several memories picks the record. On
+    /// error, why its payload was refused, and `self` is a cold, empty core.
     pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, PayloadError> {
         if let Err(e) = self.decode_state(record.payload) {
             *self = Self::new();
@@ -514,7 +544,9 @@ impl Autonomy {
             .get(4..)
             .and_then(|r| r.get(..net_len))
             .ok_or(fail(Decode, PayloadSite::Network))?;
-        uplink::decode_into(&mut self.network, net_bytes)
+        // Checked as an uplink is (a checkpoint is trusted no more than its CRC and format
+        // version), but decoded once.
+        uplink::decode_then_validate(&mut self.network, net_bytes)
             .map_err(|e| fail(InvalidNetwork(e), PayloadSite::Network))?;
         let rest = rest.get(4 + net_len..).unwrap_or(&[]);
         let (planner, rest): (Planner, _) =

@@ -7,7 +7,9 @@
 //! the first 16 header bytes and the payload. A write always goes to the slot that does not
 //! hold the newest whole record, and the header is written last, so a reset at any instant
 //! leaves at least one whole record. Sequence numbers compare with wrap-around
-//! ([`is_newer`]); a truncated or corrupted record is ignored.
+//! ([`is_newer`]); a truncated or corrupted record is ignored. Only the CRCs needed are
+//! computed: the slot whose header claims the newer sequence number is checked first, and the
+//! other only if it is not whole (or, at a restore, if its payload is refused).
 //!
 //! A whole record only proves that its bytes are the ones written. What they say is checked
 //! like an uplink before the core runs on it ([`check_restored`]): a payload that does not
@@ -66,34 +68,55 @@ pub struct Record<'a> {
 }
 
 /// The whole records of the A/B area `bytes` (the layout [`WarmRestartArea`] writes), newest
-/// first. Reads only, so it works on memory the caller may not write.
+/// first. Reads only, so it works on memory the caller may not write. Checks both records'
+/// CRCs: a restore that needs only the newest uses [`WarmRestartArea::candidates`] and
+/// [`WarmRestartArea::record`].
 pub fn records(bytes: &[u8]) -> [Option<Record<'_>>; 2] {
-    let slot_len = bytes.len() / 2;
-    let slot = |index: u8| {
-        let start = usize::from(index) * slot_len;
-        bytes.get(start..start + slot_len).unwrap_or(&[])
-    };
-    let record = |index: u8| {
-        record_in(slot(index)).map(|(sequence, payload)| Record {
-            slot: index,
-            sequence,
-            payload,
-        })
-    };
-    match (record(0), record(1)) {
-        (Some(a), Some(b)) if is_newer(b.sequence, a.sequence) => [Some(b), Some(a)],
-        (Some(a), b) => [Some(a), b],
-        (None, b) => [b, None],
-    }
+    let mut whole = candidates_in(bytes)
+        .into_iter()
+        .flatten()
+        .filter_map(|slot| {
+            record_in(bytes, slot).map(|(sequence, payload)| Record {
+                slot,
+                sequence,
+                payload,
+            })
+        });
+    [whole.next(), whole.next()]
 }
 
-/// The whole record in one slot, as (sequence, payload).
-fn record_in(slot: &[u8]) -> Option<(u32, &[u8])> {
+/// Slot `index` (0 = A, 1 = B) of the A/B area `bytes`.
+fn slot_in(bytes: &[u8], index: u8) -> &[u8] {
+    let n = bytes.len() / 2;
+    let start = usize::from(index) * n;
+    bytes.get(start..start + n).unwrap_or(&[])
+}
+
+/// What slot `index`'s header claims (see [`WarmRestartArea::claimed`]).
+fn claimed_in(bytes: &[u8], index: u8) -> Option<(u32, usize)> {
+    let slot = slot_in(bytes, index);
     if be_u32(slot, 0)? != MAGIC || be_u16(slot, 4)? != CHECKPOINT_FORMAT {
         return None;
     }
     let sequence = be_u32(slot, 8)?;
     let len = usize::try_from(be_u32(slot, 12)?).ok()?;
+    (len <= slot.len().saturating_sub(RECORD_HEADER_LEN)).then_some((sequence, len))
+}
+
+/// The slots whose headers claim a record, newest claim first (see
+/// [`WarmRestartArea::candidates`]).
+fn candidates_in(bytes: &[u8]) -> [Option<u8>; 2] {
+    match (claimed_in(bytes, 0), claimed_in(bytes, 1)) {
+        (Some((sa, _)), Some((sb, _))) if is_newer(sb, sa) => [Some(1), Some(0)],
+        (Some(_), b) => [Some(0), b.map(|_| 1)],
+        (None, b) => [b.map(|_| 1), None],
+    }
+}
+
+/// The whole record in slot `index`, as (sequence, payload): header and payload pass the CRC.
+fn record_in(bytes: &[u8], index: u8) -> Option<(u32, &[u8])> {
+    let slot = slot_in(bytes, index);
+    let (sequence, len) = claimed_in(bytes, index)?;
     let crc = be_u32(slot, 16)?;
     let payload = slot.get(RECORD_HEADER_LEN..RECORD_HEADER_LEN.checked_add(len)?)?;
     let mut digest = CRC32.digest();
@@ -109,6 +132,17 @@ pub struct RestoreInfo {
     pub slot: u8,
     pub sequence: u32,
     pub payload_len: u32,
+}
+
+/// A record [`WarmRestartArea::write_record`] wrote.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WrittenRecord {
+    /// 0 for slot A, 1 for slot B.
+    pub slot: u8,
+    pub sequence: u32,
+    /// The byte range of the region written (header and payload): what a target whose region
+    /// sits behind a copy must copy out.
+    pub bytes: (usize, usize),
 }
 
 /// The warm-restart region, split into slots A and B.
@@ -152,15 +186,47 @@ impl<'a> WarmRestartArea<'a> {
         self.bytes.get_mut(start..start + n).unwrap_or(&mut [])
     }
 
-    /// The whole records, newest first (see [`records`]).
+    /// The whole records, newest first (see [`records`]; checks both CRCs).
     pub fn records(&self) -> [Option<Record<'_>>; 2] {
         records(self.bytes)
     }
 
-    /// The newest whole record: (slot, sequence, payload).
+    /// Byte offset of slot `index` (0 = A, 1 = B) in the region.
+    pub fn slot_offset(&self, index: u8) -> usize {
+        usize::from(index) * self.slot_len()
+    }
+
+    /// What slot `index`'s header claims, before any check of its CRC: (sequence, payload
+    /// length), if the header has this format's magic and version and the length fits the
+    /// slot. A target that copies the region in from slow memory reads the two headers first
+    /// and then only the payloads it needs (see [`WarmRestartArea::candidates`]).
+    pub fn claimed(&self, index: u8) -> Option<(u32, usize)> {
+        claimed_in(self.bytes, index)
+    }
+
+    /// The slots whose headers claim a record, newest claim first (sequence numbers compare
+    /// with wrap-around, [`is_newer`]; on a tie A comes first): the order in which
+    /// [`WarmRestartArea::latest`] checks them. The first whole one is the newest whole
+    /// record, so the other slot's payload is read and checked only when the first is torn or
+    /// corrupted (or, at a restore, refused).
+    pub fn candidates(&self) -> [Option<u8>; 2] {
+        candidates_in(self.bytes)
+    }
+
+    /// The whole record in slot `index`, as (sequence, payload): header and payload pass the
+    /// CRC.
+    pub fn record(&self, index: u8) -> Option<(u32, &[u8])> {
+        record_in(self.bytes, index)
+    }
+
+    /// The newest whole record: (slot, sequence, payload). Of two whole records the one with
+    /// the newer sequence number (with wrap-around); only the CRCs needed to know it are
+    /// computed (usually one: see [`WarmRestartArea::candidates`]).
     pub fn latest(&self) -> Option<(u8, u32, &[u8])> {
-        let [newest, _] = self.records();
-        newest.map(|r| (r.slot, r.sequence, r.payload))
+        self.candidates().into_iter().flatten().find_map(|index| {
+            self.record(index)
+                .map(|(seq, payload)| (index, seq, payload))
+        })
     }
 
     /// Writes a new record whose payload `fill` produces into the given buffer (returning its
@@ -169,10 +235,19 @@ impl<'a> WarmRestartArea<'a> {
         &mut self,
         fill: impl FnOnce(&mut [u8]) -> Option<usize>,
     ) -> Result<(u8, u32), CheckpointError> {
+        self.write_record(fill)
+            .map(|written| (written.slot, written.sequence))
+    }
+
+    /// As [`WarmRestartArea::write`], and says which bytes of the region it wrote.
+    pub fn write_record(
+        &mut self,
+        fill: impl FnOnce(&mut [u8]) -> Option<usize>,
+    ) -> Result<WrittenRecord, CheckpointError> {
         self.write_after(None, fill)
     }
 
-    /// [`WarmRestartArea::write`], numbered after both this area's newest record and
+    /// [`WarmRestartArea::write_record`], numbered after both this area's newest record and
     /// `newest_elsewhere` (the newest sequence number of another area holding the same
     /// checkpoints): two memories written with the same state carry the same number, so
     /// comparing their numbers says which is newer even after one of them was lost.
@@ -180,7 +255,7 @@ impl<'a> WarmRestartArea<'a> {
         &mut self,
         newest_elsewhere: Option<u32>,
         fill: impl FnOnce(&mut [u8]) -> Option<usize>,
-    ) -> Result<(u8, u32), CheckpointError> {
+    ) -> Result<WrittenRecord, CheckpointError> {
         let newest_here = self.latest().map(|(s, seq, _)| (s, seq));
         let slot = newest_here.map_or(0, |(s, _)| 1 - s);
         let newest = match (newest_here.map(|(_, seq)| seq), newest_elsewhere) {
@@ -224,7 +299,12 @@ impl<'a> WarmRestartArea<'a> {
             .get_mut(..4)
             .ok_or(CheckpointError::AreaTooSmall)?
             .copy_from_slice(&MAGIC.to_be_bytes());
-        Ok((slot, sequence))
+        let start = self.slot_offset(slot);
+        Ok(WrittenRecord {
+            slot,
+            sequence,
+            bytes: (start, start + RECORD_HEADER_LEN + len),
+        })
     }
 
     /// Erases both records (cold start).

@@ -1012,6 +1012,89 @@ pub fn decode_into(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
     Ok(())
 }
 
+/// Decodes `bytes` into `network` and then checks what it decoded with [`validate_spec`]: the
+/// checks [`validate_uplink`] makes on the same values, so it accepts exactly what
+/// [`decode_into`] accepts, but decodes the network once where `decode_into` decodes its tasks
+/// three times (twice to validate the bytes, once to store them). The checkpoint restore's
+/// path. On error `network` holds whatever was decoded: for callers that discard it.
+pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
+    use ValidationCode::*;
+    let mut r = Reader { rest: bytes };
+    let spec = &mut network.spec;
+    spec.header = r.take(ErrorSite::Network)?;
+    // Element counts are refused at the same sites as in `validate_uplink`.
+    spec.timelines.clear();
+    let timeline_count = r.count(
+        MAX_TIMELINES,
+        TooManyTimelines,
+        ErrorSite::Timeline(u8_index(MAX_TIMELINES)),
+    )?;
+    for i in 0..timeline_count {
+        let t = r.timeline(i)?;
+        spec.timelines.push(t).map_err(|_| {
+            ValidationError::new(TooManyTimelines, ErrorSite::Timeline(u8_index(i)))
+        })?;
+    }
+    spec.conditions.clear();
+    let condition_count = r.count(
+        MAX_CONDITIONS,
+        TooManyConditions,
+        ErrorSite::Condition {
+            condition: u8_index(MAX_CONDITIONS),
+            node: 0,
+        },
+    )?;
+    for i in 0..condition_count {
+        let c = r.condition(i)?;
+        spec.conditions.push(c).map_err(|_| {
+            ValidationError::new(
+                TooManyConditions,
+                ErrorSite::Condition {
+                    condition: u8_index(i),
+                    node: 0,
+                },
+            )
+        })?;
+    }
+    spec.tasks.clear();
+    let task_count = r.count(
+        MAX_TASKS,
+        TooManyTasks,
+        ErrorSite::Task {
+            task: u8_index(MAX_TASKS),
+            field: TaskField::Whole,
+        },
+    )?;
+    for i in 0..task_count {
+        let t = r.task(i)?;
+        spec.tasks.push(t).map_err(|_| {
+            ValidationError::new(
+                TooManyTasks,
+                ErrorSite::Task {
+                    task: u8_index(i),
+                    field: TaskField::Whole,
+                },
+            )
+        })?;
+    }
+    spec.temporal.clear();
+    let temporal_count = r.count(
+        MAX_TEMPORAL_CONSTRAINTS,
+        TooManyTemporalConstraints,
+        ErrorSite::Temporal(u8_index(MAX_TEMPORAL_CONSTRAINTS)),
+    )?;
+    for i in 0..temporal_count {
+        let tc = r.take(ErrorSite::Temporal(u8_index(i)))?;
+        spec.temporal.push(tc).map_err(|_| {
+            ValidationError::new(TooManyTemporalConstraints, ErrorSite::Temporal(u8_index(i)))
+        })?;
+    }
+    if !r.rest.is_empty() {
+        return err(TrailingBytes, ErrorSite::Network);
+    }
+    validate_spec(spec)
+}
+
 /// The uplink did not fit in the output buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BufferTooSmall;

@@ -23,7 +23,7 @@
 #![no_std]
 #![forbid(unsafe_code)]
 
-use autonomy::checkpoint::{self, Record};
+use autonomy::checkpoint::{self, Record, RECORD_HEADER_LEN};
 use autonomy::{Autonomy, Outputs, RestoreInfo, StepBudget, WarmRestartArea};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::security::{MAC_LEN, MAX_GROUND_HOLDS};
@@ -98,6 +98,18 @@ pub mod metric {
     /// The state key of the last such update; sent right after [`STATE_TYPE_MISMATCHES`].
     pub const STATE_TYPE_MISMATCH_KEY: u16 = 0x100B;
 
+    /// The parts of the application's boot (the boot breakdown; sent at every boot, whereas
+    /// [`RESTORE_TICKS`], their sum, only when a checkpoint was restored): the security area
+    /// read and its key checked.
+    pub const BOOT_SECURITY_TICKS: u16 = 0x1020;
+    /// Finding the checkpoint to restore: the records' headers and the records needed read in
+    /// (on a target whose memories sit behind system calls), their CRCs checked, and the
+    /// memory chosen.
+    pub const RESTORE_CHECK_TICKS: u16 = 0x1021;
+    /// Decoding and validating the chosen checkpoint and the restart adjustments (a few ticks
+    /// when there is nothing to restore).
+    pub const RESTORE_DECODE_TICKS: u16 = 0x1022;
+
     /// Metrics that are measured CPU costs (timebase ticks). A span measured with the 16.6 MHz
     /// timebase against the 250 MHz instruction clock can come out one tick longer or shorter
     /// depending on where between two ticks it started; the executive starts its work at a
@@ -115,6 +127,9 @@ pub mod metric {
                 | EXECUTIVE_TICKS
                 | FRAME_BUSY_TICKS
                 | UPLINK_VERIFY_TICKS
+                | BOOT_SECURITY_TICKS
+                | RESTORE_CHECK_TICKS
+                | RESTORE_DECODE_TICKS
         )
     }
 
@@ -203,6 +218,155 @@ pub struct Memories<'a> {
     pub security: Option<&'a mut dyn SecurityStore>,
 }
 
+/// Which of the two checkpoint memories. The warm one sorts first: of two records with the
+/// same sequence number (the same checkpoint), the warm one is tried first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum MemoryKind {
+    /// The warm-restart area ([`Memories::warm`]).
+    Warm,
+    /// Non-volatile memory's checkpoint areas ([`Memories::nv`]).
+    Nv,
+}
+
+/// A target whose memories sit behind an interface (the firmware: system calls into the
+/// kernel) gives the application copies that start out empty, and this to fill them: the
+/// application asks for the bytes it needs, at the offset they have in the copy, instead of the
+/// target copying both 64 KiB areas in at every boot. At boot it reads the two record headers
+/// of each memory, then the records they claim, newest claim of either memory first, until one
+/// is whole and its payload validates (usually the first: the warm area's newest). The records
+/// of a memory that the choice did not need are read before its first checkpoint write (which
+/// must know the slot holding its newest whole record). A target that passes none hands over
+/// complete copies.
+pub trait MemoryFetch {
+    /// Fill `bytes` from `memory` at `offset`.
+    fn fetch(
+        &mut self,
+        memory: MemoryKind,
+        offset: usize,
+        bytes: &mut [u8],
+    ) -> Result<(), StoreError>;
+}
+
+/// What the application's copy of one memory holds, when a [`MemoryFetch`] fills it.
+#[derive(Clone, Copy, Debug, Default)]
+struct CopyState {
+    /// The slots whose payloads have been read in (bit `i` for slot `i`).
+    payloads_read: u8,
+    /// The copy holds the memory's newest whole record, or the memory has none: a checkpoint
+    /// write into the copy picks the slot it would pick in the memory.
+    newest_known: bool,
+}
+
+impl CopyState {
+    /// A complete copy.
+    const COMPLETE: Self = Self {
+        payloads_read: 0b11,
+        newest_known: true,
+    };
+}
+
+/// Reads the payload that slot `index`'s header claims into `copy`, unless it is there already.
+/// False if the header claims none or the read failed. Without `fetch` the copy is complete.
+fn fetch_payload(
+    copy: &mut [u8],
+    memory: MemoryKind,
+    index: u8,
+    fetch: Option<&mut (dyn MemoryFetch + '_)>,
+    state: &mut CopyState,
+) -> bool {
+    let Some(fetch) = fetch else {
+        return true;
+    };
+    let bit = 1u8 << index;
+    if state.payloads_read & bit != 0 {
+        return true;
+    }
+    let area = WarmRestartArea::new(copy);
+    let Some((_, len)) = area.claimed(index) else {
+        return false;
+    };
+    let start = area.slot_offset(index) + RECORD_HEADER_LEN;
+    let Some(payload) = copy.get_mut(start..start + len) else {
+        return false;
+    };
+    if fetch.fetch(memory, start, payload).is_err() {
+        return false;
+    }
+    state.payloads_read |= bit;
+    true
+}
+
+/// Makes `copy` hold its memory's newest whole record, before a checkpoint write into it:
+/// reads the payloads of the slots whose headers claim a record, newest claim first, until one
+/// is whole (what [`WarmRestartArea::latest`] will look at). The headers must be in `copy`
+/// already.
+fn fetch_latest(
+    copy: &mut [u8],
+    memory: MemoryKind,
+    mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
+    state: &mut CopyState,
+) {
+    if state.newest_known {
+        return;
+    }
+    let candidates = WarmRestartArea::new(copy).candidates();
+    for index in candidates.into_iter().flatten() {
+        if fetch_payload(copy, memory, index, fetch.as_deref_mut(), state)
+            && WarmRestartArea::new(copy).record(index).is_some()
+        {
+            break;
+        }
+    }
+    state.newest_known = true;
+}
+
+/// Read the two record headers of an A/B area into its copy (a failed read leaves that
+/// header's bytes as they were: zero in a fresh copy, which claims nothing).
+fn fetch_headers(copy: &mut [u8], memory: MemoryKind, fetch: &mut (dyn MemoryFetch + '_)) {
+    for index in 0..2 {
+        let start = WarmRestartArea::new(copy).slot_offset(index);
+        if let Some(header) = copy.get_mut(start..start + RECORD_HEADER_LEN) {
+            let _ = fetch.fetch(memory, start, header);
+        }
+    }
+}
+
+/// A record a header claims: its memory, slot and sequence number.
+type Claim = (MemoryKind, u8, u32);
+
+/// The records the headers of both memories claim, newest first by sequence number with
+/// wrap-around ([`checkpoint::is_newer`]); of two with the same number the warm one, then
+/// slot A. Reads the headers only (no CRC).
+fn claims(memories: &mut Memories<'_>) -> heapless::Vec<Claim, 4> {
+    let mut claims: heapless::Vec<Claim, 4> = heapless::Vec::new();
+    let warm = Some(&mut *memories.warm);
+    let nv = memories.nv.as_deref_mut();
+    for (memory, copy) in [(MemoryKind::Warm, warm), (MemoryKind::Nv, nv)] {
+        let Some(copy) = copy else { continue };
+        let area = WarmRestartArea::new(copy);
+        for index in 0..2 {
+            if let Some((sequence, _)) = area.claimed(index) {
+                let _ = claims.push((memory, index, sequence));
+            }
+        }
+    }
+    // Sequence numbers relative to one of them are a linear order as long as they span less
+    // than half the number space (they are a few frames apart).
+    let reference = claims.first().map_or(0, |&(_, _, sequence)| sequence);
+    claims.sort_unstable_by_key(|&(memory, slot, sequence)| {
+        (reference.wrapping_sub(sequence) as i32, memory, slot)
+    });
+    claims
+}
+
+/// The newer of two sequence numbers (wrap-around).
+fn newer(a: Option<u32>, b: u32) -> u32 {
+    match a {
+        Some(a) if checkpoint::is_newer(a, b) => a,
+        _ => b,
+    }
+}
+
 /// How the application came up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BootOutcome {
@@ -212,24 +376,6 @@ pub enum BootOutcome {
     RestoredWarm(RestoreInfo),
     /// Restored from non-volatile memory.
     RestoredNv(RestoreInfo),
-}
-
-/// The memory a checkpoint record was found in; warm sorts first.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-enum Source {
-    Warm,
-    Nv,
-}
-
-/// The newest sequence number of either memory (wrap-around), None if neither holds a record.
-fn newest_sequence(memories: &Memories<'_>) -> Option<u32> {
-    let newest_in = |bytes: &[u8]| checkpoint::records(bytes)[0].map(|r| r.sequence);
-    let warm = newest_in(memories.warm);
-    let nv = memories.nv.as_deref().and_then(newest_in);
-    match (warm, nv) {
-        (Some(w), Some(n)) => Some(if checkpoint::is_newer(n, w) { n } else { w }),
-        (w, n) => w.or(n),
-    }
 }
 
 /// Sends the core's decisions down the link.
@@ -270,6 +416,12 @@ pub struct FlightApp {
     last_warm_write: Option<(usize, usize)>,
     /// The same for non-volatile memory.
     last_nv_write: Option<(usize, usize)>,
+    /// What the copies of the warm-restart area and of non-volatile memory hold, when a
+    /// [`MemoryFetch`] fills them (see [`FlightApp::boot_fetching`]).
+    copies: [CopyState; 2],
+    /// The newest sequence number of a whole record in either memory (found at boot, then the
+    /// last one written): both memories' next checkpoints are numbered after it.
+    newest_sequence: Option<u32>,
     /// The state type mismatch count last reported ([`metric::STATE_TYPE_MISMATCHES`]).
     reported_state_type_mismatches: u32,
     /// The key, the anti-replay counter and the ground holds, read from non-volatile memory at
@@ -300,6 +452,8 @@ impl FlightApp {
             last_done: None,
             last_warm_write: None,
             last_nv_write: None,
+            copies: [CopyState::COMPLETE; 2],
+            newest_sequence: None,
             reported_state_type_mismatches: 0,
             security: SecurityAssociation::none(),
             security_refusals: [0; SecurityRefusal::COUNT],
@@ -337,45 +491,65 @@ impl FlightApp {
 
     /// Checkpoint into the warm memory and, if there is one, non-volatile memory, both under
     /// the sequence number after the newest of either; returns how many of the writes failed.
-    fn checkpoint_all(&mut self, memories: &mut Memories<'_>) -> u64 {
-        let newest = newest_sequence(memories);
+    fn checkpoint_all(
+        &mut self,
+        memories: &mut Memories<'_>,
+        mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
+    ) -> u64 {
+        let newest = self.newest_sequence;
         let mut failures = 0;
-        match self.checkpoint_into(memories.warm, newest) {
-            Some(range) => self.last_warm_write = Some(range),
-            None => failures += 1,
+        // A write goes to the slot that does not hold the newest whole record: the copy must
+        // hold that record (see `MemoryFetch`).
+        let [warm_copy, nv_copy] = &mut self.copies;
+        fetch_latest(
+            memories.warm,
+            MemoryKind::Warm,
+            fetch.as_deref_mut(),
+            warm_copy,
+        );
+        match self
+            .autonomy
+            .checkpoint_record_after(&mut WarmRestartArea::new(memories.warm), newest)
+        {
+            Ok(written) => {
+                self.last_warm_write = Some(written.bytes);
+                self.newest_sequence = Some(newer(self.newest_sequence, written.sequence));
+            }
+            Err(_) => failures += 1,
         }
         if let Some(nv) = memories.nv.as_deref_mut() {
-            match self.checkpoint_into(nv, newest) {
-                Some(range) => self.last_nv_write = Some(range),
-                None => failures += 1,
+            fetch_latest(nv, MemoryKind::Nv, fetch, nv_copy);
+            match self
+                .autonomy
+                .checkpoint_record_after(&mut WarmRestartArea::new(nv), newest)
+            {
+                Ok(written) => {
+                    self.last_nv_write = Some(written.bytes);
+                    self.newest_sequence = Some(newer(self.newest_sequence, written.sequence));
+                }
+                Err(_) => failures += 1,
             }
         }
         failures
     }
 
-    /// Write the newest checkpoint into A/B `area`, numbered after `newest`; the byte range
-    /// written, or None if the checkpoint failed.
-    fn checkpoint_into(&self, area: &mut [u8], newest: Option<u32>) -> Option<(usize, usize)> {
-        WarmRestartArea::new(area)
-            .write_after(newest, |buf| self.autonomy.encode_state(buf))
-            .ok()?;
-        let slot_len = area.len() / 2;
-        WarmRestartArea::new(area)
-            .latest()
-            .map(|(slot, _, payload)| {
-                let start = usize::from(slot) * slot_len;
-                (
-                    start,
-                    start + autonomy::checkpoint::RECORD_HEADER_LEN + payload.len(),
-                )
-            })
-    }
-
-    /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories (see
-    /// [`FlightApp::restore_newest`]).
+    /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories whose
+    /// payload validates (complete copies of both; see [`FlightApp::boot_fetching`]).
     pub fn boot(
         &mut self,
         memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> BootOutcome {
+        self.boot_fetching(memories, None, clock, downlink)
+    }
+
+    /// As [`FlightApp::boot`], with copies of the memories that `fetch` fills on demand (see
+    /// [`MemoryFetch`]). The choice is the same (see [`FlightApp::restore_newest`]).
+    pub fn boot_fetching(
+        &mut self,
+        memories: &mut Memories<'_>,
+        mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) -> BootOutcome {
@@ -387,15 +561,35 @@ impl FlightApp {
                 u64::from(self.security.holds()),
             ));
         }
-        let outcome = self.restore_newest(memories);
+        let t_security = clock.ticks();
+        self.copies = [CopyState::COMPLETE; 2];
+        if let Some(fetch) = fetch.as_deref_mut() {
+            self.copies = [CopyState::default(); 2];
+            fetch_headers(memories.warm, MemoryKind::Warm, fetch);
+            if let Some(nv) = memories.nv.as_deref_mut() {
+                fetch_headers(nv, MemoryKind::Nv, fetch);
+            }
+        }
+        let (outcome, decode_ticks) = self.restore_newest(memories, fetch, clock);
+        let t_end = clock.ticks();
+        if t_end != t0 {
+            downlink.send(metric_event(
+                metric::BOOT_SECURITY_TICKS,
+                t_security.wrapping_sub(t0),
+            ));
+            downlink.send(metric_event(
+                metric::RESTORE_CHECK_TICKS,
+                t_end.wrapping_sub(t_security).wrapping_sub(decode_ticks),
+            ));
+            downlink.send(metric_event(metric::RESTORE_DECODE_TICKS, decode_ticks));
+        }
         if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
             self.recovering = Some(0);
             let from = match outcome {
                 BootOutcome::RestoredNv(_) => metric::RESTORED_FROM_NV,
                 _ => metric::RESTORED_FROM_WARM,
             };
-            let ticks = clock.ticks().wrapping_sub(t0);
-            downlink.send(metric_event(metric::RESTORE_TICKS, ticks));
+            downlink.send(metric_event(metric::RESTORE_TICKS, t_end.wrapping_sub(t0)));
             downlink.send(metric_event(
                 metric::RESTORED_SEQUENCE,
                 u64::from(info.sequence),
@@ -406,39 +600,65 @@ impl FlightApp {
         outcome
     }
 
-    /// The restore choice: every whole record of both memories (two slots each), newest first
-    /// by sequence number with wrap-around ([`checkpoint::is_newer`]; of two with the same
-    /// number, the warm one, which holds the same checkpoint), and the first whose payload
-    /// decodes and validates is restored. Cold when there is none.
-    fn restore_newest(&mut self, memories: &Memories<'_>) -> BootOutcome {
-        let warm = checkpoint::records(memories.warm);
-        let nv = memories
-            .nv
-            .as_deref()
-            .map_or([None, None], checkpoint::records);
-        let mut candidates: heapless::Vec<(Source, Record<'_>), 4> = heapless::Vec::new();
-        let tagged = warm
-            .into_iter()
-            .flatten()
-            .map(|r| (Source::Warm, r))
-            .chain(nv.into_iter().flatten().map(|r| (Source::Nv, r)));
-        for candidate in tagged {
-            let _ = candidates.push(candidate);
-        }
-        // Newest first: sequence numbers relative to one of them are a linear order as long
-        // as they span less than half the number space (they are a few frames apart).
-        let reference = candidates.first().map_or(0, |(_, r)| r.sequence);
-        let age = |r: &Record<'_>| reference.wrapping_sub(r.sequence) as i32;
-        candidates.sort_unstable_by_key(|(source, r)| (age(r), *source, r.slot));
-        for (source, record) in candidates {
-            if let Ok(info) = self.autonomy.restore_record(record) {
-                return match source {
-                    Source::Warm => BootOutcome::RestoredWarm(info),
-                    Source::Nv => BootOutcome::RestoredNv(info),
+    /// The restore choice: the records of both memories (two slots each), newest first by
+    /// sequence number with wrap-around ([`checkpoint::is_newer`]; of two with the same number,
+    /// the warm one, which holds the same checkpoint); the first that is whole and whose payload
+    /// decodes and validates is restored. Cold when there is none. Only the records tried are
+    /// read in and CRC-checked: usually one. Also finds the newest sequence number of a whole
+    /// record, after which the next checkpoints are numbered. Returns the outcome and the ticks
+    /// spent decoding and validating payloads.
+    fn restore_newest(
+        &mut self,
+        memories: &mut Memories<'_>,
+        mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
+        clock: &mut impl CpuClock,
+    ) -> (BootOutcome, u64) {
+        let mut decode_ticks = 0u64;
+        let mut newest = None;
+        let mut outcome = BootOutcome::Cold;
+        for (memory, slot, _) in claims(memories) {
+            let (copy, state) = match memory {
+                MemoryKind::Warm => (&mut *memories.warm, &mut self.copies[0]),
+                MemoryKind::Nv => match memories.nv.as_deref_mut() {
+                    Some(nv) => (nv, &mut self.copies[1]),
+                    None => continue,
+                },
+            };
+            if !fetch_payload(copy, memory, slot, fetch.as_deref_mut(), state) {
+                continue;
+            }
+            let area = WarmRestartArea::new(copy);
+            let Some((sequence, payload)) = area.record(slot) else {
+                continue;
+            };
+            // The first whole record is the newest.
+            newest.get_or_insert(sequence);
+            // This memory's newest whole record is in its copy when the slots before this one
+            // in its own order have been read (they were not whole, or were refused).
+            let read_before = area
+                .candidates()
+                .into_iter()
+                .flatten()
+                .take_while(|&s| s != slot)
+                .all(|s| state.payloads_read & (1 << s) != 0);
+            state.newest_known |= read_before;
+            let t = clock.ticks();
+            let restored = self.autonomy.restore_record(Record {
+                slot,
+                sequence,
+                payload,
+            });
+            decode_ticks = decode_ticks.wrapping_add(clock.ticks().wrapping_sub(t));
+            if let Ok(info) = restored {
+                outcome = match memory {
+                    MemoryKind::Warm => BootOutcome::RestoredWarm(info),
+                    MemoryKind::Nv => BootOutcome::RestoredNv(info),
                 };
+                break;
             }
         }
-        BootOutcome::Cold
+        self.newest_sequence = newest;
+        (outcome, decode_ticks)
     }
 
     /// Handle one message from the host. Returns false for messages that are not the
@@ -447,6 +667,19 @@ impl FlightApp {
         &mut self,
         msg: &HostToTarget,
         memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> bool {
+        self.handle_fetching(msg, memories, None, clock, downlink)
+    }
+
+    /// As [`FlightApp::handle`], for copies of the memories filled on demand by `fetch` (the
+    /// same as at [`FlightApp::boot_fetching`]).
+    pub fn handle_fetching(
+        &mut self,
+        msg: &HostToTarget,
+        memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) -> bool {
@@ -461,16 +694,16 @@ impl FlightApp {
                 self.autonomy.on_command_response(*id, *status)
             }
             HostToTarget::UplinkChunk { seq, total, bytes } => {
-                self.uplink_chunk(*seq, *total, bytes, memories, clock, downlink)
+                self.uplink_chunk((*seq, *total, bytes), memories, fetch, clock, downlink)
             }
             HostToTarget::GroundCommand {
                 header,
                 command,
                 mac,
             } => self.ground_command(header, command, mac, memories, downlink),
-            HostToTarget::TimeGrant { frame, now, until } => {
+            HostToTarget::TimeGrant { frame, now, .. } => {
                 // Accounts its own recovery time.
-                self.frame(*frame, *now, *until, memories, clock, downlink);
+                self.frame(*frame, *now, memories, fetch, clock, downlink);
                 return true;
             }
             HostToTarget::Ping { .. } | HostToTarget::ResetRequest { .. } => return false,
@@ -481,12 +714,12 @@ impl FlightApp {
         true
     }
 
+    /// One chunk of an uplink: (its sequence number, the announced total, its bytes).
     fn uplink_chunk(
         &mut self,
-        seq: u16,
-        total: u16,
-        bytes: &heapless::Vec<u8, UPLINK_CHUNK_MAX>,
+        (seq, total, bytes): (u16, u16, &heapless::Vec<u8, UPLINK_CHUNK_MAX>),
         memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) {
@@ -558,7 +791,7 @@ impl FlightApp {
             // (seq == total) goes out, so a network the ground saw acknowledged survives a
             // reset even before the first frame has run.
             Ok(()) => {
-                let failures = self.checkpoint_all(memories);
+                let failures = self.checkpoint_all(memories, fetch);
                 if failures > 0 {
                     downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
                 }
@@ -633,8 +866,8 @@ impl FlightApp {
         &mut self,
         frame: u32,
         now: MissionTimeUs,
-        _until: MissionTimeUs,
         memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) {
@@ -662,7 +895,7 @@ impl FlightApp {
                 self.recovering = None;
             }
         }
-        let failures = self.checkpoint_all(memories);
+        let failures = self.checkpoint_all(memories, fetch);
         let t2 = clock.ticks();
         if let Some(spent) = self.recovering.as_mut() {
             // Still repairing: this frame's checkpoint is on the way to the committed plan.
@@ -781,6 +1014,7 @@ mod tests {
     };
 
     /// A security area in memory; `fail_writes` makes every write fail.
+    #[derive(Clone)]
     struct TestNv {
         area: [u8; sdls::nv::SECURITY_AREA_BYTES],
         fail_writes: bool,
@@ -1410,5 +1644,268 @@ mod tests {
         };
         let out = send(&mut app, &mut mem, &msg);
         assert_eq!(out.last(), Some(&security_nak(SecurityRefusal::BadMac, 3)));
+    }
+
+    /// The real memories behind a target's copies (as the firmware's are behind the kernel):
+    /// serves the application's reads and logs them.
+    struct Backing {
+        warm: Vec<u8>,
+        nv: Vec<u8>,
+        reads: Reads,
+    }
+
+    impl MemoryFetch for Backing {
+        fn fetch(
+            &mut self,
+            memory: MemoryKind,
+            offset: usize,
+            bytes: &mut [u8],
+        ) -> Result<(), StoreError> {
+            self.reads.push((memory, offset, bytes.len()));
+            let source = match memory {
+                MemoryKind::Warm => &self.warm,
+                MemoryKind::Nv => &self.nv,
+            };
+            bytes.copy_from_slice(source.get(offset..offset + bytes.len()).ok_or(StoreError)?);
+            Ok(())
+        }
+    }
+
+    const AREA: usize = 60 * 1024;
+
+    /// Reads logged by [`Backing`]: (memory, offset, length).
+    type Reads = Vec<(MemoryKind, usize, usize)>;
+
+    /// Warm and non-volatile memory after the flyby uplink and `frames` granted frames, and the
+    /// security area.
+    fn flown(frames: u32) -> (Vec<u8>, Vec<u8>, TestNv) {
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let (mut warm, mut nv) = (std::vec![0u8; AREA], std::vec![0u8; AREA]);
+        let mut security = TestNv::provisioned(&TEST_KEY);
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: Some(&mut nv),
+            security: Some(&mut security),
+        };
+        boot_and_uplink_flyby(&mut app, &mut mem);
+        for frame in 0..frames {
+            let at = 9 * 3600 + 600 * u64::from(frame);
+            app.handle(&grant(frame, at), &mut mem, &mut NoClock, &mut |_| {});
+        }
+        (warm, nv, security)
+    }
+
+    /// Byte `at` of slot `slot`'s payload flipped (the record no longer whole).
+    fn torn(mut area: Vec<u8>, slot: usize, at: usize) -> Vec<u8> {
+        area[slot * (AREA / 2) + autonomy::checkpoint::RECORD_HEADER_LEN + at] ^= 0x40;
+        area
+    }
+
+    /// The slot of the newest whole record of an area.
+    fn newest_slot(area: &mut [u8]) -> usize {
+        usize::from(WarmRestartArea::new(area).latest().unwrap().0)
+    }
+
+    /// Boot and fly one frame twice: with complete copies of the memories (`boot`, `handle`),
+    /// and with empty copies filled on demand from `Backing` (`boot_fetching`,
+    /// `handle_fetching`, each checkpoint's bytes copied out as the firmware does). Both must
+    /// decide the same, say the same, and leave the memories byte for byte the same. Returns
+    /// the outcome and the reads of the fetching boot (before the frame) and of the frame.
+    fn boot_both_ways(warm: &[u8], nv: &[u8], security: &TestNv) -> (BootOutcome, Reads, Reads) {
+        let frame = grant(40, 10 * 3600);
+        // Complete copies.
+        let (mut full_warm, mut full_nv) = (warm.to_vec(), nv.to_vec());
+        let mut full_security = security.clone();
+        let mut full_app = std::boxed::Box::new(FlightApp::new());
+        let mut full_out: Vec<TargetToHost> = Vec::new();
+        let mut mem = Memories {
+            warm: &mut full_warm,
+            nv: Some(&mut full_nv),
+            security: Some(&mut full_security),
+        };
+        let full_outcome = full_app.boot(&mut mem, &mut NoClock, &mut |m| full_out.push(m));
+        full_app.handle(&frame, &mut mem, &mut NoClock, &mut |m| full_out.push(m));
+        // Copies filled on demand.
+        let mut backing = Backing {
+            warm: warm.to_vec(),
+            nv: nv.to_vec(),
+            reads: Vec::new(),
+        };
+        let (mut copy_warm, mut copy_nv) = (std::vec![0u8; AREA], std::vec![0u8; AREA]);
+        let mut copy_security = security.clone();
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let mut out: Vec<TargetToHost> = Vec::new();
+        let mut mem = Memories {
+            warm: &mut copy_warm,
+            nv: Some(&mut copy_nv),
+            security: Some(&mut copy_security),
+        };
+        let outcome = app.boot_fetching(&mut mem, Some(&mut backing), &mut NoClock, &mut |m| {
+            out.push(m)
+        });
+        let boot_reads = core::mem::take(&mut backing.reads);
+        app.handle_fetching(
+            &frame,
+            &mut mem,
+            Some(&mut backing),
+            &mut NoClock,
+            &mut |m| out.push(m),
+        );
+        if let Some((start, end)) = app.take_warm_write() {
+            backing.warm[start..end].copy_from_slice(&mem.warm[start..end]);
+        }
+        if let Some((start, end)) = app.take_nv_write() {
+            let nv = mem.nv.as_deref().unwrap();
+            backing.nv[start..end].copy_from_slice(&nv[start..end]);
+        }
+        assert_eq!(outcome, full_outcome);
+        assert_eq!(out, full_out);
+        assert!(backing.warm == full_warm, "warm memories differ");
+        assert!(backing.nv == full_nv, "non-volatile memories differ");
+        (outcome, boot_reads, backing.reads)
+    }
+
+    fn payload_reads(reads: &Reads, memory: MemoryKind) -> usize {
+        reads
+            .iter()
+            .filter(|&&(m, _, len)| m == memory && len != autonomy::checkpoint::RECORD_HEADER_LEN)
+            .count()
+    }
+
+    #[test]
+    fn a_boot_that_reads_what_it_needs_decides_and_writes_as_one_given_both_whole_memories() {
+        let (warm, nv, security) = flown(3);
+        let (mut later_warm, later_nv, _) = flown(4);
+
+        // Both memories as written (the same sequence numbers): the warm area's newest record
+        // and the headers; non-volatile memory's records only before its first write.
+        let (outcome, boot, frame) = boot_both_ways(&warm, &nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredWarm(_)));
+        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 1);
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 0);
+        assert_eq!(boot.len(), 5, "four headers and one record: {boot:?}");
+        assert_eq!(payload_reads(&frame, MemoryKind::Nv), 1);
+
+        // The warm area's newest record torn: its other record, as new as non-volatile
+        // memory's newest (sequence numbers equal): the warm one, from the other slot.
+        let slot = newest_slot(&mut later_warm.clone());
+        let (outcome, boot, _) = boot_both_ways(&torn(later_warm.clone(), slot, 7), &nv, &security);
+        assert!(
+            matches!(outcome, BootOutcome::RestoredWarm(info) if usize::from(info.slot) != slot)
+        );
+        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 2);
+
+        // Torn, and non-volatile memory a frame newer: non-volatile memory's.
+        let (outcome, _, _) =
+            boot_both_ways(&torn(later_warm.clone(), slot, 7), &later_nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredNv(_)));
+
+        // Non-volatile memory newer than the warm area (a reset after its write only).
+        let (outcome, boot, _) = boot_both_ways(&warm, &later_nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredNv(_)));
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 1);
+
+        // ... with its newest record torn: its other one is as old as the warm area's: warm
+        // (tried first of the two), so non-volatile memory's other record is read only before
+        // its first write.
+        let nv_slot = newest_slot(&mut later_nv.clone());
+        let (outcome, boot, frame) =
+            boot_both_ways(&warm, &torn(later_nv.clone(), nv_slot, 3), &security);
+        assert!(matches!(outcome, BootOutcome::RestoredWarm(_)));
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 1);
+        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 1);
+        assert_eq!(payload_reads(&frame, MemoryKind::Nv), 1);
+
+        // A power cycle: the warm area is gone.
+        let (outcome, _, _) = boot_both_ways(&std::vec![0u8; AREA], &nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredNv(_)));
+
+        // Nothing anywhere: cold, and the first frame writes the first records.
+        let blank = std::vec![0u8; AREA];
+        let (outcome, _, _) = boot_both_ways(&blank, &blank, &security);
+        assert_eq!(outcome, BootOutcome::Cold);
+
+        // The warm area's newest record whole but not a plan (a firmware whose layout changed
+        // without a new format version): the next newest whole record of either memory, here
+        // the warm area's other one (a frame newer than non-volatile memory's).
+        let not_a_plan = |buf: &mut [u8]| {
+            buf[..4].copy_from_slice(&[0xff; 4]);
+            Some(4)
+        };
+        WarmRestartArea::new(&mut later_warm)
+            .write(not_a_plan)
+            .unwrap();
+        let (outcome, boot, _) = boot_both_ways(&later_warm, &nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredWarm(info) if info.sequence == 5));
+        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 2);
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 0);
+
+        // Neither of the warm area's records a plan: non-volatile memory's newest, whose
+        // records the choice had not needed until then.
+        WarmRestartArea::new(&mut later_warm)
+            .write(not_a_plan)
+            .unwrap();
+        let (outcome, boot, _) = boot_both_ways(&later_warm, &nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredNv(info) if info.sequence == 4));
+        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 2);
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 1);
+    }
+
+    /// An area holding one record, numbered `sequence`, of `payload`.
+    fn area_with(sequence: u32, payload: &[u8]) -> Vec<u8> {
+        let mut area = std::vec![0u8; AREA];
+        WarmRestartArea::new(&mut area)
+            .write_after(Some(sequence.wrapping_sub(1)), |buf| {
+                buf[..payload.len()].copy_from_slice(payload);
+                Some(payload.len())
+            })
+            .unwrap();
+        area
+    }
+
+    #[test]
+    fn a_boot_that_reads_what_it_needs_compares_sequence_numbers_across_the_wrap() {
+        let (mut older, _, security) = flown(3);
+        let (mut newer, _, _) = flown(4);
+        let older = WarmRestartArea::new(&mut older)
+            .latest()
+            .unwrap()
+            .2
+            .to_vec();
+        let newer = WarmRestartArea::new(&mut newer)
+            .latest()
+            .unwrap()
+            .2
+            .to_vec();
+        let newest = |area: &mut [u8]| WarmRestartArea::new(area).latest().map(|r| r.1);
+
+        // Non-volatile memory's checkpoint numbered 0, after the warm area's u32::MAX: newer,
+        // tried first, and the only payload read at boot; the warm area's is read before its
+        // first write, and both memories go on at 1.
+        let (warm, nv) = (area_with(u32::MAX, &older), area_with(0, &newer));
+        let (outcome, boot, frame) = boot_both_ways(&warm, &nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredNv(info) if info.sequence == 0));
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 1);
+        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 0);
+        assert_eq!(payload_reads(&frame, MemoryKind::Warm), 1);
+        let mut full_warm = warm.clone();
+        let mut full_nv = nv.clone();
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let mut security_copy = security.clone();
+        let mut mem = Memories {
+            warm: &mut full_warm,
+            nv: Some(&mut full_nv),
+            security: Some(&mut security_copy),
+        };
+        app.boot(&mut mem, &mut NoClock, &mut |_| {});
+        app.handle(&grant(40, 10 * 3600), &mut mem, &mut NoClock, &mut |_| {});
+        assert_eq!(newest(&mut full_warm), Some(1));
+        assert_eq!(newest(&mut full_nv), Some(1));
+
+        // The other way round: the warm area's, without reading non-volatile memory's.
+        let (warm, nv) = (area_with(0, &newer), area_with(u32::MAX, &older));
+        let (outcome, boot, _) = boot_both_ways(&warm, &nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredWarm(info) if info.sequence == 0));
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 0);
     }
 }
