@@ -39,7 +39,7 @@ use crate::condition::{state_value_to_i64, StateTable, UpdateOutcome};
 use crate::executive::Executive;
 use crate::model::*;
 use crate::plan::PlanEntry;
-use crate::planner::{Planner, TaskReport};
+use crate::planner::{Planner, SavedPlanner, TaskReport};
 use crate::telemetry::PlanModificationKind;
 use crate::uplink::{self, ValidationError};
 use fsw_bridge::{
@@ -126,6 +126,21 @@ impl Default for Autonomy {
 }
 
 impl Autonomy {
+    /// Makes this core what [`Autonomy::new`] is, in place (`*self = Self::new()` copies a
+    /// constant image of the whole core, 24 KiB of the firmware image that the reset stub's
+    /// image check reads at every boot).
+    pub fn reset(&mut self) {
+        self.network.clear();
+        self.planner.reset();
+        self.executive.reset();
+        self.states.clear();
+        self.now = MissionTimeUs::ZERO;
+        self.loaded = false;
+        self.restored = None;
+        self.state_type_mismatches = 0;
+        self.last_state_type_mismatch = None;
+    }
+
     /// An empty core (no network). `const`, so it can live in a `static`.
     pub const fn new() -> Self {
         Self {
@@ -474,7 +489,7 @@ impl Autonomy {
         payload: &[u8],
     ) -> Result<RestoreInfo, CheckpointError> {
         if self.decode_state(payload).is_none() {
-            *self = Self::new();
+            self.reset();
             return Err(CheckpointError::BadPayload);
         }
         self.planner.after_restore();
@@ -498,8 +513,8 @@ impl Autonomy {
         // version), but decoded once.
         uplink::decode_then_validate(&mut self.network, net_bytes).ok()?;
         let rest = rest.get(4 + net_len..)?;
-        let (planner, rest): (Planner, _) = postcard::take_from_bytes(rest).ok()?;
-        self.planner = planner;
+        let (planner, rest): (SavedPlanner, _) = postcard::take_from_bytes(rest).ok()?;
+        self.planner.restore_saved(planner);
         let (executive, rest): (Executive, _) = postcard::take_from_bytes(rest).ok()?;
         self.executive = executive;
         let (states, rest): (StateTable, _) = postcard::take_from_bytes(rest).ok()?;
