@@ -2,7 +2,8 @@
 //! the planner's placement searches use) answers every timeline question exactly as the view
 //! that generates the events from the entries for each query (the original computation, kept
 //! as the oracle), on random plans: values, constraint checks over intervals, first violations,
-//! bounds, the events themselves in order, and whole placement checks.
+//! bounds, the events themselves in order, and whole placement checks. And the value's 64-bit
+//! path answers as the 128-bit computation, near the ends of the range too.
 use autonomy::plan::{Origin, PlanEntry};
 use autonomy::planner::{placement_valid, placement_valid_with_events};
 use autonomy::timeline::{Candidate, Event, Measurement, PlanEvents, PlanView, TimelineAnchor};
@@ -283,6 +284,33 @@ proptest! {
                 placement_valid(&net, &entries, &anchors, &entry, start, end, now),
                 placement_valid_with_events(&net, &entries, &anchors, Some(&table), &entry, start, end, now)
             );
+        }
+    }
+
+    #[test]
+    fn the_64_bit_value_is_the_exact_value(
+        random in proptest::collection::vec((0u8..6, 0usize..8, 0u64..80, 0u64..30, any::<bool>()), 0..MAX_PLAN_ENTRIES),
+        measured in proptest::collection::vec(proptest::option::of((prop_oneof![
+            -5i64..60,
+            Just(VALUE_UNKNOWN),
+            Just(VALUE_UNKNOWN + 1),
+            (i64::MAX - 10)..=i64::MAX,
+            (VALUE_UNKNOWN + 1)..(VALUE_UNKNOWN + 10),
+        ], 0u64..60)), 3),
+        rate in prop_oneof![Just(0i64), -1_000_000i64..1_000_000],
+        exclude in proptest::collection::vec(0u16..50, 0..3),
+        probes in proptest::collection::vec((0u8..4, 0u64..130), 1..20),
+    ) {
+        let net = network();
+        let entries = entries(&random);
+        let anchors = anchors(&net, &measured, rate);
+        let mut view = PlanView::new(&net, &entries, &anchors);
+        for &x in &exclude {
+            view = view.without(x);
+        }
+        for &(timeline, t) in &probes {
+            let t = MissionTimeUs(t);
+            prop_assert_eq!(view.value_at(timeline, t), view.value_at_exact(timeline, t));
         }
     }
 
