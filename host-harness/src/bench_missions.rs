@@ -7,19 +7,14 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use fsw_bridge::{MissionTimeUs, TargetToHost};
 use serde::Serialize;
 
 use crate::campaign::{run_campaign, CampaignOptions};
-use crate::defmt_log::LogLine;
 use crate::firmware::FirmwareImage;
 use crate::mission::report::MissionReport;
 use crate::mission::runner::{prepare, run};
-use crate::mission::target::{
-    EmulatedTarget, MissionTarget, NativeTarget, ResetLanding, TargetError,
-};
+use crate::mission::target::{EmulatedTarget, MissionTarget, NativeTarget};
 use crate::qemu::{QemuProfile, Transport};
-use crate::session::Hello;
 
 /// One emulated run of a scenario over one transport.
 #[derive(Clone, Debug, Serialize)]
@@ -90,51 +85,6 @@ fn mission_seconds(r: &MissionReport) -> f64 {
     (parse(&r.mission_end).saturating_sub(parse(&r.mission_start))) as f64 / 1e6
 }
 
-/// A target that notes when its first boot answered (the Hello), so that a run's wall time can
-/// be split into the boot and the rest.
-struct BootTimer<'a> {
-    inner: &'a mut dyn MissionTarget,
-    booted: Option<Instant>,
-}
-
-impl MissionTarget for BootTimer<'_> {
-    fn describe(&self) -> String {
-        self.inner.describe()
-    }
-    fn counts_cycles(&self) -> bool {
-        self.inner.counts_cycles()
-    }
-    fn provision_key(&mut self, key: &sdls::Key) -> Result<(), TargetError> {
-        self.inner.provision_key(key)
-    }
-    fn boot(&mut self) -> Result<Hello, TargetError> {
-        let hello = self.inner.boot()?;
-        self.booted.get_or_insert_with(Instant::now);
-        Ok(hello)
-    }
-    fn round(&mut self, wire: &[Vec<u8>], round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
-        self.inner.round(wire, round)
-    }
-    fn warm_reset(&mut self, at: MissionTimeUs) -> Result<ResetLanding, TargetError> {
-        self.inner.warm_reset(at)
-    }
-    fn power_cycle(&mut self) -> Result<(), TargetError> {
-        self.inner.power_cycle()
-    }
-    fn observe(&mut self, msg: &TargetToHost) {
-        self.inner.observe(msg)
-    }
-    fn take_logs(&mut self) -> Vec<LogLine> {
-        self.inner.take_logs()
-    }
-    fn arm_mid_frame_reset(&mut self, seed: u64) {
-        self.inner.arm_mid_frame_reset(seed)
-    }
-    fn reset_notes(&self) -> Vec<String> {
-        self.inner.reset_notes()
-    }
-}
-
 /// Run `path` on `target`: the report, the whole wall time and the wall time after the first
 /// boot (both in ms).
 fn run_one(
@@ -143,16 +93,12 @@ fn run_one(
     firmware: Option<&FirmwareImage>,
 ) -> Result<(MissionReport, f64, f64), String> {
     let prepared = prepare(path).map_err(|e| e.to_string())?;
-    let mut timed = BootTimer {
-        inner: target,
-        booted: None,
-    };
     let started = Instant::now();
-    let report = run(&prepared, &mut timed, firmware, &mut |_, _, _| {})
+    let report = run(&prepared, target, firmware, &mut |_, _, _| {})
         .map_err(|e| format!("{}: {e}", path.display()))?;
-    let ms = |since: Instant| since.elapsed().as_secs_f64() * 1000.0;
-    let whole = ms(started);
-    Ok((report, whole, timed.booted.map_or(whole, ms)))
+    let whole = started.elapsed().as_secs_f64() * 1000.0;
+    let after_boot = report.wall_after_boot_us as f64 / 1000.0;
+    Ok((report, whole, after_boot))
 }
 
 /// Measure `scenarios` (emulated once per transport, native `native_runs` times each) and a

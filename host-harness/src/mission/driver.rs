@@ -121,6 +121,9 @@ pub struct MissionRun {
     pub link: LinkSummary,
     /// Set when the run ended before the mission's end: what went wrong, and when.
     pub ended_early: Option<String>,
+    /// Wall time from the start of the drive to the target's first Hello (QEMU start and
+    /// boot, for an emulated target).
+    pub first_boot_wall: std::time::Duration,
 }
 
 /// Progress callback: (mission time now, mission start, mission end).
@@ -186,8 +189,10 @@ pub fn drive(
         last_command: None,
     };
     f.rec.start_security_counts();
+    let drive_started = std::time::Instant::now();
     f.target.provision_key(&plan.key)?;
     let hello = f.target.boot()?;
+    let first_boot_wall = drive_started.elapsed();
     f.link.reset();
     f.link.hello(&hello_message(&hello));
     f.rec.boot(plan.start, hello.reset_cause);
@@ -254,6 +259,7 @@ pub fn drive(
         injected_link_faults: injected,
         link,
         ended_early,
+        first_boot_wall,
     })
 }
 

@@ -71,6 +71,9 @@ pub struct MissionReport {
     pub mission_start: String,
     pub mission_end: String,
     pub wall_time_ms: u64,
+    /// Wall time after the target's first boot answered (the whole run less QEMU's start
+    /// and the first boot), in µs.
+    pub wall_after_boot_us: u64,
     /// Mission time covered per second of wall time.
     pub speedup: f64,
     pub decisions: Vec<super::record::Decision>,
@@ -228,6 +231,7 @@ impl MissionReport {
             mission_start: fmt_time(plan.start),
             mission_end: fmt_time(plan.end),
             wall_time_ms: wall.as_millis() as u64,
+            wall_after_boot_us: wall.saturating_sub(run.first_boot_wall).as_micros() as u64,
             speedup: span_us as f64 / 1e6 / wall.as_secs_f64().max(1e-9),
             decisions: record.decisions.clone(),
             record,

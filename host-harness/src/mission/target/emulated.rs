@@ -456,7 +456,11 @@ impl MissionTarget for EmulatedTarget {
     fn describe(&self) -> String {
         match &self.session {
             Some(s) => s.describe.clone(),
-            None => format!("{} (not running)", self.profile.name),
+            None => format!(
+                "{} (QEMU starts at the first boot, link over {})",
+                self.profile.name,
+                self.profile.transport.name()
+            ),
         }
     }
 
