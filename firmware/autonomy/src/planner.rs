@@ -132,6 +132,10 @@ pub struct PlannerStepReport {
 
 const MAX_SCHEDULE_PASSES: u8 = 3;
 
+/// Candidate starts a placement search takes by scanning for the next smallest before it
+/// sorts the rest.
+const SCANNED_CANDIDATES: usize = 8;
+
 /// Planner state. Everything but the scratch buffer is saved in checkpoints.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Planner {
@@ -880,30 +884,56 @@ impl Planner {
 
     fn earliest_valid(&mut self, ctx: &Ctx<'_>, entry: &PlanEntry) -> Option<MissionTimeUs> {
         let (lo, hi) = self.start_window(ctx, entry)?;
-        self.fill_candidates(ctx, entry, lo, hi);
+        self.collect_candidates(ctx, entry, lo, hi);
         // The candidates are read in place (taking the 4 KiB buffer out and putting it back
-        // cost two copies of it per call, a sixth of a reset's recovery on the 750).
+        // cost two copies of it per call, a sixth of a reset's recovery on the 750). They are
+        // tried in increasing order, each once: the first few found by a scan for the next
+        // smallest (most searches end there: a whole sort of a few hundred 64-bit times cost
+        // more than the checks), the rest after sorting what is left.
         let mut checks = 0u32;
-        let found = self
-            .scratch
-            .candidates
-            .iter()
-            .map(|&c| MissionTimeUs(c))
-            .find(|&start| {
-                checks = checks.saturating_add(1);
-                Self::end_for(ctx.network, entry, start).is_some_and(|end| {
-                    placement_valid_with_events(
-                        ctx.network,
-                        &self.entries,
-                        &self.anchors,
-                        Some(&self.scratch.events),
-                        entry,
-                        start,
-                        end,
-                        ctx.now,
-                    )
-                })
-            });
+        let valid = |planner: &Self, start: MissionTimeUs| {
+            Self::end_for(ctx.network, entry, start).is_some_and(|end| {
+                placement_valid_with_events(
+                    ctx.network,
+                    &planner.entries,
+                    &planner.anchors,
+                    Some(&planner.scratch.events),
+                    entry,
+                    start,
+                    end,
+                    ctx.now,
+                )
+            })
+        };
+        let mut tried: Option<u64> = None;
+        let mut found = None;
+        let mut exhausted = false;
+        for _ in 0..SCANNED_CANDIDATES {
+            let Some(c) = next_candidate(&self.scratch.candidates, tried) else {
+                exhausted = true;
+                break;
+            };
+            tried = Some(c);
+            checks = checks.saturating_add(1);
+            if valid(self, MissionTimeUs(c)) {
+                found = Some(MissionTimeUs(c));
+                break;
+            }
+        }
+        if found.is_none() && !exhausted {
+            self.sort_candidates();
+            found = self
+                .scratch
+                .candidates
+                .iter()
+                .copied()
+                .filter(|&c| tried.is_none_or(|t| c > t))
+                .map(MissionTimeUs)
+                .find(|&start| {
+                    checks = checks.saturating_add(1);
+                    valid(self, start)
+                });
+        }
         self.stats.validity_checks = self.stats.validity_checks.saturating_add(checks);
         found
     }
@@ -1041,6 +1071,18 @@ impl Planner {
         lo: MissionTimeUs,
         hi: MissionTimeUs,
     ) {
+        self.collect_candidates(ctx, entry, lo, hi);
+        self.sort_candidates();
+    }
+
+    /// As [`Planner::fill_candidates`], unsorted and with repeats.
+    fn collect_candidates(
+        &mut self,
+        ctx: &Ctx<'_>,
+        entry: &PlanEntry,
+        lo: MissionTimeUs,
+        hi: MissionTimeUs,
+    ) {
         self.scratch.events.build(ctx.network, &self.entries);
         let candidates = &mut self.scratch.candidates;
         candidates.clear();
@@ -1142,6 +1184,10 @@ impl Planner {
         if overflow {
             self.stats.candidate_overflows = self.stats.candidate_overflows.saturating_add(1);
         }
+    }
+
+    /// Sorts the candidates and drops repeats.
+    fn sort_candidates(&mut self) {
         let candidates = &mut self.scratch.candidates;
         candidates.sort_unstable();
         let mut w = 0usize;
@@ -1715,6 +1761,16 @@ impl Planner {
     }
 }
 
+/// The smallest candidate after `tried` (the first if None): taking these in turn gives the
+/// candidates in the order [`Planner::sort_candidates`] leaves them.
+fn next_candidate(candidates: &[u64], tried: Option<u64>) -> Option<u64> {
+    candidates
+        .iter()
+        .copied()
+        .filter(|&c| tried.is_none_or(|t| c > t))
+        .min()
+}
+
 /// Instances whose constraints the planner still watches: placed and not finished.
 fn is_live(e: &PlanEntry) -> bool {
     !e.state.is_terminal() && e.state != TaskState::Unscheduled
@@ -1935,4 +1991,40 @@ fn template_impacting(
         .iter()
         .any(|i| i.timeline == timeline)
         .then_some((def, spec))
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn candidates_taken_one_by_one_come_in_sorted_order_once_each(
+            values in proptest::collection::vec(0u64..40, 0..MAX_CANDIDATES),
+            scanned in 0usize..12,
+        ) {
+            let mut p = Planner::new();
+            for &v in &values {
+                prop_assert!(p.scratch.candidates.push(v).is_ok());
+            }
+            // What earliest_valid does: a few by scanning, the rest from the sorted list.
+            let mut order = std::vec::Vec::new();
+            let mut tried = None;
+            for _ in 0..scanned {
+                let Some(c) = next_candidate(&p.scratch.candidates, tried) else {
+                    break;
+                };
+                order.push(c);
+                tried = Some(c);
+            }
+            p.sort_candidates();
+            order.extend(p.scratch.candidates.iter().copied().filter(|&c| tried.is_none_or(|t| c > t)));
+            let mut sorted = values.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            prop_assert_eq!(order, sorted);
+        }
+    }
 }
