@@ -43,7 +43,7 @@ use crate::condition::{state_value_to_i64, StateTable, UpdateOutcome};
 use crate::executive::Executive;
 use crate::model::*;
 use crate::plan::PlanEntry;
-use crate::planner::{Planner, TaskReport};
+use crate::planner::{Planner, SavedPlanner, TaskReport};
 use crate::telemetry::PlanModificationKind;
 use crate::uplink::{self, ValidationError};
 use fsw_bridge::{
@@ -130,6 +130,21 @@ impl Default for Autonomy {
 }
 
 impl Autonomy {
+    /// Makes this core what [`Autonomy::new`] is, in place (`*self = Self::new()` copies a
+    /// constant image of the whole core, 24 KiB of the firmware image that the reset stub's
+    /// image check reads at every boot).
+    pub fn reset(&mut self) {
+        self.network.clear();
+        self.planner.reset();
+        self.executive.reset();
+        self.states.clear();
+        self.now = MissionTimeUs::ZERO;
+        self.loaded = false;
+        self.restored = None;
+        self.state_type_mismatches = 0;
+        self.last_state_type_mismatch = None;
+    }
+
     /// An empty core (no network). `const`, so it can live in a `static`.
     pub const fn new() -> Self {
         Self {
@@ -512,7 +527,7 @@ impl Autonomy {
     /// error, why its payload was refused, and `self` is a cold, empty core.
     pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, PayloadError> {
         if let Err(e) = self.decode_state(record.payload) {
-            *self = Self::new();
+            self.reset();
             return Err(e);
         }
         self.planner.after_restore();
@@ -549,9 +564,9 @@ impl Autonomy {
         uplink::decode_then_validate(&mut self.network, net_bytes)
             .map_err(|e| fail(InvalidNetwork(e), PayloadSite::Network))?;
         let rest = rest.get(4 + net_len..).unwrap_or(&[]);
-        let (planner, rest): (Planner, _) =
+        let (planner, rest): (SavedPlanner, _) =
             postcard::take_from_bytes(rest).map_err(|_| fail(Decode, PayloadSite::Planner))?;
-        self.planner = planner;
+        self.planner.restore_saved(planner);
         let (executive, rest): (Executive, _) =
             postcard::take_from_bytes(rest).map_err(|_| fail(Decode, PayloadSite::Executive))?;
         self.executive = executive;

@@ -88,6 +88,19 @@ impl Executive {
         }
     }
 
+    /// Makes this executive what [`Executive::new`] is, in place (no constant image copied).
+    pub fn reset(&mut self) {
+        self.entries.clear();
+        self.responses.clear();
+        self.next_command_id = 1;
+        self.stats = ExecutiveStats {
+            dispatches: 0,
+            dropped_commits: 0,
+            dropped_responses: 0,
+            unmatched_responses: 0,
+        };
+    }
+
     /// The tasks the executive owns, in commit order.
     pub fn entries(&self) -> &[ExecEntry] {
         &self.entries

@@ -581,6 +581,21 @@ impl TaskNetwork {
         spec: NetworkSpec::new(0, PlannerConfig::DEFAULT),
     };
 
+    /// Makes this network [`TaskNetwork::EMPTY`], in place (assigning `EMPTY` copies a
+    /// constant image of a whole network, which sits in the firmware image).
+    pub fn clear(&mut self) {
+        self.spec.header = NetworkHeader {
+            format_version: UPLINK_FORMAT_VERSION,
+            network_id: 0,
+            config: PlannerConfig::DEFAULT,
+            responses: ResponsePolicy::DEFAULT,
+        };
+        self.spec.timelines.clear();
+        self.spec.conditions.clear();
+        self.spec.tasks.clear();
+        self.spec.temporal.clear();
+    }
+
     /// Validate `spec` and wrap it. The same checks run on the target for binary uplinks.
     pub fn from_spec(spec: NetworkSpec) -> Result<Self, crate::uplink::ValidationError> {
         crate::uplink::validate_spec(&spec)?;

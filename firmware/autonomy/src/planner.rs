@@ -29,7 +29,7 @@ use crate::plan::{Origin, PlanEntry};
 use crate::telemetry::{gave_up_code, FailureKind, PlanModificationKind, TaskState};
 use crate::timeline::{
     consolidate, constraint_holds, constraint_span, shift, Anchors, Candidate, Measurement,
-    PlanView, TimelineAnchor,
+    PlanEvents, PlanView, TimelineAnchor,
 };
 use fsw_bridge::{MissionTimeUs, TelemetryEvent};
 
@@ -134,6 +134,10 @@ pub struct PlannerStepReport {
 /// another, up to this many).
 pub(crate) const MAX_SCHEDULE_PASSES: u8 = 3;
 
+/// Candidate starts a placement search takes by scanning for the next smallest before it
+/// sorts the rest.
+const SCANNED_CANDIDATES: usize = 8;
+
 /// Planner state. Everything but the scratch buffer is saved in checkpoints.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Planner {
@@ -157,9 +161,33 @@ pub struct Planner {
     scratch: Scratch,
 }
 
+/// The planner as a checkpoint holds it: every field of [`Planner`] but the scratch buffers,
+/// in the same order, so it decodes what `Planner`'s `Serialize` wrote. The restore decodes
+/// this and moves it into place ([`Planner::restore_saved`]): decoding a whole `Planner` built
+/// its scratch buffers too, from a constant image of them that the RAM image check then reads.
+#[derive(Deserialize)]
+pub(crate) struct SavedPlanner {
+    entries: Vec<PlanEntry, MAX_PLAN_ENTRIES>,
+    anchors: Anchors,
+    next_instance: u16,
+    phase: Phase,
+    dirty: bool,
+    last_cycle_at: Option<MissionTimeUs>,
+    attempted: Vec<u16, MAX_PLAN_ENTRIES>,
+    placed_in_pass: bool,
+    passes: u8,
+    tried: Vec<(u16, u8), MAX_REPAIRS_PER_CYCLE>,
+    reports: Vec<TaskReport, MAX_TASK_REPORTS>,
+    ledger: Vec<FailureLedger, MAX_TASKS>,
+    stats: PlannerStats,
+}
+
 #[derive(Clone, Debug, Default)]
 struct Scratch {
     candidates: Vec<u64, MAX_CANDIDATES>,
+    /// The plan's events listed once per timeline for the validity checks of one placement
+    /// search (built by `fill_candidates`, stale as soon as the entries change).
+    events: PlanEvents,
 }
 
 impl Default for Planner {
@@ -199,13 +227,35 @@ impl Planner {
             },
             scratch: Scratch {
                 candidates: Vec::new(),
+                events: PlanEvents::new(),
             },
         }
     }
 
+    /// Makes this planner what [`Planner::new`] is, in place: `*self = Self::new()` copies a
+    /// constant image of a whole planner, which sits in the firmware image (and the reset
+    /// stub's image check reads it at every boot).
+    pub fn reset(&mut self) {
+        self.entries.clear();
+        self.anchors.clear();
+        self.next_instance = FIRST_INSTANCE_ID;
+        self.phase = Phase::Idle;
+        self.dirty = false;
+        self.last_cycle_at = None;
+        self.attempted.clear();
+        self.placed_in_pass = false;
+        self.passes = 0;
+        self.tried.clear();
+        self.reports.clear();
+        self.ledger.clear();
+        self.stats = PlannerStats::default();
+        self.scratch.candidates.clear();
+        self.scratch.events.clear();
+    }
+
     /// Forgets the plan and starts from `network`'s requested tasks, all unscheduled.
     pub fn load(&mut self, network: &TaskNetwork) {
-        *self = Self::new();
+        self.reset();
         for t in network.timelines() {
             let _ = self.anchors.push(TimelineAnchor::initial(t));
         }
@@ -836,29 +886,56 @@ impl Planner {
 
     fn earliest_valid(&mut self, ctx: &Ctx<'_>, entry: &PlanEntry) -> Option<MissionTimeUs> {
         let (lo, hi) = self.start_window(ctx, entry)?;
-        self.fill_candidates(ctx, entry, lo, hi);
+        self.collect_candidates(ctx, entry, lo, hi);
         // The candidates are read in place (taking the 4 KiB buffer out and putting it back
-        // cost two copies of it per call, a sixth of a reset's recovery on the 750).
+        // cost two copies of it per call, a sixth of a reset's recovery on the 750). They are
+        // tried in increasing order, each once: the first few found by a scan for the next
+        // smallest (most searches end there: a whole sort of a few hundred 64-bit times cost
+        // more than the checks), the rest after sorting what is left.
         let mut checks = 0u32;
-        let found = self
-            .scratch
-            .candidates
-            .iter()
-            .map(|&c| MissionTimeUs(c))
-            .find(|&start| {
-                checks = checks.saturating_add(1);
-                Self::end_for(ctx.network, entry, start).is_some_and(|end| {
-                    placement_valid(
-                        ctx.network,
-                        &self.entries,
-                        &self.anchors,
-                        entry,
-                        start,
-                        end,
-                        ctx.now,
-                    )
-                })
-            });
+        let valid = |planner: &Self, start: MissionTimeUs| {
+            Self::end_for(ctx.network, entry, start).is_some_and(|end| {
+                placement_valid_with_events(
+                    ctx.network,
+                    &planner.entries,
+                    &planner.anchors,
+                    Some(&planner.scratch.events),
+                    entry,
+                    start,
+                    end,
+                    ctx.now,
+                )
+            })
+        };
+        let mut tried: Option<u64> = None;
+        let mut found = None;
+        let mut exhausted = false;
+        for _ in 0..SCANNED_CANDIDATES {
+            let Some(c) = next_candidate(&self.scratch.candidates, tried) else {
+                exhausted = true;
+                break;
+            };
+            tried = Some(c);
+            checks = checks.saturating_add(1);
+            if valid(self, MissionTimeUs(c)) {
+                found = Some(MissionTimeUs(c));
+                break;
+            }
+        }
+        if found.is_none() && !exhausted {
+            self.sort_candidates();
+            found = self
+                .scratch
+                .candidates
+                .iter()
+                .copied()
+                .filter(|&c| tried.is_none_or(|t| c > t))
+                .map(MissionTimeUs)
+                .find(|&start| {
+                    checks = checks.saturating_add(1);
+                    valid(self, start)
+                });
+        }
         self.stats.validity_checks = self.stats.validity_checks.saturating_add(checks);
         found
     }
@@ -968,16 +1045,18 @@ impl Planner {
     }
 
     /// Exact validity check of `entry` placed at `start` against the rest of the plan
-    /// (seed 003 validity checks), counting one budget step.
+    /// (seed 003 validity checks), counting one budget step. `scratch.events` must list the
+    /// plan's events as they are now.
     fn placement_valid(&mut self, ctx: &Ctx<'_>, entry: &PlanEntry, start: MissionTimeUs) -> bool {
         self.stats.validity_checks = self.stats.validity_checks.saturating_add(1);
         let Some(end) = Self::end_for(ctx.network, entry, start) else {
             return false;
         };
-        placement_valid(
+        placement_valid_with_events(
             ctx.network,
             &self.entries,
             &self.anchors,
+            Some(&self.scratch.events),
             entry,
             start,
             end,
@@ -985,7 +1064,8 @@ impl Planner {
         )
     }
 
-    /// Collects the critical start times of `entry` in `[lo, hi]`, sorted and unique.
+    /// Collects the critical start times of `entry` in `[lo, hi]`, sorted and unique, and
+    /// lists the plan's events in `scratch.events` for the validity checks that follow.
     fn fill_candidates(
         &mut self,
         ctx: &Ctx<'_>,
@@ -993,6 +1073,19 @@ impl Planner {
         lo: MissionTimeUs,
         hi: MissionTimeUs,
     ) {
+        self.collect_candidates(ctx, entry, lo, hi);
+        self.sort_candidates();
+    }
+
+    /// As [`Planner::fill_candidates`], unsorted and with repeats.
+    fn collect_candidates(
+        &mut self,
+        ctx: &Ctx<'_>,
+        entry: &PlanEntry,
+        lo: MissionTimeUs,
+        hi: MissionTimeUs,
+    ) {
+        self.scratch.events.build(ctx.network, &self.entries);
         let candidates = &mut self.scratch.candidates;
         candidates.clear();
         let Some(spec) = ctx.network.task(entry.def) else {
@@ -1066,7 +1159,9 @@ impl Planner {
             let s = latest_end.0.saturating_sub(duration);
             from_instant(MissionTimeUs(s));
         }
-        let view = PlanView::new(ctx.network, &self.entries, &self.anchors).without(entry.instance);
+        let view = PlanView::new(ctx.network, &self.entries, &self.anchors)
+            .with_events(&self.scratch.events)
+            .without(entry.instance);
         for &tl in &timelines {
             view.for_each_event(tl, |e| from_instant(e.at));
         }
@@ -1091,6 +1186,10 @@ impl Planner {
         if overflow {
             self.stats.candidate_overflows = self.stats.candidate_overflows.saturating_add(1);
         }
+    }
+
+    /// Sorts the candidates and drops repeats.
+    fn sort_candidates(&mut self) {
         let candidates = &mut self.scratch.candidates;
         candidates.sort_unstable();
         let mut w = 0usize;
@@ -1175,6 +1274,7 @@ impl Planner {
         };
         match self.start_window(&ctx, &entry) {
             Some((lo, hi)) if start >= lo && start <= hi => {
+                self.scratch.events.build(network, &self.entries);
                 self.placement_valid(&ctx, &entry, start)
             }
             _ => false,
@@ -1184,8 +1284,10 @@ impl Planner {
     /// The first constraint that does not hold in the projected plan, scanning placed and
     /// executing instances by start time. With `skip_tried`, conflicts already worked on in
     /// this cycle are passed over.
-    fn first_conflict(&self, ctx: &Ctx<'_>, skip_tried: bool) -> Option<Conflict> {
-        let view = PlanView::new(ctx.network, &self.entries, &self.anchors);
+    fn first_conflict(&mut self, ctx: &Ctx<'_>, skip_tried: bool) -> Option<Conflict> {
+        self.scratch.events.build(ctx.network, &self.entries);
+        let view = PlanView::new(ctx.network, &self.entries, &self.anchors)
+            .with_events(&self.scratch.events);
         let mut best: Option<(MissionTimeUs, u16, Conflict)> = None;
         for e in self.entries.iter().filter(|e| is_live(e)) {
             let Some(spec) = ctx.network.task(e.def) else {
@@ -1453,10 +1555,12 @@ impl Planner {
         end: MissionTimeUs,
     ) -> bool {
         self.stats.validity_checks = self.stats.validity_checks.saturating_add(1);
-        if !placement_valid(
+        self.scratch.events.build(ctx.network, &self.entries);
+        if !placement_valid_with_events(
             ctx.network,
             &self.entries,
             &self.anchors,
+            Some(&self.scratch.events),
             helper,
             start,
             end,
@@ -1554,10 +1658,12 @@ impl Planner {
         }
         let end = Self::end_for(ctx.network, &before, until)?;
         self.stats.validity_checks = self.stats.validity_checks.saturating_add(1);
-        if !placement_valid(
+        self.scratch.events.build(ctx.network, &self.entries);
+        if !placement_valid_with_events(
             ctx.network,
             &self.entries,
             &self.anchors,
+            Some(&self.scratch.events),
             &before,
             until,
             end,
@@ -1643,9 +1749,53 @@ impl Planner {
 
     /// Restores the scratch buffers after a checkpoint restore (they are not saved).
     pub(crate) fn after_restore(&mut self) {
-        self.scratch = Scratch::default();
+        self.scratch.candidates.clear();
+        self.scratch.events.clear();
         self.dirty = true;
     }
+
+    /// Takes the state a checkpoint saved (the scratch buffers are left as they are; the
+    /// restore's [`Planner::after_restore`] empties them).
+    pub(crate) fn restore_saved(&mut self, saved: SavedPlanner) {
+        let SavedPlanner {
+            entries,
+            anchors,
+            next_instance,
+            phase,
+            dirty,
+            last_cycle_at,
+            attempted,
+            placed_in_pass,
+            passes,
+            tried,
+            reports,
+            ledger,
+            stats,
+        } = saved;
+        self.entries = entries;
+        self.anchors = anchors;
+        self.next_instance = next_instance;
+        self.phase = phase;
+        self.dirty = dirty;
+        self.last_cycle_at = last_cycle_at;
+        self.attempted = attempted;
+        self.placed_in_pass = placed_in_pass;
+        self.passes = passes;
+        self.tried = tried;
+        self.reports = reports;
+        self.ledger = ledger;
+        self.stats = stats;
+    }
+}
+
+/// The smallest candidate after `tried` (the first if None): taking these in turn gives the
+/// candidates in the order [`Planner::sort_candidates`] leaves them.
+fn next_candidate(candidates: &[u64], tried: Option<u64>) -> Option<u64> {
+    candidates
+        .iter()
+        .copied()
+        .filter(|&c| tried.is_none_or(|t| c > t))
+        .min()
 }
 
 /// Instances whose constraints the planner still watches: placed and not finished.
@@ -1665,6 +1815,22 @@ pub fn placement_valid(
     end: MissionTimeUs,
     now: MissionTimeUs,
 ) -> bool {
+    placement_valid_with_events(network, entries, anchors, None, entry, start, end, now)
+}
+
+/// [`placement_valid`], reading the entries' events from `events` (built from `network` and
+/// `entries` as they are now) instead of generating them for every query. Same answer.
+#[allow(clippy::too_many_arguments)]
+pub fn placement_valid_with_events(
+    network: &TaskNetwork,
+    entries: &[PlanEntry],
+    anchors: &[TimelineAnchor],
+    events: Option<&PlanEvents>,
+    entry: &PlanEntry,
+    start: MissionTimeUs,
+    end: MissionTimeUs,
+    now: MissionTimeUs,
+) -> bool {
     let Some(spec) = network.task(entry.def) else {
         return false;
     };
@@ -1674,7 +1840,10 @@ pub fn placement_valid(
         start,
         end,
     };
-    let base = PlanView::new(network, entries, anchors).without(entry.instance);
+    let mut base = PlanView::new(network, entries, anchors).without(entry.instance);
+    if let Some(events) = events {
+        base = base.with_events(events);
+    }
     let with = base.with(x);
     for c in &spec.constraints {
         if !constraint_holds(&with, x.instance, c, start, end, now) {
@@ -1849,4 +2018,40 @@ fn template_impacting(
         .iter()
         .any(|i| i.timeline == timeline)
         .then_some((def, spec))
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn candidates_taken_one_by_one_come_in_sorted_order_once_each(
+            values in proptest::collection::vec(0u64..40, 0..MAX_CANDIDATES),
+            scanned in 0usize..12,
+        ) {
+            let mut p = Planner::new();
+            for &v in &values {
+                prop_assert!(p.scratch.candidates.push(v).is_ok());
+            }
+            // What earliest_valid does: a few by scanning, the rest from the sorted list.
+            let mut order = std::vec::Vec::new();
+            let mut tried = None;
+            for _ in 0..scanned {
+                let Some(c) = next_candidate(&p.scratch.candidates, tried) else {
+                    break;
+                };
+                order.push(c);
+                tried = Some(c);
+            }
+            p.sort_candidates();
+            order.extend(p.scratch.candidates.iter().copied().filter(|&c| tried.is_none_or(|t| c > t)));
+            let mut sorted = values.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            prop_assert_eq!(order, sorted);
+        }
+    }
 }

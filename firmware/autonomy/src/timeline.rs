@@ -7,7 +7,9 @@
 //! the plan. A measurement overrides projections: assignments and changes at or before the
 //! measurement time are taken as already reflected in it (rates keep integrating). Events at the
 //! same time apply in a fixed order (instance id, impact index), so projections are
-//! deterministic. No sorting and no scratch memory: each query is a scan over the plan.
+//! deterministic. No sorting: each query is a scan, over the plan or, when the caller built
+//! one, over a [`PlanEvents`] table that lists every entry's events once per timeline (the
+//! planner's placement searches ask thousands of questions of the same plan).
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
@@ -78,6 +80,96 @@ pub struct Event {
 impl Event {
     fn key(&self) -> (MissionTimeUs, u32) {
         (self.at, self.seq)
+    }
+
+    /// The instance whose impact this event is (the upper bits of the tie-break key).
+    pub fn instance(&self) -> u16 {
+        (self.seq >> 4) as u16
+    }
+}
+
+/// Most events a [`PlanEvents`] table holds (4 KiB). A plan with more (at most
+/// `MAX_PLAN_ENTRIES * MAX_IMPACTS_PER_TASK * 2`) is answered without the table, as fast as
+/// before it existed; the flyby plans have a few dozen.
+pub const MAX_PLAN_EVENTS: usize = 128;
+
+/// Every event the entries of a plan put on each timeline, generated once: the events of
+/// timeline `t` are those [`PlanView::for_each_event`] would generate from the entries, in the
+/// same order (entry order, then impact order). A view given the table (see
+/// [`PlanView::with_events`]) reads them from it instead of generating them from the entries
+/// for every query; exclusions and the hypothetical placement are applied as before. The table
+/// describes the entries as they were when it was built: build it again after any change.
+#[derive(Clone, Debug, Default)]
+pub struct PlanEvents {
+    events: Vec<Event, MAX_PLAN_EVENTS>,
+    /// Events of timeline `t`: `events[first[t]..first[t + 1]]`, for `t < timelines`.
+    first: [u16; MAX_TIMELINES + 1],
+    timelines: u8,
+    /// Number of entries the table was built from (a cheap check that a view matches it).
+    entries: u8,
+    /// False when the events did not fit (then views ignore the table).
+    complete: bool,
+}
+
+impl PlanEvents {
+    /// An empty table that no view uses until it is built.
+    pub const fn new() -> Self {
+        Self {
+            events: Vec::new(),
+            first: [0; MAX_TIMELINES + 1],
+            timelines: 0,
+            entries: 0,
+            complete: false,
+        }
+    }
+
+    /// Empties the table (no view uses it until it is built again).
+    pub fn clear(&mut self) {
+        self.events.clear();
+        self.timelines = 0;
+        self.entries = 0;
+        self.complete = false;
+    }
+
+    /// Lists the events of `entries` on every timeline of `network`.
+    pub fn build(&mut self, network: &TaskNetwork, entries: &[PlanEntry]) {
+        self.clear();
+        let timelines = network.timelines().len();
+        let (Ok(entry_count), true) = (u8::try_from(entries.len()), timelines <= MAX_TIMELINES)
+        else {
+            return;
+        };
+        let mut fits = true;
+        for t in 0..timelines {
+            if let Some(slot) = self.first.get_mut(t) {
+                *slot = self.events.len() as u16;
+            }
+            for e in entries {
+                if let (Some(c), Some(spec)) = (e.contribution(), network.task(e.def)) {
+                    impact_events(spec, e.instance, c, t as u8, &mut |ev| {
+                        fits &= self.events.push(ev).is_ok();
+                    });
+                }
+            }
+        }
+        if let Some(slot) = self.first.get_mut(timelines) {
+            *slot = self.events.len() as u16;
+        }
+        self.timelines = timelines as u8;
+        self.entries = entry_count;
+        self.complete = fits;
+    }
+
+    /// The events of `timeline`, if the table is complete, holds that timeline and was built
+    /// from `entries` entries.
+    fn timeline(&self, timeline: u8, entries: usize) -> Option<&[Event]> {
+        if !self.complete || timeline >= self.timelines || usize::from(self.entries) != entries {
+            return None;
+        }
+        let t = usize::from(timeline);
+        let from = usize::from(*self.first.get(t)?);
+        let to = usize::from(*self.first.get(t + 1)?);
+        self.events.get(from..to)
     }
 }
 
@@ -166,6 +258,8 @@ pub struct PlanView<'a> {
     pub anchors: &'a [TimelineAnchor],
     pub exclude: [Option<u16>; 2],
     pub extra: Option<Candidate>,
+    /// The entries' events listed once (built from `entries`), or None to generate them.
+    pub events: Option<&'a PlanEvents>,
 }
 
 impl<'a> PlanView<'a> {
@@ -180,7 +274,15 @@ impl<'a> PlanView<'a> {
             anchors,
             exclude: [None, None],
             extra: None,
+            events: None,
         }
+    }
+
+    /// This view reading the entries' events from `events`, which must have been built from
+    /// this view's `network` and `entries` as they are now. Answers are the same as without it.
+    pub fn with_events(mut self, events: &'a PlanEvents) -> Self {
+        self.events = Some(events);
+        self
     }
 
     /// This view without instance `instance`.
@@ -201,12 +303,23 @@ impl<'a> PlanView<'a> {
 
     /// Calls `f` for every event on `timeline`, in no particular order.
     pub fn for_each_event(&self, timeline: u8, mut f: impl FnMut(Event)) {
-        for e in self.entries {
-            if self.exclude.contains(&Some(e.instance)) {
-                continue;
+        if let Some(events) = self
+            .events
+            .and_then(|table| table.timeline(timeline, self.entries.len()))
+        {
+            for e in events {
+                if !self.exclude.contains(&Some(e.instance())) {
+                    f(*e);
+                }
             }
-            if let (Some(c), Some(spec)) = (e.contribution(), self.network.task(e.def)) {
-                impact_events(spec, e.instance, c, timeline, &mut f);
+        } else {
+            for e in self.entries {
+                if self.exclude.contains(&Some(e.instance)) {
+                    continue;
+                }
+                if let (Some(c), Some(spec)) = (e.contribution(), self.network.task(e.def)) {
+                    impact_events(spec, e.instance, c, timeline, &mut f);
+                }
             }
         }
         if let Some(x) = self.extra {
@@ -226,7 +339,69 @@ impl<'a> PlanView<'a> {
     }
 
     /// Projected value of `timeline` at `t` (after every event at or before `t`).
+    ///
+    /// Without rates (no anchor rate, no rate event at or before `t`) the value is the base
+    /// plus additions, summed in 64 bits (a 128-bit addition takes twice the instructions on
+    /// the 32-bit target); a rate or a sum that does not fit 64 bits takes
+    /// [`PlanView::value_at_exact`]. Both give the same answer.
     pub fn value_at(&self, timeline: u8, t: MissionTimeUs) -> i64 {
+        let Some(anchor) = self.anchors.get(usize::from(timeline)) else {
+            return VALUE_UNKNOWN;
+        };
+        if anchor.rate != 0 {
+            return self.value_at_exact(timeline, t);
+        }
+        let mut base_value = anchor.value;
+        let filter_at = anchor.measured.map(|m| m.at);
+        if let Some(m) = anchor.measured {
+            if m.at >= anchor.at {
+                base_value = m.value;
+            }
+        }
+        let passes = |e: &Event| e.at <= t && filter_at.is_none_or(|m| e.at > m);
+        let mut last_assign: Option<(MissionTimeUs, u32, i64)> = None;
+        let mut adds: Option<i64> = Some(0);
+        let mut rates = false;
+        self.for_each_event(timeline, |e| match e.kind {
+            EventKind::Assign(v) => {
+                if passes(&e) && last_assign.is_none_or(|(at, seq, _)| e.key() > (at, seq)) {
+                    last_assign = Some((e.at, e.seq, v));
+                }
+            }
+            EventKind::Add(d) => {
+                if passes(&e) {
+                    adds = adds.and_then(|sum| sum.checked_add(d));
+                }
+            }
+            EventKind::Rate(_) => rates |= e.at <= t,
+        });
+        if rates {
+            return self.value_at_exact(timeline, t);
+        }
+        if let Some((at, seq, v)) = last_assign {
+            base_value = v;
+            let after = (at, seq);
+            adds = Some(0);
+            self.for_each_event(timeline, |e| {
+                if let EventKind::Add(d) = e.kind {
+                    if passes(&e) && e.key() > after {
+                        adds = adds.and_then(|sum| sum.checked_add(d));
+                    }
+                }
+            });
+        }
+        if base_value == VALUE_UNKNOWN {
+            return VALUE_UNKNOWN;
+        }
+        match adds.and_then(|sum| base_value.checked_add(sum)) {
+            Some(value) => value.max(VALUE_UNKNOWN + 1),
+            None => self.value_at_exact(timeline, t),
+        }
+    }
+
+    /// [`PlanView::value_at`] computed in 128 bits throughout (rates integrated): the
+    /// reference the 64-bit path is tested against.
+    pub fn value_at_exact(&self, timeline: u8, t: MissionTimeUs) -> i64 {
         let Some(anchor) = self.anchors.get(usize::from(timeline)) else {
             return VALUE_UNKNOWN;
         };

@@ -1,7 +1,8 @@
 //! Honest accounting across a warm reset (issue 15): a commanded task that was running at the
 //! last checkpoint is reported interrupted, never completed; planner-only timelines declared
 //! to revert after a reset do; the executive's retry state and the planner's failure ledger
-//! come back with the checkpoint; state updates of the wrong type are counted and named.
+//! come back with the checkpoint; state updates of the wrong type are counted and named; a
+//! payload that does not decode leaves an empty core, reset in place.
 mod common;
 use autonomy::*;
 use common::*;
@@ -559,4 +560,58 @@ fn state_updates_of_the_wrong_type_are_counted_with_their_key() {
     let restored = warm_reset(&a);
     assert_eq!(restored.state_type_mismatches, 2);
     assert_eq!(restored.last_state_type_mismatch, Some(ATTITUDE_KEY));
+}
+
+/// What a core holds, as its checkpoint encodes it (meta, network, plan, executive, states).
+fn encoded(a: &Autonomy) -> Vec<u8> {
+    let mut buf = vec![0u8; 1 << 16];
+    let len = a.encode_state(&mut buf).expect("the state fits");
+    buf.truncate(len);
+    buf
+}
+
+#[test]
+fn a_payload_that_does_not_decode_leaves_the_core_as_a_new_one() {
+    let mut sim = Sim::flyby();
+    sim.run(hm(10, 29), &[]);
+    let fresh = Box::new(Autonomy::new());
+    assert_ne!(
+        encoded(&sim.autonomy),
+        encoded(&fresh),
+        "the flyby core holds a plan"
+    );
+    let mut payload = encoded(&sim.autonomy);
+    let last = payload.len() - 1;
+    payload[last] ^= 0xff;
+    payload.push(0);
+    let record = autonomy::checkpoint::Record {
+        slot: 0,
+        sequence: 7,
+        payload: &payload,
+    };
+    assert!(sim.autonomy.restore_record(record).is_err());
+    assert_eq!(encoded(&sim.autonomy), encoded(&fresh));
+    assert_eq!(sim.autonomy.network(), fresh.network());
+    assert_eq!(
+        format!("{:?}", sim.autonomy.planner().entries()),
+        format!("{:?}", fresh.planner().entries())
+    );
+}
+
+#[test]
+fn a_reset_core_flies_the_flyby_as_a_new_one() {
+    let mut used = Sim::flyby();
+    used.run(hm(10, 29), &[]);
+    let mut core = std::mem::replace(&mut used.autonomy, Box::new(Autonomy::new()));
+    core.reset();
+    assert_eq!(encoded(&core), encoded(&Autonomy::new()));
+    core.load_network(flyby_network()).expect("loads");
+    let mut again = Sim::flyby();
+    again.autonomy = core;
+    again.run(hm(11, 30), &[]);
+    let mut fresh = Sim::flyby();
+    fresh.run(hm(11, 30), &[]);
+    assert!(!fresh.out.decisions.is_empty());
+    assert_eq!(again.out.decisions, fresh.out.decisions);
+    assert_eq!(encoded(&again.autonomy), encoded(&fresh.autonomy));
 }

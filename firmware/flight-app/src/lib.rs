@@ -248,7 +248,7 @@ pub trait MemoryFetch {
 }
 
 /// What the application's copy of one memory holds, when a [`MemoryFetch`] fills it.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 struct CopyState {
     /// The slots whose payloads have been read in (bit `i` for slot `i`).
     payloads_read: u8,
@@ -459,6 +459,28 @@ impl FlightApp {
             security_refusals: [0; SecurityRefusal::COUNT],
             commands_not_carried_out: 0,
         }
+    }
+
+    /// Makes this application what [`FlightApp::new`] makes, in place, but for the bytes of
+    /// the uplink buffer (only its first `uplink_len` bytes are ever read, and that is now
+    /// 0). Writing `FlightApp::new()` into a static copies a 55 KiB constant image of it,
+    /// mostly zeros, that sits in the firmware image and that the reset stub's image check
+    /// reads at every boot; this writes the fields instead.
+    pub fn reset(&mut self) {
+        self.autonomy.reset();
+        self.uplink_len = 0;
+        self.uplink_progress = None;
+        self.budget = DEFAULT_STEP_BUDGET;
+        self.recovering = None;
+        self.last_done = None;
+        self.last_warm_write = None;
+        self.last_nv_write = None;
+        self.copies = [CopyState::COMPLETE; 2];
+        self.newest_sequence = None;
+        self.reported_state_type_mismatches = 0;
+        self.security = SecurityAssociation::none();
+        self.security_refusals = [0; SecurityRefusal::COUNT];
+        self.commands_not_carried_out = 0;
     }
 
     /// The security association read at boot and updated by every accepted message.
@@ -1102,6 +1124,62 @@ mod tests {
         let total = secured.len().div_ceil(UPLINK_CHUNK_MAX) as u16;
         let out = send_uplink(app, mem, &secured);
         assert_eq!(out.last(), Some(&TargetToHost::UplinkAck { seq: total }));
+    }
+
+    /// Boot, uplink the flyby and fly ten frames with fresh memories; everything answered.
+    fn fly_ten_frames(app: &mut FlightApp) -> Vec<TargetToHost> {
+        let (mut warm, mut nv) = (std::vec![0u8; 60 * 1024], std::vec![0u8; 60 * 1024]);
+        let mut security = TestNv::provisioned(&TEST_KEY);
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: Some(&mut nv),
+            security: Some(&mut security),
+        };
+        boot_and_uplink_flyby(app, &mut mem);
+        let mut out: Vec<TargetToHost> = Vec::new();
+        for frame in 0..10u32 {
+            let g = grant(frame, 9 * 3600 + 50 * 60 + 60 * u64::from(frame));
+            app.handle(&g, &mut mem, &mut Counting(0), &mut |m| out.push(m));
+        }
+        out
+    }
+
+    fn encoded_core(app: &FlightApp) -> Vec<u8> {
+        let mut buf = std::vec![0u8; 1 << 16];
+        let len = app.autonomy.encode_state(&mut buf).unwrap();
+        buf.truncate(len);
+        buf
+    }
+
+    #[test]
+    fn a_reset_application_is_the_new_one_and_flies_as_it() {
+        let mut used = std::boxed::Box::new(FlightApp::new());
+        let first = fly_ten_frames(&mut used);
+        let fresh = std::boxed::Box::new(FlightApp::new());
+        assert_ne!(encoded_core(&used), encoded_core(&fresh));
+        assert_ne!(used.security, fresh.security);
+        used.reset();
+        assert_eq!(encoded_core(&used), encoded_core(&fresh));
+        assert_eq!(used.uplink_len, fresh.uplink_len);
+        assert_eq!(used.uplink_progress, fresh.uplink_progress);
+        assert_eq!(used.budget, fresh.budget);
+        assert_eq!(used.recovering, fresh.recovering);
+        assert_eq!(used.last_done, fresh.last_done);
+        assert_eq!(used.last_warm_write, fresh.last_warm_write);
+        assert_eq!(used.last_nv_write, fresh.last_nv_write);
+        assert_eq!(used.copies, fresh.copies);
+        assert_eq!(used.newest_sequence, fresh.newest_sequence);
+        assert_eq!(
+            used.reported_state_type_mismatches,
+            fresh.reported_state_type_mismatches
+        );
+        assert_eq!(used.security, fresh.security);
+        assert_eq!(used.security_refusals, fresh.security_refusals);
+        assert_eq!(
+            used.commands_not_carried_out,
+            fresh.commands_not_carried_out
+        );
+        assert_eq!(fly_ten_frames(&mut used), first);
     }
 
     #[test]

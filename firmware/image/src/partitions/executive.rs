@@ -96,8 +96,14 @@ static mut STATE: MaybeUninit<ExecutiveState> = MaybeUninit::uninit();
 #[link_section = ".bss.part.executive"]
 static mut APP: MaybeUninit<FlightApp> = MaybeUninit::uninit();
 
-/// The initial application, copied into place (never built on the stack).
-const APP_INIT: FlightApp = FlightApp::new();
+// SAFETY: every field of a FlightApp, down to the leaves, is an integer, a bool, an array of
+// them, a fieldless enum whose first variant is 0 (the planner's phase), an Option or tuple
+// of these, or a heapless Vec (a length and MaybeUninit storage: empty when zero); there is no
+// reference, NonZero or function pointer, so all-zero bytes are a valid FlightApp. The
+// partition entry then makes it the new application with `FlightApp::reset`, which writes
+// every field: the application is never copied from a constant image of it (55 KiB in the
+// RAM image, read by the reset stub's image check at every boot, and copied at every start).
+unsafe impl ZeroValid for FlightApp {}
 
 /// CPU time of this partition only, so costs do not depend on other partitions' windows.
 struct PartitionClock;
@@ -184,8 +190,10 @@ pub extern "C" fn partition_executive_main() -> ! {
     // entry runs once per (re)start, so nothing else refers to them.
     let state = unsafe { zeroed_state(addr_of_mut!(STATE)) };
     let entered = sys::cpu_time().0;
-    // SAFETY: as above; APP is written whole before its first use.
-    let app: &'static mut FlightApp = unsafe { (*addr_of_mut!(APP)).write(APP_INIT) };
+    // SAFETY: as above (APP is zeroed by the partition start too, and FlightApp is
+    // ZeroValid); `reset` makes it the new application before its first use.
+    let app: &'static mut FlightApp = unsafe { zeroed_state(addr_of_mut!(APP)) };
+    app.reset();
     // The copies of the two memories start out zero (no record); the flight application
     // reads what it needs into them (`KernelMemories`). Probe non-volatile memory's size first
     // (a read of 0 bytes), so a small device is refused here rather than by the kernel as an
