@@ -343,6 +343,15 @@ fn expr(ctx: &Ctx<'_>, sx: &Sx) -> Result<Expr, PddlError> {
     }
 }
 
+/// `(at start ...)`, `(at end ...)` or `(over all ...)`, as opposed to an atom of a predicate
+/// named `at`.
+fn is_time_specifier(items: &[Sx]) -> bool {
+    matches!(
+        (items.first().and_then(Sx::atom), items.get(1).and_then(Sx::atom)),
+        (Some("at"), Some("start" | "end")) | (Some("over"), Some("all"))
+    )
+}
+
 fn comparison(head: &str) -> Option<Cmp> {
     Some(match head {
         ">=" => Cmp::Ge,
@@ -387,7 +396,7 @@ fn condition(ctx: &Ctx<'_>, sx: &Sx, out: &mut Vec<Condition>) -> Result<(), Pdd
         "forall" => return Err(ctx.unsupported(sx.span(), "universal conditions (`forall`)")),
         "exists" => return Err(ctx.unsupported(sx.span(), "existential conditions (`exists`)")),
         "preference" => return Err(ctx.unsupported(sx.span(), "preferences")),
-        "at" | "over" => {
+        "at" | "over" if is_time_specifier(items) => {
             return Err(ctx.err(
                 sx.span(),
                 "a time specifier (`at start`, `over all`, `at end`) is not allowed here",
@@ -450,7 +459,7 @@ fn timed_conditions(
             }
             Ok(())
         }
-        "at" | "over" => {
+        "at" | "over" if is_time_specifier(items) => {
             let when = match (items.get(0).and_then(Sx::atom), items.get(1).and_then(Sx::atom)) {
                 (Some("at"), Some("start")) => When::Start,
                 (Some("at"), Some("end")) => When::End,
@@ -527,7 +536,7 @@ fn effect(ctx: &Ctx<'_>, sx: &Sx, out: &mut Vec<Effect>) -> Result<(), PddlError
                 span: sx.span(),
             });
         }
-        "at" | "over" => {
+        "at" | "over" if is_time_specifier(items) => {
             return Err(ctx.err(
                 sx.span(),
                 "a time specifier is not allowed inside an effect",
@@ -550,7 +559,7 @@ fn timed_effects(ctx: &Ctx<'_>, sx: &Sx, out: &mut Vec<(bool, Effect)>) -> Resul
             }
             Ok(())
         }
-        "at" => {
+        "at" if is_time_specifier(items) => {
             let end = match items.get(1).and_then(Sx::atom) {
                 Some("start") => false,
                 Some("end") => true,
@@ -832,7 +841,7 @@ pub fn problem(ctx: &Ctx<'_>, sx: &Sx) -> Result<Problem, PddlError> {
                                 span: item.span(),
                             });
                         }
-                        Some("at") => {
+                        Some("at") if item.list().and_then(|l| l.get(1)).and_then(Sx::atom).is_some_and(|t| t.parse::<f64>().is_ok()) => {
                             let it = ctx.list(item, "`(at TIME literal)`")?;
                             let [_, t, lit] = it else {
                                 return Err(ctx.err(item.span(), "expected `(at TIME literal)`"));

@@ -35,6 +35,23 @@ pub struct Relaxation<'m> {
     /// Relaxed-plan membership of relaxed actions (bitset) and the extraction stack.
     pub marked: &'m mut [u32],
     pub stack: &'m mut [u32],
+    /// Bit per fact: a goal.
+    pub goal: &'m mut [u32],
+    /// For relaxed action r, the relaxed facts it adds: `add_index[add_offsets[r]..add_offsets[r + 1]]`,
+    /// and its own cost.
+    pub add_offsets: &'m mut [u32],
+    pub add_index: &'m mut [u32],
+    pub own_cost: &'m mut [u32],
+}
+
+/// Words of arena the effect table needs: (offsets, entries).
+pub fn add_words(task: &Task<'_>) -> (usize, usize) {
+    let mut entries = 0;
+    for a in 0..task.action_count() {
+        let act = task.action(a);
+        entries += act.facts(FactList::AddStart).len() + act.facts(FactList::AddEnd).len() + 1;
+    }
+    (2 * task.action_count() + 1, entries)
 }
 
 /// Words of arena the index needs for `task`: (offsets, entries, per-action counts).
@@ -97,6 +114,30 @@ impl<'m> Relaxation<'m> {
         }
         for f in 0..facts {
             self.pre_offsets[f + 1] += self.pre_offsets[f];
+        }
+        let eps = task.epsilon();
+        let mut at = 0usize;
+        for a in 0..task.action_count() {
+            let act = task.action(a);
+            for (r, list) in [(2 * a, FactList::AddStart), (2 * a + 1, FactList::AddEnd)] {
+                self.add_offsets[r] = at as u32;
+                for f in act.facts(list).iter() {
+                    self.add_index[at] = f as u32;
+                    at += 1;
+                }
+                if r % 2 == 0 {
+                    self.add_index[at] = (task.fact_count() + a) as u32;
+                    at += 1;
+                    self.own_cost[r] = act.duration_lb.saturating_add(eps);
+                } else {
+                    self.own_cost[r] = eps;
+                }
+            }
+        }
+        self.add_offsets[2 * task.action_count()] = at as u32;
+        self.goal.iter_mut().for_each(|x| *x = 0);
+        for g in task.goal_facts().iter() {
+            self.goal[g / 32] |= 1 << (g % 32);
         }
         // Fill using `cost` as the per-fact insertion cursor.
         for f in 0..facts {
@@ -172,7 +213,6 @@ impl<'m> Relaxation<'m> {
         let facts = task.fact_count();
         let all = facts + task.action_count();
         let relaxed = 2 * task.action_count();
-        let eps = task.epsilon();
         self.cost[..all].iter_mut().for_each(|x| *x = u32::MAX);
         self.supporter[..all].iter_mut().for_each(|x| *x = u32::MAX);
         self.waiting[..relaxed].copy_from_slice(&self.pre_count[..relaxed]);
@@ -193,17 +233,23 @@ impl<'m> Relaxation<'m> {
         // Relaxed actions without preconditions fire at once.
         for r in 0..relaxed {
             if self.waiting[r] == 0 {
-                self.fire(task, r, &mut len, eps);
+                self.fire(r, &mut len);
             }
         }
         let goals = task.goal_facts();
-        let mut goals_left = goals.iter().filter(|&g| self.cost[g] != 0).count();
+        // Distinct goal facts not yet true.
+        let mut goals_left = 0;
+        for f in 0..facts {
+            if self.goal[f / 32] & (1 << (f % 32)) != 0 && self.cost[f] != 0 {
+                goals_left += 1;
+            }
+        }
         while let Some((c, f)) = self.heap_pop(&mut len) {
             let f = f as usize;
             if c > self.cost[f] {
                 continue;
             }
-            if f < facts && c > 0 && goals.contains(f) {
+            if f < facts && c > 0 && self.goal[f / 32] & (1 << (f % 32)) != 0 {
                 goals_left -= 1;
                 if goals_left == 0 {
                     break;
@@ -218,7 +264,7 @@ impl<'m> Relaxation<'m> {
                 self.waiting[r] -= 1;
                 self.action_cost[r] = self.action_cost[r].saturating_add(c);
                 if self.waiting[r] == 0 {
-                    self.fire(task, r, &mut len, eps);
+                    self.fire(r, &mut len);
                 }
             }
         }
@@ -270,31 +316,15 @@ impl<'m> Relaxation<'m> {
         h
     }
 
-    fn fire(&mut self, task: &Task<'_>, r: usize, len: &mut usize, eps: u32) {
-        let a = r / 2;
-        let act = task.action(a);
-        let own = if r % 2 == 0 {
-            act.duration_lb.saturating_add(eps)
-        } else {
-            eps
-        };
-        let c = self.action_cost[r].saturating_add(own);
-        let facts = task.fact_count();
-        let mut reach = |this: &mut Self, f: usize| {
-            if c < this.cost[f] {
-                this.cost[f] = c;
-                this.supporter[f] = r as u32;
-                this.heap_push(len, c, f as u32);
-            }
-        };
-        if r % 2 == 0 {
-            for f in act.facts(FactList::AddStart).iter() {
-                reach(self, f);
-            }
-            reach(self, facts + a);
-        } else {
-            for f in act.facts(FactList::AddEnd).iter() {
-                reach(self, f);
+    fn fire(&mut self, r: usize, len: &mut usize) {
+        let c = self.action_cost[r].saturating_add(self.own_cost[r]);
+        let (lo, hi) = (self.add_offsets[r] as usize, self.add_offsets[r + 1] as usize);
+        for i in lo..hi {
+            let f = self.add_index[i] as usize;
+            if c < self.cost[f] {
+                self.cost[f] = c;
+                self.supporter[f] = r as u32;
+                self.heap_push(len, c, f as u32);
             }
         }
     }

@@ -258,6 +258,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         let all = facts + actions;
         let relaxed = 2 * actions;
         let (offsets_n, entries_n, _) = heuristic::index_words(&task);
+        let (add_offsets_n, add_entries_n) = heuristic::add_words(&task);
         let mut adds = 0;
         for a in 0..actions {
             let act = task.action(a);
@@ -280,6 +281,10 @@ impl<'t, 'm> Planner<'t, 'm> {
             heap: take(2 * (all + adds + 1))?,
             marked: take(relaxed.div_ceil(32))?,
             stack: take(entries_n + task.goal_facts().len() + 1)?,
+            goal: take(facts.div_ceil(32))?,
+            add_offsets: take(add_offsets_n)?,
+            add_index: take(add_entries_n)?,
+            own_cost: take(relaxed)?,
         };
         let safe = take(actions.div_ceil(32))?;
         let protect = take(facts)?;
@@ -383,10 +388,10 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// adds no ordering the original plan did not have.
     fn mark_compression_safe(&mut self) {
         let task = self.task;
-        let facts = task.fact_count();
-        // protect[f] as scratch: bit 0 = deleted by some action; bits 1.. = count of actions
-        // touching f (saturating at a small number).
+                // protect[f] as scratch: bit 0 = deleted by some action; bits 1.. = count of actions
+        // touching f (saturating at 3). last_writer[f] = 1 + the last action counted for f.
         self.protect.iter_mut().for_each(|x| *x = 0);
+        self.last_writer.iter_mut().for_each(|x| *x = 0);
         for a in 0..task.action_count() {
             let act = task.action(a);
             for list in [FactList::DelStart, FactList::DelEnd] {
@@ -394,21 +399,22 @@ impl<'t, 'm> Planner<'t, 'm> {
                     self.protect[f] |= 1;
                 }
             }
-            // Count each action once per fact it touches.
-            for f in 0..facts {
-                let touches = [
-                    FactList::PreStart,
-                    FactList::Invariant,
-                    FactList::PreEnd,
-                    FactList::AddStart,
-                    FactList::DelStart,
-                    FactList::AddEnd,
-                    FactList::DelEnd,
-                ]
-                .iter()
-                .any(|&l| act.facts(l).contains(f));
-                if touches && self.protect[f] >> 1 < 3 {
-                    self.protect[f] += 2;
+            for list in [
+                FactList::PreStart,
+                FactList::Invariant,
+                FactList::PreEnd,
+                FactList::AddStart,
+                FactList::DelStart,
+                FactList::AddEnd,
+                FactList::DelEnd,
+            ] {
+                for f in act.facts(list).iter() {
+                    if self.last_writer[f] != a as u32 + 1 {
+                        self.last_writer[f] = a as u32 + 1;
+                        if self.protect[f] >> 1 < 3 {
+                            self.protect[f] += 2;
+                        }
+                    }
                 }
             }
         }
@@ -436,6 +442,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
         }
         self.protect.iter_mut().for_each(|x| *x = 0);
+        self.last_writer.iter_mut().for_each(|x| *x = 0);
     }
 
     // ----- states -----------------------------------------------------------------------------

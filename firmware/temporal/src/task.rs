@@ -308,8 +308,8 @@ pub struct Action<'a> {
     pub end_window: (u32, u32),
     lists: [usize; 7],
     list_lens: [usize; 7],
-    numeric: [usize; 5],
-    numeric_lens: [usize; 5],
+    /// Offset of the numeric section (five counted lists of linear records).
+    numeric_at: usize,
 }
 
 impl<'a> Action<'a> {
@@ -321,12 +321,26 @@ impl<'a> Action<'a> {
             len: self.list_lens.get(i).copied().unwrap_or(0),
         }
     }
+    /// Where numeric list `i` starts and how many records it has.
+    fn numeric_list(&self, i: usize) -> (usize, usize) {
+        let mut p = self.numeric_at;
+        for k in 0..5 {
+            let n = self.bytes.get(p).copied().unwrap_or(0) as usize;
+            p += 1;
+            if k == i {
+                return (p, n);
+            }
+            for _ in 0..n {
+                p = linear_at(self.bytes, p, k >= 3).1;
+            }
+        }
+        (p, 0)
+    }
     /// The numeric conditions or effects of one list.
     pub fn numeric(&self, list: NumericList) -> impl Iterator<Item = Linear<'a>> + 'a {
         let i = list as usize;
         let effect = matches!(list, NumericList::EffStart | NumericList::EffEnd);
-        let mut at = self.numeric.get(i).copied().unwrap_or(0);
-        let n = self.numeric_lens.get(i).copied().unwrap_or(0);
+        let (mut at, n) = self.numeric_list(i);
         let bytes = self.bytes;
         (0..n).map(move |_| {
             let (lin, next) = linear_at(bytes, at, effect);
@@ -335,7 +349,11 @@ impl<'a> Action<'a> {
         })
     }
     pub fn has_numeric(&self, list: NumericList) -> bool {
-        self.numeric_lens.get(list as usize).copied().unwrap_or(0) > 0
+        self.numeric_list(list as usize).1 > 0
+    }
+    /// Whether the action has any numeric condition or effect.
+    pub fn has_any_numeric(&self) -> bool {
+        (0..5).any(|i| self.numeric_list(i).1 > 0)
     }
 }
 
@@ -587,17 +605,6 @@ fn read_action(bytes: &[u8], at: usize) -> Action<'_> {
         *len = n;
         p += 2 + 2 * n;
     }
-    let mut numeric = [0usize; 5];
-    let mut numeric_lens = [0usize; 5];
-    for (i, (slot, len)) in numeric.iter_mut().zip(numeric_lens.iter_mut()).enumerate() {
-        let n = bytes.get(p).copied().unwrap_or(0) as usize;
-        p += 1;
-        *slot = p;
-        *len = n;
-        for _ in 0..n {
-            p = linear_at(bytes, p, i >= 3).1;
-        }
-    }
     Action {
         bytes,
         duration_lb,
@@ -606,8 +613,7 @@ fn read_action(bytes: &[u8], at: usize) -> Action<'_> {
         end_window,
         lists,
         list_lens,
-        numeric,
-        numeric_lens,
+        numeric_at: p,
     }
 }
 
