@@ -428,6 +428,35 @@ fn the_transmission_limit_ends_in_link_lost_naming_the_sequence_numbers_both_way
 }
 
 #[test]
+fn a_target_that_declares_the_link_lost_says_so_and_the_host_ends_too() {
+    let config = LinkConfig {
+        transmission_limit: 4,
+        ..LinkConfig::DEFAULT
+    };
+    let mut host = Host::new(Role::Initiator, config).unwrap();
+    let mut target = Target::new(Role::Responder, config).unwrap();
+    exchange(&mut host, &mut target, all, all);
+    exchange(&mut host, &mut target, all, all);
+    // The downlink's Instrument frames never get through; everything else does.
+    target.submit(INSTRUMENT, &log(0)).unwrap();
+    let mut rounds = 0;
+    while target.lost().is_none() {
+        exchange(&mut host, &mut target, all, |f| {
+            !matches!(f, LinkFrame::Ad { vc: INSTRUMENT, .. })
+        });
+        rounds += 1;
+        assert!(rounds <= 10, "the target never declared the link lost");
+    }
+    // The answer in which it gave up carries its Report, which says so: the host ends at that
+    // round's end, instead of waiting for traffic that will never come.
+    let lost = *host
+        .lost()
+        .expect("the host learned of the loss from the Report");
+    assert_eq!(lost.reason, LostReason::PeerLost);
+    assert!(lost.to_string().contains("the peer declared the link lost"));
+}
+
+#[test]
 fn reset_counts_unacknowledged_messages_as_lost_to_reset_by_channel_and_class() {
     let (mut host, mut target) = open_pair();
     for i in 0..4 {

@@ -107,6 +107,7 @@ fn the_largest_instance_of_every_frame_kind_fits_the_payload() {
         clcw: [full_clcw; VC_COUNT],
         sent_vs: [u8::MAX; VC_COUNT],
         backlog: [true; VC_COUNT],
+        lost: true,
     }));
     check(&LinkFrame::<()>::Bc {
         round: u32::MAX,

@@ -178,17 +178,15 @@ pub fn missions(
                 path.display(),
                 transport.name()
             ));
-            let nv = std::env::temp_dir().join(format!("hil-bench-nv-{}.bin", std::process::id()));
-            let mut target = EmulatedTarget::new(
+            let mut target = EmulatedTarget::with_temporary_nv(
                 profile.clone().with_transport(transport),
                 firmware.clone(),
                 false,
-                nv.clone(),
                 false,
-            );
+            )
+            .map_err(|e| format!("cannot create the non-volatile memory file: {e}"))?;
             let (report, wall_ms, after_boot_ms) = run_one(path, &mut target, Some(firmware))?;
             drop(target);
-            let _ = std::fs::remove_file(&nv);
             let mission_s = mission_seconds(&report);
             emulated.push(EmulatedSpeed {
                 transport: transport.name().into(),

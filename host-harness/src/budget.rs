@@ -310,10 +310,8 @@ mod tests {
     use super::*;
 
     fn budgets(text: &str) -> Result<Vec<Budget>, String> {
-        let dir =
-            std::env::temp_dir().join(format!("hil-budget-{}-{}", std::process::id(), text.len()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let p = dir.join("budgets.toml");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("budgets.toml");
         std::fs::write(&p, text).unwrap();
         load(&p).map_err(|e| {
             e.to_string()

@@ -28,7 +28,9 @@
 //! `--shard k/n` (1-based) runs the indices `i` with `i % n == k - 1`; the shard reports
 //! (`--report`) merge with `--merge` into the report the unsharded campaign would have written
 //! (wall times aside). Results are always in run-index order, whatever order the worker threads
-//! finish in.
+//! finish in. The workers are [`run_pool`]'s (why it is written with the standard library only
+//! is said there): a run that panics, or whose QEMU dies, is one failed run with its reason,
+//! and the campaign goes on.
 use std::collections::BTreeMap;
 use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
@@ -734,38 +736,13 @@ pub fn run_campaign(
     .min(variants.len())
     .max(1);
 
-    let mut slots: Vec<Option<RunResult>> = vec![None; variants.len()];
-    let next = AtomicUsize::new(0);
-    let (tx, rx) = std::sync::mpsc::channel::<(usize, RunResult)>();
-    std::thread::scope(|s| -> Result<(), String> {
-        for _ in 0..jobs {
-            let tx = tx.clone();
-            let (next, variants, plan) = (&next, &variants, &plan);
-            std::thread::Builder::new()
-                .name("campaign-worker".into())
-                .stack_size(64 << 20)
-                .spawn_scoped(s, move || loop {
-                    let k = next.fetch_add(1, Ordering::Relaxed);
-                    let Some(v) = variants.get(k) else { break };
-                    let result = run_variant(plan, v);
-                    if tx.send((k, result)).is_err() {
-                        break;
-                    }
-                })
-                .map_err(|e| format!("cannot start a worker thread: {e}"))?;
-        }
-        drop(tx);
-        for (k, result) in rx {
-            progress(&result);
-            slots[k] = Some(result);
-        }
-        Ok(())
-    })?;
-    let results: Vec<RunResult> = slots
-        .into_iter()
-        .zip(&variants)
-        .map(|(r, v)| r.unwrap_or_else(|| failed(v.clone(), "the worker running it died".into())))
-        .collect();
+    let results = run_pool(
+        &variants,
+        jobs,
+        |v| run_variant(&plan, v),
+        |v, panic| failed(v.clone(), format!("panicked: {panic}")),
+        progress,
+    )?;
     let mut report = CampaignReport {
         scenario: prepared.name().to_string(),
         scenario_file: opts.scenario.display().to_string(),
@@ -800,18 +777,10 @@ fn failed(variant: Variant, error: String) -> RunResult {
     }
 }
 
-/// Run one variant on a fresh target; never panics (a panic is a failed run).
+/// Run one variant on a fresh target (a panic is caught by [`run_pool`]: a failed run).
 fn run_variant(plan: &Plan, variant: &Variant) -> RunResult {
     let started = Instant::now();
-    let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| run_variant_inner(plan, variant)))
-        .unwrap_or_else(|panic| {
-            let msg = panic
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "panic".into());
-            Err(format!("panicked: {msg}"))
-        });
+    let outcome = run_variant_inner(plan, variant);
     let wall_ms = started.elapsed().as_millis() as u64;
     let mut result = match outcome {
         Ok((report, mid_frame)) => judge(variant, &report, mid_frame),
@@ -819,6 +788,70 @@ fn run_variant(plan: &Plan, variant: &Variant) -> RunResult {
     };
     result.metrics.insert("wall_time_ms".into(), wall_ms);
     result
+}
+
+/// The campaign's worker pool: `work` on every item with `jobs` threads, the results in item
+/// order. `progress` sees each result on the calling thread as it finishes. A panic in `work`
+/// does not take the campaign down: it becomes `on_panic(item, message)`, that item's result.
+///
+/// Why by hand, with the standard library only: `std::thread::scope` lets the workers borrow
+/// the items and the plan, an atomic index hands out the next item (no queue to fill), and an
+/// `mpsc` channel brings results back as they finish so `progress` runs on the caller's
+/// thread. That is the whole pool; rayon would bring a global thread pool and work stealing
+/// that runs of seconds each do not need, and would still need `catch_unwind` to turn a panic
+/// into one failed run rather than a panic of the whole campaign. No run can hang the pool:
+/// every wait on a target is bounded (a round, a Hello, a QMP answer, a full shared-memory
+/// ring), and a QEMU that ends closes the link at once, so its run fails naming that.
+pub fn run_pool<T: Sync, R: Send>(
+    items: &[T],
+    jobs: usize,
+    work: impl Fn(&T) -> R + Sync,
+    on_panic: impl Fn(&T, String) -> R + Sync,
+    progress: &mut dyn FnMut(&R),
+) -> Result<Vec<R>, String> {
+    let next = AtomicUsize::new(0);
+    let (tx, rx) = std::sync::mpsc::channel::<(usize, R)>();
+    let mut slots: Vec<Option<R>> = std::iter::repeat_with(|| None).take(items.len()).collect();
+    std::thread::scope(|s| -> Result<(), String> {
+        for _ in 0..jobs.clamp(1, items.len().max(1)) {
+            let tx = tx.clone();
+            let (next, work, on_panic) = (&next, &work, &on_panic);
+            std::thread::Builder::new()
+                .name("campaign-worker".into())
+                .stack_size(64 << 20)
+                .spawn_scoped(s, move || loop {
+                    let k = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(item) = items.get(k) else { break };
+                    let result = std::panic::catch_unwind(AssertUnwindSafe(|| work(item)))
+                        .unwrap_or_else(|panic| on_panic(item, panic_message(panic.as_ref())));
+                    if tx.send((k, result)).is_err() {
+                        break;
+                    }
+                })
+                .map_err(|e| format!("cannot start a worker thread: {e}"))?;
+        }
+        drop(tx);
+        for (k, result) in rx {
+            progress(&result);
+            slots[k] = Some(result);
+        }
+        Ok(())
+    })?;
+    // A worker only stops early when the receiver is gone, or if `on_panic` itself panicked.
+    Ok(slots
+        .into_iter()
+        .zip(items)
+        .map(|(r, item)| r.unwrap_or_else(|| on_panic(item, "the worker running it died".into())))
+        .collect())
+}
+
+/// The message a panic was raised with.
+fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_else(|| "a panic without a message".into())
 }
 
 fn run_variant_inner(
@@ -1268,6 +1301,42 @@ mod tests {
 
     fn window() -> (MissionTimeUs, MissionTimeUs) {
         parse_window("09:50..11:10").unwrap()
+    }
+
+    #[test]
+    fn a_panicking_run_is_a_failed_result_in_its_place_and_the_others_still_run() {
+        let items: Vec<u32> = (0..9).collect();
+        let mut seen = Vec::new();
+        let results = run_pool(
+            &items,
+            3,
+            |&i| {
+                if i % 4 == 1 {
+                    panic!("run {i} misbehaved");
+                }
+                Ok(i * 10)
+            },
+            |&i, why| Err(format!("{i}: {why}")),
+            &mut |r: &Result<u32, String>| seen.push(r.clone()),
+        )
+        .unwrap();
+        assert_eq!(seen.len(), 9, "progress sees every result once");
+        for (i, r) in (0u32..).zip(&results) {
+            if i % 4 == 1 {
+                assert_eq!(r, &Err(format!("{i}: run {i} misbehaved")));
+            } else {
+                assert_eq!(r, &Ok(i * 10));
+            }
+        }
+    }
+
+    #[test]
+    fn a_pool_with_more_jobs_than_items_or_no_items_finishes() {
+        let none: Vec<u32> = Vec::new();
+        let results = run_pool(&none, 4, |&i| i, |&i, _| i, &mut |_| {}).unwrap();
+        assert!(results.is_empty());
+        let results = run_pool(&[7u32], 0, |&i| i + 1, |&i, _| i, &mut |_| {}).unwrap();
+        assert_eq!(results, [8]);
     }
 
     #[test]

@@ -35,6 +35,21 @@ pub struct FirmwareImage {
 }
 
 impl FirmwareImage {
+    /// The function `addr` lies in, as `symbol+0xoffset` with the symbol as the linker has it
+    /// (None when the image cannot be read or no text symbol covers it).
+    pub fn symbolize(&self, addr: u32) -> Option<String> {
+        let bytes = std::fs::read(&self.elf).ok()?;
+        let file = object::File::parse(&*bytes).ok()?;
+        let addr = u64::from(addr);
+        let symbol = file
+            .symbols()
+            .filter(|s| s.kind() == object::SymbolKind::Text && s.address() <= addr)
+            .filter(|s| addr < s.address() + s.size().max(1))
+            .max_by_key(|s| s.address())?;
+        let name = symbol.name().ok()?;
+        Some(format!("{name}+{:#x}", addr - symbol.address()))
+    }
+
     /// Identify an existing image.
     pub fn open(elf: &Path) -> Result<Self, FirmwareError> {
         let bytes = std::fs::read(elf).map_err(|source| FirmwareError::Read {

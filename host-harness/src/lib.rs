@@ -14,6 +14,7 @@ pub mod bench_kernel;
 pub mod bench_missions;
 pub mod budget;
 pub mod campaign;
+pub mod cleanup;
 pub mod cli;
 pub mod defmt_log;
 pub mod diag;

@@ -15,18 +15,17 @@
 //! the serial line as the doorbell (see `kernel_logic::shm_link` and [`crate::shm`]). QEMU hands
 //! the guest one serial byte per turn of its main loop; shared memory moves a batch of frames
 //! per turn. The firmware picks the shared-memory link up by itself when the device is there.
-use std::collections::BTreeSet;
 use std::io::{BufRead, BufReader, Write};
 use std::os::unix::net::UnixStream;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::{Mutex, Once};
 use std::time::{Duration, Instant};
 
 use serde::Deserialize;
 use serde_json::{json, Value};
 
+use crate::cleanup::{self, ScratchDir, ScratchFile};
 use crate::repo_root;
 
 /// How the link's frames travel between `hil` and an emulated target.
@@ -83,41 +82,76 @@ pub enum QemuError {
         path: PathBuf,
         source: std::io::Error,
     },
+    #[error("no QEMU profile {name:?}: the profiles built into hil are {}, and {} does not exist; name a profile file (a path ending in .toml) instead", BUILT_IN_PROFILES.map(|(n, _)| n).join(", "), .looked_at.display())]
+    ProfileUnknown { name: String, looked_at: PathBuf },
     #[error("{path}: {message}")]
     ProfileInvalid { path: PathBuf, message: String },
-    #[error("`{binary}` was not found on PATH.\nhint: install QEMU for PowerPC, e.g. `sudo apt-get install -y qemu-system-ppc` (Debian/Ubuntu)")]
-    Missing { binary: String },
+    #[error("{0}")]
+    Missing(#[from] QemuNotFound),
     #[error("could not start `{binary}`: {source}")]
     Spawn {
         binary: String,
         source: std::io::Error,
     },
-    #[error("QEMU exited during start-up ({status}); its output (in {log}):\n{tail}")]
-    ExitedEarly {
-        status: String,
-        log: PathBuf,
-        tail: String,
-    },
+    #[error("QEMU exited during start-up ({status}); the end of its output:\n{tail}")]
+    ExitedEarly { status: String, tail: String },
     #[error("QMP: {0}")]
     Qmp(String),
     #[error("I/O error with QEMU: {0}")]
     Io(#[from] std::io::Error),
 }
 
+/// The profiles that ship in `qemu/`, built into `hil` so that a copied or installed `hil`
+/// needs no source tree to find them: (name, TOML text).
+pub const BUILT_IN_PROFILES: [(&str, &str); 2] = [
+    ("rad750-proxy", include_str!("../../qemu/rad750-proxy.toml")),
+    (
+        "rad750-proxy-serial",
+        include_str!("../../qemu/rad750-proxy-serial.toml"),
+    ),
+];
+
 impl QemuProfile {
-    /// Load `qemu/<name>.toml` from the repository, or a path to a profile file.
+    /// A profile by name or by file. A name of a profile that ships with `hil`
+    /// ([`BUILT_IN_PROFILES`], the files in `qemu/` when it was built) is that built-in copy,
+    /// whatever the current checkout holds: the profile always matches the `hil` using it, and
+    /// `cargo` rebuilds `hil` when a file in `qemu/` changes. A path (containing `/` or ending
+    /// in `.toml`) is read from that file. Any other name is `qemu/<name>.toml` in the
+    /// checkout ([`crate::repo_root`]), for profiles added locally. `HIL_TRANSPORT` then
+    /// overrides the transport.
     pub fn load(name_or_path: &str) -> Result<Self, QemuError> {
-        let path = if name_or_path.ends_with(".toml") {
-            PathBuf::from(name_or_path)
-        } else {
-            repo_root()
-                .join("qemu")
-                .join(format!("{name_or_path}.toml"))
+        let is_path = name_or_path.ends_with(".toml") || name_or_path.contains('/');
+        let built_in = BUILT_IN_PROFILES
+            .iter()
+            .find(|(name, _)| !is_path && *name == name_or_path);
+        let (path, text) = match built_in {
+            Some((name, text)) => (
+                PathBuf::from(format!("qemu/{name}.toml (built into hil)")),
+                text.to_string(),
+            ),
+            None => {
+                let path = if is_path {
+                    PathBuf::from(name_or_path)
+                } else {
+                    let path = repo_root()
+                        .join("qemu")
+                        .join(format!("{name_or_path}.toml"));
+                    if !path.is_file() {
+                        return Err(QemuError::ProfileUnknown {
+                            name: name_or_path.to_string(),
+                            looked_at: path,
+                        });
+                    }
+                    path
+                };
+                let text =
+                    std::fs::read_to_string(&path).map_err(|source| QemuError::ProfileRead {
+                        path: path.clone(),
+                        source,
+                    })?;
+                (path, text)
+            }
         };
-        let text = std::fs::read_to_string(&path).map_err(|source| QemuError::ProfileRead {
-            path: path.clone(),
-            source,
-        })?;
         let mut profile: QemuProfile =
             toml::from_str(&text).map_err(|e| QemuError::ProfileInvalid {
                 path: path.clone(),
@@ -143,6 +177,92 @@ impl QemuProfile {
     }
 }
 
+/// The environment variable that names the QEMU executable to run (a path, or a name looked
+/// up on `PATH`), overriding the profile's `binary`.
+pub const QEMU_ENV: &str = "HIL_QEMU";
+
+/// The QEMU executable could not be found: what was asked for, where it was looked for, and
+/// how to install it.
+#[derive(Debug, thiserror::Error)]
+#[error("{}", self.describe())]
+pub struct QemuNotFound {
+    /// The name or path looked for.
+    pub binary: String,
+    /// Where it came from: the profile's `binary`, or `HIL_QEMU`.
+    pub named_by: String,
+    /// The directories searched (empty when `binary` is a path).
+    pub searched: Vec<PathBuf>,
+}
+
+impl QemuNotFound {
+    fn describe(&self) -> String {
+        let place = if self.searched.is_empty() {
+            "there is no executable file at that path".to_string()
+        } else {
+            format!(
+                "it is not an executable file in any directory on PATH (searched: {})",
+                self.searched
+                    .iter()
+                    .map(|d| d.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        };
+        format!(
+            "QEMU `{}` ({}) was not found: {place}.\nhint: install QEMU for PowerPC, e.g. `sudo apt-get install -y qemu-system-ppc` (Debian/Ubuntu), or set {QEMU_ENV} to the path of a qemu-system-ppc",
+            self.binary, self.named_by
+        )
+    }
+}
+
+/// The QEMU executable to run for `profile`: `HIL_QEMU` if set, else the profile's `binary`;
+/// a name is looked up in the directories on `PATH`, a path (containing `/`) taken as it is.
+pub fn find_qemu(profile: &QemuProfile) -> Result<PathBuf, QemuNotFound> {
+    let (binary, named_by) = match std::env::var(QEMU_ENV) {
+        Ok(value) if !value.is_empty() => (value, format!("from {QEMU_ENV}")),
+        _ => (
+            profile.binary.clone(),
+            format!("the binary of QEMU profile {}", profile.name),
+        ),
+    };
+    let path = std::env::var_os("PATH").unwrap_or_default();
+    find_executable(&binary, &path).map_err(|searched| QemuNotFound {
+        binary,
+        named_by,
+        searched,
+    })
+}
+
+/// `binary` as `execvp` would find it in `path` (a `PATH` value; an empty entry is the current
+/// directory), or the directories searched. A `binary` containing `/` is taken as it is.
+fn find_executable(binary: &str, path: &std::ffi::OsStr) -> Result<PathBuf, Vec<PathBuf>> {
+    use std::os::unix::fs::PermissionsExt;
+    let executable = |p: &Path| {
+        std::fs::metadata(p).is_ok_and(|m| m.is_file() && m.permissions().mode() & 0o111 != 0)
+    };
+    if binary.contains('/') {
+        let p = PathBuf::from(binary);
+        return if executable(&p) {
+            Ok(p)
+        } else {
+            Err(Vec::new())
+        };
+    }
+    let dirs: Vec<PathBuf> = std::env::split_paths(path)
+        .map(|d| {
+            if d.as_os_str().is_empty() {
+                PathBuf::from(".")
+            } else {
+                d
+            }
+        })
+        .collect();
+    dirs.iter()
+        .map(|d| d.join(binary))
+        .find(|p| executable(p))
+        .ok_or(dirs)
+}
+
 /// How to start one target.
 #[derive(Clone, Debug, Default)]
 pub struct LaunchOptions {
@@ -154,65 +274,49 @@ pub struct LaunchOptions {
     pub nv_size: Option<u64>,
 }
 
-/// PIDs of every QEMU this process started and has not yet ended.
-static CHILDREN: Mutex<BTreeSet<u32>> = Mutex::new(BTreeSet::new());
-static SIGNAL_HANDLER: Once = Once::new();
-
-fn kill_pid(pid: u32) {
-    // SAFETY: kill(2) with a PID we spawned and have not reaped (it stays a zombie until we
-    // wait, so the PID cannot have been reused).
-    unsafe {
-        libc::kill(pid as libc::pid_t, libc::SIGKILL);
-    }
-}
-
-/// On Ctrl-C or SIGTERM: end every QEMU we started, by PID, then exit 130.
-fn install_signal_handler() {
-    SIGNAL_HANDLER.call_once(|| {
-        let _ = ctrlc::set_handler(|| {
-            if let Ok(children) = CHILDREN.lock() {
-                for &pid in children.iter() {
-                    kill_pid(pid);
-                }
-            }
-            eprintln!("hil: interrupted; ended the QEMU processes it had started");
-            std::process::exit(130);
-        });
-    });
-}
-
-/// Where a running QEMU's files are: its output log, QMP socket, serial socket and (with the
-/// shared-memory transport) the link device's backing file.
-#[derive(Clone, Debug)]
+/// A running QEMU's temporary files, removed when it is dropped (see [`crate::cleanup`]): a
+/// directory in the system's temporary directory with its output log, QMP socket and serial
+/// socket, and (with the shared-memory transport) the link device's backing file.
+#[derive(Debug)]
 pub struct RunFiles {
-    pub dir: PathBuf,
     pub log: PathBuf,
     pub qmp_socket: PathBuf,
     pub serial_socket: PathBuf,
+    /// The shared-memory link's file (created only with that transport).
     pub link_shm: PathBuf,
+    /// Held to be removed on drop, before `dir` (the file may be inside it).
+    _link_file: Option<ScratchFile>,
+    dir: ScratchDir,
 }
 
 impl RunFiles {
-    fn new() -> std::io::Result<Self> {
-        static COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-        let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        // Short path: a Unix socket path must stay under 108 bytes.
-        let dir = std::env::temp_dir().join(format!("hil-{}-{n}", std::process::id()));
-        std::fs::create_dir_all(&dir)?;
+    fn new(transport: Transport) -> std::io::Result<Self> {
+        // Short names: a Unix socket path must stay under 108 bytes.
+        let dir = ScratchDir::new("qemu")?;
         // In memory where the host has it: the link's rings are touched for every frame.
         let shm_dir = Path::new("/dev/shm");
-        let link_shm = if shm_dir.is_dir() {
-            shm_dir.join(format!("hil-{}-{n}-link", std::process::id()))
-        } else {
-            dir.join("link.shm")
+        let link_file = match transport {
+            Transport::SharedMemory if shm_dir.is_dir() => {
+                Some(ScratchFile::new_in(shm_dir, "link")?)
+            }
+            Transport::SharedMemory => Some(ScratchFile::new_in(dir.path(), "link")?),
+            Transport::Serial => None,
         };
         Ok(Self {
-            log: dir.join("qemu.log"),
-            qmp_socket: dir.join("qmp.sock"),
-            serial_socket: dir.join("serial.sock"),
-            link_shm,
+            log: dir.path().join("qemu.log"),
+            qmp_socket: dir.path().join("qmp.sock"),
+            serial_socket: dir.path().join("serial.sock"),
+            link_shm: link_file
+                .as_ref()
+                .map_or_else(|| dir.path().join("link.shm"), |f| f.path().to_path_buf()),
+            _link_file: link_file,
             dir,
         })
+    }
+
+    /// The directory that holds the log and the sockets.
+    pub fn dir(&self) -> &Path {
+        self.dir.path()
     }
 }
 
@@ -233,11 +337,8 @@ impl Qemu {
         firmware: &Path,
         options: &LaunchOptions,
     ) -> Result<Self, QemuError> {
-        let binary = find_on_path(&profile.binary).ok_or_else(|| QemuError::Missing {
-            binary: profile.binary.clone(),
-        })?;
-        install_signal_handler();
-        let files = RunFiles::new()?;
+        let binary = find_qemu(profile)?;
+        let files = RunFiles::new(profile.transport)?;
         let log = std::fs::File::create(&files.log)?;
         let mut cmd = Command::new(&binary);
         cmd.arg("-M")
@@ -299,20 +400,16 @@ impl Qemu {
                 Ok(())
             });
         }
-        let mut child = cmd.spawn().map_err(|source| {
-            let _ = std::fs::remove_file(&files.link_shm);
-            QemuError::Spawn {
-                binary: binary.display().to_string(),
-                source,
-            }
+        let mut child = cmd.spawn().map_err(|source| QemuError::Spawn {
+            binary: binary.display().to_string(),
+            source,
         })?;
-        CHILDREN.lock().unwrap().insert(child.id());
+        cleanup::track_process(&child);
 
         let qmp = match Qmp::connect(&files.qmp_socket, &mut child, &files.log) {
             Ok(qmp) => qmp,
             Err(e) => {
-                end_child(&mut child);
-                let _ = std::fs::remove_file(&files.link_shm);
+                cleanup::end(&mut child);
                 return Err(e);
             }
         };
@@ -367,6 +464,12 @@ impl Qemu {
         &self.files
     }
 
+    /// The last lines QEMU wrote to its standard output and error (its log file is temporary:
+    /// errors quote this instead of naming the file).
+    pub fn output_tail(&self) -> String {
+        log_tail(&self.files.log)
+    }
+
     /// Start (or continue) the guest CPU.
     pub fn resume(&mut self) -> Result<(), QemuError> {
         self.qmp.execute("cont", json!({})).map(drop)
@@ -382,6 +485,16 @@ impl Qemu {
         self.qmp.execute("system_reset", json!({})).map(drop)
     }
 
+    /// The guest CPU's registers (`info registers` through QMP's human monitor), as QEMU
+    /// prints them: for diagnosing a target that stopped answering.
+    pub fn cpu_registers(&mut self) -> Result<String, QemuError> {
+        let text = self.qmp.execute(
+            "human-monitor-command",
+            json!({ "command-line": "info registers" }),
+        )?;
+        Ok(text.as_str().unwrap_or_default().to_string())
+    }
+
     /// QMP events received so far (RESET, STOP, ...), in arrival order.
     pub fn events(&self) -> &[Value] {
         &self.qmp.events
@@ -395,32 +508,24 @@ impl Qemu {
 
     /// True while the QEMU process is running.
     pub fn is_running(&mut self) -> bool {
-        matches!(self.child.try_wait(), Ok(None))
+        self.exit_status().is_none()
+    }
+
+    /// How the QEMU process ended, once it has.
+    pub fn exit_status(&mut self) -> Option<std::process::ExitStatus> {
+        cleanup::try_reap(&mut self.child)
     }
 
     /// End the process now (power off), by PID.
     pub fn kill(mut self) {
-        end_child(&mut self.child);
+        cleanup::end(&mut self.child);
     }
 }
 
 impl Drop for Qemu {
+    /// Ends the process; then its files go (the fields drop after this).
     fn drop(&mut self) {
-        end_child(&mut self.child);
-        let _ = std::fs::remove_file(&self.files.qmp_socket);
-        let _ = std::fs::remove_file(&self.files.serial_socket);
-        let _ = std::fs::remove_file(&self.files.link_shm);
-    }
-}
-
-fn end_child(child: &mut Child) {
-    let pid = child.id();
-    if matches!(child.try_wait(), Ok(None)) {
-        kill_pid(pid);
-    }
-    let _ = child.wait();
-    if let Ok(mut children) = CHILDREN.lock() {
-        children.remove(&pid);
+        cleanup::end(&mut self.child);
     }
 }
 
@@ -443,18 +548,6 @@ pub fn process_cpu_time(pid: u32) -> Option<Duration> {
     ))
 }
 
-fn find_on_path(binary: &str) -> Option<PathBuf> {
-    if binary.contains('/') {
-        let p = PathBuf::from(binary);
-        return p.is_file().then_some(p);
-    }
-    std::env::var_os("PATH").and_then(|paths| {
-        std::env::split_paths(&paths)
-            .map(|dir| dir.join(binary))
-            .find(|p| p.is_file())
-    })
-}
-
 fn log_tail(log: &Path) -> String {
     let text = std::fs::read_to_string(log).unwrap_or_default();
     let lines: Vec<&str> = text.lines().collect();
@@ -472,10 +565,9 @@ impl Qmp {
     fn connect(socket: &Path, child: &mut Child, log: &Path) -> Result<Self, QemuError> {
         let deadline = Instant::now() + Duration::from_secs(20);
         let stream = loop {
-            if let Ok(Some(status)) = child.try_wait() {
+            if let Some(status) = cleanup::try_reap(child) {
                 return Err(QemuError::ExitedEarly {
                     status: status.to_string(),
-                    log: log.to_path_buf(),
                     tail: log_tail(log),
                 });
             }
@@ -527,5 +619,83 @@ impl Qmp {
                 return Err(QemuError::Qmp(format!("{command}: {err}")));
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::os::unix::fs::PermissionsExt;
+
+    #[test]
+    fn every_profile_in_qemu_is_built_in_and_parses_under_its_own_name() {
+        let dir = repo_root().join("qemu");
+        let mut shipped: Vec<String> = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter_map(|e| {
+                let name = e.unwrap().file_name().to_string_lossy().into_owned();
+                name.strip_suffix(".toml").map(str::to_string)
+            })
+            .collect();
+        shipped.sort();
+        let mut built_in: Vec<String> = BUILT_IN_PROFILES
+            .iter()
+            .map(|(n, _)| n.to_string())
+            .collect();
+        built_in.sort();
+        assert_eq!(
+            built_in, shipped,
+            "qemu/*.toml and BUILT_IN_PROFILES differ"
+        );
+        for (name, text) in BUILT_IN_PROFILES {
+            let profile: QemuProfile = toml::from_str(text).unwrap();
+            assert_eq!(profile.name, name);
+        }
+    }
+
+    #[test]
+    fn a_profile_file_is_read_and_an_unknown_name_lists_the_built_in_ones() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("mine.toml");
+        std::fs::write(
+            &file,
+            BUILT_IN_PROFILES[0]
+                .1
+                .replace("name = \"rad750-proxy\"", "name = \"mine\""),
+        )
+        .unwrap();
+        assert_eq!(
+            QemuProfile::load(file.to_str().unwrap()).unwrap().name,
+            "mine"
+        );
+        let err = QemuProfile::load("no-such-profile")
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("rad750-proxy, rad750-proxy-serial"), "{err}");
+        assert!(err.contains("qemu/no-such-profile.toml"), "{err}");
+    }
+
+    #[test]
+    fn the_first_executable_on_path_is_found_and_a_miss_lists_the_directories() {
+        let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        let not_executable = a.path().join("qemu-test");
+        std::fs::write(&not_executable, b"").unwrap();
+        let executable = b.path().join("qemu-test");
+        std::fs::write(&executable, b"").unwrap();
+        std::fs::set_permissions(&executable, std::fs::Permissions::from_mode(0o755)).unwrap();
+        let path = std::env::join_paths([a.path(), b.path()]).unwrap();
+        assert_eq!(find_executable("qemu-test", &path), Ok(executable.clone()));
+        assert_eq!(
+            find_executable("qemu-other", &path),
+            Err(vec![a.path().to_path_buf(), b.path().to_path_buf()])
+        );
+        assert_eq!(
+            find_executable(executable.to_str().unwrap(), "".as_ref()),
+            Ok(executable)
+        );
+        assert_eq!(
+            find_executable(not_executable.to_str().unwrap(), &path),
+            Err(Vec::new())
+        );
     }
 }

@@ -1,5 +1,4 @@
 //! `hil run`: execute a scenario against a target and produce a verdict and a report.
-use std::path::PathBuf;
 
 pub use crate::options::RunOptions;
 use std::time::{Duration, Instant};
@@ -93,7 +92,8 @@ pub struct RunReport {
     pub host_rejected_frames: u32,
     pub logs: Vec<LogReport>,
     pub wall_time_ms: u64,
-    pub qemu_log: Option<PathBuf>,
+    /// The end of QEMU's output at the end of the run (emulated targets).
+    pub qemu_output_tail: Option<String>,
 }
 
 /// Run `scenario`; `progress` receives human-readable lines as the run goes.
@@ -191,7 +191,7 @@ pub fn run_scenario(
         host_rejected_frames: session.link.host_counters().errors(),
         logs: session.logs.iter().map(LogReport::from).collect(),
         wall_time_ms: started.elapsed().as_millis() as u64,
-        qemu_log: session.qemu_log(),
+        qemu_output_tail: session.qemu_output_tail(),
     };
     Ok(report)
 }
@@ -305,8 +305,8 @@ pub fn summary(report: &RunReport) -> String {
         out.push_str(&format!("\n  step {} ({}): {}", s.index, s.step, s.detail));
     }
     if !report.passed {
-        if let Some(log) = &report.qemu_log {
-            out.push_str(&format!("\n  QEMU output: {}", log.display()));
+        if let Some(tail) = report.qemu_output_tail.as_deref().filter(|t| !t.is_empty()) {
+            out.push_str(&format!("\n  the end of QEMU's output:\n{tail}"));
         }
     }
     out

@@ -1,7 +1,6 @@
 //! A session with one target: the target itself (a QEMU we started, or a real board on a serial
 //! port), its link, and its decoded logs. Higher-level steps (handshake, ping, resets) live here
 //! so that `hil run`, `hil bench` and the integration tests share them.
-use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 use fsw_bridge::{
@@ -31,7 +30,20 @@ pub enum SessionError {
     TargetPanic { file: String, line: u32 },
     #[error("this needs a QEMU target (not a serial device)")]
     NotQemu,
+    #[error(
+        "the target's QEMU (pid {pid}) ended ({status}): {what}; the end of its output: {tail:?}"
+    )]
+    QemuEnded {
+        pid: u32,
+        status: String,
+        /// What failed because of it (a closed link, a silent target).
+        what: String,
+        tail: String,
+    },
 }
+
+/// How long [`Session::qemu_ended`] gives a QEMU whose link closed to show that it exited.
+pub const QEMU_EXIT_GRACE: Duration = Duration::from_millis(500);
 
 /// What a Hello said.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -83,12 +95,11 @@ impl Session {
         qemu.wait_serial_connected(Duration::from_secs(20))?;
         qemu.resume()?;
         let describe = format!(
-            "{} (QEMU pid {}, link over {}, serial {}, log {})",
+            "{} (QEMU pid {}, link over {}, serial {})",
             profile.name,
             qemu.pid(),
             qemu.transport().name(),
             qemu.serial_socket().display(),
-            qemu.files().log.display()
         );
         Ok(Self {
             qemu: Some(qemu),
@@ -128,9 +139,32 @@ impl Session {
         })
     }
 
-    /// The QEMU log file, when the target is emulated.
-    pub fn qemu_log(&self) -> Option<PathBuf> {
-        self.qemu.as_ref().map(|q| q.files().log.clone())
+    /// The end of QEMU's output, when the target is emulated (for error messages: the log
+    /// file itself is removed with the QEMU).
+    pub fn qemu_output_tail(&self) -> Option<String> {
+        self.qemu.as_ref().map(Qemu::output_tail)
+    }
+
+    /// If the target's QEMU has ended, that (the cause of `what`, a closed link or a silent
+    /// target); None while it runs or for a serial target. A process being killed closes its
+    /// sockets a moment before it can be reaped, so this waits up to [`QEMU_EXIT_GRACE`] for
+    /// the exit to show.
+    pub fn qemu_ended(&mut self, what: &str) -> Option<SessionError> {
+        let qemu = self.qemu.as_mut()?;
+        let deadline = Instant::now() + QEMU_EXIT_GRACE;
+        let status = loop {
+            match qemu.exit_status() {
+                Some(status) => break status,
+                None if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(5)),
+                None => return None,
+            }
+        };
+        Some(SessionError::QemuEnded {
+            pid: qemu.pid(),
+            status: status.to_string(),
+            what: what.to_string(),
+            tail: qemu.output_tail(),
+        })
     }
 
     /// The next message that is not a log frame (logs are decoded and kept on the way).
@@ -318,8 +352,8 @@ impl Session {
             counters.frames_ok,
             counters.errors()
         );
-        if let Some(log) = self.qemu_log() {
-            detail.push_str(&format!("; QEMU output is in {}", log.display()));
+        if let Some(tail) = self.qemu_output_tail() {
+            detail.push_str(&format!("; the end of QEMU's output: {tail:?}"));
         }
         detail.push_str(&format!("; target: {}", self.describe));
         SessionError::Silent { waited, detail }

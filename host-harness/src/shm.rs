@@ -222,9 +222,8 @@ mod tests {
 
     #[test]
     fn bytes_written_into_the_file_come_out_of_the_other_ring_end_with_a_doorbell() {
-        let dir = std::env::temp_dir().join(format!("hil-shm-test-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("link");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("link");
         let _created = MappedLink::create(&path).unwrap();
         let (host_end, target_end) = UnixStream::pair().unwrap();
         host_end
@@ -252,6 +251,5 @@ mod tests {
             e.kind(),
             std::io::ErrorKind::WouldBlock | std::io::ErrorKind::TimedOut
         ));
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -121,12 +121,17 @@ pub fn profile_over(transport: Transport) -> QemuProfile {
     profile().with_transport(transport)
 }
 
-/// A fresh path for an emulated target's non-volatile memory file, unique in this test process
-/// (tests run QEMUs side by side: two targets must never share one).
-pub fn unique_nv_file(name: &str) -> std::path::PathBuf {
-    static COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-    let n = COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    std::env::temp_dir().join(format!("hil-test-nv-{}-{n}-{name}.bin", std::process::id()))
+/// A temporary directory with the shipped flyby task network at `tasknets/flyby.toml`, where a
+/// scenario written into the directory finds it.
+pub fn beside_the_flyby_tasknet() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("tasknets")).unwrap();
+    std::fs::copy(
+        hil::repo_root().join("scenarios/tasknets/flyby.toml"),
+        dir.path().join("tasknets/flyby.toml"),
+    )
+    .unwrap();
+    dir
 }
 
 /// Boot the RAD750 proxy under QEMU and wait for nothing yet.
@@ -172,4 +177,85 @@ pub fn pty_pair() -> PtyPair {
             _slave: File::from_raw_fd(slave),
         }
     }
+}
+
+/// A shipped scenario's path.
+pub fn scenario(name: &str) -> std::path::PathBuf {
+    hil::repo_root().join("scenarios").join(name)
+}
+
+/// A shipped scenario, loaded and validated.
+pub fn prepared(name: &str) -> hil::mission::plan::MissionPlan {
+    hil::mission::runner::prepare(&scenario(name)).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Fly `plan` on the native target.
+pub fn fly_native(plan: &hil::mission::plan::MissionPlan) -> hil::mission::report::MissionReport {
+    let mut target = hil::mission::target::NativeTarget::new();
+    hil::mission::runner::run(plan, &mut target, None, &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{} natively: {e}", plan.scenario.name))
+}
+
+/// Fly `plan` on an emulated target booted with `profile` (a QEMU slot held, a fresh
+/// temporary non-volatile memory).
+pub fn fly_emulated(
+    plan: &hil::mission::plan::MissionPlan,
+    profile: QemuProfile,
+) -> hil::mission::report::MissionReport {
+    let _one = exclusive_qemu();
+    let mut target = hil::mission::target::EmulatedTarget::with_temporary_nv(
+        profile,
+        firmware().clone(),
+        false,
+        false,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    hil::mission::runner::run(plan, &mut target, Some(firmware()), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{} on the emulated target: {e}", plan.scenario.name))
+}
+
+/// A run's decisions without the command ids, which each target numbers from its own counter
+/// (equal too, but not part of what the autonomy decided).
+pub fn decisions(r: &hil::mission::report::MissionReport) -> Vec<hil::mission::record::Decision> {
+    use hil::mission::record::Decision;
+    r.decisions
+        .iter()
+        .map(|d| match d {
+            Decision::Dispatch {
+                at, opcode, args, ..
+            } => Decision::Dispatch {
+                at: *at,
+                id: 0,
+                opcode: *opcode,
+                args: args.clone(),
+            },
+            other => other.clone(),
+        })
+        .collect()
+}
+
+/// One message class's link figures: class, sent, retransmitted, received, received again.
+pub type ClassFigures = (&'static str, u64, u64, u64, u64);
+
+/// The link's figures for the Mission channel's message classes (what the autonomy's exchange
+/// needs): class, sent, retransmitted, received, received again; and the rounds. The Instrument
+/// channel (logs, cost metrics, health events) carries what only one kind of target sends.
+pub fn mission_link_figures(r: &hil::mission::report::MissionReport) -> (u64, Vec<ClassFigures>) {
+    const INSTRUMENT: [&str; 3] = ["metric", "log", "health event"];
+    let classes = r
+        .link
+        .classes
+        .iter()
+        .filter(|c| !INSTRUMENT.contains(&c.class))
+        .map(|c| {
+            (
+                c.class,
+                c.sent,
+                c.retransmitted,
+                c.received,
+                c.received_again,
+            )
+        })
+        .collect();
+    (r.link.rounds, classes)
 }

@@ -94,9 +94,8 @@ fn a_budget_lowered_below_its_measurement_fails_naming_it() {
         lowered, text,
         "budgets.toml no longer has the reset_recovery budget"
     );
-    let dir = std::env::temp_dir().join(format!("hil-budgets-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("budgets.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("budgets.toml");
     std::fs::write(&path, lowered).unwrap();
     let outcome = budget::check(
         &path,

@@ -165,13 +165,12 @@ fn shards_one_and_two_of_two_merge_into_the_unsharded_campaign() {
     assert!(a.results.iter().all(|r| r.variant.run % 2 == 0));
     assert_eq!(a.stats.missing_runs, [1, 3, 5, 7]);
     // Merge through JSON, as shard reports from other machines arrive.
+    let dir = tempfile::tempdir().unwrap();
     let through_json = |r: &CampaignReport| {
         hil::campaign::load_report(&{
-            let p = std::env::temp_dir().join(format!(
-                "hil-campaign-{}-{}.json",
-                std::process::id(),
-                r.shards.join("_").replace('/', "of")
-            ));
+            let p = dir
+                .path()
+                .join(format!("{}.json", r.shards.join("_").replace('/', "of")));
             hil::campaign::save_report(r, &p).unwrap();
             p
         })

@@ -40,16 +40,26 @@ fn a_missing_qemu_says_how_to_install_it() {
     let err = Qemu::launch(&p, &firmware().elf, &LaunchOptions::default())
         .err()
         .expect("launch must fail");
-    assert!(matches!(err, QemuError::Missing { .. }), "{err:?}");
+    assert!(matches!(err, QemuError::Missing(_)), "{err:?}");
     let text = err.to_string();
     assert!(
-        text.contains("qemu-system-ppc-not-installed-here"),
+        text.contains(
+            "`qemu-system-ppc-not-installed-here` (the binary of QEMU profile rad750-proxy)"
+        ),
+        "{text}"
+    );
+    // Where it was looked for: every directory on PATH.
+    let path = std::env::var_os("PATH").unwrap();
+    let first = std::env::split_paths(&path).next().unwrap();
+    assert!(
+        text.contains(&format!("searched: {}", first.display())),
         "{text}"
     );
     assert!(
         text.contains("apt-get install -y qemu-system-ppc"),
         "{text}"
     );
+    assert!(text.contains("HIL_QEMU"), "{text}");
 }
 
 #[test]
@@ -123,9 +133,8 @@ fn a_silent_target_reports_what_was_received() {
 
 #[test]
 fn bad_scenario_files_name_file_line_and_field() {
-    let dir = std::env::temp_dir().join(format!("hil-scn-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("bad.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.toml");
     std::fs::write(
         &path,
         "name = \"bad\"\n\n[[steps]]\nexpect_hello = { reset_cause = \"lukewarm\" }\n",

@@ -138,8 +138,8 @@ fn wait_for_log(target: &mut Session, text: &str) {
         // in what the target queued (other messages are kept for the checks).
         if let Err(e) = target.sync(8, PATIENCE) {
             panic!(
-                "the target stopped answering rounds ({e}); QEMU log {:?}; logs: {:#?}\nother messages: {:?}",
-                target.qemu_log(),
+                "the target stopped answering rounds ({e}); the end of QEMU's output {:?}; logs: {:#?}\nother messages: {:?}",
+                target.qemu_output_tail(),
                 target.logs.iter().map(|l| &l.message).collect::<Vec<_>>(),
                 target.unsolicited
             );

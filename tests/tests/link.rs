@@ -168,3 +168,33 @@ fn the_qemu_process_is_ended_when_the_session_is_dropped() {
         "QEMU pid {pid} outlived its session"
     );
 }
+
+#[test]
+fn corrupt_frames_at_its_documented_maximum_passes() {
+    let _one = hil_tests::exclusive_qemu();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("corrupt-max.toml");
+    let max = hil::scenario::MAX_CORRUPT_PER_STEP;
+    std::fs::write(
+        &path,
+        format!(
+            "name = \"corrupt-max\"\n[[steps]]\nexpect_hello = {{ reset_cause = \"power-on\" }}\n\
+             [[steps]]\ncorrupt_frames = {{ count = {max} }}\n"
+        ),
+    )
+    .unwrap();
+    let scenario = hil::scenario::load(&path).unwrap();
+    let options = hil::options::RunOptions {
+        firmware: Some(firmware().elf.clone()),
+        ..Default::default()
+    };
+    let report = hil::run::run_scenario(&scenario, &options, &mut |_| {}).unwrap();
+    assert!(report.passed, "{}", hil::run::summary(&report));
+    assert!(
+        report.steps[1].detail.contains(&format!(
+            "target counted {max} CRC errors and still answers"
+        )),
+        "{}",
+        report.steps[1].detail
+    );
+}

@@ -23,11 +23,8 @@ fn flyby_reset_at(kind: ResetKind, tag: &str) -> (MissionReport, Vec<MidFrameRep
         hil::time::parse_time(&RESET_AT.into(), hil::time::Epoch::default()).unwrap(),
         RECOVERY_US,
     );
-    let nv = std::env::temp_dir().join(format!(
-        "hil-test-nv-mid-frame-{}-{tag}.bin",
-        std::process::id()
-    ));
-    let mut target = EmulatedTarget::new(profile(), firmware().clone(), false, nv, false);
+    let mut target =
+        EmulatedTarget::with_temporary_nv(profile(), firmware().clone(), false, false).unwrap();
     target.arm_mid_frame_reset_exactly(kind);
     let report = run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
         .unwrap_or_else(|e| panic!("{tag}: {e}"));

@@ -88,29 +88,17 @@ fn another_seed_gives_another_link_fault_pattern() {
     let text = std::fs::read_to_string(&path)
         .unwrap()
         .replace("seed = 11", "seed = 12");
-    let dir = std::env::temp_dir().join(format!("hil-seed-{}", std::process::id()));
-    std::fs::create_dir_all(dir.join("tasknets")).unwrap();
-    std::fs::copy(
-        hil::repo_root().join("scenarios/tasknets/flyby.toml"),
-        dir.join("tasknets/flyby.toml"),
-    )
-    .unwrap();
-    std::fs::write(dir.join("s.toml"), text).unwrap();
+    let dir = hil_tests::beside_the_flyby_tasknet();
+    std::fs::write(dir.path().join("s.toml"), text).unwrap();
     let a = run_native(&path);
-    let b = run_native(&dir.join("s.toml"));
+    let b = run_native(&dir.path().join("s.toml"));
     assert_ne!(a.transcript_sha256, b.transcript_sha256);
 }
 
 #[test]
 fn realtime_mode_paces_the_grants_by_the_wall_clock() {
-    let dir = std::env::temp_dir().join(format!("hil-rt-{}", std::process::id()));
-    std::fs::create_dir_all(dir.join("tasknets")).unwrap();
-    std::fs::copy(
-        hil::repo_root().join("scenarios/tasknets/flyby.toml"),
-        dir.join("tasknets/flyby.toml"),
-    )
-    .unwrap();
-    let path = dir.join("rt.toml");
+    let dir = hil_tests::beside_the_flyby_tasknet();
+    let path = dir.path().join("rt.toml");
     std::fs::write(
         &path,
         "name = \"rt\"\n[mission]\ntasknet = \"tasknets/flyby.toml\"\nstart = \"09:59:58\"\nend = \"10:00:00\"\n",

@@ -1,33 +1,18 @@
 //! The shipped flyby scenarios on the emulated RAD750 proxy (the flight application in the
 //! executive partition of the partitioning kernel, under qemu-system-ppc with icount), and the
 //! comparison with the native build: the same decisions at the same mission times.
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-use hil::mission::record::Decision;
 use hil::mission::report::MissionReport;
-use hil::mission::runner::{prepare, run};
-use hil::mission::target::{EmulatedTarget, NativeTarget};
-use hil_tests::{firmware, profile};
-
-fn scenario(name: &str) -> PathBuf {
-    hil::repo_root().join("scenarios").join(name)
-}
+use hil::mission::runner::prepare;
+use hil_tests::{decisions, fly_emulated, fly_native, profile, scenario};
 
 fn run_emulated(path: &Path) -> MissionReport {
-    let _one = hil_tests::exclusive_qemu();
-    let prepared = prepare(path).unwrap_or_else(|e| panic!("{e}"));
-    let nv = hil_tests::unique_nv_file(&path.file_stem().unwrap().to_string_lossy());
-    let mut target = EmulatedTarget::new(profile(), firmware().clone(), false, nv.clone(), false);
-    let report = run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
-        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    drop(target);
-    let _ = std::fs::remove_file(&nv);
-    report
+    fly_emulated(&prepare(path).unwrap_or_else(|e| panic!("{e}")), profile())
 }
 
 fn run_native(path: &Path) -> MissionReport {
-    let prepared = prepare(path).unwrap();
-    run(&prepared, &mut NativeTarget::new(), None, &mut |_, _, _| {}).unwrap()
+    fly_native(&prepare(path).unwrap_or_else(|e| panic!("{e}")))
 }
 
 /// Every shipped flyby scenario runs on the emulated target (the power cycle restarts QEMU; the
@@ -44,25 +29,6 @@ const EMULATED: [&str; 10] = [
     "flyby-power-cycle.toml",
     "flyby-link-corruption.toml",
 ];
-
-/// Decisions without the command ids, which the target numbers from its own counter (equal
-/// here too, but not part of what the autonomy decided).
-fn decisions(r: &MissionReport) -> Vec<Decision> {
-    r.decisions
-        .iter()
-        .map(|d| match d {
-            Decision::Dispatch {
-                at, opcode, args, ..
-            } => Decision::Dispatch {
-                at: *at,
-                id: 0,
-                opcode: *opcode,
-                args: args.clone(),
-            },
-            other => other.clone(),
-        })
-        .collect()
-}
 
 #[test]
 fn the_flyby_scenarios_pass_on_the_emulated_target_with_the_same_decisions_as_native() {

@@ -18,19 +18,15 @@ fn scenario(name: &str) -> PathBuf {
 fn run_over(transport: Transport, path: &Path) -> MissionReport {
     let _one = hil_tests::exclusive_qemu();
     let prepared = prepare(path).unwrap_or_else(|e| panic!("{e}"));
-    let nv = hil_tests::unique_nv_file(&path.file_stem().unwrap().to_string_lossy());
-    let mut target = EmulatedTarget::new(
+    let mut target = EmulatedTarget::with_temporary_nv(
         profile_over(transport),
         firmware().clone(),
         false,
-        nv.clone(),
         false,
-    );
-    let report = run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
-        .unwrap_or_else(|e| panic!("{} over {}: {e}", path.display(), transport.name()));
-    drop(target);
-    let _ = std::fs::remove_file(&nv);
-    report
+    )
+    .unwrap();
+    run(&prepared, &mut target, Some(firmware()), &mut |_, _, _| {})
+        .unwrap_or_else(|e| panic!("{} over {}: {e}", path.display(), transport.name()))
 }
 
 /// Resets through QMP and over the link, a power cycle (a new QEMU, the plan from non-volatile
@@ -89,25 +85,11 @@ fn missions_give_the_same_transcript_decisions_and_costs_over_both_transports() 
         // retransmissions. The Instrument channel carries the kernel's log (whose boot lines
         // name the link device) and cost metrics, so its traffic, and the faults it meets,
         // differ between the boards.
-        let instrument = ["metric", "log", "health event"];
-        let mission_classes = |r: &MissionReport| {
-            r.link
-                .classes
-                .iter()
-                .filter(|c| !instrument.contains(&c.class))
-                .map(|c| {
-                    (
-                        c.class,
-                        c.sent,
-                        c.retransmitted,
-                        c.received,
-                        c.received_again,
-                    )
-                })
-                .collect::<Vec<_>>()
-        };
-        assert_eq!(mission_classes(&serial), mission_classes(&shared), "{name}");
-        assert_eq!(serial.link.rounds, shared.link.rounds, "{name}");
+        assert_eq!(
+            hil_tests::mission_link_figures(&serial),
+            hil_tests::mission_link_figures(&shared),
+            "{name}"
+        );
         assert_eq!(
             serial.metrics.keys().collect::<Vec<_>>(),
             shared.metrics.keys().collect::<Vec<_>>()

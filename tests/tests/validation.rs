@@ -10,14 +10,9 @@ struct Files {
 
 impl Files {
     fn new() -> Self {
-        let dir = tempfile::tempdir().unwrap();
-        std::fs::create_dir_all(dir.path().join("tasknets")).unwrap();
-        std::fs::copy(
-            hil::repo_root().join("scenarios/tasknets/flyby.toml"),
-            dir.path().join("tasknets/flyby.toml"),
-        )
-        .unwrap();
-        Self { dir }
+        Self {
+            dir: hil_tests::beside_the_flyby_tasknet(),
+        }
     }
 
     fn write(&self, name: &str, text: &str) -> std::path::PathBuf {

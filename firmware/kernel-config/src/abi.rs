@@ -260,6 +260,11 @@ pub mod metric {
     pub const LINK_TRANSPORT: u16 = 0x0216;
     /// Shared-memory rings whose counts made no sense, dropped (the host wrote garbage).
     pub const LINK_RING_ERRORS: u16 = 0x0217;
+    /// Messages for the host's Instrument channel (costs, kernel events, logs) the I/O
+    /// partition dropped since boot because that channel's send queue and its holding queue
+    /// were full (a link too noisy for the instrumentation), or because the link was lost.
+    /// Sent by the I/O partition, on the Instrument channel, after a drop, once it has room.
+    pub const LINK_INSTRUMENT_DROPPED: u16 = 0x0218;
 }
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the

@@ -363,6 +363,9 @@ where
             }
             if let Some(report) = inbox.report {
                 bump(&mut self.stats.reports_applied);
+                if report.lost && self.lost.is_none() {
+                    self.declare_lost(LostReason::PeerLost);
+                }
                 for (i, farm) in self.farms.iter_mut().enumerate() {
                     if farm.on_peer_sent(report.sent_vs[i]) {
                         bump(&mut self.stats.received[i].missing_tail_detected);
@@ -444,6 +447,7 @@ where
             clcw: [self.farms[0].clcw(), self.farms[1].clcw()],
             sent_vs: [self.fops[0].v_s(), self.fops[1].v_s()],
             backlog: [self.fops[0].backlog() > 0, self.fops[1].backlog() > 0],
+            lost: self.lost.is_some(),
         }
     }
 

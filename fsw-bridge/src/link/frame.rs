@@ -150,6 +150,10 @@ pub struct LinkReport {
     pub sent_vs: [u8; VC_COUNT],
     /// Per VC: this side has messages waiting for window space (it is not done sending).
     pub backlog: [bool; VC_COUNT],
+    /// This side has declared the link lost: it sends nothing more until a reset, and the
+    /// peer ends too (with [`super::LostReason::PeerLost`]) instead of waiting for traffic
+    /// that will never come.
+    pub lost: bool,
 }
 
 /// One frame of the reliable link. `M` is the direction's message set (`HostToTarget` or

@@ -266,6 +266,9 @@ pub enum LostReason {
     /// The peer never confirmed opening `vc` (Unlock and Set V(R) sent the transmission limit
     /// number of times).
     InitiationFailed { vc: VirtualChannel },
+    /// The peer's Report said it had declared the link lost (for one of the reasons above, on
+    /// its side).
+    PeerLost,
 }
 
 /// The "link lost" verdict: why, when, and how far each direction got.
@@ -300,6 +303,10 @@ impl fmt::Display for LinkLost {
             LostReason::InitiationFailed { vc } => {
                 write!(f, "the peer never opened the {} channel", vc.name())?
             }
+            LostReason::PeerLost => write!(
+                f,
+                "the peer declared the link lost (one of its frames reached the transmission limit, or it could not open a channel)"
+            )?,
         }
         for vc in VirtualChannel::ALL {
             let i = vc.index();

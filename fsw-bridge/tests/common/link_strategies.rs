@@ -36,12 +36,14 @@ pub fn reports() -> impl Strategy<Value = LinkReport> {
         [clcws(), clcws()],
         any::<[u8; VC_COUNT]>(),
         any::<[bool; VC_COUNT]>(),
+        any::<bool>(),
     )
-        .prop_map(|(round, clcw, sent_vs, backlog)| LinkReport {
+        .prop_map(|(round, clcw, sent_vs, backlog, lost)| LinkReport {
             round,
             clcw,
             sent_vs,
             backlog,
+            lost,
         })
 }
 

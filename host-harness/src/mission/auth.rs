@@ -374,9 +374,8 @@ mod tests {
 
     #[test]
     fn a_provisioned_nv_file_holds_the_key_at_the_executives_offset_and_keeps_the_rest() {
-        let dir = std::env::temp_dir().join(format!("hil-auth-test-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("nv.bin");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("nv.bin");
         std::fs::write(&path, [0x5au8; 16]).unwrap();
         provision_nv_file(&path, &TEST_KEY, 1 << 20).unwrap();
         let bytes = std::fs::read(&path).unwrap();
@@ -385,7 +384,6 @@ mod tests {
         let area = &bytes[NV_SECURITY_OFFSET..NV_SECURITY_OFFSET + NV_SECURITY_BYTES];
         assert_eq!(sdls::nv::read_key_slot(area), Some(TEST_KEY));
         assert!(describe_nv_file(&path).unwrap().contains("key SPI 1"));
-        std::fs::remove_dir_all(&dir).unwrap();
         // The offset is the executive's: right after the warm area's checkpoint part.
         assert_eq!(NV_SECURITY_OFFSET, 0x1_0000 - 64);
     }

@@ -151,6 +151,10 @@ struct Flight<'p, 't> {
     last_command: Option<HostToTarget>,
 }
 
+/// Most rounds run after the mission to bring in what the target still has queued on the
+/// Instrument channel.
+const INSTRUMENT_DRAIN_ROUNDS: u32 = 2_000;
+
 /// Fly `plan` on `target`.
 pub fn drive(
     plan: &MissionPlan,
@@ -191,9 +195,27 @@ pub fn drive(
         plan.start,
         format!("boot ({})", cause_name(hello.reset_cause)),
     );
-    f.uplink()?;
-    f.inputs = f.sim.publish_all(f.now);
-    let ended_early = f.fly(progress).err().map(|e| {
+    // A refused or oversized network is the inputs' fault: the mission cannot start. From
+    // here on, whatever else goes wrong (a link or a target failing during the first uplink
+    // included) ends the run with a FAIL verdict that names it, and what was received so far
+    // is reported.
+    let flown = match f.uplink() {
+        Err(e @ (MissionError::UplinkRefused { .. } | MissionError::UplinkTooLarge { .. })) => {
+            return Err(e)
+        }
+        Err(e) => Err(EndedEarly::from(e)),
+        Ok(()) => {
+            f.inputs = f.sim.publish_all(f.now);
+            f.fly(progress)
+        }
+    };
+    if flown.is_err() {
+        // What the failed exchange received: the target's last telemetry and logs.
+        for msg in f.link.take_stranded() {
+            f.take(msg);
+        }
+    }
+    let ended_early = flown.err().map(|e| {
         let at = fmt_time(f.now);
         f.rec.label(f.now, format!("run ended early: {e}"));
         format!("at {at}: {e}")
@@ -203,8 +225,27 @@ pub fn drive(
     f.rec
         .metrics
         .insert("link_faults_injected".into(), injected);
-    let link = f.link.summary();
+    let mut link = f.link.summary();
     let (transcript_frames, transcript_sha256, transcript) = f.link.finish_transcript();
+    if ended_early.is_none() {
+        // What the target still has queued on the Instrument channel (costs, logs) comes in
+        // before the report is made; a channel that does not empty is reported, not waited on.
+        match f
+            .link
+            .drain_instrument(&mut *f.target, INSTRUMENT_DRAIN_ROUNDS)
+        {
+            Ok((rounds, drained, delivered)) => {
+                link.instrument_drain_rounds = u64::from(rounds);
+                link.instrument_drained = drained;
+                for msg in delivered {
+                    f.take(msg);
+                }
+            }
+            Err(e) => f
+                .rec
+                .label(f.now, format!("draining the Instrument channel: {e}")),
+        }
+    }
     Ok(MissionRun {
         record: f.rec,
         transcript_sha256,

@@ -93,6 +93,12 @@ pub struct LinkSummary {
     pub injected_downlink: u64,
     /// Retransmitted frames per 1,000 frames sent (both directions, both channels).
     pub retransmissions_per_1000_frames: u64,
+    /// Rounds run after the mission, not counted above, to bring in what the target still had
+    /// queued on the Instrument channel (costs, logs).
+    pub instrument_drain_rounds: u64,
+    /// Whether that channel emptied (false: some instrumentation never arrived; the report
+    /// says so).
+    pub instrument_drained: bool,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -115,6 +121,8 @@ pub struct LinkSession {
     expedited: Vec<HostToTarget>,
     rounds: u64,
     transcript: Transcript,
+    /// Messages the current exchange delivered so far.
+    delivered: Vec<TargetToHost>,
     /// Target-to-host data frames the host discarded as duplicates or out of sequence, per
     /// message class: what the target had to send (or sent) again.
     downlink_discards: std::collections::BTreeMap<&'static str, u64>,
@@ -135,6 +143,7 @@ impl LinkSession {
             rounds: 0,
             transcript: Transcript::default(),
             downlink_discards: Default::default(),
+            delivered: Vec::new(),
         }
     }
 
@@ -173,11 +182,44 @@ impl LinkSession {
     pub fn exchange(
         &mut self,
         target: &mut dyn MissionTarget,
+        until: Option<&mut dyn FnMut(&TargetToHost) -> bool>,
+    ) -> Result<(Exchanged, Vec<TargetToHost>), LinkFailure> {
+        self.rounds_until(target, until, false, MAX_ROUNDS_PER_EXCHANGE)
+    }
+
+    /// After the mission (and after [`LinkSession::finish_transcript`]): rounds with nothing
+    /// new from the host until the Instrument channel has delivered what the target still had
+    /// queued (costs, logs), at most `max_rounds`. Returns the rounds run, whether everything
+    /// arrived, and what was delivered. These rounds are not part of the mission's figures:
+    /// how many there are depends on the instrumentation, which differs between boards.
+    pub fn drain_instrument(
+        &mut self,
+        target: &mut dyn MissionTarget,
+        max_rounds: u32,
+    ) -> Result<(u32, bool, Vec<TargetToHost>), LinkFailure> {
+        let rounds_before = self.rounds;
+        let result = self.rounds_until(target, None, true, max_rounds);
+        let rounds = (self.rounds - rounds_before) as u32;
+        self.rounds = rounds_before;
+        match result {
+            Ok((_, delivered)) => Ok((rounds, true, delivered)),
+            Err(LinkFailure::NotSettling { .. }) => Ok((rounds, false, self.take_stranded())),
+            Err(e) => Err(e),
+        }
+    }
+
+    fn rounds_until(
+        &mut self,
+        target: &mut dyn MissionTarget,
         mut until: Option<&mut dyn FnMut(&TargetToHost) -> bool>,
+        all_channels: bool,
+        max_rounds: u32,
     ) -> Result<(Exchanged, Vec<TargetToHost>), LinkFailure> {
         let mut matched = until.is_none();
-        let mut delivered = Vec::new();
-        for _ in 0..MAX_ROUNDS_PER_EXCHANGE {
+        // Kept in the session until the exchange returns them: if it fails, what arrived
+        // before the failure is still there for the report ([`LinkSession::take_stranded`]).
+        self.delivered.clear();
+        for _ in 0..max_rounds {
             let mut burst: Vec<Vec<u8>> = Vec::new();
             for msg in std::mem::take(&mut self.expedited) {
                 let _ = self
@@ -219,11 +261,14 @@ impl LinkSession {
                             if let Some(until) = until.as_mut() {
                                 matched |= until(&msg);
                             }
-                            delivered.push(msg);
+                            self.delivered.push(msg);
                         }
                         Received::Expedited(msg @ TargetToHost::Hello { .. }) => {
                             self.reset();
-                            return Ok((Exchanged::TargetReset(msg), delivered));
+                            return Ok((
+                                Exchanged::TargetReset(msg),
+                                std::mem::take(&mut self.delivered),
+                            ));
                         }
                         Received::Expedited(TargetToHost::Panic { file, line }) => {
                             return Err(LinkFailure::Target(TargetError::Panic {
@@ -232,7 +277,7 @@ impl LinkSession {
                             }));
                         }
                         // The kernel's last words before a reset it makes (events, logs).
-                        Received::Expedited(msg) => delivered.push(msg),
+                        Received::Expedited(msg) => self.delivered.push(msg),
                         Received::Discarded(
                             fsw_bridge::link::Discard::Duplicate { .. }
                             | fsw_bridge::link::Discard::OutOfSequence { .. },
@@ -250,13 +295,18 @@ impl LinkSession {
             if let Some(lost) = self.endpoint.lost() {
                 return Err(LinkFailure::Lost(*lost));
             }
-            if matched && self.endpoint.is_settled(VirtualChannel::Mission) {
-                return Ok((Exchanged::Settled, delivered));
+            let settled = if all_channels {
+                self.endpoint.is_all_settled()
+            } else {
+                self.endpoint.is_settled(VirtualChannel::Mission)
+            };
+            if matched && settled {
+                return Ok((Exchanged::Settled, std::mem::take(&mut self.delivered)));
             }
         }
         let fop = self.endpoint.fop(VirtualChannel::Mission);
         Err(LinkFailure::NotSettling {
-            rounds: MAX_ROUNDS_PER_EXCHANGE,
+            rounds: max_rounds,
             detail: format!(
                 "host V(S) {} acknowledged to {}, received to V(R) {}, target reported V(S) {}",
                 fop.v_s(),
@@ -265,6 +315,11 @@ impl LinkSession {
                 self.endpoint.peer().sent_vs[VirtualChannel::Mission.index()],
             ),
         })
+    }
+
+    /// What a failed exchange had delivered before it failed, in order (then nothing).
+    pub fn take_stranded(&mut self) -> Vec<TargetToHost> {
+        std::mem::take(&mut self.delivered)
     }
 
     /// Retransmissions and faults so far.
@@ -307,6 +362,8 @@ impl LinkSession {
             retransmissions_per_1000_frames: (retransmissions * 1000)
                 .checked_div(frames)
                 .unwrap_or(0),
+            instrument_drain_rounds: 0,
+            instrument_drained: true,
         }
     }
 
@@ -317,8 +374,8 @@ impl LinkSession {
     }
 
     /// The transcript: (frames recorded, SHA-256 of its hashed part, every line).
-    pub fn finish_transcript(self) -> (u64, String, Vec<String>) {
-        self.transcript.finish()
+    pub fn finish_transcript(&mut self) -> (u64, String, Vec<String>) {
+        std::mem::take(&mut self.transcript).finish()
     }
 }
 

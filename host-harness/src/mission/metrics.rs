@@ -109,6 +109,11 @@ pub const METRICS: &[MetricDef] = &[
         "faults",
         "link faults the host injected (corrupted, dropped or delayed frames)",
     ),
+    count(
+        "instrument_messages_dropped",
+        "messages",
+        "Instrument-channel messages (costs, kernel events, logs) the target dropped because that channel was full or the link lost; the most in any one boot (emulated target only)",
+    ),
     count("frames", "frames", "lockstep frames granted"),
     cost(
         "max_uplink_verify_ticks",

@@ -554,6 +554,7 @@ impl MissionRecord {
                 }
                 return;
             }
+            kernel_config::abi::metric::LINK_INSTRUMENT_DROPPED => "instrument_messages_dropped",
             kernel_config::abi::metric::KERNEL_BOOT_TICKS => {
                 if let Some(boot) = self.boots.last_mut() {
                     boot.kernel_boot_ticks.get_or_insert(value);

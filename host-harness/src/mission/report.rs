@@ -361,6 +361,17 @@ pub fn summary(r: &MissionReport) -> String {
             String::new()
         }
     ));
+    if !l.instrument_drained {
+        out.push_str(&format!(
+            "        the target's Instrument channel (costs, logs) had not emptied {} rounds after the mission: some instrumentation is missing\n",
+            l.instrument_drain_rounds
+        ));
+    }
+    if let Some(dropped) = r.metrics.get("instrument_messages_dropped") {
+        out.push_str(&format!(
+            "        the target dropped {dropped} Instrument-channel messages (costs, events, logs): that channel was full or lost; the Mission channel lost nothing\n"
+        ));
+    }
     let resent: Vec<String> = l
         .classes
         .iter()

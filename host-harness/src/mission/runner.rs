@@ -47,27 +47,24 @@ pub fn make_target(
         fw.elf.display()
     ));
     let profile = QemuProfile::load(&target.profile).map_err(|e| e.to_string())?;
-    let nv = match &options.keep_nv {
-        Some(path) => path.clone(),
-        None => std::env::temp_dir().join(format!(
-            "hil-nv-{}-{}.bin",
-            std::process::id(),
-            NV_COUNTER.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-        )),
-    };
-    Ok((
-        Box::new(EmulatedTarget::new(
+    let target = match &options.keep_nv {
+        Some(path) => EmulatedTarget::new(
             profile,
             fw.clone(),
             options.realtime,
-            nv,
+            path.clone(),
             options.echo_logs,
-        )),
-        Some(fw),
-    ))
+        ),
+        None => EmulatedTarget::with_temporary_nv(
+            profile,
+            fw.clone(),
+            options.realtime,
+            options.echo_logs,
+        )
+        .map_err(|e| format!("cannot create the non-volatile memory file: {e}"))?,
+    };
+    Ok((Box::new(target), Some(fw)))
 }
-
-static NV_COUNTER: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
 
 /// Fly `plan` on `target` and judge it.
 pub fn run(

@@ -25,10 +25,12 @@ use core::ptr::addr_of_mut;
 
 use fsw_bridge::link::{
     downlink_service, LinkConfig, Received, Role, Service, SubmitError, TargetEndpoint,
+    VirtualChannel,
 };
 use fsw_bridge::messages::LOG_CHUNK_MAX;
 use fsw_bridge::{
-    HostToTarget, ResetCause, ResetKind, StateKey, StateValue, TargetToHost, PROTOCOL_VERSION,
+    HostToTarget, ResetCause, ResetKind, StateKey, StateValue, TargetToHost, TelemetryEvent,
+    PROTOCOL_VERSION,
 };
 use kernel_config::abi::{control, reset_at, E_FULL, REPORT_OFF};
 use kernel_config::system::{
@@ -66,16 +68,57 @@ fn is_instrument_metric(id: u16) -> bool {
     id < 0x1000 || flight_app::metric::is_instrument(id)
 }
 
-/// Messages for the host taken from the kernel or a port and not yet in the link's send queue
-/// (which was full): at most a batch of kernel events.
+/// Log bytes per Log message (at most [`LOG_CHUNK_MAX`]). Short frames get through a noisy
+/// link: at 5 % byte corruption a frame of 96 log bytes arrives whole 4 times in 1,000 (it would
+/// reach the transmission limit, losing the link), one of 32 about 1 time in 10; on a clean
+/// link the price is a few bytes of framing per 32.
+const LOG_BYTES_PER_FRAME: usize = 32;
+const _: () = assert!(LOG_BYTES_PER_FRAME <= LOG_CHUNK_MAX);
+
+/// Messages for the host taken from the kernel or a port and not yet in their channel's send
+/// queue (which was full), per channel: at most a batch of kernel events.
 const OUTBOUND_HELD_CAPACITY: usize = sys::EVENT_DRAIN_BATCH;
+
+type Held = heapless::Deque<TargetToHost, OUTBOUND_HELD_CAPACITY>;
 
 /// The partition's round state.
 struct Rounds {
     /// A RoundEnd came in and its answer has not gone out.
     answer_due: bool,
-    /// Messages for the host that found the send window and its backlog full, in order.
-    outbound_held: heapless::Deque<TargetToHost, OUTBOUND_HELD_CAPACITY>,
+    /// Mission messages for the host that found the channel's send window and backlog full,
+    /// in order. While any wait, nothing more is taken from the partitions' ports (their
+    /// messages keep their order), and the round is answered at once.
+    mission_held: Held,
+    /// The same for the Instrument channel. That channel never holds anything else up: its
+    /// sources in the kernel (log bytes, events) wait there while this is not empty, and an
+    /// Instrument message from a port that finds this full is dropped and counted. So when
+    /// the target answers, and what the Mission channel carries, never depend on the
+    /// instrumentation, which differs between boards and runs.
+    instrument_held: Held,
+    /// Instrument messages dropped since boot (the metric LINK_INSTRUMENT_DROPPED).
+    instrument_dropped: u32,
+    /// The count last reported to the host.
+    instrument_dropped_reported: u32,
+    /// Messages for the host the link refused for good (it was lost, or one was too large).
+    dropped_for_host: u32,
+}
+
+impl Rounds {
+    fn held(&mut self, vc: VirtualChannel) -> &mut Held {
+        match vc {
+            VirtualChannel::Mission => &mut self.mission_held,
+            VirtualChannel::Instrument => &mut self.instrument_held,
+        }
+    }
+}
+
+/// The channel `msg` travels on (Hello and Pong go out directly and never come here; a panic
+/// report does not either: it is the kernel's).
+fn channel_of(msg: &TargetToHost) -> VirtualChannel {
+    match downlink_service(msg, is_instrument_metric) {
+        Service::Sequenced(vc) => vc,
+        Service::Expedited => VirtualChannel::Instrument,
+    }
 }
 
 fn reset_cause(code: u32) -> ResetCause {
@@ -122,7 +165,11 @@ pub extern "C" fn partition_io_main() -> ! {
     let mut reset_in_next_frame: Option<(u32, u32)> = None;
     let mut rounds = Rounds {
         answer_due: false,
-        outbound_held: heapless::Deque::new(),
+        mission_held: Held::new(),
+        instrument_held: Held::new(),
+        instrument_dropped: 0,
+        instrument_dropped_reported: 0,
+        dropped_for_host: 0,
     };
     loop {
         pump_outbound(endpoint, &mut rounds);
@@ -141,9 +188,8 @@ pub extern "C" fn partition_io_main() -> ! {
                     }
                 }
                 Received::RoundEnd { .. } => rounds.answer_due = true,
-                Received::Discarded(fsw_bridge::link::Discard::Rejected(error)) => {
-                    defmt::warn!("link: frame rejected: {=str}", decode_error_name(error))
-                }
+                // Damaged frames are counted by the decoder (by reason, in every Pong): a log
+                // line each would multiply the traffic of a noisy link.
                 Received::Noted | Received::Discarded(_) => {}
             }
         }
@@ -165,60 +211,94 @@ pub extern "C" fn partition_io_main() -> ! {
     }
 }
 
-/// The round's answer can go: every message it delivered is routed, and either the send queue
-/// is full (the answer carries what fits, its Report says more is waiting, and the host comes
-/// back for it: waiting would deadlock, as acknowledgements only come with the host's next
-/// burst) or the executive, which answers the host's grants and uplink chunks, is done with
-/// what it was sent (it declared itself idle since; a message to it withdraws that) and its
-/// answers are in the send queue (drained by [`pump_outbound`] just before). Other partitions
-/// do not hold the answer: the planner's work spans frames, and a partition that never stops
-/// (a rogue in an endless loop) must not stop the link.
+/// The round's answer can go: either the send queue is full (the answer carries what fits, its
+/// Report says more is waiting, and the host comes back for it: waiting would deadlock, as
+/// acknowledgements only come with the host's next burst), or every message the round
+/// delivered is routed and the executive, which answers the host's grants and uplink chunks,
+/// is done with what it was sent (it declared itself idle since; a message to it withdraws
+/// that) and its answers are in the send queue (drained by [`pump_outbound`] just before).
+/// Other partitions do not hold the answer: the planner's work spans frames, and a partition
+/// that never stops (a rogue in an endless loop) must not stop the link.
 fn round_work_done(inbound: &Inbound, rounds: &Rounds) -> bool {
+    // First: with the Mission send queue full, nothing moves until the host acknowledges,
+    // which it does only in its next burst. Host messages may then still wait for a port (the
+    // executive stops taking them while its own answers cannot leave): holding the answer
+    // for them would deadlock the link. (A full Instrument queue holds nothing up.)
+    if !rounds.mission_held.is_empty() {
+        return true;
+    }
     if !inbound.is_empty() {
         return false;
-    }
-    if !rounds.outbound_held.is_empty() {
-        return true;
     }
     let (_reasons, busy) = sys::link_quiet();
     busy & (1 << kernel_config::system::EXECUTIVE) == 0
 }
 
-/// Move the held messages into the link's send queue, in order, while it has room; true when
+/// Move `vc`'s held messages into the link's send queue, in order, while it has room; true when
 /// none is left held.
-fn submit_held(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) -> bool {
-    while let Some(msg) = rounds.outbound_held.front() {
-        let vc = match downlink_service(msg, is_instrument_metric) {
-            Service::Sequenced(vc) => vc,
-            // Hello and Pong go out directly; nothing else is expedited from here.
-            Service::Expedited => fsw_bridge::link::VirtualChannel::Instrument,
-        };
+fn submit_held(endpoint: &mut TargetEndpoint, rounds: &mut Rounds, vc: VirtualChannel) -> bool {
+    while let Some(msg) = rounds.held(vc).front() {
         match endpoint.submit(vc, msg) {
             Ok(_) => {}
             Err(SubmitError::Full) => return false,
-            Err(_) => defmt::warn!("io: a message for the host could not be queued"),
+            Err(_) => {
+                // The link is lost (or the message too large): dropped and counted. Logged
+                // once per boot only: the log line itself travels on the link, and logging
+                // each would feed this loop forever.
+                if rounds.dropped_for_host == 0 {
+                    defmt::error!("io: messages for the host are being dropped (link lost?)");
+                }
+                rounds.dropped_for_host = rounds.dropped_for_host.saturating_add(1);
+                if vc == VirtualChannel::Instrument {
+                    rounds.instrument_dropped = rounds.instrument_dropped.saturating_add(1);
+                }
+            }
         }
-        rounds.outbound_held.pop_front();
+        rounds.held(vc).pop_front();
     }
     true
 }
 
-/// Queue `msg` for the host on its channel; false when the send queue is full (it is held).
-fn submit(endpoint: &mut TargetEndpoint, rounds: &mut Rounds, msg: TargetToHost) -> bool {
-    // There is room: the held queue is empty whenever more is taken from the kernel or a port.
-    let _ = rounds.outbound_held.push_back(msg);
-    submit_held(endpoint, rounds)
+/// Queue `msg` for the host on its channel (held if the channel's send queue is full; an
+/// Instrument message that finds its holding queue full too is dropped and counted).
+fn submit(endpoint: &mut TargetEndpoint, rounds: &mut Rounds, msg: TargetToHost) {
+    let vc = channel_of(&msg);
+    if rounds.held(vc).push_back(msg).is_err() {
+        // Only the Instrument queue can be full here: Mission messages are taken only while
+        // none is held.
+        rounds.instrument_dropped = rounds.instrument_dropped.saturating_add(1);
+    }
+    submit_held(endpoint, rounds, vc);
 }
 
-/// Everything waiting for the host, into the link's send queue until it is full: the held
-/// messages first, then kernel log bytes, kernel events (a batch at a time), partitions'
-/// messages.
+/// Everything waiting for the host, into the link's send queues until they are full: the held
+/// messages first; then, while nothing is held for the Instrument channel, the kernel's log
+/// bytes and events (a batch at a time; they wait in the kernel otherwise) and the count of
+/// dropped Instrument messages if it grew; then, while nothing is held for the Mission channel,
+/// the partitions' messages.
 fn pump_outbound(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
-    if !submit_held(endpoint, rounds) {
-        return;
+    let mission_room = submit_held(endpoint, rounds, VirtualChannel::Mission);
+    if submit_held(endpoint, rounds, VirtualChannel::Instrument) {
+        pump_kernel(endpoint, rounds);
     }
-    loop {
-        let mut chunk = [0u8; LOG_CHUNK_MAX];
+    if mission_room {
+        pump_ports(endpoint, rounds);
+    }
+}
+
+/// The kernel's log bytes and events, and the dropped-message count, while the Instrument
+/// channel takes them.
+fn pump_kernel(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
+    if rounds.instrument_dropped != rounds.instrument_dropped_reported {
+        rounds.instrument_dropped_reported = rounds.instrument_dropped;
+        let count = TargetToHost::Telemetry(TelemetryEvent::Metric {
+            id: kernel_config::abi::metric::LINK_INSTRUMENT_DROPPED,
+            value: u64::from(rounds.instrument_dropped),
+        });
+        submit(endpoint, rounds, count);
+    }
+    while rounds.instrument_held.is_empty() {
+        let mut chunk = [0u8; LOG_BYTES_PER_FRAME];
         let n = sys::log_drain(&mut chunk);
         if n == 0 {
             break;
@@ -226,34 +306,32 @@ fn pump_outbound(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
         let log = TargetToHost::Log {
             bytes: heapless::Vec::from_slice(&chunk[..n]).unwrap_or_default(),
         };
-        if !submit(endpoint, rounds, log) {
-            return;
-        }
+        submit(endpoint, rounds, log);
     }
-    loop {
+    while rounds.instrument_held.is_empty() {
         let mut records = [[0u32; 4]; OUTBOUND_HELD_CAPACITY];
         let n = sys::event_drain(&mut records);
         for record in records.iter().take(n) {
             if let Some(msg) = crate::kernel::health::event_message(record) {
-                let _ = rounds.outbound_held.push_back(msg);
+                submit(endpoint, rounds, msg);
             }
-        }
-        if !submit_held(endpoint, rounds) {
-            return;
         }
         if n < records.len() {
             break;
         }
     }
+}
+
+/// The partitions' messages for the host, while the Mission channel takes them.
+fn pump_ports(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
     for port in [PORT_EXECUTIVE_TO_IO, PORT_PLANNER_TO_IO] {
         let mut buf = [0u8; OUTBOUND_MESSAGE_SIZE as usize];
-        while let Ok(got) = sys::port_receive(port, &mut buf) {
+        while rounds.mission_held.is_empty() {
+            let Ok(got) = sys::port_receive(port, &mut buf) else {
+                break;
+            };
             match postcard::from_bytes::<TargetToHost>(&buf[..got.len]) {
-                Ok(msg) => {
-                    if !submit(endpoint, rounds, msg) {
-                        return;
-                    }
-                }
+                Ok(msg) => submit(endpoint, rounds, msg),
                 Err(_) => defmt::warn!("io: undecodable message on port {=usize}", port),
             }
         }
@@ -420,16 +498,5 @@ fn control(key: u16, msg: HostToTarget) -> Option<Routing> {
             defmt::warn!("io: unknown control key {=u16:#x}", key);
             None
         }
-    }
-}
-
-fn decode_error_name(error: fsw_bridge::codec::DecodeError) -> &'static str {
-    use fsw_bridge::codec::DecodeError::*;
-    match error {
-        BadCrc => "bad CRC",
-        Oversize => "oversize",
-        UnknownType(_) => "unknown type",
-        Truncated => "truncated",
-        Malformed => "malformed",
     }
 }

@@ -14,6 +14,7 @@ use kernel_config::abi::{metric as kernel_metric, reset_at};
 
 use super::native::NV_BYTES;
 use super::{Hello, MissionTarget, ResetLanding, TargetError};
+use crate::cleanup::ScratchFile;
 use crate::defmt_log::LogLine;
 use crate::firmware::FirmwareImage;
 use crate::mission::rng::Rng;
@@ -197,10 +198,33 @@ pub struct EmulatedTarget {
     mid_frame_reports: Vec<MidFrameReport>,
     /// The last report still waits for the restart's restore metrics.
     awaiting_restore: bool,
+    /// The non-volatile memory file when it is temporary: removed with the target.
+    temporary_nv: Option<ScratchFile>,
 }
 
 impl EmulatedTarget {
-    /// A QEMU target with a non-volatile memory file in `nv_dir` (created fresh).
+    /// A QEMU target whose non-volatile memory file is temporary: it outlives every QEMU the
+    /// target starts (power cycles) and is removed with the target.
+    pub fn with_temporary_nv(
+        profile: QemuProfile,
+        firmware: FirmwareImage,
+        realtime: bool,
+        echo_logs: bool,
+    ) -> std::io::Result<Self> {
+        let nv = ScratchFile::new("nv")?;
+        let mut target = Self::new(
+            profile,
+            firmware,
+            realtime,
+            nv.path().to_path_buf(),
+            echo_logs,
+        );
+        target.temporary_nv = Some(nv);
+        Ok(target)
+    }
+
+    /// A QEMU target with its non-volatile memory in the file `nv_file` (created fresh), which
+    /// stays after the run.
     pub fn new(
         profile: QemuProfile,
         firmware: FirmwareImage,
@@ -226,6 +250,7 @@ impl EmulatedTarget {
             pending_hello: None,
             mid_frame_reports: Vec::new(),
             awaiting_restore: false,
+            temporary_nv: None,
         }
     }
 
@@ -339,7 +364,11 @@ impl EmulatedTarget {
         let deadline = Instant::now() + ROUND_TIMEOUT;
         let mut frames = Vec::new();
         let mut last_words = Vec::new();
-        let session = self.session()?;
+        let firmware = &self.firmware;
+        let session = self
+            .session
+            .as_mut()
+            .ok_or_else(|| TargetError::Other("the target is not running".into()))?;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             let frame = match session.link.recv_frame(left) {
@@ -349,12 +378,10 @@ impl EmulatedTarget {
                         round,
                         waited: fmt_wall(ROUND_TIMEOUT),
                         detail: format!(
-                            "received {} frames of its answer; QEMU output: {}",
+                            "received {} frames of its answer; {}; the end of QEMU's output: {:?}",
                             frames.len(),
-                            session
-                                .qemu_log()
-                                .map(|p| p.display().to_string())
-                                .unwrap_or_default()
+                            cpu_whereabouts(session, firmware),
+                            session.qemu_output_tail().unwrap_or_default()
                         ),
                     })
                 }
@@ -382,6 +409,32 @@ impl EmulatedTarget {
                 _ => {}
             }
         }
+    }
+
+    /// One round: the armed reset's request if any, the burst, the answer.
+    fn exchange(&mut self, wire: &[Vec<u8>], round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
+        if let Some(kind) = self.pending_request.take() {
+            // The armed reset's request, ahead of the burst with the frame's grant: a test
+            // instrument, like QMP, so an expedited frame outside the mission's stream.
+            let mut frame = [0u8; MAX_FRAME_LEN];
+            let len = encode(
+                &LinkFrame::Bd(HostToTarget::ResetRequest { kind }),
+                &mut frame,
+            )
+            .expect("a reset request fits a frame");
+            self.send_all(&[frame[..len].to_vec()])?;
+        }
+        self.send_all(wire)?;
+        self.read_answer(round)
+    }
+
+    /// `error`, or that QEMU ended if it did: the cause of a closed link or a silent target.
+    fn explain(&mut self, error: TargetError) -> TargetError {
+        let ended = self
+            .session
+            .as_mut()
+            .and_then(|s| s.qemu_ended(&error.to_string()));
+        ended.map_or(error, TargetError::Session)
     }
 }
 
@@ -433,27 +486,18 @@ impl MissionTarget for EmulatedTarget {
             session.echo_logs = self.echo_logs;
             self.session = Some(session);
         }
-        let hello = self.session()?.expect_hello(ROUND_TIMEOUT)?;
+        let hello = self
+            .session()?
+            .expect_hello(ROUND_TIMEOUT)
+            .map_err(|e| self.explain(e.into()))?;
         self.drain_logs();
         Ok(hello)
     }
 
     fn round(&mut self, wire: &[Vec<u8>], round: u32) -> Result<Vec<Vec<u8>>, TargetError> {
-        if let Some(kind) = self.pending_request.take() {
-            // The armed reset's request, ahead of the burst with the frame's grant: a test
-            // instrument, like QMP, so an expedited frame outside the mission's stream.
-            let mut frame = [0u8; MAX_FRAME_LEN];
-            let len = encode(
-                &LinkFrame::Bd(HostToTarget::ResetRequest { kind }),
-                &mut frame,
-            )
-            .expect("a reset request fits a frame");
-            self.send_all(&[frame[..len].to_vec()])?;
-        }
-        self.send_all(wire)?;
-        let answer = self.read_answer(round);
+        let answer = self.exchange(wire, round);
         self.drain_logs();
-        answer
+        answer.map_err(|e| self.explain(e))
     }
 
     fn warm_reset(&mut self, at: MissionTimeUs) -> Result<ResetLanding, TargetError> {
@@ -509,4 +553,68 @@ impl MissionTarget for EmulatedTarget {
             .flat_map(MidFrameReport::describe)
             .collect()
     }
+}
+
+/// CPU samples taken when a target stops answering.
+const STALL_SAMPLES: usize = 24;
+
+/// Where the guest CPU spends its time, for a target that stopped answering: a few samples of
+/// the instruction address (with its function) and the stack pointer (whose region names the
+/// partition, or the kernel), most frequent first.
+fn cpu_whereabouts(session: &mut Session, firmware: &FirmwareImage) -> String {
+    let Some(qemu) = session.qemu.as_mut() else {
+        return "no QEMU to ask where the CPU is".into();
+    };
+    let mut seen: Vec<(String, usize)> = Vec::new();
+    for _ in 0..STALL_SAMPLES {
+        let text = match qemu.cpu_registers() {
+            Ok(text) => text,
+            Err(e) => return format!("the CPU's registers could not be read ({e})"),
+        };
+        let place = cpu_place(&text, firmware);
+        match seen.iter_mut().find(|(p, _)| *p == place) {
+            Some((_, n)) => *n += 1,
+            None => seen.push((place, 1)),
+        }
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    seen.sort_by_key(|(_, n)| std::cmp::Reverse(*n));
+    let places: Vec<String> = seen
+        .iter()
+        .take(4)
+        .map(|(place, n)| format!("{n}x {place}"))
+        .collect();
+    format!(
+        "the CPU, sampled {STALL_SAMPLES} times: {}",
+        places.join(", ")
+    )
+}
+
+/// One sample from QEMU's `info registers`: `NIP 0000368c   LR 00000000 ...` and `GPR00 <r0>
+/// <r1> <r2> <r3>` (64-bit wide).
+fn cpu_place(text: &str, firmware: &FirmwareImage) -> String {
+    let field = |name: &str, nth: usize| -> Option<u32> {
+        let at = text.find(name)? + name.len();
+        let value = text[at..].split_whitespace().nth(nth)?;
+        u64::from_str_radix(value, 16).ok().map(|v| v as u32)
+    };
+    let function = match field("NIP ", 0) {
+        Some(a) => firmware
+            .symbolize(a)
+            .unwrap_or_else(|| format!("{a:#010x}")),
+        None => "?".into(),
+    };
+    let owner = field("GPR00", 1).map_or("?".to_string(), |sp| {
+        // The test image's partitions include the product's, at the same places.
+        kernel_config::system::TEST
+            .partitions
+            .iter()
+            .find(|p| {
+                p.regions
+                    .iter()
+                    .any(|r| (r.base as u64..r.end()).contains(&u64::from(sp)))
+            })
+            .map_or("kernel".to_string(), |p| p.name.to_string())
+    });
+    format!("{owner}: {function}")
 }
