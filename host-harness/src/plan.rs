@@ -70,6 +70,8 @@ pub struct PlanReport {
     pub duplicates: u64,
     pub dead_ends: u64,
     pub nodes: u64,
+    /// The lowest heuristic value reached.
+    pub best_h: u32,
     pub peak_arena_bytes: u64,
     pub arena_bytes: u64,
     /// Host wall time, milliseconds (depends on the host and its load).
@@ -139,6 +141,7 @@ pub fn plan_compiled(
         duplicates: 0,
         dead_ends: 0,
         nodes: 0,
+        best_h: 0,
         peak_arena_bytes: 0,
         arena_bytes: (arena.len() * 4) as u64,
         compile_ms: 0.0,
@@ -176,6 +179,7 @@ pub fn plan_compiled(
     report.duplicates = stats.duplicates;
     report.dead_ends = stats.dead_ends;
     report.nodes = stats.nodes;
+    report.best_h = stats.best_h;
     report.peak_arena_bytes = stats.peak_words * 4;
     report.outcome = match status {
         temporal::Status::Solved => "solved".into(),
@@ -243,8 +247,8 @@ pub fn summary(report: &PlanReport) -> String {
         ));
     }
     s.push_str(&format!(
-        "  search    {} expanded, {} generated, {} evaluated, {} inconsistent, {} duplicates, {} dead ends, {} nodes stored ({:.1} ms host time)\n",
-        report.expanded, report.generated, report.evaluated, report.inconsistent, report.duplicates, report.dead_ends, report.nodes, report.search_ms
+        "  search    {} expanded, {} generated, {} evaluated, {} inconsistent, {} duplicates, {} dead ends, {} nodes stored, best h {} ({:.1} ms host time)\n",
+        report.expanded, report.generated, report.evaluated, report.inconsistent, report.duplicates, report.dead_ends, report.nodes, report.best_h, report.search_ms
     ));
     s.push_str(&format!(
         "  memory    peak arena {} bytes ({:.1} KiB) of {} bytes\n",
@@ -289,6 +293,12 @@ pub struct PlanArgs {
     /// Do not apply compression-safe actions' ends with their starts.
     #[arg(long)]
     pub no_compression: bool,
+    /// Use one open list only (no preferred operators).
+    #[arg(long)]
+    pub no_preferred: bool,
+    /// Heuristic supporters by duration (soonest reached) instead of by action count.
+    #[arg(long)]
+    pub duration_costs: bool,
 }
 
 /// Run `hil plan`. Exit 0 with a plan, 1 without one, 2 on bad input.
@@ -303,6 +313,12 @@ pub fn cli(args: PlanArgs) -> Result<std::process::ExitCode, String> {
         config: temporal::PlannerConfig {
             prune_duplicates: !args.keep_duplicates,
             compression: !args.no_compression,
+            preferred_operators: !args.no_preferred,
+            relaxed_cost: if args.duration_costs {
+                temporal::heuristic::RelaxedCost::Duration
+            } else {
+                temporal::heuristic::RelaxedCost::Unit
+            },
             ..temporal::PlannerConfig::default()
         },
         ..PlanOptions::default()

@@ -18,7 +18,7 @@
 //! [`Planner::step`] runs a bounded number of expansions and returns; the search state stays in
 //! the arena, so the next call resumes where this one stopped (anytime across windows).
 use crate::constraints::{self, Constraint, MAX_STEPS};
-use crate::heuristic::{self, Relaxation, DEAD_END};
+use crate::heuristic::{self, Relaxation, RelaxedCost, DEAD_END};
 use crate::stn;
 use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
@@ -47,6 +47,10 @@ pub struct PlannerConfig {
     pub compression: bool,
     /// Do not expand a state (facts, values, running actions) reached before.
     pub prune_duplicates: bool,
+    /// Use the second open list of successors the relaxed plan prefers.
+    pub preferred_operators: bool,
+    /// Snap-action costs in the heuristic's cost propagation.
+    pub relaxed_cost: RelaxedCost,
 }
 
 impl Default for PlannerConfig {
@@ -55,6 +59,8 @@ impl Default for PlannerConfig {
             max_steps: 2048,
             compression: true,
             prune_duplicates: true,
+            preferred_operators: true,
+            relaxed_cost: RelaxedCost::Unit,
         }
     }
 }
@@ -353,7 +359,9 @@ impl<'t, 'm> Planner<'t, 'm> {
             fact_words: facts.div_ceil(32),
         };
         planner.buckets.iter_mut().for_each(|b| *b = NONE);
-        planner.relax.build_index(&planner.task);
+        planner
+            .relax
+            .build_index(&planner.task, config.relaxed_cost);
         planner.mark_compression_safe();
         planner.start();
         Ok(planner)
@@ -388,7 +396,7 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// adds no ordering the original plan did not have.
     fn mark_compression_safe(&mut self) {
         let task = self.task;
-                // protect[f] as scratch: bit 0 = deleted by some action; bits 1.. = count of actions
+        // protect[f] as scratch: bit 0 = deleted by some action; bits 1.. = count of actions
         // touching f (saturating at 3). last_writer[f] = 1 + the last action counted for f.
         self.protect.iter_mut().for_each(|x| *x = 0);
         self.last_writer.iter_mut().for_each(|x| *x = 0);
@@ -990,7 +998,10 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
             self.stats.generated += 1;
             let r = 2 * a + usize::from(is_running);
-            if self.relax.in_relaxed_plan(r) && !self.preferred.push(key, node, snap) {
+            if self.config.preferred_operators
+                && self.relax.in_relaxed_plan(r)
+                && !self.preferred.push(key, node, snap)
+            {
                 result = Err(Region::PreferredOpen);
                 break;
             }

@@ -72,6 +72,10 @@ pub fn earliest_with(
             };
             let need_a = tb.saturating_add(c.lb);
             if ta < need_a {
+                if a == 0 {
+                    // Time zero cannot move.
+                    return Err(Inconsistent::Cycle);
+                }
                 if let Some(x) = est.get_mut(a) {
                     *x = need_a;
                 }
