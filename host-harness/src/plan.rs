@@ -287,9 +287,9 @@ pub struct PlanArgs {
     /// Stop after this many seconds of host time (0: none; for benchmarks).
     #[arg(long, default_value_t = 0.0)]
     pub time_limit: f64,
-    /// Expand states reached before again (complete, slower).
-    #[arg(long)]
-    pub keep_duplicates: bool,
+    /// Which repeated states to prune: none, quiescent (nothing running; the default) or all.
+    #[arg(long, value_enum, default_value = "quiescent")]
+    pub duplicates: DuplicatesArg,
     /// Do not apply compression-safe actions' ends with their starts.
     #[arg(long)]
     pub no_compression: bool,
@@ -299,6 +299,14 @@ pub struct PlanArgs {
     /// Heuristic supporters by duration (soonest reached) instead of by action count.
     #[arg(long)]
     pub duration_costs: bool,
+}
+
+/// `--duplicates`: see [`temporal::Duplicates`].
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum DuplicatesArg {
+    Keep,
+    Quiescent,
+    All,
 }
 
 /// Run `hil plan`. Exit 0 with a plan, 1 without one, 2 on bad input.
@@ -311,7 +319,11 @@ pub fn cli(args: PlanArgs) -> Result<std::process::ExitCode, String> {
         max_expansions: args.max_expansions,
         time_limit_ms: (args.time_limit * 1e3) as u64,
         config: temporal::PlannerConfig {
-            prune_duplicates: !args.keep_duplicates,
+            duplicates: match args.duplicates {
+                DuplicatesArg::Keep => temporal::Duplicates::Keep,
+                DuplicatesArg::Quiescent => temporal::Duplicates::PruneQuiescent,
+                DuplicatesArg::All => temporal::Duplicates::PruneAll,
+            },
             compression: !args.no_compression,
             preferred_operators: !args.no_preferred,
             relaxed_cost: if args.duration_costs {

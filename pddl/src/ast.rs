@@ -347,7 +347,10 @@ fn expr(ctx: &Ctx<'_>, sx: &Sx) -> Result<Expr, PddlError> {
 /// named `at`.
 fn is_time_specifier(items: &[Sx]) -> bool {
     matches!(
-        (items.first().and_then(Sx::atom), items.get(1).and_then(Sx::atom)),
+        (
+            items.first().and_then(Sx::atom),
+            items.get(1).and_then(Sx::atom)
+        ),
         (Some("at"), Some("start" | "end")) | (Some("over"), Some("all"))
     )
 }
@@ -460,7 +463,7 @@ fn timed_conditions(
             Ok(())
         }
         "at" | "over" if is_time_specifier(items) => {
-            let when = match (items.get(0).and_then(Sx::atom), items.get(1).and_then(Sx::atom)) {
+            let when = match (items.first().and_then(Sx::atom), items.get(1).and_then(Sx::atom)) {
                 (Some("at"), Some("start")) => When::Start,
                 (Some("at"), Some("end")) => When::End,
                 (Some("over"), Some("all")) => When::OverAll,
@@ -841,7 +844,13 @@ pub fn problem(ctx: &Ctx<'_>, sx: &Sx) -> Result<Problem, PddlError> {
                                 span: item.span(),
                             });
                         }
-                        Some("at") if item.list().and_then(|l| l.get(1)).and_then(Sx::atom).is_some_and(|t| t.parse::<f64>().is_ok()) => {
+                        Some("at")
+                            if item
+                                .list()
+                                .and_then(|l| l.get(1))
+                                .and_then(Sx::atom)
+                                .is_some_and(|t| t.parse::<f64>().is_ok()) =>
+                        {
                             let it = ctx.list(item, "`(at TIME literal)`")?;
                             let [_, t, lit] = it else {
                                 return Err(ctx.err(item.span(), "expected `(at TIME literal)`"));

@@ -2,8 +2,10 @@
 //!
 //! Grounding is by relaxed reachability, not the cross product: starting from the initial atoms
 //! (and those timed initial literals add), each action schema's parameter choices are found by
-//! joining its positive conditions against the atoms reachable so far, and their add effects
-//! are added, until nothing new is reachable. Static predicates (no action or literal changes
+//! joining its start's positive conditions (and invariants its start does not add) against the
+//! atoms reachable so far; their start adds are added, and their end adds too once their end
+//! conditions are reachable (which may need what their own start made reachable), until
+//! nothing new is reachable. Actions whose end stays unreachable are dropped. Static predicates (no action or literal changes
 //! them) are then compiled away, static functions (from the problem or from external modules)
 //! are folded into durations and constants, and the remaining atoms and numeric terms become
 //! the task's facts and numeric variables.
@@ -20,6 +22,8 @@ use temporal::task::{self as format, ActionSpec, LinearSpec, UNBOUNDED};
 
 type Obj = u32;
 type Key = (u32, Vec<Obj>);
+/// A numeric condition or effect for the binary task: (operator, target, terms, constant).
+type NumericSpec = (u8, u16, Vec<(u16, i64)>, i64);
 
 /// Context for errors in the two files.
 pub struct Files<'a> {
@@ -74,9 +78,13 @@ const UNBOUND: Obj = Obj::MAX;
 /// A schema prepared for grounding.
 struct Schema {
     params: Vec<Param>,
-    /// Positive atoms every ground action needs reachable (start, over all, and end atoms its
-    /// own start does not add): (pred, args as param index or object).
+    /// Positive atoms a ground action's start needs reachable (start atoms, and over-all atoms
+    /// its own start does not add): (pred, args as param index or object).
     needs: Vec<(u32, Vec<Arg>)>,
+    /// Positive atoms its end needs besides (end atoms its own start does not add). They may
+    /// become reachable only through what its start makes reachable, so they are checked per
+    /// binding after the start's, not joined with them.
+    end_needs: Vec<(u32, Vec<Arg>)>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -158,6 +166,7 @@ fn enumerate(
     let mut b: Binding = vec![UNBOUND; schema.params.len()];
     let mut used = vec![false; schema.needs.len()];
     let domains: Vec<Vec<Obj>> = schema.params.iter().map(|p| w.objects_of(&p.ty)).collect();
+    #[allow(clippy::too_many_arguments)] // a recursive helper over the enumeration state
     fn rec(
         w: &World<'_>,
         schema: &Schema,
@@ -383,7 +392,7 @@ struct GroundAction {
     ub: u32,
     /// Fact keys per list, in [`format::FactList`] order.
     facts: [Vec<Key>; 7],
-    numeric: [Vec<(u8, u16, Vec<(u16, i64)>, i64)>; 5],
+    numeric: [Vec<NumericSpec>; 5],
 }
 
 /// Ground `domain` + `problem` and write the task.
@@ -595,6 +604,7 @@ pub fn compile(
     let mut schemas = Vec::new();
     for a in &domain.actions {
         let mut needs = Vec::new();
+        let mut end_needs = Vec::new();
         let start_adds: Vec<(u32, Vec<Arg>)> = a
             .effects
             .iter()
@@ -613,7 +623,11 @@ pub fn compile(
                 if *when != When::Start && start_adds.contains(&r) {
                     continue;
                 }
-                needs.push(r);
+                if *when == When::End {
+                    end_needs.push(r);
+                } else {
+                    needs.push(r);
+                }
             }
         }
         for p in &a.params {
@@ -627,6 +641,7 @@ pub fn compile(
         schemas.push(Schema {
             params: a.params.clone(),
             needs,
+            end_needs,
         });
     }
     // The static filter of a binding: equalities and negated static atoms.
@@ -676,15 +691,26 @@ pub fn compile(
         for (i, (schema, action)) in schemas.iter().zip(&domain.actions).enumerate() {
             let mut out = Vec::new();
             enumerate(&w, schema, &by_pred, &|b| static_ok(action, b), &mut out);
-            for b in &out {
-                for (_, e) in &action.effects {
+            let mut complete = Vec::new();
+            for b in out {
+                let end_reachable = schema
+                    .end_needs
+                    .iter()
+                    .all(|(p, args)| reach.contains(&(*p, bind(args, &b))));
+                for (at_end, e) in &action.effects {
                     if let Effect::Add(at) = e {
+                        if *at_end && !end_reachable {
+                            continue;
+                        }
                         let (p, args) = resolve_atom(&w, &action.params, at, dctx)?;
-                        reach.insert((p, bind(&args, b)));
+                        reach.insert((p, bind(&args, &b)));
                     }
                 }
+                if end_reachable {
+                    complete.push(b);
+                }
             }
-            bindings[i] = out;
+            bindings[i] = complete;
         }
         if reach.len() == before {
             break;
@@ -1023,7 +1049,7 @@ pub fn compile(
         .collect();
     let goal_facts: Vec<u16> = goal_keys.iter().map(fid).collect();
     // Write.
-    let numeric_specs: Vec<[Vec<(u8, u16, Vec<(u16, i64)>, i64)>; 5]> =
+    let numeric_specs: Vec<[Vec<NumericSpec>; 5]> =
         keep.iter().map(|&i| ground[i].numeric.clone()).collect();
     let lin_specs: Vec<[Vec<LinearSpec<'_>>; 5]> = numeric_specs
         .iter()

@@ -89,7 +89,7 @@ pub fn index_words(task: &Task<'_>) -> (usize, usize, usize) {
 fn for_each_pre(task: &Task<'_>, r: usize, f: &mut dyn FnMut(usize)) {
     let a = r / 2;
     let act = task.action(a);
-    if r % 2 == 0 {
+    if r.is_multiple_of(2) {
         let pre = act.facts(FactList::PreStart);
         let add = act.facts(FactList::AddStart);
         for p in pre.iter() {
@@ -137,7 +137,7 @@ impl<'m> Relaxation<'m> {
                     self.add_index[at] = f as u32;
                     at += 1;
                 }
-                if r % 2 == 0 {
+                if r.is_multiple_of(2) {
                     self.add_index[at] = (task.fact_count() + a) as u32;
                     at += 1;
                     self.own_cost[r] = match costs {

@@ -21,5 +21,5 @@ pub mod search;
 pub mod stn;
 pub mod task;
 
-pub use search::{PlannedAction, Planner, PlannerConfig, Region, Stats, Status};
+pub use search::{Duplicates, PlannedAction, Planner, PlannerConfig, Region, Stats, Status};
 pub use task::{Task, TaskError, TaskErrorKind};

@@ -9,6 +9,9 @@
 //! back, the ordering annotations are recreated from the steps' conditions and effects, the
 //! constraints are unpacked and the STN is checked ([`crate::stn`]).
 //!
+//! A ground action runs at most once at a time (no self-overlap): its start is applicable
+//! only while it is not running.
+//!
 //! The three temporal rules of 4.1: an end is applicable only while its action runs; the goal
 //! needs every action ended; after every snap action the invariants of the running actions
 //! (and of an action just started) still hold. Compression safety: an action whose end can be
@@ -45,8 +48,8 @@ pub struct PlannerConfig {
     pub max_steps: usize,
     /// Apply the ends of compression-safe actions with their starts.
     pub compression: bool,
-    /// Do not expand a state (facts, values, running actions) reached before.
-    pub prune_duplicates: bool,
+    /// Which repeated states (facts, values, running actions reached before) are not expanded.
+    pub duplicates: Duplicates,
     /// Use the second open list of successors the relaxed plan prefers.
     pub preferred_operators: bool,
     /// Snap-action costs in the heuristic's cost propagation.
@@ -58,11 +61,29 @@ impl Default for PlannerConfig {
         Self {
             max_steps: 2048,
             compression: true,
-            prune_duplicates: true,
+            duplicates: Duplicates::PruneQuiescent,
             preferred_operators: true,
             relaxed_cost: RelaxedCost::Unit,
         }
     }
+}
+
+/// Which repeated states the search prunes.
+///
+/// A state is its facts, numeric values and running actions; it says nothing of when things
+/// happened. Two paths to a state with actions running can differ in how long each has left
+/// to run, and only one of them may be able to finish (a brute-force test found such tasks:
+/// pruning every repeat loses their plans). With nothing running, every later step is ordered
+/// only after earlier ones (lower bounds), so the past's timing cannot make the future
+/// impossible, unless windows (timed initial literals) put deadlines on later steps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Duplicates {
+    /// Expand every state, however often it is reached (complete, slow).
+    Keep,
+    /// Prune a repeated state only when no action is running in it.
+    PruneQuiescent,
+    /// Prune every repeated state (fastest; may lose plans that need concurrency).
+    PruneAll,
 }
 
 /// Where the arena ran out.
@@ -218,6 +239,8 @@ pub struct Planner<'t, 'm> {
     path_constraints: &'m mut [u32],
     loaded_constraints: usize,
     loaded_steps: usize,
+    /// Nodes on the loaded path (`path_nodes[..loaded_depth]`, root first).
+    loaded_depth: usize,
     loaded_node: u32,
     /// The running actions' start steps on the loaded path, parallel to its running list.
     running_start: [u32; MAX_RUNNING],
@@ -303,7 +326,6 @@ impl<'t, 'm> Planner<'t, 'm> {
         let parent_state = take(sw)?;
         let child_state = take(sw)?;
         let probe_state = take(sw)?;
-        drop(take);
         let fixed = used;
         let remaining = rest.len();
         let bucket_count = (remaining / 64).clamp(1024, 1 << 16).next_power_of_two();
@@ -326,6 +348,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             path_constraints,
             loaded_constraints: 0,
             loaded_steps: 0,
+            loaded_depth: 0,
             loaded_node: NONE,
             running_start: [0; MAX_RUNNING],
             parent_state,
@@ -593,6 +616,14 @@ impl<'t, 'm> Planner<'t, 'm> {
             if n == MAX_RUNNING {
                 return false;
             }
+            // A start that would deadlock with a running action is a dead end: neither end
+            // could ever be applied while the other runs.
+            if list[..n]
+                .iter()
+                .any(|&r| self.ends_block_each_other(a, r as usize))
+            {
+                return false;
+            }
             let i = list[..n].partition_point(|&x| x < a as u32);
             list.copy_within(i..n, i + 1);
             list[i] = a as u32;
@@ -613,6 +644,24 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
         }
         true
+    }
+
+    /// Whether the end of `x` deletes (without adding back) an invariant of `y`.
+    fn end_breaks_invariant(&self, x: usize, y: usize) -> bool {
+        let (ax, ay) = (self.task.action(x), self.task.action(y));
+        let inv = ay.facts(FactList::Invariant);
+        let add = ax.facts(FactList::AddEnd);
+        ax.facts(FactList::DelEnd)
+            .iter()
+            .any(|f| inv.contains(f) && !add.contains(f))
+    }
+
+    /// Whether `x` and `y`, running together, could never both end: each one's end deletes an
+    /// invariant of the other (two images with one camera, each needing it calibrated
+    /// throughout and uncalibrating it at its end). The delete-free heuristic cannot see this
+    /// dead end, so the search refuses the start that would create it.
+    fn ends_block_each_other(&self, x: usize, y: usize) -> bool {
+        x != y && self.end_breaks_invariant(x, y) && self.end_breaks_invariant(y, x)
     }
 
     /// Apply snap id `snap` (start, end or compressed) to `state` in place.
@@ -738,6 +787,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             n = self.node_parent(n);
         }
         self.path_nodes[..depth].reverse();
+        self.loaded_depth = depth;
         let eps = self.task.epsilon();
         let ids = self.last_writer.len();
         self.last_writer[..ids].iter_mut().for_each(|x| *x = 0);
@@ -984,8 +1034,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
             let (probe, child) = (&mut *self.probe_state, &*self.child_state);
             probe[..sw].copy_from_slice(&child[..sw]);
-            let mut probe = core::mem::take(&mut self.probe_state);
-            let ok = self.apply(&mut probe, snap);
+            let probe = core::mem::take(&mut self.probe_state);
+            let ok = self.apply(probe, snap);
             self.probe_state = probe;
             if !ok {
                 continue;
@@ -1049,8 +1099,8 @@ impl<'t, 'm> Planner<'t, 'm> {
         let mut running = [0u32; MAX_RUNNING];
         running[..running_n].copy_from_slice(self.running(self.parent_state));
         self.load_protection(&running[..running_n], true);
-        let mut child = core::mem::take(&mut self.child_state);
-        let ok = self.apply(&mut child, snap);
+        let child = core::mem::take(&mut self.child_state);
+        let ok = self.apply(child, snap);
         self.child_state = child;
         self.load_protection(&running[..running_n], false);
         if !ok {
@@ -1128,7 +1178,21 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         // Duplicates.
         let hash = self.state_hash(self.child_state);
-        if self.config.prune_duplicates && self.find_duplicate(self.child_state, hash) {
+        let quiescent = self.child_state[self.running_at()] == 0;
+        let prune = match self.config.duplicates {
+            Duplicates::Keep => false,
+            Duplicates::PruneQuiescent => quiescent,
+            Duplicates::PruneAll => true,
+        };
+        if prune && self.find_duplicate(self.child_state, hash) {
+            self.stats.duplicates += 1;
+            return Ok(());
+        }
+        if self.config.duplicates == Duplicates::PruneQuiescent
+            && !quiescent
+            && kind != START
+            && self.repeats_ancestor(&running[..running_n], (kind == END).then_some(a))
+        {
             self.stats.duplicates += 1;
             return Ok(());
         }
@@ -1164,6 +1228,41 @@ impl<'t, 'm> Planner<'t, 'm> {
             return Ok(());
         }
         self.push_successors(node, h)
+    }
+
+    /// Whether the child state (in `child_state`, reached by an end or a compressed action from
+    /// the loaded path, whose running actions are `parent_running` in the order of
+    /// `running_start`) equals an ancestor's state at which every action running in the child
+    /// was already running, started by the same step. That ancestor dominates the child: the
+    /// same facts, values and running instances, with the running actions as far from their
+    /// ends or farther, and the child's later steps constrained by everything the ancestor's
+    /// are and more. `ended` is the action whose end the child applied.
+    fn repeats_ancestor(&self, parent_running: &[u32], ended: Option<usize>) -> bool {
+        // The latest start step among the child's running actions.
+        let mut latest_start = 0usize;
+        for (i, &r) in parent_running.iter().enumerate() {
+            if Some(r as usize) != ended {
+                latest_start = latest_start.max(self.running_start[i] as usize);
+            }
+        }
+        let n = self.used_state_words(self.child_state);
+        let mut steps_at = self.loaded_steps;
+        for d in (0..self.loaded_depth).rev() {
+            if steps_at < latest_start {
+                break;
+            }
+            let node = self.path_nodes[d];
+            let state = self.node_state(node);
+            if state.get(..n) == self.child_state.get(..n) {
+                return true;
+            }
+            steps_at -= match self.node_snap(node) {
+                NONE => 0,
+                s if s & 3 == COMPRESSED => 2,
+                _ => 1,
+            };
+        }
+        false
     }
 
     // ----- the plan -----------------------------------------------------------------------------

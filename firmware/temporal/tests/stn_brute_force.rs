@@ -20,7 +20,7 @@ fn floyd_warshall(
     for (i, row) in d.iter_mut().enumerate() {
         row[i] = 0;
     }
-    let mut edge = |d: &mut Vec<Vec<i64>>, x: usize, y: usize, w: i64| d[x][y] = d[x][y].min(w);
+    let edge = |d: &mut Vec<Vec<i64>>, x: usize, y: usize, w: i64| d[x][y] = d[x][y].min(w);
     for c in cons {
         let (b, a) = (c.before as usize, c.after as usize);
         edge(&mut d, a, b, -i64::from(c.lb)); // t[b] - t[a] <= -lb
@@ -28,8 +28,7 @@ fn floyd_warshall(
             edge(&mut d, b, a, i64::from(c.ub)); // t[a] - t[b] <= ub
         }
     }
-    for k in 1..n {
-        let (lo, hi) = windows[k];
+    for (k, &(lo, hi)) in windows.iter().enumerate().take(n).skip(1) {
         edge(&mut d, k, 0, -i64::from(lo)); // t[0] - t[k] <= -lo
         edge(&mut d, k, 0, 0); // every step at or after time zero
         if hi != UNBOUNDED {

@@ -165,6 +165,8 @@ fn holds(
 #[derive(Default)]
 struct Footprint {
     reads: HashSet<String>,
+    /// Invariants of an action ending here: only a delete at the same time interferes.
+    guards: HashSet<String>,
     adds: HashSet<String>,
     dels: HashSet<String>,
 }
@@ -309,6 +311,19 @@ impl Validator {
             When::End
         };
         for (w, c) in &i.schema.conditions {
+            if *w == When::OverAll {
+                // An invariant starts with its action: a same-time effect on it interferes with
+                // the start (as VAL has it); at the end only a same-time delete does.
+                if let Condition::Atom { atom, .. } = c {
+                    let g = ground_atom(atom, &i.binding);
+                    if kind == Kind::Start {
+                        f.reads.insert(g);
+                    } else {
+                        f.guards.insert(g);
+                    }
+                }
+                continue;
+            }
             if *w != when {
                 continue;
             }
@@ -404,9 +419,11 @@ impl Validator {
             k => self.footprint(instances.get(e.index), k, None),
         };
         let interferes = |x: &Footprint, y: &Footprint| {
-            x.dels
-                .iter()
-                .any(|a| y.reads.contains(a) || y.adds.contains(a))
+            x.dels.iter().any(|a| y.guards.contains(a))
+                || y.dels.iter().any(|a| x.guards.contains(a))
+                || x.dels
+                    .iter()
+                    .any(|a| y.reads.contains(a) || y.adds.contains(a))
                 || x.adds
                     .iter()
                     .any(|a| y.reads.contains(a) || y.dels.contains(a))
@@ -623,14 +640,14 @@ pub fn compile(domain: &str, problem: &str) -> Result<pddl::Compiled, pddl::Pddl
 pub struct Rng(pub u64);
 
 impl Rng {
-    pub fn next(&mut self) -> u64 {
+    pub fn next_u64(&mut self) -> u64 {
         self.0 ^= self.0 >> 12;
         self.0 ^= self.0 << 25;
         self.0 ^= self.0 >> 27;
         self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
     }
     pub fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
+        self.next_u64() % n
     }
     pub fn chance(&mut self, percent: u64) -> bool {
         self.below(100) < percent
