@@ -358,3 +358,91 @@ pub fn cli(args: PlanArgs) -> Result<std::process::ExitCode, String> {
         std::process::ExitCode::FAILURE
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bench(domain: &str, file: &str) -> std::path::PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../pddl/tests/benchmarks")
+            .join(domain)
+            .join(file)
+    }
+
+    #[test]
+    fn a_benchmark_instance_gives_a_plan_with_its_makespan_and_arena_high_water_mark() {
+        let options = PlanOptions {
+            arena_bytes: 16 << 20,
+            ..PlanOptions::default()
+        };
+        let r = plan_files(
+            &bench("satellite", "domain.pddl"),
+            &bench("satellite", "instance-1.pddl"),
+            &pddl::ModuleRegistry::new(),
+            &options,
+        )
+        .expect("compiles");
+        assert!(r.solved, "{}", r.outcome);
+        let end = r
+            .plan
+            .iter()
+            .map(|s| s.start + s.duration)
+            .fold(0.0, f64::max);
+        assert_eq!(r.makespan, Some(end));
+        assert!(r.peak_arena_bytes > 0 && r.peak_arena_bytes <= r.arena_bytes);
+        for s in &r.plan {
+            assert!(s.start_window[0] <= s.start && s.start <= s.start_window[1]);
+        }
+        // One `start: (action) [duration]` line per action, as validators read plans.
+        let text = plan_text(&r);
+        assert_eq!(text.lines().count(), r.plan.len());
+        assert!(text.lines().all(|l| l.contains(": (") && l.ends_with(']')));
+        assert!(summary(&r).contains("peak arena"));
+    }
+
+    #[test]
+    fn bad_pddl_is_a_diagnostic_at_its_line_and_column() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let domain = dir.path().join("d.pddl");
+        std::fs::write(
+            &domain,
+            "(define (domain d)\n  (:requirements :durative-actions :derived-predicates))\n",
+        )
+        .expect("write");
+        let e = plan_files(
+            &domain,
+            &bench("satellite", "instance-1.pddl"),
+            &pddl::ModuleRegistry::new(),
+            &PlanOptions::default(),
+        )
+        .expect_err("refused");
+        assert_eq!(e.line_col(), Some((2, 36)));
+        assert!(
+            e.message.contains("requirement `:derived-predicates`"),
+            "{}",
+            e.message
+        );
+    }
+
+    #[test]
+    fn emulated_planning_says_it_needs_the_planner_partition() {
+        let args = PlanArgs {
+            domain: bench("satellite", "domain.pddl"),
+            problem: bench("satellite", "instance-1.pddl"),
+            native: false,
+            emulated: true,
+            json: false,
+            plan_only: false,
+            arena_kib: 1024,
+            max_expansions: 0,
+            time_limit: 0.0,
+            duplicates: DuplicatesArg::Quiescent,
+            no_compression: false,
+            no_preferred: false,
+            duration_costs: false,
+        };
+        let e = cli(args).expect_err("not yet");
+        assert!(e.contains("issue 14"), "{e}");
+    }
+}
