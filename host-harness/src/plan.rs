@@ -70,6 +70,8 @@ pub struct PlanReport {
     pub duplicates: u64,
     pub dead_ends: u64,
     pub nodes: u64,
+    /// Successors dropped for a plan longer than the step limit.
+    pub too_long: u64,
     /// The lowest heuristic value reached.
     pub best_h: u32,
     pub peak_arena_bytes: u64,
@@ -141,6 +143,7 @@ pub fn plan_compiled(
         duplicates: 0,
         dead_ends: 0,
         nodes: 0,
+        too_long: 0,
         best_h: 0,
         peak_arena_bytes: 0,
         arena_bytes: (arena.len() * 4) as u64,
@@ -179,6 +182,7 @@ pub fn plan_compiled(
     report.duplicates = stats.duplicates;
     report.dead_ends = stats.dead_ends;
     report.nodes = stats.nodes;
+    report.too_long = stats.too_long;
     report.best_h = stats.best_h;
     report.peak_arena_bytes = stats.peak_words * 4;
     report.outcome = match status {
@@ -247,8 +251,8 @@ pub fn summary(report: &PlanReport) -> String {
         ));
     }
     s.push_str(&format!(
-        "  search    {} expanded, {} generated, {} evaluated, {} inconsistent, {} duplicates, {} dead ends, {} nodes stored, best h {} ({:.1} ms host time)\n",
-        report.expanded, report.generated, report.evaluated, report.inconsistent, report.duplicates, report.dead_ends, report.nodes, report.best_h, report.search_ms
+        "  search    {} expanded, {} generated, {} evaluated, {} inconsistent, {} duplicates, {} dead ends, {} too long, {} nodes stored, best h {} ({:.1} ms host time)\n",
+        report.expanded, report.generated, report.evaluated, report.inconsistent, report.duplicates, report.dead_ends, report.too_long, report.nodes, report.best_h, report.search_ms
     ));
     s.push_str(&format!(
         "  memory    peak arena {} bytes ({:.1} KiB) of {} bytes\n",

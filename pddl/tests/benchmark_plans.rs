@@ -299,3 +299,36 @@ fn rovers_6_needs_no_more_than_a_few_thousand_expansions() {
         .validate(&planned.plan)
         .expect("valid");
 }
+
+#[test]
+fn a_step_limit_drops_long_branches_and_the_search_goes_on() {
+    let (d, p) = files("satellite", 1);
+    let compiled = common::compile(&d, &p).expect("compiles");
+    // Too few steps for any plan: every branch ends at the limit, and the search runs out of
+    // states instead of stopping at the first long one.
+    let short = PlannerConfig {
+        max_steps: 4,
+        ..PlannerConfig::default()
+    };
+    let planned = common::plan(&compiled, short, ARENA_WORDS, 1_000_000);
+    assert_eq!(
+        planned.status,
+        temporal::Status::Unsolvable,
+        "{:?}",
+        planned.stats
+    );
+    assert!(planned.stats.too_long > 0);
+    // With room it solves, and its plan fits the limit given.
+    let fits = PlannerConfig {
+        max_steps: 40,
+        ..PlannerConfig::default()
+    };
+    let planned = common::plan(&compiled, fits, ARENA_WORDS, 100_000);
+    assert_eq!(
+        planned.status,
+        temporal::Status::Solved,
+        "{:?}",
+        planned.stats
+    );
+    assert!(2 * planned.plan.len() <= 40);
+}

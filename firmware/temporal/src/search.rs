@@ -94,7 +94,8 @@ pub enum Region {
     Nodes,
     RegularOpen,
     PreferredOpen,
-    /// A plan would exceed `max_steps` or a step too many constraints.
+    /// A plan would exceed `max_steps` or a step too many constraints (during the search this
+    /// drops the branch and is counted in [`Stats::too_long`]).
     PlanLength,
 }
 
@@ -128,6 +129,9 @@ pub struct Stats {
     pub dead_ends: u64,
     /// Nodes stored.
     pub nodes: u64,
+    /// Successors dropped because their plan would exceed `max_steps` (or a step's constraint
+    /// capacity).
+    pub too_long: u64,
     /// The best h seen.
     pub best_h: u32,
     /// Arena words in use at most: tables, scratch, nodes, buckets and open lists.
@@ -1077,8 +1081,11 @@ impl<'t, 'm> Planner<'t, 'm> {
                 self.status = Status::Unsolvable;
                 break;
             };
-            if let Err(r) = self.expand(parent, snap) {
-                self.status = Status::OutOfMemory(r);
+            match self.expand(parent, snap) {
+                Ok(()) => {}
+                // A path too long to extend is a branch dropped, not the search's end.
+                Err(Region::PlanLength) => self.stats.too_long += 1,
+                Err(r) => self.status = Status::OutOfMemory(r),
             }
         }
         let s = self.stats();
