@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Sets up a Python virtual environment with the peer planners and the plan validator used by
-# `scripts/bench-planners.py` and the validator tests: unified-planning (its time-triggered plan
+# `scripts/bench-planners.py`: unified-planning (its time-triggered plan
 # validator), up-lpg (LPG-td), up-aries (Aries) and up-tamer (Tamer), all from the Python
 # package registry. Usage: scripts/peers.sh [VENV_DIR]   (default: target/peers-venv)
 set -euo pipefail
