@@ -96,7 +96,12 @@ pub const TARGET: &str = "powerpc-unknown-linux-gnu";
 /// when it installs the toolchain, so a machine that had the pinned toolchain already (without
 /// the target) would fail with "can't find crate for `core`"; this adds it instead, once.
 fn ensure_target(image_dir: &Path) -> Result<(), FirmwareError> {
-    let libdir = Command::new("rustc")
+    ensure_target_with(image_dir, Path::new("rustc"), Path::new("rustup"))
+}
+
+/// [`ensure_target`] with the `rustc` and `rustup` to run (tests give stand-ins).
+fn ensure_target_with(image_dir: &Path, rustc: &Path, rustup: &Path) -> Result<(), FirmwareError> {
+    let libdir = Command::new(rustc)
         .current_dir(image_dir)
         .args(["--print", "target-libdir", "--target", TARGET])
         .output()
@@ -113,7 +118,7 @@ fn ensure_target(image_dir: &Path) -> Result<(), FirmwareError> {
         return Ok(());
     }
     eprintln!("  the {TARGET} target is missing from the pinned toolchain: running `rustup target add {TARGET}` (once)");
-    let status = Command::new("rustup")
+    let status = Command::new(rustup)
         .current_dir(image_dir)
         .args(["target", "add", TARGET])
         .status()
@@ -185,4 +190,70 @@ pub fn read_build_id(elf: &[u8]) -> Result<[u8; 8], String> {
 /// Hex form of a build id, as printed everywhere.
 pub fn build_id_hex(id: &[u8; 8]) -> String {
     id.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    //! The missing-target path of the README's set-up, without a network: stand-in `rustc` and
+    //! `rustup` scripts play a pinned toolchain installed without the PowerPC target.
+    use super::*;
+    use std::os::unix::fs::PermissionsExt;
+
+    /// A toolchain whose target libdir is `libdir`, and a `rustup` that logs its arguments to
+    /// `rustup.log` and exits with `rustup_status`.
+    fn toolchain(dir: &Path, libdir: &Path, rustup_status: i32) -> (PathBuf, PathBuf) {
+        let script = |name: &str, body: String| {
+            let path = dir.join(name);
+            std::fs::write(&path, format!("#!/bin/sh\n{body}\n")).unwrap();
+            std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755)).unwrap();
+            path
+        };
+        let rustc = script("rustc", format!("echo {}", libdir.display()));
+        let log = dir.join("rustup.log");
+        let rustup = script(
+            "rustup",
+            format!("echo \"$@\" >> {}\nexit {rustup_status}", log.display()),
+        );
+        (rustc, rustup)
+    }
+
+    fn rustup_calls(dir: &Path) -> String {
+        std::fs::read_to_string(dir.join("rustup.log")).unwrap_or_default()
+    }
+
+    #[test]
+    fn a_toolchain_without_the_powerpc_target_gets_it_added() {
+        let dir = tempfile::tempdir().unwrap();
+        let empty = dir.path().join("lib");
+        std::fs::create_dir(&empty).unwrap();
+        let (rustc, rustup) = toolchain(dir.path(), &empty, 0);
+        ensure_target_with(dir.path(), &rustc, &rustup).unwrap();
+        assert_eq!(rustup_calls(dir.path()), format!("target add {TARGET}\n"));
+    }
+
+    #[test]
+    fn a_toolchain_with_the_target_is_left_alone() {
+        let dir = tempfile::tempdir().unwrap();
+        let lib = dir.path().join("lib");
+        std::fs::create_dir(&lib).unwrap();
+        std::fs::write(lib.join("libcore-0123.rlib"), b"").unwrap();
+        let (rustc, rustup) = toolchain(dir.path(), &lib, 0);
+        ensure_target_with(dir.path(), &rustc, &rustup).unwrap();
+        assert_eq!(rustup_calls(dir.path()), "");
+    }
+
+    #[test]
+    fn a_failing_rustup_says_which_command_to_run() {
+        let dir = tempfile::tempdir().unwrap();
+        let empty = dir.path().join("lib");
+        std::fs::create_dir(&empty).unwrap();
+        let (rustc, rustup) = toolchain(dir.path(), &empty, 1);
+        let e = ensure_target_with(dir.path(), &rustc, &rustup).unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.contains(&format!("rustup target add {TARGET}")),
+            "{text}"
+        );
+        assert!(text.contains("exit status: 1"), "{text}");
+    }
 }

@@ -259,3 +259,61 @@ pub fn mission_link_figures(r: &hil::mission::report::MissionReport) -> (u64, Ve
         .collect();
     (r.link.rounds, classes)
 }
+
+/// The nominal flyby with a GNC that treats every attain command (opcode 0x0101) as `fate`
+/// from the mission's start.
+pub fn flyby_with_misbehaving_gnc(
+    fate: hil::mission::sim::CommandFate,
+) -> hil::mission::plan::MissionPlan {
+    const ATTAIN: u16 = 0x0101;
+    let mut plan = prepared("flyby-nominal.toml");
+    plan.add_command_fault(
+        plan.start,
+        hil::mission::plan::CommandFault {
+            opcode: fsw_bridge::Opcode(ATTAIN),
+            skip: None,
+            probability: 1.0,
+            fate,
+            spent: false,
+        },
+    );
+    plan
+}
+
+/// A flyby with a misbehaving GNC reached the mission's end, failed, named `cause`, and no task
+/// sent more commands than its bounds allow (on main before the bounds: 10,001 attain commands
+/// at 10:00:00, then "could not start").
+pub fn assert_bounded_fail(r: &hil::mission::report::MissionReport, cause: &str) {
+    let summary = hil::mission::report::summary(r);
+    assert!(r.ended_early.is_none(), "{summary}");
+    assert!(
+        !r.passed,
+        "a GNC that never attains cannot fly the flyby: {summary}"
+    );
+    assert_eq!(r.mission_end, "11:30:00");
+    assert!(
+        r.gave_up.iter().any(|g| g.cause == cause)
+            || r.record
+                .instances
+                .iter()
+                .any(|i| i.failure_cause() == Some(cause)),
+        "the report names {cause}: {summary}"
+    );
+    let over = hil::campaign::bound_checks(r);
+    assert!(over.is_empty(), "{over:?}\n{summary}");
+    let attains: u32 = r
+        .commands_per_task
+        .iter()
+        .filter(|c| c.task.starts_with("GncAttain"))
+        .map(|c| c.commands)
+        .sum();
+    assert!(attains <= 40, "{attains} attain commands: {summary}");
+    // Mission time moved on: the next maneuver still went out at 11:05.
+    assert!(
+        r.record
+            .instances
+            .iter()
+            .any(|i| i.name == "GncAttain EARTH" && i.started_at.is_some()),
+        "{summary}"
+    );
+}

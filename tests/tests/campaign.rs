@@ -305,3 +305,53 @@ fn an_emulated_campaign_runs_two_targets_at_once_and_every_run_passes() {
         assert!(r.metrics["frames"] > 0, "{summary}");
     }
 }
+
+/// The native torn-checkpoint model against the emulated target on the same seeds, where the
+/// old model was wrong: resets in the flyby's first second, half of them mid-frame. On QEMU the
+/// reset is real (a seeded point of the executive's work, its checkpoint write included); the
+/// native model tears only what the target could be writing then. Both must agree run for run:
+/// every run passes, the same runs are mid-frame, and every restart restores a plan (the
+/// acknowledged uplink's checkpoint is never lost on either).
+#[test]
+fn the_native_torn_checkpoint_model_agrees_with_the_emulated_target_on_the_same_seeds() {
+    let _one = hil_tests::exclusive_qemu();
+    let mut native = flyby_campaign(12);
+    native.reset_window = Some(hil::campaign::parse_window("09:50:00..09:50:01").unwrap());
+    let mut emulated = native.clone();
+    emulated.native = false;
+    emulated.jobs = 1;
+    emulated.firmware = Some(hil_tests::firmware().elf.clone());
+    let native = run(&native);
+    let emulated = run(&emulated);
+    let summary = format!(
+        "native:\n{}\nemulated:\n{}",
+        hil::campaign::summary(&native),
+        hil::campaign::summary(&emulated)
+    );
+    assert_eq!(native.stats.passed, 12, "{summary}");
+    assert_eq!(emulated.stats.passed, 12, "{summary}");
+    let mut mid = 0;
+    for (n, e) in native.results.iter().zip(&emulated.results) {
+        assert_eq!(n.variant, e.variant, "the same seeds, the same variants");
+        if e.variant.reset_point != ResetPoint::MidFrame {
+            continue;
+        }
+        mid += 1;
+        assert!(
+            e.mid_frame
+                .iter()
+                .any(|l| l.contains("plan restored from checkpoint")),
+            "run {}: {:?}",
+            e.variant.run,
+            e.mid_frame
+        );
+        assert!(
+            n.mid_frame.iter().all(|l| l.contains("torn from byte")
+                || l.contains("no checkpoint write was in progress")),
+            "run {}: {:?}",
+            n.variant.run,
+            n.mid_frame
+        );
+    }
+    assert!(mid > 0, "{summary}");
+}

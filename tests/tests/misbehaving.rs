@@ -3,68 +3,13 @@
 //! run reaches the mission's end (no livelock, no "could not start"), ends FAIL naming the
 //! cause, and no task sends more commands than its bounds allow. A seeded campaign draws such
 //! subsystems at random.
-use hil::campaign::{bound_checks, run_campaign, CampaignOptions, MisbehaviourMode};
-use hil::mission::plan::CommandFault;
+use hil::campaign::{run_campaign, CampaignOptions, MisbehaviourMode};
 use hil::mission::report::MissionReport;
-use hil::mission::runner::{prepare, run};
 use hil::mission::sim::CommandFate;
-use hil::mission::target::NativeTarget;
-
-const ATTAIN: u16 = 0x0101;
+use hil_tests::{assert_bounded_fail, fly_native, flyby_with_misbehaving_gnc};
 
 fn flyby_with(fate: CommandFate) -> MissionReport {
-    let mut plan = prepare(&hil::repo_root().join("scenarios/flyby-nominal.toml")).unwrap();
-    plan.add_command_fault(
-        plan.start,
-        CommandFault {
-            opcode: fsw_bridge::Opcode(ATTAIN),
-            skip: None,
-            probability: 1.0,
-            fate,
-            spent: false,
-        },
-    );
-    run(&plan, &mut NativeTarget::new(), None, &mut |_, _, _| {}).unwrap_or_else(|e| panic!("{e}"))
-}
-
-/// The run reached the end, failed, named its cause, and stayed within its bounds.
-fn assert_bounded_fail(r: &MissionReport, cause: &str) {
-    let summary = hil::mission::report::summary(r);
-    assert!(r.ended_early.is_none(), "{summary}");
-    assert!(
-        !r.passed,
-        "a GNC that never attains cannot fly the flyby: {summary}"
-    );
-    assert_eq!(r.mission_end, "11:30:00");
-    assert!(
-        r.gave_up.iter().any(|g| g.cause == cause)
-            || r.record
-                .instances
-                .iter()
-                .any(|i| i.failure_cause() == Some(cause)),
-        "the report names {cause}: {summary}"
-    );
-    assert!(
-        bound_checks(r).is_empty(),
-        "{:?}\n{summary}",
-        bound_checks(r)
-    );
-    let attains: u32 = r
-        .commands_per_task
-        .iter()
-        .filter(|c| c.task.starts_with("GncAttain"))
-        .map(|c| c.commands)
-        .sum();
-    // On main before the bounds: 10,001 attain commands at 10:00:00.
-    assert!(attains <= 40, "{attains} attain commands: {summary}");
-    // Mission time moved on: the next maneuver still went out at 11:05.
-    assert!(
-        r.record
-            .instances
-            .iter()
-            .any(|i| i.name == "GncAttain EARTH" && i.started_at.is_some()),
-        "{summary}"
-    );
+    fly_native(&flyby_with_misbehaving_gnc(fate))
 }
 
 #[test]

@@ -34,7 +34,7 @@
 //! ([`crate::executive::Executive`]) only exchange [`crate::planner::Commit`]s (planner to
 //! executive) and [`crate::planner::TaskReport`]s (executive to planner), so each can run in its
 //! own partition with its own copy of the network; this wrapper just passes them directly.
-use crate::checkpoint::{CheckpointError, RestoreInfo, WarmRestartArea};
+use crate::checkpoint::{CheckpointError, RestoreInfo, WarmRestartArea, WrittenRecord};
 use crate::condition::{state_value_to_i64, StateTable, UpdateOutcome};
 use crate::executive::Executive;
 use crate::model::*;
@@ -403,8 +403,17 @@ impl Autonomy {
     /// Writes the whole plan and execution state as a new record in `area` (the slot not
     /// holding the newest record). Returns the record's sequence number.
     pub fn checkpoint_to(&self, area: &mut WarmRestartArea<'_>) -> Result<u32, CheckpointError> {
-        let (_, seq) = area.write(|buf| self.encode_state(buf))?;
-        Ok(seq)
+        self.checkpoint_record_to(area)
+            .map(|written| written.sequence)
+    }
+
+    /// As [`Autonomy::checkpoint_to`], and says where the record went and which bytes of the
+    /// area it wrote.
+    pub fn checkpoint_record_to(
+        &self,
+        area: &mut WarmRestartArea<'_>,
+    ) -> Result<WrittenRecord, CheckpointError> {
+        area.write_record(|buf| self.encode_state(buf))
     }
 
     /// Encodes the whole plan and execution state (the checkpoint payload) into `buf`;
@@ -452,6 +461,18 @@ impl Autonomy {
         area: &WarmRestartArea<'_>,
     ) -> Result<RestoreInfo, CheckpointError> {
         let (slot, sequence, payload) = area.latest().ok_or(CheckpointError::NoValidRecord)?;
+        self.restore_record(slot, sequence, payload)
+    }
+
+    /// As [`Autonomy::restore_from`], from a record the caller already found whole (with
+    /// [`WarmRestartArea::latest`] or [`WarmRestartArea::record`]): its slot, sequence number
+    /// and payload. Saves checking its CRC a second time.
+    pub fn restore_record(
+        &mut self,
+        slot: u8,
+        sequence: u32,
+        payload: &[u8],
+    ) -> Result<RestoreInfo, CheckpointError> {
         if self.decode_state(payload).is_none() {
             *self = Self::new();
             return Err(CheckpointError::BadPayload);
@@ -473,7 +494,9 @@ impl Autonomy {
         let (meta, rest): (ImageMeta, _) = postcard::take_from_bytes(payload).ok()?;
         let net_len = usize::try_from(u32::from_be_bytes(rest.get(..4)?.try_into().ok()?)).ok()?;
         let net_bytes = rest.get(4..4 + net_len)?;
-        uplink::decode_into(&mut self.network, net_bytes).ok()?;
+        // Checked as an uplink is (a checkpoint is trusted no more than its CRC and format
+        // version), but decoded once.
+        uplink::decode_then_validate(&mut self.network, net_bytes).ok()?;
         let rest = rest.get(4 + net_len..)?;
         let (planner, rest): (Planner, _) = postcard::take_from_bytes(rest).ok()?;
         self.planner = planner;

@@ -6,7 +6,9 @@
 //! the first 16 header bytes and the payload. A write always goes to the slot that does not
 //! hold the newest whole record, and the header is written last, so a reset at any instant
 //! leaves at least one whole record. Reading takes the whole record with the highest sequence
-//! number; a truncated or corrupted one is ignored and the other slot is used.
+//! number; a truncated or corrupted one is ignored and the other slot is used. Only the CRCs
+//! needed for that are computed: the slot whose header claims the newer sequence number is
+//! checked first, and the other only if it is not whole.
 use crc::{Crc, CRC_32_ISO_HDLC};
 
 const MAGIC: u32 = 0x4D58_4350; // "MXCP"
@@ -39,6 +41,17 @@ pub struct RestoreInfo {
     pub slot: u8,
     pub sequence: u32,
     pub payload_len: u32,
+}
+
+/// A record [`WarmRestartArea::write_record`] wrote.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct WrittenRecord {
+    /// 0 for slot A, 1 for slot B.
+    pub slot: u8,
+    pub sequence: u32,
+    /// The byte range of the region written (header and payload): what a target whose region
+    /// sits behind a copy must copy out.
+    pub bytes: (usize, usize),
 }
 
 /// The warm-restart region, split into slots A and B.
@@ -88,14 +101,49 @@ impl<'a> WarmRestartArea<'a> {
         self.bytes.get_mut(start..start + n).unwrap_or(&mut [])
     }
 
-    /// The whole record in slot `index`, as (sequence, payload).
-    fn record(&self, index: u8) -> Option<(u32, &[u8])> {
+    /// Byte offset of slot `index` (0 = A, 1 = B) in the region.
+    pub fn slot_offset(&self, index: u8) -> usize {
+        usize::from(index) * self.slot_len()
+    }
+
+    /// What slot `index`'s header claims, before any check of its CRC: (sequence, payload
+    /// length), if the header has this format's magic and version and the length fits the
+    /// slot. A target that copies the region in from slow memory reads the two headers first
+    /// and then only the payloads it needs (see [`WarmRestartArea::candidates`]).
+    pub fn claimed(&self, index: u8) -> Option<(u32, usize)> {
         let slot = self.slot(index);
         if be_u32(slot, 0)? != MAGIC || be_u16(slot, 4)? != CHECKPOINT_FORMAT {
             return None;
         }
         let sequence = be_u32(slot, 8)?;
         let len = usize::try_from(be_u32(slot, 12)?).ok()?;
+        (len <= self.payload_capacity()).then_some((sequence, len))
+    }
+
+    /// The slots whose headers claim a record, newest claim first (sequence numbers compare
+    /// with wrap-around; on a tie A comes first): the order in which [`WarmRestartArea::latest`]
+    /// checks them. The first whole one is the newest whole record, so the other slot's
+    /// payload is read and checked only when the first is torn or corrupted.
+    pub fn candidates(&self) -> [Option<u8>; 2] {
+        match (self.claimed(0), self.claimed(1)) {
+            (Some((sa, _)), Some((sb, _))) => {
+                if (sb.wrapping_sub(sa) as i32) > 0 {
+                    [Some(1), Some(0)]
+                } else {
+                    [Some(0), Some(1)]
+                }
+            }
+            (Some(_), None) => [Some(0), None],
+            (None, Some(_)) => [Some(1), None],
+            (None, None) => [None, None],
+        }
+    }
+
+    /// The whole record in slot `index`, as (sequence, payload): header and payload pass the
+    /// CRC.
+    pub fn record(&self, index: u8) -> Option<(u32, &[u8])> {
+        let slot = self.slot(index);
+        let (sequence, len) = self.claimed(index)?;
         let crc = be_u32(slot, 16)?;
         let payload = slot.get(RECORD_HEADER_LEN..RECORD_HEADER_LEN.checked_add(len)?)?;
         let mut digest = CRC32.digest();
@@ -104,21 +152,14 @@ impl<'a> WarmRestartArea<'a> {
         (digest.finalize() == crc).then_some((sequence, payload))
     }
 
-    /// The newest whole record: (slot, sequence, payload).
+    /// The newest whole record: (slot, sequence, payload). Of two whole records the one with
+    /// the newer sequence number (with wrap-around); only the CRCs needed to know it are
+    /// computed (usually one: see [`WarmRestartArea::candidates`]).
     pub fn latest(&self) -> Option<(u8, u32, &[u8])> {
-        match (self.record(0), self.record(1)) {
-            (Some((sa, pa)), Some((sb, pb))) => {
-                // Sequence numbers compare with wrap-around.
-                if (sb.wrapping_sub(sa) as i32) > 0 {
-                    Some((1, sb, pb))
-                } else {
-                    Some((0, sa, pa))
-                }
-            }
-            (Some((sa, pa)), None) => Some((0, sa, pa)),
-            (None, Some((sb, pb))) => Some((1, sb, pb)),
-            (None, None) => None,
-        }
+        self.candidates().into_iter().flatten().find_map(|index| {
+            self.record(index)
+                .map(|(seq, payload)| (index, seq, payload))
+        })
     }
 
     /// Writes a new record whose payload `fill` produces into the given buffer (returning its
@@ -127,6 +168,15 @@ impl<'a> WarmRestartArea<'a> {
         &mut self,
         fill: impl FnOnce(&mut [u8]) -> Option<usize>,
     ) -> Result<(u8, u32), CheckpointError> {
+        self.write_record(fill)
+            .map(|written| (written.slot, written.sequence))
+    }
+
+    /// As [`WarmRestartArea::write`], and says which bytes of the region it wrote.
+    pub fn write_record(
+        &mut self,
+        fill: impl FnOnce(&mut [u8]) -> Option<usize>,
+    ) -> Result<WrittenRecord, CheckpointError> {
         let (slot, sequence) = match self.latest() {
             Some((s, seq, _)) => (1 - s, seq.wrapping_add(1)),
             None => (0, 1),
@@ -167,7 +217,12 @@ impl<'a> WarmRestartArea<'a> {
             .get_mut(..4)
             .ok_or(CheckpointError::AreaTooSmall)?
             .copy_from_slice(&MAGIC.to_be_bytes());
-        Ok((slot, sequence))
+        let start = self.slot_offset(slot);
+        Ok(WrittenRecord {
+            slot,
+            sequence,
+            bytes: (start, start + RECORD_HEADER_LEN + len),
+        })
     }
 
     /// Erases both records (cold start).

@@ -39,7 +39,7 @@ pub mod uplink;
 
 pub use autonomy::{Autonomy, LoadError, Outputs, StepBudget, StepCost, StepReport};
 pub use capacity::*;
-pub use checkpoint::{CheckpointError, RestoreInfo, WarmRestartArea};
+pub use checkpoint::{CheckpointError, RestoreInfo, WarmRestartArea, WrittenRecord};
 pub use fsw_bridge::{
     CommandArgs, CommandStatus, MissionTimeUs, Opcode, StateKey, StateValue, TelemetryEvent,
 };

@@ -239,16 +239,33 @@ impl<'a> PlanView<'a> {
             }
         }
         let passes = |e: &Event| e.at <= t && filter_at.is_none_or(|m| e.at > m);
-        // The last assignment at or before t replaces the base.
+        // The last assignment at or before t replaces the base. One pass finds it and, in case
+        // there is none (most timelines: claims, additions, rates), also sums what the second
+        // pass would: the events are generated afresh for every pass, which is most of the
+        // cost of a placement check.
         let mut last_assign: Option<Event> = None;
-        self.for_each_event(timeline, |e| {
-            if let EventKind::Assign(_) = e.kind {
+        let mut adds: i128 = 0;
+        let mut rate_integral: i128 = 0;
+        self.for_each_event(timeline, |e| match e.kind {
+            EventKind::Assign(_) => {
                 if passes(&e) && last_assign.is_none_or(|l| e.key() > l.key()) {
                     last_assign = Some(e);
                 }
             }
+            EventKind::Add(d) => {
+                if passes(&e) {
+                    adds += i128::from(d);
+                }
+            }
+            EventKind::Rate(r) => {
+                if e.at <= t {
+                    let from = e.at.max(base_at);
+                    rate_integral += i128::from(r) * i128::from(t.0.saturating_sub(from.0));
+                }
+            }
         });
-        let mut after: Option<(MissionTimeUs, u32)> = None;
+        let mut value = i128::from(base_value);
+        let mut integral: i128;
         if let Some(Event {
             kind: EventKind::Assign(v),
             at,
@@ -257,29 +274,35 @@ impl<'a> PlanView<'a> {
         {
             base_value = v;
             base_at = base_at.max(at);
-            after = Some((at, seq));
+            let after = (at, seq);
+            value = i128::from(base_value);
+            integral = i128::from(anchor.rate) * i128::from(t.0.saturating_sub(base_at.0));
+            self.for_each_event(timeline, |e| match e.kind {
+                EventKind::Add(d) => {
+                    if passes(&e) && e.key() > after {
+                        value += i128::from(d);
+                    }
+                }
+                EventKind::Rate(r) => {
+                    if e.at <= t {
+                        let from = e.at.max(base_at);
+                        integral += i128::from(r) * i128::from(t.0.saturating_sub(from.0));
+                    }
+                }
+                EventKind::Assign(_) => {}
+            });
+        } else {
+            value += adds;
+            integral =
+                i128::from(anchor.rate) * i128::from(t.0.saturating_sub(base_at.0)) + rate_integral;
         }
-        let mut value = i128::from(base_value);
-        let mut integral: i128 =
-            i128::from(anchor.rate) * i128::from(t.0.saturating_sub(base_at.0));
-        self.for_each_event(timeline, |e| match e.kind {
-            EventKind::Add(d) => {
-                if passes(&e) && after.is_none_or(|k| e.key() > k) {
-                    value += i128::from(d);
-                }
-            }
-            EventKind::Rate(r) => {
-                if e.at <= t {
-                    let from = e.at.max(base_at);
-                    integral += i128::from(r) * i128::from(t.0.saturating_sub(from.0));
-                }
-            }
-            EventKind::Assign(_) => {}
-        });
         if base_value == VALUE_UNKNOWN {
             return VALUE_UNKNOWN;
         }
-        value += integral / 1_000_000;
+        if integral != 0 {
+            // (A 128-bit division is a library call on a 32-bit CPU.)
+            value += integral / 1_000_000;
+        }
         value.clamp(i128::from(VALUE_UNKNOWN + 1), i128::from(i64::MAX)) as i64
     }
 

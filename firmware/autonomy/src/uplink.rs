@@ -772,6 +772,37 @@ pub fn decode_into(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
     Ok(())
 }
 
+/// Decodes `bytes` into `network` and then checks what it decoded with [`validate_spec`]: the
+/// checks [`validate_uplink`] makes on the same values, so it accepts exactly what
+/// [`decode_into`] accepts, but decodes the network once where `decode_into` decodes its tasks
+/// three times (twice to validate the bytes, once to store them). The checkpoint restore's
+/// path. On error `network` holds whatever was decoded: for callers that discard it.
+pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
+    let mut r = Reader { rest: bytes };
+    let spec = &mut network.spec;
+    spec.header = r.take(ErrorSite::Network)?;
+    decode_list(
+        &mut r,
+        &mut spec.timelines,
+        ValidationCode::TooManyTimelines,
+    )?;
+    decode_list(
+        &mut r,
+        &mut spec.conditions,
+        ValidationCode::TooManyConditions,
+    )?;
+    decode_list(&mut r, &mut spec.tasks, ValidationCode::TooManyTasks)?;
+    decode_list(
+        &mut r,
+        &mut spec.temporal,
+        ValidationCode::TooManyTemporalConstraints,
+    )?;
+    if !r.rest.is_empty() {
+        return err(ValidationCode::TrailingBytes, ErrorSite::Network);
+    }
+    validate_spec(spec)
+}
+
 /// The uplink did not fit in the output buffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BufferTooSmall;

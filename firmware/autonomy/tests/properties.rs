@@ -358,10 +358,18 @@ proptest! {
 
 /// The fuzz target's property on mutations of a real uplink (a fuzz smoke test that runs in
 /// `cargo test`): refused bytes leave the network untouched; accepted bytes re-validate,
-/// round-trip and can be planned.
+/// round-trip and can be planned. The checkpoint restore's decoder (decode once, then
+/// validate) accepts exactly the same bytes and builds the same network.
 fn check_uplink(data: &[u8]) -> Result<(), TestCaseError> {
     let mut network = TaskNetwork::EMPTY;
-    match autonomy::uplink::decode_into(&mut network, data) {
+    let verdict = autonomy::uplink::decode_into(&mut network, data);
+    let mut restored = TaskNetwork::EMPTY;
+    let restore_verdict = autonomy::uplink::decode_then_validate(&mut restored, data);
+    prop_assert_eq!(verdict.is_ok(), restore_verdict.is_ok());
+    if verdict.is_ok() {
+        prop_assert_eq!(&restored, &network);
+    }
+    match verdict {
         Err(_) => prop_assert_eq!(&network, &TaskNetwork::EMPTY),
         Ok(()) => {
             prop_assert!(TaskNetwork::from_spec(network.spec().clone()).is_ok());

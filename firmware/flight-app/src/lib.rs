@@ -95,6 +95,18 @@ pub mod metric {
     /// The state key of the last such update; sent right after [`STATE_TYPE_MISMATCHES`].
     pub const STATE_TYPE_MISMATCH_KEY: u16 = 0x100B;
 
+    /// The parts of the application's boot (the boot breakdown; sent at every boot, whereas
+    /// [`RESTORE_TICKS`], their sum, only when a checkpoint was restored): the security area
+    /// read and its key checked.
+    pub const BOOT_SECURITY_TICKS: u16 = 0x1020;
+    /// Finding the checkpoint to restore: the records' headers and the records needed read in
+    /// (on a target whose memories sit behind system calls), their CRCs checked, and the
+    /// memory chosen.
+    pub const RESTORE_CHECK_TICKS: u16 = 0x1021;
+    /// Decoding and validating the chosen checkpoint and the restart adjustments (a few ticks
+    /// when there is nothing to restore).
+    pub const RESTORE_DECODE_TICKS: u16 = 0x1022;
+
     /// Metrics that are measured CPU costs (timebase ticks). A span measured with the 16.6 MHz
     /// timebase against the 250 MHz instruction clock can come out one tick longer or shorter
     /// depending on where between two ticks it started; the executive starts its work at a
@@ -112,6 +124,9 @@ pub mod metric {
                 | EXECUTIVE_TICKS
                 | FRAME_BUSY_TICKS
                 | UPLINK_VERIFY_TICKS
+                | BOOT_SECURITY_TICKS
+                | RESTORE_CHECK_TICKS
+                | RESTORE_DECODE_TICKS
         )
     }
 
@@ -200,6 +215,99 @@ pub struct Memories<'a> {
     pub security: Option<&'a mut dyn SecurityStore>,
 }
 
+/// Which of the two checkpoint memories.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MemoryKind {
+    /// The warm-restart area ([`Memories::warm`]).
+    Warm,
+    /// Non-volatile memory's checkpoint areas ([`Memories::nv`]).
+    Nv,
+}
+
+/// A target whose memories sit behind an interface (the firmware: system calls into the
+/// kernel) gives the application copies that start out empty, and this to fill them: the
+/// application asks for the bytes it needs, at the offset they have in the copy, instead of the
+/// target copying both 64 KiB areas in at every boot. At boot it reads the two record headers
+/// of each memory, then the newest claimed record (the other one only if that one is not
+/// whole), and non-volatile memory's records only if the choice between the memories needs
+/// them; otherwise they are read before its first checkpoint write (which must know the slot
+/// holding its newest whole record). A target that passes none hands over complete copies.
+pub trait MemoryFetch {
+    /// Fill `bytes` from `memory` at `offset`.
+    fn fetch(
+        &mut self,
+        memory: MemoryKind,
+        offset: usize,
+        bytes: &mut [u8],
+    ) -> Result<(), StoreError>;
+}
+
+/// The newest whole record of an A/B area.
+#[derive(Clone, Copy)]
+struct WholeRecord {
+    slot: u8,
+    sequence: u32,
+    /// Where its payload lies in the area.
+    payload: (usize, usize),
+}
+
+impl WholeRecord {
+    /// Restore `autonomy` from this record of `area` (its CRC checked already).
+    fn restore(self, autonomy: &mut Autonomy, area: &[u8]) -> Option<RestoreInfo> {
+        let payload = area.get(self.payload.0..self.payload.1)?;
+        autonomy
+            .restore_record(self.slot, self.sequence, payload)
+            .ok()
+    }
+}
+
+/// The newest whole record of an A/B area copied in on demand. Reads the payloads of the
+/// slots whose headers claim a record, newest claim first, until one is whole; the headers
+/// must be in `copy` already. Without `fetch` the copy is complete.
+fn fetch_latest(
+    copy: &mut [u8],
+    memory: MemoryKind,
+    mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
+) -> Option<WholeRecord> {
+    let candidates = WarmRestartArea::new(copy).candidates();
+    for index in candidates.into_iter().flatten() {
+        if let Some(fetch) = fetch.as_deref_mut() {
+            let area = WarmRestartArea::new(copy);
+            let Some((_, len)) = area.claimed(index) else {
+                continue;
+            };
+            let start = area.slot_offset(index) + autonomy::checkpoint::RECORD_HEADER_LEN;
+            let Some(payload) = copy.get_mut(start..start + len) else {
+                continue;
+            };
+            if fetch.fetch(memory, start, payload).is_err() {
+                continue;
+            }
+        }
+        let area = WarmRestartArea::new(copy);
+        if let Some((sequence, payload)) = area.record(index) {
+            let start = area.slot_offset(index) + autonomy::checkpoint::RECORD_HEADER_LEN;
+            return Some(WholeRecord {
+                slot: index,
+                sequence,
+                payload: (start, start + payload.len()),
+            });
+        }
+    }
+    None
+}
+
+/// Read the two record headers of an A/B area into its copy (a failed read leaves that
+/// header's bytes as they were: zero in a fresh copy, which claims nothing).
+fn fetch_headers(copy: &mut [u8], memory: MemoryKind, fetch: &mut (dyn MemoryFetch + '_)) {
+    for index in 0..2 {
+        let start = WarmRestartArea::new(copy).slot_offset(index);
+        if let Some(header) = copy.get_mut(start..start + autonomy::checkpoint::RECORD_HEADER_LEN) {
+            let _ = fetch.fetch(memory, start, header);
+        }
+    }
+}
+
 /// How the application came up.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BootOutcome {
@@ -249,6 +357,10 @@ pub struct FlightApp {
     last_warm_write: Option<(usize, usize)>,
     /// The same for non-volatile memory.
     last_nv_write: Option<(usize, usize)>,
+    /// Non-volatile memory's copy does not yet hold the records its next checkpoint write
+    /// must know about (boot skipped them: the warm-restart area was newer); see
+    /// [`MemoryFetch`].
+    nv_records_pending: bool,
     /// The state type mismatch count last reported ([`metric::STATE_TYPE_MISMATCHES`]).
     reported_state_type_mismatches: u32,
     /// The key, the anti-replay counter and the ground holds, read from non-volatile memory at
@@ -279,6 +391,7 @@ impl FlightApp {
             last_done: None,
             last_warm_write: None,
             last_nv_write: None,
+            nv_records_pending: false,
             reported_state_type_mismatches: 0,
             security: SecurityAssociation::none(),
             security_refusals: [0; SecurityRefusal::COUNT],
@@ -316,13 +429,23 @@ impl FlightApp {
 
     /// Checkpoint into the warm memory and, if there is one, non-volatile memory; returns how
     /// many of the writes failed.
-    fn checkpoint_all(&mut self, memories: &mut Memories<'_>) -> u64 {
+    fn checkpoint_all(
+        &mut self,
+        memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
+    ) -> u64 {
         let mut failures = 0;
         match self.checkpoint_into(memories.warm) {
             Some(range) => self.last_warm_write = Some(range),
             None => failures += 1,
         }
         if let Some(nv) = memories.nv.as_deref_mut() {
+            if self.nv_records_pending {
+                // The write goes to the slot that does not hold the newest whole record: read
+                // that record in first (see `MemoryFetch`).
+                fetch_latest(nv, MemoryKind::Nv, fetch);
+                self.nv_records_pending = false;
+            }
             match self.checkpoint_into(nv) {
                 Some(range) => self.last_nv_write = Some(range),
                 None => failures += 1,
@@ -335,24 +458,30 @@ impl FlightApp {
     /// checkpoint failed.
     fn checkpoint_into(&self, area: &mut [u8]) -> Option<(usize, usize)> {
         self.autonomy
-            .checkpoint_to(&mut WarmRestartArea::new(area))
-            .ok()?;
-        let slot_len = area.len() / 2;
-        WarmRestartArea::new(area)
-            .latest()
-            .map(|(slot, _, payload)| {
-                let start = usize::from(slot) * slot_len;
-                (
-                    start,
-                    start + autonomy::checkpoint::RECORD_HEADER_LEN + payload.len(),
-                )
-            })
+            .checkpoint_record_to(&mut WarmRestartArea::new(area))
+            .ok()
+            .map(|written| written.bytes)
     }
 
-    /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories.
+    /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories
+    /// (complete copies of both; see [`FlightApp::boot_fetching`]).
     pub fn boot(
         &mut self,
         memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> BootOutcome {
+        self.boot_fetching(memories, None, clock, downlink)
+    }
+
+    /// As [`FlightApp::boot`], with copies of the memories that `fetch` fills on demand (see
+    /// [`MemoryFetch`]). The choice is the same: the newest whole checkpoint of the two
+    /// memories, non-volatile memory's when its sequence number is higher; if the warm-restart
+    /// area's cannot be restored, non-volatile memory's newest.
+    pub fn boot_fetching(
+        &mut self,
+        memories: &mut Memories<'_>,
+        mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) -> BootOutcome {
@@ -364,33 +493,74 @@ impl FlightApp {
                 u64::from(self.security.holds()),
             ));
         }
-        let warm_seq = WarmRestartArea::new(memories.warm)
-            .latest()
-            .map(|(_, seq, _)| seq);
-        let nv_seq = memories
-            .nv
-            .as_deref_mut()
-            .and_then(|nv| WarmRestartArea::new(nv).latest().map(|(_, seq, _)| seq));
-        let prefer_nv = match (warm_seq, nv_seq) {
-            (Some(w), Some(n)) => n > w,
+        let t_security = clock.ticks();
+        if let Some(fetch) = fetch.as_deref_mut() {
+            fetch_headers(memories.warm, MemoryKind::Warm, fetch);
+            if let Some(nv) = memories.nv.as_deref_mut() {
+                fetch_headers(nv, MemoryKind::Nv, fetch);
+            }
+        }
+        let warm = fetch_latest(memories.warm, MemoryKind::Warm, fetch.as_deref_mut());
+        let warm_seq = warm.map(|record| record.sequence);
+        // Non-volatile memory's newest whole record matters only if it may be newer than the
+        // warm one: when no header there claims a higher sequence number, its records are
+        // not read now (`nv_records_pending`).
+        let mut nv_latest = None;
+        let mut nv_known = true;
+        self.nv_records_pending = false;
+        if let Some(nv) = memories.nv.as_deref_mut() {
+            let may_be_newer = match warm_seq {
+                Some(w) => {
+                    let area = WarmRestartArea::new(nv);
+                    (0..2).any(|index| area.claimed(index).is_some_and(|(seq, _)| seq > w))
+                }
+                None => true,
+            };
+            if may_be_newer {
+                nv_latest = fetch_latest(nv, MemoryKind::Nv, fetch.as_deref_mut());
+            } else {
+                nv_known = false;
+                self.nv_records_pending = fetch.is_some();
+            }
+        }
+        let prefer_nv = match (warm_seq, nv_latest) {
+            (Some(w), Some(n)) => n.sequence > w,
             (None, Some(_)) => true,
             _ => false,
         };
+        let t_check = clock.ticks();
         let mut outcome = BootOutcome::Cold;
-        if !prefer_nv && warm_seq.is_some() {
-            if let Ok(info) = self
-                .autonomy
-                .restore_from(&WarmRestartArea::new(memories.warm))
-            {
+        if let (false, Some(record)) = (prefer_nv, warm) {
+            if let Some(info) = record.restore(&mut self.autonomy, memories.warm) {
                 outcome = BootOutcome::RestoredWarm(info);
             }
         }
         if outcome == BootOutcome::Cold {
             if let Some(nv) = memories.nv.as_deref_mut() {
-                if let Ok(info) = self.autonomy.restore_from(&WarmRestartArea::new(nv)) {
+                if !nv_known {
+                    // The warm checkpoint did not restore: non-volatile memory's newest after all.
+                    nv_latest = fetch_latest(nv, MemoryKind::Nv, fetch);
+                    self.nv_records_pending = false;
+                }
+                if let Some(info) = nv_latest.and_then(|r| r.restore(&mut self.autonomy, nv)) {
                     outcome = BootOutcome::RestoredNv(info);
                 }
             }
+        }
+        let t_end = clock.ticks();
+        if t_end != t0 {
+            downlink.send(metric_event(
+                metric::BOOT_SECURITY_TICKS,
+                t_security.wrapping_sub(t0),
+            ));
+            downlink.send(metric_event(
+                metric::RESTORE_CHECK_TICKS,
+                t_check.wrapping_sub(t_security),
+            ));
+            downlink.send(metric_event(
+                metric::RESTORE_DECODE_TICKS,
+                t_end.wrapping_sub(t_check),
+            ));
         }
         if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
             self.recovering = Some(0);
@@ -398,8 +568,7 @@ impl FlightApp {
                 BootOutcome::RestoredNv(_) => metric::RESTORED_FROM_NV,
                 _ => metric::RESTORED_FROM_WARM,
             };
-            let ticks = clock.ticks().wrapping_sub(t0);
-            downlink.send(metric_event(metric::RESTORE_TICKS, ticks));
+            downlink.send(metric_event(metric::RESTORE_TICKS, t_end.wrapping_sub(t0)));
             downlink.send(metric_event(
                 metric::RESTORED_SEQUENCE,
                 u64::from(info.sequence),
@@ -419,6 +588,19 @@ impl FlightApp {
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) -> bool {
+        self.handle_fetching(msg, memories, None, clock, downlink)
+    }
+
+    /// As [`FlightApp::handle`], for copies of the memories filled on demand by `fetch` (the
+    /// same as at [`FlightApp::boot_fetching`]).
+    pub fn handle_fetching(
+        &mut self,
+        msg: &HostToTarget,
+        memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> bool {
         let t0 = self.recovering.map(|_| clock.ticks());
         match msg {
             HostToTarget::StateUpdate {
@@ -430,16 +612,16 @@ impl FlightApp {
                 self.autonomy.on_command_response(*id, *status)
             }
             HostToTarget::UplinkChunk { seq, total, bytes } => {
-                self.uplink_chunk(*seq, *total, bytes, memories, clock, downlink)
+                self.uplink_chunk((*seq, *total, bytes), memories, fetch, clock, downlink)
             }
             HostToTarget::GroundCommand {
                 header,
                 command,
                 mac,
             } => self.ground_command(header, command, mac, memories, downlink),
-            HostToTarget::TimeGrant { frame, now, until } => {
+            HostToTarget::TimeGrant { frame, now, .. } => {
                 // Accounts its own recovery time.
-                self.frame(*frame, *now, *until, memories, clock, downlink);
+                self.frame(*frame, *now, memories, fetch, clock, downlink);
                 return true;
             }
             HostToTarget::Ping { .. } | HostToTarget::ResetRequest { .. } => return false,
@@ -450,12 +632,12 @@ impl FlightApp {
         true
     }
 
+    /// One chunk of an uplink: (its sequence number, the announced total, its bytes).
     fn uplink_chunk(
         &mut self,
-        seq: u16,
-        total: u16,
-        bytes: &heapless::Vec<u8, UPLINK_CHUNK_MAX>,
+        (seq, total, bytes): (u16, u16, &heapless::Vec<u8, UPLINK_CHUNK_MAX>),
         memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) {
@@ -527,7 +709,7 @@ impl FlightApp {
             // (seq == total) goes out, so a network the ground saw acknowledged survives a
             // reset even before the first frame has run.
             Ok(()) => {
-                let failures = self.checkpoint_all(memories);
+                let failures = self.checkpoint_all(memories, fetch);
                 if failures > 0 {
                     downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
                 }
@@ -602,8 +784,8 @@ impl FlightApp {
         &mut self,
         frame: u32,
         now: MissionTimeUs,
-        _until: MissionTimeUs,
         memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
     ) {
@@ -631,7 +813,7 @@ impl FlightApp {
                 self.recovering = None;
             }
         }
-        let failures = self.checkpoint_all(memories);
+        let failures = self.checkpoint_all(memories, fetch);
         let t2 = clock.ticks();
         if let Some(spent) = self.recovering.as_mut() {
             // Still repairing: this frame's checkpoint is on the way to the committed plan.
@@ -750,6 +932,7 @@ mod tests {
     };
 
     /// A security area in memory; `fail_writes` makes every write fail.
+    #[derive(Clone)]
     struct TestNv {
         area: [u8; sdls::nv::SECURITY_AREA_BYTES],
         fail_writes: bool,
@@ -1379,5 +1562,194 @@ mod tests {
         };
         let out = send(&mut app, &mut mem, &msg);
         assert_eq!(out.last(), Some(&security_nak(SecurityRefusal::BadMac, 3)));
+    }
+
+    /// The real memories behind a target's copies (as the firmware's are behind the kernel):
+    /// serves the application's reads and logs them.
+    struct Backing {
+        warm: Vec<u8>,
+        nv: Vec<u8>,
+        reads: Reads,
+    }
+
+    impl MemoryFetch for Backing {
+        fn fetch(
+            &mut self,
+            memory: MemoryKind,
+            offset: usize,
+            bytes: &mut [u8],
+        ) -> Result<(), StoreError> {
+            self.reads.push((memory, offset, bytes.len()));
+            let source = match memory {
+                MemoryKind::Warm => &self.warm,
+                MemoryKind::Nv => &self.nv,
+            };
+            bytes.copy_from_slice(source.get(offset..offset + bytes.len()).ok_or(StoreError)?);
+            Ok(())
+        }
+    }
+
+    const AREA: usize = 60 * 1024;
+
+    /// Reads logged by [`Backing`]: (memory, offset, length).
+    type Reads = Vec<(MemoryKind, usize, usize)>;
+
+    /// Warm and non-volatile memory after the flyby uplink and `frames` granted frames, and the
+    /// security area.
+    fn flown(frames: u32) -> (Vec<u8>, Vec<u8>, TestNv) {
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let (mut warm, mut nv) = (std::vec![0u8; AREA], std::vec![0u8; AREA]);
+        let mut security = TestNv::provisioned(&TEST_KEY);
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: Some(&mut nv),
+            security: Some(&mut security),
+        };
+        boot_and_uplink_flyby(&mut app, &mut mem);
+        for frame in 0..frames {
+            let at = 9 * 3600 + 600 * u64::from(frame);
+            app.handle(&grant(frame, at), &mut mem, &mut NoClock, &mut |_| {});
+        }
+        (warm, nv, security)
+    }
+
+    /// Byte `at` of slot `slot`'s payload flipped (the record no longer whole).
+    fn torn(mut area: Vec<u8>, slot: usize, at: usize) -> Vec<u8> {
+        area[slot * (AREA / 2) + autonomy::checkpoint::RECORD_HEADER_LEN + at] ^= 0x40;
+        area
+    }
+
+    /// The slot of the newest whole record of an area.
+    fn newest_slot(area: &mut [u8]) -> usize {
+        usize::from(WarmRestartArea::new(area).latest().unwrap().0)
+    }
+
+    /// Boot and fly one frame twice: with complete copies of the memories (`boot`, `handle`),
+    /// and with empty copies filled on demand from `Backing` (`boot_fetching`,
+    /// `handle_fetching`, each checkpoint's bytes copied out as the firmware does). Both must
+    /// decide the same, say the same, and leave the memories byte for byte the same. Returns
+    /// the outcome and the reads of the fetching boot (before the frame) and of the frame.
+    fn boot_both_ways(warm: &[u8], nv: &[u8], security: &TestNv) -> (BootOutcome, Reads, Reads) {
+        let frame = grant(40, 10 * 3600);
+        // Complete copies.
+        let (mut full_warm, mut full_nv) = (warm.to_vec(), nv.to_vec());
+        let mut full_security = security.clone();
+        let mut full_app = std::boxed::Box::new(FlightApp::new());
+        let mut full_out: Vec<TargetToHost> = Vec::new();
+        let mut mem = Memories {
+            warm: &mut full_warm,
+            nv: Some(&mut full_nv),
+            security: Some(&mut full_security),
+        };
+        let full_outcome = full_app.boot(&mut mem, &mut NoClock, &mut |m| full_out.push(m));
+        full_app.handle(&frame, &mut mem, &mut NoClock, &mut |m| full_out.push(m));
+        // Copies filled on demand.
+        let mut backing = Backing {
+            warm: warm.to_vec(),
+            nv: nv.to_vec(),
+            reads: Vec::new(),
+        };
+        let (mut copy_warm, mut copy_nv) = (std::vec![0u8; AREA], std::vec![0u8; AREA]);
+        let mut copy_security = security.clone();
+        let mut app = std::boxed::Box::new(FlightApp::new());
+        let mut out: Vec<TargetToHost> = Vec::new();
+        let mut mem = Memories {
+            warm: &mut copy_warm,
+            nv: Some(&mut copy_nv),
+            security: Some(&mut copy_security),
+        };
+        let outcome = app.boot_fetching(&mut mem, Some(&mut backing), &mut NoClock, &mut |m| {
+            out.push(m)
+        });
+        let boot_reads = core::mem::take(&mut backing.reads);
+        app.handle_fetching(
+            &frame,
+            &mut mem,
+            Some(&mut backing),
+            &mut NoClock,
+            &mut |m| out.push(m),
+        );
+        if let Some((start, end)) = app.take_warm_write() {
+            backing.warm[start..end].copy_from_slice(&mem.warm[start..end]);
+        }
+        if let Some((start, end)) = app.take_nv_write() {
+            let nv = mem.nv.as_deref().unwrap();
+            backing.nv[start..end].copy_from_slice(&nv[start..end]);
+        }
+        assert_eq!(outcome, full_outcome);
+        assert_eq!(out, full_out);
+        assert!(backing.warm == full_warm, "warm memories differ");
+        assert!(backing.nv == full_nv, "non-volatile memories differ");
+        (outcome, boot_reads, backing.reads)
+    }
+
+    fn payload_reads(reads: &Reads, memory: MemoryKind) -> usize {
+        reads
+            .iter()
+            .filter(|&&(m, _, len)| m == memory && len != autonomy::checkpoint::RECORD_HEADER_LEN)
+            .count()
+    }
+
+    #[test]
+    fn a_boot_that_reads_what_it_needs_decides_and_writes_as_one_given_both_whole_memories() {
+        let (warm, nv, security) = flown(3);
+        let (mut later_warm, later_nv, _) = flown(4);
+
+        // Both memories as written (the same sequence numbers): the warm area's newest record
+        // and the headers; non-volatile memory's records only before its first write.
+        let (outcome, boot, frame) = boot_both_ways(&warm, &nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredWarm(_)));
+        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 1);
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 0);
+        assert_eq!(boot.len(), 5, "four headers and one record: {boot:?}");
+        assert_eq!(payload_reads(&frame, MemoryKind::Nv), 1);
+
+        // The warm area's newest record torn: its other record, as new as non-volatile
+        // memory's newest (sequence numbers equal): the warm one, from the other slot.
+        let slot = newest_slot(&mut later_warm.clone());
+        let (outcome, boot, _) = boot_both_ways(&torn(later_warm.clone(), slot, 7), &nv, &security);
+        assert!(
+            matches!(outcome, BootOutcome::RestoredWarm(info) if usize::from(info.slot) != slot)
+        );
+        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 2);
+
+        // Torn, and non-volatile memory a frame newer: non-volatile memory's.
+        let (outcome, _, _) =
+            boot_both_ways(&torn(later_warm.clone(), slot, 7), &later_nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredNv(_)));
+
+        // Non-volatile memory newer than the warm area (a reset after its write only).
+        let (outcome, boot, _) = boot_both_ways(&warm, &later_nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredNv(_)));
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 1);
+
+        // ... with its newest record torn: its other one is as old as the warm area's: warm.
+        let nv_slot = newest_slot(&mut later_nv.clone());
+        let (outcome, boot, _) =
+            boot_both_ways(&warm, &torn(later_nv.clone(), nv_slot, 3), &security);
+        assert!(matches!(outcome, BootOutcome::RestoredWarm(_)));
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 2);
+
+        // A power cycle: the warm area is gone.
+        let (outcome, _, _) = boot_both_ways(&std::vec![0u8; AREA], &nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredNv(_)));
+
+        // Nothing anywhere: cold, and the first frame writes the first records.
+        let blank = std::vec![0u8; AREA];
+        let (outcome, _, _) = boot_both_ways(&blank, &blank, &security);
+        assert_eq!(outcome, BootOutcome::Cold);
+
+        // The warm area's newest record whole but not a plan (a firmware whose layout changed
+        // without a new format version): non-volatile memory's newest after all, whose records
+        // the choice had not needed.
+        WarmRestartArea::new(&mut later_warm)
+            .write(|buf| {
+                buf[..4].copy_from_slice(&[0xff; 4]);
+                Some(4)
+            })
+            .unwrap();
+        let (outcome, boot, _) = boot_both_ways(&later_warm, &nv, &security);
+        assert!(matches!(outcome, BootOutcome::RestoredNv(_)));
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 1);
     }
 }

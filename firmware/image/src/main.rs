@@ -28,10 +28,15 @@ use kernel_logic::shm_link;
 
 include!(concat!(env!("OUT_DIR"), "/build_id.rs"));
 
+/// The build id, word-aligned (the reset stub compares the ROM's with the image record's a
+/// word at a time).
+#[repr(C, align(4))]
+pub struct BuildId(pub [u8; 8]);
+
 /// The build id, also readable by the host from the ELF symbol table.
 #[no_mangle]
 #[used]
-pub static FIRMWARE_BUILD_ID: [u8; 8] = BUILD_ID;
+pub static FIRMWARE_BUILD_ID: BuildId = BuildId(BUILD_ID);
 
 /// libcore is prebuilt with unwinding; with panic=abort nothing calls this.
 #[no_mangle]
@@ -47,11 +52,24 @@ fn reset_cause_name(cause: ResetCause) -> &'static str {
 }
 
 /// Entered from the reset stub with the MMU off, vectors at 0x0, the kernel stack, and .bss
-/// cleared; `reset_tb_hi:reset_tb_lo` is the timebase the stub read at the reset vector.
+/// cleared; `reset_tb_hi:reset_tb_lo` is the timebase the stub read at the reset vector,
+/// `image_check` how it made the RAM image good (`boot::ImageCheck`), and `image_done_tb`
+/// and `cleared_tb` the low words of the timebase after its image step and after its clears.
 #[no_mangle]
 #[link_section = ".text.rust_start"]
-pub extern "C" fn rust_start(reset_tb_hi: u32, reset_tb_lo: u32) -> ! {
+pub extern "C" fn rust_start(
+    reset_tb_hi: u32,
+    reset_tb_lo: u32,
+    image_check: u32,
+    image_done_tb: u32,
+    cleared_tb: u32,
+) -> ! {
     timebase::mark_boot((u64::from(reset_tb_hi) << 32) | u64::from(reset_tb_lo));
+    let stub = kernel::StubReport {
+        image: boot::ImageCheck::from_stub(image_check),
+        image_ticks: image_done_tb.wrapping_sub(reset_tb_lo),
+        clear_ticks: cleared_tb.wrapping_sub(image_done_tb),
+    };
     let (cause, boot_count) = warm::record_boot();
     if pci::init_mac_io().is_none() {
         // Without mac-io there is no UART and nobody to tell: try again from the top.
@@ -71,6 +89,9 @@ pub extern "C" fn rust_start(reset_tb_hi: u32, reset_tb_lo: u32) -> ! {
         boot_count,
         PROTOCOL_VERSION
     );
+    if stub.image == boot::ImageCheck::Repaired {
+        defmt::warn!("boot: the RAM image failed its checksum; copied again from ROM");
+    }
     // SAFETY: the link device is mapped at LINK_SHM_BASE when `is_link` is asked, and only the
     // kernel touches it.
     let link_device = unsafe { SharedMemoryDevice::at(kernel_config::LINK_SHM_BASE as usize) };
@@ -102,6 +123,7 @@ pub extern "C" fn rust_start(reset_tb_hi: u32, reset_tb_lo: u32) -> ! {
         boot_count,
         nv_bytes,
         memories.link.then_some(link_device),
+        stub,
     )
 }
 

@@ -4,7 +4,8 @@
 //! Its first bytes hold the boot record, from which the boot code derives the reset cause: no
 //! valid record means RAM was not kept (power-on); a valid one means a warm reset, and a cause
 //! the firmware recorded before resetting itself (health monitor, watchdog) takes precedence.
-//! The rest of the area is for the autonomy's A/B checkpoints.
+//! After it comes the reset stub's image record (`boot.rs`), and the rest of the area is for the
+//! autonomy's A/B checkpoints.
 use core::ptr::{addr_of_mut, read_volatile, write_volatile};
 
 use crc::{Crc, CRC_32_ISO_HDLC};
@@ -12,9 +13,13 @@ use fsw_bridge::ResetCause;
 
 /// Size of the whole area (must match `__warm_area_size` in linker/g3beige.ld).
 pub const WARM_AREA_SIZE: usize = 0x1_0000;
-/// Bytes reserved at the start of the area for the boot record.
-#[allow(dead_code)]
-const BOOT_RECORD_SIZE: usize = 64;
+/// Bytes reserved at the start of the area for the boot record (its first 16 bytes) and the
+/// reset stub's image record (`boot::IMAGE_RECORD_OFFSET`).
+const BOOT_RECORD_SIZE: usize = kernel_config::WARM_BOOT_RECORD_SIZE as usize;
+const _: () = assert!(
+    crate::boot::IMAGE_RECORD_OFFSET >= 16
+        && crate::boot::IMAGE_RECORD_OFFSET + crate::boot::IMAGE_RECORD_BYTES <= BOOT_RECORD_SIZE
+);
 
 #[link_section = ".warm_restart"]
 static mut WARM_AREA: [u8; WARM_AREA_SIZE] = [0; WARM_AREA_SIZE];

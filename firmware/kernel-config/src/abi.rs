@@ -245,6 +245,26 @@ pub mod metric {
     /// The kernel's part of BOOT_TO_READY_TICKS (reset vector to the start of the schedule),
     /// sent just before it.
     pub const KERNEL_BOOT_TICKS: u16 = 0x0311;
+    /// The boot breakdown, sent by the kernel at the start of the schedule (the parts of
+    /// KERNEL_BOOT_TICKS) and by the executive with BOOT_TO_READY_TICKS (the parts of its
+    /// own), all in ticks of CPU. The reset stub's image step: reset vector to the RAM image
+    /// checked (or copied from ROM) and `.kshared` and the kernel data reloaded.
+    pub const BOOT_STUB_IMAGE_TICKS: u16 = 0x0312;
+    /// The reset stub's clearing of `.bss` and the hashed page table.
+    pub const BOOT_STUB_CLEAR_TICKS: u16 = 0x0313;
+    /// From the stub's end to the start of the schedule: board bring-up (PCI, mac-io, the
+    /// interrupt controller, the ESCC, the ivshmem devices), the boot record, the first log
+    /// lines, MMU and BATs, the kernel's tables.
+    pub const BOOT_KERNEL_INIT_TICKS: u16 = 0x0314;
+    /// How the reset stub made the RAM image good: one of [`super::boot_image`]. A fact, not a
+    /// cost (sent with the costs, on the Instrument channel).
+    pub const BOOT_IMAGE: u16 = 0x0315;
+    /// The executive partition's start: its statics and stack zeroed by the kernel's
+    /// partition start, up to its entry function.
+    pub const BOOT_EXECUTIVE_START_TICKS: u16 = 0x0316;
+    /// The executive's entry up to the flight application's boot: the application put in
+    /// place and the checkpoint records of both memories read through the kernel.
+    pub const BOOT_EXECUTIVE_INIT_TICKS: u16 = 0x0317;
     /// Bytes the kernel received on the link since boot (in every kernel report).
     pub const LINK_RX_BYTES: u16 = 0x0212;
     /// Bytes the link's receiver lost since boot (UART overruns; QEMU's ESCC holds bytes back
@@ -265,6 +285,17 @@ pub mod metric {
     /// were full (a link too noisy for the instrumentation), or because the link was lost.
     /// Sent by the I/O partition, on the Instrument channel, after a drop, once it has room.
     pub const LINK_INSTRUMENT_DROPPED: u16 = 0x0218;
+}
+
+/// `metric::BOOT_IMAGE` values: how the reset stub made the RAM image good.
+pub mod boot_image {
+    /// After a warm reset: the RAM copy matched its image record's checksum; not copied.
+    pub const VERIFIED: u64 = 1;
+    /// Copied from ROM: no valid image record for this ROM (power-on, new firmware, a damaged
+    /// record).
+    pub const COPIED: u64 = 2;
+    /// Copied from ROM because the RAM copy failed its checksum (damaged since the last copy).
+    pub const REPAIRED: u64 = 3;
 }
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the

@@ -53,8 +53,12 @@ pub const KERNEL_DATA_SIZE: u32 = 0x0008_0000;
 /// Warm-restart area (survives a warm reset); reached by partitions only through system calls.
 pub const WARM_AREA_BASE: u32 = 0x0010_0000;
 pub const WARM_AREA_SIZE: u32 = 0x0001_0000;
-/// Bytes at the start of the warm area that hold the kernel's boot record.
+/// Bytes at the start of the warm area that hold the kernel's boot record and, after it, the
+/// reset stub's image record.
 pub const WARM_BOOT_RECORD_SIZE: u32 = 64;
+/// Offset in the warm area of the reset stub's image record (the ROM build id, length and
+/// checksum of the RAM image it last copied; see the firmware's `boot.rs`).
+pub const WARM_IMAGE_RECORD_OFFSET: u32 = 32;
 /// Where the kernel maps the non-volatile memory device (QEMU `ivshmem-plain` backed by a file
 /// that outlives the process: a power cycle keeps it), when the board has one.
 pub const NV_BASE: u32 = 0x9000_0000;

@@ -90,6 +90,46 @@ pub const METRICS: &[MetricDef] = &[
         "reset vector to ready after a warm reset",
     ),
     cost(
+        "max_warm_boot_image_ticks",
+        "ticks",
+        "warm boot: reset vector to the RAM image checked (or copied from ROM)",
+    ),
+    cost(
+        "max_warm_boot_clear_ticks",
+        "ticks",
+        "warm boot: the reset stub's clearing of .bss and the page table",
+    ),
+    cost(
+        "max_warm_boot_kernel_init_ticks",
+        "ticks",
+        "warm boot: board bring-up and kernel set-up, to the start of the schedule",
+    ),
+    cost(
+        "max_warm_boot_executive_start_ticks",
+        "ticks",
+        "warm boot: the executive partition's start (statics zeroed)",
+    ),
+    cost(
+        "max_warm_boot_executive_init_ticks",
+        "ticks",
+        "warm boot: the flight application put in place, the memories probed",
+    ),
+    cost(
+        "max_warm_boot_security_ticks",
+        "ticks",
+        "warm boot: the security area read and its key checked",
+    ),
+    cost(
+        "max_warm_boot_restore_check_ticks",
+        "ticks",
+        "warm boot: checkpoint records read, CRCs checked, memory chosen",
+    ),
+    cost(
+        "max_warm_boot_restore_decode_ticks",
+        "ticks",
+        "warm boot: the checkpoint decoded and validated",
+    ),
+    cost(
         "max_reset_recovery_ticks",
         "ticks",
         "the worst reset vector to repaired plan committed",

@@ -148,7 +148,7 @@ pub fn failure_name(kind: autonomy::FailureKind) -> &'static str {
 
 /// The planner stopped responding to one cause of failure of a task definition (its
 /// `max_repairs` bound for that cause was crossed).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct GaveUp {
     pub at: u64,
     pub task: String,
@@ -213,8 +213,57 @@ pub struct BootRecord {
     /// only.
     pub boot_to_ready_ticks: Option<u64>,
     /// The kernel's part of it: reset vector to the start of the schedule (reset stub with the
-    /// ROM-to-RAM copy, board bring-up, kernel set-up).
+    /// RAM image checked or copied from ROM, board bring-up, kernel set-up).
     pub kernel_boot_ticks: Option<u64>,
+    /// Where the boot's CPU went, part by part (emulated target).
+    pub breakdown: BootBreakdown,
+}
+
+/// The parts of a boot's CPU, in guest ticks (`kernel_config::abi::metric::BOOT_*` and
+/// `flight_app::metric::BOOT_SECURITY_TICKS`, `RESTORE_CHECK_TICKS`, `RESTORE_DECODE_TICKS`):
+/// in order, they make up boot to ready, less a few hundred ticks of metric sends and system
+/// calls between them. Emulated target only; the restore's parts only when it restored.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct BootBreakdown {
+    /// How the reset stub made the RAM image good: "verified" (checked in RAM after a warm
+    /// reset), "copied" (from ROM: power-on, new firmware), "repaired" (copied from ROM because
+    /// the RAM copy failed its checksum).
+    pub image: Option<String>,
+    /// Reset vector to the RAM image checked or copied.
+    pub stub_image_ticks: Option<u64>,
+    /// The stub's clearing of `.bss` and the hashed page table.
+    pub stub_clear_ticks: Option<u64>,
+    /// Board bring-up and kernel set-up, to the start of the schedule.
+    pub kernel_init_ticks: Option<u64>,
+    /// The executive partition's start (its statics zeroed).
+    pub executive_start_ticks: Option<u64>,
+    /// The flight application put in place and the memories' record headers probed.
+    pub executive_init_ticks: Option<u64>,
+    /// The security area read and its key checked.
+    pub security_ticks: Option<u64>,
+    /// The checkpoint records read and their CRCs checked, the memory chosen.
+    pub restore_check_ticks: Option<u64>,
+    /// The checkpoint decoded and validated, the restart adjustments.
+    pub restore_decode_ticks: Option<u64>,
+}
+
+impl BootBreakdown {
+    /// (label, ticks) of the parts measured, in boot order.
+    pub fn parts(&self) -> Vec<(&'static str, u64)> {
+        [
+            ("image", self.stub_image_ticks),
+            ("clears", self.stub_clear_ticks),
+            ("kernel set-up", self.kernel_init_ticks),
+            ("executive start", self.executive_start_ticks),
+            ("executive init", self.executive_init_ticks),
+            ("security area", self.security_ticks),
+            ("record check", self.restore_check_ticks),
+            ("decode", self.restore_decode_ticks),
+        ]
+        .into_iter()
+        .filter_map(|(label, ticks)| ticks.map(|t| (label, t)))
+        .collect()
+    }
 }
 
 /// Everything recorded during a mission.
@@ -555,6 +604,51 @@ impl MissionRecord {
                 return;
             }
             kernel_config::abi::metric::LINK_INSTRUMENT_DROPPED => "instrument_messages_dropped",
+            metric::BOOT_SECURITY_TICKS => {
+                self.boot_part("security", value, |b| &mut b.security_ticks);
+                return;
+            }
+            metric::RESTORE_CHECK_TICKS => {
+                self.boot_part("restore_check", value, |b| &mut b.restore_check_ticks);
+                return;
+            }
+            metric::RESTORE_DECODE_TICKS => {
+                self.boot_part("restore_decode", value, |b| &mut b.restore_decode_ticks);
+                return;
+            }
+            kernel_config::abi::metric::BOOT_STUB_IMAGE_TICKS => {
+                self.boot_part("image", value, |b| &mut b.stub_image_ticks);
+                return;
+            }
+            kernel_config::abi::metric::BOOT_STUB_CLEAR_TICKS => {
+                self.boot_part("clear", value, |b| &mut b.stub_clear_ticks);
+                return;
+            }
+            kernel_config::abi::metric::BOOT_KERNEL_INIT_TICKS => {
+                self.boot_part("kernel_init", value, |b| &mut b.kernel_init_ticks);
+                return;
+            }
+            kernel_config::abi::metric::BOOT_EXECUTIVE_START_TICKS => {
+                self.boot_part("executive_start", value, |b| &mut b.executive_start_ticks);
+                return;
+            }
+            kernel_config::abi::metric::BOOT_EXECUTIVE_INIT_TICKS => {
+                self.boot_part("executive_init", value, |b| &mut b.executive_init_ticks);
+                return;
+            }
+            kernel_config::abi::metric::BOOT_IMAGE => {
+                use kernel_config::abi::boot_image;
+                if let Some(boot) = self.boots.last_mut() {
+                    let how = match value {
+                        boot_image::VERIFIED => "verified",
+                        boot_image::COPIED => "copied",
+                        boot_image::REPAIRED => "repaired",
+                        _ => "unknown",
+                    };
+                    boot.breakdown.image.get_or_insert_with(|| how.to_string());
+                }
+                return;
+            }
             kernel_config::abi::metric::KERNEL_BOOT_TICKS => {
                 if let Some(boot) = self.boots.last_mut() {
                     boot.kernel_boot_ticks.get_or_insert(value);
@@ -617,7 +711,25 @@ impl MissionRecord {
             reset_cause: crate::scenario::cause_name(cause).into(),
             boot_to_ready_ticks: None,
             kernel_boot_ticks: None,
+            breakdown: BootBreakdown::default(),
         });
+    }
+
+    /// A part of the last boot's breakdown: recorded with it, and as `max_warm_boot_<part>`
+    /// over the warm boots (every boot but a power-on).
+    fn boot_part(
+        &mut self,
+        part: &str,
+        value: u64,
+        slot: fn(&mut BootBreakdown) -> &mut Option<u64>,
+    ) {
+        let Some(boot) = self.boots.last_mut() else {
+            return;
+        };
+        slot(&mut boot.breakdown).get_or_insert(value);
+        if boot.reset_cause != crate::scenario::cause_name(ResetCause::PowerOn) {
+            self.max_metric(&format!("max_warm_boot_{part}_ticks"), value);
+        }
     }
 
     /// The spacecraft published `value` for `key` at `at`.
@@ -738,6 +850,47 @@ mod tests {
         assert_eq!(m["max_recovery_ticks"], 20_000);
         assert_eq!(m["max_reset_recovery_ticks"], 90_000);
         assert_eq!(m["max_reset_recovery_instructions"], 90_000 * 15_060 / 1000);
+    }
+
+    #[test]
+    fn the_boot_breakdown_goes_to_its_boot_and_warm_boots_to_their_maxima() {
+        use kernel_config::abi::{boot_image, metric as k};
+        let mut rec = MissionRecord::default();
+        rec.boot(MissionTimeUs(0), ResetCause::PowerOn);
+        metric(&mut rec, k::BOOT_STUB_IMAGE_TICKS, 22_000);
+        metric(&mut rec, k::BOOT_IMAGE, boot_image::COPIED);
+        metric(&mut rec, k::BOOT_EXECUTIVE_START_TICKS, 800);
+        rec.reset(MissionTimeUs(10), "warm reset", 5, ResetCause::Warm);
+        metric(&mut rec, k::BOOT_STUB_IMAGE_TICKS, 16_000);
+        metric(&mut rec, k::BOOT_STUB_CLEAR_TICKS, 1_500);
+        metric(&mut rec, k::BOOT_IMAGE, boot_image::VERIFIED);
+        metric(&mut rec, flight_app::metric::RESTORE_DECODE_TICKS, 9_000);
+        rec.reset(MissionTimeUs(20), "warm reset", 5, ResetCause::Warm);
+        metric(&mut rec, k::BOOT_STUB_IMAGE_TICKS, 22_100);
+        metric(&mut rec, k::BOOT_IMAGE, boot_image::REPAIRED);
+
+        let b = |i: usize| &rec.boots[i].breakdown;
+        assert_eq!(b(0).image.as_deref(), Some("copied"));
+        assert_eq!(b(0).parts(), [("image", 22_000), ("executive start", 800)]);
+        assert_eq!(b(1).image.as_deref(), Some("verified"));
+        assert_eq!(
+            b(1).parts(),
+            [("image", 16_000), ("clears", 1_500), ("decode", 9_000)]
+        );
+        assert_eq!(b(2).image.as_deref(), Some("repaired"));
+        // The power-on boot's copy is not a warm boot's.
+        assert_eq!(rec.metrics["max_warm_boot_image_ticks"], 22_100);
+        assert_eq!(rec.metrics["max_warm_boot_clear_ticks"], 1_500);
+        assert_eq!(rec.metrics["max_warm_boot_restore_decode_ticks"], 9_000);
+        assert!(!rec
+            .metrics
+            .contains_key("max_warm_boot_executive_start_ticks"));
+        for name in rec.metrics.keys() {
+            assert!(
+                crate::mission::metrics::lookup(name).is_some(),
+                "{name} is not declared"
+            );
+        }
     }
 
     #[test]

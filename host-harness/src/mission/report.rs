@@ -267,7 +267,7 @@ pub fn summary(r: &MissionReport) -> String {
                 .unwrap_or_default()
         ));
     }
-    for reset in &r.resets {
+    for (i, reset) in r.resets.iter().enumerate() {
         let cost = match (
             reset.boot_to_ready_ticks,
             reset.recovery_ticks,
@@ -294,6 +294,9 @@ pub fn summary(r: &MissionReport) -> String {
                 None => "no plan restored".to_string(),
             },
         ));
+        if let Some(parts) = r.boots.get(i + 1).and_then(boot_parts) {
+            out.push_str(&format!("    boot to ready, ticks by part: {parts}\n"));
+        }
     }
     for g in &r.gave_up {
         out.push_str(&format!(
@@ -432,4 +435,23 @@ pub fn junit(r: &MissionReport) -> String {
     report
         .to_string()
         .unwrap_or_else(|e| format!("<!-- JUnit XML could not be written: {e} -->\n"))
+}
+
+/// A boot's breakdown on one line ("image verified 16777, clears 1582, ..."), if measured.
+fn boot_parts(boot: &super::record::BootRecord) -> Option<String> {
+    let parts = boot.breakdown.parts();
+    if parts.is_empty() {
+        return None;
+    }
+    let image = boot.breakdown.image.as_deref();
+    Some(
+        parts
+            .iter()
+            .map(|&(label, ticks)| match (label, image) {
+                ("image", Some(how)) => format!("image {how} {ticks}"),
+                _ => format!("{label} {ticks}"),
+            })
+            .collect::<Vec<_>>()
+            .join(", "),
+    )
 }

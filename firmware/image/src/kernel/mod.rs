@@ -30,6 +30,7 @@ pub mod umem;
 
 use core::ptr::addr_of_mut;
 
+use kernel_config::abi::metric;
 use kernel_logic::park::IdleDeclarations;
 
 use crate::board::{heathrow, timebase};
@@ -206,13 +207,26 @@ pub unsafe fn kernel() -> &'static mut Kernel {
     &mut *addr_of_mut!(KERNEL)
 }
 
+/// What the reset stub did, for the boot breakdown (`metric::BOOT_*`).
+#[derive(Clone, Copy)]
+pub struct StubReport {
+    /// How the RAM image was made good.
+    pub image: boot::ImageCheck,
+    /// Reset vector to the image checked or copied (and `.kshared` and kernel data reloaded).
+    pub image_ticks: u32,
+    /// `.bss` and the hashed page table cleared.
+    pub clear_ticks: u32,
+}
+
 /// Start the partitions: called once at boot, never returns. `link_device`: the shared-memory
-/// link transport, when the board has it.
+/// link transport, when the board has it. `stub`: what the reset stub did, queued for the host
+/// with the kernel's own part of the boot as the schedule starts.
 pub fn start(
     boot_cause: u32,
     boot_count: u32,
     nv_bytes: u32,
     link_device: Option<link::SharedMemoryDevice>,
+    stub: StubReport,
 ) -> ! {
     boot::enable_doze();
     mmu::init();
@@ -230,6 +244,16 @@ pub fn start(
     let now = timebase::now().0;
     // The kernel's part of boot to ready: reset stub, board bring-up and the set-up above.
     k.boot_ticks = now.wrapping_sub(shared::boot_ticks());
+    let stub_ticks = u64::from(stub.image_ticks) + u64::from(stub.clear_ticks);
+    k.events
+        .metric(metric::BOOT_STUB_IMAGE_TICKS, u64::from(stub.image_ticks));
+    k.events
+        .metric(metric::BOOT_STUB_CLEAR_TICKS, u64::from(stub.clear_ticks));
+    k.events.metric(
+        metric::BOOT_KERNEL_INIT_TICKS,
+        k.boot_ticks.saturating_sub(stub_ticks),
+    );
+    k.events.metric(metric::BOOT_IMAGE, stub.image.code());
     let next = k.sched_start(now);
     let ctx = k.resume(next, now);
     // SAFETY:

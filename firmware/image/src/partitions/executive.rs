@@ -27,7 +27,9 @@
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
-use flight_app::{CpuClock, Downlink, FlightApp, Memories, SecurityStore, StoreError};
+use flight_app::{
+    CpuClock, Downlink, FlightApp, Memories, MemoryFetch, MemoryKind, SecurityStore, StoreError,
+};
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
 use heapless::Deque;
 use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
@@ -64,11 +66,13 @@ pub struct ExecutiveState {
     pub warm_write_errors: u32,
     /// Checkpoint copies to non-volatile memory the kernel refused.
     pub nv_write_errors: u32,
-    /// This partition's copy of the warm-restart area's checkpoint part.
+    /// This partition's copy of the warm-restart area's checkpoint part: the records the
+    /// flight application read in and those it wrote (the rest stays zero).
     pub warm: [u8; WARM_CHECKPOINT_BYTES],
-    /// This partition's copy of the start of non-volatile memory (same A/B layout).
+    /// This partition's copy of the start of non-volatile memory (same A/B layout, filled the
+    /// same way).
     pub nv: [u8; NV_CHECKPOINT_BYTES],
-    /// The board has non-volatile memory (the boot read of `nv` succeeded).
+    /// The board has non-volatile memory large enough for the checkpoint areas.
     pub has_nv: bool,
     /// The non-volatile memory also holds the security area (it is at least
     /// [`NV_USED_BYTES`] long).
@@ -124,6 +128,34 @@ impl SecurityStore for NvSecurityStore {
     }
 }
 
+/// The warm-restart area and non-volatile memory, read through the kernel into this
+/// partition's copies: only what the flight application asks for (record headers, then the
+/// records it checks), not both 64 KiB areas.
+struct KernelMemories;
+
+impl MemoryFetch for KernelMemories {
+    fn fetch(
+        &mut self,
+        memory: MemoryKind,
+        offset: usize,
+        bytes: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let offset = u32::try_from(offset).map_err(|_| StoreError)?;
+        let read = match memory {
+            MemoryKind::Warm => sys::warm_read(offset, bytes),
+            MemoryKind::Nv => sys::nv_read(offset, bytes).map(|_| ()),
+        };
+        read.map_err(|_| {
+            defmt::warn!(
+                "executive: a read of {=usize} bytes at {=u32} failed; taken as no record",
+                bytes.len(),
+                offset
+            );
+            StoreError
+        })
+    }
+}
+
 /// The security store of a board that has the security area.
 fn security_store(
     has_security_area: bool,
@@ -151,13 +183,13 @@ pub extern "C" fn partition_executive_main() -> ! {
     // SAFETY: STATE and APP are this partition's statics, zeroed by the partition start; the
     // entry runs once per (re)start, so nothing else refers to them.
     let state = unsafe { zeroed_state(addr_of_mut!(STATE)) };
+    let entered = sys::cpu_time().0;
     // SAFETY: as above; APP is written whole before its first use.
     let app: &'static mut FlightApp = unsafe { (*addr_of_mut!(APP)).write(APP_INIT) };
-    if sys::warm_read(0, &mut state.warm).is_err() {
-        defmt::warn!("executive: warm-restart area unreadable; cold start");
-    }
-    // Probe the size first (a read of 0 bytes), so a small device is refused here rather
-    // than by the kernel as an out-of-range access.
+    // The copies of the two memories start out zero (no record); the flight application
+    // reads what it needs into them (`KernelMemories`). Probe non-volatile memory's size first
+    // (a read of 0 bytes), so a small device is refused here rather than by the kernel as an
+    // out-of-range access.
     state.has_nv = match sys::nv_read(0, &mut []) {
         Ok(size) if size as usize >= NV_CHECKPOINT_BYTES => {
             state.has_security_area = size as usize >= NV_USED_BYTES;
@@ -167,7 +199,7 @@ pub extern "C" fn partition_executive_main() -> ! {
                     size
                 );
             }
-            sys::nv_read(0, &mut state.nv).is_ok()
+            true
         }
         Ok(size) => {
             defmt::warn!(
@@ -182,8 +214,9 @@ pub extern "C" fn partition_executive_main() -> ! {
             false
         }
     };
-    // Zeroing the statics and copying both memories take most of a window; the restore
-    // starts in a fresh one so that the boot never overruns the executive's window.
+    let initialised = sys::cpu_time().0;
+    // The restore starts in a fresh window, so that however long it takes the boot never
+    // overruns the executive's window.
     sys::wait_next_window();
     {
         let mut outbox = Outbox {
@@ -196,12 +229,25 @@ pub extern "C" fn partition_executive_main() -> ! {
             nv: state.has_nv.then_some(&mut state.nv[..]),
             security: security_store(state.has_nv && state.has_security_area, &mut store),
         };
-        let outcome = app.boot(&mut memories, &mut PartitionClock, &mut outbox);
+        let outcome = app.boot_fetching(
+            &mut memories,
+            Some(&mut KernelMemories),
+            &mut PartitionClock,
+            &mut outbox,
+        );
         // Ready: the first grant can be taken. Once per boot (a restart by the health
         // monitor is not a boot, and this partition's CPU time counts from the boot).
         if sys::identity().1 == 0 {
             let (_, kernel_boot) = sys::uptime();
             let ready = kernel_boot + sys::cpu_time().0;
+            outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
+                id: metric::BOOT_EXECUTIVE_START_TICKS,
+                value: entered,
+            }));
+            outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
+                id: metric::BOOT_EXECUTIVE_INIT_TICKS,
+                value: initialised - entered,
+            }));
             outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
                 id: metric::KERNEL_BOOT_TICKS,
                 value: kernel_boot,
@@ -330,7 +376,13 @@ fn handle(state: &mut ExecutiveState, app: &mut FlightApp, msg: HostToTarget) {
         nv: state.has_nv.then_some(&mut state.nv[..]),
         security: security_store(state.has_nv && state.has_security_area, &mut store),
     };
-    app.handle(&msg, &mut memories, &mut PartitionClock, &mut outbox);
+    app.handle_fetching(
+        &msg,
+        &mut memories,
+        Some(&mut KernelMemories),
+        &mut PartitionClock,
+        &mut outbox,
+    );
     if let Some((start, end)) = app.take_warm_write() {
         // Only the bytes this checkpoint wrote go to the warm-restart area; a reset in the
         // middle of the copy leaves the other slot whole (A/B records).

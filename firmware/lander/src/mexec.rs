@@ -1,0 +1,155 @@
+//! The MEXEC timelines as the search's "can be added" check: an adapter from the autonomy
+//! crate's exact validity check ([`autonomy::planner::placement_valid`]) to [`ChainPlacement`].
+//!
+//! Each primitive of the HTN model maps to a task definition of an autonomy [`TaskNetwork`]
+//! (its constraints and impacts: claims, energy, states). To test a chain, the adapter lays out
+//! the plan as MEXEC plan entries (the instances the planner already holds, then every chain of
+//! the plan with its primitives back to back from the chain's start) and tries the chain's
+//! start at `now` and at each end of an entry, in time order; a start is accepted when every
+//! primitive, placed one after the other, passes the exact MEXEC check against everything
+//! placed before it. The answer is sound (an accepted chain is valid on the MEXEC timelines)
+//! but not always the earliest valid start: a window that opens between two candidates is
+//! missed, as the planner's own candidates miss one with rate impacts.
+//!
+//! Limits: a plan's primitives and the planner's entries share the autonomy crate's
+//! [`autonomy::MAX_PLAN_ENTRIES`] (48 today; issue 14 raises it to 512): a plan that would
+//! need more is refused (counted in [`MexecPlacement::plan_full`]). The primitives' durations
+//! are the task definitions' durations, which should match the HTN model's.
+use heapless::Vec;
+
+use autonomy::plan::{Origin, PlanEntry};
+use autonomy::planner::placement_valid;
+use autonomy::timeline::TimelineAnchor;
+use autonomy::{TaskNetwork, TaskState, FIRST_INSTANCE_ID, MAX_PLAN_ENTRIES};
+use fsw_bridge::MissionTimeUs;
+
+use crate::htn::FlatNetwork;
+use crate::search::{ChainPlacement, PlacedChain};
+
+/// The adapter. Borrowed state is the MEXEC planner's: its network, its timelines' anchors and
+/// the entries it holds.
+pub struct MexecPlacement<'a> {
+    pub network: &'a TaskNetwork,
+    pub anchors: &'a [TimelineAnchor],
+    /// Instances already in the MEXEC plan (committed or executing), kept as they are.
+    pub held: &'a [PlanEntry],
+    /// Per HTN primitive index: the task definition (index into `network.tasks()`).
+    pub definition_of: &'a [u8],
+    pub now: MissionTimeUs,
+    /// Plans refused because they needed more than [`MAX_PLAN_ENTRIES`] entries.
+    pub plan_full: u32,
+}
+
+type Entries = Vec<PlanEntry, MAX_PLAN_ENTRIES>;
+
+/// An instance id no entry uses: above every planner-given id (held entries keep the ids the
+/// MEXEC planner gave them, which need not be dense), and never a ground id. Reusing a held
+/// entry's id would make [`placement_valid`] check the candidate without that entry.
+fn fresh_instance(entries: &[PlanEntry]) -> Option<u16> {
+    match entries.iter().map(|e| e.instance).max() {
+        Some(highest) if highest >= FIRST_INSTANCE_ID => highest.checked_add(1),
+        _ => Some(FIRST_INSTANCE_ID),
+    }
+}
+
+impl MexecPlacement<'_> {
+    fn entry(&self, instance: u16, def: u8, start: MissionTimeUs) -> Option<PlanEntry> {
+        let spec = self.network.task(def)?;
+        let end = MissionTimeUs(start.0.saturating_add(spec.duration_us));
+        Some(PlanEntry {
+            instance,
+            def,
+            state: TaskState::Scheduled,
+            start,
+            end,
+            earliest_start: start,
+            latest_start: start,
+            started: false,
+            persistent: false,
+            origin: Origin::Requested,
+        })
+    }
+
+    /// Appends chain `chain`'s primitives from `start`, checking each when `check`; returns the
+    /// chain's end, or `None` when a primitive is invalid or the entries are full.
+    fn lay_out(
+        &mut self,
+        flat: &FlatNetwork,
+        entries: &mut Entries,
+        chain: u16,
+        start: MissionTimeUs,
+        check: bool,
+    ) -> Option<MissionTimeUs> {
+        let c = flat.chains.get(usize::from(chain))?;
+        let mut at = start;
+        for &primitive in &c.primitives {
+            let def = *self.definition_of.get(usize::from(primitive))?;
+            let instance = fresh_instance(entries)?;
+            let entry = self.entry(instance, def, at)?;
+            if check
+                && !placement_valid(
+                    self.network,
+                    entries,
+                    self.anchors,
+                    &entry,
+                    entry.start,
+                    entry.end,
+                    self.now,
+                )
+            {
+                return None;
+            }
+            if entries.push(entry).is_err() {
+                self.plan_full += 1;
+                return None;
+            }
+            at = entry.end;
+        }
+        Some(at)
+    }
+}
+
+impl ChainPlacement for MexecPlacement<'_> {
+    fn place(
+        &mut self,
+        flat: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+    ) -> Option<MissionTimeUs> {
+        let mut base: Entries = Vec::from_slice(self.held).ok()?;
+        for p in plan {
+            self.lay_out(flat, &mut base, p.chain, p.start, false)?;
+        }
+        let chain = flat.chains.get(usize::from(candidate))?;
+        let mut starts: Vec<u64, { MAX_PLAN_ENTRIES + 1 }> = Vec::new();
+        match chain.fixed_start {
+            Some(fixed) => {
+                let _ = starts.push(fixed.0);
+            }
+            None => {
+                let _ = starts.push(self.now.0);
+                for e in &base {
+                    if e.end >= self.now {
+                        let _ = starts.push(e.end.0);
+                    }
+                }
+            }
+        }
+        starts.sort_unstable();
+        let mut previous = None;
+        for &s in &starts {
+            if previous == Some(s) {
+                continue;
+            }
+            previous = Some(s);
+            let mut trial = base.clone();
+            if self
+                .lay_out(flat, &mut trial, candidate, MissionTimeUs(s), true)
+                .is_some()
+            {
+                return Some(MissionTimeUs(s));
+            }
+        }
+        None
+    }
+}
