@@ -72,6 +72,8 @@ pub struct PlanReport {
     pub nodes: u64,
     /// Successors dropped for a plan longer than the step limit.
     pub too_long: u64,
+    /// Open-list entries dropped because a list was full.
+    pub shed: u64,
     /// The lowest heuristic value reached.
     pub best_h: u32,
     pub peak_arena_bytes: u64,
@@ -144,6 +146,7 @@ pub fn plan_compiled(
         dead_ends: 0,
         nodes: 0,
         too_long: 0,
+        shed: 0,
         best_h: 0,
         peak_arena_bytes: 0,
         arena_bytes: (arena.len() * 4) as u64,
@@ -183,6 +186,7 @@ pub fn plan_compiled(
     report.dead_ends = stats.dead_ends;
     report.nodes = stats.nodes;
     report.too_long = stats.too_long;
+    report.shed = stats.shed;
     report.best_h = stats.best_h;
     report.peak_arena_bytes = stats.peak_words * 4;
     report.outcome = match status {
@@ -251,8 +255,8 @@ pub fn summary(report: &PlanReport) -> String {
         ));
     }
     s.push_str(&format!(
-        "  search    {} expanded, {} generated, {} evaluated, {} inconsistent, {} duplicates, {} dead ends, {} too long, {} nodes stored, best h {} ({:.1} ms host time)\n",
-        report.expanded, report.generated, report.evaluated, report.inconsistent, report.duplicates, report.dead_ends, report.too_long, report.nodes, report.best_h, report.search_ms
+        "  search    {} expanded, {} generated, {} evaluated, {} inconsistent, {} duplicates, {} dead ends, {} too long, {} shed, {} nodes stored, best h {} ({:.1} ms host time)\n",
+        report.expanded, report.generated, report.evaluated, report.inconsistent, report.duplicates, report.dead_ends, report.too_long, report.shed, report.nodes, report.best_h, report.search_ms
     ));
     s.push_str(&format!(
         "  memory    peak arena {} bytes ({:.1} KiB) of {} bytes\n",

@@ -332,3 +332,30 @@ fn a_step_limit_drops_long_branches_and_the_search_goes_on() {
     );
     assert!(2 * planned.plan.len() <= 40);
 }
+
+/// In fixed memory a full open list sheds its worse half and the search goes on: driverlog 2
+/// in 600,000 words fills its open list long before a plan without shedding, and finds a
+/// valid one with it.
+#[test]
+fn a_full_open_list_sheds_its_worse_half_and_the_search_goes_on() {
+    let (d, p) = files("driverlog", 2);
+    let compiled = common::compile(&d, &p).expect("compiles");
+    let words = 600_000;
+    let strict = PlannerConfig {
+        shed_when_full: false,
+        ..PlannerConfig::default()
+    };
+    let without = common::plan(&compiled, strict, words, 1_000_000);
+    assert_eq!(
+        without.status,
+        temporal::Status::OutOfMemory(temporal::Region::RegularOpen)
+    );
+    assert_eq!(without.stats.shed, 0);
+    let with = common::plan(&compiled, PlannerConfig::default(), words, 1_000_000);
+    assert_eq!(with.status, temporal::Status::Solved, "{:?}", with.stats);
+    assert!(with.stats.shed > 0);
+    assert!(with.stats.peak_words <= words as u64);
+    Validator::new(&d, &p, EPSILON)
+        .validate(&with.plan)
+        .expect("valid");
+}

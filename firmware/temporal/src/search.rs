@@ -52,6 +52,10 @@ pub struct PlannerConfig {
     pub duplicates: Duplicates,
     /// Use the second open list of successors the relaxed plan prefers.
     pub preferred_operators: bool,
+    /// When an open list is full, drop its worse half (by key) and go on, instead of ending
+    /// the search: anytime in fixed memory, at the price of completeness (counted in
+    /// [`Stats::shed`]; an open list emptied after shedding is out of memory, not unsolvable).
+    pub shed_when_full: bool,
     /// Snap-action costs in the heuristic's cost propagation.
     pub relaxed_cost: RelaxedCost,
 }
@@ -63,6 +67,7 @@ impl Default for PlannerConfig {
             compression: true,
             duplicates: Duplicates::PruneQuiescent,
             preferred_operators: true,
+            shed_when_full: true,
             relaxed_cost: RelaxedCost::Unit,
         }
     }
@@ -132,6 +137,8 @@ pub struct Stats {
     /// Successors dropped because their plan would exceed `max_steps` (or a step's constraint
     /// capacity).
     pub too_long: u64,
+    /// Open-list entries dropped because a list was full (see [`PlannerConfig::shed_when_full`]).
+    pub shed: u64,
     /// The best h seen.
     pub best_h: u32,
     /// Arena words in use at most: tables, scratch, nodes, buckets and open lists.
@@ -178,6 +185,15 @@ impl<'m> Heap<'m> {
             i = p;
         }
         true
+    }
+    /// Drop the worse half of the entries (the highest keys); returns how many went. The
+    /// entries left are sorted, which is a valid heap.
+    fn shed_worse_half(&mut self) -> usize {
+        let (records, _) = self.words[..3 * self.len].as_chunks_mut::<3>();
+        records.sort_unstable_by_key(|r| r[0]);
+        let dropped = self.len - self.len / 2;
+        self.len /= 2;
+        dropped
     }
     fn pop(&mut self) -> Option<(u32, u32, u32)> {
         if self.len == 0 {
@@ -1047,8 +1063,13 @@ impl<'t, 'm> Planner<'t, 'm> {
             let key = h.min(0xfff) << 20 | (self.seq & 0xf_ffff);
             self.seq = self.seq.wrapping_add(1);
             if !self.regular.push(key, node, snap) {
-                result = Err(Region::RegularOpen);
-                break;
+                if self.config.shed_when_full && self.regular.len > 1 {
+                    self.stats.shed += self.regular.shed_worse_half() as u64;
+                }
+                if !self.regular.push(key, node, snap) {
+                    result = Err(Region::RegularOpen);
+                    break;
+                }
             }
             self.stats.generated += 1;
             let r = 2 * a + usize::from(is_running);
@@ -1056,8 +1077,13 @@ impl<'t, 'm> Planner<'t, 'm> {
                 && self.relax.in_relaxed_plan(r)
                 && !self.preferred.push(key, node, snap)
             {
-                result = Err(Region::PreferredOpen);
-                break;
+                if self.config.shed_when_full && self.preferred.len > 1 {
+                    self.stats.shed += self.preferred.shed_worse_half() as u64;
+                }
+                if !self.preferred.push(key, node, snap) {
+                    result = Err(Region::PreferredOpen);
+                    break;
+                }
             }
         }
         self.load_protection(&running[..running_n], false);
@@ -1078,7 +1104,12 @@ impl<'t, 'm> Planner<'t, 'm> {
             };
             self.turn = !self.turn;
             let Some((_, parent, snap)) = entry else {
-                self.status = Status::Unsolvable;
+                // With entries shed, an empty open list proves nothing.
+                self.status = if self.stats.shed > 0 {
+                    Status::OutOfMemory(Region::RegularOpen)
+                } else {
+                    Status::Unsolvable
+                };
                 break;
             };
             match self.expand(parent, snap) {
