@@ -248,9 +248,15 @@ def run_peer(peer, domain, problem, limit):
     return r
 
 
+def one_line(text):
+    """The last line of an outcome or error, safe in a Markdown table cell."""
+    lines = [l.strip() for l in str(text).strip().splitlines() if l.strip()]
+    return (lines[-1] if lines else "?").replace("|", "/")[:120]
+
+
 def cell_ours(r):
     if not r.get("solved"):
-        return f"- ({r.get('outcome', '?')})"
+        return f"- ({one_line(r.get('outcome', '?'))})"
     v = "" if r.get("valid") else " INVALID"
     return (
         f"{r['makespan']:.2f} / {r['time_s']:.2f} s / {r['peak_arena_bytes'] / 1024:.0f} KiB arena"
@@ -263,7 +269,7 @@ def cell_peer(r):
         return "skipped"
     if not r.get("solved"):
         o = r.get("outcome", "?")
-        return "- (" + ("timeout" if o in ("killed", "TIMEOUT") else o.lower()) + ")"
+        return "- (" + ("timeout" if o in ("killed", "TIMEOUT") else one_line(o).lower()) + ")"
     v = "" if r.get("valid") else " INVALID"
     return f"{r['makespan']:.2f} / {r['time_s']:.2f} s / {(r.get('rss_kib') or 0) / 1024:.0f} MB{v}"
 
