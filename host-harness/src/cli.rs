@@ -90,6 +90,9 @@ enum Command {
     /// Campaign: many seeded random-reset variants of a mission scenario, in parallel,
     /// shardable across machines, merged into one report.
     Campaign(hil::campaign::CampaignArgs),
+    /// Plan a temporal PDDL problem with the onboard temporal planner (seed 001): print the
+    /// plan, its makespan, the search statistics and the planner's peak arena bytes.
+    Plan(hil::plan::PlanArgs),
     /// The target's non-volatile memory image: provision the key that authenticates uplinks and
     /// ground commands, or show what it holds.
     Nv {
@@ -373,6 +376,7 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Campaign(args) => hil::campaign::cli(args),
+        Command::Plan(args) => hil::plan::cli(args),
         Command::Bench {
             what: Some(BenchWhat::Kernel { frames, json }),
             ..

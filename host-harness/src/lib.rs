@@ -22,6 +22,7 @@ pub mod firmware;
 pub mod link;
 pub mod mission;
 pub mod options;
+pub mod plan;
 pub mod qemu;
 pub mod run;
 pub mod scenario;

@@ -1,0 +1,25 @@
+//! A Stellar-style temporal planner (seed 001, Coles et al. 2019): forward search over snap
+//! actions for temporal PDDL tasks with durative actions, [lb, ub] durations, timed initial
+//! literal windows, and discrete numeric conditions and effects.
+//!
+//! `no_std` and heap-free. The task is the compact binary the host's front end (crate `pddl`)
+//! writes, validated on load ([`Task::parse`]); all search memory is one arena of words handed
+//! to [`Planner::new`], whose high-water mark is reported ([`Stats::peak_words`]). Time is
+//! integer ticks (the task says how many make one PDDL time unit). The search is anytime:
+//! [`Planner::step`] expands a bounded number of states and can be called again to resume.
+//!
+//! The parts: [`task`] (the binary task), [`constraints`] (the compact serialised encoding of
+//! temporal constraints), [`stn`] (temporal consistency), [`heuristic`] (FF on the temporal
+//! relaxation, with running-action facts and preferred operators), [`search`] (the planner).
+#![no_std]
+#![forbid(unsafe_code)]
+#![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
+
+pub mod constraints;
+pub mod heuristic;
+pub mod search;
+pub mod stn;
+pub mod task;
+
+pub use search::{Duplicates, PlannedAction, Planner, PlannerConfig, Region, Stats, Status};
+pub use task::{Task, TaskError, TaskErrorKind};
