@@ -1106,10 +1106,17 @@ impl Planner {
         let mut timelines: Vec<u8, { MAX_CONSTRAINTS_PER_TASK + MAX_IMPACTS_PER_TASK }> =
             Vec::new();
         let mut impacted: Vec<u8, MAX_IMPACTS_PER_TASK> = Vec::new();
+        // Each distinct offset once: a repeated offset would only push the same candidates
+        // again for every instant (the flyby's tasks mostly use offset 0 throughout).
+        fn add_once<const N: usize>(offsets: &mut Vec<i64, N>, o: i64) {
+            if !offsets.contains(&o) {
+                let _ = offsets.push(o);
+            }
+        }
         for c in &spec.constraints {
-            let _ = start_offsets.push(c.start_offset_us);
+            add_once(&mut start_offsets, c.start_offset_us);
             if c.when == ConstraintWhen::Maintain {
-                let _ = end_offsets.push(c.end_offset_us);
+                add_once(&mut end_offsets, c.end_offset_us);
             }
             if !timelines.contains(&c.timeline) {
                 let _ = timelines.push(c.timeline);
@@ -1117,15 +1124,11 @@ impl Planner {
         }
         for i in &spec.impacts {
             match i.when {
-                ImpactWhen::Pre => {
-                    let _ = start_offsets.push(i.start_offset_us);
-                }
-                ImpactWhen::Post => {
-                    let _ = end_offsets.push(i.end_offset_us);
-                }
+                ImpactWhen::Pre => add_once(&mut start_offsets, i.start_offset_us),
+                ImpactWhen::Post => add_once(&mut end_offsets, i.end_offset_us),
                 ImpactWhen::Maintain => {
-                    let _ = start_offsets.push(i.start_offset_us);
-                    let _ = end_offsets.push(i.end_offset_us);
+                    add_once(&mut start_offsets, i.start_offset_us);
+                    add_once(&mut end_offsets, i.end_offset_us);
                 }
             }
             if !timelines.contains(&i.timeline) {
