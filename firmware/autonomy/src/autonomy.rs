@@ -39,11 +39,12 @@ use crate::checkpoint::{
     self, CheckpointError, PayloadDefect, PayloadError, PayloadSite, Record, RestoreInfo,
     RestoredState, WarmRestartArea, WrittenRecord,
 };
-use crate::condition::{state_value_to_i64, StateTable, UpdateOutcome};
-use crate::executive::Executive;
+use crate::condition::{state_value_to_i64, StateTable, StateTableInPlace, UpdateOutcome};
+use crate::executive::{Executive, ExecutiveInPlace};
+use crate::in_place;
 use crate::model::*;
 use crate::plan::PlanEntry;
-use crate::planner::{Planner, SavedPlanner, TaskReport};
+use crate::planner::{Planner, PlannerInPlace, TaskReport};
 use crate::telemetry::PlanModificationKind;
 use crate::uplink::{self, ValidationError};
 use fsw_bridge::{
@@ -564,15 +565,14 @@ impl Autonomy {
         uplink::decode_then_validate(&mut self.network, net_bytes)
             .map_err(|e| fail(InvalidNetwork(e), PayloadSite::Network))?;
         let rest = rest.get(4 + net_len..).unwrap_or(&[]);
-        let (planner, rest): (SavedPlanner, _) =
-            postcard::take_from_bytes(rest).map_err(|_| fail(Decode, PayloadSite::Planner))?;
-        self.planner.restore_saved(planner);
-        let (executive, rest): (Executive, _) =
-            postcard::take_from_bytes(rest).map_err(|_| fail(Decode, PayloadSite::Executive))?;
-        self.executive = executive;
-        let (states, rest): (StateTable, _) =
-            postcard::take_from_bytes(rest).map_err(|_| fail(Decode, PayloadSite::States))?;
-        self.states = states;
+        // The planner, the executive and the state table are decoded in place, not built as
+        // values and moved in.
+        let rest = in_place::take_in_place(rest, PlannerInPlace(&mut self.planner))
+            .ok_or(fail(Decode, PayloadSite::Planner))?;
+        let rest = in_place::take_in_place(rest, ExecutiveInPlace(&mut self.executive))
+            .ok_or(fail(Decode, PayloadSite::Executive))?;
+        let rest = in_place::take_in_place(rest, StateTableInPlace(&mut self.states))
+            .ok_or(fail(Decode, PayloadSite::States))?;
         if !rest.is_empty() {
             return Err(fail(TrailingBytes, PayloadSite::End));
         }

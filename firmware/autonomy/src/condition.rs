@@ -66,6 +66,30 @@ pub struct StateTable {
     entries: Vec<StateEntry, MAX_STATE_KEYS>,
 }
 
+/// Decodes a state table as a checkpoint holds it (its `Serialize`: one list) into the table
+/// itself, the list straight into its place ([`crate::in_place`]).
+pub(crate) struct StateTableInPlace<'a>(pub &'a mut StateTable);
+
+impl<'de> serde::de::DeserializeSeed<'de> for StateTableInPlace<'_> {
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, deserializer: D) -> Result<(), D::Error> {
+        deserializer.deserialize_tuple(1, self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for StateTableInPlace<'_> {
+    type Value = ();
+
+    fn expecting(&self, formatter: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        formatter.write_str("a saved state table")
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        crate::in_place::field_into(&mut seq, crate::in_place::VecInto(&mut self.0.entries), 0)
+    }
+}
+
 /// Converts a state-buffer value to the integer timelines and conditions use.
 pub fn state_value_to_i64(value: StateValue) -> i64 {
     match value {

@@ -69,6 +69,37 @@ pub struct Executive {
     pub stats: ExecutiveStats,
 }
 
+/// Decodes an executive as a checkpoint holds it (its `Serialize`) into the executive itself,
+/// each list straight into its place ([`crate::in_place`]).
+pub(crate) struct ExecutiveInPlace<'a>(pub &'a mut Executive);
+
+impl<'de> serde::de::DeserializeSeed<'de> for ExecutiveInPlace<'_> {
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, deserializer: D) -> Result<(), D::Error> {
+        // Four fields: entries, responses, next_command_id, stats.
+        deserializer.deserialize_tuple(4, self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for ExecutiveInPlace<'_> {
+    type Value = ();
+
+    fn expecting(&self, formatter: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        formatter.write_str("a saved executive")
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        use crate::in_place::{field, field_into, VecInto};
+        let e = self.0;
+        field_into(&mut seq, VecInto(&mut e.entries), 0)?;
+        field_into(&mut seq, VecInto(&mut e.responses), 1)?;
+        e.next_command_id = field(&mut seq, 2)?;
+        e.stats = field(&mut seq, 3)?;
+        Ok(())
+    }
+}
+
 /// Command ids skipped after a restore, so that a response to a command sent after the last
 /// checkpoint cannot be taken for one sent after the restore.
 pub const RESTORE_COMMAND_ID_GAP: u32 = 1 << 16;

@@ -29,6 +29,7 @@ pub mod capacity;
 pub mod checkpoint;
 pub mod condition;
 pub mod executive;
+mod in_place;
 pub mod model;
 pub mod plan;
 pub mod planner;

@@ -161,25 +161,49 @@ pub struct Planner {
     scratch: Scratch,
 }
 
-/// The planner as a checkpoint holds it: every field of [`Planner`] but the scratch buffers,
-/// in the same order, so it decodes what `Planner`'s `Serialize` wrote. The restore decodes
-/// this and moves it into place ([`Planner::restore_saved`]): decoding a whole `Planner` built
-/// its scratch buffers too, from a constant image of them that the RAM image check then reads.
-#[derive(Deserialize)]
-pub(crate) struct SavedPlanner {
-    entries: Vec<PlanEntry, MAX_PLAN_ENTRIES>,
-    anchors: Anchors,
-    next_instance: u16,
-    phase: Phase,
-    dirty: bool,
-    last_cycle_at: Option<MissionTimeUs>,
-    attempted: Vec<u16, MAX_PLAN_ENTRIES>,
-    placed_in_pass: bool,
-    passes: u8,
-    tried: Vec<(u16, u8), MAX_REPAIRS_PER_CYCLE>,
-    reports: Vec<TaskReport, MAX_TASK_REPORTS>,
-    ledger: Vec<FailureLedger, MAX_TASKS>,
-    stats: PlannerStats,
+/// Decodes a planner as a checkpoint holds it (every field of [`Planner`] but the scratch
+/// buffers, in the same order: what `Planner`'s `Serialize` wrote) into the planner itself, each
+/// list straight into its place ([`crate::in_place`]); the scratch buffers are left as they
+/// are (the restore's [`Planner::after_restore`] empties them). Decoding a whole `Planner` as a
+/// value built its scratch buffers too and then moved all of it into place.
+pub(crate) struct PlannerInPlace<'a>(pub &'a mut Planner);
+
+/// Fields of a saved planner.
+const SAVED_PLANNER_FIELDS: usize = 13;
+
+impl<'de> serde::de::DeserializeSeed<'de> for PlannerInPlace<'_> {
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, deserializer: D) -> Result<(), D::Error> {
+        deserializer.deserialize_tuple(SAVED_PLANNER_FIELDS, self)
+    }
+}
+
+impl<'de> serde::de::Visitor<'de> for PlannerInPlace<'_> {
+    type Value = ();
+
+    fn expecting(&self, formatter: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        formatter.write_str("a saved planner")
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        use crate::in_place::{field, field_into, VecInto};
+        let p = self.0;
+        field_into(&mut seq, VecInto(&mut p.entries), 0)?;
+        field_into(&mut seq, VecInto(&mut p.anchors), 1)?;
+        p.next_instance = field(&mut seq, 2)?;
+        p.phase = field(&mut seq, 3)?;
+        p.dirty = field(&mut seq, 4)?;
+        p.last_cycle_at = field(&mut seq, 5)?;
+        field_into(&mut seq, VecInto(&mut p.attempted), 6)?;
+        p.placed_in_pass = field(&mut seq, 7)?;
+        p.passes = field(&mut seq, 8)?;
+        field_into(&mut seq, VecInto(&mut p.tried), 9)?;
+        field_into(&mut seq, VecInto(&mut p.reports), 10)?;
+        field_into(&mut seq, VecInto(&mut p.ledger), 11)?;
+        p.stats = field(&mut seq, 12)?;
+        Ok(())
+    }
 }
 
 #[derive(Clone, Debug, Default)]
@@ -1755,39 +1779,6 @@ impl Planner {
         self.scratch.candidates.clear();
         self.scratch.events.clear();
         self.dirty = true;
-    }
-
-    /// Takes the state a checkpoint saved (the scratch buffers are left as they are; the
-    /// restore's [`Planner::after_restore`] empties them).
-    pub(crate) fn restore_saved(&mut self, saved: SavedPlanner) {
-        let SavedPlanner {
-            entries,
-            anchors,
-            next_instance,
-            phase,
-            dirty,
-            last_cycle_at,
-            attempted,
-            placed_in_pass,
-            passes,
-            tried,
-            reports,
-            ledger,
-            stats,
-        } = saved;
-        self.entries = entries;
-        self.anchors = anchors;
-        self.next_instance = next_instance;
-        self.phase = phase;
-        self.dirty = dirty;
-        self.last_cycle_at = last_cycle_at;
-        self.attempted = attempted;
-        self.placed_in_pass = placed_in_pass;
-        self.passes = passes;
-        self.tried = tried;
-        self.reports = reports;
-        self.ledger = ledger;
-        self.stats = stats;
     }
 }
 

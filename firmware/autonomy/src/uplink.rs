@@ -726,14 +726,43 @@ impl<'a> Reader<'a> {
         Ok(items)
     }
 
+    /// [`Reader::list`] into `items` in place (cleared first): the items are not built in a
+    /// temporary list that is then moved, twice, into the element that holds it.
+    fn list_into<T: DeserializeOwned, const N: usize>(
+        &mut self,
+        items: &mut Vec<T, N>,
+        too_many: ValidationCode,
+        site: impl Fn(usize) -> ErrorSite,
+    ) -> Result<(), ValidationError> {
+        items.clear();
+        let n = self.length(site(0))?;
+        if n > N {
+            return Err(ValidationError::new(too_many, site(N)));
+        }
+        for i in 0..n {
+            let item = self.take(site(i))?;
+            items
+                .push(item)
+                .map_err(|_| ValidationError::new(too_many, site(i)))?;
+        }
+        Ok(())
+    }
+
     /// A name: over [`MAX_NAME_LEN`] bytes is [`ValidationCode::NameTooLong`].
+    /// Read here as postcard reads a string (length, then UTF-8 bytes) but straight into the
+    /// [`Name`], without postcard's string visitor and the moves of its result.
     fn name(&mut self, site: ErrorSite) -> Result<Name, ValidationError> {
-        let start = self.rest;
-        if self.length(site)? > MAX_NAME_LEN {
+        let len = self.length(site)?;
+        if len > MAX_NAME_LEN {
             return Err(ValidationError::new(ValidationCode::NameTooLong, site));
         }
-        self.rest = start;
-        self.take(site)
+        let decode_error = ValidationError::new(ValidationCode::Decode, site);
+        let (bytes, rest) = self.rest.split_at_checked(len).ok_or(decode_error)?;
+        let text = core::str::from_utf8(bytes).map_err(|_| decode_error)?;
+        let mut name = Name::new();
+        name.push_str(text).map_err(|_| decode_error)?;
+        self.rest = rest;
+        Ok(name)
     }
 
     /// An `Option` (postcard: a tag byte 0 or 1, then the value) whose value `read` decodes.
@@ -782,7 +811,16 @@ impl<'a> Reader<'a> {
         Ok(ConditionSpec { nodes })
     }
 
-    fn task(&mut self, index: usize) -> Result<TaskSpec, ValidationError> {
+    /// Task `index`, decoded into `tasks` (pushed at its end): the fields before the first
+    /// list are read into the pushed element, and the lists and the control part that follow
+    /// are decoded straight into it, so the element is copied once (by the push) instead of
+    /// being built in temporaries and moved through each reader's result. On error `tasks`
+    /// may hold a partly decoded last element (the caller discards the network).
+    fn task_into<const N: usize>(
+        &mut self,
+        index: usize,
+        tasks: &mut Vec<TaskSpec, N>,
+    ) -> Result<(), ValidationError> {
         use ValidationCode::*;
         let task = u8_index(index);
         let site = |field| ErrorSite::Task { task, field };
@@ -798,40 +836,61 @@ impl<'a> Reader<'a> {
         let earliest_start = self.take(site(TaskField::Window))?;
         let latest_start = self.take(site(TaskField::Window))?;
         let latest_end = self.take(site(TaskField::Window))?;
-        let constraints = self.list(TooManyConstraints, |k| {
+        tasks
+            .push(TaskSpec {
+                id,
+                name,
+                priority,
+                role,
+                command,
+                duration_us,
+                min_duration_us,
+                earliest_start,
+                latest_start,
+                latest_end,
+                constraints: Vec::new(),
+                impacts: Vec::new(),
+                control: ControlSpec::NONE,
+                contingencies: Vec::new(),
+                permissions: Permissions {
+                    may_move: false,
+                    may_delete: false,
+                    may_add: Vec::new(),
+                },
+            })
+            .map_err(|_| ValidationError::new(TooManyTasks, site(TaskField::Whole)))?;
+        let Some(t) = tasks.last_mut() else {
+            return Err(ValidationError::new(TooManyTasks, site(TaskField::Whole)));
+        };
+        self.list_into(&mut t.constraints, TooManyConstraints, |k| {
             site(TaskField::Constraint(u8_index(k)))
         })?;
-        let impacts = self.list(TooManyImpacts, |k| site(TaskField::Impact(u8_index(k))))?;
-        let control = self.control(|field| ErrorSite::Task { task, field })?;
-        let contingencies = self.list(TooManyContingencies, |k| {
+        self.list_into(&mut t.impacts, TooManyImpacts, |k| {
+            site(TaskField::Impact(u8_index(k)))
+        })?;
+        t.control = self.control(|field| ErrorSite::Task { task, field })?;
+        self.list_into(&mut t.contingencies, TooManyContingencies, |k| {
             site(TaskField::Contingency(u8_index(k)))
         })?;
-        let may_move = self.take(site(TaskField::Whole))?;
-        let may_delete = self.take(site(TaskField::Whole))?;
-        let may_add = self.list(TooManyPermissions, |k| {
+        t.permissions.may_move = self.take(site(TaskField::Whole))?;
+        t.permissions.may_delete = self.take(site(TaskField::Whole))?;
+        self.list_into(&mut t.permissions.may_add, TooManyPermissions, |k| {
             site(TaskField::Permission(u8_index(k)))
         })?;
-        Ok(TaskSpec {
-            id,
-            name,
-            priority,
-            role,
-            command,
-            duration_us,
-            min_duration_us,
-            earliest_start,
-            latest_start,
-            latest_end,
-            constraints,
-            impacts,
-            control,
-            contingencies,
-            permissions: Permissions {
-                may_move,
-                may_delete,
-                may_add,
+        Ok(())
+    }
+
+    /// Task `index` as a value ([`Reader::task_into`] into a list of one).
+    fn task(&mut self, index: usize) -> Result<TaskSpec, ValidationError> {
+        let mut one: Vec<TaskSpec, 1> = Vec::new();
+        self.task_into(index, &mut one)?;
+        one.pop().ok_or(ValidationError::new(
+            ValidationCode::Decode,
+            ErrorSite::Task {
+                task: u8_index(index),
+                field: TaskField::Whole,
             },
-        })
+        ))
     }
 
     fn control(
@@ -1066,16 +1125,7 @@ pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult 
         },
     )?;
     for i in 0..task_count {
-        let t = r.task(i)?;
-        spec.tasks.push(t).map_err(|_| {
-            ValidationError::new(
-                TooManyTasks,
-                ErrorSite::Task {
-                    task: u8_index(i),
-                    field: TaskField::Whole,
-                },
-            )
-        })?;
+        r.task_into(i, &mut spec.tasks)?;
     }
     spec.temporal.clear();
     let temporal_count = r.count(
