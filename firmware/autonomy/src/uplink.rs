@@ -784,20 +784,37 @@ impl<'a> Reader<'a> {
         Ok(CommandSpec { opcode, args })
     }
 
-    fn timeline(&mut self, index: usize) -> Result<TimelineSpec, ValidationError> {
+    /// Timeline `index`, pushed onto `timelines` as it is read (not returned and moved).
+    fn timeline_into<const N: usize>(
+        &mut self,
+        index: usize,
+        timelines: &mut Vec<TimelineSpec, N>,
+    ) -> Result<(), ValidationError> {
         let site = ErrorSite::Timeline(u8_index(index));
         let name = self.name(site)?;
         let kind = self.take(site)?;
         let state_key = self.take(site)?;
         let after_reset = self.take(ErrorSite::TimelineAfterReset(u8_index(index)))?;
         let stale_after_us = self.take(ErrorSite::TimelineStaleAfter(u8_index(index)))?;
-        Ok(TimelineSpec {
-            name,
-            kind,
-            state_key,
-            after_reset,
-            stale_after_us,
-        })
+        timelines
+            .push(TimelineSpec {
+                name,
+                kind,
+                state_key,
+                after_reset,
+                stale_after_us,
+            })
+            .map_err(|_| ValidationError::new(ValidationCode::TooManyTimelines, site))
+    }
+
+    /// Timeline `index` as a value ([`Reader::timeline_into`] into a list of one).
+    fn timeline(&mut self, index: usize) -> Result<TimelineSpec, ValidationError> {
+        let mut one: Vec<TimelineSpec, 1> = Vec::new();
+        self.timeline_into(index, &mut one)?;
+        one.pop().ok_or(ValidationError::new(
+            ValidationCode::Decode,
+            ErrorSite::Timeline(u8_index(index)),
+        ))
     }
 
     fn condition(&mut self, index: usize) -> Result<ConditionSpec, ValidationError> {
@@ -868,7 +885,7 @@ impl<'a> Reader<'a> {
         self.list_into(&mut t.impacts, TooManyImpacts, |k| {
             site(TaskField::Impact(u8_index(k)))
         })?;
-        t.control = self.control(|field| ErrorSite::Task { task, field })?;
+        self.control_into(|field| ErrorSite::Task { task, field }, &mut t.control)?;
         self.list_into(&mut t.contingencies, TooManyContingencies, |k| {
             site(TaskField::Contingency(u8_index(k)))
         })?;
@@ -893,32 +910,24 @@ impl<'a> Reader<'a> {
         ))
     }
 
-    fn control(
+    /// [`Reader::control`] into `c` in place, field by field.
+    fn control_into(
         &mut self,
         site: impl Fn(TaskField) -> ErrorSite,
-    ) -> Result<ControlSpec, ValidationError> {
+        c: &mut ControlSpec,
+    ) -> Result<(), ValidationError> {
         let control = site(TaskField::Control);
         let responses = |f| site(TaskField::Responses(f));
-        let start_condition = self.take(control)?;
-        let maintain_condition = self.take(control)?;
-        let skip_condition = self.take(control)?;
-        let pre_wait_timeout_us = self.take(control)?;
-        let response_timeout_us = self.take(control)?;
-        let on_failure_command = self.option(control, |r| r.command(control))?;
-        let max_retries = self.take(responses(ResponseField::MaxRetries))?;
-        let max_repairs = self.take(responses(ResponseField::MaxRepairs))?;
-        let backoff = self.take(responses(ResponseField::Backoff))?;
-        Ok(ControlSpec {
-            start_condition,
-            maintain_condition,
-            skip_condition,
-            pre_wait_timeout_us,
-            response_timeout_us,
-            on_failure_command,
-            max_retries,
-            max_repairs,
-            backoff,
-        })
+        c.start_condition = self.take(control)?;
+        c.maintain_condition = self.take(control)?;
+        c.skip_condition = self.take(control)?;
+        c.pre_wait_timeout_us = self.take(control)?;
+        c.response_timeout_us = self.take(control)?;
+        c.on_failure_command = self.option(control, |r| r.command(control))?;
+        c.max_retries = self.take(responses(ResponseField::MaxRetries))?;
+        c.max_repairs = self.take(responses(ResponseField::MaxRepairs))?;
+        c.backoff = self.take(responses(ResponseField::Backoff))?;
+        Ok(())
     }
 }
 
@@ -1089,10 +1098,7 @@ pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult 
         ErrorSite::Timeline(u8_index(MAX_TIMELINES)),
     )?;
     for i in 0..timeline_count {
-        let t = r.timeline(i)?;
-        spec.timelines.push(t).map_err(|_| {
-            ValidationError::new(TooManyTimelines, ErrorSite::Timeline(u8_index(i)))
-        })?;
+        r.timeline_into(i, &mut spec.timelines)?;
     }
     spec.conditions.clear();
     let condition_count = r.count(
