@@ -19,6 +19,7 @@ use serde::{de::DeserializeOwned, Serialize};
 use crate::capacity::*;
 use crate::model::*;
 use crate::telemetry::FailureKind;
+use fsw_bridge::MissionTimeUs;
 
 /// Why an uplink was refused. `code as u16` is what reaches the host.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -681,10 +682,34 @@ impl<'a> Reader<'a> {
         }
     }
 
+    /// A `u64` as postcard writes it (a varint of at most 10 bytes, the last at most 1), read
+    /// here rather than through `take` (a deserializer built and finished for every number):
+    /// the same numbers, and `Decode` where postcard fails (a short or over-long varint).
+    fn u64(&mut self, site: ErrorSite) -> Result<u64, ValidationError> {
+        const MAX_BYTES: usize = 10;
+        let mut value = 0u64;
+        for (i, &byte) in self.rest.iter().take(MAX_BYTES).enumerate() {
+            value |= u64::from(byte & 0x7F) << (7 * i);
+            if byte & 0x80 == 0 {
+                if i == MAX_BYTES - 1 && byte > 0x01 {
+                    break;
+                }
+                self.rest = self.rest.get(i + 1..).unwrap_or(&[]);
+                return Ok(value);
+            }
+        }
+        Err(ValidationError::new(ValidationCode::Decode, site))
+    }
+
+    /// A mission time (a `u64` newtype: postcard writes the number alone).
+    fn time(&mut self, site: ErrorSite) -> Result<MissionTimeUs, ValidationError> {
+        self.u64(site).map(MissionTimeUs)
+    }
+
     /// The length postcard puts before a list or a string (a varint). Read as a `u64` on
     /// every platform, so a length says the same on the 32-bit target as on the host.
     fn length(&mut self, site: ErrorSite) -> Result<usize, ValidationError> {
-        let n: u64 = self.take(site)?;
+        let n = self.u64(site)?;
         Ok(usize::try_from(n).unwrap_or(usize::MAX))
     }
 
@@ -848,11 +873,11 @@ impl<'a> Reader<'a> {
         let command = self.option(site(TaskField::Command), |r| {
             r.command(site(TaskField::Command))
         })?;
-        let duration_us = self.take(site(TaskField::Duration))?;
-        let min_duration_us = self.take(site(TaskField::Duration))?;
-        let earliest_start = self.take(site(TaskField::Window))?;
-        let latest_start = self.take(site(TaskField::Window))?;
-        let latest_end = self.take(site(TaskField::Window))?;
+        let duration_us = self.u64(site(TaskField::Duration))?;
+        let min_duration_us = self.u64(site(TaskField::Duration))?;
+        let earliest_start = self.time(site(TaskField::Window))?;
+        let latest_start = self.time(site(TaskField::Window))?;
+        let latest_end = self.time(site(TaskField::Window))?;
         tasks
             .push(TaskSpec {
                 id,
@@ -921,8 +946,8 @@ impl<'a> Reader<'a> {
         c.start_condition = self.take(control)?;
         c.maintain_condition = self.take(control)?;
         c.skip_condition = self.take(control)?;
-        c.pre_wait_timeout_us = self.take(control)?;
-        c.response_timeout_us = self.take(control)?;
+        c.pre_wait_timeout_us = self.u64(control)?;
+        c.response_timeout_us = self.u64(control)?;
         c.on_failure_command = self.option(control, |r| r.command(control))?;
         c.max_retries = self.take(responses(ResponseField::MaxRetries))?;
         c.max_repairs = self.take(responses(ResponseField::MaxRepairs))?;
@@ -1197,5 +1222,67 @@ impl TaskNetwork {
     /// Encodes this network in the uplink format; returns the length used.
     pub fn encode(&self, buf: &mut [u8]) -> Result<usize, BufferTooSmall> {
         encode_spec(&self.spec, buf)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+
+    /// What `Reader::u64` reads off `bytes`: the value and the bytes left, or None.
+    fn ours(bytes: &[u8]) -> Option<(u64, usize)> {
+        let mut r = Reader { rest: bytes };
+        r.u64(ErrorSite::Network).ok().map(|v| (v, r.rest.len()))
+    }
+
+    /// What postcard reads off `bytes` as a `u64`.
+    fn postcards(bytes: &[u8]) -> Option<(u64, usize)> {
+        postcard::take_from_bytes::<u64>(bytes)
+            .ok()
+            .map(|(v, rest)| (v, rest.len()))
+    }
+
+    #[test]
+    fn the_varint_reader_reads_what_postcard_reads() {
+        let mut cases: std::vec::Vec<std::vec::Vec<u8>> = std::vec::Vec::new();
+        // Every power of two and its neighbours, each followed by a byte that must be left.
+        for shift in 0..64 {
+            for v in [
+                1u64 << shift,
+                (1u64 << shift) - 1,
+                (1u64 << shift) + 1,
+                u64::MAX,
+            ] {
+                let mut buf = [0u8; 16];
+                let used = postcard::to_slice(&v, &mut buf).map_or(0, |b| b.len());
+                assert!(used > 0, "{v} encodes");
+                let mut bytes = buf.get(..used).unwrap_or(&[]).to_vec();
+                bytes.push(0x55);
+                cases.push(bytes.clone());
+                // Every truncation of it.
+                for cut in 0..used {
+                    cases.push(bytes.get(..cut).unwrap_or(&[]).to_vec());
+                }
+            }
+        }
+        // Ten bytes whose last carries more than the one bit left, and eleven-byte varints.
+        for last in 0..=0xFFu8 {
+            let mut bytes = [0xFFu8; 9].to_vec();
+            bytes.push(last);
+            cases.push(bytes.clone());
+            bytes.push(0x00);
+            cases.push(bytes);
+        }
+        // Over-long encodings of small numbers (a zero continuation), which postcard takes.
+        cases.push(std::vec![0x80, 0x00]);
+        cases.push(std::vec![0x81, 0x80, 0x00, 0x07]);
+        for bytes in &cases {
+            assert_eq!(ours(bytes), postcards(bytes), "{bytes:02x?}");
+        }
+        assert_eq!(ours(&[0xFF; 9]), None);
+        assert_eq!(ours(&[0x80, 0x00]), Some((0, 0)));
+        assert_eq!(ours(&[0xFF, 0x01, 0x55]), Some((255, 1)));
     }
 }
