@@ -497,14 +497,7 @@ impl Describe for TargetToHost {
     }
 
     fn is_instrumentation(&self) -> bool {
-        matches!(
-            self,
-            TargetToHost::Log { .. }
-                | TargetToHost::Telemetry(
-                    fsw_bridge::TelemetryEvent::Metric { .. }
-                        | fsw_bridge::TelemetryEvent::HealthMonitor { .. }
-                )
-        )
+        service_of(self) == Service::Sequenced(VirtualChannel::Instrument)
     }
 }
 
