@@ -715,6 +715,23 @@ impl<'a> Reader<'a> {
 
     /// A top-level element count (`u16`), at most `max`. Over it: `too_many` at the site of
     /// the first element that does not fit.
+    /// Clears `list` and reads a count (at most the list's capacity, else `too_many`) and that
+    /// many elements into it with `item` (given the element's index).
+    fn refill<T, const N: usize>(
+        &mut self,
+        list: &mut Vec<T, N>,
+        too_many: ValidationCode,
+        mut item: impl FnMut(&mut Self, usize) -> Result<T, ValidationError>,
+    ) -> VResult {
+        list.clear();
+        for i in 0..self.count(N, too_many, ErrorSite::Network)? {
+            let element = item(self, i)?;
+            list.push(element)
+                .map_err(|_| ValidationError::new(too_many, ErrorSite::Network))?;
+        }
+        Ok(())
+    }
+
     fn count(
         &mut self,
         max: usize,
@@ -1070,38 +1087,14 @@ pub fn decode_into(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
     let mut r = Reader { rest: bytes };
     let spec = &mut network.spec;
     spec.header = r.take(ErrorSite::Network)?;
-    spec.timelines.clear();
-    for i in 0..r.count(MAX_TIMELINES, TooManyTimelines, ErrorSite::Network)? {
-        let t = r.timeline(i)?;
-        spec.timelines
-            .push(t)
-            .map_err(|_| ValidationError::new(TooManyTimelines, ErrorSite::Network))?;
-    }
-    spec.conditions.clear();
-    for i in 0..r.count(MAX_CONDITIONS, TooManyConditions, ErrorSite::Network)? {
-        let c = r.condition(i)?;
-        spec.conditions
-            .push(c)
-            .map_err(|_| ValidationError::new(TooManyConditions, ErrorSite::Network))?;
-    }
-    spec.tasks.clear();
-    for i in 0..r.count(MAX_TASKS, TooManyTasks, ErrorSite::Network)? {
-        let t = r.task(i)?;
-        spec.tasks
-            .push(t)
-            .map_err(|_| ValidationError::new(TooManyTasks, ErrorSite::Network))?;
-    }
-    spec.temporal.clear();
-    for i in 0..r.count(
-        MAX_TEMPORAL_CONSTRAINTS,
+    r.refill(&mut spec.timelines, TooManyTimelines, Reader::timeline)?;
+    r.refill(&mut spec.conditions, TooManyConditions, Reader::condition)?;
+    r.refill(&mut spec.tasks, TooManyTasks, Reader::task)?;
+    r.refill(
+        &mut spec.temporal,
         TooManyTemporalConstraints,
-        ErrorSite::Network,
-    )? {
-        let tc = r.take(ErrorSite::Temporal(u8_index(i)))?;
-        spec.temporal
-            .push(tc)
-            .map_err(|_| ValidationError::new(TooManyTemporalConstraints, ErrorSite::Network))?;
-    }
+        |r: &mut Reader<'_>, i| r.take(ErrorSite::Temporal(u8_index(i))),
+    )?;
     Ok(())
 }
 
