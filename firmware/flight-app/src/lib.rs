@@ -926,13 +926,13 @@ impl FlightApp {
         if failures > 0 {
             downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
         }
-        let mismatches = self.autonomy.state_type_mismatches;
+        let mismatches = self.autonomy.state_type_mismatches();
         if mismatches != self.reported_state_type_mismatches {
             downlink.send(metric_event(
                 metric::STATE_TYPE_MISMATCHES,
                 u64::from(mismatches),
             ));
-            if let Some(key) = self.autonomy.last_state_type_mismatch {
+            if let Some(key) = self.autonomy.last_state_type_mismatch() {
                 downlink.send(metric_event(
                     metric::STATE_TYPE_MISMATCH_KEY,
                     u64::from(key.0),
