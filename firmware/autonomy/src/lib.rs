@@ -33,6 +33,7 @@ pub mod executive;
 mod in_place;
 pub mod interface;
 pub mod model;
+pub mod partitioned;
 pub mod plan;
 pub mod planner;
 pub mod scenarios;
