@@ -827,6 +827,10 @@ impl FlightApp {
                 seq: total,
                 reason: uplink_reason::BUSY,
             }),
+            Err(autonomy::LoadError::TooLarge) => downlink.send(TargetToHost::UplinkNak {
+                seq: total,
+                reason: uplink_reason::TOO_LARGE,
+            }),
         }
     }
 
