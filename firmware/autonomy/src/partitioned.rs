@@ -168,6 +168,8 @@ pub struct Outbox<T, const N: usize> {
     next_seq: u32,
     /// Messages up to this number have gone to the port (or were acknowledged).
     sent: u32,
+    /// Messages up to this number were in this side's last checkpoint: only they may go.
+    sendable: u32,
     /// Messages not acknowledged yet, oldest first.
     log: Vec<(u32, T), N>,
     /// Messages refused because the log was full (the sender's count of what it lost).
@@ -187,6 +189,7 @@ impl<T: Clone, const N: usize> Outbox<T, N> {
         Self {
             next_seq: 1,
             sent: 0,
+            sendable: 0,
             log: Vec::new(),
             refused: 0,
             resent: 0,
@@ -246,15 +249,24 @@ impl<T: Clone, const N: usize> Outbox<T, N> {
             .log
             .first()
             .map_or(self.sent, |(seq, _)| seq.wrapping_sub(1));
+        self.checkpointed();
     }
 
-    /// Hands the messages not sent yet to `send`, in order, until it refuses one (a full
-    /// port: the rest go at the next call).
+    /// This side's checkpoint now holds every message kept: they may go.
+    pub fn checkpointed(&mut self) {
+        self.sendable = self.next_seq.wrapping_sub(1);
+    }
+
+    /// Hands the messages not sent yet that a checkpoint holds to `send`, in order, until it
+    /// refuses one (a full port: the rest go at the next call).
     pub fn transmit(&mut self, send: &mut impl FnMut(Wire<T>) -> bool) {
         for (seq, message) in &self.log {
             let seq = *seq;
             if seq <= self.sent {
                 continue;
+            }
+            if seq > self.sendable {
+                return;
             }
             if !send(Wire::Message {
                 seq,
@@ -274,6 +286,9 @@ pub struct Inbox {
     pub received: u32,
     /// The last number acknowledged.
     acknowledged: u32,
+    /// Every message up to this number was applied when this side's last checkpoint was
+    /// taken: the most that may be acknowledged.
+    checkpointed: u32,
     /// Messages dropped as already applied (sent again after a restore).
     pub duplicates: u32,
     /// Messages dropped because one before them is missing (they come again in order).
@@ -296,11 +311,17 @@ impl Inbox {
         }
     }
 
-    /// After this side's checkpoint: the acknowledgement to send, if there is a new one.
+    /// This side's checkpoint now holds every message applied.
+    pub fn checkpointed(&mut self) {
+        self.checkpointed = self.received;
+    }
+
+    /// The acknowledgement to send, if there is a new one: up to what the last checkpoint
+    /// holds.
     pub fn ack(&mut self) -> Option<u32> {
-        (self.received != self.acknowledged).then(|| {
-            self.acknowledged = self.received;
-            self.received
+        (self.checkpointed != self.acknowledged).then(|| {
+            self.acknowledged = self.checkpointed;
+            self.checkpointed
         })
     }
 }
@@ -382,6 +403,7 @@ impl Default for ExecutivePartition {
 const EMPTY_INBOX: Inbox = Inbox {
     received: 0,
     acknowledged: 0,
+    checkpointed: 0,
     duplicates: 0,
     out_of_order: 0,
 };
@@ -731,12 +753,23 @@ impl ExecutivePartition {
         Some(len)
     }
 
-    /// Writes this side's checkpoint into its own area.
+    /// This side's checkpoint now holds its whole state (a caller that writes the checkpoint
+    /// itself, from [`ExecutivePartition::encode_state`], says so): the messages kept may go,
+    /// the messages applied may be acknowledged.
+    pub fn checkpointed(&mut self) {
+        self.to_planner.checkpointed();
+        self.from_planner.checkpointed();
+    }
+
+    /// Writes this side's checkpoint into its own area (and, written, marks what it holds:
+    /// see [`ExecutivePartition::checkpointed`]).
     pub fn checkpoint_to(
-        &self,
+        &mut self,
         area: &mut WarmRestartArea<'_>,
     ) -> Result<WrittenRecord, CheckpointError> {
-        area.write_record(|buf| self.encode_state(buf))
+        let written = area.write_record(|buf| self.encode_state(buf))?;
+        self.checkpointed();
+        Ok(written)
     }
 
     /// Restores this side from the newest whole record of its area, then prepares the
@@ -751,6 +784,7 @@ impl ExecutivePartition {
         }
         self.control.executive.after_restore();
         self.to_planner.after_restore();
+        self.from_planner.checkpointed();
         self.restored = Some(sequence);
         self.resume = true;
         Ok(sequence)
@@ -1075,12 +1109,22 @@ impl PlannerPartition {
         Some(len)
     }
 
-    /// Writes this side's checkpoint into its own area.
+    /// This side's checkpoint now holds its whole state: see
+    /// [`ExecutivePartition::checkpointed`].
+    pub fn checkpointed(&mut self) {
+        self.to_executive.checkpointed();
+        self.from_executive.checkpointed();
+    }
+
+    /// Writes this side's checkpoint into its own area (and, written, marks what it holds:
+    /// see [`PlannerPartition::checkpointed`]).
     pub fn checkpoint_to(
-        &self,
+        &mut self,
         area: &mut WarmRestartArea<'_>,
     ) -> Result<WrittenRecord, CheckpointError> {
-        area.write_record(|buf| self.encode_state(buf))
+        let written = area.write_record(|buf| self.encode_state(buf))?;
+        self.checkpointed();
+        Ok(written)
     }
 
     /// Restores this side from the newest whole record of its area; every message not
@@ -1094,6 +1138,7 @@ impl PlannerPartition {
         }
         self.planner.after_restore();
         self.to_executive.after_restore();
+        self.from_executive.checkpointed();
         self.resume = true;
         Ok(sequence)
     }
@@ -1192,8 +1237,9 @@ impl Point {
 
 /// Where a frame's checkpoints go, and whether it goes on at each [`Point`].
 pub trait FrameEnv {
-    /// Write `side`'s checkpoint (`executive` or `planner`, whichever `side` names). False:
-    /// the write did not complete (a reset tore it); the frame stops there.
+    /// Write `side`'s checkpoint (`executive` or `planner`, whichever `side` names: its
+    /// `encode_state`). False: the write did not complete (a reset tore it); the frame stops
+    /// there. True: [`run_frame`] marks the side checkpointed.
     fn checkpoint(
         &mut self,
         side: Side,
@@ -1238,6 +1284,7 @@ pub fn run_frame(
     if !env.checkpoint(Side::Executive, executive, planner) {
         return Err(Interrupted(Point::ExecutiveFirstWindow));
     }
+    executive.checkpointed();
     go(&mut |p| env.proceed(p), Point::ExecutiveFirstCheckpoint)?;
     executive.transmit(&mut |w| {
         planner.receive(w);
@@ -1249,6 +1296,7 @@ pub fn run_frame(
     if !env.checkpoint(Side::Planner, executive, planner) {
         return Err(Interrupted(Point::PlannerWindow));
     }
+    planner.checkpointed();
     go(&mut |p| env.proceed(p), Point::PlannerCheckpoint)?;
     planner.transmit(&mut |w| {
         executive.receive(w);
@@ -1260,6 +1308,7 @@ pub fn run_frame(
     if !env.checkpoint(Side::Executive, executive, planner) {
         return Err(Interrupted(Point::ExecutiveSecondWindow));
     }
+    executive.checkpointed();
     go(&mut |p| env.proceed(p), Point::ExecutiveSecondCheckpoint)?;
     executive.transmit(&mut |w| {
         planner.receive(w);

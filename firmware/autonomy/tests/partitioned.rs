@@ -44,8 +44,8 @@ impl FrameEnv for Env<'_> {
         let write = |bytes: &mut [u8]| {
             let mut area = WarmRestartArea::new(bytes);
             match side {
-                Side::Executive => executive.checkpoint_to(&mut area),
-                Side::Planner => planner.checkpoint_to(&mut area),
+                Side::Executive => area.write_record(|buf| executive.encode_state(buf)),
+                Side::Planner => area.write_record(|buf| planner.encode_state(buf)),
             }
             .expect("checkpoint fits")
         };
@@ -105,6 +105,7 @@ impl PairSim {
         executive
             .checkpoint_to(&mut WarmRestartArea::new(&mut executive_area))
             .expect("fits");
+        // (Marked checkpointed: what it pushed may go.)
         Self {
             executive,
             planner,
