@@ -66,15 +66,17 @@ pub mod reset_at {
     /// In the partition's next warm-area write, after `value` permille of its bytes.
     pub const IN_WARM_WRITE: u32 = 2;
 
+    use fsw_bridge::dictionary::armed_reset_point;
+
     /// `metric::ARMED_RESET_POINT`: the count ran out while the partition ran its own code (or
     /// in a system call other than a warm-area write, the reset then following that call).
-    pub const LANDED_IN_CODE: u64 = 1;
+    pub const LANDED_IN_CODE: u64 = armed_reset_point::IN_CODE;
     /// Inside a warm-area write: part of its bytes copied (`metric::ARMED_RESET_WARM_COPIED`).
-    pub const LANDED_IN_WARM_WRITE: u64 = 2;
+    pub const LANDED_IN_WARM_WRITE: u64 = armed_reset_point::IN_WARM_WRITE;
     /// The partition finished first (gave up its window); the reset followed at once.
-    pub const LANDED_AFTER_WORK: u64 = 3;
+    pub const LANDED_AFTER_WORK: u64 = armed_reset_point::AFTER_WORK;
     /// The health monitor stopped or restarted the partition first; the reset followed.
-    pub const LANDED_PARTITION_STOPPED: u64 = 4;
+    pub const LANDED_PARTITION_STOPPED: u64 = armed_reset_point::PARTITION_STOPPED;
 }
 /// (period): 0 = queue the kernel's accounting metrics now; n = queue them every n major
 /// frames from now on; REPORT_OFF = stop the periodic reports (the default: nothing is sent
@@ -184,119 +186,15 @@ pub const EVENT_RECORD_SIZE: usize = 16;
 pub const EVENT_HEALTH_MONITOR: u32 = 1;
 pub const EVENT_METRIC: u32 = 2;
 
-/// Telemetry `Metric` ids. Per-partition ids add the partition index.
+/// Telemetry `Metric` ids of the kernel and the partitions' instrumentation: the telemetry
+/// dictionary's platform table (`fsw_bridge::dictionary::platform`), where each id's name,
+/// unit, kind and channel are declared. Per-partition ids add the partition index.
 pub mod metric {
-    /// Ticks partition p used in the last complete major frame.
-    pub const FRAME_TICKS: u16 = 0x0100;
-    /// Most ticks partition p used in any one major frame since boot.
-    pub const WORST_FRAME_TICKS: u16 = 0x0110;
-    /// Windows in which partition p was still running at the end (preempted).
-    pub const OVERRUNS: u16 = 0x0120;
-    /// Largest start jitter of p's windows (actual switch-in minus scheduled start), ticks.
-    pub const MAX_JITTER: u16 = 0x0130;
-    /// Generation of p (number of restarts).
-    pub const GENERATION: u16 = 0x0140;
-    /// Ticks partition p used in each window of the last frame, summed (same as FRAME_TICKS)
-    /// reported together with the frame number it belongs to: FRAME_NUMBER.
-    pub const FRAME_NUMBER: u16 = 0x0200;
-    /// Largest window-start jitter over all partitions since boot, ticks.
-    pub const MAX_JITTER_ALL: u16 = 0x0201;
-    /// Kernel time per partition switch (timer interrupt entry to return), averaged over all
-    /// switches since boot, in thousandths of a tick.
-    pub const SWITCH_MILLITICKS: u16 = 0x0202;
-    /// Number of partition switches since boot.
-    pub const SWITCHES: u16 = 0x0203;
-    /// Largest kernel time of one switch, ticks.
-    pub const SWITCH_MAX_TICKS: u16 = 0x0204;
-    /// Kernel events dropped because the queue was full.
-    pub const EVENTS_DROPPED: u16 = 0x0210;
-    /// Log bytes dropped because the kernel log buffer was full.
-    pub const LOG_BYTES_DROPPED: u16 = 0x0211;
-    /// An armed reset (SYS_RESET_MODULE with a point) is about to happen: where it landed, one
-    /// of `reset_at::LANDED_*`. Sent straight to the host with the next ones, before the Hello.
-    pub const ARMED_RESET_POINT: u16 = 0x0220;
-    /// Ticks the partition ran from its receipt of the anchor message to the reset (measured
-    /// with the decrementer, so the same on every run).
-    pub const ARMED_RESET_TICKS: u16 = 0x0221;
-    /// The partition's last warm-area write since the anchor: offset in the checkpoint part
-    /// << 32 | length in bytes. Sent only if there was one.
-    pub const ARMED_RESET_WARM_WRITE: u16 = 0x0222;
-    /// Bytes of that write copied before the reset (its whole length unless it was torn).
-    pub const ARMED_RESET_WARM_COPIED: u16 = 0x0223;
-    /// When that write ran: ticks since the anchor at its start << 32 | at its end (or tear).
-    pub const ARMED_RESET_WARM_WRITE_TICKS: u16 = 0x0224;
-    /// CRC-32 of the planner's search table (sent by the planner on request).
-    pub const PLANNER_CHECKSUM: u16 = 0x0300;
-    /// State updates the executive received since its (re)start.
-    pub const EXECUTIVE_STATE_UPDATES: u16 = 0x0301;
-    /// Ticks for SYSCALL_BENCH_CALLS null system calls (sent by the executive on request).
-    pub const SYSCALL_BENCH_TICKS: u16 = 0x0302;
-    /// Planner iterations since its (re)start.
-    pub const PLANNER_ITERATIONS: u16 = 0x0303;
-    /// Generation of the planner seen by the planner itself when it reports its checksum.
-    pub const PLANNER_GENERATION: u16 = 0x0304;
-    /// Boot to ready, sent by the executive once per boot when the flight application has
-    /// restored its checkpoint (or found none) and can take its first grant: the kernel's boot
-    /// (reset vector to the start of the schedule, SYS_UPTIME's r5) plus the CPU the executive
-    /// partition used from its start to that point. Ticks of CPU on the way to ready, the same
-    /// every boot from the same memory contents; the schedule's latency (the lead time, the
-    /// other partitions' windows before and between the executive's) is not in it.
-    pub const BOOT_TO_READY_TICKS: u16 = 0x0310;
-    /// The kernel's part of BOOT_TO_READY_TICKS (reset vector to the start of the schedule),
-    /// sent just before it.
-    pub const KERNEL_BOOT_TICKS: u16 = 0x0311;
-    /// The boot breakdown, sent by the kernel at the start of the schedule (the parts of
-    /// KERNEL_BOOT_TICKS) and by the executive with BOOT_TO_READY_TICKS (the parts of its
-    /// own), all in ticks of CPU. The reset stub's image step: reset vector to the RAM image
-    /// checked (or copied from ROM) and `.kshared` and the kernel data reloaded.
-    pub const BOOT_STUB_IMAGE_TICKS: u16 = 0x0312;
-    /// The reset stub's clearing of `.bss` and the hashed page table.
-    pub const BOOT_STUB_CLEAR_TICKS: u16 = 0x0313;
-    /// From the stub's end to the start of the schedule: board bring-up (PCI, mac-io, the
-    /// interrupt controller, the ESCC, the ivshmem devices), the boot record, the first log
-    /// lines, MMU and BATs, the kernel's tables.
-    pub const BOOT_KERNEL_INIT_TICKS: u16 = 0x0314;
-    /// How the reset stub made the RAM image good: one of [`super::boot_image`]. A fact, not a
-    /// cost (sent with the costs, on the Instrument channel).
-    pub const BOOT_IMAGE: u16 = 0x0315;
-    /// The executive partition's start: its statics and stack zeroed by the kernel's
-    /// partition start, up to its entry function.
-    pub const BOOT_EXECUTIVE_START_TICKS: u16 = 0x0316;
-    /// The executive's entry up to the flight application's boot: the application put in
-    /// place and the checkpoint records of both memories read through the kernel.
-    pub const BOOT_EXECUTIVE_INIT_TICKS: u16 = 0x0317;
-    /// Bytes the kernel received on the link since boot (in every kernel report).
-    pub const LINK_RX_BYTES: u16 = 0x0212;
-    /// Bytes the link's receiver lost since boot (UART overruns; QEMU's ESCC holds bytes back
-    /// instead, so on the emulated target this stays 0).
-    pub const LINK_RX_LOST: u16 = 0x0213;
-    /// Times the kernel's receive ring was full and the kernel left bytes in the UART until the
-    /// I/O partition read (flow control, nothing lost).
-    pub const LINK_RX_RING_FULL: u16 = 0x0214;
-    /// Times the module stopped its schedule to wait for input (SYS_WAIT_FOR_INPUT parked).
-    pub const PARKS: u16 = 0x0215;
-    /// The link's transport: 0 the serial line, 1 shared memory (the emulated target with the
-    /// link device).
-    pub const LINK_TRANSPORT: u16 = 0x0216;
-    /// Shared-memory rings whose counts made no sense, dropped (the host wrote garbage).
-    pub const LINK_RING_ERRORS: u16 = 0x0217;
-    /// Messages for the host's Instrument channel (costs, kernel events, logs) the I/O
-    /// partition dropped since boot because that channel's send queue and its holding queue
-    /// were full (a link too noisy for the instrumentation), or because the link was lost.
-    /// Sent by the I/O partition, on the Instrument channel, after a drop, once it has room.
-    pub const LINK_INSTRUMENT_DROPPED: u16 = 0x0218;
+    pub use fsw_bridge::dictionary::platform::*;
 }
 
 /// `metric::BOOT_IMAGE` values: how the reset stub made the RAM image good.
-pub mod boot_image {
-    /// After a warm reset: the RAM copy matched its image record's checksum; not copied.
-    pub const VERIFIED: u64 = 1;
-    /// Copied from ROM: no valid image record for this ROM (power-on, new firmware, a damaged
-    /// record).
-    pub const COPIED: u64 = 2;
-    /// Copied from ROM because the RAM copy failed its checksum (damaged since the last copy).
-    pub const REPAIRED: u64 = 3;
-}
+pub use fsw_bridge::dictionary::boot_image;
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the
 /// kernel tests hold every window of every frame to. Measured under `-icount shift=2`; see

@@ -423,3 +423,84 @@ fn port_storage_is_sized_from_the_configuration() {
     assert_eq!(port_storage_bytes(&PRODUCT), product);
     assert_eq!(port_storage_bytes(&TEST), product + 2 * (160 + 16));
 }
+
+/// Every metric id the kernel and the partitions send (`abi::metric`) is in the telemetry
+/// dictionary, under its own constant's name, on the Instrument channel; the per-partition
+/// families leave room for every partition the kernel supports.
+#[test]
+fn every_platform_metric_is_in_the_dictionary() {
+    use abi::metric::*;
+    use fsw_bridge::dictionary;
+    let ids = [
+        (FRAME_TICKS, "FRAME_TICKS"),
+        (WORST_FRAME_TICKS, "WORST_FRAME_TICKS"),
+        (OVERRUNS, "OVERRUNS"),
+        (MAX_JITTER, "MAX_JITTER"),
+        (GENERATION, "GENERATION"),
+        (FRAME_NUMBER, "FRAME_NUMBER"),
+        (MAX_JITTER_ALL, "MAX_JITTER_ALL"),
+        (SWITCH_MILLITICKS, "SWITCH_MILLITICKS"),
+        (SWITCHES, "SWITCHES"),
+        (SWITCH_MAX_TICKS, "SWITCH_MAX_TICKS"),
+        (EVENTS_DROPPED, "EVENTS_DROPPED"),
+        (LOG_BYTES_DROPPED, "LOG_BYTES_DROPPED"),
+        (LINK_RX_BYTES, "LINK_RX_BYTES"),
+        (LINK_RX_LOST, "LINK_RX_LOST"),
+        (LINK_RX_RING_FULL, "LINK_RX_RING_FULL"),
+        (PARKS, "PARKS"),
+        (LINK_TRANSPORT, "LINK_TRANSPORT"),
+        (LINK_RING_ERRORS, "LINK_RING_ERRORS"),
+        (LINK_INSTRUMENT_DROPPED, "LINK_INSTRUMENT_DROPPED"),
+        (ARMED_RESET_POINT, "ARMED_RESET_POINT"),
+        (ARMED_RESET_TICKS, "ARMED_RESET_TICKS"),
+        (ARMED_RESET_WARM_WRITE, "ARMED_RESET_WARM_WRITE"),
+        (ARMED_RESET_WARM_COPIED, "ARMED_RESET_WARM_COPIED"),
+        (ARMED_RESET_WARM_WRITE_TICKS, "ARMED_RESET_WARM_WRITE_TICKS"),
+        (PLANNER_CHECKSUM, "PLANNER_CHECKSUM"),
+        (EXECUTIVE_STATE_UPDATES, "EXECUTIVE_STATE_UPDATES"),
+        (SYSCALL_BENCH_TICKS, "SYSCALL_BENCH_TICKS"),
+        (PLANNER_ITERATIONS, "PLANNER_ITERATIONS"),
+        (PLANNER_GENERATION, "PLANNER_GENERATION"),
+        (BOOT_TO_READY_TICKS, "BOOT_TO_READY_TICKS"),
+        (KERNEL_BOOT_TICKS, "KERNEL_BOOT_TICKS"),
+        (BOOT_STUB_IMAGE_TICKS, "BOOT_STUB_IMAGE_TICKS"),
+        (BOOT_STUB_CLEAR_TICKS, "BOOT_STUB_CLEAR_TICKS"),
+        (BOOT_KERNEL_INIT_TICKS, "BOOT_KERNEL_INIT_TICKS"),
+        (BOOT_IMAGE, "BOOT_IMAGE"),
+        (BOOT_EXECUTIVE_START_TICKS, "BOOT_EXECUTIVE_START_TICKS"),
+        (BOOT_EXECUTIVE_INIT_TICKS, "BOOT_EXECUTIVE_INIT_TICKS"),
+    ];
+    // The wire ids are fixed (transcripts and budgets depend on them): spot checks.
+    assert_eq!(FRAME_TICKS, 0x0100);
+    assert_eq!(ARMED_RESET_TICKS, 0x0221);
+    assert_eq!(BOOT_EXECUTIVE_INIT_TICKS, 0x0317);
+    assert_eq!(
+        ids.len(),
+        PLATFORM_METRICS.len(),
+        "a constant is missing here"
+    );
+    for (id, constant) in ids {
+        let m = dictionary::metric(id).unwrap_or_else(|| panic!("{constant} not in dictionary"));
+        assert_eq!((m.id, m.constant), (id, constant));
+        assert_eq!(m.channel, fsw_bridge::link::VirtualChannel::Instrument);
+    }
+    for family in [
+        FRAME_TICKS,
+        WORST_FRAME_TICKS,
+        OVERRUNS,
+        MAX_JITTER,
+        GENERATION,
+    ] {
+        let last = family + MAX_PARTITIONS as u16 - 1;
+        assert_eq!(dictionary::metric(last).map(|m| m.id), Some(family));
+    }
+    let point = dictionary::metric(ARMED_RESET_POINT).unwrap();
+    for landed in [
+        abi::reset_at::LANDED_IN_CODE,
+        abi::reset_at::LANDED_IN_WARM_WRITE,
+        abi::reset_at::LANDED_AFTER_WORK,
+        abi::reset_at::LANDED_PARTITION_STOPPED,
+    ] {
+        assert!(point.value_name(landed).is_some(), "{landed}");
+    }
+}

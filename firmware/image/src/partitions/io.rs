@@ -62,12 +62,6 @@ type Inbound = heapless::Deque<Routing, INBOUND_CAPACITY>;
 /// The reliable link's parameters (the host uses the same).
 const LINK_CONFIG: LinkConfig = LinkConfig::DEFAULT;
 
-/// The metrics only a target with a CPU clock sends (costs) and the kernel's own: they travel
-/// on the Instrument channel, so the Mission stream is the native target's too.
-fn is_instrument_metric(id: u16) -> bool {
-    id < 0x1000 || flight_app::metric::is_instrument(id)
-}
-
 /// Log bytes per Log message (at most [`LOG_CHUNK_MAX`]). Short frames get through a noisy
 /// link: at 5 % byte corruption a frame of 96 log bytes arrives whole 4 times in 1,000 (it would
 /// reach the transmission limit, losing the link), one of 32 about 1 time in 10; on a clean
@@ -115,7 +109,7 @@ impl Rounds {
 /// The channel `msg` travels on (Hello and Pong go out directly and never come here; a panic
 /// report does not either: it is the kernel's).
 fn channel_of(msg: &TargetToHost) -> VirtualChannel {
-    match downlink_service(msg, is_instrument_metric) {
+    match downlink_service(msg) {
         Service::Sequenced(vc) => vc,
         Service::Expedited => VirtualChannel::Instrument,
     }
