@@ -5,7 +5,10 @@
 //!
 //! System calls: `sc` with the call number in r0 and arguments in r3..r7; the result comes back
 //! in r3 (negative: one of the `E_*` codes), secondary results in r4 and r5. Pointers and
-//! lengths are checked against the caller's regions before the kernel touches them.
+//! lengths are checked against the caller's regions before the kernel touches them. The numbers
+//! and codes are the ABI; both sides decode them once at the boundary, into [`Sysnum`] (the
+//! kernel's dispatch) and [`SysError`] (the kernel's return path and the partitions' wrappers,
+//! [`decode_result`]), which separates recoverable errors from faults ([`ErrorClass`]).
 
 /// (until) -> 0: give up the rest of this window; returns at the start of the partition's next
 /// window. `until` is [`wait::NEXT_WINDOW`] (0: the partition has more to do) or
@@ -174,9 +177,201 @@ pub const E_RANGE: i32 = -8;
 /// The board has no such device (non-volatile memory). Not a fault: the caller copes.
 pub const E_NO_DEVICE: i32 = -9;
 
-/// True for error codes that count as a fault for the health monitor.
-pub const fn is_fault(code: i32) -> bool {
-    code < 0 && code != E_EMPTY && code != E_FULL && code != E_NO_DEVICE
+/// A system-call number, decoded once at the kernel's boundary (and named by the partitions'
+/// wrappers): the numeric ABI is the `SYS_*` constants, which the variants take as their values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Sysnum {
+    WaitNextWindow = SYS_WAIT_NEXT_WINDOW,
+    PortSend = SYS_PORT_SEND,
+    PortReceive = SYS_PORT_RECEIVE,
+    MissionTime = SYS_MISSION_TIME,
+    CpuTime = SYS_CPU_TIME,
+    Log = SYS_LOG,
+    WarmRead = SYS_WARM_READ,
+    WarmWrite = SYS_WARM_WRITE,
+    Identity = SYS_IDENTITY,
+    Panic = SYS_PANIC,
+    BootInfo = SYS_BOOT_INFO,
+    LogDrain = SYS_LOG_DRAIN,
+    EventDrain = SYS_EVENT_DRAIN,
+    SetMissionTime = SYS_SET_MISSION_TIME,
+    ResetModule = SYS_RESET_MODULE,
+    RequestMetrics = SYS_REQUEST_METRICS,
+    NvRead = SYS_NV_READ,
+    NvWrite = SYS_NV_WRITE,
+    Uptime = SYS_UPTIME,
+    LinkRead = SYS_LINK_READ,
+    WaitForInput = SYS_WAIT_FOR_INPUT,
+    LinkWrite = SYS_LINK_WRITE,
+}
+
+impl Sysnum {
+    /// Every system call, in number order (`ALL[n]` is number n).
+    pub const ALL: [Sysnum; SYSCALL_COUNT as usize] = [
+        Sysnum::WaitNextWindow,
+        Sysnum::PortSend,
+        Sysnum::PortReceive,
+        Sysnum::MissionTime,
+        Sysnum::CpuTime,
+        Sysnum::Log,
+        Sysnum::WarmRead,
+        Sysnum::WarmWrite,
+        Sysnum::Identity,
+        Sysnum::Panic,
+        Sysnum::BootInfo,
+        Sysnum::LogDrain,
+        Sysnum::EventDrain,
+        Sysnum::SetMissionTime,
+        Sysnum::ResetModule,
+        Sysnum::RequestMetrics,
+        Sysnum::NvRead,
+        Sysnum::NvWrite,
+        Sysnum::Uptime,
+        Sysnum::LinkRead,
+        Sysnum::WaitForInput,
+        Sysnum::LinkWrite,
+    ];
+
+    /// The number in r0.
+    pub const fn number(self) -> u32 {
+        self as u32
+    }
+
+    /// The call numbered `number`, if there is one.
+    pub const fn from_number(number: u32) -> Option<Sysnum> {
+        if number < SYSCALL_COUNT {
+            Some(Sysnum::ALL[number as usize])
+        } else {
+            None
+        }
+    }
+}
+
+impl TryFrom<u32> for Sysnum {
+    /// An unassigned number: [`SysError::UnknownCall`], a fault.
+    type Error = SysError;
+
+    fn try_from(number: u32) -> Result<Self, SysError> {
+        Sysnum::from_number(number).ok_or(SysError::UnknownCall)
+    }
+}
+
+/// Whether a system call's error is the caller's to handle or a fault.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ErrorClass {
+    /// The call could not be done now or here, and the caller copes (nothing to receive, a
+    /// full queue, no such device): the kernel only returns the code.
+    Recoverable,
+    /// The caller broke the ABI (a bad pointer, a port that is not its own, a call it has no
+    /// capability for, an argument out of range): the kernel returns the code and reports the
+    /// call to the health monitor, which applies the partition's IllegalSyscall action.
+    Fault,
+}
+
+/// A system call's error, decoded once at the boundary: the kernel returns
+/// [`SysError::code`] in r3, and the partitions' wrappers decode r3 with [`decode_result`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SysError {
+    /// [`E_UNKNOWN_CALL`].
+    UnknownCall,
+    /// [`E_BAD_POINTER`].
+    BadPointer,
+    /// [`E_BAD_PORT`].
+    BadPort,
+    /// [`E_TOO_BIG`].
+    TooBig,
+    /// [`E_EMPTY`].
+    Empty,
+    /// [`E_FULL`].
+    Full,
+    /// [`E_DENIED`].
+    Denied,
+    /// [`E_RANGE`].
+    Range,
+    /// [`E_NO_DEVICE`].
+    NoDevice,
+}
+
+impl SysError {
+    /// Every error, in code order (-1, -2, ...).
+    pub const ALL: [SysError; 9] = [
+        SysError::UnknownCall,
+        SysError::BadPointer,
+        SysError::BadPort,
+        SysError::TooBig,
+        SysError::Empty,
+        SysError::Full,
+        SysError::Denied,
+        SysError::Range,
+        SysError::NoDevice,
+    ];
+
+    /// The code in r3 (negative).
+    pub const fn code(self) -> i32 {
+        match self {
+            SysError::UnknownCall => E_UNKNOWN_CALL,
+            SysError::BadPointer => E_BAD_POINTER,
+            SysError::BadPort => E_BAD_PORT,
+            SysError::TooBig => E_TOO_BIG,
+            SysError::Empty => E_EMPTY,
+            SysError::Full => E_FULL,
+            SysError::Denied => E_DENIED,
+            SysError::Range => E_RANGE,
+            SysError::NoDevice => E_NO_DEVICE,
+        }
+    }
+
+    /// The error whose code is `code`, if it is one.
+    pub const fn from_code(code: i32) -> Option<SysError> {
+        if code < 0 && code >= -(SysError::ALL.len() as i32) {
+            Some(SysError::ALL[(-code - 1) as usize])
+        } else {
+            None
+        }
+    }
+
+    /// Recoverable or a fault (see [`ErrorClass`]).
+    pub const fn class(self) -> ErrorClass {
+        match self {
+            SysError::Empty | SysError::Full | SysError::NoDevice => ErrorClass::Recoverable,
+            SysError::UnknownCall
+            | SysError::BadPointer
+            | SysError::BadPort
+            | SysError::TooBig
+            | SysError::Denied
+            | SysError::Range => ErrorClass::Fault,
+        }
+    }
+
+    /// A fault for the health monitor.
+    pub const fn is_fault(self) -> bool {
+        matches!(self.class(), ErrorClass::Fault)
+    }
+}
+
+impl From<SysError> for i32 {
+    fn from(error: SysError) -> i32 {
+        error.code()
+    }
+}
+
+/// A system call's r3 as the partitions' wrappers see it: one of the error codes, or the call's
+/// value (a length, a size, 0). Values never reach the codes' range (-9..-1 as i32): lengths and
+/// sizes stay below 2 GiB.
+pub const fn decode_result(r3: u32) -> Result<u32, SysError> {
+    match SysError::from_code(r3 as i32) {
+        Some(error) => Err(error),
+        None => Ok(r3),
+    }
+}
+
+/// The r3 the kernel returns for `result`.
+pub const fn encode_result(result: Result<u32, SysError>) -> u32 {
+    match result {
+        Ok(value) => value,
+        Err(error) => error.code() as u32,
+    }
 }
 
 /// Size of one kernel-event record (SYS_EVENT_DRAIN): four big-endian words.

@@ -504,3 +504,55 @@ fn every_platform_metric_is_in_the_dictionary() {
         assert!(point.value_name(landed).is_some(), "{landed}");
     }
 }
+
+/// Every system-call number decodes to the call that has it and back; unassigned numbers are
+/// refused as UnknownCall (a fault), and the numbers are the ABI's.
+#[test]
+fn sysnums_round_trip_and_unknown_numbers_are_refused() {
+    use abi::{SysError, Sysnum};
+    for (n, call) in Sysnum::ALL.iter().enumerate() {
+        assert_eq!(call.number(), n as u32);
+        assert_eq!(Sysnum::try_from(n as u32), Ok(*call));
+    }
+    for n in [abi::SYSCALL_COUNT, abi::SYSCALL_COUNT + 1, 0x100, u32::MAX] {
+        assert_eq!(Sysnum::try_from(n), Err(SysError::UnknownCall), "{n}");
+    }
+    assert!(SysError::UnknownCall.is_fault());
+    // The numeric ABI is unchanged.
+    assert_eq!(Sysnum::WaitNextWindow.number(), abi::SYS_WAIT_NEXT_WINDOW);
+    assert_eq!(Sysnum::PortSend.number(), 1);
+    assert_eq!(Sysnum::ResetModule.number(), 14);
+    assert_eq!(Sysnum::LinkWrite.number(), 21);
+}
+
+/// Every error code decodes to its error and back, r3 values outside the codes are values, and
+/// only Empty, Full and NoDevice are recoverable (the rest are the health monitor's business).
+#[test]
+fn sys_errors_round_trip_and_separate_recoverable_from_faults() {
+    use abi::{decode_result, encode_result, ErrorClass, SysError};
+    for (i, e) in SysError::ALL.iter().enumerate() {
+        assert_eq!(e.code(), -(i as i32) - 1);
+        assert_eq!(SysError::from_code(e.code()), Some(*e));
+        assert_eq!(decode_result(encode_result(Err(*e))), Err(*e));
+        assert_eq!(i32::from(*e), e.code());
+    }
+    assert_eq!(SysError::BadPointer.code(), abi::E_BAD_POINTER);
+    assert_eq!(SysError::NoDevice.code(), abi::E_NO_DEVICE);
+    for code in [0, 1, -10, i32::MIN, i32::MAX] {
+        assert_eq!(SysError::from_code(code), None, "{code}");
+    }
+    for value in [0u32, 1, 160, 0x7fff_ffff, (-10i32) as u32] {
+        assert_eq!(decode_result(encode_result(Ok(value))), Ok(value));
+    }
+    let recoverable: std::vec::Vec<SysError> = SysError::ALL
+        .into_iter()
+        .filter(|e| e.class() == ErrorClass::Recoverable)
+        .collect();
+    assert_eq!(
+        recoverable,
+        [SysError::Empty, SysError::Full, SysError::NoDevice]
+    );
+    for e in SysError::ALL {
+        assert_eq!(e.is_fault(), !recoverable.contains(&e));
+    }
+}

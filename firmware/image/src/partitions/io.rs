@@ -32,7 +32,7 @@ use fsw_bridge::{
     HostToTarget, ResetCause, ResetKind, StateKey, StateValue, TargetToHost, TelemetryEvent,
     PROTOCOL_VERSION,
 };
-use kernel_config::abi::{control, reset_at, E_FULL, REPORT_OFF};
+use kernel_config::abi::{control, reset_at, SysError, REPORT_OFF};
 use kernel_config::system::{
     OUTBOUND_MESSAGE_SIZE, PORT_EXECUTIVE_TO_IO, PORT_IO_TO_EXECUTIVE, PORT_IO_TO_PLANNER,
     PORT_PLANNER_TO_IO, ROUTED_MESSAGE_SIZE,
@@ -365,9 +365,13 @@ fn route(port: usize, msg: &HostToTarget) -> Result<(), RouteError> {
     };
     match sys::port_send(port, bytes) {
         Ok(()) => Ok(()),
-        Err(E_FULL) => Err(RouteError::Full),
-        Err(code) => {
-            defmt::warn!("io: port {=usize} refused a message ({=i32})", port, code);
+        Err(SysError::Full) => Err(RouteError::Full),
+        Err(error) => {
+            defmt::warn!(
+                "io: port {=usize} refused a message ({=i32})",
+                port,
+                error.code()
+            );
             Err(RouteError::Refused)
         }
     }
@@ -403,8 +407,11 @@ fn deliver(mut routing: Routing, reset_in_next_frame: &mut Option<(u32, u32)>) -
         // The grant is now the last message for the executive: the kernel counts the
         // executive's work from its receipt.
         if let Some((mode, value)) = reset_in_next_frame.take() {
-            if let Err(code) = sys::arm_reset(mode, value, PORT_IO_TO_EXECUTIVE) {
-                defmt::warn!("io: the kernel refused the mid-frame reset ({=i32})", code);
+            if let Err(error) = sys::arm_reset(mode, value, PORT_IO_TO_EXECUTIVE) {
+                defmt::warn!(
+                    "io: the kernel refused the mid-frame reset ({=i32})",
+                    error.code()
+                );
             }
         }
     }

@@ -18,6 +18,7 @@ pub mod rogue;
 use core::mem::MaybeUninit;
 
 use fsw_bridge::{HostToTarget, TargetToHost};
+use kernel_config::abi::SysError;
 use kernel_config::system::OUTBOUND_MESSAGE_SIZE;
 
 use crate::sys;
@@ -40,9 +41,9 @@ pub unsafe fn zeroed_state<T: ZeroValid>(slot: *mut MaybeUninit<T>) -> &'static 
 }
 
 /// Send a message for the host through an outbound port (to the I/O partition).
-pub fn send_to_host(port: usize, msg: &TargetToHost) -> Result<(), i32> {
+pub fn send_to_host(port: usize, msg: &TargetToHost) -> Result<(), SysError> {
     let mut buf = [0u8; OUTBOUND_MESSAGE_SIZE as usize];
-    let bytes = postcard::to_slice(msg, &mut buf).map_err(|_| kernel_config::abi::E_TOO_BIG)?;
+    let bytes = postcard::to_slice(msg, &mut buf).map_err(|_| SysError::TooBig)?;
     sys::port_send(port, bytes)
 }
 

@@ -121,9 +121,9 @@ fn bad_pointers() {
     ];
     let mut refused = 0u32;
     for (call, args) in cases {
-        let (r3, _, _) = sys::raw(call, args);
-        defmt::info!("rogue: call {=u32} -> {=i32}", call, r3);
-        if r3 < 0 {
+        let (r3, _, _) = sys::raw_number(call, args);
+        defmt::info!("rogue: call {=u32} -> {=i32}", call, r3 as i32);
+        if kernel_config::abi::decode_result(r3).is_err() {
             refused += 1;
         }
     }
