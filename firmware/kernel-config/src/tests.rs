@@ -556,3 +556,61 @@ fn sys_errors_round_trip_and_separate_recoverable_from_faults() {
         assert_eq!(e.is_fault(), !recoverable.contains(&e));
     }
 }
+
+/// Every port name of both configurations resolves to its own port, names are unique, and the
+/// named ids the partitions use are the lookups' results (the product's ids unchanged in the
+/// test image).
+#[test]
+fn every_port_name_resolves_and_is_unique() {
+    for config in [&PRODUCT, &TEST] {
+        for (i, p) in config.ports.iter().enumerate() {
+            assert_eq!(port_index(config, p.name), Some(i), "{}", p.name);
+            assert_eq!(port_id(config, p.name), i);
+        }
+        let mut names: std::vec::Vec<&str> = config.ports.iter().map(|p| p.name).collect();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), config.ports.len(), "a port name is used twice");
+        assert_eq!(port_index(config, "no_such_port"), None);
+        assert!(max_port_message(config) >= ROUTED_MESSAGE_SIZE as usize);
+    }
+    let named = [
+        ("io_to_executive", PORT_IO_TO_EXECUTIVE),
+        ("io_to_planner", PORT_IO_TO_PLANNER),
+        ("executive_to_io", PORT_EXECUTIVE_TO_IO),
+        ("planner_to_io", PORT_PLANNER_TO_IO),
+        ("plan_summary", PORT_PLAN_SUMMARY),
+        ("executive_status", PORT_EXECUTIVE_STATUS),
+    ];
+    for (name, id) in named {
+        assert_eq!(PRODUCT.ports[id].name, name);
+        assert_eq!(TEST.ports[id].name, name);
+    }
+    assert_eq!(TEST.ports[PORT_IO_TO_ROGUE].name, "io_to_rogue");
+}
+
+#[test]
+fn two_ports_with_one_name_are_refused() {
+    static PORTS: [Port; 2] = [
+        Port {
+            name: "twice",
+            kind: PortKind::Sampling,
+            message_size: 16,
+            depth: 1,
+            source: 0,
+            destinations: &[1],
+        },
+        Port {
+            name: "twice",
+            kind: PortKind::Sampling,
+            message_size: 16,
+            depth: 1,
+            source: 1,
+            destinations: &[0],
+        },
+    ];
+    assert_eq!(
+        message(&config(&THREE, &WINDOWS_OK, &PORTS)),
+        "kernel configuration: port twice: another port has the same name"
+    );
+}

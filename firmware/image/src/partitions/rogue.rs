@@ -9,7 +9,7 @@ use fsw_bridge::{HostToTarget, StateKey, StateValue};
 use kernel_config::abi::{self, control, rogue};
 use kernel_config::system::{PORT_IO_TO_EXECUTIVE, PORT_IO_TO_ROGUE, ROGUE_REGION};
 
-use super::receive_routed;
+use super::{ports, receive_routed};
 use crate::sys;
 
 #[no_mangle]
@@ -17,7 +17,7 @@ pub extern "C" fn partition_rogue_main() -> ! {
     let (_, generation) = sys::identity();
     defmt::info!("rogue: started, generation {=u32}", generation);
     loop {
-        while let Some((msg, _)) = receive_routed(PORT_IO_TO_ROGUE) {
+        while let Some((msg, _)) = receive_routed(ports::IO_TO_ROGUE) {
             if let HostToTarget::StateUpdate {
                 key: StateKey(control::ROGUE_MODE),
                 value: StateValue::Enum(mode),
