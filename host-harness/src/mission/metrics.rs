@@ -344,13 +344,13 @@ fn wire_defs(w: &FromWire) -> Vec<MetricDef> {
     defs
 }
 
-/// Every metric a mission report can carry: the host's own, then those reduced from the
-/// target's telemetry.
+/// Every metric a mission report can carry: those reduced from the target's telemetry (the
+/// step's costs first), then the host's own.
 pub static METRICS: LazyLock<Vec<MetricDef>> = LazyLock::new(|| {
-    HOST_METRICS
+    FROM_WIRE
         .iter()
-        .copied()
-        .chain(FROM_WIRE.iter().flat_map(wire_defs))
+        .flat_map(wire_defs)
+        .chain(HOST_METRICS.iter().copied())
         .collect()
 });
 
