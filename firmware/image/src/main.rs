@@ -13,6 +13,7 @@ mod link;
 mod log;
 mod mem;
 mod partitions;
+mod port;
 mod shared;
 mod sys;
 mod warm;

@@ -4,7 +4,7 @@
 //!
 //! Storage is one array in kernel RAM sized from the configuration at compile time; each slot is
 //! a 16-byte header (length, generation, timestamp) followed by the message.
-use kernel_config::abi::{E_BAD_PORT, E_EMPTY, E_FULL, E_TOO_BIG};
+use kernel_config::abi::SysError;
 use kernel_config::{port_slot_bytes, PortKind, PORT_SLOT_HEADER};
 
 use crate::config::{PORT_COUNT, PORT_OFFSETS, PORT_STORAGE_BYTES, SYSTEM};
@@ -59,13 +59,13 @@ impl Ports {
         message: &[u8],
         generation: u32,
         now: u64,
-    ) -> Result<(), i32> {
-        let config = SYSTEM.ports.get(port).ok_or(E_BAD_PORT)?;
+    ) -> Result<(), SysError> {
+        let config = SYSTEM.ports.get(port).ok_or(SysError::BadPort)?;
         if config.source != sender {
-            return Err(E_BAD_PORT);
+            return Err(SysError::BadPort);
         }
         if message.len() > config.message_size as usize {
-            return Err(E_TOO_BIG);
+            return Err(SysError::TooBig);
         }
         let depth = config.depth as usize;
         let state = self.state[port];
@@ -73,7 +73,7 @@ impl Ports {
             PortKind::Sampling => 0,
             PortKind::Queuing => {
                 if state.count as usize >= depth {
-                    return Err(E_FULL);
+                    return Err(SysError::Full);
                 }
                 (state.head as usize + state.count as usize) % depth
             }
@@ -112,14 +112,14 @@ impl Ports {
         receiver: usize,
         port: usize,
         buffer: &mut [u8],
-    ) -> Result<Received, i32> {
-        let config = SYSTEM.ports.get(port).ok_or(E_BAD_PORT)?;
+    ) -> Result<Received, SysError> {
+        let config = SYSTEM.ports.get(port).ok_or(SysError::BadPort)?;
         if !config.destinations.contains(&receiver) {
-            return Err(E_BAD_PORT);
+            return Err(SysError::BadPort);
         }
         let state = self.state[port];
         if state.count == 0 {
-            return Err(E_EMPTY);
+            return Err(SysError::Empty);
         }
         let index = match config.kind {
             PortKind::Sampling => 0,
@@ -128,7 +128,7 @@ impl Ports {
         let slot = self.slot(port, index);
         let len = word(slot, 0) as usize;
         if len > buffer.len() {
-            return Err(E_TOO_BIG);
+            return Err(SysError::TooBig);
         }
         let received = Received {
             len,

@@ -9,7 +9,7 @@ use fsw_bridge::{HostToTarget, StateKey, StateValue};
 use kernel_config::abi::{self, control, rogue};
 use kernel_config::system::{PORT_IO_TO_EXECUTIVE, PORT_IO_TO_ROGUE, ROGUE_REGION};
 
-use super::receive_routed;
+use super::{ports, receive_routed};
 use crate::sys;
 
 #[no_mangle]
@@ -17,7 +17,7 @@ pub extern "C" fn partition_rogue_main() -> ! {
     let (_, generation) = sys::identity();
     defmt::info!("rogue: started, generation {=u32}", generation);
     loop {
-        while let Some((msg, _)) = receive_routed(PORT_IO_TO_ROGUE) {
+        while let Some((msg, _)) = receive_routed(ports::IO_TO_ROGUE) {
             if let HostToTarget::StateUpdate {
                 key: StateKey(control::ROGUE_MODE),
                 value: StateValue::Enum(mode),
@@ -121,9 +121,9 @@ fn bad_pointers() {
     ];
     let mut refused = 0u32;
     for (call, args) in cases {
-        let (r3, _, _) = sys::raw(call, args);
-        defmt::info!("rogue: call {=u32} -> {=i32}", call, r3);
-        if r3 < 0 {
+        let (r3, _, _) = sys::raw_number(call, args);
+        defmt::info!("rogue: call {=u32} -> {=i32}", call, r3 as i32);
+        if kernel_config::abi::decode_result(r3).is_err() {
             refused += 1;
         }
     }
