@@ -446,17 +446,38 @@ fn check(ok: bool, defect: PayloadDefect, site: PayloadSite) -> Result<(), Paylo
 /// as it was decoded. Only true invariants of the core are checked: a checkpoint the core
 /// wrote, whatever its inputs were, always passes (the fuzz targets check that).
 pub(crate) fn check_restored(s: &RestoredState<'_>) -> Result<(), PayloadError> {
+    check_planner_restored(s.loaded, s.now, s.network, s.planner)?;
+    check_executive_restored(s.loaded, s.now, s.network, s.executive, s.states)?;
+    // Every task the executive holds is one the planner committed.
+    for (i, e) in s.executive.entries().iter().enumerate() {
+        let in_plan = s.planner.entries().iter().any(|p| {
+            p.instance == e.instance
+                && p.def == e.def
+                && matches!(p.state, TaskState::Committed | TaskState::Running)
+        });
+        check(
+            in_plan,
+            PayloadDefect::NotInPlan,
+            PayloadSite::ExecEntry(index(i)),
+        )?;
+    }
+    Ok(())
+}
+
+/// The planner's half of [`check_restored`]: what a planner partition's checkpoint holds.
+pub(crate) fn check_planner_restored(
+    loaded: bool,
+    now: MissionTimeUs,
+    network: &TaskNetwork,
+    planner: &Planner,
+) -> Result<(), PayloadError> {
     use PayloadDefect::*;
     use PayloadSite as At;
-    let network = s.network;
-    let planner = s.planner;
-    let executive = s.executive;
     let tasks = network.tasks();
-    check(time_ok(s.now), TimeOutOfRange, At::Meta)?;
+    check(time_ok(now), TimeOutOfRange, At::Meta)?;
     let empty_network = tasks.is_empty() && network.timelines().is_empty();
-    let idle = planner.entries().is_empty() && executive.entries().is_empty();
     check(
-        s.loaded || (empty_network && idle),
+        loaded || (empty_network && planner.entries().is_empty()),
         ImpossibleState,
         At::Meta,
     )?;
@@ -573,6 +594,28 @@ pub(crate) fn check_restored(s: &RestoredState<'_>) -> Result<(), PayloadError> 
         )?;
     }
 
+    Ok(())
+}
+
+/// The executive's half of [`check_restored`]: what an executive partition's checkpoint holds
+/// (its tasks are checked against the network; against the plan only where both are in one
+/// checkpoint).
+pub(crate) fn check_executive_restored(
+    loaded: bool,
+    now: MissionTimeUs,
+    network: &TaskNetwork,
+    executive: &Executive,
+    states: &StateTable,
+) -> Result<(), PayloadError> {
+    use PayloadDefect::*;
+    use PayloadSite as At;
+    check(time_ok(now), TimeOutOfRange, At::Meta)?;
+    let empty_network = network.tasks().is_empty() && network.timelines().is_empty();
+    check(
+        loaded || (empty_network && executive.entries().is_empty()),
+        ImpossibleState,
+        At::Meta,
+    )?;
     check(
         executive.next_command_id() != 0,
         IdOutOfRange,
@@ -583,12 +626,6 @@ pub(crate) fn check_restored(s: &RestoredState<'_>) -> Result<(), PayloadError> 
         let spec = network
             .task(e.def)
             .ok_or(PayloadError::new(DanglingDefinition, at))?;
-        let in_plan = planner.entries().iter().any(|p| {
-            p.instance == e.instance
-                && p.def == e.def
-                && matches!(p.state, TaskState::Committed | TaskState::Running)
-        });
-        check(in_plan, NotInPlan, at)?;
         let times = [
             e.planned_start,
             e.started_at,
@@ -615,10 +652,10 @@ pub(crate) fn check_restored(s: &RestoredState<'_>) -> Result<(), PayloadError> 
         check(retries_ok, CountOutOfRange, at)?;
     }
 
-    for (i, e) in s.states.entries().iter().enumerate() {
+    for (i, e) in states.entries().iter().enumerate() {
         let at = At::StateEntry(index(i));
         check(time_ok(e.at), TimeOutOfRange, at)?;
-        let seen_before = s.states.entries().iter().take(i).any(|x| x.key == e.key);
+        let seen_before = states.entries().iter().take(i).any(|x| x.key == e.key);
         check(!seen_before, DuplicateKey, at)?;
     }
     Ok(())

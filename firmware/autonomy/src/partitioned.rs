@@ -65,7 +65,9 @@ use serde::{Deserialize, Serialize};
 use crc::{Crc, CRC_32_ISO_HDLC};
 
 use crate::capacity::{MAX_COMMITTED, MAX_MISSION_TIME_US};
-use crate::checkpoint::{CheckpointError, WarmRestartArea, WrittenRecord};
+use crate::checkpoint::{
+    self, CheckpointError, Record, RestoreInfo, WarmRestartArea, WrittenRecord,
+};
 use crate::condition::StateTableInPlace;
 use crate::control::ControlLoop;
 use crate::executive::ExecutiveInPlace;
@@ -156,9 +158,12 @@ pub enum Wire<T> {
     Message { seq: u32, message: T },
     /// The sender of this has checkpointed every message up to `upto` it received.
     Ack { upto: u32 },
-    /// The sender of this was restored and has applied every message up to `received`: send
-    /// again what came after.
+    /// The sender of this (re)started, restored or cold, and has applied every message up to
+    /// `received`: send again what came after.
     Resume { received: u32 },
+    /// The messages before `next` are void: the receiver lost what they built on (its
+    /// checkpoint, or the sender's, is gone). The receiver takes `next` as the next message.
+    Rebase { next: u32 },
 }
 
 /// The sending end of one direction: every message numbered and kept until acknowledged.
@@ -166,9 +171,13 @@ pub enum Wire<T> {
 pub struct Outbox<T, const N: usize> {
     /// The number the next message gets.
     next_seq: u32,
-    /// Messages up to this number have gone to the port (or were acknowledged).
+    /// Messages up to this number have gone to the port (or were acknowledged). Not saved:
+    /// after a restore every message kept goes again.
+    #[serde(skip)]
     sent: u32,
-    /// Messages up to this number were in this side's last checkpoint: only they may go.
+    /// Messages up to this number were in this side's last checkpoint: only they may go. Not
+    /// saved: a restored state is a checkpointed one.
+    #[serde(skip)]
     sendable: u32,
     /// Messages not acknowledged yet, oldest first.
     log: Vec<(u32, T), N>,
@@ -176,6 +185,13 @@ pub struct Outbox<T, const N: usize> {
     pub refused: u32,
     /// Messages sent again after the receiver was restored.
     pub resent: u32,
+    /// The receiver cannot be caught up by sending again (see [`Wire::Rebase`]): the next
+    /// transmission starts with a `Rebase` to this number (the first message kept after it).
+    /// Not saved: the receiver's next `Resume` asks again.
+    #[serde(skip)]
+    rebase: Option<u32>,
+    /// Times the channel was rebased.
+    pub rebases: u32,
 }
 
 impl<T: Clone, const N: usize> Default for Outbox<T, N> {
@@ -193,6 +209,8 @@ impl<T: Clone, const N: usize> Outbox<T, N> {
             log: Vec::new(),
             refused: 0,
             resent: 0,
+            rebase: None,
+            rebases: 0,
         }
     }
 
@@ -221,21 +239,44 @@ impl<T: Clone, const N: usize> Outbox<T, N> {
         self.log.iter().filter(|(seq, _)| *seq > self.sent).count()
     }
 
-    /// The receiver has checkpointed every message up to `upto`.
+    /// The receiver has checkpointed every message up to `upto` (an acknowledgement of
+    /// messages this side never sent, from before a rebase, is void).
     pub fn on_ack(&mut self, upto: u32) {
+        if upto >= self.next_seq {
+            return;
+        }
         self.log.retain(|(seq, _)| *seq > upto);
         self.sent = self.sent.max(upto);
     }
 
-    /// The receiver was restored with every message up to `received` applied: what came after
-    /// goes again.
-    pub fn on_resume(&mut self, received: u32) {
+    /// The receiver (re)started with every message up to `received` applied: what came after
+    /// goes again. When that cannot be (it has applied messages this side never sent, or lacks
+    /// ones this side no longer keeps), the messages kept are dropped, the next transmission
+    /// starts with a [`Wire::Rebase`], and this returns true: the sender must bring the
+    /// receiver up to date another way.
+    pub fn on_resume(&mut self, received: u32) -> bool {
+        let last = self.next_seq.wrapping_sub(1);
+        let oldest_kept = self.log.first().map_or(self.next_seq, |(seq, _)| *seq);
+        if received > last || received.wrapping_add(1) < oldest_kept {
+            self.log.clear();
+            self.sent = last;
+            self.rebase = Some(self.next_seq);
+            self.rebases = self.rebases.saturating_add(1);
+            return true;
+        }
         self.log.retain(|(seq, _)| *seq > received);
         let again = self.log.iter().filter(|(seq, _)| *seq <= self.sent).count();
         self.resent = self
             .resent
             .saturating_add(u32::try_from(again).unwrap_or(u32::MAX));
         self.sent = received;
+        false
+    }
+
+    /// Whether messages were kept since this side's last checkpoint (they cannot go before
+    /// the next one).
+    pub fn awaits_checkpoint(&self) -> bool {
+        self.log.iter().any(|(seq, _)| *seq > self.sendable)
     }
 
     /// This side was restored: whatever was in the ports is gone, so every message kept goes
@@ -260,6 +301,12 @@ impl<T: Clone, const N: usize> Outbox<T, N> {
     /// Hands the messages not sent yet that a checkpoint holds to `send`, in order, until it
     /// refuses one (a full port: the rest go at the next call).
     pub fn transmit(&mut self, send: &mut impl FnMut(Wire<T>) -> bool) {
+        if let Some(next) = self.rebase {
+            if !send(Wire::Rebase { next }) {
+                return;
+            }
+            self.rebase = None;
+        }
         for (seq, message) in &self.log {
             let seq = *seq;
             if seq <= self.sent {
@@ -284,10 +331,13 @@ impl<T: Clone, const N: usize> Outbox<T, N> {
 pub struct Inbox {
     /// Every message up to this number has been applied.
     pub received: u32,
-    /// The last number acknowledged.
+    /// The last number acknowledged. Not saved: a restored side acknowledges again.
+    #[serde(skip)]
     acknowledged: u32,
     /// Every message up to this number was applied when this side's last checkpoint was
-    /// taken: the most that may be acknowledged.
+    /// taken: the most that may be acknowledged. Not saved: a restored state is a
+    /// checkpointed one.
+    #[serde(skip)]
     checkpointed: u32,
     /// Messages dropped as already applied (sent again after a restore).
     pub duplicates: u32,
@@ -314,6 +364,14 @@ impl Inbox {
     /// This side's checkpoint now holds every message applied.
     pub fn checkpointed(&mut self) {
         self.checkpointed = self.received;
+    }
+
+    /// The sender declared the messages before `next` void ([`Wire::Rebase`]).
+    pub fn rebase(&mut self, next: u32) {
+        self.received = next.wrapping_sub(1);
+        // Nothing before `next` is to be acknowledged any more.
+        self.checkpointed = self.received;
+        self.acknowledged = self.received;
     }
 
     /// The acknowledgement to send, if there is a new one: up to what the last checkpoint
@@ -380,6 +438,9 @@ pub struct ExecutivePartitionStats {
     pub stale_commits: u32,
     /// Planner telemetry lost because the forwarding buffer was full.
     pub telemetry_dropped: u32,
+    /// Times the planner came up without the checkpoint matching ours and was sent the
+    /// network again.
+    pub resyncs: u32,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -421,7 +482,8 @@ impl ExecutivePartition {
             transfer: None,
             to_planner: Outbox::new(),
             from_planner: EMPTY_INBOX,
-            resume: false,
+            // A side that starts says where it stands, restored or not.
+            resume: true,
             status: None,
             telemetry: Vec::new(),
             image: [0; MAX_NETWORK_IMAGE],
@@ -429,6 +491,7 @@ impl ExecutivePartition {
             stats: ExecutivePartitionStats {
                 stale_commits: 0,
                 telemetry_dropped: 0,
+                resyncs: 0,
             },
         }
     }
@@ -447,6 +510,21 @@ impl ExecutivePartition {
 
     pub fn from_planner(&self) -> &Inbox {
         &self.from_planner
+    }
+
+    /// Mission time of the last first window.
+    pub fn now(&self) -> MissionTimeUs {
+        self.now
+    }
+
+    /// The frame of the last first window.
+    pub fn frame(&self) -> u32 {
+        self.frame
+    }
+
+    /// Whether a network is loaded.
+    pub fn loaded(&self) -> bool {
+        self.loaded
     }
 
     /// The planner's last status.
@@ -590,8 +668,46 @@ impl ExecutivePartition {
                 }
             }
             Wire::Ack { upto } => self.to_planner.on_ack(upto),
-            Wire::Resume { received } => self.to_planner.on_resume(received),
+            Wire::Resume { received } => {
+                if self.to_planner.on_resume(received) {
+                    self.resynchronise();
+                }
+            }
+            Wire::Rebase { next } => self.from_planner.rebase(next),
         }
+    }
+
+    /// The planner lost what the channel built on (it came up without the checkpoint that
+    /// matches ours): it gets the network again, under a new generation (so nothing it
+    /// committed before counts), then what the state buffer says, then the frame in
+    /// progress. The tasks the executive holds run on; the planner, planning afresh from
+    /// the network's requested tasks, may plan one of them again.
+    fn resynchronise(&mut self) {
+        self.stats.resyncs = self.stats.resyncs.saturating_add(1);
+        if !self.loaded {
+            return;
+        }
+        self.status = None;
+        self.generation = self.generation.wrapping_add(1).max(1);
+        let image = self.image.get(..self.image_len).unwrap_or(&[]);
+        self.transfer = Some(Transfer {
+            len: u32::try_from(image.len()).unwrap_or(u32::MAX),
+            pushed: 0,
+            crc: CRC32.checksum(image),
+            begun: false,
+        });
+        self.pump();
+        if self.frame != 0 {
+            self.to_planner.push(PlannerInput::Frame {
+                frame: self.frame,
+                now: self.now,
+            });
+        }
+    }
+
+    /// Whether messages wait for a checkpoint before they can go to the planner.
+    pub fn awaits_checkpoint(&self) -> bool {
+        self.to_planner.awaits_checkpoint()
     }
 
     fn apply(&mut self, message: ExecutiveInput) {
@@ -777,7 +893,23 @@ impl ExecutivePartition {
     /// `Restored` event and the after-reset values come at the next first window, every
     /// message not acknowledged goes again, and the planner hears what we have applied.
     pub fn restore_from(&mut self, area: &WarmRestartArea<'_>) -> Result<u32, SideRestoreError> {
-        let (_, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
+        let (slot, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
+        self.restore_record(Record {
+            slot,
+            sequence,
+            payload,
+        })
+        .map(|info| info.sequence)
+    }
+
+    /// As [`ExecutivePartition::restore_from`], from one record the caller found whole (its
+    /// CRC is not checked again). On error this side is a cold, empty one.
+    pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
+        let Record {
+            slot,
+            sequence,
+            payload,
+        } = record;
         if self.decode_state(payload).is_none() {
             self.reset();
             return Err(SideRestoreError::BadPayload);
@@ -787,7 +919,11 @@ impl ExecutivePartition {
         self.from_planner.checkpointed();
         self.restored = Some(sequence);
         self.resume = true;
-        Ok(sequence)
+        Ok(RestoreInfo {
+            slot,
+            sequence,
+            payload_len: u32::try_from(payload.len()).unwrap_or(u32::MAX),
+        })
     }
 
     /// Makes this side what [`ExecutivePartition::new`] is, in place.
@@ -802,14 +938,17 @@ impl ExecutivePartition {
         self.transfer = None;
         self.to_planner = Outbox::new();
         self.from_planner = EMPTY_INBOX;
-        self.resume = false;
+        self.resume = true;
         self.status = None;
         self.telemetry.clear();
         self.image_len = 0;
         self.stats = ExecutivePartitionStats::default();
     }
 
-    fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
+    /// Replaces the state with one [`ExecutivePartition::encode_state`] wrote, checked as a
+    /// restored checkpoint is (no restart adjustments: [`ExecutivePartition::restore_record`]
+    /// adds them). None when refused; the state may then be partly overwritten.
+    pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
         let (meta, rest): (ExecutiveMeta, _) = postcard::take_from_bytes(payload).ok()?;
         let rest = decode_network(&mut self.network, rest)?;
         let rest = in_place::take_in_place(rest, ExecutiveInPlace(&mut self.control.executive))?;
@@ -819,6 +958,14 @@ impl ExecutivePartition {
         if !rest.is_empty() {
             return None;
         }
+        checkpoint::check_executive_restored(
+            meta.loaded,
+            meta.now,
+            &self.network,
+            &self.control.executive,
+            &self.control.states,
+        )
+        .ok()?;
         // The image streamed to the planner, again from the network.
         self.image_len = self.network.encode(&mut self.image).ok()?;
         self.control.state_type_mismatches = meta.state_type_mismatches;
@@ -902,7 +1049,7 @@ impl PlannerPartition {
             image: [0; MAX_NETWORK_IMAGE],
             to_executive: Outbox::new(),
             from_executive: EMPTY_INBOX,
-            resume: false,
+            resume: true,
             refused_networks: 0,
         }
     }
@@ -918,12 +1065,27 @@ impl PlannerPartition {
         self.assembly = None;
         self.to_executive = Outbox::new();
         self.from_executive = EMPTY_INBOX;
-        self.resume = false;
+        self.resume = true;
         self.refused_networks = 0;
     }
 
     pub fn planner(&self) -> &Planner {
         &self.planner
+    }
+
+    /// Whether a network is loaded.
+    pub fn loaded(&self) -> bool {
+        self.loaded
+    }
+
+    /// Whether the executive's frame has come and the window has not run yet.
+    pub fn frame_pending(&self) -> bool {
+        self.frame.is_some()
+    }
+
+    /// Whether the channel holds messages for the executive not sent yet.
+    pub fn unsent(&self) -> usize {
+        self.to_executive.unsent()
     }
 
     pub fn network(&self) -> &TaskNetwork {
@@ -947,7 +1109,18 @@ impl PlannerPartition {
                 }
             }
             Wire::Ack { upto } => self.to_executive.on_ack(upto),
-            Wire::Resume { received } => self.to_executive.on_resume(received),
+            Wire::Resume { received } => {
+                // What the planner sent before is void for an executive that lost it; the
+                // executive brings the planner up to date (see
+                // `ExecutivePartition::resynchronise`).
+                let _ = self.to_executive.on_resume(received);
+            }
+            Wire::Rebase { next } => {
+                self.from_executive.rebase(next);
+                // What comes next is a new network: the old plan is void.
+                self.loaded = false;
+                self.planner.reset();
+            }
         }
     }
 
@@ -1131,7 +1304,23 @@ impl PlannerPartition {
     /// acknowledged goes again, the executive hears what we have applied, and a new cycle
     /// starts (the state may have changed while the target was down).
     pub fn restore_from(&mut self, area: &WarmRestartArea<'_>) -> Result<u32, SideRestoreError> {
-        let (_, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
+        let (slot, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
+        self.restore_record(Record {
+            slot,
+            sequence,
+            payload,
+        })
+        .map(|info| info.sequence)
+    }
+
+    /// As [`PlannerPartition::restore_from`], from one record the caller found whole (its CRC
+    /// is not checked again). On error this side is a cold, empty one.
+    pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
+        let Record {
+            slot,
+            sequence,
+            payload,
+        } = record;
         if self.decode_state(payload).is_none() {
             self.reset();
             return Err(SideRestoreError::BadPayload);
@@ -1140,10 +1329,16 @@ impl PlannerPartition {
         self.to_executive.after_restore();
         self.from_executive.checkpointed();
         self.resume = true;
-        Ok(sequence)
+        Ok(RestoreInfo {
+            slot,
+            sequence,
+            payload_len: u32::try_from(payload.len()).unwrap_or(u32::MAX),
+        })
     }
 
-    fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
+    /// Replaces the state with one [`PlannerPartition::encode_state`] wrote, checked as a
+    /// restored checkpoint is (no restart adjustments). None when refused.
+    pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
         let (meta, mut rest): (PlannerMeta, _) = postcard::take_from_bytes(payload).ok()?;
         if let Some((_, len, got)) = meta.assembly {
             if got > len || len as usize > MAX_NETWORK_IMAGE {
@@ -1160,6 +1355,8 @@ impl PlannerPartition {
         if !rest.is_empty() {
             return None;
         }
+        checkpoint::check_planner_restored(meta.loaded, meta.now, &self.network, &self.planner)
+            .ok()?;
         self.to_executive = to_executive;
         self.from_executive = from_executive;
         self.loaded = meta.loaded;

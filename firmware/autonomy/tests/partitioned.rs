@@ -91,6 +91,8 @@ struct PairSim {
     /// (planner's view, executive's tasks) after every planner transmission that was followed
     /// by the executive's second window.
     views: Vec<(BTreeSet<u16>, BTreeSet<u16>)>,
+    /// At the next reset, the planner's warm-restart area is lost too.
+    lose_planner_area: bool,
 }
 
 impl PairSim {
@@ -121,6 +123,7 @@ impl PairSim {
             mid_frame: None,
             landed: None,
             views: Vec::new(),
+            lose_planner_area: false,
         }
     }
 
@@ -263,6 +266,9 @@ impl PairSim {
         self.sc.reset(r.at);
         *self.executive = ExecutivePartition::new();
         *self.planner = PlannerPartition::new();
+        if std::mem::take(&mut self.lose_planner_area) {
+            self.planner_area.fill(0);
+        }
         let restart = r.at.saturating_add(r.recovery_us);
         self.executive
             .restore_from(&WarmRestartArea::new(&mut self.executive_area))
@@ -645,4 +651,30 @@ fn an_image_larger_than_the_partitions_exchange_is_refused() {
         too_large.load_uplink(&big),
         Err(LoadError::Invalid(_) | LoadError::TooLarge)
     ));
+}
+
+#[test]
+fn a_planner_that_comes_up_without_its_checkpoint_is_sent_the_network_again() {
+    let mut sim = PairSim::flyby(u32::MAX);
+    sim.lose_planner_area = true;
+    sim.run(hm(11, 30), &early_reset());
+    assert_eq!(sim.executive.stats.resyncs, 1, "one resynchronisation");
+    assert_eq!(sim.planner.network(), sim.executive.network());
+    assert_eq!(sim.planner.refused_networks, 0);
+    // The planner plans afresh and the mission goes on: the turn to Earth still happens.
+    let earth_done = sim.out.decisions.iter().any(|d| {
+        matches!(d, Decision::Transition { task, to: TaskState::Completed, at, .. }
+            if *task == ID_GNC_EARTH && *at > hm(10, 30))
+    });
+    assert!(
+        earth_done,
+        "the mission goes on after the planner lost its state"
+    );
+    // Nothing planned for the lost state was executed: commits of the old generation were
+    // dropped, if any came.
+    let (planner, executive) = sim.views();
+    assert!(
+        planner.is_empty() && executive.is_empty(),
+        "idle at the end"
+    );
 }

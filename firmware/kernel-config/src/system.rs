@@ -24,6 +24,7 @@ use crate::{
     Access, Capabilities, HealthTable, Partition, Port, PortKind, Region, Schedule, SystemConfig,
     Window,
 };
+use crate::{Slice, WARM_CHECKPOINT_PART};
 
 /// Partition indices, the same in both images (the `partition` field of health-monitor
 /// events, metric id offsets).
@@ -64,6 +65,31 @@ pub const ROGUE_REGION: Region = Region {
     access: Access::ReadWrite,
 };
 
+/// The executive's slice of the warm-restart area's checkpoint part: its A/B checkpoint
+/// records (the control loop: network, executive, state table, its end of the ports).
+pub const EXECUTIVE_WARM: Slice = Slice {
+    offset: 0,
+    len: 0x8000,
+};
+/// The planner's slice: the rest (its A/B records: network, plan, its end of the ports).
+pub const PLANNER_WARM: Slice = Slice {
+    offset: EXECUTIVE_WARM.len,
+    len: WARM_CHECKPOINT_PART - EXECUTIVE_WARM.len,
+};
+/// The executive's slice of non-volatile memory: its checkpoint records (laid out as the warm
+/// area's checkpoint part was when it was the only owner, so that a provisioned key stays
+/// where `hil nv provision` put it), then the security area (key slot, anti-replay counter
+/// records), with room to spare: 128 KiB.
+pub const EXECUTIVE_NV: Slice = Slice {
+    offset: 0,
+    len: 0x2_0000,
+};
+/// The planner's slice of non-volatile memory, after the executive's.
+pub const PLANNER_NV: Slice = Slice {
+    offset: EXECUTIVE_NV.len,
+    len: PLANNER_WARM.len,
+};
+
 const PARTITIONS_PRODUCT: [Partition; 3] = [
     Partition {
         name: "io",
@@ -72,8 +98,8 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         stack_size: 0x4000,
         capabilities: Capabilities {
             link_owner: true,
-            warm_area: false,
-            nv_memory: false,
+            warm_area: None,
+            nv_memory: None,
         },
         health: HealthTable::RESTART_ON_FAULT,
     },
@@ -84,8 +110,8 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         stack_size: 0x10000,
         capabilities: Capabilities {
             link_owner: false,
-            warm_area: true,
-            nv_memory: true,
+            warm_area: Some(EXECUTIVE_WARM),
+            nv_memory: Some(EXECUTIVE_NV),
         },
         health: HealthTable::RESTART_ON_FAULT,
     },
@@ -94,7 +120,11 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         entry: "partition_planner_main",
         regions: &[PLANNER_REGION],
         stack_size: 0x10000,
-        capabilities: Capabilities::NONE,
+        capabilities: Capabilities {
+            link_owner: false,
+            warm_area: Some(PLANNER_WARM),
+            nv_memory: Some(PLANNER_NV),
+        },
         health: HealthTable::RESTART_ON_FAULT,
     },
 ];

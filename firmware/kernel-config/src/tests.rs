@@ -17,8 +17,8 @@ const fn part(name: &'static str, regions: &'static [Region]) -> Partition {
 const IO_PART: Partition = Partition {
     capabilities: Capabilities {
         link_owner: true,
-        warm_area: false,
-        nv_memory: false,
+        warm_area: None,
+        nv_memory: None,
     },
     ..part("io", &[IO_REGION, MAC_IO_REGION])
 };
@@ -352,11 +352,17 @@ fn exactly_one_partition_owns_the_link() {
 #[test]
 fn at_most_one_partition_owns_each_persistent_memory() {
     const NV: Capabilities = Capabilities {
-        nv_memory: true,
+        nv_memory: Some(Slice {
+            offset: 0,
+            len: 0x1000,
+        }),
         ..Capabilities::NONE
     };
     const WARM: Capabilities = Capabilities {
-        warm_area: true,
+        warm_area: Some(Slice {
+            offset: 0x800,
+            len: 0x1000,
+        }),
         ..Capabilities::NONE
     };
     static TWO_NV: [Partition; 3] = [
@@ -383,12 +389,66 @@ fn at_most_one_partition_owns_each_persistent_memory() {
     ];
     assert_eq!(
         message(&config(&TWO_NV, &WINDOWS_OK, &[])),
-        "kernel configuration: more than one partition owns the non-volatile memory"
+        "kernel configuration: two partitions' slices of the non-volatile memory overlap"
     );
     assert_eq!(
         message(&config(&TWO_WARM, &WINDOWS_OK, &[])),
-        "kernel configuration: more than one partition owns the warm area"
+        "kernel configuration: two partitions' slices of the warm area overlap"
     );
+    // Side by side is fine; past the end, or empty, is not.
+    const WARM_AFTER: Capabilities = Capabilities {
+        warm_area: Some(Slice {
+            offset: 0x1800,
+            len: 0x1000,
+        }),
+        ..Capabilities::NONE
+    };
+    static SIDE_BY_SIDE: [Partition; 3] = [
+        IO_PART,
+        Partition {
+            capabilities: WARM,
+            ..part("executive", &[EXECUTIVE_REGION])
+        },
+        Partition {
+            capabilities: WARM_AFTER,
+            ..part("planner", &[PLANNER_REGION])
+        },
+    ];
+    assert_eq!(check(&config(&SIDE_BY_SIDE, &WINDOWS_OK, &[])), Ok(()));
+    const PAST_THE_END: Capabilities = Capabilities {
+        warm_area: Some(Slice {
+            offset: WARM_CHECKPOINT_PART - 8,
+            len: 16,
+        }),
+        ..Capabilities::NONE
+    };
+    static TOO_FAR: [Partition; 3] = [
+        IO_PART,
+        Partition {
+            capabilities: PAST_THE_END,
+            ..part("executive", &[EXECUTIVE_REGION])
+        },
+        part("planner", &[PLANNER_REGION]),
+    ];
+    assert_eq!(
+        check(&config(&TOO_FAR, &WINDOWS_OK, &[])),
+        Err(ConfigError::SliceOutOfRange { partition: 1 })
+    );
+}
+
+#[test]
+fn the_product_gives_the_executive_and_the_planner_their_own_persistent_memory() {
+    let executive = PRODUCT.partitions[EXECUTIVE].capabilities;
+    let planner = PRODUCT.partitions[PLANNER].capabilities;
+    let (ew, pw) = (executive.warm_area.unwrap(), planner.warm_area.unwrap());
+    let (en, pn) = (executive.nv_memory.unwrap(), planner.nv_memory.unwrap());
+    assert!(!ew.overlaps(&pw) && !en.overlaps(&pn));
+    assert_eq!(
+        pw.end(),
+        WARM_CHECKPOINT_PART,
+        "the warm area is shared out whole"
+    );
+    assert!(PRODUCT.partitions[IO].capabilities.warm_area.is_none());
 }
 
 #[test]

@@ -6,7 +6,7 @@
 //! IllegalSyscall action; the kernel itself never fails because of what a partition passed.
 use fsw_bridge::ResetCause;
 use kernel_config::abi::*;
-use kernel_config::{NV_BASE, WARM_AREA_BASE, WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
+use kernel_config::{NV_BASE, WARM_AREA_BASE, WARM_BOOT_RECORD_SIZE};
 use kernel_logic::park::{
     check_wait_for_input_args, decide, reasons_not_to_park, wait_declares_idle, Decision,
     ModuleState,
@@ -63,26 +63,39 @@ impl Kernel {
         }
     }
 
+    /// The kernel address of bytes `offset..offset + len` of partition `p`'s slice of the
+    /// warm area's checkpoint part.
     fn warm_range(p: usize, offset: u32, len: u32) -> Result<u32, SysError> {
-        if !SYSTEM.partitions[p].capabilities.warm_area {
+        let Some(slice) = SYSTEM.partitions[p].capabilities.warm_area else {
             return Err(SysError::Denied);
-        }
-        let room = WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE;
+        };
         match offset.checked_add(len) {
-            Some(end) if end <= room => Ok(WARM_AREA_BASE + WARM_BOOT_RECORD_SIZE + offset),
+            Some(end) if end <= slice.len => {
+                Ok(WARM_AREA_BASE + WARM_BOOT_RECORD_SIZE + slice.offset + offset)
+            }
             _ => Err(SysError::Range),
         }
     }
 
-    fn nv_range(&self, p: usize, offset: u32, len: u32) -> Result<u32, SysError> {
-        if !SYSTEM.partitions[p].capabilities.nv_memory {
+    /// Bytes of non-volatile memory partition `p`'s slice offers on this board (its slice,
+    /// cut at the end of the device).
+    fn nv_offered(&self, p: usize) -> Result<(kernel_config::Slice, u32), SysError> {
+        let Some(slice) = SYSTEM.partitions[p].capabilities.nv_memory else {
             return Err(SysError::Denied);
-        }
-        if self.nv_bytes == 0 {
+        };
+        let offered = self.nv_bytes.saturating_sub(slice.offset).min(slice.len);
+        if offered == 0 {
             return Err(SysError::NoDevice);
         }
+        Ok((slice, offered))
+    }
+
+    /// The device address of bytes `offset..offset + len` of partition `p`'s slice of
+    /// non-volatile memory.
+    fn nv_range(&self, p: usize, offset: u32, len: u32) -> Result<u32, SysError> {
+        let (slice, offered) = self.nv_offered(p)?;
         match offset.checked_add(len) {
-            Some(end) if end <= self.nv_bytes => Ok(NV_BASE + offset),
+            Some(end) if end <= offered => Ok(NV_BASE + slice.offset + offset),
             _ => Err(SysError::Range),
         }
     }
@@ -172,7 +185,7 @@ impl Kernel {
                 //    call and SYS_NV_WRITE touch, with the MMU off in the kernel.
                 let area = unsafe { core::slice::from_raw_parts(at as *const u8, buffer.len()) };
                 copy(buffer, area);
-                Ok(Return(self.nv_bytes, 0, 0))
+                Ok(Return(self.nv_offered(p)?.1, 0, 0))
             }
             Sysnum::NvWrite => {
                 let data = USlice::from_raw(a[1], a[2])?.readable_by(p)?;

@@ -33,23 +33,26 @@ use flight_app::{
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
 use heapless::Deque;
 use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
+use kernel_config::system::{EXECUTIVE_NV, EXECUTIVE_WARM};
 use kernel_config::{WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 
 use super::{ports, receive_routed, send_to_host, zeroed_state, ZeroValid};
 use crate::board::timebase;
 use crate::sys;
 
-/// Bytes of the warm-restart area available for checkpoints (after the boot record).
-pub const WARM_CHECKPOINT_BYTES: usize = (WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE) as usize;
-/// Bytes of non-volatile memory used for checkpoints (the same A/B layout as the warm area).
-pub const NV_CHECKPOINT_BYTES: usize = WARM_CHECKPOINT_BYTES;
+/// Bytes of the warm-restart area for this partition's checkpoints: its slice.
+pub const WARM_CHECKPOINT_BYTES: usize = EXECUTIVE_WARM.len as usize;
+/// Bytes of non-volatile memory used for checkpoints (A/B records): the whole checkpoint part
+/// of the warm area's size, as before the planner had a slice of its own, so that the security
+/// area stays where provisioned keys are.
+pub const NV_CHECKPOINT_BYTES: usize = (WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE) as usize;
 /// Offset of the security area (`sdls::nv`: key slot, A/B anti-replay counter records) in
 /// non-volatile memory: right after the checkpoint areas. `hil` provisions keys at the same
 /// offset (`host-harness/src/mission/auth.rs`).
 pub const NV_SECURITY_OFFSET: usize = NV_CHECKPOINT_BYTES;
 /// Bytes of non-volatile memory the partition uses: checkpoints and the security area.
 pub const NV_USED_BYTES: usize = NV_SECURITY_OFFSET + sdls::nv::SECURITY_AREA_BYTES;
-const _: () = assert!(NV_USED_BYTES <= kernel_config::NV_MAX_BYTES as usize);
+const _: () = assert!(NV_USED_BYTES <= EXECUTIVE_NV.len as usize);
 /// Messages for the host the partition holds while the outbound port is full.
 pub const OUTBOX_CAPACITY: usize = 128;
 /// Host messages held until their batch is complete (a frame's state updates and responses).
