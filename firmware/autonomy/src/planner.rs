@@ -28,8 +28,8 @@ use crate::model::*;
 use crate::plan::{Origin, PlanEntry};
 use crate::telemetry::{gave_up_code, FailureKind, PlanModificationKind, TaskState};
 use crate::timeline::{
-    consolidate, constraint_holds, constraint_span, shift, Anchors, Candidate, Measurement,
-    PlanEvents, PlanView, TimelineAnchor,
+    consolidate, constraint_holds, constraint_span, shift, Anchors, Candidate, CandidateEvents,
+    Measurement, PlanEvents, PlanView, TimelineAnchor,
 };
 use fsw_bridge::{MissionTimeUs, TelemetryEvent};
 
@@ -1838,7 +1838,10 @@ pub fn placement_valid_with_events(
     if let Some(events) = events {
         base = base.with_events(events);
     }
-    let with = base.with(x);
+    // The candidate's events, generated once for the many values asked below.
+    let mut candidate_events = CandidateEvents::none();
+    candidate_events.fill(network, x);
+    let with = base.with_candidate(&candidate_events);
     for c in &spec.constraints {
         if !constraint_holds(&with, x.instance, c, start, end, now) {
             return false;

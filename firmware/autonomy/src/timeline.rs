@@ -230,6 +230,57 @@ pub fn impact_events(
     }
 }
 
+/// The events of one hypothetical placement ([`Candidate`]) on every timeline, generated once:
+/// a placement check asks for the candidate's events in every value it computes (two scans per
+/// value, a value per event of the timeline), and generating them (offsets, signs, 64-bit
+/// arithmetic) cost about a tenth of a reset's recovery. A view given them (see
+/// [`PlanView::with_candidate`]) reads them from here, in the order
+/// [`impact_events`] generates them.
+#[derive(Clone, Debug)]
+pub struct CandidateEvents {
+    candidate: Candidate,
+    /// (timeline, event), each timeline's events in [`impact_events`]'s order.
+    events: Vec<(u8, Event), { 2 * MAX_IMPACTS_PER_TASK }>,
+}
+
+impl CandidateEvents {
+    /// No candidate yet ([`CandidateEvents::fill`] gives it one): a view given this generates
+    /// the events of its candidate.
+    pub const fn none() -> Self {
+        Self {
+            candidate: Candidate {
+                instance: 0,
+                def: u8::MAX,
+                start: MissionTimeUs::MAX,
+                end: MissionTimeUs::ZERO,
+            },
+            events: Vec::new(),
+        }
+    }
+
+    /// Lists the events of `c` (none if its definition is not in `network`, as a view
+    /// generates none for it either). Filled in place: the list is a few hundred bytes that
+    /// a returned value would copy.
+    pub fn fill(&mut self, network: &TaskNetwork, c: Candidate) {
+        self.candidate = c;
+        self.events.clear();
+        let Some(spec) = network.task(c.def) else {
+            return;
+        };
+        let events = &mut self.events;
+        for (n, impact) in spec.impacts.iter().enumerate() {
+            let tl = impact.timeline;
+            if spec.impacts.iter().take(n).any(|i| i.timeline == tl) {
+                continue;
+            }
+            impact_events(spec, c.instance, c.contribution(), tl, &mut |e| {
+                // At most two events per impact: always room.
+                let _ = events.push((tl, e));
+            });
+        }
+    }
+}
+
 /// A hypothetical placement of one instance (the one being scheduled).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Candidate {
@@ -260,6 +311,9 @@ pub struct PlanView<'a> {
     pub extra: Option<Candidate>,
     /// The entries' events listed once (built from `entries`), or None to generate them.
     pub events: Option<&'a PlanEvents>,
+    /// The events of `extra` generated once, or None to generate them (used only while they
+    /// are the events of `extra`).
+    pub extra_events: Option<&'a CandidateEvents>,
 }
 
 impl<'a> PlanView<'a> {
@@ -275,6 +329,7 @@ impl<'a> PlanView<'a> {
             exclude: [None, None],
             extra: None,
             events: None,
+            extra_events: None,
         }
     }
 
@@ -301,6 +356,15 @@ impl<'a> PlanView<'a> {
         self
     }
 
+    /// This view with the hypothetical placement whose events `events` lists (filled by
+    /// [`CandidateEvents::fill`] from this view's `network`). Answers are the same as with
+    /// [`PlanView::with`] of its candidate.
+    pub fn with_candidate(mut self, events: &'a CandidateEvents) -> Self {
+        self.extra = Some(events.candidate);
+        self.extra_events = Some(events);
+        self
+    }
+
     /// Calls `f` for every event on `timeline`, in no particular order.
     pub fn for_each_event(&self, timeline: u8, mut f: impl FnMut(Event)) {
         if let Some(events) = self
@@ -323,8 +387,19 @@ impl<'a> PlanView<'a> {
             }
         }
         if let Some(x) = self.extra {
-            if let Some(spec) = self.network.task(x.def) {
-                impact_events(spec, x.instance, x.contribution(), timeline, &mut f);
+            match self.extra_events.filter(|pre| pre.candidate == x) {
+                Some(pre) => {
+                    for &(tl, e) in &pre.events {
+                        if tl == timeline {
+                            f(e);
+                        }
+                    }
+                }
+                None => {
+                    if let Some(spec) = self.network.task(x.def) {
+                        impact_events(spec, x.instance, x.contribution(), timeline, &mut f);
+                    }
+                }
             }
         }
     }
