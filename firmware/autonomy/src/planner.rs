@@ -1867,6 +1867,13 @@ pub fn placement_valid_with_events(
                 }
             }
         }
+        // A state timeline (or none) has no bounds of its own: within them at every instant.
+        if matches!(
+            network.timeline(tl).map(|t| t.kind),
+            None | Some(TimelineKind::State { .. })
+        ) {
+            continue;
+        }
         let mut first = None::<MissionTimeUs>;
         crate::timeline::impact_events(spec, x.instance, x.contribution(), tl, &mut |e| {
             first = Some(first.map_or(e.at, |f| f.min(e.at)));

@@ -633,15 +633,16 @@ impl<'a> PlanView<'a> {
 
     /// Whether the timeline stays within its own bounds (cumulative min/max, claim count 0..=1)
     /// at `t`.
+    /// A state timeline has no bounds of its own: true without computing its value.
     pub fn within_bounds_at(&self, timeline: u8, t: MissionTimeUs) -> bool {
         let Some(spec) = self.network.timeline(timeline) else {
             return true;
         };
-        let v = self.value_at(timeline, t);
         match spec.kind {
             TimelineKind::State { .. } => true,
-            TimelineKind::Claimable => (0..=1).contains(&v),
+            TimelineKind::Claimable => (0..=1).contains(&self.value_at(timeline, t)),
             TimelineKind::Cumulative { min, max, .. } => {
+                let v = self.value_at(timeline, t);
                 v == VALUE_UNKNOWN || (min..=max).contains(&v)
             }
         }
