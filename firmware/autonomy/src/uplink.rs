@@ -701,35 +701,62 @@ impl<'a> Reader<'a> {
         }
     }
 
-    /// [`Reader::u64`] of a varint of more than one byte (or none).
+    /// [`Reader::u64`] of a varint of more than one byte (or none). Bytes 1 to 3 are taken
+    /// one by one with constant shifts into the low 28 bits (the times and durations of a
+    /// network are mostly five bytes long), the rest a group of four at a time.
     #[inline(never)]
     fn u64_long(&mut self, site: ErrorSite) -> Result<u64, ValidationError> {
         const MAX_BYTES: usize = 10;
+        let error = ValidationError::new(ValidationCode::Decode, site);
         let rest = self.rest;
-        let mut value = 0u64;
-        let mut i = 0usize;
-        for group in 0..3u32 {
+        let byte = |i: usize| rest.get(i).copied().ok_or(error);
+        let done = |reader: &mut Self, used: usize, value: u64| {
+            reader.rest = rest.get(used..).unwrap_or(&[]);
+            Ok(value)
+        };
+        // The first byte has its continuation bit set (or is absent).
+        let b = byte(0)?;
+        let mut low = u32::from(b & 0x7F);
+        if b & 0x80 == 0 {
+            return done(self, 1, u64::from(low));
+        }
+        let b = byte(1)?;
+        low |= u32::from(b & 0x7F) << 7;
+        if b & 0x80 == 0 {
+            return done(self, 2, u64::from(low));
+        }
+        let b = byte(2)?;
+        low |= u32::from(b & 0x7F) << 14;
+        if b & 0x80 == 0 {
+            return done(self, 3, u64::from(low));
+        }
+        let b = byte(3)?;
+        low |= u32::from(b & 0x7F) << 21;
+        if b & 0x80 == 0 {
+            return done(self, 4, u64::from(low));
+        }
+        // Bytes 4 to 9: groups of four from bit 28.
+        let mut value = u64::from(low);
+        let mut i = 4usize;
+        for group in 1..3u32 {
             let mut word = 0u32;
             for k in 0..4u32 {
                 if i == MAX_BYTES {
-                    return Err(ValidationError::new(ValidationCode::Decode, site));
+                    return Err(error);
                 }
-                let Some(&byte) = rest.get(i) else {
-                    return Err(ValidationError::new(ValidationCode::Decode, site));
-                };
-                word |= u32::from(byte & 0x7F) << (7 * k);
+                let b = byte(i)?;
+                word |= u32::from(b & 0x7F) << (7 * k);
                 i += 1;
-                if byte & 0x80 == 0 {
-                    if i == MAX_BYTES && byte > 0x01 {
-                        return Err(ValidationError::new(ValidationCode::Decode, site));
+                if b & 0x80 == 0 {
+                    if i == MAX_BYTES && b > 0x01 {
+                        return Err(error);
                     }
-                    self.rest = rest.get(i..).unwrap_or(&[]);
-                    return Ok(value | (u64::from(word) << (28 * group)));
+                    return done(self, i, value | (u64::from(word) << (28 * group)));
                 }
             }
             value |= u64::from(word) << (28 * group);
         }
-        Err(ValidationError::new(ValidationCode::Decode, site))
+        Err(error)
     }
 
     /// A mission time (a `u64` newtype: postcard writes the number alone).
