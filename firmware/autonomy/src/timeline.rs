@@ -88,6 +88,9 @@ impl Event {
     }
 }
 
+// A timeline's bit in a `u16` (see `PlanEvents::build`).
+const _: () = assert!(MAX_TIMELINES <= 16);
+
 /// Most events a [`PlanEvents`] table holds (4 KiB). A plan with more (at most
 /// `MAX_PLAN_ENTRIES * MAX_IMPACTS_PER_TASK * 2`) is answered without the table, as fast as
 /// before it existed; the flyby plans have a few dozen.
@@ -139,14 +142,29 @@ impl PlanEvents {
         else {
             return;
         };
+        // Each entry's contribution, definition and impacted timelines (a bit per timeline),
+        // found once rather than once per timeline (an entry that impacts none is left out).
+        // More entries than a plan holds: no table (views generate the events).
+        let mut impacting: Vec<(Contribution, &TaskSpec, u16, u16), MAX_PLAN_ENTRIES> = Vec::new();
+        for e in entries {
+            if let (Some(c), Some(spec)) = (e.contribution(), network.task(e.def)) {
+                let mask = spec.impacts.iter().fold(0u16, |m, i| {
+                    m | 1u16.checked_shl(u32::from(i.timeline)).unwrap_or(0)
+                });
+                if mask != 0 && impacting.push((c, spec, e.instance, mask)).is_err() {
+                    return;
+                }
+            }
+        }
         let mut fits = true;
         for t in 0..timelines {
             if let Some(slot) = self.first.get_mut(t) {
                 *slot = self.events.len() as u16;
             }
-            for e in entries {
-                if let (Some(c), Some(spec)) = (e.contribution(), network.task(e.def)) {
-                    impact_events(spec, e.instance, c, t as u8, &mut |ev| {
+            let bit = 1u16 << t;
+            for &(c, spec, instance, mask) in &impacting {
+                if mask & bit != 0 {
+                    impact_events(spec, instance, c, t as u8, &mut |ev| {
                         fits &= self.events.push(ev).is_ok();
                     });
                 }
