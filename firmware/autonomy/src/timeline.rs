@@ -454,6 +454,7 @@ impl<'a> PlanView<'a> {
         let passes = |e: &Event| e.at <= t && filter_at.is_none_or(|m| e.at > m);
         let mut last_assign: Option<(MissionTimeUs, u32, i64)> = None;
         let mut adds: Option<i64> = Some(0);
+        let mut added = false;
         let mut rates = false;
         self.for_each_event(timeline, |e| match e.kind {
             EventKind::Assign(v) => {
@@ -463,6 +464,7 @@ impl<'a> PlanView<'a> {
             }
             EventKind::Add(d) => {
                 if passes(&e) {
+                    added = true;
                     adds = adds.and_then(|sum| sum.checked_add(d));
                 }
             }
@@ -475,13 +477,17 @@ impl<'a> PlanView<'a> {
             base_value = v;
             let after = (at, seq);
             adds = Some(0);
-            self.for_each_event(timeline, |e| {
-                if let EventKind::Add(d) = e.kind {
-                    if passes(&e) && e.key() > after {
-                        adds = adds.and_then(|sum| sum.checked_add(d));
+            // The additions after the last assignment are among those the first pass saw
+            // (a state timeline has none: no second pass).
+            if added {
+                self.for_each_event(timeline, |e| {
+                    if let EventKind::Add(d) = e.kind {
+                        if passes(&e) && e.key() > after {
+                            adds = adds.and_then(|sum| sum.checked_add(d));
+                        }
                     }
-                }
-            });
+                });
+            }
         }
         if base_value == VALUE_UNKNOWN {
             return VALUE_UNKNOWN;
