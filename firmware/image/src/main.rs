@@ -8,6 +8,7 @@
 mod board;
 mod boot;
 mod config;
+mod context;
 mod kernel;
 mod link;
 mod log;
