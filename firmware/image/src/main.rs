@@ -48,6 +48,7 @@ fn reset_cause_name(cause: ResetCause) -> &'static str {
         ResetCause::Warm => "warm",
         ResetCause::Watchdog => "watchdog",
         ResetCause::HealthMonitor => "health-monitor",
+        ResetCause::KernelFault => "kernel-fault",
     }
 }
 

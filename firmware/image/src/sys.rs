@@ -238,8 +238,18 @@ pub fn panic(file: &str, line: u32) -> ! {
 
 /// Link owner: (reset cause code, boot count).
 pub fn boot_info() -> (u32, u32) {
-    let (cause, count, _) = raw(SYS_BOOT_INFO, [0; 5]);
+    let (cause, count, _) = raw(SYS_BOOT_INFO, [BOOT_INFO_CAUSE, 0, 0, 0, 0]);
     (cause as u32, count)
+}
+
+/// Link owner: the kernel fault that caused this boot's reset, if any.
+pub fn boot_kernel_fault() -> Option<fsw_bridge::KernelFault> {
+    let (vector, pc, dar) = raw(SYS_BOOT_INFO, [BOOT_INFO_KERNEL_FAULT, 0, 0, 0, 0]);
+    (vector > 0).then_some(fsw_bridge::KernelFault {
+        vector: vector as u32,
+        pc,
+        dar,
+    })
 }
 
 /// Link owner: move kernel log bytes into `buffer`.

@@ -209,7 +209,7 @@ const PORTS_PRODUCT: [Port; 6] = [
     },
 ];
 
-const PORTS_TEST: [Port; 7] = [
+const PORTS_TEST: [Port; 8] = [
     PORTS_PRODUCT[0],
     PORTS_PRODUCT[1],
     PORTS_PRODUCT[2],
@@ -224,6 +224,16 @@ const PORTS_TEST: [Port; 7] = [
         source: IO,
         destinations: &[ROGUE],
     },
+    // The rogue's messages for the host: the stale-message test sends one and restarts before
+    // the I/O partition takes it.
+    Port {
+        name: "rogue_to_io",
+        kind: PortKind::Queuing,
+        message_size: OUTBOUND_MESSAGE_SIZE,
+        depth: 2,
+        source: ROGUE,
+        destinations: &[IO],
+    },
 ];
 
 /// Port indices, in the order above.
@@ -234,6 +244,7 @@ pub const PORT_PLANNER_TO_IO: usize = 3;
 pub const PORT_PLAN_SUMMARY: usize = 4;
 pub const PORT_EXECUTIVE_STATUS: usize = 5;
 pub const PORT_IO_TO_ROGUE: usize = 6;
+pub const PORT_ROGUE_TO_IO: usize = 7;
 
 /// The product: I/O, executive, planner.
 pub const PRODUCT: SystemConfig = SystemConfig {

@@ -96,6 +96,7 @@ fn the_test_image_keeps_the_products_indices_and_timing() {
         assert_eq!(TEST.ports[i].name, p.name);
     }
     assert_eq!(port_index(&TEST, "io_to_rogue"), Some(PORT_IO_TO_ROGUE));
+    assert_eq!(port_index(&TEST, "rogue_to_io"), Some(PORT_ROGUE_TO_IO));
     assert_eq!(partition_index(&TEST, "rogue"), Some(ROGUE));
 }
 
@@ -421,5 +422,9 @@ fn port_storage_is_sized_from_the_configuration() {
     // 4 ports of 160/64 bytes x 8, 2 sampling ports of 32 bytes, 16-byte slot headers.
     let product = 2 * 8 * (160 + 16) + 2 * 8 * (64 + 16) + 2 * (32 + 16);
     assert_eq!(port_storage_bytes(&PRODUCT), product);
-    assert_eq!(port_storage_bytes(&TEST), product + 2 * (160 + 16));
+    // Plus io_to_rogue (160 bytes x 2) and rogue_to_io (64 bytes x 2).
+    assert_eq!(
+        port_storage_bytes(&TEST),
+        product + 2 * (160 + 16) + 2 * (64 + 16)
+    );
 }

@@ -6,10 +6,13 @@
 //! - [`byte_ring`]: the fixed-capacity byte ring the kernel drains the link's UART into;
 //! - [`park`]: whether the module may stop its schedule and wait for the host
 //!   (`SYS_WAIT_FOR_INPUT`), and the check of that call's arguments;
+//! - [`port_queue`]: a queuing port's ring, and the rule that drops messages sent before
+//!   their sender restarted (stale generation);
 //! - [`shm_link`]: the shared-memory link transport's layout and ring logic, used by the
 //!   target's kernel and by the host (`hil`) alike.
 #![no_std]
 
 pub mod byte_ring;
 pub mod park;
+pub mod port_queue;
 pub mod shm_link;

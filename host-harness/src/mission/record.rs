@@ -604,6 +604,7 @@ impl MissionRecord {
                 return;
             }
             kernel_config::abi::metric::LINK_INSTRUMENT_DROPPED => "instrument_messages_dropped",
+            kernel_config::abi::metric::PORT_STALE_DROPPED => "port_stale_messages_dropped",
             metric::BOOT_SECURITY_TICKS => {
                 self.boot_part("security", value, |b| &mut b.security_ticks);
                 return;

@@ -288,6 +288,21 @@ impl Kernel {
     }
 }
 
+/// Test image: the rogue partition's `rogue::KERNEL_FAULT_CALL` makes the kernel itself fault
+/// (a `trap`, a program exception in supervisor state outside any partition), so that the
+/// tests can watch a kernel fault warm-reset the module and reach the next Hello.
+#[cfg(feature = "test-partitions")]
+fn test_fault_hook(p: usize, ctx: &Context) {
+    if p == kernel_config::system::ROGUE
+        && ctx.gpr[0] == kernel_config::abi::rogue::KERNEL_FAULT_CALL
+    {
+        // SAFETY: deliberately faults: `trap` raises a program exception, which the entry code
+        // saves in the kernel-fault area and `kernel_trap` turns into a warm reset; nothing
+        // after it runs.
+        unsafe { core::arch::asm!("trap", options(nomem, nostack)) };
+    }
+}
+
 /// Entered from `__exception_common` with the MMU off, interrupts off, on the kernel stack.
 /// `ctx` is where the interrupted registers were saved. Returns the context to resume.
 #[no_mangle]
@@ -322,7 +337,11 @@ pub extern "C" fn kernel_trap(
             debug_assert!(core::ptr::eq(ctx, &k.contexts[p]));
             match vector {
                 0x900 => k.on_timer(entry),
-                0xc00 => k.syscall(p, entry),
+                0xc00 => {
+                    #[cfg(feature = "test-partitions")]
+                    test_fault_hook(p, &k.contexts[p]);
+                    k.syscall(p, entry)
+                }
                 // Held back at the controller while partitions run; should one get through
                 // anyway, the partition continues (its stint includes this handler).
                 0x500 => {

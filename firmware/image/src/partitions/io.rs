@@ -126,6 +126,7 @@ fn reset_cause(code: u32) -> ResetCause {
         2 => ResetCause::Warm,
         3 => ResetCause::Watchdog,
         4 => ResetCause::HealthMonitor,
+        5 => ResetCause::KernelFault,
         _ => ResetCause::PowerOn,
     }
 }
@@ -154,6 +155,7 @@ pub extern "C" fn partition_io_main() -> ! {
             build_id: crate::BUILD_ID,
             reset_cause: reset_cause(cause),
             boot_count,
+            kernel_fault: sys::boot_kernel_fault(),
         });
         link.flush();
     } else {
@@ -322,9 +324,21 @@ fn pump_kernel(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
     }
 }
 
+/// The ports that carry partitions' messages for the host (the test image adds the rogue's).
+const OUTBOUND_PORTS: [usize; if cfg!(feature = "test-partitions") {
+    3
+} else {
+    2
+}] = [
+    PORT_EXECUTIVE_TO_IO,
+    PORT_PLANNER_TO_IO,
+    #[cfg(feature = "test-partitions")]
+    kernel_config::system::PORT_ROGUE_TO_IO,
+];
+
 /// The partitions' messages for the host, while the Mission channel takes them.
 fn pump_ports(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
-    for port in [PORT_EXECUTIVE_TO_IO, PORT_PLANNER_TO_IO] {
+    for port in OUTBOUND_PORTS {
         let mut buf = [0u8; OUTBOUND_MESSAGE_SIZE as usize];
         while rounds.mission_held.is_empty() {
             let Ok(got) = sys::port_receive(port, &mut buf) else {
