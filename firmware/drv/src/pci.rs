@@ -102,6 +102,7 @@ impl<B: Bus> Grackle<B> {
     }
 
     /// Map an ivshmem device's BAR2 at `base` (aligned to its size).
+    #[inline]
     fn map_ivshmem(&self, devfn: DevFn, base: u32) {
         self.config_write(devfn, REG_BAR3, 0);
         self.map_bar(devfn, REG_BAR2, base);
@@ -118,7 +119,8 @@ impl<B: Bus> Grackle<B> {
         is_link: impl Fn() -> bool,
     ) -> SharedMemories {
         let mut found = SharedMemories::default();
-        for devfn in (0..32u8).map(|dev| DevFn(dev << 3)) {
+        for dev in 0..32u32 {
+            let devfn = DevFn((dev << 3) as u8);
             if self.config_read(devfn, REG_ID) != IVSHMEM {
                 continue;
             }

@@ -55,7 +55,7 @@ pub fn cause_code(cause: ResetCause) -> u32 {
     }
 }
 
-pub fn cause_from_code(code: u32) -> Option<ResetCause> {
+fn cause_from_code(code: u32) -> Option<ResetCause> {
     Some(match code {
         1 => ResetCause::PowerOn,
         2 => ResetCause::Warm,
@@ -121,9 +121,10 @@ pub fn record_boot() -> (ResetCause, u32) {
     } else {
         (ResetCause::PowerOn, 1)
     };
-    let fault = take_fault_record();
+    // Only a kernel fault's reset has a record to take (its CRC is not worth checking on every
+    // boot); any other leaves whatever is there unread, bound to an older boot count.
     if cause == ResetCause::KernelFault {
-        if let Some(fault) = fault {
+        if let Some(fault) = take_fault_record() {
             BOOT_FAULT[0].store(fault.vector, Ordering::Relaxed);
             BOOT_FAULT[1].store(fault.pc, Ordering::Relaxed);
             BOOT_FAULT[2].store(fault.dar, Ordering::Relaxed);
@@ -181,7 +182,8 @@ pub fn set_kernel_fault(fault: KernelFault) {
 }
 
 /// The kernel-fault record if a valid one for the boot that wrote the boot record is there;
-/// the record is cleared either way. Called before the boot record is rewritten.
+/// the record is cleared either way. Called before the boot record is rewritten, only when the
+/// pending cause was KernelFault.
 fn take_fault_record() -> Option<KernelFault> {
     let boot_count = read_record().boot_count;
     // SAFETY: as in `set_kernel_fault`.
