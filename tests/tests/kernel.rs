@@ -349,7 +349,10 @@ fn accounting_run() -> Vec<BTreeMap<u16, u64>> {
             report
                 .into_iter()
                 .filter(|(id, _)| {
-                    *id == metric::FRAME_NUMBER || (*id & 0xfff0) == metric::FRAME_TICKS
+                    // The frame number and the FRAME_TICKS family (one id per partition), as
+                    // the telemetry dictionary says, not by id arithmetic.
+                    let first = fsw_bridge::dictionary::metric(*id).map(|m| m.id);
+                    first == Some(metric::FRAME_NUMBER) || first == Some(metric::FRAME_TICKS)
                 })
                 .collect()
         })

@@ -30,36 +30,28 @@
 //! exactly that instant in lockstep. Ages are part of the checkpoint: a value restored after a
 //! long recovery goes stale when its bound says, not a bound after the restart.
 //!
-//! Partitioned later: the planner ([`crate::planner::Planner`]) and the executive
-//! ([`crate::executive::Executive`]) only exchange [`crate::planner::Commit`]s (planner to
-//! executive) and [`crate::planner::TaskReport`]s (executive to planner), so each can run in its
-//! own partition with its own copy of the network; this wrapper just passes them directly.
-use crate::capacity::MAX_MISSION_TIME_US;
+//! The two loops: the planner ([`crate::planner::Planner`], the planning loop) and the
+//! control loop ([`ControlLoop`]: the executive and the state buffer copy) share nothing but
+//! the task network; everything else they exchange is a [`crate::interface`] message
+//! ([`ToPlanner`]: measurements, task reports, commits given back; commits the other way).
+//! This wrapper hands each message over at once and runs the planner within the step; the
+//! firmware can run each loop in its own partition with a port in between.
+use crate::capacity::{MAX_COMMITTED, MAX_MISSION_TIME_US};
 use crate::checkpoint::{
     self, CheckpointError, PayloadDefect, PayloadError, PayloadSite, Record, RestoreInfo,
     RestoredState, WarmRestartArea, WrittenRecord,
 };
-use crate::condition::{state_value_to_i64, StateTable, StateTableInPlace, UpdateOutcome};
+use crate::condition::{StateTable, StateTableInPlace};
+use crate::control::ControlLoop;
 use crate::executive::{Executive, ExecutiveInPlace};
 use crate::in_place;
+use crate::interface::{Commit, Outputs, ToPlanner};
 use crate::model::*;
 use crate::plan::PlanEntry;
-use crate::planner::{Planner, PlannerInPlace, TaskReport};
+use crate::planner::{Planner, PlannerInPlace};
 use crate::telemetry::PlanModificationKind;
 use crate::uplink::{self, ValidationError};
-use fsw_bridge::{
-    CommandArgs, CommandStatus, MissionTimeUs, Opcode, StateKey, StateValue, TelemetryEvent,
-};
-
-/// Where the core's decisions go. The firmware forwards them on the link
-/// (`TargetToHost::CommandDispatch` and `TargetToHost::Telemetry`); tests record them.
-pub trait Outputs {
-    /// Send command `opcode(args)` with correlation id `id`; its response must come back through
-    /// [`Autonomy::on_command_response`] with the same id.
-    fn dispatch(&mut self, id: u32, opcode: Opcode, args: &CommandArgs);
-    /// Report a decision (task transition or plan modification; codes in [`crate::telemetry`]).
-    fn telemetry(&mut self, event: TelemetryEvent);
-}
+use fsw_bridge::{CommandStatus, MissionTimeUs, StateKey, StateValue, TelemetryEvent};
 
 /// How much planning one step may do.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -82,6 +74,10 @@ pub struct StepReport {
     pub planner_checks: u32,
     /// The planner stopped on its budget: call `step` again soon (`next_wakeup` says now).
     pub planner_pending: bool,
+    /// A planner cycle ended in this step, this long (mission time, µs) after the step that
+    /// started it: 0 when it fitted in one step (see
+    /// [`crate::planner::PlannerStepReport::cycle_latency_us`]).
+    pub planning_latency_us: Option<u64>,
 }
 
 /// CPU the two halves of one step took, in the units of the clock given to
@@ -103,25 +99,23 @@ pub struct StepCost {
 pub enum LoadError {
     /// The uplink failed validation (nothing changed).
     Invalid(ValidationError),
-    /// The executive still owns tasks of the running plan; load when it is idle.
+    /// The executive still owns tasks of the running plan (or, split over two partitions,
+    /// the previous network is still on its way to the planner); load when it is idle.
     Busy,
+    /// The network's image is larger than the partitions exchange
+    /// ([`crate::partitioned::MAX_NETWORK_IMAGE`]).
+    TooLarge,
 }
 
-/// The autonomy core: task network + planner + executive + state buffer copy.
+/// The autonomy core: task network + planner + control loop (executive, state buffer copy).
 pub struct Autonomy {
     network: TaskNetwork,
     planner: Planner,
-    executive: Executive,
-    states: StateTable,
+    control: ControlLoop,
     now: MissionTimeUs,
     loaded: bool,
     /// Emit a `Restored` plan modification at the next step.
     restored: Option<u32>,
-    /// Counts state updates whose value does not fit the timeline's kind
-    /// ([`TimelineSpec::measured_value_type`]); each is taken as unknown.
-    pub state_type_mismatches: u32,
-    /// The state key of the last such update.
-    pub last_state_type_mismatch: Option<StateKey>,
 }
 
 impl Default for Autonomy {
@@ -137,13 +131,10 @@ impl Autonomy {
     pub fn reset(&mut self) {
         self.network.clear();
         self.planner.reset();
-        self.executive.reset();
-        self.states.clear();
+        self.control.reset();
         self.now = MissionTimeUs::ZERO;
         self.loaded = false;
         self.restored = None;
-        self.state_type_mismatches = 0;
-        self.last_state_type_mismatch = None;
     }
 
     /// An empty core (no network). `const`, so it can live in a `static`.
@@ -151,20 +142,17 @@ impl Autonomy {
         Self {
             network: TaskNetwork::EMPTY,
             planner: Planner::new(),
-            executive: Executive::new(),
-            states: StateTable::new(),
+            control: ControlLoop::new(),
             now: MissionTimeUs::ZERO,
             loaded: false,
             restored: None,
-            state_type_mismatches: 0,
-            last_state_type_mismatch: None,
         }
     }
 
     /// Loads a validated network and starts a new plan from its requested tasks (scheduled at
     /// the next step). Refused while the executive still owns tasks.
     pub fn load_network(&mut self, network: TaskNetwork) -> Result<(), LoadError> {
-        if !self.executive.entries().is_empty() {
+        if !self.control.executive.entries().is_empty() {
             return Err(LoadError::Busy);
         }
         self.network = network;
@@ -176,7 +164,7 @@ impl Autonomy {
     /// changes; `err.code.code()` is the reason to report to the ground.
     pub fn load_uplink(&mut self, bytes: &[u8]) -> Result<(), LoadError> {
         uplink::validate_uplink(bytes).map_err(LoadError::Invalid)?;
-        if !self.executive.entries().is_empty() {
+        if !self.control.executive.entries().is_empty() {
             return Err(LoadError::Busy);
         }
         uplink::decode_into(&mut self.network, bytes).map_err(LoadError::Invalid)?;
@@ -185,18 +173,15 @@ impl Autonomy {
     }
 
     fn after_load(&mut self) {
-        self.planner.load(&self.network);
+        let Self {
+            network,
+            planner,
+            control,
+            ..
+        } = self;
+        planner.load(network);
         self.loaded = true;
-        // Re-apply what the state buffer already told us to the new timelines; the new
-        // network's bounds judge the ages again at the next step.
-        self.states.clear_staleness();
-        let states = self.states.clone();
-        for e in states.entries() {
-            if let Some(t) = self.network.timeline_of_key(e.key) {
-                let v = self.timeline_value(t, e.value);
-                self.planner.on_measurement(t, v, e.at);
-            }
-        }
+        control.after_load(network, &mut |m| planner.receive(m));
     }
 
     /// The loaded network.
@@ -218,30 +203,32 @@ impl Autonomy {
     }
 
     pub fn executive(&self) -> &Executive {
-        &self.executive
+        &self.control.executive
     }
 
     pub fn states(&self) -> &StateTable {
-        &self.states
+        &self.control.states
+    }
+
+    /// The control loop (executive and state buffer copy).
+    pub fn control(&self) -> &ControlLoop {
+        &self.control
+    }
+
+    /// State updates whose value did not fit the timeline's kind
+    /// ([`TimelineSpec::measured_value_type`]); each was taken as unknown.
+    pub fn state_type_mismatches(&self) -> u32 {
+        self.control.state_type_mismatches
+    }
+
+    /// The state key of the last such update.
+    pub fn last_state_type_mismatch(&self) -> Option<StateKey> {
+        self.control.last_state_type_mismatch
     }
 
     /// Mission time of the last step.
     pub fn now(&self) -> MissionTimeUs {
         self.now
-    }
-
-    fn timeline_value(&mut self, timeline: u8, value: StateValue) -> i64 {
-        let Some(spec) = self.network.timeline(timeline) else {
-            return VALUE_UNKNOWN;
-        };
-        match fitted_value(spec, value) {
-            Some(v) => v,
-            None => {
-                self.state_type_mismatches = self.state_type_mismatches.saturating_add(1);
-                self.last_state_type_mismatch = spec.state_key;
-                VALUE_UNKNOWN
-            }
-        }
     }
 
     /// Records a state-buffer value (measured at `at`). Values of the wrong type for their
@@ -253,75 +240,18 @@ impl Autonomy {
         if at.0 > MAX_MISSION_TIME_US {
             return;
         }
-        let outcome = self.states.update(key, value, at);
-        if let Some(t) = self.network.timeline_of_key(key) {
-            let v = self.timeline_value(t, value);
-            match outcome {
-                // The table has put it in order; it replaces even a stale mark made later
-                // than `at`.
-                UpdateOutcome::Stored => self.planner.set_measurement(t, v, at),
-                // Not in the table: the planner orders its own copy by time.
-                UpdateOutcome::TableFull => self.planner.on_measurement(t, v, at),
-                UpdateOutcome::Ignored => {}
-            }
-        }
-    }
-
-    /// Judges the age of every measured value whose timeline has a staleness bound at `now`:
-    /// a value older than its bound is marked stale (it reads unknown), handed to the planner
-    /// as unknown from `now`, and reported once. Values never measured keep reading as the
-    /// timeline's initial value.
-    fn judge_ages(&mut self, now: MissionTimeUs, out: &mut impl Outputs) {
         let Self {
             network,
             planner,
-            states,
+            control,
             ..
         } = self;
-        for (t, timeline) in network.timelines().iter().enumerate() {
-            let (Some(key), Some(bound), Ok(t)) =
-                (timeline.state_key, timeline.stale_after_us, u8::try_from(t))
-            else {
-                continue;
-            };
-            let Some(entry) = states.get(key).copied() else {
-                continue;
-            };
-            let stale = entry.is_older_than(bound, now);
-            if states.set_stale(key, stale).is_none() {
-                continue;
-            }
-            if stale {
-                planner.set_measurement(t, VALUE_UNKNOWN, now);
-                out.telemetry(TelemetryEvent::StateStale {
-                    key,
-                    measured_at: entry.at,
-                    at: now,
-                });
-            } else {
-                // Fresh again with no newer measurement (time stepped back): as measured.
-                let v = fitted_value(timeline, entry.value).unwrap_or(VALUE_UNKNOWN);
-                planner.set_measurement(t, v, entry.at);
-            }
-        }
-    }
-
-    /// The first instant after which a fresh measured value will be older than its bound.
-    fn next_staleness(&self) -> Option<MissionTimeUs> {
-        self.network
-            .timelines()
-            .iter()
-            .filter_map(|timeline| {
-                let bound = timeline.stale_after_us?;
-                let entry = self.states.get(timeline.state_key?)?;
-                (!entry.stale).then(|| entry.stale_from(bound))
-            })
-            .min()
+        control.on_state_update(network, key, value, at, &mut |m| planner.receive(m));
     }
 
     /// Records the response to command `id`; processed at the next step, in arrival order.
     pub fn on_command_response(&mut self, id: u32, status: CommandStatus) {
-        self.executive.on_command_response(id, status);
+        self.control.executive.on_command_response(id, status);
     }
 
     /// Runs one step at `now`: the executive (responses, state checks, timeouts, completions),
@@ -352,6 +282,13 @@ impl Autonomy {
         // core keeps stays in range (see `checkpoint::MAX_RESTORED_TIME_US`).
         let now = MissionTimeUs(now.0.min(MAX_MISSION_TIME_US));
         self.now = now;
+        let Self {
+            network,
+            planner,
+            control,
+            ..
+        } = self;
+        let mut to_planner = |m: ToPlanner| planner.receive(m);
         if let Some(seq) = self.restored.take() {
             out.telemetry(TelemetryEvent::PlanModification {
                 kind: PlanModificationKind::Restored as u8,
@@ -359,13 +296,7 @@ impl Autonomy {
                 template: seq as u16,
                 at: now,
             });
-            // Unmeasured timelines declared to revert after a reset (a heater is off) take
-            // that value now, as if measured at the restart.
-            for (t, timeline) in self.network.timelines().iter().enumerate() {
-                if let (Some(value), Ok(t)) = (timeline.after_reset, u8::try_from(t)) {
-                    self.planner.on_measurement(t, value, now);
-                }
-            }
+            control.after_reset_values(network, now, &mut to_planner);
         }
         if !self.loaded {
             let cost = StepCost {
@@ -374,29 +305,32 @@ impl Autonomy {
             };
             return (StepReport::default(), cost);
         }
-        self.judge_ages(now, out);
-        let Self {
-            network,
-            planner,
-            executive,
-            states,
-            ..
-        } = self;
-        executive.step(network, states, now, out, &mut |r: TaskReport| {
-            planner.on_report(r)
-        });
+        control.judge_ages(network, now, out, &mut to_planner);
+        control.step(network, now, out, &mut to_planner);
         let t1 = clock();
+        // The planner's commits reach the control loop after its pass, as they would through a
+        // port; the planner commits no more than its count of the executive's room.
+        let mut commits: heapless::Vec<Commit, MAX_COMMITTED> = heapless::Vec::new();
+        let mut overflow: heapless::Vec<u16, MAX_COMMITTED> = heapless::Vec::new();
         let report = planner.step(
             network,
             now,
             budget.planner_checks,
-            &mut |c| executive.has_room() && executive.accept(c),
+            &mut |c| {
+                if commits.push(c).is_err() {
+                    let _ = overflow.push(c.instance);
+                }
+            },
             out,
         );
+        for instance in overflow {
+            planner.on_returned(instance);
+        }
+        for c in commits {
+            control.accept(c, &mut |m| planner.receive(m));
+        }
         let t2 = clock();
-        executive.step(network, states, now, out, &mut |r: TaskReport| {
-            planner.on_report(r)
-        });
+        control.step(network, now, out, &mut |m| planner.receive(m));
         let t3 = clock();
         let cost = StepCost {
             executive: t1.wrapping_sub(t0).wrapping_add(t3.wrapping_sub(t2)),
@@ -405,6 +339,7 @@ impl Autonomy {
         let report = StepReport {
             planner_checks: report.checks,
             planner_pending: report.work_pending,
+            planning_latency_us: report.cycle_latency_us,
         };
         (report, cost)
     }
@@ -415,17 +350,12 @@ impl Autonomy {
         if !self.loaded {
             return None;
         }
-        if self.executive.work_pending() || self.restored.is_some() {
+        if self.control.executive.work_pending() || self.restored.is_some() {
             return Some(self.now);
         }
         let planner = self.planner.next_wakeup(&self.network, self.now);
-        let executive = self
-            .executive
-            .next_wakeup(&self.network, self.now)
-            .map(|t| t.max(self.now));
-        // A value going stale is a state change the core must see when it happens.
-        let staleness = self.next_staleness().map(|t| t.max(self.now));
-        [planner, executive, staleness].into_iter().flatten().min()
+        let control = self.control.next_wakeup(&self.network, self.now);
+        [planner, control].into_iter().flatten().min()
     }
 
     /// Writes the whole plan and execution state as a new record in `area` (the slot not
@@ -462,8 +392,8 @@ impl Autonomy {
         let meta = ImageMeta {
             loaded: self.loaded,
             now: self.now,
-            state_type_mismatches: self.state_type_mismatches,
-            last_state_type_mismatch: self.last_state_type_mismatch,
+            state_type_mismatches: self.control.state_type_mismatches,
+            last_state_type_mismatch: self.control.last_state_type_mismatch,
         };
         len += postcard::to_slice(&meta, buf.get_mut(len..)?).ok()?.len();
         // Network length prefix, then the network in uplink format.
@@ -476,10 +406,10 @@ impl Autonomy {
         len += postcard::to_slice(&self.planner, buf.get_mut(len..)?)
             .ok()?
             .len();
-        len += postcard::to_slice(&self.executive, buf.get_mut(len..)?)
+        len += postcard::to_slice(&self.control.executive, buf.get_mut(len..)?)
             .ok()?
             .len();
-        len += postcard::to_slice(&self.states, buf.get_mut(len..)?)
+        len += postcard::to_slice(&self.control.states, buf.get_mut(len..)?)
             .ok()?
             .len();
         Some(len)
@@ -532,7 +462,7 @@ impl Autonomy {
             return Err(e);
         }
         self.planner.after_restore();
-        self.executive.after_restore();
+        self.control.executive.after_restore();
         self.restored = Some(record.sequence);
         Ok(RestoreInfo {
             slot: record.slot,
@@ -569,9 +499,9 @@ impl Autonomy {
         // values and moved in.
         let rest = in_place::take_in_place(rest, PlannerInPlace(&mut self.planner))
             .ok_or(fail(Decode, PayloadSite::Planner))?;
-        let rest = in_place::take_in_place(rest, ExecutiveInPlace(&mut self.executive))
+        let rest = in_place::take_in_place(rest, ExecutiveInPlace(&mut self.control.executive))
             .ok_or(fail(Decode, PayloadSite::Executive))?;
-        let rest = in_place::take_in_place(rest, StateTableInPlace(&mut self.states))
+        let rest = in_place::take_in_place(rest, StateTableInPlace(&mut self.control.states))
             .ok_or(fail(Decode, PayloadSite::States))?;
         if !rest.is_empty() {
             return Err(fail(TrailingBytes, PayloadSite::End));
@@ -581,22 +511,15 @@ impl Autonomy {
             now: meta.now,
             network: &self.network,
             planner: &self.planner,
-            executive: &self.executive,
-            states: &self.states,
+            executive: &self.control.executive,
+            states: &self.control.states,
         })?;
         self.loaded = meta.loaded;
         self.now = meta.now;
-        self.state_type_mismatches = meta.state_type_mismatches;
-        self.last_state_type_mismatch = meta.last_state_type_mismatch;
+        self.control.state_type_mismatches = meta.state_type_mismatches;
+        self.control.last_state_type_mismatch = meta.last_state_type_mismatch;
         Ok(())
     }
-}
-
-/// `value` as the integer timelines use, or None when it is not of `spec`'s measured type.
-fn fitted_value(spec: &TimelineSpec, value: StateValue) -> Option<i64> {
-    spec.measured_value_type()
-        .is_none_or(|expected| expected.accepts(value))
-        .then(|| state_value_to_i64(value))
 }
 
 #[derive(serde::Serialize, serde::Deserialize)]

@@ -18,11 +18,10 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
-use crate::autonomy::Outputs;
 use crate::capacity::*;
 use crate::condition::{evaluate, measured_value, StateTable};
+use crate::interface::{Commit, Outputs, ReportKind, TaskReport};
 use crate::model::*;
-use crate::planner::{Commit, ReportKind, TaskReport};
 use crate::telemetry::{FailureKind, TaskState};
 use crate::timeline::shift;
 use fsw_bridge::{CommandStatus, MissionTimeUs, TelemetryEvent};

@@ -28,9 +28,12 @@ mod autonomy;
 pub mod capacity;
 pub mod checkpoint;
 pub mod condition;
+pub mod control;
 pub mod executive;
 mod in_place;
+pub mod interface;
 pub mod model;
+pub mod partitioned;
 pub mod plan;
 pub mod planner;
 pub mod scenarios;
@@ -38,12 +41,14 @@ pub mod telemetry;
 pub mod timeline;
 pub mod uplink;
 
-pub use autonomy::{Autonomy, LoadError, Outputs, StepBudget, StepCost, StepReport};
+pub use autonomy::{Autonomy, LoadError, StepBudget, StepCost, StepReport};
 pub use capacity::*;
 pub use checkpoint::{CheckpointError, RestoreInfo, WarmRestartArea, WrittenRecord};
+pub use control::ControlLoop;
 pub use fsw_bridge::{
     CommandArgs, CommandStatus, MissionTimeUs, Opcode, StateKey, StateValue, TelemetryEvent,
 };
+pub use interface::{Commit, Outputs, ReportKind, TaskReport, ToExecutive, ToPlanner};
 pub use model::*;
 pub use telemetry::{FailureKind, PlanModificationKind, TaskState};
 pub use uplink::{ErrorSite, TaskField, ValidationCode, ValidationError};

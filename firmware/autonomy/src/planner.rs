@@ -22,8 +22,9 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
-use crate::autonomy::Outputs;
 use crate::capacity::*;
+pub use crate::interface::{Commit, ReportKind, TaskReport};
+use crate::interface::{Outputs, ToPlanner};
 use crate::model::*;
 use crate::plan::{Origin, PlanEntry};
 use crate::telemetry::{gave_up_code, FailureKind, PlanModificationKind, TaskState};
@@ -32,37 +33,6 @@ use crate::timeline::{
     PlanEvents, PlanView, TimelineAnchor,
 };
 use fsw_bridge::{MissionTimeUs, TelemetryEvent};
-
-/// A task handed from the planner to the executive.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Commit {
-    pub instance: u16,
-    pub def: u8,
-    pub start: MissionTimeUs,
-    pub end: MissionTimeUs,
-}
-
-/// What happened to a committed task, sent from the executive to the planner.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum ReportKind {
-    /// The task started (command accepted, or no-op begun).
-    Started,
-    Completed,
-    Skipped,
-    /// The task failed; `started` says whether its impacts had begun.
-    Failed {
-        kind: FailureKind,
-        started: bool,
-    },
-}
-
-/// One execution report.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct TaskReport {
-    pub instance: u16,
-    pub kind: ReportKind,
-    pub at: MissionTimeUs,
-}
 
 /// A constraint that does not hold in the projected plan.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -119,6 +89,9 @@ pub struct PlannerStats {
     pub plan_full: u32,
     /// Responses declined because a bound was exceeded (gave-up reports).
     pub gave_up: u32,
+    /// Commits the executive gave back because it was full ([`ToPlanner::Returned`]); each
+    /// was committed again later.
+    pub returned: u32,
 }
 
 /// Result of one [`Planner::step`].
@@ -128,6 +101,11 @@ pub struct PlannerStepReport {
     pub checks: u32,
     /// True when the cycle stopped on the budget and wants to run again at once.
     pub work_pending: bool,
+    /// A cycle ended in this step: the mission time from the step that started it (the first
+    /// step after the event that made the plan dirty, or the periodic cycle's time) to this
+    /// one, whose commits carry its result. 0 when the cycle fitted in one step; more when it
+    /// ran over several (a throttled planner: see [`crate::Autonomy`]).
+    pub cycle_latency_us: Option<u64>,
 }
 
 /// Scheduling passes in one planner cycle (a pass that placed something is followed by
@@ -212,6 +190,8 @@ struct Scratch {
     /// The plan's events listed once per timeline for the validity checks of one placement
     /// search (built by `fill_candidates`, stale as soon as the entries change).
     events: PlanEvents,
+    /// When the cycle in progress started (not saved: a restore starts a new cycle).
+    cycle_started_at: Option<MissionTimeUs>,
 }
 
 impl Default for Planner {
@@ -248,10 +228,12 @@ impl Planner {
                 dropped_reports: 0,
                 plan_full: 0,
                 gave_up: 0,
+                returned: 0,
             },
             scratch: Scratch {
                 candidates: Vec::new(),
                 events: PlanEvents::new(),
+                cycle_started_at: None,
             },
         }
     }
@@ -275,6 +257,7 @@ impl Planner {
         self.stats = PlannerStats::default();
         self.scratch.candidates.clear();
         self.scratch.events.clear();
+        self.scratch.cycle_started_at = None;
     }
 
     /// Forgets the plan and starts from `network`'s requested tasks, all unscheduled.
@@ -360,6 +343,48 @@ impl Planner {
         }
     }
 
+    /// Takes one message from the control loop (see [`crate::interface`]).
+    pub fn receive(&mut self, message: ToPlanner) {
+        match message {
+            ToPlanner::Measured {
+                timeline,
+                value,
+                at,
+                replaces: true,
+            } => self.set_measurement(timeline, value, at),
+            ToPlanner::Measured {
+                timeline,
+                value,
+                at,
+                replaces: false,
+            } => self.on_measurement(timeline, value, at),
+            ToPlanner::Report(report) => self.on_report(report),
+            ToPlanner::Returned { instance } => self.on_returned(instance),
+        }
+    }
+
+    /// The executive had no room for committed `instance`: it is scheduled again, and the
+    /// next step commits it again (when the planner's count says there is room).
+    pub fn on_returned(&mut self, instance: u16) {
+        if let Some(e) = self
+            .entries
+            .iter_mut()
+            .find(|e| e.instance == instance && e.state == TaskState::Committed)
+        {
+            e.state = TaskState::Scheduled;
+            self.stats.returned = self.stats.returned.saturating_add(1);
+        }
+    }
+
+    /// Tasks the planner has committed that have not finished (committed or running): what it
+    /// believes the executive holds.
+    pub fn in_executive(&self) -> usize {
+        self.entries
+            .iter()
+            .filter(|e| matches!(e.state, TaskState::Committed | TaskState::Running))
+            .count()
+    }
+
     /// Queues an execution report from the executive (processed at the next step, in order).
     pub fn on_report(&mut self, report: TaskReport) {
         if self.reports.push(report).is_err() {
@@ -428,7 +453,7 @@ impl Planner {
         network: &TaskNetwork,
         now: MissionTimeUs,
         budget: u32,
-        commits: &mut impl FnMut(Commit) -> bool,
+        commits: &mut impl FnMut(Commit),
         out: &mut impl Outputs,
     ) -> PlannerStepReport {
         let ctx = Ctx { network, now };
@@ -451,7 +476,9 @@ impl Planner {
             self.placed_in_pass = false;
             self.passes = 0;
             self.stats.cycles = self.stats.cycles.saturating_add(1);
+            self.scratch.cycle_started_at = Some(now);
         }
+        let mut cycle_latency_us = None;
         let spent = |p: &Self| p.stats.validity_checks.wrapping_sub(start_checks);
         loop {
             match self.phase {
@@ -505,6 +532,12 @@ impl Planner {
                         None => {
                             self.phase = Phase::Idle;
                             self.last_cycle_at = Some(now);
+                            cycle_latency_us = Some(
+                                self.scratch
+                                    .cycle_started_at
+                                    .take()
+                                    .map_or(0, |started| now.0.saturating_sub(started.0)),
+                            );
                         }
                     }
                 }
@@ -514,6 +547,7 @@ impl Planner {
         PlannerStepReport {
             checks: spent(self),
             work_pending: self.phase != Phase::Idle,
+            cycle_latency_us,
         }
     }
 
@@ -1705,12 +1739,8 @@ impl Planner {
     }
 
     /// Commits every scheduled instance starting within the commit window, earliest first.
-    fn commit(
-        &mut self,
-        ctx: &Ctx<'_>,
-        commits: &mut impl FnMut(Commit) -> bool,
-        out: &mut impl Outputs,
-    ) {
+    fn commit(&mut self, ctx: &Ctx<'_>, commits: &mut impl FnMut(Commit), out: &mut impl Outputs) {
+        let mut in_executive = self.in_executive();
         let window_end = ctx
             .now
             .saturating_add(ctx.network.config().commit_window_us);
@@ -1734,10 +1764,12 @@ impl Planner {
                 start: e.start,
                 end: e.end,
             };
-            // The executive is full: try again at the next step.
-            if !commits(commit) {
+            // The executive is full (by the planner's count): try again at the next step.
+            if in_executive >= MAX_COMMITTED {
                 break;
             }
+            commits(commit);
+            in_executive += 1;
             e.state = TaskState::Committed;
             Self::emit_transition(
                 out,
@@ -1778,6 +1810,7 @@ impl Planner {
     pub(crate) fn after_restore(&mut self) {
         self.scratch.candidates.clear();
         self.scratch.events.clear();
+        self.scratch.cycle_started_at = None;
         self.dirty = true;
     }
 }

@@ -273,7 +273,7 @@ fn temporal_constraints_bound_the_start_through_shortest_paths() {
         &net,
         MissionTimeUs(0),
         u32::MAX,
-        &mut |_| true,
+        &mut |_| {},
         &mut Recorder::default(),
     );
     let start = |id: u16| {
@@ -314,7 +314,7 @@ fn rates_integrate_and_bounds_refuse_overdraw() {
         &net,
         MissionTimeUs(0),
         u32::MAX,
-        &mut |_| true,
+        &mut |_| {},
         &mut Recorder::default(),
     );
     let view = p.view(&net);

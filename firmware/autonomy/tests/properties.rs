@@ -166,7 +166,7 @@ fn planned(net: &TaskNetwork, budget: u32, steps: u32) -> Planner {
     let mut p = Planner::new();
     p.load(net);
     for _ in 0..steps {
-        p.step(net, MissionTimeUs(0), budget, &mut |_| true, &mut Sink);
+        p.step(net, MissionTimeUs(0), budget, &mut |_| {}, &mut Sink);
     }
     p
 }
@@ -196,7 +196,7 @@ proptest! {
         let mut p = Planner::new();
         p.load(&net);
         for _ in 0..20 {
-            p.step(&net, MissionTimeUs(0), budget, &mut |_| true, &mut Sink);
+            p.step(&net, MissionTimeUs(0), budget, &mut |_| {}, &mut Sink);
             let conflicts = p.conflicts(&net, MissionTimeUs(0));
             prop_assert!(conflicts.is_empty(), "conflicts {:?} in {:#?}", conflicts, p.entries());
         }

@@ -533,12 +533,12 @@ fn retry_counts_back_off_times_and_failure_counts_survive_a_warm_reset() {
 fn state_updates_of_the_wrong_type_are_counted_with_their_key() {
     let mut a = Box::new(Autonomy::new());
     a.load_network(flyby_network()).unwrap();
-    assert_eq!(a.state_type_mismatches, 0);
+    assert_eq!(a.state_type_mismatches(), 0);
     a.on_state_update(ATTITUDE_KEY, StateValue::Int(1), hm(9, 0));
     a.on_state_update(ATTITUDE_KEY, StateValue::Enum(NADIR), hm(9, 1));
     a.on_state_update(ATTITUDE_KEY, StateValue::Enum(9), hm(9, 2)); // beyond the 5 values
-    assert_eq!(a.state_type_mismatches, 2);
-    assert_eq!(a.last_state_type_mismatch, Some(ATTITUDE_KEY));
+    assert_eq!(a.state_type_mismatches(), 2);
+    assert_eq!(a.last_state_type_mismatch(), Some(ATTITUDE_KEY));
     assert_eq!(
         condition::measured_value(a.network(), TL_ATTITUDE, a.states()),
         Some(VALUE_UNKNOWN)
@@ -558,8 +558,8 @@ fn state_updates_of_the_wrong_type_are_counted_with_their_key() {
     assert!(measured[0].2.accepts(StateValue::Enum(EARTH)));
     // The count survives a warm reset.
     let restored = warm_reset(&a);
-    assert_eq!(restored.state_type_mismatches, 2);
-    assert_eq!(restored.last_state_type_mismatch, Some(ATTITUDE_KEY));
+    assert_eq!(restored.state_type_mismatches(), 2);
+    assert_eq!(restored.last_state_type_mismatch(), Some(ATTITUDE_KEY));
 }
 
 /// What a core holds, as its checkpoint encodes it (meta, network, plan, executive, states).

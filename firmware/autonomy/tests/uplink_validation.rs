@@ -223,7 +223,7 @@ fn a_rejected_uplink_leaves_the_running_plan_untouched() {
 fn err_code(e: LoadError) -> u16 {
     match e {
         LoadError::Invalid(v) => v.code.code(),
-        LoadError::Busy => 0,
+        LoadError::Busy | LoadError::TooLarge => 0,
     }
 }
 
@@ -240,9 +240,9 @@ fn state_values_of_the_wrong_type_count_as_unknown() {
     let mut core = Box::new(Autonomy::new());
     core.load_network(flyby_network()).unwrap();
     core.on_state_update(ATTITUDE_KEY, StateValue::Int(5), hm(9, 0));
-    assert_eq!(core.state_type_mismatches, 1);
+    assert_eq!(core.state_type_mismatches(), 1);
     core.on_state_update(ATTITUDE_KEY, StateValue::Enum(9), hm(9, 0));
-    assert_eq!(core.state_type_mismatches, 2);
+    assert_eq!(core.state_type_mismatches(), 2);
     let view = core.planner().view(core.network());
     assert_eq!(view.value_at(TL_ATTITUDE, hm(9, 1)), VALUE_UNKNOWN);
 }

@@ -14,6 +14,7 @@ mod link;
 mod log;
 mod mem;
 mod partitions;
+mod port;
 mod shared;
 mod sys;
 mod warm;

@@ -434,6 +434,10 @@ pub enum ConfigError {
     PortToItself {
         port: usize,
     },
+    /// Two ports share a name (partitions find their ports by name).
+    PortDuplicateName {
+        port: usize,
+    },
     PortBadSize {
         port: usize,
     },
@@ -657,6 +661,13 @@ pub const fn check(config: &SystemConfig) -> Result<(), ConfigError> {
             }
             d += 1;
         }
+        let mut j = 0;
+        while j < i {
+            if str_eq(ports[j].name, port.name) {
+                return Err(ConfigError::PortDuplicateName { port: i });
+            }
+            j += 1;
+        }
         if port.message_size == 0 || port.message_size > MAX_PORT_MESSAGE {
             return Err(ConfigError::PortBadSize { port: i });
         }
@@ -806,6 +817,9 @@ impl ConfigError {
             ConfigError::PortToItself { port: i } => {
                 port(m, config, i).str(" sends to its own source partition")
             }
+            ConfigError::PortDuplicateName { port: i } => {
+                port(m, config, i).str(": another port has the same name")
+            }
             ConfigError::PortBadSize { port: i } => port(m, config, i)
                 .str(": message size must be 1..=")
                 .num(MAX_PORT_MESSAGE as u64),
@@ -873,6 +887,29 @@ pub const fn port_index(config: &SystemConfig, name: &str) -> Option<usize> {
         i += 1;
     }
     None
+}
+
+/// The id of the port named `name`, for `const` items: partitions name their ports, and the
+/// id is derived from the configuration at compile time (a name the configuration does not
+/// have stops the build).
+pub const fn port_id(config: &SystemConfig, name: &str) -> usize {
+    match port_index(config, name) {
+        Some(i) => i,
+        None => panic!("kernel configuration: no port of that name"),
+    }
+}
+
+/// The largest message of any port of `config`, in bytes (sizes the partitions' buffers).
+pub const fn max_port_message(config: &SystemConfig) -> usize {
+    let mut largest = 0;
+    let mut i = 0;
+    while i < config.ports.len() {
+        if config.ports[i].message_size as usize > largest {
+            largest = config.ports[i].message_size as usize;
+        }
+        i += 1;
+    }
+    largest
 }
 
 /// Bytes of kernel RAM all port buffers need (each slot: message bytes rounded up to 4, plus

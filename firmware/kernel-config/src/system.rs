@@ -19,11 +19,11 @@
 //!
 //! Major frame: 10 ms (166 000 ticks): I/O 1.5 ms, executive 2 ms, planner 4 ms, (rogue 1 ms in
 //! the test image), the rest idle.
+use crate::{port_id, ErrorKind, HmAction};
 use crate::{
     Access, Capabilities, HealthTable, Partition, Port, PortKind, Region, Schedule, SystemConfig,
     Window,
 };
-use crate::{ErrorKind, HmAction};
 
 /// Partition indices, the same in both images (the `partition` field of health-monitor
 /// events, metric id offsets).
@@ -236,15 +236,17 @@ const PORTS_TEST: [Port; 8] = [
     },
 ];
 
-/// Port indices, in the order above.
-pub const PORT_IO_TO_EXECUTIVE: usize = 0;
-pub const PORT_IO_TO_PLANNER: usize = 1;
-pub const PORT_EXECUTIVE_TO_IO: usize = 2;
-pub const PORT_PLANNER_TO_IO: usize = 3;
-pub const PORT_PLAN_SUMMARY: usize = 4;
-pub const PORT_EXECUTIVE_STATUS: usize = 5;
-pub const PORT_IO_TO_ROGUE: usize = 6;
-pub const PORT_ROGUE_TO_IO: usize = 7;
+/// Port ids, derived from the ports' names at compile time (`port_id`: a name the
+/// configuration lacks stops the build). The test image's ports extend the product's, which
+/// keep their ids (a test checks).
+pub const PORT_IO_TO_EXECUTIVE: usize = port_id(&PRODUCT, "io_to_executive");
+pub const PORT_IO_TO_PLANNER: usize = port_id(&PRODUCT, "io_to_planner");
+pub const PORT_EXECUTIVE_TO_IO: usize = port_id(&PRODUCT, "executive_to_io");
+pub const PORT_PLANNER_TO_IO: usize = port_id(&PRODUCT, "planner_to_io");
+pub const PORT_PLAN_SUMMARY: usize = port_id(&PRODUCT, "plan_summary");
+pub const PORT_EXECUTIVE_STATUS: usize = port_id(&PRODUCT, "executive_status");
+pub const PORT_IO_TO_ROGUE: usize = port_id(&TEST, "io_to_rogue");
+pub const PORT_ROGUE_TO_IO: usize = port_id(&TEST, "rogue_to_io");
 
 /// The product: I/O, executive, planner.
 pub const PRODUCT: SystemConfig = SystemConfig {

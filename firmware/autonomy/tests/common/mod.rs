@@ -101,6 +101,31 @@ impl Outputs for Recorder {
     }
 }
 
+/// What the fake spacecraft feeds: the single core, or the executive partition of the split
+/// core.
+pub trait Inputs {
+    fn on_state_update(&mut self, key: StateKey, value: StateValue, at: MissionTimeUs);
+    fn on_command_response(&mut self, id: u32, status: CommandStatus);
+}
+
+impl Inputs for Autonomy {
+    fn on_state_update(&mut self, key: StateKey, value: StateValue, at: MissionTimeUs) {
+        Autonomy::on_state_update(self, key, value, at)
+    }
+    fn on_command_response(&mut self, id: u32, status: CommandStatus) {
+        Autonomy::on_command_response(self, id, status)
+    }
+}
+
+impl Inputs for autonomy::partitioned::ExecutivePartition {
+    fn on_state_update(&mut self, key: StateKey, value: StateValue, at: MissionTimeUs) {
+        autonomy::partitioned::ExecutivePartition::on_state_update(self, key, value, at)
+    }
+    fn on_command_response(&mut self, id: u32, status: CommandStatus) {
+        autonomy::partitioned::ExecutivePartition::on_command_response(self, id, status)
+    }
+}
+
 #[derive(Clone, Debug)]
 enum SimEvent {
     State(StateKey, StateValue),
@@ -248,7 +273,7 @@ impl FakeSpacecraft {
     }
 
     /// Delivers every event due at or before `now`, in time then issue order.
-    pub fn deliver(&mut self, now: MissionTimeUs, autonomy: &mut Autonomy) {
+    pub fn deliver(&mut self, now: MissionTimeUs, autonomy: &mut impl Inputs) {
         self.pending.sort_by_key(|p| (p.0, p.1));
         let due: Vec<_> = self
             .pending
@@ -290,7 +315,7 @@ impl FakeSpacecraft {
     }
 
     /// The whole state buffer, as published to a core that just restarted.
-    pub fn publish_all(&self, autonomy: &mut Autonomy) {
+    pub fn publish_all(&self, autonomy: &mut impl Inputs) {
         autonomy.on_state_update(ATTITUDE_KEY, self.attitude, self.attitude_at);
     }
 }
@@ -351,7 +376,7 @@ impl Sim {
     fn step_at(&mut self, t: MissionTimeUs) {
         self.now = t;
         self.out.now = t;
-        self.sc.deliver(t, &mut self.autonomy);
+        self.sc.deliver(t, &mut *self.autonomy);
         if self.timed {
             let mut reads = 0u64;
             let (_, cost) = self
@@ -422,7 +447,7 @@ impl Sim {
         self.autonomy
             .restore_from(&area)
             .expect("a whole checkpoint survives");
-        self.sc.publish_all(&mut self.autonomy);
+        self.sc.publish_all(&mut *self.autonomy);
         self.step_at(restart);
     }
 

@@ -4,7 +4,7 @@
 //!
 //! Storage is one array in kernel RAM sized from the configuration at compile time; each slot is
 //! a 16-byte header (length, generation, timestamp) followed by the message.
-use kernel_config::abi::{E_BAD_PORT, E_EMPTY, E_FULL, E_TOO_BIG};
+use kernel_config::abi::SysError;
 use kernel_config::{port_slot_bytes, PortKind, PORT_SLOT_HEADER};
 use kernel_logic::port_queue::QueueState;
 
@@ -59,17 +59,19 @@ impl Ports {
         message: &[u8],
         generation: u32,
         now: u64,
-    ) -> Result<(), i32> {
-        let config = SYSTEM.ports.get(port).ok_or(E_BAD_PORT)?;
+    ) -> Result<(), SysError> {
+        let config = SYSTEM.ports.get(port).ok_or(SysError::BadPort)?;
         if config.source != sender {
-            return Err(E_BAD_PORT);
+            return Err(SysError::BadPort);
         }
         if message.len() > config.message_size as usize {
-            return Err(E_TOO_BIG);
+            return Err(SysError::TooBig);
         }
         let index = match config.kind {
             PortKind::Sampling => 0,
-            PortKind::Queuing => self.state[port].push_slot(config.depth).ok_or(E_FULL)?,
+            PortKind::Queuing => self.state[port]
+                .push_slot(config.depth)
+                .ok_or(SysError::Full)?,
         };
         let slot = self.slot(port, index);
         put_word(slot, 0, message.len() as u32);
@@ -113,10 +115,10 @@ impl Ports {
         port: usize,
         buffer: &mut [u8],
         sender_generation: u32,
-    ) -> Result<Received, i32> {
-        let config = SYSTEM.ports.get(port).ok_or(E_BAD_PORT)?;
+    ) -> Result<Received, SysError> {
+        let config = SYSTEM.ports.get(port).ok_or(SysError::BadPort)?;
         if !config.destinations.contains(&receiver) {
-            return Err(E_BAD_PORT);
+            return Err(SysError::BadPort);
         }
         if config.kind == PortKind::Queuing && self.state[port].count > 0 {
             let size = port_slot_bytes(config);
@@ -129,7 +131,7 @@ impl Ports {
         }
         let state = self.state[port];
         if state.count == 0 {
-            return Err(E_EMPTY);
+            return Err(SysError::Empty);
         }
         let index = match config.kind {
             PortKind::Sampling => 0,
@@ -138,7 +140,7 @@ impl Ports {
         let slot = self.slot(port, index);
         let len = word(slot, 0) as usize;
         if len > buffer.len() {
-            return Err(E_TOO_BIG);
+            return Err(SysError::TooBig);
         }
         let received = Received {
             len,

@@ -1,8 +1,9 @@
 //! System calls (`sc`): the number in r0, arguments in r3..r7, results in r3 (negative: an
-//! `abi::E_*` code) and r4/r5. See `kernel_config::abi` for the table. A call that fails with a
-//! fault code (anything but E_EMPTY/E_FULL) is also reported to the health monitor, which
-//! applies the partition's IllegalSyscall action; the kernel itself never fails because of what
-//! a partition passed.
+//! `abi::E_*` code) and r4/r5. See `kernel_config::abi` for the table. The number is decoded
+//! once, into a [`Sysnum`], before anything else; every handler fails with a [`SysError`], and
+//! the return path encodes it into r3. A fault (`SysError::is_fault`: anything but Empty, Full,
+//! NoDevice) is also reported to the health monitor, which applies the partition's
+//! IllegalSyscall action; the kernel itself never fails because of what a partition passed.
 use fsw_bridge::ResetCause;
 use kernel_config::abi::*;
 use kernel_config::{NV_BASE, WARM_AREA_BASE, WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
@@ -25,7 +26,7 @@ enum Outcome {
 
 use Outcome::Return;
 
-fn ok() -> Result<Outcome, i32> {
+fn ok() -> Result<Outcome, SysError> {
     Ok(Return(0, 0, 0))
 }
 
@@ -34,7 +35,8 @@ impl Kernel {
         let ctx = *self.context(p);
         let call = ctx.gpr[0];
         let a = [ctx.gpr[3], ctx.gpr[4], ctx.gpr[5], ctx.gpr[6], ctx.gpr[7]];
-        match self.dispatch(p, call, a, now) {
+        let outcome = Sysnum::try_from(call).and_then(|sysnum| self.dispatch(p, sysnum, a, now));
+        match outcome {
             Ok(Outcome::Return(r3, r4, r5)) => {
                 let ctx = self.context(p);
                 ctx.gpr[3] = r3;
@@ -43,9 +45,9 @@ impl Kernel {
                 Next::Partition(p)
             }
             Ok(Outcome::Switch(next)) => next,
-            Err(code) => {
-                self.context(p).gpr[3] = code as u32;
-                if is_fault(code) {
+            Err(error) => {
+                self.context(p).gpr[3] = encode_result(Err(error));
+                if error.is_fault() {
                     self.syscall_fault(p, call, now)
                 } else {
                     Next::Partition(p)
@@ -54,48 +56,54 @@ impl Kernel {
         }
     }
 
-    fn link_owner(p: usize) -> Result<(), i32> {
+    fn link_owner(p: usize) -> Result<(), SysError> {
         if SYSTEM.partitions[p].capabilities.link_owner {
             Ok(())
         } else {
-            Err(E_DENIED)
+            Err(SysError::Denied)
         }
     }
 
-    fn warm_range(p: usize, offset: u32, len: u32) -> Result<u32, i32> {
+    fn warm_range(p: usize, offset: u32, len: u32) -> Result<u32, SysError> {
         if !SYSTEM.partitions[p].capabilities.warm_area {
-            return Err(E_DENIED);
+            return Err(SysError::Denied);
         }
         let room = WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE;
         match offset.checked_add(len) {
             Some(end) if end <= room => Ok(WARM_AREA_BASE + WARM_BOOT_RECORD_SIZE + offset),
-            _ => Err(E_RANGE),
+            _ => Err(SysError::Range),
         }
     }
 
-    fn nv_range(&self, p: usize, offset: u32, len: u32) -> Result<u32, i32> {
+    fn nv_range(&self, p: usize, offset: u32, len: u32) -> Result<u32, SysError> {
         if !SYSTEM.partitions[p].capabilities.nv_memory {
-            return Err(E_DENIED);
+            return Err(SysError::Denied);
         }
         if self.nv_bytes == 0 {
-            return Err(E_NO_DEVICE);
+            return Err(SysError::NoDevice);
         }
         match offset.checked_add(len) {
             Some(end) if end <= self.nv_bytes => Ok(NV_BASE + offset),
-            _ => Err(E_RANGE),
+            _ => Err(SysError::Range),
         }
     }
 
-    fn dispatch(&mut self, p: usize, call: u32, a: [u32; 5], now: u64) -> Result<Outcome, i32> {
+    fn dispatch(
+        &mut self,
+        p: usize,
+        call: Sysnum,
+        a: [u32; 5],
+        now: u64,
+    ) -> Result<Outcome, SysError> {
         match call {
-            SYS_WAIT_NEXT_WINDOW => {
+            Sysnum::WaitNextWindow => {
                 if wait_declares_idle(a[0])? {
                     self.idle_declared.declare(p);
                 }
                 self.context(p).gpr[3] = 0;
                 Ok(Outcome::Switch(self.wait_next_window(p, now)))
             }
-            SYS_PORT_SEND => {
+            Sysnum::PortSend => {
                 let message = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
                 let generation = self.parts[p].generation;
                 let port = a[0] as usize;
@@ -109,7 +117,7 @@ impl Kernel {
                 }
                 ok()
             }
-            SYS_PORT_RECEIVE => {
+            Sysnum::PortReceive => {
                 let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
                 let port = a[0] as usize;
                 // Messages older than their sender's current generation are dropped (stale).
@@ -122,23 +130,23 @@ impl Kernel {
                 self.armed_reset_on_receive(p, a[0] as usize);
                 Ok(Return(got.len as u32, got.generation, age))
             }
-            SYS_MISSION_TIME => {
+            Sysnum::MissionTime => {
                 let t = self.mission_time_us;
                 Ok(Return((t >> 32) as u32, t as u32, 0))
             }
-            SYS_CPU_TIME => {
+            Sysnum::CpuTime => {
                 let s = &self.parts[p];
                 let stint = u64::from(self.stint_ticks());
                 let window = u64::from(s.window_ticks) + stint;
                 let total = s.cpu_total + stint;
                 Ok(Return((total >> 32) as u32, total as u32, window as u32))
             }
-            SYS_LOG => {
+            Sysnum::Log => {
                 let frame = USlice::from_raw(a[0], a[1])?.readable_by(p)?;
                 klog::with_ring(|ring| ring.push_frame(frame));
                 ok()
             }
-            SYS_WARM_READ => {
+            Sysnum::WarmRead => {
                 let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
                 let at = Self::warm_range(p, a[0], a[2])?;
                 // SAFETY:
@@ -148,7 +156,7 @@ impl Kernel {
                 copy(buffer, area);
                 ok()
             }
-            SYS_WARM_WRITE => {
+            Sysnum::WarmWrite => {
                 let data = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
                 let at = Self::warm_range(p, a[0], a[2])?;
                 // SAFETY: as for SYS_WARM_READ; the boot record before the part is not touched.
@@ -161,7 +169,7 @@ impl Kernel {
                 }
                 ok()
             }
-            SYS_NV_READ => {
+            Sysnum::NvRead => {
                 let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
                 let at = self.nv_range(p, a[0], a[2])?;
                 // SAFETY:
@@ -172,7 +180,7 @@ impl Kernel {
                 copy(buffer, area);
                 Ok(Return(self.nv_bytes, 0, 0))
             }
-            SYS_NV_WRITE => {
+            Sysnum::NvWrite => {
                 let data = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
                 let at = self.nv_range(p, a[0], a[2])?;
                 // SAFETY: as for SYS_NV_READ.
@@ -180,13 +188,13 @@ impl Kernel {
                 copy(area, data);
                 ok()
             }
-            SYS_IDENTITY => Ok(Return(p as u32, self.parts[p].generation, 0)),
-            SYS_UPTIME => {
+            Sysnum::Identity => Ok(Return(p as u32, self.parts[p].generation, 0)),
+            Sysnum::Uptime => {
                 let up = now.wrapping_sub(crate::shared::boot_ticks());
                 let boot = self.boot_ticks.min(u64::from(u32::MAX)) as u32;
                 Ok(Return((up >> 32) as u32, up as u32, boot))
             }
-            SYS_PANIC => {
+            Sysnum::Panic => {
                 let file = USlice::from_raw(a[0], a[1].min(128))
                     .and_then(|s| s.readable_by(p))
                     .unwrap_or(b"<bad pointer>");
@@ -203,7 +211,7 @@ impl Kernel {
                     now,
                 )))
             }
-            SYS_BOOT_INFO => {
+            Sysnum::BootInfo => {
                 Self::link_owner(p)?;
                 match a[0] {
                     BOOT_INFO_CAUSE => Ok(Return(self.boot_cause, self.boot_count, 0)),
@@ -211,16 +219,16 @@ impl Kernel {
                         Some(f) => Return(f.vector, f.pc, f.dar),
                         None => Return(0, 0, 0),
                     }),
-                    _ => Err(E_RANGE),
+                    _ => Err(SysError::Range),
                 }
             }
-            SYS_LOG_DRAIN => {
+            Sysnum::LogDrain => {
                 Self::link_owner(p)?;
                 let buffer = USlice::from_raw(a[0], a[1])?.writable_by(p)?;
                 let n = klog::with_ring(|ring| ring.drain(buffer));
                 Ok(Return(n as u32, 0, 0))
             }
-            SYS_EVENT_DRAIN => {
+            Sysnum::EventDrain => {
                 Self::link_owner(p)?;
                 let records = a[1].clamp(1, health::EVENT_QUEUE_DEPTH as u32);
                 let bytes = records * EVENT_RECORD_SIZE as u32;
@@ -235,12 +243,12 @@ impl Kernel {
                 }
                 Ok(Return(written, 0, 0))
             }
-            SYS_SET_MISSION_TIME => {
+            Sysnum::SetMissionTime => {
                 Self::link_owner(p)?;
                 self.mission_time_us = (u64::from(a[0]) << 32) | u64::from(a[1]);
                 ok()
             }
-            SYS_RESET_MODULE => {
+            Sysnum::ResetModule => {
                 Self::link_owner(p)?;
                 match a[0] {
                     reset_at::NOW => self.warm_reset(ResetCause::Warm),
@@ -250,7 +258,7 @@ impl Kernel {
                     }
                 }
             }
-            SYS_REQUEST_METRICS => {
+            Sysnum::RequestMetrics => {
                 Self::link_owner(p)?;
                 match a[0] {
                     0 => self.report_metrics(),
@@ -259,18 +267,18 @@ impl Kernel {
                 }
                 ok()
             }
-            SYS_LINK_READ => {
+            Sysnum::LinkRead => {
                 Self::link_owner(p)?;
                 let buffer = USlice::from_raw(a[0], a[1])?.writable_by(p)?;
                 let n = self.link.read(buffer);
                 Ok(Return(n as u32, self.link.lost, 0))
             }
-            SYS_LINK_WRITE => {
+            Sysnum::LinkWrite => {
                 Self::link_owner(p)?;
                 let data = USlice::from_raw(a[0], a[1])?.readable_by(p)?;
                 Ok(Return(self.link.write(data) as u32, 0, 0))
             }
-            SYS_WAIT_FOR_INPUT => {
+            Sysnum::WaitForInput => {
                 Self::link_owner(p)?;
                 if check_wait_for_input_args(&a)? {
                     let state = self.module_state(p);
@@ -298,7 +306,6 @@ impl Kernel {
                     }
                 }
             }
-            _ => Err(E_UNKNOWN_CALL),
         }
     }
 

@@ -33,10 +33,9 @@ use flight_app::{
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
 use heapless::Deque;
 use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
-use kernel_config::system::{PORT_EXECUTIVE_STATUS, PORT_EXECUTIVE_TO_IO, PORT_IO_TO_EXECUTIVE};
 use kernel_config::{WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 
-use super::{receive_routed, send_to_host, zeroed_state, ZeroValid};
+use super::{ports, receive_routed, send_to_host, zeroed_state, ZeroValid};
 use crate::board::timebase;
 use crate::sys;
 
@@ -287,7 +286,7 @@ pub extern "C" fn partition_executive_main() -> ! {
             handle_pending(state, app);
         }
         flush(state);
-        while let Some((msg, _generation)) = receive_routed(PORT_IO_TO_EXECUTIVE) {
+        while let Some((msg, _generation)) = receive_routed(ports::IO_TO_EXECUTIVE) {
             if let HostToTarget::StateUpdate {
                 key: StateKey(control::SYSCALL_BENCH),
                 ..
@@ -319,7 +318,7 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
             state.batch_complete |= answer_awaited;
         }
-        let _ = sys::port_send(PORT_EXECUTIVE_STATUS, &state.state_updates.to_be_bytes());
+        let _ = ports::EXECUTIVE_STATUS.send(&state.state_updates);
         if state.batch_complete || !state.outbox.is_empty() {
             sys::wait_next_window();
         } else {
@@ -341,7 +340,7 @@ fn handle_pending(state: &mut ExecutiveState, app: &mut FlightApp) {
 /// Hand queued messages to the I/O partition until its port is full.
 fn flush(state: &mut ExecutiveState) {
     while let Some(msg) = state.outbox.front() {
-        if send_to_host(PORT_EXECUTIVE_TO_IO, msg).is_err() {
+        if send_to_host(ports::EXECUTIVE_TO_IO, msg).is_err() {
             return;
         }
         state.outbox.pop_front();
@@ -350,7 +349,7 @@ fn flush(state: &mut ExecutiveState) {
 
 fn metric(id: u16, value: u64) {
     let _ = send_to_host(
-        PORT_EXECUTIVE_TO_IO,
+        ports::EXECUTIVE_TO_IO,
         &TargetToHost::Telemetry(TelemetryEvent::Metric { id, value }),
     );
 }

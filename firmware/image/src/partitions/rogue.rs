@@ -8,11 +8,9 @@ use core::ptr::addr_of_mut;
 
 use fsw_bridge::{HostToTarget, StateKey, StateValue, TargetToHost, TelemetryEvent};
 use kernel_config::abi::{self, control, rogue};
-use kernel_config::system::{
-    OUTBOUND_MESSAGE_SIZE, PORT_IO_TO_EXECUTIVE, PORT_IO_TO_ROGUE, PORT_ROGUE_TO_IO, ROGUE_REGION,
-};
+use kernel_config::system::{PORT_IO_TO_EXECUTIVE, PORT_IO_TO_ROGUE, ROGUE_REGION};
 
-use super::receive_routed;
+use super::{ports, receive_routed};
 use crate::sys;
 
 #[no_mangle]
@@ -20,7 +18,7 @@ pub extern "C" fn partition_rogue_main() -> ! {
     let (_, generation) = sys::identity();
     defmt::info!("rogue: started, generation {=u32}", generation);
     loop {
-        while let Some((msg, _)) = receive_routed(PORT_IO_TO_ROGUE) {
+        while let Some((msg, _)) = receive_routed(ports::IO_TO_ROGUE) {
             if let HostToTarget::StateUpdate {
                 key: StateKey(control::ROGUE_MODE),
                 value: StateValue::Enum(mode),
@@ -73,7 +71,7 @@ fn act(mode: u16) {
         rogue::SEND => send_probe(),
         rogue::KERNEL_FAULT => {
             defmt::info!("rogue: asking the kernel to fault");
-            let _ = sys::raw(rogue::KERNEL_FAULT_CALL, [0; 5]);
+            let _ = sys::raw_number(rogue::KERNEL_FAULT_CALL, [0; 5]);
             defmt::error!("rogue: the kernel did not fault");
         }
         _ => defmt::warn!("rogue: unknown mode {=u16}", mode),
@@ -87,13 +85,9 @@ fn send_probe() {
         id: rogue::PROBE_METRIC,
         value: u64::from(generation),
     });
-    let mut buf = [0u8; OUTBOUND_MESSAGE_SIZE as usize];
-    match postcard::to_slice(&probe, &mut buf) {
-        Ok(bytes) => match sys::port_send(PORT_ROGUE_TO_IO, bytes) {
-            Ok(()) => defmt::info!("rogue: probe sent, generation {=u32}", generation),
-            Err(e) => defmt::error!("rogue: probe refused: {=i32}", e),
-        },
-        Err(_) => defmt::error!("rogue: probe does not encode"),
+    match ports::ROGUE_TO_IO.send(&probe) {
+        Ok(()) => defmt::info!("rogue: probe sent, generation {=u32}", generation),
+        Err(_) => defmt::error!("rogue: probe refused"),
     }
 }
 
@@ -151,9 +145,9 @@ fn bad_pointers() {
     ];
     let mut refused = 0u32;
     for (call, args) in cases {
-        let (r3, _, _) = sys::raw(call, args);
-        defmt::info!("rogue: call {=u32} -> {=i32}", call, r3);
-        if r3 < 0 {
+        let (r3, _, _) = sys::raw_number(call, args);
+        defmt::info!("rogue: call {=u32} -> {=i32}", call, r3 as i32);
+        if kernel_config::abi::decode_result(r3).is_err() {
             refused += 1;
         }
     }
