@@ -85,6 +85,8 @@ pub enum Sender {
     Executive,
     /// The planner partition.
     Planner,
+    /// The test image's rogue partition.
+    Rogue,
     /// The flight application (`flight_app`), on every target, native included.
     FlightApp,
 }
@@ -311,6 +313,11 @@ pub mod platform {
         /// has room.
         LINK_INSTRUMENT_DROPPED = 0x0218,
             "instrument_messages_dropped", Count, Value, Io, Instrument;
+        /// Queuing-port messages the kernel dropped on receive since boot because their
+        /// sender had restarted since it sent them (an older generation:
+        /// `kernel_logic::port_queue`). In every kernel report, before EVENTS_DROPPED.
+        PORT_STALE_DROPPED = 0x0219,
+            "port_stale_messages_dropped", Count, Value, Kernel, Instrument;
         /// An armed reset (SYS_RESET_MODULE with a point) is about to happen: where it landed,
         /// one of [`armed_reset_point`]. Sent straight to the host with the next ones, before
         /// the Hello.
@@ -352,6 +359,10 @@ pub mod platform {
         /// Generation of the planner seen by the planner itself when it reports its checksum.
         PLANNER_GENERATION = 0x0304,
             "planner_generation", Count, Value, Planner, Instrument;
+        /// Test image: the rogue partition's probe, sent through `rogue_to_io` (value: the
+        /// rogue's generation when it sent it); the stale-message test watches for it.
+        ROGUE_PROBE = 0x03f0,
+            "rogue_probe", Count, Value, Rogue, Instrument;
         /// Boot to ready, sent by the executive once per boot when the flight application has
         /// restored its checkpoint (or found none) and can take its first grant: the kernel's
         /// boot (reset vector to the start of the schedule, SYS_UPTIME's r5) plus the CPU the

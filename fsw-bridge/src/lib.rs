@@ -27,4 +27,5 @@ pub use security::{CommandRefusal, GroundCommand, SecurityHeader, SecurityRefusa
 pub use types::*;
 
 /// Version of the message set. Both sides refuse a peer that speaks another version.
-pub const PROTOCOL_VERSION: u16 = 2;
+/// v3: Hello carries the recorded kernel fault, and ResetCause has KernelFault.
+pub const PROTOCOL_VERSION: u16 = 3;

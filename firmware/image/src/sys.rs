@@ -239,8 +239,17 @@ pub fn panic(file: &str, line: u32) -> ! {
 
 /// Link owner: (reset cause code, boot count).
 pub fn boot_info() -> (u32, u32) {
-    let (cause, count, _) = raw(Sysnum::BootInfo, [0; 5]);
+    let (cause, count, _) = raw(Sysnum::BootInfo, [BOOT_INFO_CAUSE, 0, 0, 0, 0]);
     (cause, count)
+}
+
+/// Link owner: the kernel fault that caused this boot's reset, if any.
+pub fn boot_kernel_fault() -> Option<fsw_bridge::KernelFault> {
+    let (r3, pc, dar) = raw(Sysnum::BootInfo, [BOOT_INFO_KERNEL_FAULT, 0, 0, 0, 0]);
+    match result(r3) {
+        Ok(vector) if vector != 0 => Some(fsw_bridge::KernelFault { vector, pc, dar }),
+        _ => None,
+    }
 }
 
 /// Link owner: move kernel log bytes into `buffer`.

@@ -36,9 +36,13 @@ pub const SYS_WARM_WRITE: u32 = 7;
 pub const SYS_IDENTITY: u32 = 8;
 /// (file ptr, len, line): the partition panicked; the health monitor acts; never returns.
 pub const SYS_PANIC: u32 = 9;
-/// () -> r3 = reset cause code (1 power-on, 2 warm, 3 watchdog, 4 health monitor), r4 = boot
-/// count. Link owner only.
+/// (BOOT_INFO_CAUSE) -> r3 = reset cause code (1 power-on, 2 warm, 3 watchdog, 4 health
+/// monitor, 5 kernel fault), r4 = boot count; (BOOT_INFO_KERNEL_FAULT) -> r3 = vector, r4 = SRR0,
+/// r5 = DAR of the kernel fault that caused this boot's reset (all 0: none). Link owner only.
 pub const SYS_BOOT_INFO: u32 = 10;
+/// SYS_BOOT_INFO's modes.
+pub const BOOT_INFO_CAUSE: u32 = 0;
+pub const BOOT_INFO_KERNEL_FAULT: u32 = 1;
 /// (ptr, cap) -> bytes of the kernel's defmt stream moved into the buffer. Link owner only.
 pub const SYS_LOG_DRAIN: u32 = 11;
 /// (ptr, records) -> kernel events written into the buffer, up to `records` of
@@ -429,4 +433,19 @@ pub mod rogue {
     pub const PANIC: u16 = 4;
     /// Execute a privileged instruction (expect a program exception and a restart).
     pub const PRIVILEGED: u16 = 5;
+    /// Send a probe (a Telemetry metric `PROBE_METRIC`, value: the rogue's generation) to the
+    /// host through `rogue_to_io`, then panic: restarted before the I/O partition's window,
+    /// the probe is stale (expect it dropped, `metric::PORT_STALE_DROPPED` up by one).
+    pub const SEND_THEN_RESTART: u16 = 6;
+    /// Send the probe and carry on (expect it at the host).
+    pub const SEND: u16 = 7;
+    /// Make the kernel fault: the system call `KERNEL_FAULT_CALL`, which the test image's
+    /// kernel answers with a `trap` in supervisor state (expect a warm reset with cause
+    /// KernelFault, and the fault in the next Hello).
+    pub const KERNEL_FAULT: u16 = 8;
+    /// The probe's metric id (the dictionary's `rogue_probe`).
+    pub const PROBE_METRIC: u16 = super::metric::ROGUE_PROBE;
+    /// The test image's system call that makes the kernel fault (rogue partition only; any
+    /// other image or partition gets E_UNKNOWN_CALL).
+    pub const KERNEL_FAULT_CALL: u32 = 0x7e57_0001;
 }

@@ -239,7 +239,7 @@ const PORTS_PRODUCT: [Port; 6] = [
     },
 ];
 
-const PORTS_TEST: [Port; 7] = [
+const PORTS_TEST: [Port; 8] = [
     PORTS_PRODUCT[0],
     PORTS_PRODUCT[1],
     PORTS_PRODUCT[2],
@@ -254,6 +254,16 @@ const PORTS_TEST: [Port; 7] = [
         source: IO,
         destinations: &[ROGUE],
     },
+    // The rogue's messages for the host: the stale-message test sends one and restarts before
+    // the I/O partition takes it.
+    Port {
+        name: "rogue_to_io",
+        kind: PortKind::Queuing,
+        message_size: OUTBOUND_MESSAGE_SIZE,
+        depth: 2,
+        source: ROGUE,
+        destinations: &[IO],
+    },
 ];
 
 /// Port ids, derived from the ports' names at compile time (`port_id`: a name the
@@ -266,6 +276,7 @@ pub const PORT_PLANNER_TO_IO: usize = port_id(&PRODUCT, "planner_to_io");
 pub const PORT_PLAN_SUMMARY: usize = port_id(&PRODUCT, "plan_summary");
 pub const PORT_EXECUTIVE_STATUS: usize = port_id(&PRODUCT, "executive_status");
 pub const PORT_IO_TO_ROGUE: usize = port_id(&TEST, "io_to_rogue");
+pub const PORT_ROGUE_TO_IO: usize = port_id(&TEST, "rogue_to_io");
 
 /// The product: I/O, executive, planner.
 pub const PRODUCT: SystemConfig = SystemConfig {

@@ -96,6 +96,7 @@ fn the_test_image_keeps_the_products_indices_and_timing() {
         assert_eq!(TEST.ports[i].name, p.name);
     }
     assert_eq!(port_index(&TEST, "io_to_rogue"), Some(PORT_IO_TO_ROGUE));
+    assert_eq!(port_index(&TEST, "rogue_to_io"), Some(PORT_ROGUE_TO_IO));
     assert_eq!(partition_index(&TEST, "rogue"), Some(ROGUE));
 }
 
@@ -481,7 +482,11 @@ fn port_storage_is_sized_from_the_configuration() {
     // 4 ports of 160/64 bytes x 8, 2 sampling ports of 32 bytes, 16-byte slot headers.
     let product = 2 * 8 * (160 + 16) + 2 * 8 * (64 + 16) + 2 * (32 + 16);
     assert_eq!(port_storage_bytes(&PRODUCT), product);
-    assert_eq!(port_storage_bytes(&TEST), product + 2 * (160 + 16));
+    // Plus io_to_rogue (160 bytes x 2) and rogue_to_io (64 bytes x 2).
+    assert_eq!(
+        port_storage_bytes(&TEST),
+        product + 2 * (160 + 16) + 2 * (64 + 16)
+    );
 }
 
 /// Every metric id the kernel and the partitions send (`abi::metric`) is in the telemetry
@@ -511,6 +516,7 @@ fn every_platform_metric_is_in_the_dictionary() {
         (LINK_TRANSPORT, "LINK_TRANSPORT"),
         (LINK_RING_ERRORS, "LINK_RING_ERRORS"),
         (LINK_INSTRUMENT_DROPPED, "LINK_INSTRUMENT_DROPPED"),
+        (PORT_STALE_DROPPED, "PORT_STALE_DROPPED"),
         (ARMED_RESET_POINT, "ARMED_RESET_POINT"),
         (ARMED_RESET_TICKS, "ARMED_RESET_TICKS"),
         (ARMED_RESET_WARM_WRITE, "ARMED_RESET_WARM_WRITE"),
@@ -521,6 +527,7 @@ fn every_platform_metric_is_in_the_dictionary() {
         (SYSCALL_BENCH_TICKS, "SYSCALL_BENCH_TICKS"),
         (PLANNER_ITERATIONS, "PLANNER_ITERATIONS"),
         (PLANNER_GENERATION, "PLANNER_GENERATION"),
+        (ROGUE_PROBE, "ROGUE_PROBE"),
         (BOOT_TO_READY_TICKS, "BOOT_TO_READY_TICKS"),
         (KERNEL_BOOT_TICKS, "KERNEL_BOOT_TICKS"),
         (BOOT_STUB_IMAGE_TICKS, "BOOT_STUB_IMAGE_TICKS"),

@@ -12,6 +12,7 @@ use kernel_logic::park::{
     ModuleState,
 };
 
+use super::ports::Ports;
 use super::umem::{copy, USlice};
 use super::{health, klog, Kernel, Next, RunState};
 use crate::config::{PARTITION_COUNT, SYSTEM};
@@ -131,7 +132,12 @@ impl Kernel {
             }
             Sysnum::PortReceive => {
                 let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
-                let got = self.ports.receive(p, a[0] as usize, buffer)?;
+                let port = a[0] as usize;
+                // Messages older than their sender's current generation are dropped (stale).
+                let sender_generation = Ports::source(port)
+                    .and_then(|source| self.parts.get(source))
+                    .map_or(0, |s| s.generation);
+                let got = self.ports.receive(p, port, buffer, sender_generation)?;
                 let age = now.saturating_sub(got.sent_at).min(u64::from(u32::MAX)) as u32;
                 // Last before the return path: it may start a stint that counts from here.
                 self.armed_reset_on_receive(p, a[0] as usize);
@@ -220,7 +226,14 @@ impl Kernel {
             }
             Sysnum::BootInfo => {
                 Self::link_owner(p)?;
-                Ok(Return(self.boot_cause, self.boot_count, 0))
+                match a[0] {
+                    BOOT_INFO_CAUSE => Ok(Return(self.boot_cause, self.boot_count, 0)),
+                    BOOT_INFO_KERNEL_FAULT => Ok(match crate::warm::boot_kernel_fault() {
+                        Some(f) => Return(f.vector, f.pc, f.dar),
+                        None => Return(0, 0, 0),
+                    }),
+                    _ => Err(SysError::Range),
+                }
             }
             Sysnum::LogDrain => {
                 Self::link_owner(p)?;

@@ -118,6 +118,7 @@ fn reset_cause(code: u32) -> ResetCause {
         2 => ResetCause::Warm,
         3 => ResetCause::Watchdog,
         4 => ResetCause::HealthMonitor,
+        5 => ResetCause::KernelFault,
         _ => ResetCause::PowerOn,
     }
 }
@@ -146,6 +147,7 @@ pub extern "C" fn partition_io_main() -> ! {
             build_id: crate::BUILD_ID,
             reset_cause: reset_cause(cause),
             boot_count,
+            kernel_fault: sys::boot_kernel_fault(),
         });
         link.flush();
     } else {
@@ -314,9 +316,21 @@ fn pump_kernel(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
     }
 }
 
+/// The ports that carry partitions' messages for the host (the test image adds the rogue's).
+const OUTBOUND_PORTS: [Port<TargetToHost>; if cfg!(feature = "test-partitions") {
+    3
+} else {
+    2
+}] = [
+    ports::EXECUTIVE_TO_IO,
+    ports::PLANNER_TO_IO,
+    #[cfg(feature = "test-partitions")]
+    ports::ROGUE_TO_IO,
+];
+
 /// The partitions' messages for the host, while the Mission channel takes them.
 fn pump_ports(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
-    for port in [ports::EXECUTIVE_TO_IO, ports::PLANNER_TO_IO] {
+    for port in OUTBOUND_PORTS {
         while rounds.mission_held.is_empty() {
             match port.receive() {
                 Ok(Some(got)) => submit(endpoint, rounds, got.value),

@@ -43,6 +43,9 @@ pub mod ports {
     /// Test image: host messages for the rogue partition.
     #[cfg(feature = "test-partitions")]
     pub const IO_TO_ROGUE: Port<HostToTarget> = Port::named("io_to_rogue");
+    /// Test image: the rogue partition's messages for the host.
+    #[cfg(feature = "test-partitions")]
+    pub const ROGUE_TO_IO: Port<TargetToHost> = Port::named("rogue_to_io");
 }
 
 /// Types whose all-zero bit pattern is a valid value: a partition's state in its section is
