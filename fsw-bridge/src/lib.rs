@@ -4,7 +4,8 @@
 //! the host natively. It holds the message set ([`messages`]), the frame codec ([`codec`]: postcard
 //! payload, CRC-32, COBS framing), the reliable link layer carried inside those frames
 //! ([`link`]: CCSDS COP-1 style, counted in lockstep rounds) and the plain types the autonomy core
-//! sees ([`types`]).
+//! sees ([`types`]), and the telemetry dictionary ([`dictionary`]: every metric and event the
+//! firmware sends, with its name, unit, kind and channel).
 //!
 //! Features: `std` adds the host-only lossy channel simulator (`link::channel`).
 #![no_std]
@@ -15,6 +16,7 @@
 extern crate std;
 
 pub mod codec;
+pub mod dictionary;
 pub mod link;
 pub mod messages;
 pub mod security;
@@ -25,4 +27,5 @@ pub use security::{CommandRefusal, GroundCommand, SecurityHeader, SecurityRefusa
 pub use types::*;
 
 /// Version of the message set. Both sides refuse a peer that speaks another version.
-pub const PROTOCOL_VERSION: u16 = 2;
+/// v3: Hello carries the recorded kernel fault, and ResetCause has KernelFault.
+pub const PROTOCOL_VERSION: u16 = 3;

@@ -1,4 +1,4 @@
-//! Message set v1 ([`crate::PROTOCOL_VERSION`]), one enum per direction so that neither side
+//! The message set ([`crate::PROTOCOL_VERSION`]), one enum per direction so that neither side
 //! can be handed a message meant for the other.
 //!
 //! Every capacity is a named constant; every message fits in one frame
@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::security::{CommandRefusal, GroundCommand, SecurityHeader, MAC_LEN};
 use crate::types::{
-    CommandArgs, CommandStatus, MissionTimeUs, Opcode, ResetCause, ResetKind, StateKey, StateValue,
+    CommandArgs, CommandStatus, KernelFault, MissionTimeUs, Opcode, ResetCause, ResetKind,
+    StateKey, StateValue,
 };
 
 /// Bytes of defmt-encoded log data carried by one Log frame.
@@ -104,6 +105,9 @@ pub enum TargetToHost {
         reset_cause: ResetCause,
         /// Boots since the warm-restart area was last initialised (power-on counts as 1).
         boot_count: u32,
+        /// The kernel fault that caused this reset (reset cause KernelFault), as the kernel
+        /// recorded it; None for every other cause. Added in protocol v3.
+        kernel_fault: Option<KernelFault>,
     },
     /// Answer to Ping, with the target's decoder counters.
     Pong { seq: u32, link: LinkCounters },

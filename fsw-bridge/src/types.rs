@@ -82,6 +82,21 @@ pub enum ResetCause {
     Watchdog,
     /// The health monitor (or a panic) decided to reset the module.
     HealthMonitor,
+    /// An exception inside the kernel itself (supervisor code outside a partition): the kernel
+    /// recorded it ([`KernelFault`], in the Hello) and reset the module, RAM kept.
+    KernelFault,
+}
+
+/// A fault inside the kernel itself, recorded in the warm-restart area before the warm reset it
+/// caused and reported in the next boot's Hello.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct KernelFault {
+    /// The exception vector offset (0x300 DSI, 0x400 ISI, 0x600 alignment, 0x700 program ...).
+    pub vector: u32,
+    /// Where it happened (SRR0: the faulting instruction, or the next one for some vectors).
+    pub pc: u32,
+    /// The data address of a DSI or alignment fault (DAR; 0 for other vectors).
+    pub dar: u32,
 }
 
 /// How the host asks the target to reset itself. New kinds are appended at the end (postcard

@@ -53,6 +53,18 @@ fn t2h_samples() -> Vec<TargetToHost> {
             build_id: [0, 1, 2, 3, 0xfc, 0xfd, 0xfe, 0xff],
             reset_cause: ResetCause::Watchdog,
             boot_count: 1,
+            kernel_fault: None,
+        },
+        TargetToHost::Hello {
+            protocol_version: fsw_bridge::PROTOCOL_VERSION,
+            build_id: [9; 8],
+            reset_cause: ResetCause::KernelFault,
+            boot_count: 3,
+            kernel_fault: Some(fsw_bridge::KernelFault {
+                vector: 0x700,
+                pc: 0x1_2344,
+                dar: 0,
+            }),
         },
         TargetToHost::Pong {
             seq: 42,
@@ -384,7 +396,7 @@ fn malformed_is_counted() {
     log.extend(std::iter::repeat_n(0x33, LOG_CHUNK_MAX + 1));
     let t2h: &[&[u8]] = &[
         &[0x02, 0x00, 0x02, 0x00], // FrameDone, next_wakeup Option tag 2
-        &[0x00, 0x01, 0x00, 0, 0, 0, 0, 0, 0, 0, 0, 0x04, 0x01], // Hello, ResetCause 4
+        &[0x00, 0x01, 0, 0, 0, 0, 0, 0, 0, 0, 0x05, 0x01, 0x00], // Hello, ResetCause 5 (there are 5)
         &[0x05, 0x05, 0x00, 0x00], // Telemetry, TelemetryEvent variant 5 (there are 5)
         &log,
     ];

@@ -168,10 +168,6 @@ fn a_clcw_is_two_bytes_n_r_then_flags_and_unknown_flag_bits_are_refused() {
     assert_eq!(out, vec![Err(DecodeError::Malformed)]);
 }
 
-fn is_cost(id: u16) -> bool {
-    id >= 0x1000
-}
-
 #[test]
 fn every_uplink_message_has_its_service_and_class() {
     use fsw_bridge::link::VirtualChannel::Mission;
@@ -216,7 +212,7 @@ fn every_downlink_message_has_its_service_and_class() {
     ];
     for (i, (service, class)) in expected.into_iter().enumerate() {
         let msg = largest_t2h(i);
-        assert_eq!(downlink_service(&msg, is_cost), service, "{msg:?}");
+        assert_eq!(downlink_service(&msg), service, "{msg:?}");
         assert_eq!(msg.class(), class, "{msg:?}");
     }
     let at = MissionTimeUs(5);
@@ -252,16 +248,25 @@ fn every_downlink_message_has_its_service_and_class() {
         ),
         (
             TelemetryEvent::Metric {
-                id: 0x0fff,
+                id: fsw_bridge::dictionary::app::GROUND_HOLDS,
                 value: 9,
             },
             Service::Sequenced(Mission),
             MessageClass::Metric,
         ),
+        // An id the dictionary does not know is instrumentation, never the Mission stream.
+        (
+            TelemetryEvent::Metric {
+                id: 0x0fff,
+                value: 9,
+            },
+            Service::Sequenced(Instrument),
+            MessageClass::Metric,
+        ),
     ];
     for (event, service, class) in cases {
         let msg = telemetry(event);
-        assert_eq!(downlink_service(&msg, is_cost), service, "{msg:?}");
+        assert_eq!(downlink_service(&msg), service, "{msg:?}");
         assert_eq!(msg.class(), class, "{msg:?}");
     }
 }

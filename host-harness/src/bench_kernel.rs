@@ -37,6 +37,9 @@ pub struct KernelBench {
     /// Null system call (`sc` in, checks, `rfi` out) round trip.
     pub syscall_round_trip_ticks: f64,
     pub syscall_round_trip_instructions: f64,
+    /// Queuing-port messages dropped on receive because their sender had restarted since
+    /// sending them (`metric::PORT_STALE_DROPPED`, since boot).
+    pub port_stale_dropped: u64,
     pub footprint: Footprint,
 }
 
@@ -154,6 +157,10 @@ pub fn kernel(
         partitions,
         syscall_round_trip_ticks: syscall,
         syscall_round_trip_instructions: syscall * INSTRUCTIONS_PER_TICK,
+        port_stale_dropped: metrics
+            .get(&metric::PORT_STALE_DROPPED)
+            .copied()
+            .unwrap_or(0),
         footprint: footprint(&firmware.elf).unwrap_or_default(),
     })
 }

@@ -55,9 +55,10 @@ impl Outputs for Sink {
     fn telemetry(&mut self, _: TelemetryEvent) {}
 }
 
-/// The largest checkpoint payload one slot of the target's warm-restart area holds.
+/// The largest checkpoint payload one slot of the flight application's checkpoint memory holds
+/// (the executive partition's slice of the warm-restart area).
 pub fn checkpoint_capacity() -> usize {
-    let area = (kernel_config::WARM_AREA_SIZE - kernel_config::WARM_BOOT_RECORD_SIZE) as usize;
+    let area = kernel_config::system::EXECUTIVE_WARM.len as usize;
     let mut bytes = vec![0u8; area];
     WarmRestartArea::new(&mut bytes).payload_capacity()
 }

@@ -473,6 +473,10 @@ fn print_kernel_bench(b: &crate::bench_kernel::KernelBench) {
             p.name, p.max_jitter_ticks, p.frame_ticks, p.worst_frame_ticks, p.overruns
         );
     }
+    println!(
+        "  stale port messages  {} dropped (sender restarted since sending)",
+        b.port_stale_dropped
+    );
     let f = &b.footprint;
     println!(
         "  kernel RAM           {} bytes ({:.1} KiB; plus the {} KiB all-invalid page table)",

@@ -51,6 +51,8 @@ pub struct Hello {
     pub build_id: [u8; 8],
     pub reset_cause: ResetCause,
     pub boot_count: u32,
+    /// The kernel fault that caused the reset (reset cause KernelFault).
+    pub kernel_fault: Option<fsw_bridge::KernelFault>,
 }
 
 /// One target under test.
@@ -319,6 +321,7 @@ impl Session {
             build_id,
             reset_cause,
             boot_count,
+            kernel_fault,
         } = *msg
         else {
             return Ok(None);
@@ -341,6 +344,7 @@ impl Session {
             build_id,
             reset_cause,
             boot_count,
+            kernel_fault,
         }))
     }
 

@@ -30,6 +30,7 @@ fn hello(protocol_version: u16, build_id: [u8; 8]) -> TargetToHost {
         build_id,
         reset_cause: ResetCause::PowerOn,
         boot_count: 1,
+        kernel_fault: None,
     }
 }
 

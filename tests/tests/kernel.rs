@@ -1,19 +1,24 @@
 //! The partitioning kernel under qemu-system-ppc: space partitioning (a rogue partition's write
 //! into the planner is stopped and the planner is unharmed), time partitioning (a rogue in an
 //! endless loop delays nobody), checked system calls (bad pointers get errors, the kernel keeps
-//! running), the health monitor's actions, and deterministic per-window accounting.
+//! running), the health monitor's actions, deterministic per-window accounting, stale port
+//! messages (sent before their sender restarted) dropped and counted, and a fault in the kernel
+//! itself warm-resetting the module with the fault reported in the next Hello.
 //!
 //! The rogue partition exists only in the test image (`test-partitions`); the harness steers it
 //! with a StateUpdate on the reserved key `control::ROGUE_MODE`.
 use std::collections::BTreeMap;
 use std::time::{Duration, Instant};
 
-use fsw_bridge::{HostToTarget, MissionTimeUs, StateKey, StateValue, TargetToHost, TelemetryEvent};
+use fsw_bridge::{
+    HostToTarget, KernelFault, MissionTimeUs, ResetCause, StateKey, StateValue, TargetToHost,
+    TelemetryEvent,
+};
 use hil::session::Session;
-use hil_tests::{boot, boot_test_image};
+use hil_tests::{boot, boot_test_image, test_firmware};
 use kernel_config::abi::{control, metric, rogue, JITTER_BOUND_TICKS};
 use kernel_config::system::{EXECUTIVE, IO, PLANNER, PLANNER_REGION, ROGUE};
-use kernel_config::{ErrorKind, HmAction};
+use kernel_config::{ErrorKind, HmAction, KERNEL_PARTITION_ID};
 
 /// Liveness bound for these tests (wall time). Longer than the link tests' because under host
 /// CPU contention QEMU delivers serial input slowly (one byte per main-loop turn) while the
@@ -344,7 +349,10 @@ fn accounting_run() -> Vec<BTreeMap<u16, u64>> {
             report
                 .into_iter()
                 .filter(|(id, _)| {
-                    *id == metric::FRAME_NUMBER || (*id & 0xfff0) == metric::FRAME_TICKS
+                    // The frame number and the FRAME_TICKS family (one id per partition), as
+                    // the telemetry dictionary says, not by id arithmetic.
+                    let first = fsw_bridge::dictionary::metric(*id).map(|m| m.id);
+                    first == Some(metric::FRAME_NUMBER) || first == Some(metric::FRAME_TICKS)
                 })
                 .collect()
         })
@@ -403,4 +411,95 @@ fn the_same_image_gives_the_same_per_window_accounting_twice() {
             assert!(report[&(metric::FRAME_TICKS + p as u16)] > 0, "{report:?}");
         }
     }
+}
+
+/// Probes (the rogue's metric `rogue::PROBE_METRIC`, value: its generation) among the messages
+/// kept so far.
+fn probes_seen(target: &Session) -> Vec<u64> {
+    target
+        .unsolicited
+        .iter()
+        .filter_map(|m| match m {
+            TargetToHost::Telemetry(TelemetryEvent::Metric { id, value })
+                if *id == rogue::PROBE_METRIC =>
+            {
+                Some(*value)
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_port_message_sent_before_its_sender_restarted_is_dropped_and_counted() {
+    let mut target = boot_test_image();
+    target.expect_hello(PATIENCE).unwrap();
+    wait_for_log(&mut target, "rogue: started, generation 0");
+    assert_eq!(kernel_metrics(&mut target)[&metric::PORT_STALE_DROPPED], 0);
+    // The control: a probe whose sender lives on is delivered.
+    rogue(&mut target, rogue::SEND);
+    assert_eq!(metric_value(&mut target, rogue::PROBE_METRIC), 0);
+    // Sent at generation 0; the rogue restarts (generation 1) before the I/O partition's window.
+    rogue(&mut target, rogue::SEND_THEN_RESTART);
+    wait_for_log(&mut target, "rogue: started, generation 1");
+    assert!(target
+        .logs
+        .iter()
+        .any(|l| l.message.contains("rogue: probe sent, generation 0")));
+    let report = kernel_metrics(&mut target);
+    assert_eq!(report[&metric::PORT_STALE_DROPPED], 1, "{report:?}");
+    assert_eq!(report[&(metric::GENERATION + ROGUE as u16)], 1);
+    // The port works on: the new generation's probe arrives, the stale one never did.
+    rogue(&mut target, rogue::SEND);
+    assert_eq!(metric_value(&mut target, rogue::PROBE_METRIC), 1);
+    assert_eq!(probes_seen(&target), Vec::<u64>::new());
+    assert_eq!(kernel_metrics(&mut target)[&metric::PORT_STALE_DROPPED], 1);
+    no_reset_happened(&target);
+}
+
+#[test]
+fn a_fault_in_the_kernel_warm_resets_and_the_next_hello_reports_it() {
+    let mut target = boot_test_image();
+    let hello = target.expect_hello(PATIENCE).unwrap();
+    assert_eq!(hello.kernel_fault, None);
+    wait_for_log(&mut target, "rogue: started, generation 0");
+    rogue(&mut target, rogue::KERNEL_FAULT);
+    let hello = target.expect_hello(PATIENCE).unwrap();
+    assert_eq!(hello.reset_cause, ResetCause::KernelFault);
+    let fault = hello.kernel_fault.expect("the recorded kernel fault");
+    // A program exception (`trap`) in the kernel's system-call path, not in a partition.
+    assert_eq!((fault.vector, fault.dar), (0x700, 0));
+    let at = test_firmware()
+        .symbolize(fault.pc)
+        .unwrap_or_else(|| panic!("{fault:?} is in no function of the image"));
+    assert!(at.contains("kernel"), "{fault:?} at {at}");
+    // Its last words before the reset: the health event of the kernel's own fault.
+    assert!(
+        health_events(&target).contains(&(
+            KERNEL_PARTITION_ID,
+            ErrorKind::Program as u8,
+            fault.pc,
+            HmAction::WarmReset as u8
+        )),
+        "{:?}",
+        health_events(&target)
+    );
+    assert!(
+        target
+            .logs
+            .iter()
+            .any(|l| l.message.starts_with("kernel exception 0x700 at ")),
+        "{:#?}",
+        target.logs.iter().map(|l| &l.message).collect::<Vec<_>>()
+    );
+    // The module is up again; the record was taken: the next warm reset reports no fault.
+    target.logs.clear();
+    wait_for_log(&mut target, "rogue: started, generation 0");
+    target.ping(3, PATIENCE).unwrap();
+    target.warm_reset_qmp().unwrap();
+    let hello = target.expect_hello(PATIENCE).unwrap();
+    assert_eq!(
+        (hello.reset_cause, hello.kernel_fault),
+        (ResetCause::Warm, None::<KernelFault>)
+    );
 }

@@ -99,8 +99,12 @@ pub struct StepCost {
 pub enum LoadError {
     /// The uplink failed validation (nothing changed).
     Invalid(ValidationError),
-    /// The executive still owns tasks of the running plan; load when it is idle.
+    /// The executive still owns tasks of the running plan (or, split over two partitions,
+    /// the previous network is still on its way to the planner); load when it is idle.
     Busy,
+    /// The network's image is larger than the partitions exchange
+    /// ([`crate::partitioned::MAX_NETWORK_IMAGE`]).
+    TooLarge,
 }
 
 /// The autonomy core: task network + planner + control loop (executive, state buffer copy).

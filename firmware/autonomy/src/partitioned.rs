@@ -41,39 +41,129 @@
 //! So after any reset each side restores its own newest whole checkpoint, the two exchange
 //! `Resume`, and the planner's view of what the executive holds (commits, reports) is again
 //! what the executive holds.
+//!
+//! # What else crosses the ports
+//! - **The network.** The executive validates and loads an uplinked network, then streams its
+//!   image to the planner through the same numbered channel ([`PlannerInput::NetworkBegin`],
+//!   chunks of [`NETWORK_CHUNK_BYTES`], [`PlannerInput::NetworkEnd`] with the image's CRC), a
+//!   few dozen chunks per frame so the channel's log stays small. The planner checks the CRC,
+//!   validates and loads it. Every network has a generation number: the planner tags its
+//!   commits with the generation it planned for, and the executive drops (and counts) a commit
+//!   for another one, so nothing planned for a replaced network is ever executed. The state
+//!   the executive already knows goes to the planner after the network's end.
+//! - **The frame.** The executive's first window ends with [`PlannerInput::Frame`]: the
+//!   planner plans once per frame of mission time, in its window after that message.
+//! - **The planner's telemetry and status.** The planner's decisions (transitions, plan
+//!   modifications) travel to the executive in the channel and leave for the host at the start
+//!   of the executive's second window, so the host sees the frame's decisions in the order the
+//!   windows ran, on any target. [`PlannerInput::Frame`] is answered by a
+//!   [`ExecutiveInput::Status`]: whether planning is pending, the planner's next wake-up, and
+//!   a finished cycle's latency.
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
+use crc::{Crc, CRC_32_ISO_HDLC};
+
 use crate::capacity::{MAX_COMMITTED, MAX_MISSION_TIME_US};
-use crate::checkpoint::{CheckpointError, WarmRestartArea, WrittenRecord};
+use crate::checkpoint::{
+    self, CheckpointError, Record, RestoreInfo, WarmRestartArea, WrittenRecord,
+};
+use crate::condition::StateTableInPlace;
 use crate::control::ControlLoop;
-use crate::interface::{Commit, Outputs, ToExecutive, ToPlanner};
+use crate::executive::ExecutiveInPlace;
+use crate::in_place;
+use crate::interface::{Commit, Outputs, ToPlanner};
 use crate::model::TaskNetwork;
-use crate::planner::Planner;
+use crate::planner::{Planner, PlannerInPlace};
 use crate::telemetry::PlanModificationKind;
 use crate::uplink;
-use fsw_bridge::{CommandStatus, MissionTimeUs, StateKey, StateValue, TelemetryEvent};
+use crate::LoadError;
+use fsw_bridge::{
+    CommandArgs, CommandStatus, MissionTimeUs, Opcode, StateKey, StateValue, TelemetryEvent,
+};
 
 /// One major frame of the partition schedule in mission time (10 ms): how far mission time
 /// advances per grant while the planner has work pending.
 pub const MAJOR_FRAME_US: u64 = 10_000;
-/// Messages the executive keeps for the planner until they are acknowledged (about two
-/// frames' worth: a frame's state updates, reports and returned commits).
+/// Messages the executive keeps for the planner until they are acknowledged: a frame's state
+/// updates, reports and returned commits, and up to [`MAX_CHUNKS_PER_FRAME`] network chunks.
 pub const MAX_TO_PLANNER_IN_FLIGHT: usize = 64;
-/// Messages the planner keeps for the executive until they are acknowledged: one commit per
-/// task the executive can hold.
-pub const MAX_TO_EXECUTIVE_IN_FLIGHT: usize = MAX_COMMITTED;
+/// Network chunks the executive puts in the channel per frame (the rest of the log is kept for
+/// the frame's other messages, and a port holds a frame's messages): 16 chunks of 96 bytes,
+/// 1.5 KiB of image per frame, so the flyby's image (about 1 KiB) goes in one frame and the
+/// largest (16 KiB) in 11.
+pub const MAX_CHUNKS_PER_FRAME: usize = 16;
+/// Messages the planner keeps for the executive until they are acknowledged: a window's
+/// commits (at most one per task the executive can hold), its telemetry and its status.
+pub const MAX_TO_EXECUTIVE_IN_FLIGHT: usize = 128;
+/// Bytes of network image per chunk.
+pub const NETWORK_CHUNK_BYTES: usize = 96;
+/// Largest network image the two partitions exchange (the uplink's limit).
+pub const MAX_NETWORK_IMAGE: usize = 16 * 1024;
+/// Planner telemetry the executive holds between its receipt and the second window.
+pub const MAX_FORWARDED_TELEMETRY: usize = 128;
+
+const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
+
+/// From the executive partition to the planner partition.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PlannerInput {
+    /// A core message (measurements, reports, returned commits).
+    Core(ToPlanner),
+    /// A new network of `len` bytes (uplink format) follows: forget the plan.
+    NetworkBegin { generation: u32, len: u32 },
+    /// `bytes` of the image at `offset`.
+    NetworkChunk {
+        offset: u32,
+        bytes: Vec<u8, NETWORK_CHUNK_BYTES>,
+    },
+    /// The image is complete; its CRC-32.
+    NetworkEnd { generation: u32, crc: u32 },
+    /// The executive's first window of frame `frame` at mission time `now` is done: plan.
+    Frame { frame: u32, now: MissionTimeUs },
+}
+
+/// From the planner partition to the executive partition.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ExecutiveInput {
+    /// A task for the executive, planned for network `generation`.
+    Commit { generation: u32, commit: Commit },
+    /// A planner decision for the host.
+    Telemetry(TelemetryEvent),
+    /// The answer to [`PlannerInput::Frame`].
+    Status(PlannerStatus),
+}
+
+/// What the planner's window for one frame did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PlannerStatus {
+    pub frame: u32,
+    /// The cycle stopped on the window's budget: it resumes in the next frame's window.
+    pub pending: bool,
+    /// When the planner needs to run next (its own needs).
+    pub next_wakeup: Option<MissionTimeUs>,
+    /// A cycle ended in this window this long after the window that started it (mission
+    /// time, µs).
+    pub cycle_latency_us: Option<u64>,
+    /// Validity checks spent.
+    pub checks: u32,
+    /// Commits sent.
+    pub commits: u32,
+}
 
 /// What crosses a port between the two partitions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Wire<T> {
     /// Message number `seq` (from 1, in order).
     Message { seq: u32, message: T },
     /// The sender of this has checkpointed every message up to `upto` it received.
     Ack { upto: u32 },
-    /// The sender of this was restored and has applied every message up to `received`: send
-    /// again what came after.
+    /// The sender of this (re)started, restored or cold, and has applied every message up to
+    /// `received`: send again what came after.
     Resume { received: u32 },
+    /// The messages before `next` are void: the receiver lost what they built on (its
+    /// checkpoint, or the sender's, is gone). The receiver takes `next` as the next message.
+    Rebase { next: u32 },
 }
 
 /// The sending end of one direction: every message numbered and kept until acknowledged.
@@ -81,30 +171,46 @@ pub enum Wire<T> {
 pub struct Outbox<T, const N: usize> {
     /// The number the next message gets.
     next_seq: u32,
-    /// Messages up to this number have gone to the port (or were acknowledged).
+    /// Messages up to this number have gone to the port (or were acknowledged). Not saved:
+    /// after a restore every message kept goes again.
+    #[serde(skip)]
     sent: u32,
+    /// Messages up to this number were in this side's last checkpoint: only they may go. Not
+    /// saved: a restored state is a checkpointed one.
+    #[serde(skip)]
+    sendable: u32,
     /// Messages not acknowledged yet, oldest first.
     log: Vec<(u32, T), N>,
     /// Messages refused because the log was full (the sender's count of what it lost).
     pub refused: u32,
     /// Messages sent again after the receiver was restored.
     pub resent: u32,
+    /// The receiver cannot be caught up by sending again (see [`Wire::Rebase`]): the next
+    /// transmission starts with a `Rebase` to this number (the first message kept after it).
+    /// Not saved: the receiver's next `Resume` asks again.
+    #[serde(skip)]
+    rebase: Option<u32>,
+    /// Times the channel was rebased.
+    pub rebases: u32,
 }
 
-impl<T: Copy, const N: usize> Default for Outbox<T, N> {
+impl<T: Clone, const N: usize> Default for Outbox<T, N> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<T: Copy, const N: usize> Outbox<T, N> {
+impl<T: Clone, const N: usize> Outbox<T, N> {
     pub const fn new() -> Self {
         Self {
             next_seq: 1,
             sent: 0,
+            sendable: 0,
             log: Vec::new(),
             refused: 0,
             resent: 0,
+            rebase: None,
+            rebases: 0,
         }
     }
 
@@ -133,21 +239,44 @@ impl<T: Copy, const N: usize> Outbox<T, N> {
         self.log.iter().filter(|(seq, _)| *seq > self.sent).count()
     }
 
-    /// The receiver has checkpointed every message up to `upto`.
+    /// The receiver has checkpointed every message up to `upto` (an acknowledgement of
+    /// messages this side never sent, from before a rebase, is void).
     pub fn on_ack(&mut self, upto: u32) {
+        if upto >= self.next_seq {
+            return;
+        }
         self.log.retain(|(seq, _)| *seq > upto);
         self.sent = self.sent.max(upto);
     }
 
-    /// The receiver was restored with every message up to `received` applied: what came after
-    /// goes again.
-    pub fn on_resume(&mut self, received: u32) {
+    /// The receiver (re)started with every message up to `received` applied: what came after
+    /// goes again. When that cannot be (it has applied messages this side never sent, or lacks
+    /// ones this side no longer keeps), the messages kept are dropped, the next transmission
+    /// starts with a [`Wire::Rebase`], and this returns true: the sender must bring the
+    /// receiver up to date another way.
+    pub fn on_resume(&mut self, received: u32) -> bool {
+        let last = self.next_seq.wrapping_sub(1);
+        let oldest_kept = self.log.first().map_or(self.next_seq, |(seq, _)| *seq);
+        if received > last || received.wrapping_add(1) < oldest_kept {
+            self.log.clear();
+            self.sent = last;
+            self.rebase = Some(self.next_seq);
+            self.rebases = self.rebases.saturating_add(1);
+            return true;
+        }
         self.log.retain(|(seq, _)| *seq > received);
         let again = self.log.iter().filter(|(seq, _)| *seq <= self.sent).count();
         self.resent = self
             .resent
             .saturating_add(u32::try_from(again).unwrap_or(u32::MAX));
         self.sent = received;
+        false
+    }
+
+    /// Whether messages were kept since this side's last checkpoint (they cannot go before
+    /// the next one).
+    pub fn awaits_checkpoint(&self) -> bool {
+        self.log.iter().any(|(seq, _)| *seq > self.sendable)
     }
 
     /// This side was restored: whatever was in the ports is gone, so every message kept goes
@@ -161,16 +290,35 @@ impl<T: Copy, const N: usize> Outbox<T, N> {
             .log
             .first()
             .map_or(self.sent, |(seq, _)| seq.wrapping_sub(1));
+        self.checkpointed();
     }
 
-    /// Hands the messages not sent yet to `send`, in order, until it refuses one (a full
-    /// port: the rest go at the next call).
+    /// This side's checkpoint now holds every message kept: they may go.
+    pub fn checkpointed(&mut self) {
+        self.sendable = self.next_seq.wrapping_sub(1);
+    }
+
+    /// Hands the messages not sent yet that a checkpoint holds to `send`, in order, until it
+    /// refuses one (a full port: the rest go at the next call).
     pub fn transmit(&mut self, send: &mut impl FnMut(Wire<T>) -> bool) {
-        for &(seq, message) in &self.log {
+        if let Some(next) = self.rebase {
+            if !send(Wire::Rebase { next }) {
+                return;
+            }
+            self.rebase = None;
+        }
+        for (seq, message) in &self.log {
+            let seq = *seq;
             if seq <= self.sent {
                 continue;
             }
-            if !send(Wire::Message { seq, message }) {
+            if seq > self.sendable {
+                return;
+            }
+            if !send(Wire::Message {
+                seq,
+                message: message.clone(),
+            }) {
                 return;
             }
             self.sent = seq;
@@ -183,8 +331,14 @@ impl<T: Copy, const N: usize> Outbox<T, N> {
 pub struct Inbox {
     /// Every message up to this number has been applied.
     pub received: u32,
-    /// The last number acknowledged.
+    /// The last number acknowledged. Not saved: a restored side acknowledges again.
+    #[serde(skip)]
     acknowledged: u32,
+    /// Every message up to this number was applied when this side's last checkpoint was
+    /// taken: the most that may be acknowledged. Not saved: a restored state is a
+    /// checkpointed one.
+    #[serde(skip)]
+    checkpointed: u32,
     /// Messages dropped as already applied (sent again after a restore).
     pub duplicates: u32,
     /// Messages dropped because one before them is missing (they come again in order).
@@ -207,11 +361,25 @@ impl Inbox {
         }
     }
 
-    /// After this side's checkpoint: the acknowledgement to send, if there is a new one.
+    /// This side's checkpoint now holds every message applied.
+    pub fn checkpointed(&mut self) {
+        self.checkpointed = self.received;
+    }
+
+    /// The sender declared the messages before `next` void ([`Wire::Rebase`]).
+    pub fn rebase(&mut self, next: u32) {
+        self.received = next.wrapping_sub(1);
+        // Nothing before `next` is to be acknowledged any more.
+        self.checkpointed = self.received;
+        self.acknowledged = self.received;
+    }
+
+    /// The acknowledgement to send, if there is a new one: up to what the last checkpoint
+    /// holds.
     pub fn ack(&mut self) -> Option<u32> {
-        (self.received != self.acknowledged).then(|| {
-            self.acknowledged = self.received;
-            self.received
+        (self.checkpointed != self.acknowledged).then(|| {
+            self.acknowledged = self.checkpointed;
+            self.checkpointed
         })
     }
 }
@@ -225,6 +393,16 @@ pub enum SideRestoreError {
     BadPayload,
 }
 
+/// A network image on its way from the executive to the planner.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+struct Transfer {
+    len: u32,
+    /// Bytes put in the channel so far.
+    pushed: u32,
+    crc: u32,
+    begun: bool,
+}
+
 /// Everything in the executive partition: the control loop, its copy of the network, and its
 /// ends of the two ports.
 #[derive(Clone, Debug)]
@@ -232,20 +410,49 @@ pub struct ExecutivePartition {
     network: TaskNetwork,
     control: ControlLoop,
     now: MissionTimeUs,
+    frame: u32,
     loaded: bool,
     restored: Option<u32>,
-    to_planner: Outbox<ToPlanner, MAX_TO_PLANNER_IN_FLIGHT>,
+    /// Generation of the loaded network (0: none).
+    generation: u32,
+    /// The network image being streamed to the planner.
+    transfer: Option<Transfer>,
+    to_planner: Outbox<PlannerInput, MAX_TO_PLANNER_IN_FLIGHT>,
     from_planner: Inbox,
     /// Tell the planner what we have applied (after a restore).
     resume: bool,
+    /// The planner's last status.
+    status: Option<PlannerStatus>,
+    /// Planner telemetry received, for the host at the next second window.
+    telemetry: Vec<TelemetryEvent, MAX_FORWARDED_TELEMETRY>,
+    /// The loaded network's image (not saved: encoded again from the network after a restore).
+    image: [u8; MAX_NETWORK_IMAGE],
+    image_len: usize,
+    pub stats: ExecutivePartitionStats,
+}
+
+/// Counts of what the executive partition dropped or refused.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ExecutivePartitionStats {
+    /// Commits planned for a network that is no longer loaded.
+    pub stale_commits: u32,
+    /// Planner telemetry lost because the forwarding buffer was full.
+    pub telemetry_dropped: u32,
+    /// Times the planner came up without the checkpoint matching ours and was sent the
+    /// network again.
+    pub resyncs: u32,
 }
 
 #[derive(Serialize, Deserialize)]
 struct ExecutiveMeta {
     loaded: bool,
     now: MissionTimeUs,
+    frame: u32,
+    generation: u32,
+    transfer: Option<Transfer>,
     state_type_mismatches: u32,
     last_state_type_mismatch: Option<StateKey>,
+    stats: ExecutivePartitionStats,
 }
 
 impl Default for ExecutivePartition {
@@ -254,22 +461,38 @@ impl Default for ExecutivePartition {
     }
 }
 
+const EMPTY_INBOX: Inbox = Inbox {
+    received: 0,
+    acknowledged: 0,
+    checkpointed: 0,
+    duplicates: 0,
+    out_of_order: 0,
+};
+
 impl ExecutivePartition {
     pub const fn new() -> Self {
         Self {
             network: TaskNetwork::EMPTY,
             control: ControlLoop::new(),
             now: MissionTimeUs::ZERO,
+            frame: 0,
             loaded: false,
             restored: None,
+            generation: 0,
+            transfer: None,
             to_planner: Outbox::new(),
-            from_planner: Inbox {
-                received: 0,
-                acknowledged: 0,
-                duplicates: 0,
-                out_of_order: 0,
+            from_planner: EMPTY_INBOX,
+            // A side that starts says where it stands, restored or not.
+            resume: true,
+            status: None,
+            telemetry: Vec::new(),
+            image: [0; MAX_NETWORK_IMAGE],
+            image_len: 0,
+            stats: ExecutivePartitionStats {
+                stale_commits: 0,
+                telemetry_dropped: 0,
+                resyncs: 0,
             },
-            resume: false,
         }
     }
 
@@ -281,7 +504,7 @@ impl ExecutivePartition {
         &self.network
     }
 
-    pub fn to_planner(&self) -> &Outbox<ToPlanner, MAX_TO_PLANNER_IN_FLIGHT> {
+    pub fn to_planner(&self) -> &Outbox<PlannerInput, MAX_TO_PLANNER_IN_FLIGHT> {
         &self.to_planner
     }
 
@@ -289,29 +512,136 @@ impl ExecutivePartition {
         &self.from_planner
     }
 
-    /// Loads a network the planner partition loads too (refused while the executive owns
-    /// tasks, as [`crate::Autonomy::load_network`]).
-    pub fn load_network(&mut self, network: &TaskNetwork) -> Result<(), crate::LoadError> {
-        if !self.control.executive.entries().is_empty() {
-            return Err(crate::LoadError::Busy);
+    /// Mission time of the last first window.
+    pub fn now(&self) -> MissionTimeUs {
+        self.now
+    }
+
+    /// The frame of the last first window.
+    pub fn frame(&self) -> u32 {
+        self.frame
+    }
+
+    /// Whether a network is loaded.
+    pub fn loaded(&self) -> bool {
+        self.loaded
+    }
+
+    /// The planner's last status.
+    pub fn planner_status(&self) -> Option<PlannerStatus> {
+        self.status
+    }
+
+    /// Whether the network image is still on its way to the planner.
+    pub fn transferring(&self) -> bool {
+        self.transfer.is_some()
+    }
+
+    /// Validates and loads an uplinked network (as [`crate::Autonomy::load_uplink`]) and
+    /// starts streaming it to the planner. Refused while the executive owns tasks, and while
+    /// the previous network is still on its way.
+    pub fn load_uplink(&mut self, bytes: &[u8]) -> Result<(), LoadError> {
+        uplink::validate_uplink(bytes).map_err(LoadError::Invalid)?;
+        if !self.control.executive.entries().is_empty() || self.transfer.is_some() {
+            return Err(LoadError::Busy);
         }
-        self.network = network.clone();
-        self.loaded = true;
-        let Self {
-            network,
-            control,
-            to_planner,
-            ..
-        } = self;
-        control.after_load(network, &mut |m| {
-            to_planner.push(m);
-        });
+        let image = self
+            .image
+            .get_mut(..bytes.len())
+            .ok_or(LoadError::TooLarge)?;
+        uplink::decode_into(&mut self.network, bytes).map_err(LoadError::Invalid)?;
+        image.copy_from_slice(bytes);
+        self.image_len = bytes.len();
+        self.after_load();
         Ok(())
+    }
+
+    /// Loads a network (see [`ExecutivePartition::load_uplink`]).
+    pub fn load_network(&mut self, network: &TaskNetwork) -> Result<(), LoadError> {
+        if !self.control.executive.entries().is_empty() || self.transfer.is_some() {
+            return Err(LoadError::Busy);
+        }
+        let len = network
+            .encode(&mut self.image)
+            .map_err(|_| LoadError::TooLarge)?;
+        self.network = network.clone();
+        self.image_len = len;
+        self.after_load();
+        Ok(())
+    }
+
+    fn after_load(&mut self) {
+        self.loaded = true;
+        self.generation = self.generation.wrapping_add(1).max(1);
+        let image = self.image.get(..self.image_len).unwrap_or(&[]);
+        self.transfer = Some(Transfer {
+            len: u32::try_from(image.len()).unwrap_or(u32::MAX),
+            pushed: 0,
+            crc: CRC32.checksum(image),
+            begun: false,
+        });
+        self.pump();
+    }
+
+    /// Puts the next part of the network image in the channel; after its end, what the state
+    /// buffer already told us.
+    fn pump(&mut self) {
+        let Some(mut t) = self.transfer else {
+            return;
+        };
+        if !t.begun {
+            if !self.to_planner.push(PlannerInput::NetworkBegin {
+                generation: self.generation,
+                len: t.len,
+            }) {
+                return;
+            }
+            t.begun = true;
+        }
+        let mut chunks = 0;
+        while t.pushed < t.len && chunks < MAX_CHUNKS_PER_FRAME && self.to_planner.room() > 16 {
+            let start = t.pushed as usize;
+            let end = (start + NETWORK_CHUNK_BYTES).min(t.len as usize);
+            let bytes = self
+                .image
+                .get(start..end)
+                .and_then(|b| Vec::from_slice(b).ok())
+                .unwrap_or_default();
+            self.to_planner.push(PlannerInput::NetworkChunk {
+                offset: t.pushed,
+                bytes,
+            });
+            t.pushed = end as u32;
+            chunks += 1;
+        }
+        if t.pushed >= t.len
+            && self.to_planner.push(PlannerInput::NetworkEnd {
+                generation: self.generation,
+                crc: t.crc,
+            })
+        {
+            self.transfer = None;
+            let Self {
+                network,
+                control,
+                to_planner,
+                ..
+            } = self;
+            control.after_load(network, &mut |m| {
+                to_planner.push(PlannerInput::Core(m));
+            });
+            return;
+        }
+        self.transfer = Some(t);
     }
 
     /// A state-buffer value from the host (see [`crate::Autonomy::on_state_update`]).
     pub fn on_state_update(&mut self, key: StateKey, value: StateValue, at: MissionTimeUs) {
-        if at.0 > MAX_MISSION_TIME_US {
+        if at.0 > MAX_MISSION_TIME_US || self.transfer.is_some() {
+            // During a transfer the table still takes it; the planner hears it after the end.
+            if at.0 <= MAX_MISSION_TIME_US {
+                let _ = self.control.states.update(key, value, at);
+            }
             return;
         }
         let Self {
@@ -321,7 +651,7 @@ impl ExecutivePartition {
             ..
         } = self;
         control.on_state_update(network, key, value, at, &mut |m| {
-            to_planner.push(m);
+            to_planner.push(PlannerInput::Core(m));
         });
     }
 
@@ -330,16 +660,71 @@ impl ExecutivePartition {
     }
 
     /// Takes what the planner partition sent.
-    pub fn receive(&mut self, wire: Wire<ToExecutive>) {
+    pub fn receive(&mut self, wire: Wire<ExecutiveInput>) {
         match wire {
             Wire::Message { seq, message } => {
                 if self.from_planner.accept(seq) {
-                    let ToExecutive::Commit(commit) = message;
-                    self.accept(commit);
+                    self.apply(message);
                 }
             }
             Wire::Ack { upto } => self.to_planner.on_ack(upto),
-            Wire::Resume { received } => self.to_planner.on_resume(received),
+            Wire::Resume { received } => {
+                if self.to_planner.on_resume(received) {
+                    self.resynchronise();
+                }
+            }
+            Wire::Rebase { next } => self.from_planner.rebase(next),
+        }
+    }
+
+    /// The planner lost what the channel built on (it came up without the checkpoint that
+    /// matches ours): it gets the network again, under a new generation (so nothing it
+    /// committed before counts), then what the state buffer says, then the frame in
+    /// progress. The tasks the executive holds run on; the planner, planning afresh from
+    /// the network's requested tasks, may plan one of them again.
+    fn resynchronise(&mut self) {
+        self.stats.resyncs = self.stats.resyncs.saturating_add(1);
+        if !self.loaded {
+            return;
+        }
+        self.status = None;
+        self.generation = self.generation.wrapping_add(1).max(1);
+        let image = self.image.get(..self.image_len).unwrap_or(&[]);
+        self.transfer = Some(Transfer {
+            len: u32::try_from(image.len()).unwrap_or(u32::MAX),
+            pushed: 0,
+            crc: CRC32.checksum(image),
+            begun: false,
+        });
+        self.pump();
+        if self.frame != 0 {
+            self.to_planner.push(PlannerInput::Frame {
+                frame: self.frame,
+                now: self.now,
+            });
+        }
+    }
+
+    /// Whether messages wait for a checkpoint before they can go to the planner.
+    pub fn awaits_checkpoint(&self) -> bool {
+        self.to_planner.awaits_checkpoint()
+    }
+
+    fn apply(&mut self, message: ExecutiveInput) {
+        match message {
+            ExecutiveInput::Commit { generation, commit } => {
+                if generation != self.generation {
+                    self.stats.stale_commits = self.stats.stale_commits.saturating_add(1);
+                    return;
+                }
+                self.accept(commit);
+            }
+            ExecutiveInput::Telemetry(event) => {
+                if self.telemetry.push(event).is_err() {
+                    self.stats.telemetry_dropped = self.stats.telemetry_dropped.saturating_add(1);
+                }
+            }
+            ExecutiveInput::Status(status) => self.status = Some(status),
         }
     }
 
@@ -350,15 +735,19 @@ impl ExecutivePartition {
             ..
         } = self;
         control.accept(commit, &mut |m| {
-            to_planner.push(m);
+            to_planner.push(PlannerInput::Core(m));
         });
     }
 
-    /// The executive's first window of the frame at `now`: the restart adjustments after a
-    /// restore, the ages of measured values, the first executive pass.
-    pub fn first_window(&mut self, now: MissionTimeUs, out: &mut impl Outputs) {
+    /// The executive's first window of frame `frame` at `now`: the restart adjustments after a
+    /// restore, the ages of measured values, the first executive pass, the next part of a
+    /// network transfer, and the frame for the planner.
+    pub fn first_window(&mut self, frame: u32, now: MissionTimeUs, out: &mut impl Outputs) {
         let now = MissionTimeUs(now.0.min(MAX_MISSION_TIME_US));
         self.now = now;
+        self.frame = frame;
+        self.pump();
+        let transferring = self.transfer.is_some();
         let Self {
             network,
             control,
@@ -366,7 +755,9 @@ impl ExecutivePartition {
             ..
         } = self;
         let mut to_planner = |m| {
-            to_planner.push(m);
+            if !transferring {
+                to_planner.push(PlannerInput::Core(m));
+            }
         };
         if let Some(seq) = self.restored.take() {
             out.telemetry(TelemetryEvent::PlanModification {
@@ -377,16 +768,19 @@ impl ExecutivePartition {
             });
             control.after_reset_values(network, now, &mut to_planner);
         }
-        if !self.loaded {
-            return;
+        if self.loaded {
+            control.judge_ages(network, now, out, &mut to_planner);
+            control.step(network, now, out, &mut to_planner);
         }
-        control.judge_ages(network, now, out, &mut to_planner);
-        control.step(network, now, out, &mut to_planner);
+        self.to_planner.push(PlannerInput::Frame { frame, now });
     }
 
-    /// The executive's second window: the commits the planner sent (already received), and
-    /// the second executive pass.
+    /// The executive's second window: the planner's telemetry for the host, then the second
+    /// executive pass (the commits were taken as they arrived).
     pub fn second_window(&mut self, out: &mut impl Outputs) {
+        for event in core::mem::take(&mut self.telemetry) {
+            out.telemetry(event);
+        }
         if !self.loaded {
             return;
         }
@@ -398,14 +792,19 @@ impl ExecutivePartition {
             ..
         } = self;
         control.step(network, *now, out, &mut |m| {
-            to_planner.push(m);
+            to_planner.push(PlannerInput::Core(m));
         });
+    }
+
+    /// Whether the planner has answered this frame.
+    pub fn planner_answered(&self) -> bool {
+        self.status.is_some_and(|s| s.frame == self.frame)
     }
 
     /// After this side's checkpoint: what goes to the planner's port, in order (a `Resume`
     /// after a restore, the acknowledgement, then the messages not sent yet), until `send`
     /// refuses one.
-    pub fn transmit(&mut self, send: &mut impl FnMut(Wire<ToPlanner>) -> bool) {
+    pub fn transmit(&mut self, send: &mut impl FnMut(Wire<PlannerInput>) -> bool) {
         if self.resume {
             if !send(Wire::Resume {
                 received: self.from_planner.received,
@@ -420,15 +819,25 @@ impl ExecutivePartition {
         self.to_planner.transmit(send);
     }
 
-    /// When the control loop needs to run next (its own needs; the frame adds the planner's).
+    /// When the host must grant next, after this frame's second window: one major frame on
+    /// while the planner has work pending or the network is on its way, else the earliest
+    /// need of either side.
     pub fn next_wakeup(&self) -> Option<MissionTimeUs> {
         if !self.loaded {
             return None;
         }
+        let status = self.status.filter(|s| s.frame == self.frame);
+        if status.is_none_or(|s| s.pending) || self.transfer.is_some() {
+            return Some(MissionTimeUs(self.now.0.saturating_add(MAJOR_FRAME_US)));
+        }
         if self.control.executive.work_pending() || self.restored.is_some() {
             return Some(self.now);
         }
-        self.control.next_wakeup(&self.network, self.now)
+        let own = self.control.next_wakeup(&self.network, self.now);
+        [own, status.and_then(|s| s.next_wakeup)]
+            .into_iter()
+            .flatten()
+            .min()
     }
 
     /// Encodes this side's whole state (the checkpoint payload).
@@ -436,8 +845,12 @@ impl ExecutivePartition {
         let meta = ExecutiveMeta {
             loaded: self.loaded,
             now: self.now,
+            frame: self.frame,
+            generation: self.generation,
+            transfer: self.transfer,
             state_type_mismatches: self.control.state_type_mismatches,
             last_state_type_mismatch: self.control.last_state_type_mismatch,
+            stats: self.stats,
         };
         let mut len = postcard::to_slice(&meta, buf).ok()?.len();
         len += encode_network(&self.network, buf.get_mut(len..)?)?;
@@ -456,12 +869,23 @@ impl ExecutivePartition {
         Some(len)
     }
 
-    /// Writes this side's checkpoint into its own area.
+    /// This side's checkpoint now holds its whole state (a caller that writes the checkpoint
+    /// itself, from [`ExecutivePartition::encode_state`], says so): the messages kept may go,
+    /// the messages applied may be acknowledged.
+    pub fn checkpointed(&mut self) {
+        self.to_planner.checkpointed();
+        self.from_planner.checkpointed();
+    }
+
+    /// Writes this side's checkpoint into its own area (and, written, marks what it holds:
+    /// see [`ExecutivePartition::checkpointed`]).
     pub fn checkpoint_to(
-        &self,
+        &mut self,
         area: &mut WarmRestartArea<'_>,
     ) -> Result<WrittenRecord, CheckpointError> {
-        area.write_record(|buf| self.encode_state(buf))
+        let written = area.write_record(|buf| self.encode_state(buf))?;
+        self.checkpointed();
+        Ok(written)
     }
 
     /// Restores this side from the newest whole record of its area, then prepares the
@@ -469,36 +893,91 @@ impl ExecutivePartition {
     /// `Restored` event and the after-reset values come at the next first window, every
     /// message not acknowledged goes again, and the planner hears what we have applied.
     pub fn restore_from(&mut self, area: &WarmRestartArea<'_>) -> Result<u32, SideRestoreError> {
-        let (_, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
+        let (slot, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
+        self.restore_record(Record {
+            slot,
+            sequence,
+            payload,
+        })
+        .map(|info| info.sequence)
+    }
+
+    /// As [`ExecutivePartition::restore_from`], from one record the caller found whole (its
+    /// CRC is not checked again). On error this side is a cold, empty one.
+    pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
+        let Record {
+            slot,
+            sequence,
+            payload,
+        } = record;
         if self.decode_state(payload).is_none() {
-            *self = Self::new();
+            self.reset();
             return Err(SideRestoreError::BadPayload);
         }
         self.control.executive.after_restore();
         self.to_planner.after_restore();
+        self.from_planner.checkpointed();
         self.restored = Some(sequence);
         self.resume = true;
-        Ok(sequence)
+        Ok(RestoreInfo {
+            slot,
+            sequence,
+            payload_len: u32::try_from(payload.len()).unwrap_or(u32::MAX),
+        })
     }
 
-    fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
+    /// Makes this side what [`ExecutivePartition::new`] is, in place.
+    pub fn reset(&mut self) {
+        self.network.clear();
+        self.control.reset();
+        self.now = MissionTimeUs::ZERO;
+        self.frame = 0;
+        self.loaded = false;
+        self.restored = None;
+        self.generation = 0;
+        self.transfer = None;
+        self.to_planner = Outbox::new();
+        self.from_planner = EMPTY_INBOX;
+        self.resume = true;
+        self.status = None;
+        self.telemetry.clear();
+        self.image_len = 0;
+        self.stats = ExecutivePartitionStats::default();
+    }
+
+    /// Replaces the state with one [`ExecutivePartition::encode_state`] wrote, checked as a
+    /// restored checkpoint is (no restart adjustments: [`ExecutivePartition::restore_record`]
+    /// adds them). None when refused; the state may then be partly overwritten.
+    pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
         let (meta, rest): (ExecutiveMeta, _) = postcard::take_from_bytes(payload).ok()?;
         let rest = decode_network(&mut self.network, rest)?;
-        let (executive, rest) = postcard::take_from_bytes(rest).ok()?;
-        let (states, rest) = postcard::take_from_bytes(rest).ok()?;
+        let rest = in_place::take_in_place(rest, ExecutiveInPlace(&mut self.control.executive))?;
+        let rest = in_place::take_in_place(rest, StateTableInPlace(&mut self.control.states))?;
         let (to_planner, rest) = postcard::take_from_bytes(rest).ok()?;
         let (from_planner, rest) = postcard::take_from_bytes(rest).ok()?;
         if !rest.is_empty() {
             return None;
         }
-        self.control.executive = executive;
-        self.control.states = states;
+        checkpoint::check_executive_restored(
+            meta.loaded,
+            meta.now,
+            &self.network,
+            &self.control.executive,
+            &self.control.states,
+        )
+        .ok()?;
+        // The image streamed to the planner, again from the network.
+        self.image_len = self.network.encode(&mut self.image).ok()?;
         self.control.state_type_mismatches = meta.state_type_mismatches;
         self.control.last_state_type_mismatch = meta.last_state_type_mismatch;
         self.to_planner = to_planner;
         self.from_planner = from_planner;
         self.loaded = meta.loaded;
         self.now = meta.now;
+        self.frame = meta.frame;
+        self.generation = meta.generation;
+        self.transfer = meta.transfer;
+        self.stats = meta.stats;
         Some(())
     }
 }
@@ -511,34 +990,49 @@ pub struct PlannerPartition {
     planner: Planner,
     now: MissionTimeUs,
     loaded: bool,
-    to_executive: Outbox<ToExecutive, MAX_TO_EXECUTIVE_IN_FLIGHT>,
+    /// Generation of the loaded network.
+    generation: u32,
+    /// The frame to plan for (received, not planned yet).
+    frame: Option<(u32, MissionTimeUs)>,
+    /// A network image being received: (generation, length, bytes so far); the bytes are in
+    /// `image`.
+    assembly: Option<(u32, u32, u32)>,
+    image: [u8; MAX_NETWORK_IMAGE],
+    to_executive: Outbox<ExecutiveInput, MAX_TO_EXECUTIVE_IN_FLIGHT>,
     from_executive: Inbox,
     resume: bool,
+    /// Network images refused (bad CRC, bad length, failed validation).
+    pub refused_networks: u32,
 }
 
 #[derive(Serialize, Deserialize)]
 struct PlannerMeta {
     loaded: bool,
     now: MissionTimeUs,
-}
-
-/// What one planner window did.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct PlannerWindow {
-    /// Validity checks spent.
-    pub checks: u32,
-    /// The cycle stopped on the window's budget: it resumes in the next window.
-    pub pending: bool,
-    /// A cycle ended in this window this long after the window that started it (mission
-    /// time, µs).
-    pub cycle_latency_us: Option<u64>,
-    /// Commits sent in this window.
-    pub commits: u32,
+    generation: u32,
+    frame: Option<(u32, MissionTimeUs)>,
+    assembly: Option<(u32, u32, u32)>,
+    refused_networks: u32,
 }
 
 impl Default for PlannerPartition {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+/// Sends the planner's decisions to the executive through the channel.
+struct Forward<'a> {
+    outbox: &'a mut Outbox<ExecutiveInput, MAX_TO_EXECUTIVE_IN_FLIGHT>,
+}
+
+impl Outputs for Forward<'_> {
+    fn dispatch(&mut self, _id: u32, _opcode: Opcode, _args: &CommandArgs) {
+        // The planner dispatches nothing; only the executive commands subsystems.
+    }
+
+    fn telemetry(&mut self, event: TelemetryEvent) {
+        self.outbox.push(ExecutiveInput::Telemetry(event));
     }
 }
 
@@ -549,22 +1043,56 @@ impl PlannerPartition {
             planner: Planner::new(),
             now: MissionTimeUs::ZERO,
             loaded: false,
+            generation: 0,
+            frame: None,
+            assembly: None,
+            image: [0; MAX_NETWORK_IMAGE],
             to_executive: Outbox::new(),
-            from_executive: Inbox {
-                received: 0,
-                acknowledged: 0,
-                duplicates: 0,
-                out_of_order: 0,
-            },
-            resume: false,
+            from_executive: EMPTY_INBOX,
+            resume: true,
+            refused_networks: 0,
         }
+    }
+
+    /// Makes this side what [`PlannerPartition::new`] is, in place.
+    pub fn reset(&mut self) {
+        self.network.clear();
+        self.planner.reset();
+        self.now = MissionTimeUs::ZERO;
+        self.loaded = false;
+        self.generation = 0;
+        self.frame = None;
+        self.assembly = None;
+        self.to_executive = Outbox::new();
+        self.from_executive = EMPTY_INBOX;
+        self.resume = true;
+        self.refused_networks = 0;
     }
 
     pub fn planner(&self) -> &Planner {
         &self.planner
     }
 
-    pub fn to_executive(&self) -> &Outbox<ToExecutive, MAX_TO_EXECUTIVE_IN_FLIGHT> {
+    /// Whether a network is loaded.
+    pub fn loaded(&self) -> bool {
+        self.loaded
+    }
+
+    /// Whether the executive's frame has come and the window has not run yet.
+    pub fn frame_pending(&self) -> bool {
+        self.frame.is_some()
+    }
+
+    /// Whether the channel holds messages for the executive not sent yet.
+    pub fn unsent(&self) -> usize {
+        self.to_executive.unsent()
+    }
+
+    pub fn network(&self) -> &TaskNetwork {
+        &self.network
+    }
+
+    pub fn to_executive(&self) -> &Outbox<ExecutiveInput, MAX_TO_EXECUTIVE_IN_FLIGHT> {
         &self.to_executive
     }
 
@@ -572,74 +1100,144 @@ impl PlannerPartition {
         &self.from_executive
     }
 
-    /// Loads the network (the executive partition loads the same one).
-    pub fn load_network(&mut self, network: &TaskNetwork) {
-        self.network = network.clone();
-        self.planner.load(&self.network);
-        self.loaded = true;
-    }
-
     /// Takes what the executive partition sent.
-    pub fn receive(&mut self, wire: Wire<ToPlanner>) {
+    pub fn receive(&mut self, wire: Wire<PlannerInput>) {
         match wire {
             Wire::Message { seq, message } => {
                 if self.from_executive.accept(seq) {
-                    self.planner.receive(message);
+                    self.apply(message);
                 }
             }
             Wire::Ack { upto } => self.to_executive.on_ack(upto),
-            Wire::Resume { received } => self.to_executive.on_resume(received),
+            Wire::Resume { received } => {
+                // What the planner sent before is void for an executive that lost it; the
+                // executive brings the planner up to date (see
+                // `ExecutivePartition::resynchronise`).
+                let _ = self.to_executive.on_resume(received);
+            }
+            Wire::Rebase { next } => {
+                self.from_executive.rebase(next);
+                // What comes next is a new network: the old plan is void.
+                self.loaded = false;
+                self.planner.reset();
+            }
         }
     }
 
-    /// The planner's window at `now`: planning within `budget` validity checks, then commits
-    /// (no more than the port's log has room for).
-    pub fn window(
-        &mut self,
-        now: MissionTimeUs,
-        budget: u32,
-        out: &mut impl Outputs,
-    ) -> PlannerWindow {
+    fn apply(&mut self, message: PlannerInput) {
+        match message {
+            PlannerInput::Core(m) => {
+                if self.loaded {
+                    self.planner.receive(m);
+                }
+            }
+            PlannerInput::Frame { frame, now } => self.frame = Some((frame, now)),
+            PlannerInput::NetworkBegin { generation, len } => {
+                // The plan of the old network is void from here.
+                self.loaded = false;
+                self.planner.reset();
+                self.network.clear();
+                self.assembly = (len as usize <= MAX_NETWORK_IMAGE).then_some((generation, len, 0));
+                if self.assembly.is_none() {
+                    self.refused_networks = self.refused_networks.saturating_add(1);
+                }
+            }
+            PlannerInput::NetworkChunk { offset, bytes } => {
+                let Some((generation, len, got)) = self.assembly else {
+                    return;
+                };
+                let end = offset as usize + bytes.len();
+                match self.image.get_mut(offset as usize..end) {
+                    Some(dst) if offset == got && end <= len as usize => {
+                        dst.copy_from_slice(&bytes);
+                        self.assembly = Some((generation, len, end as u32));
+                    }
+                    _ => {
+                        self.assembly = None;
+                        self.refused_networks = self.refused_networks.saturating_add(1);
+                    }
+                }
+            }
+            PlannerInput::NetworkEnd { generation, crc } => {
+                let Some((g, len, got)) = self.assembly.take() else {
+                    return;
+                };
+                let image = self.image.get(..len as usize).unwrap_or(&[]);
+                let whole = g == generation && got == len && CRC32.checksum(image) == crc;
+                if whole && uplink::decode_then_validate(&mut self.network, image).is_ok() {
+                    self.planner.load(&self.network);
+                    self.generation = generation;
+                    self.loaded = true;
+                } else {
+                    self.network.clear();
+                    self.refused_networks = self.refused_networks.saturating_add(1);
+                }
+            }
+        }
+    }
+
+    /// The planner's window: if the executive's frame has come, planning within `budget`
+    /// validity checks at the frame's time, then the commits (no more than the channel's log
+    /// has room for), then the status. The planner's decisions go to the executive.
+    pub fn window(&mut self, budget: u32) -> Option<PlannerStatus> {
+        let (frame, now) = self.frame.take()?;
         let now = MissionTimeUs(now.0.min(MAX_MISSION_TIME_US));
         self.now = now;
-        if !self.loaded {
-            return PlannerWindow::default();
-        }
-        let Self {
-            network,
-            planner,
-            to_executive,
-            ..
-        } = self;
-        let mut commits = 0u32;
-        let mut refused: Vec<u16, MAX_COMMITTED> = Vec::new();
-        let report = planner.step(
-            network,
-            now,
-            budget,
-            &mut |c| {
-                if to_executive.push(ToExecutive::Commit(c)) {
-                    commits += 1;
+        let mut status = PlannerStatus {
+            frame,
+            ..PlannerStatus::default()
+        };
+        if self.loaded {
+            let Self {
+                network,
+                planner,
+                to_executive,
+                generation,
+                ..
+            } = self;
+            let mut commits: Vec<Commit, MAX_COMMITTED> = Vec::new();
+            let mut refused: Vec<u16, MAX_COMMITTED> = Vec::new();
+            let report = planner.step(
+                network,
+                now,
+                budget,
+                &mut |c| {
+                    if commits.push(c).is_err() {
+                        let _ = refused.push(c.instance);
+                    }
+                },
+                &mut Forward {
+                    outbox: to_executive,
+                },
+            );
+            // Room for the status is kept.
+            for c in commits {
+                if to_executive.room() > 1
+                    && to_executive.push(ExecutiveInput::Commit {
+                        generation: *generation,
+                        commit: c,
+                    })
+                {
+                    status.commits += 1;
                 } else {
                     let _ = refused.push(c.instance);
                 }
-            },
-            out,
-        );
-        for instance in refused {
-            planner.on_returned(instance);
+            }
+            for instance in refused {
+                planner.on_returned(instance);
+            }
+            status.pending = report.work_pending;
+            status.cycle_latency_us = report.cycle_latency_us;
+            status.checks = report.checks;
+            status.next_wakeup = planner.next_wakeup(network, now);
         }
-        PlannerWindow {
-            checks: report.checks,
-            pending: report.work_pending,
-            cycle_latency_us: report.cycle_latency_us,
-            commits,
-        }
+        self.to_executive.push(ExecutiveInput::Status(status));
+        Some(status)
     }
 
     /// After this side's checkpoint: a `Resume` after a restore, the acknowledgement, then
-    /// the commits not sent yet, until `send` refuses one.
-    pub fn transmit(&mut self, send: &mut impl FnMut(Wire<ToExecutive>) -> bool) {
+    /// what was not sent yet, until `send` refuses one.
+    pub fn transmit(&mut self, send: &mut impl FnMut(Wire<ExecutiveInput>) -> bool) {
         if self.resume {
             if !send(Wire::Resume {
                 received: self.from_executive.received,
@@ -654,26 +1252,23 @@ impl PlannerPartition {
         self.to_executive.transmit(send);
     }
 
-    /// Whether a cycle is in progress or inputs wait.
-    pub fn work_pending(&self) -> bool {
-        self.loaded && self.planner.work_pending()
-    }
-
-    /// When the planner needs to run next.
-    pub fn next_wakeup(&self) -> Option<MissionTimeUs> {
-        if !self.loaded {
-            return None;
-        }
-        self.planner.next_wakeup(&self.network, self.now)
-    }
-
-    /// Encodes this side's whole state (the checkpoint payload).
+    /// Encodes this side's whole state (the checkpoint payload): with a network image in
+    /// progress, the part received so far.
     pub fn encode_state(&self, buf: &mut [u8]) -> Option<usize> {
         let meta = PlannerMeta {
             loaded: self.loaded,
             now: self.now,
+            generation: self.generation,
+            frame: self.frame,
+            assembly: self.assembly,
+            refused_networks: self.refused_networks,
         };
         let mut len = postcard::to_slice(&meta, buf).ok()?.len();
+        if let Some((_, _, got)) = self.assembly {
+            let part = self.image.get(..got as usize)?;
+            buf.get_mut(len..len + part.len())?.copy_from_slice(part);
+            len += part.len();
+        }
         len += encode_network(&self.network, buf.get_mut(len..)?)?;
         len += postcard::to_slice(&self.planner, buf.get_mut(len..)?)
             .ok()?
@@ -687,43 +1282,89 @@ impl PlannerPartition {
         Some(len)
     }
 
-    /// Writes this side's checkpoint into its own area.
-    pub fn checkpoint_to(
-        &self,
-        area: &mut WarmRestartArea<'_>,
-    ) -> Result<WrittenRecord, CheckpointError> {
-        area.write_record(|buf| self.encode_state(buf))
+    /// This side's checkpoint now holds its whole state: see
+    /// [`ExecutivePartition::checkpointed`].
+    pub fn checkpointed(&mut self) {
+        self.to_executive.checkpointed();
+        self.from_executive.checkpointed();
     }
 
-    /// Restores this side from the newest whole record of its area; every commit not
+    /// Writes this side's checkpoint into its own area (and, written, marks what it holds:
+    /// see [`PlannerPartition::checkpointed`]).
+    pub fn checkpoint_to(
+        &mut self,
+        area: &mut WarmRestartArea<'_>,
+    ) -> Result<WrittenRecord, CheckpointError> {
+        let written = area.write_record(|buf| self.encode_state(buf))?;
+        self.checkpointed();
+        Ok(written)
+    }
+
+    /// Restores this side from the newest whole record of its area; every message not
     /// acknowledged goes again, the executive hears what we have applied, and a new cycle
     /// starts (the state may have changed while the target was down).
     pub fn restore_from(&mut self, area: &WarmRestartArea<'_>) -> Result<u32, SideRestoreError> {
-        let (_, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
+        let (slot, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
+        self.restore_record(Record {
+            slot,
+            sequence,
+            payload,
+        })
+        .map(|info| info.sequence)
+    }
+
+    /// As [`PlannerPartition::restore_from`], from one record the caller found whole (its CRC
+    /// is not checked again). On error this side is a cold, empty one.
+    pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
+        let Record {
+            slot,
+            sequence,
+            payload,
+        } = record;
         if self.decode_state(payload).is_none() {
-            *self = Self::new();
+            self.reset();
             return Err(SideRestoreError::BadPayload);
         }
         self.planner.after_restore();
         self.to_executive.after_restore();
+        self.from_executive.checkpointed();
         self.resume = true;
-        Ok(sequence)
+        Ok(RestoreInfo {
+            slot,
+            sequence,
+            payload_len: u32::try_from(payload.len()).unwrap_or(u32::MAX),
+        })
     }
 
-    fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
-        let (meta, rest): (PlannerMeta, _) = postcard::take_from_bytes(payload).ok()?;
+    /// Replaces the state with one [`PlannerPartition::encode_state`] wrote, checked as a
+    /// restored checkpoint is (no restart adjustments). None when refused.
+    pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
+        let (meta, mut rest): (PlannerMeta, _) = postcard::take_from_bytes(payload).ok()?;
+        if let Some((_, len, got)) = meta.assembly {
+            if got > len || len as usize > MAX_NETWORK_IMAGE {
+                return None;
+            }
+            let part = rest.get(..got as usize)?;
+            self.image.get_mut(..part.len())?.copy_from_slice(part);
+            rest = rest.get(got as usize..)?;
+        }
         let rest = decode_network(&mut self.network, rest)?;
-        let (planner, rest) = postcard::take_from_bytes(rest).ok()?;
+        let rest = in_place::take_in_place(rest, PlannerInPlace(&mut self.planner))?;
         let (to_executive, rest) = postcard::take_from_bytes(rest).ok()?;
         let (from_executive, rest) = postcard::take_from_bytes(rest).ok()?;
         if !rest.is_empty() {
             return None;
         }
-        self.planner = planner;
+        checkpoint::check_planner_restored(meta.loaded, meta.now, &self.network, &self.planner)
+            .ok()?;
         self.to_executive = to_executive;
         self.from_executive = from_executive;
         self.loaded = meta.loaded;
         self.now = meta.now;
+        self.generation = meta.generation;
+        self.frame = meta.frame;
+        self.assembly = meta.assembly;
+        self.refused_networks = meta.refused_networks;
         Some(())
     }
 }
@@ -748,12 +1389,11 @@ fn decode_network<'a>(network: &mut TaskNetwork, bytes: &'a [u8]) -> Option<&'a 
 /// What one frame of the two partitions did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Frame {
-    /// When the host must grant next (if no input arrives first): one major frame on while
-    /// the planner has work pending or a message waits to be sent, else the earliest need of
-    /// either side.
+    /// When the host must grant next (if no input arrives first): see
+    /// [`ExecutivePartition::next_wakeup`].
     pub next_wakeup: Option<MissionTimeUs>,
     /// The planner's window.
-    pub planner: PlannerWindow,
+    pub planner: PlannerStatus,
 }
 
 /// Which partition a checkpoint belongs to.
@@ -794,8 +1434,9 @@ impl Point {
 
 /// Where a frame's checkpoints go, and whether it goes on at each [`Point`].
 pub trait FrameEnv {
-    /// Write `side`'s checkpoint (`executive` or `planner`, whichever `side` names). False:
-    /// the write did not complete (a reset tore it); the frame stops there.
+    /// Write `side`'s checkpoint (`executive` or `planner`, whichever `side` names: its
+    /// `encode_state`). False: the write did not complete (a reset tore it); the frame stops
+    /// there. True: [`run_frame`] marks the side checkpointed.
     fn checkpoint(
         &mut self,
         side: Side,
@@ -813,70 +1454,66 @@ pub trait FrameEnv {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Interrupted(pub Point);
 
-/// Runs one major frame of both partitions at `now` with `planner_budget` validity checks for
+/// Runs frame `frame` of both partitions at `now` with `planner_budget` validity checks for
 /// the planner's window, handing the ports' messages over as the kernel does (what a window
 /// sends is in the port at the start of the other side's next window; a port never refuses
-/// here: the outboxes are the bound). The decisions go to `out` in the order the windows run.
-/// Each window ends with its side's checkpoint, then its transmission.
+/// here: the outboxes are the bound). The decisions go to `out` in the order the windows run
+/// (the planner's at the start of the executive's second window). Each window ends with its
+/// side's checkpoint, then its transmission.
 pub fn run_frame(
     executive: &mut ExecutivePartition,
     planner: &mut PlannerPartition,
+    frame: u32,
     now: MissionTimeUs,
     planner_budget: u32,
     out: &mut impl Outputs,
     env: &mut impl FrameEnv,
 ) -> Result<Frame, Interrupted> {
-    let step = |env: &mut dyn FnMut(Point) -> bool, point| {
+    let go = |env: &mut dyn FnMut(Point) -> bool, point| {
         if env(point) {
             Ok(())
         } else {
             Err(Interrupted(point))
         }
     };
-    executive.first_window(now, out);
-    step(&mut |p| env.proceed(p), Point::ExecutiveFirstWindow)?;
+    executive.first_window(frame, now, out);
+    go(&mut |p| env.proceed(p), Point::ExecutiveFirstWindow)?;
     if !env.checkpoint(Side::Executive, executive, planner) {
         return Err(Interrupted(Point::ExecutiveFirstWindow));
     }
-    step(&mut |p| env.proceed(p), Point::ExecutiveFirstCheckpoint)?;
+    executive.checkpointed();
+    go(&mut |p| env.proceed(p), Point::ExecutiveFirstCheckpoint)?;
     executive.transmit(&mut |w| {
         planner.receive(w);
         true
     });
-    step(&mut |p| env.proceed(p), Point::ExecutiveFirstSent)?;
-    let window = planner.window(now, planner_budget, out);
-    step(&mut |p| env.proceed(p), Point::PlannerWindow)?;
+    go(&mut |p| env.proceed(p), Point::ExecutiveFirstSent)?;
+    let status = planner.window(planner_budget).unwrap_or_default();
+    go(&mut |p| env.proceed(p), Point::PlannerWindow)?;
     if !env.checkpoint(Side::Planner, executive, planner) {
         return Err(Interrupted(Point::PlannerWindow));
     }
-    step(&mut |p| env.proceed(p), Point::PlannerCheckpoint)?;
+    planner.checkpointed();
+    go(&mut |p| env.proceed(p), Point::PlannerCheckpoint)?;
     planner.transmit(&mut |w| {
         executive.receive(w);
         true
     });
-    step(&mut |p| env.proceed(p), Point::PlannerSent)?;
+    go(&mut |p| env.proceed(p), Point::PlannerSent)?;
     executive.second_window(out);
-    step(&mut |p| env.proceed(p), Point::ExecutiveSecondWindow)?;
+    go(&mut |p| env.proceed(p), Point::ExecutiveSecondWindow)?;
     if !env.checkpoint(Side::Executive, executive, planner) {
         return Err(Interrupted(Point::ExecutiveSecondWindow));
     }
-    step(&mut |p| env.proceed(p), Point::ExecutiveSecondCheckpoint)?;
+    executive.checkpointed();
+    go(&mut |p| env.proceed(p), Point::ExecutiveSecondCheckpoint)?;
     executive.transmit(&mut |w| {
         planner.receive(w);
         true
     });
-    step(&mut |p| env.proceed(p), Point::ExecutiveSecondSent)?;
-    let waiting = executive.to_planner.unsent() > 0 || planner.to_executive.unsent() > 0;
-    let next_wakeup = if window.pending || waiting {
-        Some(MissionTimeUs(now.0.saturating_add(MAJOR_FRAME_US)))
-    } else {
-        [executive.next_wakeup(), planner.next_wakeup()]
-            .into_iter()
-            .flatten()
-            .min()
-    };
+    go(&mut |p| env.proceed(p), Point::ExecutiveSecondSent)?;
     Ok(Frame {
-        next_wakeup,
-        planner: window,
+        next_wakeup: executive.next_wakeup(),
+        planner: status,
     })
 }

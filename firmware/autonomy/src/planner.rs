@@ -29,8 +29,8 @@ use crate::model::*;
 use crate::plan::{Origin, PlanEntry};
 use crate::telemetry::{gave_up_code, FailureKind, PlanModificationKind, TaskState};
 use crate::timeline::{
-    consolidate, constraint_holds, constraint_span, shift, Anchors, Candidate, Measurement,
-    PlanEvents, PlanView, TimelineAnchor,
+    consolidate, constraint_holds, constraint_span, shift, Anchors, Candidate, CandidateEvents,
+    Measurement, PlanEvents, PlanView, TimelineAnchor,
 };
 use fsw_bridge::{MissionTimeUs, TelemetryEvent};
 
@@ -1257,7 +1257,7 @@ impl Planner {
     /// Sorts the candidates and drops repeats.
     fn sort_candidates(&mut self) {
         let candidates = &mut self.scratch.candidates;
-        candidates.sort_unstable();
+        heapsort(candidates);
         let mut w = 0usize;
         for r in 0..candidates.len() {
             let (Some(&v), prev) = (
@@ -1828,6 +1828,38 @@ impl Planner {
     }
 }
 
+/// Sorts `v` in increasing order (heapsort). The library's `sort_unstable` of `u64` is about
+/// 8.7 KiB of code (its small-slice sorting networks), all of it in the RAM image that the
+/// reset stub checks at every warm boot; this is a few hundred bytes, and the candidates are
+/// sorted only when a search goes past the first few found by [`next_candidate`]. Sorted
+/// values are the same whatever the algorithm.
+fn heapsort(v: &mut [u64]) {
+    fn sift_down(v: &mut [u64], mut root: usize, end: usize) {
+        loop {
+            let mut child = 2 * root + 1;
+            if child >= end {
+                return;
+            }
+            if child + 1 < end && v.get(child) < v.get(child + 1) {
+                child += 1;
+            }
+            if v.get(root) >= v.get(child) {
+                return;
+            }
+            v.swap(root, child);
+            root = child;
+        }
+    }
+    let n = v.len();
+    for start in (0..n / 2).rev() {
+        sift_down(v, start, n);
+    }
+    for end in (1..n).rev() {
+        v.swap(0, end);
+        sift_down(v, 0, end);
+    }
+}
+
 /// The smallest candidate after `tried` (the first if None): taking these in turn gives the
 /// candidates in the order [`Planner::sort_candidates`] leaves them.
 fn next_candidate(candidates: &[u64], tried: Option<u64>) -> Option<u64> {
@@ -1884,7 +1916,10 @@ pub fn placement_valid_with_events(
     if let Some(events) = events {
         base = base.with_events(events);
     }
-    let with = base.with(x);
+    // The candidate's events, generated once for the many values asked below.
+    let mut candidate_events = CandidateEvents::none();
+    candidate_events.fill(network, x);
+    let with = base.with_candidate(&candidate_events);
     for c in &spec.constraints {
         if !constraint_holds(&with, x.instance, c, start, end, now) {
             return false;
@@ -1909,6 +1944,13 @@ pub fn placement_valid_with_events(
                     return false;
                 }
             }
+        }
+        // A state timeline (or none) has no bounds of its own: within them at every instant.
+        if matches!(
+            network.timeline(tl).map(|t| t.kind),
+            None | Some(TimelineKind::State { .. })
+        ) {
+            continue;
         }
         let mut first = None::<MissionTimeUs>;
         crate::timeline::impact_events(spec, x.instance, x.contribution(), tl, &mut |e| {
@@ -2092,6 +2134,17 @@ mod tests {
             sorted.sort_unstable();
             sorted.dedup();
             prop_assert_eq!(order, sorted);
+        }
+
+        #[test]
+        fn the_heapsort_sorts_as_the_library_does(
+            values in proptest::collection::vec(any::<u64>(), 0..MAX_CANDIDATES),
+        ) {
+            let mut ours = values.clone();
+            heapsort(&mut ours);
+            let mut sorted = values;
+            sorted.sort_unstable();
+            prop_assert_eq!(ours, sorted);
         }
     }
 }

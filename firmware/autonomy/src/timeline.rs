@@ -88,8 +88,12 @@ impl Event {
     }
 }
 
+// A timeline's bit in a `u64` (see `PlanEvents::build`).
+const _: () = assert!(MAX_TIMELINES <= 64);
+
 /// Most events a [`PlanEvents`] table holds (1024 events of 32 bytes, 32 KiB: two per plan
-/// entry at [`MAX_PLAN_ENTRIES`]; the table was 128 events when a plan held 48 entries). A plan with more (at most
+/// entry at [`MAX_PLAN_ENTRIES`]; the table was 128 events when a plan held 48 entries). A
+/// plan with more (at most
 /// `MAX_PLAN_ENTRIES * MAX_IMPACTS_PER_TASK * 2`) is answered without the table, as fast as
 /// before it existed; the flyby plans have a few dozen. Only `build` fills it and only the
 /// events listed are read, so its size costs RAM, not time.
@@ -156,12 +160,38 @@ impl PlanEvents {
         else {
             return;
         };
+        // Each entry's impacted timelines (a bit per timeline), found once rather than once
+        // per timeline (an entry that impacts none is left out); its contribution and
+        // definition are looked up again only for the timelines it impacts. An entry's index
+        // and mask, not its contribution and definition too: at MAX_PLAN_ENTRIES this list is
+        // on the stack (8 KiB on the target). More entries than a plan holds: no table.
+        let mut impacting: Vec<(u16, u64), MAX_PLAN_ENTRIES> = Vec::new();
+        for (i, e) in entries.iter().enumerate() {
+            if let (Some(_), Some(spec)) = (e.contribution(), network.task(e.def)) {
+                let mask = spec.impacts.iter().fold(0u64, |m, i| {
+                    m | 1u64.checked_shl(u32::from(i.timeline)).unwrap_or(0)
+                });
+                let Ok(index) = u16::try_from(i) else {
+                    return;
+                };
+                if mask != 0 && impacting.push((index, mask)).is_err() {
+                    return;
+                }
+            }
+        }
         let mut fits = true;
         for t in 0..timelines {
             if let Some(slot) = self.first.get_mut(t) {
                 *slot = self.events.len() as u16;
             }
-            for e in entries {
+            let bit = 1u64 << t;
+            for &(i, mask) in &impacting {
+                if mask & bit == 0 {
+                    continue;
+                }
+                let Some(e) = entries.get(usize::from(i)) else {
+                    continue;
+                };
                 if let (Some(c), Some(spec)) = (e.contribution(), network.task(e.def)) {
                     impact_events(spec, e.instance, c, t as u8, &mut |ev| {
                         fits &= self.events.push(ev).is_ok();
@@ -247,6 +277,57 @@ pub fn impact_events(
     }
 }
 
+/// The events of one hypothetical placement ([`Candidate`]) on every timeline, generated once:
+/// a placement check asks for the candidate's events in every value it computes (two scans per
+/// value, a value per event of the timeline), and generating them (offsets, signs, 64-bit
+/// arithmetic) cost about a tenth of a reset's recovery. A view given them (see
+/// [`PlanView::with_candidate`]) reads them from here, in the order
+/// [`impact_events`] generates them.
+#[derive(Clone, Debug)]
+pub struct CandidateEvents {
+    candidate: Candidate,
+    /// (timeline, event), each timeline's events in [`impact_events`]'s order.
+    events: Vec<(u8, Event), { 2 * MAX_IMPACTS_PER_TASK }>,
+}
+
+impl CandidateEvents {
+    /// No candidate yet ([`CandidateEvents::fill`] gives it one): a view given this generates
+    /// the events of its candidate.
+    pub const fn none() -> Self {
+        Self {
+            candidate: Candidate {
+                instance: 0,
+                def: u8::MAX,
+                start: MissionTimeUs::MAX,
+                end: MissionTimeUs::ZERO,
+            },
+            events: Vec::new(),
+        }
+    }
+
+    /// Lists the events of `c` (none if its definition is not in `network`, as a view
+    /// generates none for it either). Filled in place: the list is a few hundred bytes that
+    /// a returned value would copy.
+    pub fn fill(&mut self, network: &TaskNetwork, c: Candidate) {
+        self.candidate = c;
+        self.events.clear();
+        let Some(spec) = network.task(c.def) else {
+            return;
+        };
+        let events = &mut self.events;
+        for (n, impact) in spec.impacts.iter().enumerate() {
+            let tl = impact.timeline;
+            if spec.impacts.iter().take(n).any(|i| i.timeline == tl) {
+                continue;
+            }
+            impact_events(spec, c.instance, c.contribution(), tl, &mut |e| {
+                // At most two events per impact: always room.
+                let _ = events.push((tl, e));
+            });
+        }
+    }
+}
+
 /// A hypothetical placement of one instance (the one being scheduled).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Candidate {
@@ -277,6 +358,9 @@ pub struct PlanView<'a> {
     pub extra: Option<Candidate>,
     /// The entries' events listed once (built from `entries`), or None to generate them.
     pub events: Option<&'a PlanEvents>,
+    /// The events of `extra` generated once, or None to generate them (used only while they
+    /// are the events of `extra`).
+    pub extra_events: Option<&'a CandidateEvents>,
 }
 
 impl<'a> PlanView<'a> {
@@ -292,6 +376,7 @@ impl<'a> PlanView<'a> {
             exclude: [None, None],
             extra: None,
             events: None,
+            extra_events: None,
         }
     }
 
@@ -318,6 +403,15 @@ impl<'a> PlanView<'a> {
         self
     }
 
+    /// This view with the hypothetical placement whose events `events` lists (filled by
+    /// [`CandidateEvents::fill`] from this view's `network`). Answers are the same as with
+    /// [`PlanView::with`] of its candidate.
+    pub fn with_candidate(mut self, events: &'a CandidateEvents) -> Self {
+        self.extra = Some(events.candidate);
+        self.extra_events = Some(events);
+        self
+    }
+
     /// Calls `f` for every event on `timeline`, in no particular order.
     pub fn for_each_event(&self, timeline: u8, mut f: impl FnMut(Event)) {
         if let Some(events) = self
@@ -340,8 +434,19 @@ impl<'a> PlanView<'a> {
             }
         }
         if let Some(x) = self.extra {
-            if let Some(spec) = self.network.task(x.def) {
-                impact_events(spec, x.instance, x.contribution(), timeline, &mut f);
+            match self.extra_events.filter(|pre| pre.candidate == x) {
+                Some(pre) => {
+                    for &(tl, e) in &pre.events {
+                        if tl == timeline {
+                            f(e);
+                        }
+                    }
+                }
+                None => {
+                    if let Some(spec) = self.network.task(x.def) {
+                        impact_events(spec, x.instance, x.contribution(), timeline, &mut f);
+                    }
+                }
             }
         }
     }
@@ -378,6 +483,7 @@ impl<'a> PlanView<'a> {
         let passes = |e: &Event| e.at <= t && filter_at.is_none_or(|m| e.at > m);
         let mut last_assign: Option<(MissionTimeUs, u32, i64)> = None;
         let mut adds: Option<i64> = Some(0);
+        let mut added = false;
         let mut rates = false;
         self.for_each_event(timeline, |e| match e.kind {
             EventKind::Assign(v) => {
@@ -387,6 +493,7 @@ impl<'a> PlanView<'a> {
             }
             EventKind::Add(d) => {
                 if passes(&e) {
+                    added = true;
                     adds = adds.and_then(|sum| sum.checked_add(d));
                 }
             }
@@ -399,13 +506,17 @@ impl<'a> PlanView<'a> {
             base_value = v;
             let after = (at, seq);
             adds = Some(0);
-            self.for_each_event(timeline, |e| {
-                if let EventKind::Add(d) = e.kind {
-                    if passes(&e) && e.key() > after {
-                        adds = adds.and_then(|sum| sum.checked_add(d));
+            // The additions after the last assignment are among those the first pass saw
+            // (a state timeline has none: no second pass).
+            if added {
+                self.for_each_event(timeline, |e| {
+                    if let EventKind::Add(d) = e.kind {
+                        if passes(&e) && e.key() > after {
+                            adds = adds.and_then(|sum| sum.checked_add(d));
+                        }
                     }
-                }
-            });
+                });
+            }
         }
         if base_value == VALUE_UNKNOWN {
             return VALUE_UNKNOWN;
@@ -575,15 +686,16 @@ impl<'a> PlanView<'a> {
 
     /// Whether the timeline stays within its own bounds (cumulative min/max, claim count 0..=1)
     /// at `t`.
+    /// A state timeline has no bounds of its own: true without computing its value.
     pub fn within_bounds_at(&self, timeline: u8, t: MissionTimeUs) -> bool {
         let Some(spec) = self.network.timeline(timeline) else {
             return true;
         };
-        let v = self.value_at(timeline, t);
         match spec.kind {
             TimelineKind::State { .. } => true,
-            TimelineKind::Claimable => (0..=1).contains(&v),
+            TimelineKind::Claimable => (0..=1).contains(&self.value_at(timeline, t)),
             TimelineKind::Cumulative { min, max, .. } => {
+                let v = self.value_at(timeline, t);
                 v == VALUE_UNKNOWN || (min..=max).contains(&v)
             }
         }

@@ -44,8 +44,8 @@ impl FrameEnv for Env<'_> {
         let write = |bytes: &mut [u8]| {
             let mut area = WarmRestartArea::new(bytes);
             match side {
-                Side::Executive => executive.checkpoint_to(&mut area),
-                Side::Planner => planner.checkpoint_to(&mut area),
+                Side::Executive => area.write_record(|buf| executive.encode_state(buf)),
+                Side::Planner => area.write_record(|buf| planner.encode_state(buf)),
             }
             .expect("checkpoint fits")
         };
@@ -91,19 +91,28 @@ struct PairSim {
     /// (planner's view, executive's tasks) after every planner transmission that was followed
     /// by the executive's second window.
     views: Vec<(BTreeSet<u16>, BTreeSet<u16>)>,
+    /// At the next reset, the planner's warm-restart area is lost too.
+    lose_planner_area: bool,
 }
 
 impl PairSim {
     fn new(network: TaskNetwork, start: MissionTimeUs, budget: u32) -> Self {
         let mut executive = Box::new(ExecutivePartition::new());
-        let mut planner = Box::new(PlannerPartition::new());
-        planner.load_network(&network);
+        let planner = Box::new(PlannerPartition::new());
+        // The planner gets the network through the channel, from the first frame on; the
+        // executive checkpoints a network as soon as it has loaded it (as the flight
+        // application does).
         executive.load_network(&network).expect("loads");
+        let mut executive_area = vec![0u8; WARM_AREA_LEN];
+        executive
+            .checkpoint_to(&mut WarmRestartArea::new(&mut executive_area))
+            .expect("fits");
+        // (Marked checkpointed: what it pushed may go.)
         Self {
             executive,
             planner,
             sc: FakeSpacecraft::new(start),
-            executive_area: vec![0u8; WARM_AREA_LEN],
+            executive_area,
             planner_area: vec![0u8; WARM_AREA_LEN],
             out: Recorder::default(),
             budget,
@@ -114,6 +123,7 @@ impl PairSim {
             mid_frame: None,
             landed: None,
             views: Vec::new(),
+            lose_planner_area: false,
         }
     }
 
@@ -185,6 +195,7 @@ impl PairSim {
         let result = run_frame(
             &mut self.executive,
             &mut self.planner,
+            self.frames as u32 + 1,
             t,
             self.budget,
             &mut self.out,
@@ -255,13 +266,22 @@ impl PairSim {
         self.sc.reset(r.at);
         *self.executive = ExecutivePartition::new();
         *self.planner = PlannerPartition::new();
+        if std::mem::take(&mut self.lose_planner_area) {
+            self.planner_area.fill(0);
+        }
         let restart = r.at.saturating_add(r.recovery_us);
         self.executive
             .restore_from(&WarmRestartArea::new(&mut self.executive_area))
             .expect("the executive's whole checkpoint survives");
-        self.planner
+        // A planner that never checkpointed starts cold: nothing it received was acknowledged,
+        // so the executive sends it all again.
+        match self
+            .planner
             .restore_from(&WarmRestartArea::new(&mut self.planner_area))
-            .expect("the planner's whole checkpoint survives");
+        {
+            Ok(_) | Err(SideRestoreError::NoRecord) => {}
+            Err(e) => panic!("the planner's whole checkpoint does not restore: {e:?}"),
+        }
         self.sc.publish_all(&mut *self.executive);
         self.frame_at(restart);
     }
@@ -336,6 +356,14 @@ fn loaded_flyby(extra: u16) -> TaskNetwork {
         spec.tasks.push(t).unwrap();
     }
     TaskNetwork::from_spec(spec).expect("the loaded flyby validates")
+}
+
+/// The points followed by a checkpoint write, which a reset can tear.
+fn tearable(point: Point) -> bool {
+    matches!(
+        point,
+        Point::ExecutiveFirstWindow | Point::PlannerWindow | Point::ExecutiveSecondWindow
+    )
 }
 
 fn single(resets: &[Reset]) -> Vec<Decision> {
@@ -470,13 +498,7 @@ fn a_warm_reset_at_any_point_of_either_partition_restores_a_consistent_pair() {
     for &frame in frames.iter().step_by(2) {
         for point in Point::ALL {
             for torn in [false, true] {
-                let tearable = matches!(
-                    point,
-                    Point::ExecutiveFirstWindow
-                        | Point::PlannerWindow
-                        | Point::ExecutiveSecondWindow
-                );
-                if torn && !tearable {
+                if torn && !tearable(point) {
                     continue;
                 }
                 let mut sim = PairSim::flyby(u32::MAX);
@@ -522,4 +544,137 @@ fn a_warm_reset_at_any_point_of_either_partition_restores_a_consistent_pair() {
         "{runs} runs: {resent} messages sent again on a Resume, {duplicates} duplicates dropped"
     );
     assert!(duplicates > 0, "no duplicate was dropped in {runs} runs");
+}
+
+#[test]
+fn a_reset_while_the_network_streams_to_the_planner_loses_nothing() {
+    // The loaded flyby's image takes more than one frame's share of the channel.
+    let network = loaded_flyby(26);
+    let mut image = vec![0u8; MAX_NETWORK_IMAGE];
+    let len = network.encode(&mut image).unwrap();
+    assert!(
+        len > MAX_CHUNKS_PER_FRAME * NETWORK_CHUNK_BYTES,
+        "the image ({len} bytes) streams over several frames"
+    );
+    let mut runs = 0;
+    for frame in 0..3 {
+        for point in Point::ALL {
+            for torn in [false, true] {
+                if torn && !tearable(point) {
+                    continue;
+                }
+                let mut sim = PairSim::new(network.clone(), hm(9, 50), u32::MAX);
+                sim.mid_frame = Some(MidFrameReset {
+                    frame,
+                    point,
+                    torn,
+                    recovery_us: MIN,
+                });
+                sim.run(hm(12, 30), &[]);
+                let what = format!("frame {frame}, point {point:?}, torn {torn}");
+                assert!(sim.landed.is_some(), "{what}: the reset landed");
+                assert_eq!(
+                    sim.planner.network(),
+                    sim.executive.network(),
+                    "{what}: the planner has the executive's network"
+                );
+                assert_eq!(sim.planner.refused_networks, 0, "{what}");
+                for (planner, executive) in &sim.views {
+                    assert_eq!(planner, executive, "{what}");
+                }
+                let downlinks_done = sim
+                    .out
+                    .decisions
+                    .iter()
+                    .filter(|d| {
+                        matches!(d, Decision::Transition { task, to: TaskState::Completed, .. }
+                            if *task >= 100)
+                    })
+                    .count();
+                assert_eq!(downlinks_done, 26, "{what}: every downlink completes");
+                runs += 1;
+            }
+        }
+    }
+    assert_eq!(runs, 36);
+}
+
+#[test]
+fn a_commit_planned_for_another_network_is_dropped_and_counted() {
+    let mut executive = Box::new(ExecutivePartition::new());
+    executive.load_network(&flyby_network()).unwrap();
+    let commit = Commit {
+        instance: ID_GNC_NADIR,
+        def: 0,
+        start: hm(10, 0),
+        end: hm(10, 15),
+    };
+    executive.receive(Wire::Message {
+        seq: 1,
+        message: ExecutiveInput::Commit {
+            generation: 7,
+            commit,
+        },
+    });
+    assert_eq!(executive.stats.stale_commits, 1);
+    assert!(executive.control().executive().entries().is_empty());
+    executive.receive(Wire::Message {
+        seq: 2,
+        message: ExecutiveInput::Commit {
+            generation: 1,
+            commit,
+        },
+    });
+    assert_eq!(executive.control().executive().entries().len(), 1);
+    // A message sent again is applied once.
+    executive.receive(Wire::Message {
+        seq: 2,
+        message: ExecutiveInput::Commit {
+            generation: 1,
+            commit,
+        },
+    });
+    assert_eq!(executive.control().executive().entries().len(), 1);
+    assert_eq!(executive.from_planner().duplicates, 1);
+}
+
+#[test]
+fn an_image_larger_than_the_partitions_exchange_is_refused() {
+    let mut executive = Box::new(ExecutivePartition::new());
+    let mut image = vec![0u8; 4 * MAX_NETWORK_IMAGE];
+    let len = flyby_network().encode(&mut image).unwrap();
+    image.truncate(len);
+    assert!(executive.load_uplink(&image).is_ok());
+    let mut too_large = Box::new(ExecutivePartition::new());
+    let big = vec![0u8; MAX_NETWORK_IMAGE + 1];
+    assert!(matches!(
+        too_large.load_uplink(&big),
+        Err(LoadError::Invalid(_) | LoadError::TooLarge)
+    ));
+}
+
+#[test]
+fn a_planner_that_comes_up_without_its_checkpoint_is_sent_the_network_again() {
+    let mut sim = PairSim::flyby(u32::MAX);
+    sim.lose_planner_area = true;
+    sim.run(hm(11, 30), &early_reset());
+    assert_eq!(sim.executive.stats.resyncs, 1, "one resynchronisation");
+    assert_eq!(sim.planner.network(), sim.executive.network());
+    assert_eq!(sim.planner.refused_networks, 0);
+    // The planner plans afresh and the mission goes on: the turn to Earth still happens.
+    let earth_done = sim.out.decisions.iter().any(|d| {
+        matches!(d, Decision::Transition { task, to: TaskState::Completed, at, .. }
+            if *task == ID_GNC_EARTH && *at > hm(10, 30))
+    });
+    assert!(
+        earth_done,
+        "the mission goes on after the planner lost its state"
+    );
+    // Nothing planned for the lost state was executed: commits of the old generation were
+    // dropped, if any came.
+    let (planner, executive) = sim.views();
+    assert!(
+        planner.is_empty() && executive.is_empty(),
+        "idle at the end"
+    );
 }

@@ -2,11 +2,15 @@
 //! the planner's placement searches use) answers every timeline question exactly as the view
 //! that generates the events from the entries for each query (the original computation, kept
 //! as the oracle), on random plans: values, constraint checks over intervals, first violations,
-//! bounds, the events themselves in order, and whole placement checks. And the value's 64-bit
-//! path answers as the 128-bit computation, near the ends of the range too.
+//! bounds, the events themselves in order, and whole placement checks. The same for a view
+//! that reads its hypothetical placement's events from a [`CandidateEvents`] list (generated
+//! once per placement check) instead of generating them for every query. And the value's
+//! 64-bit path answers as the 128-bit computation, near the ends of the range too.
 use autonomy::plan::{Origin, PlanEntry};
 use autonomy::planner::{placement_valid, placement_valid_with_events};
-use autonomy::timeline::{Candidate, Event, Measurement, PlanEvents, PlanView, TimelineAnchor};
+use autonomy::timeline::{
+    Candidate, CandidateEvents, Event, Measurement, PlanEvents, PlanView, TimelineAnchor,
+};
 use autonomy::*;
 use proptest::prelude::*;
 
@@ -251,15 +255,34 @@ proptest! {
             });
         }
         let tabled = oracle.with_events(&table);
+        // The candidate's events listed once; and a list made for another candidate, which a
+        // view must not use.
+        let mut listed = CandidateEvents::none();
+        let mut stale = CandidateEvents::none();
+        let mut precomputed = tabled;
+        let mut with_stale = tabled;
+        if let Some(x) = oracle.extra {
+            listed.fill(&net, x);
+            precomputed = tabled.with_candidate(&listed);
+            stale.fill(&net, Candidate { start: MissionTimeUs(x.start.0 + 7), ..x });
+            with_stale = tabled.with_candidate(&stale).with(x);
+        }
         for timeline in 0..4u8 {
             prop_assert_eq!(events_of(&oracle, timeline), events_of(&tabled, timeline));
+            prop_assert_eq!(events_of(&oracle, timeline), events_of(&precomputed, timeline));
+            prop_assert_eq!(events_of(&oracle, timeline), events_of(&with_stale, timeline));
         }
         for &(timeline, t, length) in &probes {
             let (a, b) = (MissionTimeUs(t), MissionTimeUs(t + length));
             prop_assert_eq!(oracle.value_at(timeline, a), tabled.value_at(timeline, a));
+            prop_assert_eq!(oracle.value_at(timeline, a), precomputed.value_at(timeline, a));
             prop_assert_eq!(
                 oracle.within_bounds_at(timeline, a),
                 tabled.within_bounds_at(timeline, a)
+            );
+            prop_assert_eq!(
+                oracle.within_bounds_at(timeline, a),
+                precomputed.within_bounds_at(timeline, a)
             );
             for require in [
                 Requirement::OneOf { mask: 0b010 },
@@ -271,8 +294,16 @@ proptest! {
                     tabled.holds_over(timeline, &require, a, b)
                 );
                 prop_assert_eq!(
+                    oracle.holds_over(timeline, &require, a, b),
+                    precomputed.holds_over(timeline, &require, a, b)
+                );
+                prop_assert_eq!(
                     oracle.first_violation(timeline, &require, a, b),
                     tabled.first_violation(timeline, &require, a, b)
+                );
+                prop_assert_eq!(
+                    oracle.first_violation(timeline, &require, a, b),
+                    precomputed.first_violation(timeline, &require, a, b)
                 );
             }
         }

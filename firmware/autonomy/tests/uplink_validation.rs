@@ -228,7 +228,7 @@ fn a_rejected_uplink_leaves_the_running_plan_untouched() {
 fn err_code(e: LoadError) -> u16 {
     match e {
         LoadError::Invalid(v) => v.code.code(),
-        LoadError::Busy => 0,
+        LoadError::Busy | LoadError::TooLarge => 0,
     }
 }
 

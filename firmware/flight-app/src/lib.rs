@@ -54,129 +54,18 @@ pub mod uplink_reason {
     // 0xff10 and up: the security refusals, `fsw_bridge::SecurityRefusal::code()`.
 }
 
-/// Ids of the `TelemetryEvent::Metric` records this application emits (values in timebase
-/// ticks of the CPU that runs it; the native target reports none). The application owns ids
-/// 0x1000-0x1fff; the kernel's are below 0x1000 (kernel-config's `abi::metric`).
+/// Ids of the `TelemetryEvent::Metric` records this application emits: the telemetry
+/// dictionary's application table (`fsw_bridge::dictionary::app`, ids 0x1000-0x1fff), where
+/// each id's name, unit, kind (measured cost or value) and channel are declared; the kernel's
+/// are below 0x1000 (kernel-config's `abi::metric`, the dictionary's platform table).
 pub mod metric {
-    /// Ticks the autonomy step of one frame took (planner and executive, and the clock reads
-    /// that split them: at least PLANNER_TICKS + EXECUTIVE_TICKS of the same frame).
-    pub const STEP_TICKS: u16 = 0x1000;
-    /// Ticks one checkpoint write took (both areas).
-    pub const CHECKPOINT_TICKS: u16 = 0x1001;
-    /// Ticks the restore at boot took.
-    pub const RESTORE_TICKS: u16 = 0x1002;
-    /// Ticks the application spent recovering after a restore, from the end of its boot to the
-    /// end of the step that committed the repaired plan: the host's inputs in between (the
-    /// state buffer published again, command responses) and the step(s) of the granted
-    /// frames until the planner has no work pending (violations detected, aborts,
-    /// contingencies, repair, commits); checkpoint writes of the frames before that one are
-    /// included, the last frame's is not. Sent once per restore.
-    pub const RECOVERY_TICKS: u16 = 0x1003;
-    /// Sequence number of the checkpoint restored at boot.
-    pub const RESTORED_SEQUENCE: u16 = 0x1004;
-    /// Checkpoint writes that failed in one frame (a plan image larger than an area's slot).
-    pub const CHECKPOINT_WRITE_FAILURES: u16 = 0x1005;
-    /// Ticks the planner's part of one frame's step took (reports and contingencies, its
-    /// anytime cycle within the step budget, commits).
-    pub const PLANNER_TICKS: u16 = 0x1006;
-    /// Ticks the executive's part of one frame's step took (both executive passes).
-    pub const EXECUTIVE_TICKS: u16 = 0x1007;
-    /// Where the checkpoint restored at boot came from: [`RESTORED_FROM_WARM`] or
-    /// [`RESTORED_FROM_NV`].
-    pub const RESTORED_FROM: u16 = 0x1008;
-    pub const RESTORED_FROM_WARM: u64 = 1;
-    pub const RESTORED_FROM_NV: u64 = 2;
+    pub use fsw_bridge::dictionary::app::*;
+    use fsw_bridge::dictionary::restored_from;
 
-    /// Slot of the checkpoint restored at boot, in the memory it came from: 0 = A (first half),
-    /// 1 = B (second half).
-    pub const RESTORED_SLOT: u16 = 0x1009;
-
-    /// State-buffer updates so far whose value was not of the type their timeline takes (an
-    /// integer for a state timeline, an enumeration value beyond its values, ...): each was
-    /// taken as unknown (`autonomy::Autonomy::state_type_mismatches`; the types are in
-    /// `TaskNetwork::measured_timelines`). Sent with the frame's FrameDone the first time it
-    /// is not zero and in every frame it changed (after a restore: in the first frame), so a
-    /// host can fail the run naming it. A count, not a cost.
-    pub const STATE_TYPE_MISMATCHES: u16 = 0x100A;
-    /// The state key of the last such update; sent right after [`STATE_TYPE_MISMATCHES`].
-    pub const STATE_TYPE_MISMATCH_KEY: u16 = 0x100B;
-
-    /// The parts of the application's boot (the boot breakdown; sent at every boot, whereas
-    /// [`RESTORE_TICKS`], their sum, only when a checkpoint was restored): the security area
-    /// read and its key checked.
-    pub const BOOT_SECURITY_TICKS: u16 = 0x1020;
-    /// Finding the checkpoint to restore: the records' headers and the records needed read in
-    /// (on a target whose memories sit behind system calls), their CRCs checked, and the
-    /// memory chosen.
-    pub const RESTORE_CHECK_TICKS: u16 = 0x1021;
-    /// Decoding and validating the chosen checkpoint and the restart adjustments (a few ticks
-    /// when there is nothing to restore).
-    pub const RESTORE_DECODE_TICKS: u16 = 0x1022;
-
-    /// Metrics that are measured CPU costs (timebase ticks). A span measured with the 16.6 MHz
-    /// timebase against the 250 MHz instruction clock can come out one tick longer or shorter
-    /// depending on where between two ticks it started; the executive starts its work at a
-    /// window start to keep that phase fixed, and the transcript hash leaves these values
-    /// out so that it cannot depend on it. Everything else the application sends is exactly
-    /// reproducible.
-    pub const fn is_measured_cost(id: u16) -> bool {
-        matches!(
-            id,
-            STEP_TICKS
-                | CHECKPOINT_TICKS
-                | RESTORE_TICKS
-                | RECOVERY_TICKS
-                | PLANNER_TICKS
-                | EXECUTIVE_TICKS
-                | FRAME_BUSY_TICKS
-                | UPLINK_VERIFY_TICKS
-                | BOOT_SECURITY_TICKS
-                | RESTORE_CHECK_TICKS
-                | RESTORE_DECODE_TICKS
-        )
-    }
-
-    /// Ticks the whole frame's work took (the step and the checkpoint writes): what FrameDone
-    /// carried in protocol v1. A measured cost, so it travels on the link's Instrument channel
-    /// and FrameDone stays the same on every target.
-    pub const FRAME_BUSY_TICKS: u16 = 0x100C;
-
-    /// Ground holds after an accepted SetHold or ReleaseHold (bit h: hold h), and at boot when
-    /// any is set. A mask, not a cost.
-    pub const GROUND_HOLDS: u16 = 0x100D;
-    /// Ticks the security checks of a reassembled uplink took (header, HMAC-SHA-256 over the
-    /// whole image, sequence number), from the last chunk's receipt to the verdict; the counter
-    /// write and the loading are not included. A measured cost.
-    pub const UPLINK_VERIFY_TICKS: u16 = 0x100E;
-    /// Ground commands refused since boot although authentic (their sequence number is spent):
-    /// a hold number out of range. Sent after each.
-    pub const GROUND_COMMANDS_NOT_CARRIED_OUT: u16 = 0x100F;
-    /// Uplinks and ground commands refused by the security checks since boot, one metric per
-    /// reason: id `SECURITY_REFUSALS_FIRST + SecurityRefusal::index()` (0x1010 NoKey, 0x1011
-    /// UnknownKey, 0x1012 Truncated, 0x1013 BadMac, 0x1014 Replay, 0x1015 BadLength, 0x1016
-    /// CounterNotStored), value the count for that reason; sent after each refusal.
-    pub const SECURITY_REFUSALS_FIRST: u16 = 0x1010;
-
-    /// The per-reason refusal count metric of `reason`.
-    pub const fn security_refusals(reason: fsw_bridge::SecurityRefusal) -> u16 {
-        SECURITY_REFUSALS_FIRST + reason.index() as u16
-    }
-
-    /// The reason a refusal count metric counts, if `id` is one.
-    pub fn security_refusal_of(id: u16) -> Option<fsw_bridge::SecurityRefusal> {
-        let index = id.checked_sub(SECURITY_REFUSALS_FIRST)?;
-        fsw_bridge::SecurityRefusal::ALL
-            .get(usize::from(index))
-            .copied()
-    }
-
-    /// The metrics that travel on the reliable link's Instrument channel: the measured costs,
-    /// which only a target with a CPU clock reports (the native target sends none, or zeros).
-    /// Everything else this application sends goes on the Mission channel, identical on the
-    /// native and the emulated target.
-    pub const fn is_instrument(id: u16) -> bool {
-        is_measured_cost(id)
-    }
+    /// `RESTORED_FROM`: the warm-restart area.
+    pub const RESTORED_FROM_WARM: u64 = restored_from::WARM;
+    /// `RESTORED_FROM`: non-volatile memory.
+    pub const RESTORED_FROM_NV: u64 = restored_from::NV;
 }
 
 /// Planner work allowed per granted frame.
@@ -356,9 +245,24 @@ fn claims(memories: &mut Memories<'_>) -> heapless::Vec<Claim, 4> {
     // Sequence numbers relative to one of them are a linear order as long as they span less
     // than half the number space (they are a few frames apart).
     let reference = claims.first().map_or(0, |&(_, _, sequence)| sequence);
-    claims.sort_unstable_by_key(|&(memory, slot, sequence)| {
-        (reference.wrapping_sub(sequence) as i32, memory, slot)
-    });
+    let key =
+        |&(memory, slot, sequence): &Claim| (reference.wrapping_sub(sequence) as i32, memory, slot);
+    // At most four claims, with distinct keys (memory and slot): an insertion sort, which
+    // orders them as any sort does, without the library's general sort in the image (its
+    // code is read by the reset stub's image check at every warm boot).
+    for i in 1..claims.len() {
+        let mut j = i;
+        while j > 0 {
+            let (Some(a), Some(b)) = (claims.get(j - 1).copied(), claims.get(j).copied()) else {
+                break;
+            };
+            if key(&a) <= key(&b) {
+                break;
+            }
+            claims.swap(j - 1, j);
+            j -= 1;
+        }
+    }
     claims
 }
 
@@ -830,6 +734,10 @@ impl FlightApp {
                 seq: total,
                 reason: uplink_reason::BUSY,
             }),
+            Err(autonomy::LoadError::TooLarge) => downlink.send(TargetToHost::UplinkNak {
+                seq: total,
+                reason: uplink_reason::TOO_LARGE,
+            }),
         }
     }
 
@@ -977,6 +885,94 @@ mod tests {
     use std::vec::Vec;
 
     use super::*;
+
+    /// Every metric id the application sends is in the telemetry dictionary under its own
+    /// constant's name; the costs travel on the Instrument channel, the rest on the Mission
+    /// channel (the native target's stream is the emulated one's).
+    #[test]
+    fn every_application_metric_is_in_the_dictionary() {
+        use fsw_bridge::dictionary;
+        use fsw_bridge::link::VirtualChannel::{Instrument, Mission};
+        let ids = [
+            (metric::STEP_TICKS, "STEP_TICKS", Instrument),
+            (metric::CHECKPOINT_TICKS, "CHECKPOINT_TICKS", Instrument),
+            (metric::RESTORE_TICKS, "RESTORE_TICKS", Instrument),
+            (metric::RECOVERY_TICKS, "RECOVERY_TICKS", Instrument),
+            (metric::RESTORED_SEQUENCE, "RESTORED_SEQUENCE", Mission),
+            (
+                metric::CHECKPOINT_WRITE_FAILURES,
+                "CHECKPOINT_WRITE_FAILURES",
+                Mission,
+            ),
+            (metric::PLANNER_TICKS, "PLANNER_TICKS", Instrument),
+            (metric::EXECUTIVE_TICKS, "EXECUTIVE_TICKS", Instrument),
+            (metric::RESTORED_FROM, "RESTORED_FROM", Mission),
+            (metric::RESTORED_SLOT, "RESTORED_SLOT", Mission),
+            (
+                metric::STATE_TYPE_MISMATCHES,
+                "STATE_TYPE_MISMATCHES",
+                Mission,
+            ),
+            (
+                metric::STATE_TYPE_MISMATCH_KEY,
+                "STATE_TYPE_MISMATCH_KEY",
+                Mission,
+            ),
+            (metric::FRAME_BUSY_TICKS, "FRAME_BUSY_TICKS", Instrument),
+            (metric::GROUND_HOLDS, "GROUND_HOLDS", Mission),
+            (
+                metric::UPLINK_VERIFY_TICKS,
+                "UPLINK_VERIFY_TICKS",
+                Instrument,
+            ),
+            (
+                metric::GROUND_COMMANDS_NOT_CARRIED_OUT,
+                "GROUND_COMMANDS_NOT_CARRIED_OUT",
+                Mission,
+            ),
+            (
+                metric::SECURITY_REFUSALS_FIRST,
+                "SECURITY_REFUSALS_FIRST",
+                Mission,
+            ),
+            (
+                metric::BOOT_SECURITY_TICKS,
+                "BOOT_SECURITY_TICKS",
+                Instrument,
+            ),
+            (
+                metric::RESTORE_CHECK_TICKS,
+                "RESTORE_CHECK_TICKS",
+                Instrument,
+            ),
+            (
+                metric::RESTORE_DECODE_TICKS,
+                "RESTORE_DECODE_TICKS",
+                Instrument,
+            ),
+        ];
+        assert_eq!(
+            ids.len(),
+            metric::APP_METRICS.len(),
+            "a constant is missing here"
+        );
+        // The wire ids are fixed (transcripts and budgets depend on them): spot checks.
+        assert_eq!(metric::STEP_TICKS, 0x1000);
+        assert_eq!(metric::SECURITY_REFUSALS_FIRST, 0x1010);
+        assert_eq!(metric::RESTORE_DECODE_TICKS, 0x1022);
+        for (id, constant, channel) in ids {
+            let m =
+                dictionary::metric(id).unwrap_or_else(|| panic!("{constant} not in dictionary"));
+            assert_eq!((m.id, m.constant, m.channel), (id, constant, channel));
+        }
+        for reason in SecurityRefusal::ALL {
+            let m = dictionary::metric(metric::security_refusals(reason)).unwrap();
+            assert_eq!(m.constant, "SECURITY_REFUSALS_FIRST");
+        }
+        let from = dictionary::metric(metric::RESTORED_FROM).unwrap();
+        assert!(from.value_name(metric::RESTORED_FROM_WARM).is_some());
+        assert!(from.value_name(metric::RESTORED_FROM_NV).is_some());
+    }
 
     fn grant(frame: u32, secs: u64) -> HostToTarget {
         HostToTarget::TimeGrant {

@@ -15,9 +15,9 @@ use flight_app::{
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::{HostToTarget, MissionTimeUs, TargetToHost, TelemetryEvent};
 
-/// The target's checkpoint memory: the warm-restart area less its boot record.
-const WARM_CHECKPOINT_BYTES: usize =
-    (kernel_config::WARM_AREA_SIZE - kernel_config::WARM_BOOT_RECORD_SIZE) as usize;
+/// The target's checkpoint memory for the flight application: the executive partition's slice
+/// of the warm-restart area (its A/B records; the planner partition has the rest).
+const WARM_CHECKPOINT_BYTES: usize = kernel_config::system::EXECUTIVE_WARM.len as usize;
 
 const KEY: sdls::Key = sdls::Key {
     spi: 3,
@@ -191,8 +191,8 @@ fn a_network_of_max_tasks_fits_the_uplink_buffer_and_its_checkpoint_is_counted_w
         image.len() + sdls::uplink::OVERHEAD
     );
     let (mut rig, failures) = fly(autonomy::MAX_TASKS);
-    // Its planned state (36 KiB) is over a slot (32 KiB): every write fails and is counted,
-    // and the plan flies on.
+    // Its planned state (36 KiB) is over a slot (16 KiB of the executive's 32 KiB slice):
+    // every write fails and is counted, and the plan flies on.
     assert_eq!(failures, [1, 1], "at the load and in frame 0");
     for frame in 1..4 {
         assert_eq!(checkpoint_failures(&grant(&mut rig, frame)), [1]);
@@ -213,7 +213,7 @@ fn a_network_of_max_tasks_fits_the_uplink_buffer_and_its_checkpoint_is_counted_w
 fn the_largest_network_whose_checkpoint_fits_a_slot_is_checkpointed_every_frame() {
     // Checkpoint sizes grow with the tasks: the largest that fits, by bisection.
     let fits = |n: usize| fly(n).1.is_empty();
-    let (mut lo, mut hi) = (192, autonomy::MAX_TASKS);
+    let (mut lo, mut hi) = (8, autonomy::MAX_TASKS);
     assert!(fits(lo) && !fits(hi));
     while hi - lo > 1 {
         let mid = (lo + hi) / 2;

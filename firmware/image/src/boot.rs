@@ -567,7 +567,7 @@ __kernel_idle:
 
 extern "C" {
     /// Load a saved context and enter it (see the module docs).
-    pub fn __context_resume(context: *const crate::kernel::Context) -> !;
+    pub fn __context_resume(context: *const crate::context::Context) -> !;
     pub fn __partition_start();
     pub fn __kernel_idle();
 }

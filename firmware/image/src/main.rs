@@ -8,19 +8,20 @@
 mod board;
 mod boot;
 mod config;
+mod context;
 mod kernel;
 mod link;
 mod log;
 mod mem;
 mod partitions;
+mod port;
 mod shared;
 mod sys;
 mod warm;
 
 use core::panic::PanicInfo;
 
-use board::escc::EsccChannelA;
-use board::{heathrow, pci, timebase};
+use board::{escc, heathrow, pci, timebase};
 use fsw_bridge::messages::PANIC_FILE_MAX;
 use fsw_bridge::{ResetCause, TargetToHost, PROTOCOL_VERSION};
 use kernel::link::SharedMemoryDevice;
@@ -48,6 +49,7 @@ fn reset_cause_name(cause: ResetCause) -> &'static str {
         ResetCause::Warm => "warm",
         ResetCause::Watchdog => "watchdog",
         ResetCause::HealthMonitor => "health-monitor",
+        ResetCause::KernelFault => "kernel-fault",
     }
 }
 
@@ -79,9 +81,8 @@ pub extern "C" fn rust_start(
     // Nothing may interrupt before the kernel asks for it (QEMU keeps the controller's mask and
     // latched events across a warm reset).
     heathrow::init();
-    // SAFETY: mac-io was just mapped at MAC_IO_BASE; from now on only the kernel uses the
-    // channel (`kernel::link`).
-    let _ = unsafe { EsccChannelA::init() };
+    // mac-io was just mapped; from now on only the kernel uses the channel (`kernel::link`).
+    let _ = escc::init();
     // Goes to the kernel's log ring; the I/O partition sends it right after its Hello.
     defmt::info!(
         "boot: reset cause {=str}, boot {=u32}, protocol v{=u16}",

@@ -1,13 +1,21 @@
 //! The partitions' side of the system calls: thin wrappers over `sc` (see
 //! `kernel_config::abi` for numbers and error codes). Everything here runs in problem state.
+//! Calls are named by [`Sysnum`] and their r3 is decoded once, by [`decode_result`], into a
+//! value or a [`SysError`].
 use core::arch::asm;
 
 use kernel_config::abi::*;
 
-/// Raw system call: number, up to five arguments; returns (r3, r4, r5). The kernel restores
+/// System call `call` with up to five arguments; returns (r3, r4, r5). The kernel restores
 /// every other register.
 #[inline(always)]
-pub fn raw(call: u32, a: [u32; 5]) -> (i32, u32, u32) {
+pub fn raw(call: Sysnum, a: [u32; 5]) -> (u32, u32, u32) {
+    raw_number(call.number(), a)
+}
+
+/// A system call by number, assigned or not (the rogue partition's bad calls).
+#[inline(always)]
+pub fn raw_number(call: u32, a: [u32; 5]) -> (u32, u32, u32) {
     let (r3, r4, r5): (u32, u32, u32);
     // SAFETY:
     // 1. `sc` enters the kernel, which saves and restores the whole register set except r3-r5
@@ -25,33 +33,29 @@ pub fn raw(call: u32, a: [u32; 5]) -> (i32, u32, u32) {
             options(nostack)
         );
     }
-    (r3 as i32, r4, r5)
+    (r3, r4, r5)
 }
 
-fn result(r3: i32) -> Result<u32, i32> {
-    if r3 < 0 {
-        Err(r3)
-    } else {
-        Ok(r3 as u32)
-    }
+fn result(r3: u32) -> Result<u32, SysError> {
+    decode_result(r3)
 }
 
 /// Give up the rest of this window; returns at the start of the next one.
 pub fn wait_next_window() {
-    raw(SYS_WAIT_NEXT_WINDOW, [wait::NEXT_WINDOW, 0, 0, 0, 0]);
+    raw(Sysnum::WaitNextWindow, [wait::NEXT_WINDOW, 0, 0, 0, 0]);
 }
 
 /// Give up the rest of this window with nothing to do until a message arrives on one of this
 /// partition's ports (the module may stop its schedule meanwhile); returns at a window start.
 pub fn wait_idle() {
-    raw(SYS_WAIT_NEXT_WINDOW, [wait::IDLE, 0, 0, 0, 0]);
+    raw(Sysnum::WaitNextWindow, [wait::IDLE, 0, 0, 0, 0]);
 }
 
 /// Link owner: move received link bytes into `buffer`; how many (the kernel reports bytes its
 /// receiver lost in its accounting reports).
 pub fn link_read(buffer: &mut [u8]) -> usize {
     let (r3, _, _) = raw(
-        SYS_LINK_READ,
+        Sysnum::LinkRead,
         [buffer.as_mut_ptr() as u32, buffer.len() as u32, 0, 0, 0],
     );
     result(r3).unwrap_or(0) as usize
@@ -60,7 +64,7 @@ pub fn link_read(buffer: &mut [u8]) -> usize {
 /// Link owner: send bytes to the host; how many the kernel took (0: no room yet).
 pub fn link_write(data: &[u8]) -> usize {
     let (r3, _, _) = raw(
-        SYS_LINK_WRITE,
+        Sysnum::LinkWrite,
         [data.as_ptr() as u32, data.len() as u32, 0, 0, 0],
     );
     result(r3).unwrap_or(0) as usize
@@ -81,8 +85,8 @@ pub enum InputWait {
 /// Link owner: everything is sent and the caller waits for the host (see
 /// `abi::SYS_WAIT_FOR_INPUT`).
 pub fn wait_for_input() -> InputWait {
-    let (r3, reasons, busy) = raw(SYS_WAIT_FOR_INPUT, [0; 5]);
-    match r3 as u32 {
+    let (r3, reasons, busy) = raw(Sysnum::WaitForInput, [0; 5]);
+    match r3 {
         wait_input::PARKED => InputWait::Parked,
         wait_input::INPUT_PENDING => InputWait::InputPending,
         _ => InputWait::NextWindow { reasons, busy },
@@ -92,13 +96,13 @@ pub fn wait_for_input() -> InputWait {
 /// Link owner: why the module could not park now (`abi::wait_input` reason bits, 0: everyone
 /// else is done and nothing is in flight) and which partitions are busy, without waiting.
 pub fn link_quiet() -> (u32, u32) {
-    let (_, reasons, busy) = raw(SYS_WAIT_FOR_INPUT, [wait_input::QUERY, 0, 0, 0, 0]);
+    let (_, reasons, busy) = raw(Sysnum::WaitForInput, [wait_input::QUERY, 0, 0, 0, 0]);
     (reasons, busy)
 }
 
-pub fn port_send(port: usize, message: &[u8]) -> Result<(), i32> {
+pub fn port_send(port: usize, message: &[u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
-        SYS_PORT_SEND,
+        Sysnum::PortSend,
         [
             port as u32,
             message.as_ptr() as u32,
@@ -120,9 +124,9 @@ pub struct Received {
     pub age: u32,
 }
 
-pub fn port_receive(port: usize, buffer: &mut [u8]) -> Result<Received, i32> {
+pub fn port_receive(port: usize, buffer: &mut [u8]) -> Result<Received, SysError> {
     let (r3, generation, age) = raw(
-        SYS_PORT_RECEIVE,
+        Sysnum::PortReceive,
         [
             port as u32,
             buffer.as_mut_ptr() as u32,
@@ -141,39 +145,36 @@ pub fn port_receive(port: usize, buffer: &mut [u8]) -> Result<Received, i32> {
 #[allow(dead_code)] // for the autonomy core
 /// Mission time in µs (as last granted by the host).
 pub fn mission_time_us() -> u64 {
-    let (hi, lo, _) = raw(SYS_MISSION_TIME, [0; 5]);
-    (u64::from(hi as u32) << 32) | u64::from(lo)
+    let (hi, lo, _) = raw(Sysnum::MissionTime, [0; 5]);
+    (u64::from(hi) << 32) | u64::from(lo)
 }
 
 /// (ticks used since boot, ticks used in this window so far).
 pub fn cpu_time() -> (u64, u32) {
-    let (hi, lo, window) = raw(SYS_CPU_TIME, [0; 5]);
-    ((u64::from(hi as u32) << 32) | u64::from(lo), window)
+    let (hi, lo, window) = raw(Sysnum::CpuTime, [0; 5]);
+    ((u64::from(hi) << 32) | u64::from(lo), window)
 }
 
 /// (ticks since the reset vector, ticks the kernel's boot took: reset vector to the start of
 /// the schedule).
 pub fn uptime() -> (u64, u64) {
-    let (hi, lo, boot) = raw(SYS_UPTIME, [0; 5]);
-    (
-        (u64::from(hi as u32) << 32) | u64::from(lo),
-        u64::from(boot),
-    )
+    let (hi, lo, boot) = raw(Sysnum::Uptime, [0; 5]);
+    ((u64::from(hi) << 32) | u64::from(lo), u64::from(boot))
 }
 
 /// One whole defmt frame.
-pub fn log(frame: &[u8]) -> Result<(), i32> {
+pub fn log(frame: &[u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
-        SYS_LOG,
+        Sysnum::Log,
         [frame.as_ptr() as u32, frame.len() as u32, 0, 0, 0],
     );
     result(r3).map(|_| ())
 }
 
 #[allow(dead_code)] // for the autonomy core's checkpoints
-pub fn warm_read(offset: u32, buffer: &mut [u8]) -> Result<(), i32> {
+pub fn warm_read(offset: u32, buffer: &mut [u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
-        SYS_WARM_READ,
+        Sysnum::WarmRead,
         [
             offset,
             buffer.as_mut_ptr() as u32,
@@ -186,19 +187,19 @@ pub fn warm_read(offset: u32, buffer: &mut [u8]) -> Result<(), i32> {
 }
 
 #[allow(dead_code)] // for the autonomy core's checkpoints
-pub fn warm_write(offset: u32, data: &[u8]) -> Result<(), i32> {
+pub fn warm_write(offset: u32, data: &[u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
-        SYS_WARM_WRITE,
+        Sysnum::WarmWrite,
         [offset, data.as_ptr() as u32, data.len() as u32, 0, 0],
     );
     result(r3).map(|_| ())
 }
 
-/// Read non-volatile memory at `offset`; Ok(size of the memory offered), Err(E_NO_DEVICE)
+/// Read non-volatile memory at `offset`; Ok(size of the memory offered), Err(SysError::NoDevice)
 /// when the board has none.
-pub fn nv_read(offset: u32, buffer: &mut [u8]) -> Result<u32, i32> {
+pub fn nv_read(offset: u32, buffer: &mut [u8]) -> Result<u32, SysError> {
     let (r3, _, _) = raw(
-        SYS_NV_READ,
+        Sysnum::NvRead,
         [
             offset,
             buffer.as_mut_ptr() as u32,
@@ -210,9 +211,9 @@ pub fn nv_read(offset: u32, buffer: &mut [u8]) -> Result<u32, i32> {
     result(r3)
 }
 
-pub fn nv_write(offset: u32, data: &[u8]) -> Result<(), i32> {
+pub fn nv_write(offset: u32, data: &[u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
-        SYS_NV_WRITE,
+        Sysnum::NvWrite,
         [offset, data.as_ptr() as u32, data.len() as u32, 0, 0],
     );
     result(r3).map(|_| ())
@@ -220,14 +221,14 @@ pub fn nv_write(offset: u32, data: &[u8]) -> Result<(), i32> {
 
 /// (partition index, generation).
 pub fn identity() -> (usize, u32) {
-    let (p, generation, _) = raw(SYS_IDENTITY, [0; 5]);
+    let (p, generation, _) = raw(Sysnum::Identity, [0; 5]);
     (p as usize, generation)
 }
 
 /// Report a panic; the health monitor acts and this never returns.
 pub fn panic(file: &str, line: u32) -> ! {
     raw(
-        SYS_PANIC,
+        Sysnum::Panic,
         [file.as_ptr() as u32, file.len() as u32, line, 0, 0],
     );
     // The kernel never resumes a partition after SYS_PANIC; should it ever, wait for good.
@@ -238,14 +239,23 @@ pub fn panic(file: &str, line: u32) -> ! {
 
 /// Link owner: (reset cause code, boot count).
 pub fn boot_info() -> (u32, u32) {
-    let (cause, count, _) = raw(SYS_BOOT_INFO, [0; 5]);
-    (cause as u32, count)
+    let (cause, count, _) = raw(Sysnum::BootInfo, [BOOT_INFO_CAUSE, 0, 0, 0, 0]);
+    (cause, count)
+}
+
+/// Link owner: the kernel fault that caused this boot's reset, if any.
+pub fn boot_kernel_fault() -> Option<fsw_bridge::KernelFault> {
+    let (r3, pc, dar) = raw(Sysnum::BootInfo, [BOOT_INFO_KERNEL_FAULT, 0, 0, 0, 0]);
+    match result(r3) {
+        Ok(vector) if vector != 0 => Some(fsw_bridge::KernelFault { vector, pc, dar }),
+        _ => None,
+    }
 }
 
 /// Link owner: move kernel log bytes into `buffer`.
 pub fn log_drain(buffer: &mut [u8]) -> usize {
     let (r3, _, _) = raw(
-        SYS_LOG_DRAIN,
+        Sysnum::LogDrain,
         [buffer.as_mut_ptr() as u32, buffer.len() as u32, 0, 0, 0],
     );
     result(r3).unwrap_or(0) as usize
@@ -257,7 +267,7 @@ pub fn event_drain(records: &mut [[u32; 4]]) -> usize {
     let mut bytes = [0u8; EVENT_RECORD_SIZE * EVENT_DRAIN_BATCH];
     let batch = records.len().min(EVENT_DRAIN_BATCH);
     let (r3, _, _) = raw(
-        SYS_EVENT_DRAIN,
+        Sysnum::EventDrain,
         [bytes.as_mut_ptr() as u32, batch as u32, 0, 0, 0],
     );
     let n = result(r3).unwrap_or(0) as usize;
@@ -279,14 +289,14 @@ pub const EVENT_DRAIN_BATCH: usize = 16;
 /// Link owner: the host granted mission time `us`.
 pub fn set_mission_time(us: u64) {
     raw(
-        SYS_SET_MISSION_TIME,
+        Sysnum::SetMissionTime,
         [(us >> 32) as u32, us as u32, 0, 0, 0],
     );
 }
 
 /// Link owner: warm-reset the module (reset cause Warm).
 pub fn reset_module() -> ! {
-    raw(SYS_RESET_MODULE, [reset_at::NOW, 0, 0, 0, 0]);
+    raw(Sysnum::ResetModule, [reset_at::NOW, 0, 0, 0, 0]);
     loop {
         wait_next_window();
     }
@@ -295,13 +305,13 @@ pub fn reset_module() -> ! {
 /// Link owner: warm-reset the module at a point inside the work the destination partition of
 /// `port` does on the message last queued there (`mode`: `reset_at::AFTER_TICKS` with `value`
 /// ticks, or `reset_at::IN_WARM_WRITE` with `value` permille of its next warm-area write).
-pub fn arm_reset(mode: u32, value: u32, port: usize) -> Result<(), i32> {
-    let (r3, _, _) = raw(SYS_RESET_MODULE, [mode, value, port as u32, 0, 0]);
+pub fn arm_reset(mode: u32, value: u32, port: usize) -> Result<(), SysError> {
+    let (r3, _, _) = raw(Sysnum::ResetModule, [mode, value, port as u32, 0, 0]);
     result(r3).map(|_| ())
 }
 
 /// Link owner: have the kernel queue its accounting metrics now (0), every `period` frames,
 /// or stop (REPORT_OFF).
 pub fn request_metrics(period: u32) {
-    raw(SYS_REQUEST_METRICS, [period, 0, 0, 0, 0]);
+    raw(Sysnum::RequestMetrics, [period, 0, 0, 0, 0]);
 }

@@ -5,7 +5,10 @@
 //!
 //! System calls: `sc` with the call number in r0 and arguments in r3..r7; the result comes back
 //! in r3 (negative: one of the `E_*` codes), secondary results in r4 and r5. Pointers and
-//! lengths are checked against the caller's regions before the kernel touches them.
+//! lengths are checked against the caller's regions before the kernel touches them. The numbers
+//! and codes are the ABI; both sides decode them once at the boundary, into [`Sysnum`] (the
+//! kernel's dispatch) and [`SysError`] (the kernel's return path and the partitions' wrappers,
+//! [`decode_result`]), which separates recoverable errors from faults ([`ErrorClass`]).
 
 /// (until) -> 0: give up the rest of this window; returns at the start of the partition's next
 /// window. `until` is [`wait::NEXT_WINDOW`] (0: the partition has more to do) or
@@ -33,9 +36,13 @@ pub const SYS_WARM_WRITE: u32 = 7;
 pub const SYS_IDENTITY: u32 = 8;
 /// (file ptr, len, line): the partition panicked; the health monitor acts; never returns.
 pub const SYS_PANIC: u32 = 9;
-/// () -> r3 = reset cause code (1 power-on, 2 warm, 3 watchdog, 4 health monitor), r4 = boot
-/// count. Link owner only.
+/// (BOOT_INFO_CAUSE) -> r3 = reset cause code (1 power-on, 2 warm, 3 watchdog, 4 health
+/// monitor, 5 kernel fault), r4 = boot count; (BOOT_INFO_KERNEL_FAULT) -> r3 = vector, r4 = SRR0,
+/// r5 = DAR of the kernel fault that caused this boot's reset (all 0: none). Link owner only.
 pub const SYS_BOOT_INFO: u32 = 10;
+/// SYS_BOOT_INFO's modes.
+pub const BOOT_INFO_CAUSE: u32 = 0;
+pub const BOOT_INFO_KERNEL_FAULT: u32 = 1;
 /// (ptr, cap) -> bytes of the kernel's defmt stream moved into the buffer. Link owner only.
 pub const SYS_LOG_DRAIN: u32 = 11;
 /// (ptr, records) -> kernel events written into the buffer, up to `records` of
@@ -66,15 +73,17 @@ pub mod reset_at {
     /// In the partition's next warm-area write, after `value` permille of its bytes.
     pub const IN_WARM_WRITE: u32 = 2;
 
+    use fsw_bridge::dictionary::armed_reset_point;
+
     /// `metric::ARMED_RESET_POINT`: the count ran out while the partition ran its own code (or
     /// in a system call other than a warm-area write, the reset then following that call).
-    pub const LANDED_IN_CODE: u64 = 1;
+    pub const LANDED_IN_CODE: u64 = armed_reset_point::IN_CODE;
     /// Inside a warm-area write: part of its bytes copied (`metric::ARMED_RESET_WARM_COPIED`).
-    pub const LANDED_IN_WARM_WRITE: u64 = 2;
+    pub const LANDED_IN_WARM_WRITE: u64 = armed_reset_point::IN_WARM_WRITE;
     /// The partition finished first (gave up its window); the reset followed at once.
-    pub const LANDED_AFTER_WORK: u64 = 3;
+    pub const LANDED_AFTER_WORK: u64 = armed_reset_point::AFTER_WORK;
     /// The health monitor stopped or restarted the partition first; the reset followed.
-    pub const LANDED_PARTITION_STOPPED: u64 = 4;
+    pub const LANDED_PARTITION_STOPPED: u64 = armed_reset_point::PARTITION_STOPPED;
 }
 /// (period): 0 = queue the kernel's accounting metrics now; n = queue them every n major
 /// frames from now on; REPORT_OFF = stop the periodic reports (the default: nothing is sent
@@ -172,9 +181,201 @@ pub const E_RANGE: i32 = -8;
 /// The board has no such device (non-volatile memory). Not a fault: the caller copes.
 pub const E_NO_DEVICE: i32 = -9;
 
-/// True for error codes that count as a fault for the health monitor.
-pub const fn is_fault(code: i32) -> bool {
-    code < 0 && code != E_EMPTY && code != E_FULL && code != E_NO_DEVICE
+/// A system-call number, decoded once at the kernel's boundary (and named by the partitions'
+/// wrappers): the numeric ABI is the `SYS_*` constants, which the variants take as their values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[repr(u32)]
+pub enum Sysnum {
+    WaitNextWindow = SYS_WAIT_NEXT_WINDOW,
+    PortSend = SYS_PORT_SEND,
+    PortReceive = SYS_PORT_RECEIVE,
+    MissionTime = SYS_MISSION_TIME,
+    CpuTime = SYS_CPU_TIME,
+    Log = SYS_LOG,
+    WarmRead = SYS_WARM_READ,
+    WarmWrite = SYS_WARM_WRITE,
+    Identity = SYS_IDENTITY,
+    Panic = SYS_PANIC,
+    BootInfo = SYS_BOOT_INFO,
+    LogDrain = SYS_LOG_DRAIN,
+    EventDrain = SYS_EVENT_DRAIN,
+    SetMissionTime = SYS_SET_MISSION_TIME,
+    ResetModule = SYS_RESET_MODULE,
+    RequestMetrics = SYS_REQUEST_METRICS,
+    NvRead = SYS_NV_READ,
+    NvWrite = SYS_NV_WRITE,
+    Uptime = SYS_UPTIME,
+    LinkRead = SYS_LINK_READ,
+    WaitForInput = SYS_WAIT_FOR_INPUT,
+    LinkWrite = SYS_LINK_WRITE,
+}
+
+impl Sysnum {
+    /// Every system call, in number order (`ALL[n]` is number n).
+    pub const ALL: [Sysnum; SYSCALL_COUNT as usize] = [
+        Sysnum::WaitNextWindow,
+        Sysnum::PortSend,
+        Sysnum::PortReceive,
+        Sysnum::MissionTime,
+        Sysnum::CpuTime,
+        Sysnum::Log,
+        Sysnum::WarmRead,
+        Sysnum::WarmWrite,
+        Sysnum::Identity,
+        Sysnum::Panic,
+        Sysnum::BootInfo,
+        Sysnum::LogDrain,
+        Sysnum::EventDrain,
+        Sysnum::SetMissionTime,
+        Sysnum::ResetModule,
+        Sysnum::RequestMetrics,
+        Sysnum::NvRead,
+        Sysnum::NvWrite,
+        Sysnum::Uptime,
+        Sysnum::LinkRead,
+        Sysnum::WaitForInput,
+        Sysnum::LinkWrite,
+    ];
+
+    /// The number in r0.
+    pub const fn number(self) -> u32 {
+        self as u32
+    }
+
+    /// The call numbered `number`, if there is one.
+    pub const fn from_number(number: u32) -> Option<Sysnum> {
+        if number < SYSCALL_COUNT {
+            Some(Sysnum::ALL[number as usize])
+        } else {
+            None
+        }
+    }
+}
+
+impl TryFrom<u32> for Sysnum {
+    /// An unassigned number: [`SysError::UnknownCall`], a fault.
+    type Error = SysError;
+
+    fn try_from(number: u32) -> Result<Self, SysError> {
+        Sysnum::from_number(number).ok_or(SysError::UnknownCall)
+    }
+}
+
+/// Whether a system call's error is the caller's to handle or a fault.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ErrorClass {
+    /// The call could not be done now or here, and the caller copes (nothing to receive, a
+    /// full queue, no such device): the kernel only returns the code.
+    Recoverable,
+    /// The caller broke the ABI (a bad pointer, a port that is not its own, a call it has no
+    /// capability for, an argument out of range): the kernel returns the code and reports the
+    /// call to the health monitor, which applies the partition's IllegalSyscall action.
+    Fault,
+}
+
+/// A system call's error, decoded once at the boundary: the kernel returns
+/// [`SysError::code`] in r3, and the partitions' wrappers decode r3 with [`decode_result`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SysError {
+    /// [`E_UNKNOWN_CALL`].
+    UnknownCall,
+    /// [`E_BAD_POINTER`].
+    BadPointer,
+    /// [`E_BAD_PORT`].
+    BadPort,
+    /// [`E_TOO_BIG`].
+    TooBig,
+    /// [`E_EMPTY`].
+    Empty,
+    /// [`E_FULL`].
+    Full,
+    /// [`E_DENIED`].
+    Denied,
+    /// [`E_RANGE`].
+    Range,
+    /// [`E_NO_DEVICE`].
+    NoDevice,
+}
+
+impl SysError {
+    /// Every error, in code order (-1, -2, ...).
+    pub const ALL: [SysError; 9] = [
+        SysError::UnknownCall,
+        SysError::BadPointer,
+        SysError::BadPort,
+        SysError::TooBig,
+        SysError::Empty,
+        SysError::Full,
+        SysError::Denied,
+        SysError::Range,
+        SysError::NoDevice,
+    ];
+
+    /// The code in r3 (negative).
+    pub const fn code(self) -> i32 {
+        match self {
+            SysError::UnknownCall => E_UNKNOWN_CALL,
+            SysError::BadPointer => E_BAD_POINTER,
+            SysError::BadPort => E_BAD_PORT,
+            SysError::TooBig => E_TOO_BIG,
+            SysError::Empty => E_EMPTY,
+            SysError::Full => E_FULL,
+            SysError::Denied => E_DENIED,
+            SysError::Range => E_RANGE,
+            SysError::NoDevice => E_NO_DEVICE,
+        }
+    }
+
+    /// The error whose code is `code`, if it is one.
+    pub const fn from_code(code: i32) -> Option<SysError> {
+        if code < 0 && code >= -(SysError::ALL.len() as i32) {
+            Some(SysError::ALL[(-code - 1) as usize])
+        } else {
+            None
+        }
+    }
+
+    /// Recoverable or a fault (see [`ErrorClass`]).
+    pub const fn class(self) -> ErrorClass {
+        match self {
+            SysError::Empty | SysError::Full | SysError::NoDevice => ErrorClass::Recoverable,
+            SysError::UnknownCall
+            | SysError::BadPointer
+            | SysError::BadPort
+            | SysError::TooBig
+            | SysError::Denied
+            | SysError::Range => ErrorClass::Fault,
+        }
+    }
+
+    /// A fault for the health monitor.
+    pub const fn is_fault(self) -> bool {
+        matches!(self.class(), ErrorClass::Fault)
+    }
+}
+
+impl From<SysError> for i32 {
+    fn from(error: SysError) -> i32 {
+        error.code()
+    }
+}
+
+/// A system call's r3 as the partitions' wrappers see it: one of the error codes, or the call's
+/// value (a length, a size, 0). Values never reach the codes' range (-9..-1 as i32): lengths and
+/// sizes stay below 2 GiB.
+pub const fn decode_result(r3: u32) -> Result<u32, SysError> {
+    match SysError::from_code(r3 as i32) {
+        Some(error) => Err(error),
+        None => Ok(r3),
+    }
+}
+
+/// The r3 the kernel returns for `result`.
+pub const fn encode_result(result: Result<u32, SysError>) -> u32 {
+    match result {
+        Ok(value) => value,
+        Err(error) => error.code() as u32,
+    }
 }
 
 /// Size of one kernel-event record (SYS_EVENT_DRAIN): four big-endian words.
@@ -184,119 +385,15 @@ pub const EVENT_RECORD_SIZE: usize = 16;
 pub const EVENT_HEALTH_MONITOR: u32 = 1;
 pub const EVENT_METRIC: u32 = 2;
 
-/// Telemetry `Metric` ids. Per-partition ids add the partition index.
+/// Telemetry `Metric` ids of the kernel and the partitions' instrumentation: the telemetry
+/// dictionary's platform table (`fsw_bridge::dictionary::platform`), where each id's name,
+/// unit, kind and channel are declared. Per-partition ids add the partition index.
 pub mod metric {
-    /// Ticks partition p used in the last complete major frame.
-    pub const FRAME_TICKS: u16 = 0x0100;
-    /// Most ticks partition p used in any one major frame since boot.
-    pub const WORST_FRAME_TICKS: u16 = 0x0110;
-    /// Windows in which partition p was still running at the end (preempted).
-    pub const OVERRUNS: u16 = 0x0120;
-    /// Largest start jitter of p's windows (actual switch-in minus scheduled start), ticks.
-    pub const MAX_JITTER: u16 = 0x0130;
-    /// Generation of p (number of restarts).
-    pub const GENERATION: u16 = 0x0140;
-    /// Ticks partition p used in each window of the last frame, summed (same as FRAME_TICKS)
-    /// reported together with the frame number it belongs to: FRAME_NUMBER.
-    pub const FRAME_NUMBER: u16 = 0x0200;
-    /// Largest window-start jitter over all partitions since boot, ticks.
-    pub const MAX_JITTER_ALL: u16 = 0x0201;
-    /// Kernel time per partition switch (timer interrupt entry to return), averaged over all
-    /// switches since boot, in thousandths of a tick.
-    pub const SWITCH_MILLITICKS: u16 = 0x0202;
-    /// Number of partition switches since boot.
-    pub const SWITCHES: u16 = 0x0203;
-    /// Largest kernel time of one switch, ticks.
-    pub const SWITCH_MAX_TICKS: u16 = 0x0204;
-    /// Kernel events dropped because the queue was full.
-    pub const EVENTS_DROPPED: u16 = 0x0210;
-    /// Log bytes dropped because the kernel log buffer was full.
-    pub const LOG_BYTES_DROPPED: u16 = 0x0211;
-    /// An armed reset (SYS_RESET_MODULE with a point) is about to happen: where it landed, one
-    /// of `reset_at::LANDED_*`. Sent straight to the host with the next ones, before the Hello.
-    pub const ARMED_RESET_POINT: u16 = 0x0220;
-    /// Ticks the partition ran from its receipt of the anchor message to the reset (measured
-    /// with the decrementer, so the same on every run).
-    pub const ARMED_RESET_TICKS: u16 = 0x0221;
-    /// The partition's last warm-area write since the anchor: offset in the checkpoint part
-    /// << 32 | length in bytes. Sent only if there was one.
-    pub const ARMED_RESET_WARM_WRITE: u16 = 0x0222;
-    /// Bytes of that write copied before the reset (its whole length unless it was torn).
-    pub const ARMED_RESET_WARM_COPIED: u16 = 0x0223;
-    /// When that write ran: ticks since the anchor at its start << 32 | at its end (or tear).
-    pub const ARMED_RESET_WARM_WRITE_TICKS: u16 = 0x0224;
-    /// CRC-32 of the planner's search table (sent by the planner on request).
-    pub const PLANNER_CHECKSUM: u16 = 0x0300;
-    /// State updates the executive received since its (re)start.
-    pub const EXECUTIVE_STATE_UPDATES: u16 = 0x0301;
-    /// Ticks for SYSCALL_BENCH_CALLS null system calls (sent by the executive on request).
-    pub const SYSCALL_BENCH_TICKS: u16 = 0x0302;
-    /// Planner iterations since its (re)start.
-    pub const PLANNER_ITERATIONS: u16 = 0x0303;
-    /// Generation of the planner seen by the planner itself when it reports its checksum.
-    pub const PLANNER_GENERATION: u16 = 0x0304;
-    /// Boot to ready, sent by the executive once per boot when the flight application has
-    /// restored its checkpoint (or found none) and can take its first grant: the kernel's boot
-    /// (reset vector to the start of the schedule, SYS_UPTIME's r5) plus the CPU the executive
-    /// partition used from its start to that point. Ticks of CPU on the way to ready, the same
-    /// every boot from the same memory contents; the schedule's latency (the lead time, the
-    /// other partitions' windows before and between the executive's) is not in it.
-    pub const BOOT_TO_READY_TICKS: u16 = 0x0310;
-    /// The kernel's part of BOOT_TO_READY_TICKS (reset vector to the start of the schedule),
-    /// sent just before it.
-    pub const KERNEL_BOOT_TICKS: u16 = 0x0311;
-    /// The boot breakdown, sent by the kernel at the start of the schedule (the parts of
-    /// KERNEL_BOOT_TICKS) and by the executive with BOOT_TO_READY_TICKS (the parts of its
-    /// own), all in ticks of CPU. The reset stub's image step: reset vector to the RAM image
-    /// checked (or copied from ROM) and `.kshared` and the kernel data reloaded.
-    pub const BOOT_STUB_IMAGE_TICKS: u16 = 0x0312;
-    /// The reset stub's clearing of `.bss` and the hashed page table.
-    pub const BOOT_STUB_CLEAR_TICKS: u16 = 0x0313;
-    /// From the stub's end to the start of the schedule: board bring-up (PCI, mac-io, the
-    /// interrupt controller, the ESCC, the ivshmem devices), the boot record, the first log
-    /// lines, MMU and BATs, the kernel's tables.
-    pub const BOOT_KERNEL_INIT_TICKS: u16 = 0x0314;
-    /// How the reset stub made the RAM image good: one of [`super::boot_image`]. A fact, not a
-    /// cost (sent with the costs, on the Instrument channel).
-    pub const BOOT_IMAGE: u16 = 0x0315;
-    /// The executive partition's start: its statics and stack zeroed by the kernel's
-    /// partition start, up to its entry function.
-    pub const BOOT_EXECUTIVE_START_TICKS: u16 = 0x0316;
-    /// The executive's entry up to the flight application's boot: the application put in
-    /// place and the checkpoint records of both memories read through the kernel.
-    pub const BOOT_EXECUTIVE_INIT_TICKS: u16 = 0x0317;
-    /// Bytes the kernel received on the link since boot (in every kernel report).
-    pub const LINK_RX_BYTES: u16 = 0x0212;
-    /// Bytes the link's receiver lost since boot (UART overruns; QEMU's ESCC holds bytes back
-    /// instead, so on the emulated target this stays 0).
-    pub const LINK_RX_LOST: u16 = 0x0213;
-    /// Times the kernel's receive ring was full and the kernel left bytes in the UART until the
-    /// I/O partition read (flow control, nothing lost).
-    pub const LINK_RX_RING_FULL: u16 = 0x0214;
-    /// Times the module stopped its schedule to wait for input (SYS_WAIT_FOR_INPUT parked).
-    pub const PARKS: u16 = 0x0215;
-    /// The link's transport: 0 the serial line, 1 shared memory (the emulated target with the
-    /// link device).
-    pub const LINK_TRANSPORT: u16 = 0x0216;
-    /// Shared-memory rings whose counts made no sense, dropped (the host wrote garbage).
-    pub const LINK_RING_ERRORS: u16 = 0x0217;
-    /// Messages for the host's Instrument channel (costs, kernel events, logs) the I/O
-    /// partition dropped since boot because that channel's send queue and its holding queue
-    /// were full (a link too noisy for the instrumentation), or because the link was lost.
-    /// Sent by the I/O partition, on the Instrument channel, after a drop, once it has room.
-    pub const LINK_INSTRUMENT_DROPPED: u16 = 0x0218;
+    pub use fsw_bridge::dictionary::platform::*;
 }
 
 /// `metric::BOOT_IMAGE` values: how the reset stub made the RAM image good.
-pub mod boot_image {
-    /// After a warm reset: the RAM copy matched its image record's checksum; not copied.
-    pub const VERIFIED: u64 = 1;
-    /// Copied from ROM: no valid image record for this ROM (power-on, new firmware, a damaged
-    /// record).
-    pub const COPIED: u64 = 2;
-    /// Copied from ROM because the RAM copy failed its checksum (damaged since the last copy).
-    pub const REPAIRED: u64 = 3;
-}
+pub use fsw_bridge::dictionary::boot_image;
 
 /// Bound on window-start jitter (switch-in minus scheduled start), in timebase ticks, that the
 /// kernel tests hold every window of every frame to. Measured under `-icount shift=2`; see
@@ -336,4 +433,19 @@ pub mod rogue {
     pub const PANIC: u16 = 4;
     /// Execute a privileged instruction (expect a program exception and a restart).
     pub const PRIVILEGED: u16 = 5;
+    /// Send a probe (a Telemetry metric `PROBE_METRIC`, value: the rogue's generation) to the
+    /// host through `rogue_to_io`, then panic: restarted before the I/O partition's window,
+    /// the probe is stale (expect it dropped, `metric::PORT_STALE_DROPPED` up by one).
+    pub const SEND_THEN_RESTART: u16 = 6;
+    /// Send the probe and carry on (expect it at the host).
+    pub const SEND: u16 = 7;
+    /// Make the kernel fault: the system call `KERNEL_FAULT_CALL`, which the test image's
+    /// kernel answers with a `trap` in supervisor state (expect a warm reset with cause
+    /// KernelFault, and the fault in the next Hello).
+    pub const KERNEL_FAULT: u16 = 8;
+    /// The probe's metric id (the dictionary's `rogue_probe`).
+    pub const PROBE_METRIC: u16 = super::metric::ROGUE_PROBE;
+    /// The test image's system call that makes the kernel fault (rogue partition only; any
+    /// other image or partition gets E_UNKNOWN_CALL).
+    pub const KERNEL_FAULT_CALL: u32 = 0x7e57_0001;
 }

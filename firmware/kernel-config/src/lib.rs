@@ -250,23 +250,51 @@ impl HealthTable {
     }
 }
 
+/// The part of a persistent memory one partition owns: bytes `offset..offset + len` of the
+/// warm-restart area's checkpoint part (after the boot record) or of the non-volatile memory.
+/// The partition's system calls count offsets from the start of its slice, and cannot reach
+/// past its end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Slice {
+    pub offset: u32,
+    pub len: u32,
+}
+
+impl Slice {
+    /// One past the last byte (saturated).
+    pub const fn end(&self) -> u32 {
+        self.offset.saturating_add(self.len)
+    }
+
+    /// Whether the two share a byte.
+    pub const fn overlaps(&self, other: &Slice) -> bool {
+        self.offset < other.end() && other.offset < self.end()
+    }
+}
+
+/// Bytes of the warm-restart area's checkpoint part (after the boot record) that partitions
+/// can own.
+pub const WARM_CHECKPOINT_PART: u32 = WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE;
+
 /// Services beyond the common system calls, granted per partition.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Capabilities {
     /// Owns the link: drains the kernel's log and events, reads boot information, sets mission
     /// time, requests a module reset. Exactly one partition has it.
     pub link_owner: bool,
-    /// May read and write the warm-restart area (after the boot record). At most one.
-    pub warm_area: bool,
-    /// May read and write the non-volatile memory (survives a power cycle). At most one.
-    pub nv_memory: bool,
+    /// Its slice of the warm-restart area's checkpoint part, if it may read and write one.
+    /// Slices do not overlap.
+    pub warm_area: Option<Slice>,
+    /// Its slice of the non-volatile memory (survives a power cycle), if any. Slices do not
+    /// overlap.
+    pub nv_memory: Option<Slice>,
 }
 
 impl Capabilities {
     pub const NONE: Capabilities = Capabilities {
         link_owner: false,
-        warm_area: false,
-        nv_memory: false,
+        warm_area: None,
+        nv_memory: None,
     };
 }
 
@@ -391,8 +419,14 @@ pub enum ConfigError {
     LinkOwnerCount {
         count: usize,
     },
+    /// Two partitions' slices of the warm-restart area overlap.
     WarmAreaOwners,
+    /// Two partitions' slices of the non-volatile memory overlap.
     NvMemoryOwners,
+    /// A partition's slice is empty or reaches past its memory.
+    SliceOutOfRange {
+        partition: usize,
+    },
     ContinueNotPossible {
         partition: usize,
         kind: ErrorKind,
@@ -434,6 +468,10 @@ pub enum ConfigError {
     PortToItself {
         port: usize,
     },
+    /// Two ports share a name (partitions find their ports by name).
+    PortDuplicateName {
+        port: usize,
+    },
     PortBadSize {
         port: usize,
     },
@@ -455,8 +493,6 @@ pub const fn check(config: &SystemConfig) -> Result<(), ConfigError> {
         return Err(ConfigError::TooManyPartitions);
     }
     let mut link_owners = 0;
-    let mut warm_owners = 0;
-    let mut nv_owners = 0;
     let mut p = 0;
     while p < parts.len() {
         let part = &parts[p];
@@ -538,11 +574,30 @@ pub const fn check(config: &SystemConfig) -> Result<(), ConfigError> {
         if part.capabilities.link_owner {
             link_owners += 1;
         }
-        if part.capabilities.warm_area {
-            warm_owners += 1;
+        if let Some(slice) = part.capabilities.warm_area {
+            if slice.len == 0 || slice.end() > WARM_CHECKPOINT_PART {
+                return Err(ConfigError::SliceOutOfRange { partition: p });
+            }
         }
-        if part.capabilities.nv_memory {
-            nv_owners += 1;
+        if let Some(slice) = part.capabilities.nv_memory {
+            if slice.len == 0 || slice.end() > NV_MAX_BYTES {
+                return Err(ConfigError::SliceOutOfRange { partition: p });
+            }
+        }
+        let mut q = 0;
+        while q < p {
+            let other = &parts[q].capabilities;
+            if let (Some(a), Some(b)) = (part.capabilities.warm_area, other.warm_area) {
+                if a.overlaps(&b) {
+                    return Err(ConfigError::WarmAreaOwners);
+                }
+            }
+            if let (Some(a), Some(b)) = (part.capabilities.nv_memory, other.nv_memory) {
+                if a.overlaps(&b) {
+                    return Err(ConfigError::NvMemoryOwners);
+                }
+            }
+            q += 1;
         }
         if matches!(part.health.action(ErrorKind::Panic), HmAction::Log) {
             return Err(ConfigError::ContinueNotPossible {
@@ -563,12 +618,6 @@ pub const fn check(config: &SystemConfig) -> Result<(), ConfigError> {
     }
     if link_owners != 1 {
         return Err(ConfigError::LinkOwnerCount { count: link_owners });
-    }
-    if warm_owners > 1 {
-        return Err(ConfigError::WarmAreaOwners);
-    }
-    if nv_owners > 1 {
-        return Err(ConfigError::NvMemoryOwners);
     }
 
     let schedule = &config.schedule;
@@ -656,6 +705,13 @@ pub const fn check(config: &SystemConfig) -> Result<(), ConfigError> {
                 return Err(ConfigError::PortToItself { port: i });
             }
             d += 1;
+        }
+        let mut j = 0;
+        while j < i {
+            if str_eq(ports[j].name, port.name) {
+                return Err(ConfigError::PortDuplicateName { port: i });
+            }
+            j += 1;
         }
         if port.message_size == 0 || port.message_size > MAX_PORT_MESSAGE {
             return Err(ConfigError::PortBadSize { port: i });
@@ -753,10 +809,12 @@ impl ConfigError {
             ConfigError::LinkOwnerCount { count } => m
                 .str("exactly one partition must own the link, found ")
                 .num(count as u64),
-            ConfigError::WarmAreaOwners => m.str("more than one partition owns the warm area"),
+            ConfigError::WarmAreaOwners => m.str("two partitions' slices of the warm area overlap"),
             ConfigError::NvMemoryOwners => {
-                m.str("more than one partition owns the non-volatile memory")
+                m.str("two partitions' slices of the non-volatile memory overlap")
             }
+            ConfigError::SliceOutOfRange { partition } => part(m, config, partition)
+                .str(": a persistent-memory slice is empty or reaches past the memory"),
             ConfigError::ContinueNotPossible { partition, kind } => part(m, config, partition)
                 .str(": health-monitor action `log` (continue) is not possible for ")
                 .str(kind.name()),
@@ -805,6 +863,9 @@ impl ConfigError {
                 .str(" does not exist"),
             ConfigError::PortToItself { port: i } => {
                 port(m, config, i).str(" sends to its own source partition")
+            }
+            ConfigError::PortDuplicateName { port: i } => {
+                port(m, config, i).str(": another port has the same name")
             }
             ConfigError::PortBadSize { port: i } => port(m, config, i)
                 .str(": message size must be 1..=")
@@ -873,6 +934,29 @@ pub const fn port_index(config: &SystemConfig, name: &str) -> Option<usize> {
         i += 1;
     }
     None
+}
+
+/// The id of the port named `name`, for `const` items: partitions name their ports, and the
+/// id is derived from the configuration at compile time (a name the configuration does not
+/// have stops the build).
+pub const fn port_id(config: &SystemConfig, name: &str) -> usize {
+    match port_index(config, name) {
+        Some(i) => i,
+        None => panic!("kernel configuration: no port of that name"),
+    }
+}
+
+/// The largest message of any port of `config`, in bytes (sizes the partitions' buffers).
+pub const fn max_port_message(config: &SystemConfig) -> usize {
+    let mut largest = 0;
+    let mut i = 0;
+    while i < config.ports.len() {
+        if config.ports[i].message_size as usize > largest {
+            largest = config.ports[i].message_size as usize;
+        }
+        i += 1;
+    }
+    largest
 }
 
 /// Bytes of kernel RAM all port buffers need (each slot: message bytes rounded up to 4, plus

@@ -19,11 +19,12 @@
 //!
 //! Major frame: 10 ms (166 000 ticks): I/O 1.5 ms, executive 2 ms, planner 4 ms, (rogue 1 ms in
 //! the test image), the rest idle.
+use crate::{port_id, ErrorKind, HmAction};
 use crate::{
     Access, Capabilities, HealthTable, Partition, Port, PortKind, Region, Schedule, SystemConfig,
     Window,
 };
-use crate::{ErrorKind, HmAction};
+use crate::{Slice, WARM_CHECKPOINT_PART};
 
 /// Partition indices, the same in both images (the `partition` field of health-monitor
 /// events, metric id offsets).
@@ -64,6 +65,31 @@ pub const ROGUE_REGION: Region = Region {
     access: Access::ReadWrite,
 };
 
+/// The executive's slice of the warm-restart area's checkpoint part: its A/B checkpoint
+/// records (the control loop: network, executive, state table, its end of the ports).
+pub const EXECUTIVE_WARM: Slice = Slice {
+    offset: 0,
+    len: 0x8000,
+};
+/// The planner's slice: the rest (its A/B records: network, plan, its end of the ports).
+pub const PLANNER_WARM: Slice = Slice {
+    offset: EXECUTIVE_WARM.len,
+    len: WARM_CHECKPOINT_PART - EXECUTIVE_WARM.len,
+};
+/// The executive's slice of non-volatile memory: its checkpoint records (laid out as the warm
+/// area's checkpoint part was when it was the only owner, so that a provisioned key stays
+/// where `hil nv provision` put it), then the security area (key slot, anti-replay counter
+/// records), with room to spare: 128 KiB.
+pub const EXECUTIVE_NV: Slice = Slice {
+    offset: 0,
+    len: 0x2_0000,
+};
+/// The planner's slice of non-volatile memory, after the executive's.
+pub const PLANNER_NV: Slice = Slice {
+    offset: EXECUTIVE_NV.len,
+    len: PLANNER_WARM.len,
+};
+
 const PARTITIONS_PRODUCT: [Partition; 3] = [
     Partition {
         name: "io",
@@ -72,8 +98,8 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         stack_size: 0x4000,
         capabilities: Capabilities {
             link_owner: true,
-            warm_area: false,
-            nv_memory: false,
+            warm_area: None,
+            nv_memory: None,
         },
         health: HealthTable::RESTART_ON_FAULT,
     },
@@ -84,8 +110,8 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         stack_size: 0x10000,
         capabilities: Capabilities {
             link_owner: false,
-            warm_area: true,
-            nv_memory: true,
+            warm_area: Some(EXECUTIVE_WARM),
+            nv_memory: Some(EXECUTIVE_NV),
         },
         health: HealthTable::RESTART_ON_FAULT,
     },
@@ -94,7 +120,11 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         entry: "partition_planner_main",
         regions: &[PLANNER_REGION],
         stack_size: 0x10000,
-        capabilities: Capabilities::NONE,
+        capabilities: Capabilities {
+            link_owner: false,
+            warm_area: Some(PLANNER_WARM),
+            nv_memory: Some(PLANNER_NV),
+        },
         health: HealthTable::RESTART_ON_FAULT,
     },
 ];
@@ -209,7 +239,7 @@ const PORTS_PRODUCT: [Port; 6] = [
     },
 ];
 
-const PORTS_TEST: [Port; 7] = [
+const PORTS_TEST: [Port; 8] = [
     PORTS_PRODUCT[0],
     PORTS_PRODUCT[1],
     PORTS_PRODUCT[2],
@@ -224,16 +254,29 @@ const PORTS_TEST: [Port; 7] = [
         source: IO,
         destinations: &[ROGUE],
     },
+    // The rogue's messages for the host: the stale-message test sends one and restarts before
+    // the I/O partition takes it.
+    Port {
+        name: "rogue_to_io",
+        kind: PortKind::Queuing,
+        message_size: OUTBOUND_MESSAGE_SIZE,
+        depth: 2,
+        source: ROGUE,
+        destinations: &[IO],
+    },
 ];
 
-/// Port indices, in the order above.
-pub const PORT_IO_TO_EXECUTIVE: usize = 0;
-pub const PORT_IO_TO_PLANNER: usize = 1;
-pub const PORT_EXECUTIVE_TO_IO: usize = 2;
-pub const PORT_PLANNER_TO_IO: usize = 3;
-pub const PORT_PLAN_SUMMARY: usize = 4;
-pub const PORT_EXECUTIVE_STATUS: usize = 5;
-pub const PORT_IO_TO_ROGUE: usize = 6;
+/// Port ids, derived from the ports' names at compile time (`port_id`: a name the
+/// configuration lacks stops the build). The test image's ports extend the product's, which
+/// keep their ids (a test checks).
+pub const PORT_IO_TO_EXECUTIVE: usize = port_id(&PRODUCT, "io_to_executive");
+pub const PORT_IO_TO_PLANNER: usize = port_id(&PRODUCT, "io_to_planner");
+pub const PORT_EXECUTIVE_TO_IO: usize = port_id(&PRODUCT, "executive_to_io");
+pub const PORT_PLANNER_TO_IO: usize = port_id(&PRODUCT, "planner_to_io");
+pub const PORT_PLAN_SUMMARY: usize = port_id(&PRODUCT, "plan_summary");
+pub const PORT_EXECUTIVE_STATUS: usize = port_id(&PRODUCT, "executive_status");
+pub const PORT_IO_TO_ROGUE: usize = port_id(&TEST, "io_to_rogue");
+pub const PORT_ROGUE_TO_IO: usize = port_id(&TEST, "rogue_to_io");
 
 /// The product: I/O, executive, planner.
 pub const PRODUCT: SystemConfig = SystemConfig {

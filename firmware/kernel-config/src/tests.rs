@@ -17,8 +17,8 @@ const fn part(name: &'static str, regions: &'static [Region]) -> Partition {
 const IO_PART: Partition = Partition {
     capabilities: Capabilities {
         link_owner: true,
-        warm_area: false,
-        nv_memory: false,
+        warm_area: None,
+        nv_memory: None,
     },
     ..part("io", &[IO_REGION, MAC_IO_REGION])
 };
@@ -96,6 +96,7 @@ fn the_test_image_keeps_the_products_indices_and_timing() {
         assert_eq!(TEST.ports[i].name, p.name);
     }
     assert_eq!(port_index(&TEST, "io_to_rogue"), Some(PORT_IO_TO_ROGUE));
+    assert_eq!(port_index(&TEST, "rogue_to_io"), Some(PORT_ROGUE_TO_IO));
     assert_eq!(partition_index(&TEST, "rogue"), Some(ROGUE));
 }
 
@@ -352,11 +353,17 @@ fn exactly_one_partition_owns_the_link() {
 #[test]
 fn at_most_one_partition_owns_each_persistent_memory() {
     const NV: Capabilities = Capabilities {
-        nv_memory: true,
+        nv_memory: Some(Slice {
+            offset: 0,
+            len: 0x1000,
+        }),
         ..Capabilities::NONE
     };
     const WARM: Capabilities = Capabilities {
-        warm_area: true,
+        warm_area: Some(Slice {
+            offset: 0x800,
+            len: 0x1000,
+        }),
         ..Capabilities::NONE
     };
     static TWO_NV: [Partition; 3] = [
@@ -383,12 +390,66 @@ fn at_most_one_partition_owns_each_persistent_memory() {
     ];
     assert_eq!(
         message(&config(&TWO_NV, &WINDOWS_OK, &[])),
-        "kernel configuration: more than one partition owns the non-volatile memory"
+        "kernel configuration: two partitions' slices of the non-volatile memory overlap"
     );
     assert_eq!(
         message(&config(&TWO_WARM, &WINDOWS_OK, &[])),
-        "kernel configuration: more than one partition owns the warm area"
+        "kernel configuration: two partitions' slices of the warm area overlap"
     );
+    // Side by side is fine; past the end, or empty, is not.
+    const WARM_AFTER: Capabilities = Capabilities {
+        warm_area: Some(Slice {
+            offset: 0x1800,
+            len: 0x1000,
+        }),
+        ..Capabilities::NONE
+    };
+    static SIDE_BY_SIDE: [Partition; 3] = [
+        IO_PART,
+        Partition {
+            capabilities: WARM,
+            ..part("executive", &[EXECUTIVE_REGION])
+        },
+        Partition {
+            capabilities: WARM_AFTER,
+            ..part("planner", &[PLANNER_REGION])
+        },
+    ];
+    assert_eq!(check(&config(&SIDE_BY_SIDE, &WINDOWS_OK, &[])), Ok(()));
+    const PAST_THE_END: Capabilities = Capabilities {
+        warm_area: Some(Slice {
+            offset: WARM_CHECKPOINT_PART - 8,
+            len: 16,
+        }),
+        ..Capabilities::NONE
+    };
+    static TOO_FAR: [Partition; 3] = [
+        IO_PART,
+        Partition {
+            capabilities: PAST_THE_END,
+            ..part("executive", &[EXECUTIVE_REGION])
+        },
+        part("planner", &[PLANNER_REGION]),
+    ];
+    assert_eq!(
+        check(&config(&TOO_FAR, &WINDOWS_OK, &[])),
+        Err(ConfigError::SliceOutOfRange { partition: 1 })
+    );
+}
+
+#[test]
+fn the_product_gives_the_executive_and_the_planner_their_own_persistent_memory() {
+    let executive = PRODUCT.partitions[EXECUTIVE].capabilities;
+    let planner = PRODUCT.partitions[PLANNER].capabilities;
+    let (ew, pw) = (executive.warm_area.unwrap(), planner.warm_area.unwrap());
+    let (en, pn) = (executive.nv_memory.unwrap(), planner.nv_memory.unwrap());
+    assert!(!ew.overlaps(&pw) && !en.overlaps(&pn));
+    assert_eq!(
+        pw.end(),
+        WARM_CHECKPOINT_PART,
+        "the warm area is shared out whole"
+    );
+    assert!(PRODUCT.partitions[IO].capabilities.warm_area.is_none());
 }
 
 #[test]
@@ -421,5 +482,202 @@ fn port_storage_is_sized_from_the_configuration() {
     // 4 ports of 160/64 bytes x 8, 2 sampling ports of 32 bytes, 16-byte slot headers.
     let product = 2 * 8 * (160 + 16) + 2 * 8 * (64 + 16) + 2 * (32 + 16);
     assert_eq!(port_storage_bytes(&PRODUCT), product);
-    assert_eq!(port_storage_bytes(&TEST), product + 2 * (160 + 16));
+    // Plus io_to_rogue (160 bytes x 2) and rogue_to_io (64 bytes x 2).
+    assert_eq!(
+        port_storage_bytes(&TEST),
+        product + 2 * (160 + 16) + 2 * (64 + 16)
+    );
+}
+
+/// Every metric id the kernel and the partitions send (`abi::metric`) is in the telemetry
+/// dictionary, under its own constant's name, on the Instrument channel; the per-partition
+/// families leave room for every partition the kernel supports.
+#[test]
+fn every_platform_metric_is_in_the_dictionary() {
+    use abi::metric::*;
+    use fsw_bridge::dictionary;
+    let ids = [
+        (FRAME_TICKS, "FRAME_TICKS"),
+        (WORST_FRAME_TICKS, "WORST_FRAME_TICKS"),
+        (OVERRUNS, "OVERRUNS"),
+        (MAX_JITTER, "MAX_JITTER"),
+        (GENERATION, "GENERATION"),
+        (FRAME_NUMBER, "FRAME_NUMBER"),
+        (MAX_JITTER_ALL, "MAX_JITTER_ALL"),
+        (SWITCH_MILLITICKS, "SWITCH_MILLITICKS"),
+        (SWITCHES, "SWITCHES"),
+        (SWITCH_MAX_TICKS, "SWITCH_MAX_TICKS"),
+        (EVENTS_DROPPED, "EVENTS_DROPPED"),
+        (LOG_BYTES_DROPPED, "LOG_BYTES_DROPPED"),
+        (LINK_RX_BYTES, "LINK_RX_BYTES"),
+        (LINK_RX_LOST, "LINK_RX_LOST"),
+        (LINK_RX_RING_FULL, "LINK_RX_RING_FULL"),
+        (PARKS, "PARKS"),
+        (LINK_TRANSPORT, "LINK_TRANSPORT"),
+        (LINK_RING_ERRORS, "LINK_RING_ERRORS"),
+        (LINK_INSTRUMENT_DROPPED, "LINK_INSTRUMENT_DROPPED"),
+        (PORT_STALE_DROPPED, "PORT_STALE_DROPPED"),
+        (ARMED_RESET_POINT, "ARMED_RESET_POINT"),
+        (ARMED_RESET_TICKS, "ARMED_RESET_TICKS"),
+        (ARMED_RESET_WARM_WRITE, "ARMED_RESET_WARM_WRITE"),
+        (ARMED_RESET_WARM_COPIED, "ARMED_RESET_WARM_COPIED"),
+        (ARMED_RESET_WARM_WRITE_TICKS, "ARMED_RESET_WARM_WRITE_TICKS"),
+        (PLANNER_CHECKSUM, "PLANNER_CHECKSUM"),
+        (EXECUTIVE_STATE_UPDATES, "EXECUTIVE_STATE_UPDATES"),
+        (SYSCALL_BENCH_TICKS, "SYSCALL_BENCH_TICKS"),
+        (PLANNER_ITERATIONS, "PLANNER_ITERATIONS"),
+        (PLANNER_GENERATION, "PLANNER_GENERATION"),
+        (ROGUE_PROBE, "ROGUE_PROBE"),
+        (BOOT_TO_READY_TICKS, "BOOT_TO_READY_TICKS"),
+        (KERNEL_BOOT_TICKS, "KERNEL_BOOT_TICKS"),
+        (BOOT_STUB_IMAGE_TICKS, "BOOT_STUB_IMAGE_TICKS"),
+        (BOOT_STUB_CLEAR_TICKS, "BOOT_STUB_CLEAR_TICKS"),
+        (BOOT_KERNEL_INIT_TICKS, "BOOT_KERNEL_INIT_TICKS"),
+        (BOOT_IMAGE, "BOOT_IMAGE"),
+        (BOOT_EXECUTIVE_START_TICKS, "BOOT_EXECUTIVE_START_TICKS"),
+        (BOOT_EXECUTIVE_INIT_TICKS, "BOOT_EXECUTIVE_INIT_TICKS"),
+    ];
+    // The wire ids are fixed (transcripts and budgets depend on them): spot checks.
+    assert_eq!(FRAME_TICKS, 0x0100);
+    assert_eq!(ARMED_RESET_TICKS, 0x0221);
+    assert_eq!(BOOT_EXECUTIVE_INIT_TICKS, 0x0317);
+    assert_eq!(
+        ids.len(),
+        PLATFORM_METRICS.len(),
+        "a constant is missing here"
+    );
+    for (id, constant) in ids {
+        let m = dictionary::metric(id).unwrap_or_else(|| panic!("{constant} not in dictionary"));
+        assert_eq!((m.id, m.constant), (id, constant));
+        assert_eq!(m.channel, fsw_bridge::link::VirtualChannel::Instrument);
+    }
+    for family in [
+        FRAME_TICKS,
+        WORST_FRAME_TICKS,
+        OVERRUNS,
+        MAX_JITTER,
+        GENERATION,
+    ] {
+        let last = family + MAX_PARTITIONS as u16 - 1;
+        assert_eq!(dictionary::metric(last).map(|m| m.id), Some(family));
+    }
+    let point = dictionary::metric(ARMED_RESET_POINT).unwrap();
+    for landed in [
+        abi::reset_at::LANDED_IN_CODE,
+        abi::reset_at::LANDED_IN_WARM_WRITE,
+        abi::reset_at::LANDED_AFTER_WORK,
+        abi::reset_at::LANDED_PARTITION_STOPPED,
+    ] {
+        assert!(point.value_name(landed).is_some(), "{landed}");
+    }
+}
+
+/// Every system-call number decodes to the call that has it and back; unassigned numbers are
+/// refused as UnknownCall (a fault), and the numbers are the ABI's.
+#[test]
+fn sysnums_round_trip_and_unknown_numbers_are_refused() {
+    use abi::{SysError, Sysnum};
+    for (n, call) in Sysnum::ALL.iter().enumerate() {
+        assert_eq!(call.number(), n as u32);
+        assert_eq!(Sysnum::try_from(n as u32), Ok(*call));
+    }
+    for n in [abi::SYSCALL_COUNT, abi::SYSCALL_COUNT + 1, 0x100, u32::MAX] {
+        assert_eq!(Sysnum::try_from(n), Err(SysError::UnknownCall), "{n}");
+    }
+    assert!(SysError::UnknownCall.is_fault());
+    // The numeric ABI is unchanged.
+    assert_eq!(Sysnum::WaitNextWindow.number(), abi::SYS_WAIT_NEXT_WINDOW);
+    assert_eq!(Sysnum::PortSend.number(), 1);
+    assert_eq!(Sysnum::ResetModule.number(), 14);
+    assert_eq!(Sysnum::LinkWrite.number(), 21);
+}
+
+/// Every error code decodes to its error and back, r3 values outside the codes are values, and
+/// only Empty, Full and NoDevice are recoverable (the rest are the health monitor's business).
+#[test]
+fn sys_errors_round_trip_and_separate_recoverable_from_faults() {
+    use abi::{decode_result, encode_result, ErrorClass, SysError};
+    for (i, e) in SysError::ALL.iter().enumerate() {
+        assert_eq!(e.code(), -(i as i32) - 1);
+        assert_eq!(SysError::from_code(e.code()), Some(*e));
+        assert_eq!(decode_result(encode_result(Err(*e))), Err(*e));
+        assert_eq!(i32::from(*e), e.code());
+    }
+    assert_eq!(SysError::BadPointer.code(), abi::E_BAD_POINTER);
+    assert_eq!(SysError::NoDevice.code(), abi::E_NO_DEVICE);
+    for code in [0, 1, -10, i32::MIN, i32::MAX] {
+        assert_eq!(SysError::from_code(code), None, "{code}");
+    }
+    for value in [0u32, 1, 160, 0x7fff_ffff, (-10i32) as u32] {
+        assert_eq!(decode_result(encode_result(Ok(value))), Ok(value));
+    }
+    let recoverable: std::vec::Vec<SysError> = SysError::ALL
+        .into_iter()
+        .filter(|e| e.class() == ErrorClass::Recoverable)
+        .collect();
+    assert_eq!(
+        recoverable,
+        [SysError::Empty, SysError::Full, SysError::NoDevice]
+    );
+    for e in SysError::ALL {
+        assert_eq!(e.is_fault(), !recoverable.contains(&e));
+    }
+}
+
+/// Every port name of both configurations resolves to its own port, names are unique, and the
+/// named ids the partitions use are the lookups' results (the product's ids unchanged in the
+/// test image).
+#[test]
+fn every_port_name_resolves_and_is_unique() {
+    for config in [&PRODUCT, &TEST] {
+        for (i, p) in config.ports.iter().enumerate() {
+            assert_eq!(port_index(config, p.name), Some(i), "{}", p.name);
+            assert_eq!(port_id(config, p.name), i);
+        }
+        let mut names: std::vec::Vec<&str> = config.ports.iter().map(|p| p.name).collect();
+        names.sort_unstable();
+        names.dedup();
+        assert_eq!(names.len(), config.ports.len(), "a port name is used twice");
+        assert_eq!(port_index(config, "no_such_port"), None);
+        assert!(max_port_message(config) >= ROUTED_MESSAGE_SIZE as usize);
+    }
+    let named = [
+        ("io_to_executive", PORT_IO_TO_EXECUTIVE),
+        ("io_to_planner", PORT_IO_TO_PLANNER),
+        ("executive_to_io", PORT_EXECUTIVE_TO_IO),
+        ("planner_to_io", PORT_PLANNER_TO_IO),
+        ("plan_summary", PORT_PLAN_SUMMARY),
+        ("executive_status", PORT_EXECUTIVE_STATUS),
+    ];
+    for (name, id) in named {
+        assert_eq!(PRODUCT.ports[id].name, name);
+        assert_eq!(TEST.ports[id].name, name);
+    }
+    assert_eq!(TEST.ports[PORT_IO_TO_ROGUE].name, "io_to_rogue");
+}
+
+#[test]
+fn two_ports_with_one_name_are_refused() {
+    static PORTS: [Port; 2] = [
+        Port {
+            name: "twice",
+            kind: PortKind::Sampling,
+            message_size: 16,
+            depth: 1,
+            source: 0,
+            destinations: &[1],
+        },
+        Port {
+            name: "twice",
+            kind: PortKind::Sampling,
+            message_size: 16,
+            depth: 1,
+            source: 1,
+            destinations: &[0],
+        },
+    ];
+    assert_eq!(
+        message(&config(&THREE, &WINDOWS_OK, &PORTS)),
+        "kernel configuration: port twice: another port has the same name"
+    );
 }

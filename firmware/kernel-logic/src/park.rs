@@ -12,7 +12,7 @@
 //! Stopping the schedule is what lets an emulated target wait without burning a host core: under
 //! `-icount sleep=off` QEMU jumps virtual time to the next timer deadline whenever the CPU idles,
 //! so a schedule that keeps running while the host thinks turns into a busy loop of window starts.
-use kernel_config::abi::{wait, wait_input, E_RANGE};
+use kernel_config::abi::{wait, wait_input, SysError};
 
 /// What the kernel knows when the link owner asks to wait for input.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -75,25 +75,25 @@ pub fn reasons_not_to_park(state: &ModuleState) -> u32 {
 /// `SYS_WAIT_FOR_INPUT`'s arguments: r3 is 0 (wait) or `wait_input::QUERY` (ask without
 /// waiting), every other register 0, so that a later revision can give them a meaning without
 /// old callers passing garbage. Returns true for a query.
-pub fn check_wait_for_input_args(args: &[u32; 5]) -> Result<bool, i32> {
+pub fn check_wait_for_input_args(args: &[u32; 5]) -> Result<bool, SysError> {
     let query = match args[0] {
         0 => false,
         wait_input::QUERY => true,
-        _ => return Err(E_RANGE),
+        _ => return Err(SysError::Range),
     };
     if args[1..].iter().all(|&a| a == 0) {
         Ok(query)
     } else {
-        Err(E_RANGE)
+        Err(SysError::Range)
     }
 }
 
 /// `SYS_WAIT_NEXT_WINDOW`'s argument: true when the caller declares itself idle.
-pub fn wait_declares_idle(until: u32) -> Result<bool, i32> {
+pub fn wait_declares_idle(until: u32) -> Result<bool, SysError> {
     match until {
         wait::NEXT_WINDOW => Ok(false),
         wait::IDLE => Ok(true),
-        _ => Err(E_RANGE),
+        _ => Err(SysError::Range),
     }
 }
 
@@ -236,25 +236,31 @@ mod tests {
             check_wait_for_input_args(&[wait_input::QUERY, 0, 0, 0, 0]),
             Ok(true)
         );
-        assert_eq!(check_wait_for_input_args(&[2, 0, 0, 0, 0]), Err(E_RANGE));
+        assert_eq!(
+            check_wait_for_input_args(&[2, 0, 0, 0, 0]),
+            Err(SysError::Range)
+        );
         for i in 1..5 {
             let mut args = [0; 5];
             args[i] = 1;
             assert_eq!(
                 check_wait_for_input_args(&args),
-                Err(E_RANGE),
+                Err(SysError::Range),
                 "argument {i}"
             );
         }
-        assert_eq!(check_wait_for_input_args(&[u32::MAX; 5]), Err(E_RANGE));
+        assert_eq!(
+            check_wait_for_input_args(&[u32::MAX; 5]),
+            Err(SysError::Range)
+        );
     }
 
     #[test]
     fn wait_next_window_accepts_only_its_two_modes() {
         assert_eq!(wait_declares_idle(wait::NEXT_WINDOW), Ok(false));
         assert_eq!(wait_declares_idle(wait::IDLE), Ok(true));
-        assert_eq!(wait_declares_idle(2), Err(E_RANGE));
-        assert_eq!(wait_declares_idle(u32::MAX), Err(E_RANGE));
+        assert_eq!(wait_declares_idle(2), Err(SysError::Range));
+        assert_eq!(wait_declares_idle(u32::MAX), Err(SysError::Range));
     }
 
     #[test]

@@ -61,17 +61,31 @@ impl SecurityAssociation {
     }
 
     /// The association a security area's bytes hold.
+    ///
+    /// The counter record belongs to the key when its key check is the key's
+    /// ([`Key::check`], an HMAC-SHA-256: about 19,000 instructions on the 750). The check
+    /// stored in the key slot (under the slot's CRC, written by provisioning from the same key)
+    /// is taken for it only when it is the counter record's: then the record is the key's and
+    /// nothing needs hashing. Otherwise (a new key, a version 1 slot, no counter record) the
+    /// check is computed and compared as before, so a stored check can never make a counter
+    /// record count as absent (which would reopen old sequence numbers); the only way it could
+    /// change the outcome is a slot whose CRC holds over a check that is not its key's (never
+    /// written by provisioning), and then it could only keep a counter, never drop one.
     pub fn from_area(area: &[u8]) -> Self {
-        let Some(key) = nv::read_key_slot(area) else {
+        let Some((key, stored_check)) = nv::read_key_slot_and_check(area) else {
             return Self::none();
         };
-        let key_check = key.check();
+        let counter = nv::current_counter(area);
+        let key_check = match (stored_check, counter) {
+            (Some(stored), Some((_, record))) if record.key_check == stored => stored,
+            _ => key.check(),
+        };
         let mut sa = Self {
             key: Some(key),
             key_check,
             ..Self::none()
         };
-        if let Some((slot, record)) = nv::current_counter(area) {
+        if let Some((slot, record)) = counter {
             // The slot is taken either way (the next write goes to the other one); a record of
             // an earlier key contributes nothing else.
             sa.current_slot = Some(slot);
@@ -397,6 +411,58 @@ mod tests {
             SecurityAssociation::load(Some(&mut area)).last_sequence(),
             1
         );
+    }
+
+    /// The key slot of `key` with `check` stored in it (resealed), as no provisioning writes
+    /// it unless `check` is the key's.
+    fn slot_storing(key: &Key, check: u32) -> [u8; nv::KEY_SLOT_BYTES] {
+        let mut slot = nv::key_slot(key);
+        slot[nv::KEY_CHECK_AT..nv::KEY_CHECK_AT + 4].copy_from_slice(&check.to_be_bytes());
+        nv::seal(&mut slot);
+        slot
+    }
+
+    #[test]
+    fn the_stored_key_check_is_taken_only_when_it_is_the_counters_so_it_never_drops_a_counter() {
+        let mut area = Area::provisioned(&KEY);
+        let mut sa = SecurityAssociation::load(Some(&mut area));
+        sa.accept(100, 0b10, Some(&mut area)).unwrap();
+        let load = |area: &mut Area| {
+            let sa = SecurityAssociation::load(Some(area));
+            (sa.last_sequence(), sa.holds())
+        };
+        // Provisioned (version 2): the stored check is the counter's.
+        assert_eq!(load(&mut area), (100, 0b10));
+        // A stored check that is not the key's nor the counter's: the check is computed, and
+        // the counter is still the key's.
+        area.bytes[..nv::KEY_SLOT_BYTES].copy_from_slice(&slot_storing(&KEY, 0x1234_5678));
+        assert_eq!(load(&mut area), (100, 0b10));
+        // A version 1 slot (no stored check): computed, the same.
+        let mut v1 = nv::key_slot(&KEY);
+        v1[4] = 1;
+        v1[nv::KEY_CHECK_AT..nv::KEY_CHECK_AT + 4].fill(0);
+        nv::seal(&mut v1);
+        area.bytes[..nv::KEY_SLOT_BYTES].copy_from_slice(&v1);
+        assert_eq!(load(&mut area), (100, 0b10));
+        // The counter record written under it is bound to the key's real check.
+        let mut sa = SecurityAssociation::load(Some(&mut area));
+        sa.accept(101, 0b10, Some(&mut area)).unwrap();
+        assert_eq!(
+            nv::current_counter(&area.bytes).map(|(_, r)| r.key_check),
+            Some(KEY.check())
+        );
+        // The only case where the stored check decides: a slot (never written by
+        // provisioning) whose CRC holds over another key's check that is the counter's keeps
+        // that counter: more sequence numbers refused, never an old one accepted again.
+        let other = Key {
+            bytes: [0x55; 32],
+            ..KEY
+        };
+        area.bytes[..nv::KEY_SLOT_BYTES].copy_from_slice(&slot_storing(&other, KEY.check()));
+        assert_eq!(load(&mut area), (101, 0b10));
+        // Provisioned properly, the other key starts its own counter.
+        nv::provision(&mut area.bytes, &other).unwrap();
+        assert_eq!(load(&mut area), (0, 0));
     }
 
     #[test]

@@ -35,7 +35,9 @@
 //!   the checkpoint areas. A torn counter write leaves the other record whole. The counter
 //!   records are bound to the key (a 32-bit key check): provisioning a new key starts a new
 //!   association with its counter at 0; provisioning the same key again keeps the counter, so
-//!   re-provisioning never re-opens old traffic to replay.
+//!   re-provisioning never re-opens old traffic to replay. The key slot stores the key check as
+//!   provisioning computed it, so that a boot whose counter record carries that check need not
+//!   hash the key (see [`SecurityAssociation::from_area`]: any other case is hashed as before).
 //! - **No key, no traffic**: a board without non-volatile memory, or without a valid key slot,
 //!   refuses every authenticated uplink and command with `NoKey`. There is no build option that
 //!   accepts unauthenticated uplinks: `hil` provisions a key (the scenario's, or its built-in

@@ -4,7 +4,8 @@
 //!
 //! ```text
 //! offset  bytes  record
-//! 0       64     key slot      "SKEY", version 1, 0, SPI, key (32), zeros (20), CRC-32 of 0..60
+//! 0       64     key slot      "SKEY", version 2, 0, SPI, key (32), key check (4), zeros (16),
+//!                               CRC-32 of 0..60
 //! 64      32     counter A     "SCTR", generation, last sequence, holds, key check, zeros (8),
 //! 96      32     counter B                                               CRC-32 of 0..28
 //! ```
@@ -15,6 +16,13 @@
 //! write torn by a reset leaves the current record whole. A counter record whose key check is
 //! not the provisioned key's ([`crate::Key::check`]) belongs to an earlier key and counts as
 //! absent (the new key's association starts at sequence 0, no holds).
+//!
+//! The key slot carries the key's check ([`crate::Key::check`], an HMAC-SHA-256 of four
+//! compressions, about 19,000 instructions on the 750) as provisioning computed it, under the
+//! slot's CRC, so that a boot need not hash the key again to match it with the counter record
+//! (see [`crate::SecurityAssociation::from_area`]: a boot trusts the stored check only when it
+//! is the counter record's, and computes it otherwise). A version 1 slot (no stored check,
+//! bytes 40..60 zero) is still read; its check is computed at every boot.
 use fsw_bridge::codec::LINK_CRC;
 
 use crate::{Key, KEY_LEN};
@@ -31,7 +39,12 @@ const _: () =
     assert!(COUNTER_A_OFFSET + 2 * COUNTER_RECORD_BYTES <= SECURITY_AREA_BYTES && KEY_LEN == 32);
 
 const KEY_MAGIC: [u8; 4] = *b"SKEY";
-const KEY_VERSION: u8 = 1;
+/// The version provisioning writes: the slot carries the key check.
+const KEY_VERSION: u8 = 2;
+/// The version before the key check was stored (still read).
+const KEY_VERSION_WITHOUT_CHECK: u8 = 1;
+/// Where the key check is in a version 2 slot.
+pub(crate) const KEY_CHECK_AT: usize = 8 + KEY_LEN;
 const COUNTER_MAGIC: [u8; 4] = *b"SCTR";
 
 fn crc_ok(record: &[u8]) -> bool {
@@ -39,35 +52,51 @@ fn crc_ok(record: &[u8]) -> bool {
     LINK_CRC.checksum(body).to_be_bytes() == crc
 }
 
-fn seal(record: &mut [u8]) {
+pub(crate) fn seal(record: &mut [u8]) {
     let at = record.len() - 4;
     let crc = LINK_CRC.checksum(&record[..at]);
     record[at..].copy_from_slice(&crc.to_be_bytes());
 }
 
-/// The key slot holding `key`, as provisioning writes it.
+/// The key slot holding `key` and its check, as provisioning writes it (version 2).
 pub fn key_slot(key: &Key) -> [u8; KEY_SLOT_BYTES] {
     let mut slot = [0u8; KEY_SLOT_BYTES];
     slot[0..4].copy_from_slice(&KEY_MAGIC);
     slot[4] = KEY_VERSION;
     slot[6..8].copy_from_slice(&key.spi.to_be_bytes());
     slot[8..8 + KEY_LEN].copy_from_slice(&key.bytes);
+    slot[KEY_CHECK_AT..KEY_CHECK_AT + 4].copy_from_slice(&key.check().to_be_bytes());
     seal(&mut slot);
     slot
 }
 
 /// The key a key slot holds, if it is a valid one.
 pub fn read_key_slot(slot: &[u8]) -> Option<Key> {
+    read_key_slot_and_check(slot).map(|(key, _)| key)
+}
+
+/// The key a key slot holds and the key check stored with it (None in a version 1 slot), if
+/// the slot is valid. The stored check is what provisioning computed; the slot's CRC covers it.
+pub fn read_key_slot_and_check(slot: &[u8]) -> Option<(Key, Option<u32>)> {
     let slot = slot.get(..KEY_SLOT_BYTES)?;
-    if slot[0..4] != KEY_MAGIC || slot[4] != KEY_VERSION || !crc_ok(slot) {
+    let version = slot[4];
+    if slot[0..4] != KEY_MAGIC
+        || (version != KEY_VERSION && version != KEY_VERSION_WITHOUT_CHECK)
+        || !crc_ok(slot)
+    {
         return None;
     }
     let mut bytes = [0u8; KEY_LEN];
     bytes.copy_from_slice(&slot[8..8 + KEY_LEN]);
-    Some(Key {
-        spi: u16::from_be_bytes([slot[6], slot[7]]),
-        bytes,
-    })
+    let c = &slot[KEY_CHECK_AT..KEY_CHECK_AT + 4];
+    let check = (version == KEY_VERSION).then(|| u32::from_be_bytes([c[0], c[1], c[2], c[3]]));
+    Some((
+        Key {
+            spi: u16::from_be_bytes([slot[6], slot[7]]),
+            bytes,
+        },
+        check,
+    ))
 }
 
 /// One anti-replay counter record.
@@ -167,6 +196,28 @@ mod tests {
             assert_eq!(read_key_slot(&damaged), None, "byte {i}");
         }
         assert_eq!(provision(&mut [0u8; 10], &KEY), Err(AreaTooSmall));
+    }
+
+    #[test]
+    fn a_provisioned_slot_stores_the_key_check_and_a_version_1_slot_reads_without_it() {
+        let slot = key_slot(&KEY);
+        assert_eq!(slot[4], 2);
+        assert_eq!(
+            read_key_slot_and_check(&slot),
+            Some((KEY, Some(KEY.check())))
+        );
+        // The slot an earlier provisioning wrote: version 1, zeros after the key.
+        let mut v1 = slot;
+        v1[4] = 1;
+        v1[KEY_CHECK_AT..KEY_CHECK_AT + 4].fill(0);
+        seal(&mut v1);
+        assert_eq!(read_key_slot_and_check(&v1), Some((KEY, None)));
+        assert_eq!(read_key_slot(&v1), Some(KEY));
+        // Another version is no key.
+        let mut v3 = slot;
+        v3[4] = 3;
+        seal(&mut v3);
+        assert_eq!(read_key_slot_and_check(&v3), None);
     }
 
     #[test]

@@ -173,41 +173,25 @@ pub fn uplink_service(msg: &HostToTarget) -> Service {
     }
 }
 
-/// The service of a target-to-host message. Hello, Pong and Panic are expedited. Logs and
-/// health-monitor events go on the Instrument channel, and so do the metrics for which
-/// `is_instrument_metric(id)` holds: fsw-bridge does not know the metric ids, so the caller
-/// says which ones the native target never sends (the measured costs, the kernel's metrics).
-/// Everything else is on the Mission channel. The predicate must give the same answer on both
-/// targets, or their mission streams differ.
-pub fn downlink_service(
-    msg: &TargetToHost,
-    is_instrument_metric: impl FnOnce(u16) -> bool,
-) -> Service {
-    use VirtualChannel::{Instrument, Mission};
+/// The service of a target-to-host message. Hello, Pong and Panic are expedited. Logs go on the
+/// Instrument channel; a telemetry event goes where the telemetry dictionary says
+/// ([`crate::dictionary::event_channel`]: health-monitor events, measured costs and the
+/// platform's metrics, which only the emulated target sends, on the Instrument channel).
+/// Everything else is on the Mission channel, identical on every target.
+pub fn downlink_service(msg: &TargetToHost) -> Service {
+    use VirtualChannel::Mission;
     match msg {
         // A panic report is the last thing a target sends before it resets itself: it cannot
         // wait for an acknowledgement, so it travels like the Hello that follows it.
         TargetToHost::Hello { .. } | TargetToHost::Pong { .. } | TargetToHost::Panic { .. } => {
             Service::Expedited
         }
-        TargetToHost::Log { .. }
-        | TargetToHost::Telemetry(TelemetryEvent::HealthMonitor { .. }) => {
-            Service::Sequenced(Instrument)
-        }
-        TargetToHost::Telemetry(TelemetryEvent::Metric { id, .. }) => {
-            if is_instrument_metric(*id) {
-                Service::Sequenced(Instrument)
-            } else {
-                Service::Sequenced(Mission)
-            }
+        TargetToHost::Log { .. } => Service::Sequenced(VirtualChannel::Instrument),
+        TargetToHost::Telemetry(event) => {
+            Service::Sequenced(crate::dictionary::event_channel(event))
         }
         TargetToHost::FrameDone { .. }
         | TargetToHost::CommandDispatch { .. }
-        | TargetToHost::Telemetry(
-            TelemetryEvent::TaskTransition { .. }
-            | TelemetryEvent::PlanModification { .. }
-            | TelemetryEvent::StateStale { .. },
-        )
         | TargetToHost::UplinkAck { .. }
         | TargetToHost::UplinkNak { .. }
         | TargetToHost::GroundCommandAck { .. }

@@ -122,7 +122,8 @@
 //! must decide when a frame's exchange is complete from the Mission channel alone, so that the
 //! round sequence, and with it the faults the Mission stream meets, is the same on the native
 //! target (no Instrument traffic) and the emulated one; Instrument frames travel in whatever
-//! rounds there are. Hand `downlink_service` a metric predicate that is the same on both.
+//! rounds there are. `downlink_service` routes metrics by the telemetry dictionary
+//! ([`crate::dictionary`]), the same on both.
 //!
 //! Throughput is go-back-N's: each round delivers, per VC, the frames up to the first one lost.
 //! With 1 % byte corruption and 10 % loss a 25-byte frame gets through about 7 times in 10, so

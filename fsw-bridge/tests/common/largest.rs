@@ -91,8 +91,13 @@ pub fn largest_t2h(i: usize) -> TargetToHost {
         0 => TargetToHost::Hello {
             protocol_version: u16::MAX,
             build_id: [0xff; 8],
-            reset_cause: ResetCause::HealthMonitor,
+            reset_cause: ResetCause::KernelFault,
             boot_count: u32::MAX,
+            kernel_fault: Some(fsw_bridge::KernelFault {
+                vector: u32::MAX,
+                pc: u32::MAX,
+                dar: u32::MAX,
+            }),
         },
         1 => TargetToHost::Pong {
             seq: u32::MAX,

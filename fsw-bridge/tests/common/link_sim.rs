@@ -131,6 +131,7 @@ pub fn hello() -> TargetToHost {
         build_id: [7; 8],
         reset_cause: fsw_bridge::ResetCause::Warm,
         boot_count: 2,
+        kernel_fault: None,
     }
 }
 

@@ -76,7 +76,18 @@ pub fn reset_causes() -> impl Strategy<Value = ResetCause> {
         Just(ResetCause::Warm),
         Just(ResetCause::Watchdog),
         Just(ResetCause::HealthMonitor),
+        Just(ResetCause::KernelFault),
     ]
+}
+
+pub fn kernel_faults() -> impl Strategy<Value = Option<fsw_bridge::KernelFault>> {
+    proptest::option::of(
+        (u32s(), u32s(), u32s()).prop_map(|(vector, pc, dar)| fsw_bridge::KernelFault {
+            vector,
+            pc,
+            dar,
+        }),
+    )
 }
 
 pub fn link_counters() -> impl Strategy<Value = fsw_bridge::LinkCounters> {
@@ -200,14 +211,24 @@ pub fn host_to_target() -> impl Strategy<Value = HostToTarget> {
 }
 
 pub fn hello() -> impl Strategy<Value = TargetToHost> {
-    (u16s(), any::<[u8; 8]>(), reset_causes(), u32s()).prop_map(
-        |(protocol_version, build_id, reset_cause, boot_count)| TargetToHost::Hello {
-            protocol_version,
-            build_id,
-            reset_cause,
-            boot_count,
-        },
+    (
+        u16s(),
+        any::<[u8; 8]>(),
+        reset_causes(),
+        u32s(),
+        kernel_faults(),
     )
+        .prop_map(
+            |(protocol_version, build_id, reset_cause, boot_count, kernel_fault)| {
+                TargetToHost::Hello {
+                    protocol_version,
+                    build_id,
+                    reset_cause,
+                    boot_count,
+                    kernel_fault,
+                }
+            },
+        )
 }
 pub fn pong() -> impl Strategy<Value = TargetToHost> {
     (u32s(), link_counters()).prop_map(|(seq, link)| TargetToHost::Pong { seq, link })

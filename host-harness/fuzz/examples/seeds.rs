@@ -212,6 +212,7 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
             build_id: *b"native\0\0",
             reset_cause: ResetCause::Warm,
             boot_count: 2,
+            kernel_fault: None,
         },
         TargetToHost::Pong {
             seq: 7,
@@ -256,6 +257,17 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
         TargetToHost::GroundCommandNak {
             sequence: header.sequence,
             reason: CommandRefusal::Security(SecurityRefusal::Replay),
+        },
+        TargetToHost::Hello {
+            protocol_version: PROTOCOL_VERSION,
+            build_id: *b"native\0\0",
+            reset_cause: ResetCause::KernelFault,
+            boot_count: 3,
+            kernel_fault: Some(fsw_bridge::KernelFault {
+                vector: 0x700,
+                pc: 0x1_2344,
+                dar: 0,
+            }),
         },
     ];
     let mut seeds = Vec::new();

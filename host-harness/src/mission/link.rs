@@ -43,15 +43,16 @@ use super::target::{MissionTarget, TargetError};
 /// few hundred rounds.
 pub const MAX_ROUNDS_PER_EXCHANGE: u32 = 20_000;
 
-/// True for the metrics only the emulated target sends (measured guest costs and the kernel's
-/// metrics): they travel on the Instrument channel. The same answer on both targets.
+/// True for the metrics only the emulated target sends (measured guest costs and the
+/// platform's metrics): the telemetry dictionary puts them on the Instrument channel. The same
+/// answer on both targets.
 pub fn is_instrument_metric(id: u16) -> bool {
-    id < 0x1000 || flight_app::metric::is_instrument(id)
+    fsw_bridge::dictionary::metric_channel(id) == VirtualChannel::Instrument
 }
 
 /// The virtual channel (or expedited service) of a target message.
 pub fn service_of(msg: &TargetToHost) -> Service {
-    downlink_service(msg, is_instrument_metric)
+    downlink_service(msg)
 }
 
 /// How an exchange ended.
@@ -554,9 +555,9 @@ fn decode_one<M: fsw_bridge::codec::WireMessage>(bytes: &[u8]) -> Option<LinkFra
     found
 }
 
-/// A measured-cost metric on the transcript (for readers): costs are Instrument frames.
+/// A measured-cost metric on the transcript (for readers): the telemetry dictionary's kind.
 pub fn is_cost_metric(msg: &TargetToHost) -> bool {
-    matches!(msg, TargetToHost::Telemetry(TelemetryEvent::Metric { id, .. }) if is_instrument_metric(*id))
+    matches!(msg, TargetToHost::Telemetry(TelemetryEvent::Metric { id, .. }) if fsw_bridge::dictionary::is_measured_cost(*id))
 }
 
 #[cfg(test)]

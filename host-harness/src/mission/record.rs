@@ -359,7 +359,7 @@ impl MissionRecord {
 
     /// Every security count at 0, so that an expectation on one holds when nothing happened.
     pub fn start_security_counts(&mut self) {
-        for m in super::metrics::METRICS {
+        for m in super::metrics::METRICS.iter() {
             if m.name == "authenticated_accepted" || m.name.starts_with("refused_") {
                 self.metrics.entry(m.name.to_string()).or_insert(0);
             }
@@ -536,150 +536,117 @@ impl MissionRecord {
         }
     }
 
-    /// A cost metric from the target. Metrics named `max_*` keep the largest value of the run;
-    /// each `*_ticks` maximum of a recovery or a boot also has an `*_instructions` twin.
+    /// A metric from the target: what it says about the steps, the resets and the boots, and
+    /// the report metrics it is reduced to ([`super::metrics::FROM_WIRE`], named from the
+    /// telemetry dictionary: a measured cost's largest value is `max_<name>`).
     fn metric_event(&mut self, id: u16, value: u64) {
+        use super::metrics::{self, Reduce};
         use flight_app::metric;
-        let name = match id {
-            metric::STEP_TICKS => {
-                self.step_costs.push(StepCost {
-                    frame: self.frames,
-                    step: value,
-                    planner: None,
-                    executive: None,
-                });
-                "max_step_ticks"
-            }
+        use kernel_config::abi::metric as platform;
+        match id {
+            metric::STEP_TICKS => self.step_costs.push(StepCost {
+                frame: self.frames,
+                step: value,
+                planner: None,
+                executive: None,
+            }),
             metric::PLANNER_TICKS => {
                 if let Some(c) = self.step_costs.last_mut() {
                     c.planner.get_or_insert(value);
                 }
-                "max_planner_ticks"
             }
             metric::EXECUTIVE_TICKS => {
                 if let Some(c) = self.step_costs.last_mut() {
                     c.executive.get_or_insert(value);
                 }
-                "max_executive_ticks"
             }
-            metric::CHECKPOINT_TICKS => "max_checkpoint_ticks",
-            metric::RESTORE_TICKS => "max_restore_ticks",
             metric::RECOVERY_TICKS => {
                 if let Some(r) = self.resets.last_mut() {
                     r.recovery_ticks.get_or_insert(value);
                 }
                 self.reset_recovered();
-                "max_recovery_ticks"
-            }
-            metric::CHECKPOINT_WRITE_FAILURES => "checkpoint_write_failures",
-            metric::STATE_TYPE_MISMATCHES => "state_type_mismatches",
-            metric::STATE_TYPE_MISMATCH_KEY => "state_type_mismatch_key",
-            metric::GROUND_HOLDS => {
-                // The last value, not a maximum: the holds as the target last reported them.
-                self.metrics.insert("ground_holds".into(), value);
-                return;
-            }
-            metric::UPLINK_VERIFY_TICKS => {
-                self.max_metric("max_uplink_verify_instructions", to_instructions(value));
-                "max_uplink_verify_ticks"
             }
             metric::RESTORED_SEQUENCE => {
                 if let Some(r) = self.resets.last_mut() {
                     r.restored_sequence = Some(value);
                 }
-                return;
             }
             metric::RESTORED_FROM => {
                 if let Some(r) = self.resets.last_mut() {
-                    let memory = match value {
-                        metric::RESTORED_FROM_NV => "non-volatile memory",
-                        metric::RESTORED_FROM_WARM => "warm-restart area",
-                        _ => "unknown memory",
-                    };
+                    let memory = fsw_bridge::dictionary::metric(id)
+                        .and_then(|m| m.value_name(value))
+                        .unwrap_or("unknown memory");
                     r.restored_from = Some(match r.restored_sequence {
                         Some(seq) => format!("{memory}, checkpoint {seq}"),
                         None => memory.to_string(),
                     });
                 }
-                return;
             }
-            kernel_config::abi::metric::LINK_INSTRUMENT_DROPPED => "instrument_messages_dropped",
-            metric::BOOT_SECURITY_TICKS => {
-                self.boot_part("security", value, |b| &mut b.security_ticks);
-                return;
+            metric::BOOT_SECURITY_TICKS => self.boot_part(value, |b| &mut b.security_ticks),
+            metric::RESTORE_CHECK_TICKS => self.boot_part(value, |b| &mut b.restore_check_ticks),
+            metric::RESTORE_DECODE_TICKS => self.boot_part(value, |b| &mut b.restore_decode_ticks),
+            platform::BOOT_STUB_IMAGE_TICKS => self.boot_part(value, |b| &mut b.stub_image_ticks),
+            platform::BOOT_STUB_CLEAR_TICKS => self.boot_part(value, |b| &mut b.stub_clear_ticks),
+            platform::BOOT_KERNEL_INIT_TICKS => self.boot_part(value, |b| &mut b.kernel_init_ticks),
+            platform::BOOT_EXECUTIVE_START_TICKS => {
+                self.boot_part(value, |b| &mut b.executive_start_ticks)
             }
-            metric::RESTORE_CHECK_TICKS => {
-                self.boot_part("restore_check", value, |b| &mut b.restore_check_ticks);
-                return;
+            platform::BOOT_EXECUTIVE_INIT_TICKS => {
+                self.boot_part(value, |b| &mut b.executive_init_ticks)
             }
-            metric::RESTORE_DECODE_TICKS => {
-                self.boot_part("restore_decode", value, |b| &mut b.restore_decode_ticks);
-                return;
-            }
-            kernel_config::abi::metric::BOOT_STUB_IMAGE_TICKS => {
-                self.boot_part("image", value, |b| &mut b.stub_image_ticks);
-                return;
-            }
-            kernel_config::abi::metric::BOOT_STUB_CLEAR_TICKS => {
-                self.boot_part("clear", value, |b| &mut b.stub_clear_ticks);
-                return;
-            }
-            kernel_config::abi::metric::BOOT_KERNEL_INIT_TICKS => {
-                self.boot_part("kernel_init", value, |b| &mut b.kernel_init_ticks);
-                return;
-            }
-            kernel_config::abi::metric::BOOT_EXECUTIVE_START_TICKS => {
-                self.boot_part("executive_start", value, |b| &mut b.executive_start_ticks);
-                return;
-            }
-            kernel_config::abi::metric::BOOT_EXECUTIVE_INIT_TICKS => {
-                self.boot_part("executive_init", value, |b| &mut b.executive_init_ticks);
-                return;
-            }
-            kernel_config::abi::metric::BOOT_IMAGE => {
-                use kernel_config::abi::boot_image;
+            platform::BOOT_IMAGE => {
                 if let Some(boot) = self.boots.last_mut() {
-                    let how = match value {
-                        boot_image::VERIFIED => "verified",
-                        boot_image::COPIED => "copied",
-                        boot_image::REPAIRED => "repaired",
-                        _ => "unknown",
-                    };
+                    let how = fsw_bridge::dictionary::metric(id)
+                        .and_then(|m| m.value_name(value))
+                        .unwrap_or("unknown");
                     boot.breakdown.image.get_or_insert_with(|| how.to_string());
                 }
-                return;
             }
-            kernel_config::abi::metric::KERNEL_BOOT_TICKS => {
+            platform::KERNEL_BOOT_TICKS => {
                 if let Some(boot) = self.boots.last_mut() {
                     boot.kernel_boot_ticks.get_or_insert(value);
                 }
+            }
+            platform::BOOT_TO_READY_TICKS => {
+                if let Some(boot) = self.boots.last_mut() {
+                    boot.boot_to_ready_ticks.get_or_insert(value);
+                    // Every boot but the first is a reset's.
+                    if self.boots.len() > 1 {
+                        if let Some(r) = self.resets.last_mut() {
+                            r.boot_to_ready_ticks.get_or_insert(value);
+                        }
+                        self.reset_recovered();
+                    }
+                }
+            }
+            _ => {}
+        }
+        let Some(w) = metrics::FROM_WIRE.iter().find(|w| w.id == id) else {
+            return;
+        };
+        let power_on = self
+            .boots
+            .last()
+            .map(|b| b.reset_cause == crate::scenario::cause_name(ResetCause::PowerOn));
+        let name = match (w.reduce, power_on) {
+            (Reduce::Max, _) => metrics::report_name(id),
+            (Reduce::Last, _) => {
+                if let Some(name) = metrics::report_name(id) {
+                    self.metrics.insert(name, value);
+                }
                 return;
             }
-            kernel_config::abi::metric::BOOT_TO_READY_TICKS => {
-                let Some(boot) = self.boots.last_mut() else {
-                    return;
-                };
-                boot.boot_to_ready_ticks.get_or_insert(value);
-                let power_on = boot.reset_cause == crate::scenario::cause_name(ResetCause::PowerOn);
-                // Every boot but the first is a reset's.
-                if self.boots.len() > 1 {
-                    if let Some(r) = self.resets.last_mut() {
-                        r.boot_to_ready_ticks.get_or_insert(value);
-                    }
-                    self.reset_recovered();
-                }
-                if power_on {
-                    "max_boot_to_ready_ticks_power_on"
-                } else {
-                    "max_boot_to_ready_ticks_warm"
-                }
-            }
-            _ => return,
+            (Reduce::MaxOverWarmBoots, Some(false)) => metrics::warm_boot_name(id),
+            (Reduce::MaxPerBootKind, Some(power_on)) => metrics::boot_kind_name(id, power_on),
+            (Reduce::MaxOverWarmBoots | Reduce::MaxPerBootKind, _) => None,
         };
-        self.max_metric(name, value);
-        if name == "max_recovery_ticks" {
-            self.max_metric("max_recovery_instructions", to_instructions(value));
+        let Some(name) = name else {
+            return;
+        };
+        if w.instructions {
+            self.max_metric(&metrics::instructions_name(&name), to_instructions(value));
         }
+        self.max_metric(&name, value);
     }
 
     fn max_metric(&mut self, name: &str, value: u64) {
@@ -715,20 +682,11 @@ impl MissionRecord {
         });
     }
 
-    /// A part of the last boot's breakdown: recorded with it, and as `max_warm_boot_<part>`
-    /// over the warm boots (every boot but a power-on).
-    fn boot_part(
-        &mut self,
-        part: &str,
-        value: u64,
-        slot: fn(&mut BootBreakdown) -> &mut Option<u64>,
-    ) {
-        let Some(boot) = self.boots.last_mut() else {
-            return;
-        };
-        slot(&mut boot.breakdown).get_or_insert(value);
-        if boot.reset_cause != crate::scenario::cause_name(ResetCause::PowerOn) {
-            self.max_metric(&format!("max_warm_boot_{part}_ticks"), value);
+    /// A part of the last boot's breakdown, recorded with it (the warm boots' maxima are
+    /// [`super::metrics::Reduce::MaxOverWarmBoots`]).
+    fn boot_part(&mut self, value: u64, slot: fn(&mut BootBreakdown) -> &mut Option<u64>) {
+        if let Some(boot) = self.boots.last_mut() {
+            slot(&mut boot.breakdown).get_or_insert(value);
         }
     }
 

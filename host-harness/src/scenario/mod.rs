@@ -146,6 +146,7 @@ pub enum CauseName {
     Warm,
     Watchdog,
     HealthMonitor,
+    KernelFault,
 }
 
 impl CauseName {
@@ -156,6 +157,7 @@ impl CauseName {
                 | (Self::Warm, ResetCause::Warm)
                 | (Self::Watchdog, ResetCause::Watchdog)
                 | (Self::HealthMonitor, ResetCause::HealthMonitor)
+                | (Self::KernelFault, ResetCause::KernelFault)
         )
     }
 }
@@ -167,6 +169,7 @@ pub fn cause_name(cause: ResetCause) -> &'static str {
         ResetCause::Warm => "warm",
         ResetCause::Watchdog => "watchdog",
         ResetCause::HealthMonitor => "health-monitor",
+        ResetCause::KernelFault => "kernel-fault",
     }
 }
 

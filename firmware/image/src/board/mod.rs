@@ -1,44 +1,20 @@
-//! Drivers for the g3beige board as QEMU emulates it: Grackle PCI host bridge, Heathrow mac-io
-//! and its interrupt controller, the ESCC (Zilog 8530) serial controller, and the 750's timebase.
+//! The g3beige board's drivers as the kernel uses them: the register logic is in `drv-g3beige`
+//! (`firmware/drv`, tested on the host against mocks); here it is bound to memory-mapped I/O
+//! and the timebase register, and to the board's addresses.
 pub mod escc;
 pub mod heathrow;
 pub mod pci;
 pub mod timebase;
 
-use core::ptr::{read_volatile, write_volatile};
+use drv_g3beige::bus::Mmio;
 
-/// Memory-mapped register access with the ordering barrier the 750 needs for device memory.
+/// The board's registers, for the kernel.
 ///
-/// # Safety
-/// 1. `addr` is a device register mapped (or, with the MMU off, physically present) for bytes.
+/// Contract (kernel only): the kernel runs with the MMU off, where a device's physical address
+/// is the device; mac-io's devices (the ESCC, the PIC) are used only after `pci::init_mac_io`
+/// mapped mac-io at `drv_g3beige::pci::MAC_IO_BASE` at boot.
 #[inline]
-pub unsafe fn mmio_write8(addr: usize, value: u8) {
-    write_volatile(addr as *mut u8, value);
-    core::arch::asm!("eieio", options(nostack));
-}
-
-/// # Safety
-/// 1. `addr` is a device register mapped (or physically present) for bytes.
-#[inline]
-pub unsafe fn mmio_read8(addr: usize) -> u8 {
-    let v = read_volatile(addr as *const u8);
-    core::arch::asm!("eieio", options(nostack));
-    v
-}
-
-/// # Safety
-/// 1. `addr` is a 4-byte aligned device register.
-#[inline]
-pub unsafe fn mmio_write32(addr: usize, value: u32) {
-    write_volatile(addr as *mut u32, value);
-    core::arch::asm!("eieio", options(nostack));
-}
-
-/// # Safety
-/// 1. `addr` is a 4-byte aligned device register.
-#[inline]
-pub unsafe fn mmio_read32(addr: usize) -> u32 {
-    let v = read_volatile(addr as *const u32);
-    core::arch::asm!("eieio", options(nostack));
-    v
+pub fn kernel_mmio() -> Mmio {
+    // SAFETY: see the contract above; every caller is kernel code.
+    unsafe { Mmio::new() }
 }

@@ -19,7 +19,7 @@
 //! queues where the reset landed (`metric::ARMED_RESET_*`); `warm_reset` sends the queue
 //! straight to the host, ahead of the next boot's Hello.
 use fsw_bridge::ResetCause;
-use kernel_config::abi::{metric, reset_at, E_BAD_PORT, E_EMPTY, E_RANGE};
+use kernel_config::abi::{metric, reset_at, SysError};
 use kernel_config::PortKind;
 
 use super::sched::read_dec;
@@ -122,22 +122,22 @@ impl Kernel {
         mode: u32,
         value: u32,
         port: usize,
-    ) -> Result<(), i32> {
+    ) -> Result<(), SysError> {
         let point = match mode {
             reset_at::AFTER_TICKS => Point::AfterTicks(value),
             reset_at::IN_WARM_WRITE if value <= 1000 => Point::InWarmWrite { permille: value },
-            _ => return Err(E_RANGE),
+            _ => return Err(SysError::Range),
         };
-        let config = SYSTEM.ports.get(port).ok_or(E_BAD_PORT)?;
+        let config = SYSTEM.ports.get(port).ok_or(SysError::BadPort)?;
         let &[partition] = config.destinations else {
-            return Err(E_BAD_PORT);
+            return Err(SysError::BadPort);
         };
         if config.kind != PortKind::Queuing || config.source != caller {
-            return Err(E_BAD_PORT);
+            return Err(SysError::BadPort);
         }
         let messages = self.ports.queued(port);
         if messages == 0 {
-            return Err(E_EMPTY);
+            return Err(SysError::Empty);
         }
         // The counted partition is not running (the caller is), so the decrementer is not
         // pointed at an earlier reset point.

@@ -204,7 +204,8 @@ impl Kernel {
 }
 
 /// A fault in the kernel itself (or anything the kernel cannot attribute to a partition):
-/// report it with partition `KERNEL_PARTITION_ID`, then warm-reset with cause HealthMonitor.
+/// report it with partition `KERNEL_PARTITION_ID`, record it in the warm area for the next
+/// boot's Hello, then warm-reset with cause KernelFault.
 pub fn kernel_fault(vector: u32, srr0: u32, srr1: u32, dar: u32, dsisr: u32) -> ! {
     boot::disable_interrupts();
     let address = if vector == 0x300 { dar } else { srr0 };
@@ -224,5 +225,15 @@ pub fn kernel_fault(vector: u32, srr0: u32, srr1: u32, dar: u32, dsisr: u32) -> 
         dar,
         dsisr
     );
-    k.warm_reset(ResetCause::HealthMonitor)
+    warm::set_pending_cause(ResetCause::KernelFault);
+    warm::set_kernel_fault(fsw_bridge::KernelFault {
+        vector,
+        pc: srr0,
+        dar: if matches!(vector, 0x300 | 0x600) {
+            dar
+        } else {
+            0
+        },
+    });
+    k.warm_reset(ResetCause::KernelFault)
 }

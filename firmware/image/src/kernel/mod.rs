@@ -38,38 +38,9 @@ use crate::boot;
 use crate::config::{partition_image, PARTITION_COUNT};
 use crate::shared;
 
-/// A saved register set. The layout is fixed: boot.rs's entry and resume code use the offsets.
-#[repr(C)]
-#[derive(Clone, Copy)]
-pub struct Context {
-    pub gpr: [u32; 32],
-    pub cr: u32,
-    pub lr: u32,
-    pub ctr: u32,
-    pub xer: u32,
-    pub srr0: u32,
-    pub srr1: u32,
-    _pad: [u32; 2],
-}
-
-const _: () = {
-    assert!(core::mem::offset_of!(Context, cr) == 128);
-    assert!(core::mem::offset_of!(Context, srr0) == 144);
-    assert!(core::mem::offset_of!(Context, srr1) == 148);
-};
+use crate::context::{Context, KERNEL_FAULT_CONTEXT};
 
 impl Context {
-    pub const ZERO: Context = Context {
-        gpr: [0; 32],
-        cr: 0,
-        lr: 0,
-        ctr: 0,
-        xer: 0,
-        srr0: 0,
-        srr1: 0,
-        _pad: [0; 2],
-    };
-
     /// The context that starts partition `p` from scratch (see `__partition_start`).
     fn partition_start(p: usize) -> Context {
         let image = partition_image(p);
@@ -91,11 +62,6 @@ impl Context {
         ctx
     }
 }
-
-/// Where a fault inside the kernel saves its registers (SPRG2 points here while the kernel
-/// runs), so it never overwrites a partition's context.
-#[no_mangle]
-pub static mut KERNEL_FAULT_CONTEXT: Context = Context::ZERO;
 
 #[derive(Clone, Copy, PartialEq, Eq, Debug, defmt::Format)]
 pub enum RunState {
@@ -322,6 +288,21 @@ impl Kernel {
     }
 }
 
+/// Test image: the rogue partition's `rogue::KERNEL_FAULT_CALL` makes the kernel itself fault
+/// (a `trap`, a program exception in supervisor state outside any partition), so that the
+/// tests can watch a kernel fault warm-reset the module and reach the next Hello.
+#[cfg(feature = "test-partitions")]
+fn test_fault_hook(p: usize, ctx: &Context) {
+    if p == kernel_config::system::ROGUE
+        && ctx.gpr[0] == kernel_config::abi::rogue::KERNEL_FAULT_CALL
+    {
+        // SAFETY: deliberately faults: `trap` raises a program exception, which the entry code
+        // saves in the kernel-fault area and `kernel_trap` turns into a warm reset; nothing
+        // after it runs.
+        unsafe { core::arch::asm!("trap", options(nomem, nostack)) };
+    }
+}
+
 /// Entered from `__exception_common` with the MMU off, interrupts off, on the kernel stack.
 /// `ctx` is where the interrupted registers were saved. Returns the context to resume.
 #[no_mangle]
@@ -356,7 +337,11 @@ pub extern "C" fn kernel_trap(
             debug_assert!(core::ptr::eq(ctx, &k.contexts[p]));
             match vector {
                 0x900 => k.on_timer(entry),
-                0xc00 => k.syscall(p, entry),
+                0xc00 => {
+                    #[cfg(feature = "test-partitions")]
+                    test_fault_hook(p, &k.contexts[p]);
+                    k.syscall(p, entry)
+                }
                 // Held back at the controller while partitions run; should one get through
                 // anyway, the partition continues (its stint includes this handler).
                 0x500 => {

@@ -4,22 +4,21 @@
 //!
 //! Storage is one array in kernel RAM sized from the configuration at compile time; each slot is
 //! a 16-byte header (length, generation, timestamp) followed by the message.
-use kernel_config::abi::{E_BAD_PORT, E_EMPTY, E_FULL, E_TOO_BIG};
+use kernel_config::abi::SysError;
 use kernel_config::{port_slot_bytes, PortKind, PORT_SLOT_HEADER};
+use kernel_logic::port_queue::QueueState;
 
 use crate::config::{PORT_COUNT, PORT_OFFSETS, PORT_STORAGE_BYTES, SYSTEM};
 
-#[derive(Clone, Copy)]
-struct PortState {
-    /// Queuing: index of the oldest message. Sampling: unused.
-    head: u16,
-    /// Queuing: messages held. Sampling: 1 once written.
-    count: u16,
-}
+/// Queuing: the ring's head and count. Sampling: count 1 once written, head unused.
+type PortState = QueueState;
 
 pub struct Ports {
     state: [PortState; PORT_COUNT],
     storage: [u8; PORT_STORAGE_BYTES],
+    /// Queuing-port messages dropped on receive because their sender had restarted since it
+    /// sent them, since boot.
+    pub stale_dropped: u32,
 }
 
 /// What a receive found.
@@ -40,8 +39,9 @@ fn put_word(bytes: &mut [u8], at: usize, value: u32) {
 impl Ports {
     pub const fn new() -> Self {
         Self {
-            state: [PortState { head: 0, count: 0 }; PORT_COUNT],
+            state: [QueueState::EMPTY; PORT_COUNT],
             storage: [0; PORT_STORAGE_BYTES],
+            stale_dropped: 0,
         }
     }
 
@@ -59,24 +59,19 @@ impl Ports {
         message: &[u8],
         generation: u32,
         now: u64,
-    ) -> Result<(), i32> {
-        let config = SYSTEM.ports.get(port).ok_or(E_BAD_PORT)?;
+    ) -> Result<(), SysError> {
+        let config = SYSTEM.ports.get(port).ok_or(SysError::BadPort)?;
         if config.source != sender {
-            return Err(E_BAD_PORT);
+            return Err(SysError::BadPort);
         }
         if message.len() > config.message_size as usize {
-            return Err(E_TOO_BIG);
+            return Err(SysError::TooBig);
         }
-        let depth = config.depth as usize;
-        let state = self.state[port];
         let index = match config.kind {
             PortKind::Sampling => 0,
-            PortKind::Queuing => {
-                if state.count as usize >= depth {
-                    return Err(E_FULL);
-                }
-                (state.head as usize + state.count as usize) % depth
-            }
+            PortKind::Queuing => self.state[port]
+                .push_slot(config.depth)
+                .ok_or(SysError::Full)?,
         };
         let slot = self.slot(port, index);
         put_word(slot, 0, message.len() as u32);
@@ -85,10 +80,10 @@ impl Ports {
         put_word(slot, 12, now as u32);
         slot[PORT_SLOT_HEADER..PORT_SLOT_HEADER + message.len()].copy_from_slice(message);
         let state = &mut self.state[port];
-        state.count = match config.kind {
-            PortKind::Sampling => 1,
-            PortKind::Queuing => state.count + 1,
-        };
+        match config.kind {
+            PortKind::Sampling => state.count = 1,
+            PortKind::Queuing => state.pushed(),
+        }
         Ok(())
     }
 
@@ -106,20 +101,37 @@ impl Ports {
         self.state.get(port).map_or(0, |s| s.count)
     }
 
+    /// The port's source partition, for the caller to look up its current generation.
+    pub fn source(port: usize) -> Option<usize> {
+        SYSTEM.ports.get(port).map(|config| config.source)
+    }
+
     /// `receiver` takes (queuing) or reads (sampling) the next message on `port` into `buffer`.
+    /// On a queuing port, messages sent before the sender's current generation
+    /// (`sender_generation`) are dropped first and counted.
     pub fn receive(
         &mut self,
         receiver: usize,
         port: usize,
         buffer: &mut [u8],
-    ) -> Result<Received, i32> {
-        let config = SYSTEM.ports.get(port).ok_or(E_BAD_PORT)?;
+        sender_generation: u32,
+    ) -> Result<Received, SysError> {
+        let config = SYSTEM.ports.get(port).ok_or(SysError::BadPort)?;
         if !config.destinations.contains(&receiver) {
-            return Err(E_BAD_PORT);
+            return Err(SysError::BadPort);
+        }
+        if config.kind == PortKind::Queuing && self.state[port].count > 0 {
+            let size = port_slot_bytes(config);
+            let base = PORT_OFFSETS[port];
+            let storage = &self.storage;
+            let dropped = self.state[port].drop_stale(config.depth, sender_generation, |index| {
+                word(storage, base + index * size + 4)
+            });
+            self.stale_dropped = self.stale_dropped.wrapping_add(u32::from(dropped));
         }
         let state = self.state[port];
         if state.count == 0 {
-            return Err(E_EMPTY);
+            return Err(SysError::Empty);
         }
         let index = match config.kind {
             PortKind::Sampling => 0,
@@ -128,7 +140,7 @@ impl Ports {
         let slot = self.slot(port, index);
         let len = word(slot, 0) as usize;
         if len > buffer.len() {
-            return Err(E_TOO_BIG);
+            return Err(SysError::TooBig);
         }
         let received = Received {
             len,
@@ -137,9 +149,7 @@ impl Ports {
         };
         buffer[..len].copy_from_slice(&slot[PORT_SLOT_HEADER..PORT_SLOT_HEADER + len]);
         if config.kind == PortKind::Queuing {
-            let state = &mut self.state[port];
-            state.head = ((state.head as usize + 1) % config.depth as usize) as u16;
-            state.count -= 1;
+            let _ = self.state[port].pop(config.depth);
         }
         Ok(received)
     }

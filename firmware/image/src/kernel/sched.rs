@@ -418,6 +418,7 @@ impl Kernel {
             (metric::PARKS, self.parks),
             (metric::LINK_TRANSPORT, u32::from(link.over_shared_memory())),
             (metric::LINK_RING_ERRORS, link.ring_errors),
+            (metric::PORT_STALE_DROPPED, self.ports.stale_dropped),
         ] {
             self.events.metric(id, u64::from(value));
         }

@@ -1,16 +1,18 @@
 //! System calls (`sc`): the number in r0, arguments in r3..r7, results in r3 (negative: an
-//! `abi::E_*` code) and r4/r5. See `kernel_config::abi` for the table. A call that fails with a
-//! fault code (anything but E_EMPTY/E_FULL) is also reported to the health monitor, which
-//! applies the partition's IllegalSyscall action; the kernel itself never fails because of what
-//! a partition passed.
+//! `abi::E_*` code) and r4/r5. See `kernel_config::abi` for the table. The number is decoded
+//! once, into a [`Sysnum`], before anything else; every handler fails with a [`SysError`], and
+//! the return path encodes it into r3. A fault (`SysError::is_fault`: anything but Empty, Full,
+//! NoDevice) is also reported to the health monitor, which applies the partition's
+//! IllegalSyscall action; the kernel itself never fails because of what a partition passed.
 use fsw_bridge::ResetCause;
 use kernel_config::abi::*;
-use kernel_config::{NV_BASE, WARM_AREA_BASE, WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
+use kernel_config::{NV_BASE, WARM_AREA_BASE, WARM_BOOT_RECORD_SIZE};
 use kernel_logic::park::{
     check_wait_for_input_args, decide, reasons_not_to_park, wait_declares_idle, Decision,
     ModuleState,
 };
 
+use super::ports::Ports;
 use super::umem::{copy, USlice};
 use super::{health, klog, Kernel, Next, RunState};
 use crate::config::{PARTITION_COUNT, SYSTEM};
@@ -24,7 +26,7 @@ enum Outcome {
 
 use Outcome::Return;
 
-fn ok() -> Result<Outcome, i32> {
+fn ok() -> Result<Outcome, SysError> {
     Ok(Return(0, 0, 0))
 }
 
@@ -33,7 +35,8 @@ impl Kernel {
         let ctx = *self.context(p);
         let call = ctx.gpr[0];
         let a = [ctx.gpr[3], ctx.gpr[4], ctx.gpr[5], ctx.gpr[6], ctx.gpr[7]];
-        match self.dispatch(p, call, a, now) {
+        let outcome = Sysnum::try_from(call).and_then(|sysnum| self.dispatch(p, sysnum, a, now));
+        match outcome {
             Ok(Outcome::Return(r3, r4, r5)) => {
                 let ctx = self.context(p);
                 ctx.gpr[3] = r3;
@@ -42,9 +45,9 @@ impl Kernel {
                 Next::Partition(p)
             }
             Ok(Outcome::Switch(next)) => next,
-            Err(code) => {
-                self.context(p).gpr[3] = code as u32;
-                if is_fault(code) {
+            Err(error) => {
+                self.context(p).gpr[3] = encode_result(Err(error));
+                if error.is_fault() {
                     self.syscall_fault(p, call, now)
                 } else {
                     Next::Partition(p)
@@ -53,48 +56,67 @@ impl Kernel {
         }
     }
 
-    fn link_owner(p: usize) -> Result<(), i32> {
+    fn link_owner(p: usize) -> Result<(), SysError> {
         if SYSTEM.partitions[p].capabilities.link_owner {
             Ok(())
         } else {
-            Err(E_DENIED)
+            Err(SysError::Denied)
         }
     }
 
-    fn warm_range(p: usize, offset: u32, len: u32) -> Result<u32, i32> {
-        if !SYSTEM.partitions[p].capabilities.warm_area {
-            return Err(E_DENIED);
-        }
-        let room = WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE;
+    /// The kernel address of bytes `offset..offset + len` of partition `p`'s slice of the
+    /// warm area's checkpoint part.
+    fn warm_range(p: usize, offset: u32, len: u32) -> Result<u32, SysError> {
+        let Some(slice) = SYSTEM.partitions[p].capabilities.warm_area else {
+            return Err(SysError::Denied);
+        };
         match offset.checked_add(len) {
-            Some(end) if end <= room => Ok(WARM_AREA_BASE + WARM_BOOT_RECORD_SIZE + offset),
-            _ => Err(E_RANGE),
+            Some(end) if end <= slice.len => {
+                Ok(WARM_AREA_BASE + WARM_BOOT_RECORD_SIZE + slice.offset + offset)
+            }
+            _ => Err(SysError::Range),
         }
     }
 
-    fn nv_range(&self, p: usize, offset: u32, len: u32) -> Result<u32, i32> {
-        if !SYSTEM.partitions[p].capabilities.nv_memory {
-            return Err(E_DENIED);
+    /// Bytes of non-volatile memory partition `p`'s slice offers on this board (its slice,
+    /// cut at the end of the device).
+    fn nv_offered(&self, p: usize) -> Result<(kernel_config::Slice, u32), SysError> {
+        let Some(slice) = SYSTEM.partitions[p].capabilities.nv_memory else {
+            return Err(SysError::Denied);
+        };
+        let offered = self.nv_bytes.saturating_sub(slice.offset).min(slice.len);
+        if offered == 0 {
+            return Err(SysError::NoDevice);
         }
-        if self.nv_bytes == 0 {
-            return Err(E_NO_DEVICE);
-        }
+        Ok((slice, offered))
+    }
+
+    /// The device address of bytes `offset..offset + len` of partition `p`'s slice of
+    /// non-volatile memory.
+    fn nv_range(&self, p: usize, offset: u32, len: u32) -> Result<u32, SysError> {
+        let (slice, offered) = self.nv_offered(p)?;
         match offset.checked_add(len) {
-            Some(end) if end <= self.nv_bytes => Ok(NV_BASE + offset),
-            _ => Err(E_RANGE),
+            Some(end) if end <= offered => Ok(NV_BASE + slice.offset + offset),
+            _ => Err(SysError::Range),
         }
     }
 
-    fn dispatch(&mut self, p: usize, call: u32, a: [u32; 5], now: u64) -> Result<Outcome, i32> {
+    fn dispatch(
+        &mut self,
+        p: usize,
+        call: Sysnum,
+        a: [u32; 5],
+        now: u64,
+    ) -> Result<Outcome, SysError> {
         match call {
-            SYS_WAIT_NEXT_WINDOW => {
+            Sysnum::WaitNextWindow => {
                 if wait_declares_idle(a[0])? {
                     self.idle_declared.declare(p);
                 }
                 self.context(p).gpr[3] = 0;
                 Ok(Outcome::Switch(self.wait_next_window(p, now)))
             }
-            SYS_PORT_SEND => {
+            Sysnum::PortSend => {
                 let message = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
                 let generation = self.parts[p].generation;
                 let port = a[0] as usize;
@@ -108,31 +130,36 @@ impl Kernel {
                 }
                 ok()
             }
-            SYS_PORT_RECEIVE => {
+            Sysnum::PortReceive => {
                 let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
-                let got = self.ports.receive(p, a[0] as usize, buffer)?;
+                let port = a[0] as usize;
+                // Messages older than their sender's current generation are dropped (stale).
+                let sender_generation = Ports::source(port)
+                    .and_then(|source| self.parts.get(source))
+                    .map_or(0, |s| s.generation);
+                let got = self.ports.receive(p, port, buffer, sender_generation)?;
                 let age = now.saturating_sub(got.sent_at).min(u64::from(u32::MAX)) as u32;
                 // Last before the return path: it may start a stint that counts from here.
                 self.armed_reset_on_receive(p, a[0] as usize);
                 Ok(Return(got.len as u32, got.generation, age))
             }
-            SYS_MISSION_TIME => {
+            Sysnum::MissionTime => {
                 let t = self.mission_time_us;
                 Ok(Return((t >> 32) as u32, t as u32, 0))
             }
-            SYS_CPU_TIME => {
+            Sysnum::CpuTime => {
                 let s = &self.parts[p];
                 let stint = u64::from(self.stint_ticks());
                 let window = u64::from(s.window_ticks) + stint;
                 let total = s.cpu_total + stint;
                 Ok(Return((total >> 32) as u32, total as u32, window as u32))
             }
-            SYS_LOG => {
+            Sysnum::Log => {
                 let frame = USlice::from_raw(a[0], a[1])?.readable_by(p)?;
                 klog::with_ring(|ring| ring.push_frame(frame));
                 ok()
             }
-            SYS_WARM_READ => {
+            Sysnum::WarmRead => {
                 let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
                 let at = Self::warm_range(p, a[0], a[2])?;
                 // SAFETY:
@@ -142,7 +169,7 @@ impl Kernel {
                 copy(buffer, area);
                 ok()
             }
-            SYS_WARM_WRITE => {
+            Sysnum::WarmWrite => {
                 let data = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
                 let at = Self::warm_range(p, a[0], a[2])?;
                 // SAFETY: as for SYS_WARM_READ; the boot record before the part is not touched.
@@ -155,7 +182,7 @@ impl Kernel {
                 }
                 ok()
             }
-            SYS_NV_READ => {
+            Sysnum::NvRead => {
                 let buffer = USlice::from_raw(a[1], a[2])?.writable_by(p)?;
                 let at = self.nv_range(p, a[0], a[2])?;
                 // SAFETY:
@@ -164,9 +191,9 @@ impl Kernel {
                 //    call and SYS_NV_WRITE touch, with the MMU off in the kernel.
                 let area = unsafe { core::slice::from_raw_parts(at as *const u8, buffer.len()) };
                 copy(buffer, area);
-                Ok(Return(self.nv_bytes, 0, 0))
+                Ok(Return(self.nv_offered(p)?.1, 0, 0))
             }
-            SYS_NV_WRITE => {
+            Sysnum::NvWrite => {
                 let data = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
                 let at = self.nv_range(p, a[0], a[2])?;
                 // SAFETY: as for SYS_NV_READ.
@@ -174,13 +201,13 @@ impl Kernel {
                 copy(area, data);
                 ok()
             }
-            SYS_IDENTITY => Ok(Return(p as u32, self.parts[p].generation, 0)),
-            SYS_UPTIME => {
+            Sysnum::Identity => Ok(Return(p as u32, self.parts[p].generation, 0)),
+            Sysnum::Uptime => {
                 let up = now.wrapping_sub(crate::shared::boot_ticks());
                 let boot = self.boot_ticks.min(u64::from(u32::MAX)) as u32;
                 Ok(Return((up >> 32) as u32, up as u32, boot))
             }
-            SYS_PANIC => {
+            Sysnum::Panic => {
                 let file = USlice::from_raw(a[0], a[1].min(128))
                     .and_then(|s| s.readable_by(p))
                     .unwrap_or(b"<bad pointer>");
@@ -197,17 +224,24 @@ impl Kernel {
                     now,
                 )))
             }
-            SYS_BOOT_INFO => {
+            Sysnum::BootInfo => {
                 Self::link_owner(p)?;
-                Ok(Return(self.boot_cause, self.boot_count, 0))
+                match a[0] {
+                    BOOT_INFO_CAUSE => Ok(Return(self.boot_cause, self.boot_count, 0)),
+                    BOOT_INFO_KERNEL_FAULT => Ok(match crate::warm::boot_kernel_fault() {
+                        Some(f) => Return(f.vector, f.pc, f.dar),
+                        None => Return(0, 0, 0),
+                    }),
+                    _ => Err(SysError::Range),
+                }
             }
-            SYS_LOG_DRAIN => {
+            Sysnum::LogDrain => {
                 Self::link_owner(p)?;
                 let buffer = USlice::from_raw(a[0], a[1])?.writable_by(p)?;
                 let n = klog::with_ring(|ring| ring.drain(buffer));
                 Ok(Return(n as u32, 0, 0))
             }
-            SYS_EVENT_DRAIN => {
+            Sysnum::EventDrain => {
                 Self::link_owner(p)?;
                 let records = a[1].clamp(1, health::EVENT_QUEUE_DEPTH as u32);
                 let bytes = records * EVENT_RECORD_SIZE as u32;
@@ -222,12 +256,12 @@ impl Kernel {
                 }
                 Ok(Return(written, 0, 0))
             }
-            SYS_SET_MISSION_TIME => {
+            Sysnum::SetMissionTime => {
                 Self::link_owner(p)?;
                 self.mission_time_us = (u64::from(a[0]) << 32) | u64::from(a[1]);
                 ok()
             }
-            SYS_RESET_MODULE => {
+            Sysnum::ResetModule => {
                 Self::link_owner(p)?;
                 match a[0] {
                     reset_at::NOW => self.warm_reset(ResetCause::Warm),
@@ -237,7 +271,7 @@ impl Kernel {
                     }
                 }
             }
-            SYS_REQUEST_METRICS => {
+            Sysnum::RequestMetrics => {
                 Self::link_owner(p)?;
                 match a[0] {
                     0 => self.report_metrics(),
@@ -246,18 +280,18 @@ impl Kernel {
                 }
                 ok()
             }
-            SYS_LINK_READ => {
+            Sysnum::LinkRead => {
                 Self::link_owner(p)?;
                 let buffer = USlice::from_raw(a[0], a[1])?.writable_by(p)?;
                 let n = self.link.read(buffer);
                 Ok(Return(n as u32, self.link.lost, 0))
             }
-            SYS_LINK_WRITE => {
+            Sysnum::LinkWrite => {
                 Self::link_owner(p)?;
                 let data = USlice::from_raw(a[0], a[1])?.readable_by(p)?;
                 Ok(Return(self.link.write(data) as u32, 0, 0))
             }
-            SYS_WAIT_FOR_INPUT => {
+            Sysnum::WaitForInput => {
                 Self::link_owner(p)?;
                 if check_wait_for_input_args(&a)? {
                     let state = self.module_state(p);
@@ -285,7 +319,6 @@ impl Kernel {
                     }
                 }
             }
-            _ => Err(E_UNKNOWN_CALL),
         }
     }
 

@@ -2,7 +2,7 @@
 //! registers become a [`USlice`] only if they do not wrap around, and become a Rust slice only
 //! after the caller's region table says the whole range lies inside one region with the access
 //! needed. The kernel touches partition memory through nothing else.
-use kernel_config::abi::E_BAD_POINTER;
+use kernel_config::abi::SysError;
 use kernel_config::{Access, Region, SHARED_CODE_BASE, SHARED_CODE_SIZE};
 
 use crate::config::SYSTEM;
@@ -24,8 +24,8 @@ const SHARED_CODE: Region = Region {
 
 impl USlice {
     /// Refuses ranges that wrap around the address space.
-    pub fn from_raw(base: u32, len: u32) -> Result<Self, i32> {
-        base.checked_add(len).ok_or(E_BAD_POINTER)?;
+    pub fn from_raw(base: u32, len: u32) -> Result<Self, SysError> {
+        base.checked_add(len).ok_or(SysError::BadPointer)?;
         Ok(Self { base, len })
     }
 
@@ -46,9 +46,9 @@ impl USlice {
     }
 
     /// The range as bytes the kernel may read on behalf of `partition`.
-    pub fn readable_by(self, partition: usize) -> Result<&'static [u8], i32> {
+    pub fn readable_by(self, partition: usize) -> Result<&'static [u8], SysError> {
         if !self.inside(partition, false) {
-            return Err(E_BAD_POINTER);
+            return Err(SysError::BadPointer);
         }
         if self.len == 0 {
             return Ok(&[]);
@@ -61,9 +61,9 @@ impl USlice {
     }
 
     /// The range as bytes the kernel may write on behalf of `partition`.
-    pub fn writable_by(self, partition: usize) -> Result<&'static mut [u8], i32> {
+    pub fn writable_by(self, partition: usize) -> Result<&'static mut [u8], SysError> {
         if !self.inside(partition, true) {
-            return Err(E_BAD_POINTER);
+            return Err(SysError::BadPointer);
         }
         if self.len == 0 {
             return Ok(&mut []);

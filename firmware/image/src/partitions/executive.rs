@@ -33,24 +33,26 @@ use flight_app::{
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
 use heapless::Deque;
 use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
-use kernel_config::system::{PORT_EXECUTIVE_STATUS, PORT_EXECUTIVE_TO_IO, PORT_IO_TO_EXECUTIVE};
+use kernel_config::system::{EXECUTIVE_NV, EXECUTIVE_WARM};
 use kernel_config::{WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 
-use super::{receive_routed, send_to_host, zeroed_state, ZeroValid};
+use super::{ports, receive_routed, send_to_host, zeroed_state, ZeroValid};
 use crate::board::timebase;
 use crate::sys;
 
-/// Bytes of the warm-restart area available for checkpoints (after the boot record).
-pub const WARM_CHECKPOINT_BYTES: usize = (WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE) as usize;
-/// Bytes of non-volatile memory used for checkpoints (the same A/B layout as the warm area).
-pub const NV_CHECKPOINT_BYTES: usize = WARM_CHECKPOINT_BYTES;
+/// Bytes of the warm-restart area for this partition's checkpoints: its slice.
+pub const WARM_CHECKPOINT_BYTES: usize = EXECUTIVE_WARM.len as usize;
+/// Bytes of non-volatile memory used for checkpoints (A/B records): the whole checkpoint part
+/// of the warm area's size, as before the planner had a slice of its own, so that the security
+/// area stays where provisioned keys are.
+pub const NV_CHECKPOINT_BYTES: usize = (WARM_AREA_SIZE - WARM_BOOT_RECORD_SIZE) as usize;
 /// Offset of the security area (`sdls::nv`: key slot, A/B anti-replay counter records) in
 /// non-volatile memory: right after the checkpoint areas. `hil` provisions keys at the same
 /// offset (`host-harness/src/mission/auth.rs`).
 pub const NV_SECURITY_OFFSET: usize = NV_CHECKPOINT_BYTES;
 /// Bytes of non-volatile memory the partition uses: checkpoints and the security area.
 pub const NV_USED_BYTES: usize = NV_SECURITY_OFFSET + sdls::nv::SECURITY_AREA_BYTES;
-const _: () = assert!(NV_USED_BYTES <= kernel_config::NV_MAX_BYTES as usize);
+const _: () = assert!(NV_USED_BYTES <= EXECUTIVE_NV.len as usize);
 /// Messages for the host the partition holds while the outbound port is full.
 pub const OUTBOX_CAPACITY: usize = 128;
 /// Host messages held until their batch is complete (a frame's state updates and responses).
@@ -287,7 +289,7 @@ pub extern "C" fn partition_executive_main() -> ! {
             handle_pending(state, app);
         }
         flush(state);
-        while let Some((msg, _generation)) = receive_routed(PORT_IO_TO_EXECUTIVE) {
+        while let Some((msg, _generation)) = receive_routed(ports::IO_TO_EXECUTIVE) {
             if let HostToTarget::StateUpdate {
                 key: StateKey(control::SYSCALL_BENCH),
                 ..
@@ -319,7 +321,7 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
             state.batch_complete |= answer_awaited;
         }
-        let _ = sys::port_send(PORT_EXECUTIVE_STATUS, &state.state_updates.to_be_bytes());
+        let _ = ports::EXECUTIVE_STATUS.send(&state.state_updates);
         if state.batch_complete || !state.outbox.is_empty() {
             sys::wait_next_window();
         } else {
@@ -341,7 +343,7 @@ fn handle_pending(state: &mut ExecutiveState, app: &mut FlightApp) {
 /// Hand queued messages to the I/O partition until its port is full.
 fn flush(state: &mut ExecutiveState) {
     while let Some(msg) = state.outbox.front() {
-        if send_to_host(PORT_EXECUTIVE_TO_IO, msg).is_err() {
+        if send_to_host(ports::EXECUTIVE_TO_IO, msg).is_err() {
             return;
         }
         state.outbox.pop_front();
@@ -350,7 +352,7 @@ fn flush(state: &mut ExecutiveState) {
 
 fn metric(id: u16, value: u64) {
     let _ = send_to_host(
-        PORT_EXECUTIVE_TO_IO,
+        ports::EXECUTIVE_TO_IO,
         &TargetToHost::Telemetry(TelemetryEvent::Metric { id, value }),
     );
 }

@@ -32,13 +32,11 @@ use fsw_bridge::{
     HostToTarget, ResetCause, ResetKind, StateKey, StateValue, TargetToHost, TelemetryEvent,
     PROTOCOL_VERSION,
 };
-use kernel_config::abi::{control, reset_at, E_FULL, REPORT_OFF};
-use kernel_config::system::{
-    OUTBOUND_MESSAGE_SIZE, PORT_EXECUTIVE_TO_IO, PORT_IO_TO_EXECUTIVE, PORT_IO_TO_PLANNER,
-    PORT_PLANNER_TO_IO, ROUTED_MESSAGE_SIZE,
-};
+use kernel_config::abi::{control, reset_at, SysError, REPORT_OFF};
 
+use super::ports;
 use crate::link::Link;
+use crate::port::{Port, PortError};
 use crate::sys;
 
 #[link_section = ".bss.part.io"]
@@ -61,12 +59,6 @@ type Inbound = heapless::Deque<Routing, INBOUND_CAPACITY>;
 
 /// The reliable link's parameters (the host uses the same).
 const LINK_CONFIG: LinkConfig = LinkConfig::DEFAULT;
-
-/// The metrics only a target with a CPU clock sends (costs) and the kernel's own: they travel
-/// on the Instrument channel, so the Mission stream is the native target's too.
-fn is_instrument_metric(id: u16) -> bool {
-    id < 0x1000 || flight_app::metric::is_instrument(id)
-}
 
 /// Log bytes per Log message (at most [`LOG_CHUNK_MAX`]). Short frames get through a noisy
 /// link: at 5 % byte corruption a frame of 96 log bytes arrives whole 4 times in 1,000 (it would
@@ -115,7 +107,7 @@ impl Rounds {
 /// The channel `msg` travels on (Hello and Pong go out directly and never come here; a panic
 /// report does not either: it is the kernel's).
 fn channel_of(msg: &TargetToHost) -> VirtualChannel {
-    match downlink_service(msg, is_instrument_metric) {
+    match downlink_service(msg) {
         Service::Sequenced(vc) => vc,
         Service::Expedited => VirtualChannel::Instrument,
     }
@@ -126,6 +118,7 @@ fn reset_cause(code: u32) -> ResetCause {
         2 => ResetCause::Warm,
         3 => ResetCause::Watchdog,
         4 => ResetCause::HealthMonitor,
+        5 => ResetCause::KernelFault,
         _ => ResetCause::PowerOn,
     }
 }
@@ -154,6 +147,7 @@ pub extern "C" fn partition_io_main() -> ! {
             build_id: crate::BUILD_ID,
             reset_cause: reset_cause(cause),
             boot_count,
+            kernel_fault: sys::boot_kernel_fault(),
         });
         link.flush();
     } else {
@@ -322,17 +316,28 @@ fn pump_kernel(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
     }
 }
 
+/// The ports that carry partitions' messages for the host (the test image adds the rogue's).
+const OUTBOUND_PORTS: [Port<TargetToHost>; if cfg!(feature = "test-partitions") {
+    3
+} else {
+    2
+}] = [
+    ports::EXECUTIVE_TO_IO,
+    ports::PLANNER_TO_IO,
+    #[cfg(feature = "test-partitions")]
+    ports::ROGUE_TO_IO,
+];
+
 /// The partitions' messages for the host, while the Mission channel takes them.
 fn pump_ports(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
-    for port in [PORT_EXECUTIVE_TO_IO, PORT_PLANNER_TO_IO] {
-        let mut buf = [0u8; OUTBOUND_MESSAGE_SIZE as usize];
+    for port in OUTBOUND_PORTS {
         while rounds.mission_held.is_empty() {
-            let Ok(got) = sys::port_receive(port, &mut buf) else {
-                break;
-            };
-            match postcard::from_bytes::<TargetToHost>(&buf[..got.len]) {
-                Ok(msg) => submit(endpoint, rounds, msg),
-                Err(_) => defmt::warn!("io: undecodable message on port {=usize}", port),
+            match port.receive() {
+                Ok(Some(got)) => submit(endpoint, rounds, got.value),
+                Ok(None) | Err(PortError::Sys(_) | PortError::TooBig) => break,
+                Err(PortError::Undecodable) => {
+                    defmt::warn!("io: undecodable message on port {=usize}", port.id())
+                }
             }
         }
     }
@@ -342,11 +347,11 @@ fn pump_ports(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
 /// the planner); a port it has reached is taken off.
 struct Routing {
     msg: HostToTarget,
-    to: [Option<usize>; 2],
+    to: [Option<Port<HostToTarget>>; 2],
 }
 
 impl Routing {
-    fn to(msg: HostToTarget, port: usize) -> Self {
+    fn to(msg: HostToTarget, port: Port<HostToTarget>) -> Self {
         Self {
             msg,
             to: [Some(port), None],
@@ -363,17 +368,20 @@ enum RouteError {
 }
 
 /// Queue `msg` on `port`.
-fn route(port: usize, msg: &HostToTarget) -> Result<(), RouteError> {
-    let mut buf = [0u8; ROUTED_MESSAGE_SIZE as usize];
-    let Ok(bytes) = postcard::to_slice(msg, &mut buf) else {
-        defmt::warn!("io: message too large for port {=usize}", port);
-        return Err(RouteError::Refused);
-    };
-    match sys::port_send(port, bytes) {
+fn route(port: Port<HostToTarget>, msg: &HostToTarget) -> Result<(), RouteError> {
+    match port.send(msg) {
         Ok(()) => Ok(()),
-        Err(E_FULL) => Err(RouteError::Full),
-        Err(code) => {
-            defmt::warn!("io: port {=usize} refused a message ({=i32})", port, code);
+        Err(PortError::Sys(SysError::Full)) => Err(RouteError::Full),
+        Err(PortError::Sys(error)) => {
+            defmt::warn!(
+                "io: port {=usize} refused a message ({=i32})",
+                port.id(),
+                error.code()
+            );
+            Err(RouteError::Refused)
+        }
+        Err(PortError::TooBig | PortError::Undecodable) => {
+            defmt::warn!("io: message too large for port {=usize}", port.id());
             Err(RouteError::Refused)
         }
     }
@@ -409,8 +417,11 @@ fn deliver(mut routing: Routing, reset_in_next_frame: &mut Option<(u32, u32)>) -
         // The grant is now the last message for the executive: the kernel counts the
         // executive's work from its receipt.
         if let Some((mode, value)) = reset_in_next_frame.take() {
-            if let Err(code) = sys::arm_reset(mode, value, PORT_IO_TO_EXECUTIVE) {
-                defmt::warn!("io: the kernel refused the mid-frame reset ({=i32})", code);
+            if let Err(error) = sys::arm_reset(mode, value, ports::IO_TO_EXECUTIVE.id()) {
+                defmt::warn!(
+                    "io: the kernel refused the mid-frame reset ({=i32})",
+                    error.code()
+                );
             }
         }
     }
@@ -455,19 +466,19 @@ fn handle(
         }
         HostToTarget::TimeGrant { now, .. } => {
             sys::set_mission_time(now.0);
-            Routing::to(msg, PORT_IO_TO_EXECUTIVE)
+            Routing::to(msg, ports::IO_TO_EXECUTIVE)
         }
         HostToTarget::StateUpdate {
             key: StateKey(key), ..
         } if key >= control::FIRST => control(key, msg)?,
         HostToTarget::StateUpdate { .. } => Routing {
             msg,
-            to: [Some(PORT_IO_TO_EXECUTIVE), Some(PORT_IO_TO_PLANNER)],
+            to: [Some(ports::IO_TO_EXECUTIVE), Some(ports::IO_TO_PLANNER)],
         },
         // The flight application (autonomy core) runs in the executive partition.
         HostToTarget::CommandResponse { .. }
         | HostToTarget::UplinkChunk { .. }
-        | HostToTarget::GroundCommand { .. } => Routing::to(msg, PORT_IO_TO_EXECUTIVE),
+        | HostToTarget::GroundCommand { .. } => Routing::to(msg, ports::IO_TO_EXECUTIVE),
     };
     Some(routing)
 }
@@ -490,10 +501,10 @@ fn control(key: u16, msg: HostToTarget) -> Option<Routing> {
             sys::request_metrics(period);
             None
         }
-        control::PLANNER_CHECKSUM => Some(Routing::to(msg, PORT_IO_TO_PLANNER)),
-        control::SYSCALL_BENCH => Some(Routing::to(msg, PORT_IO_TO_EXECUTIVE)),
+        control::PLANNER_CHECKSUM => Some(Routing::to(msg, ports::IO_TO_PLANNER)),
+        control::SYSCALL_BENCH => Some(Routing::to(msg, ports::IO_TO_EXECUTIVE)),
         #[cfg(feature = "test-partitions")]
-        control::ROGUE_MODE => Some(Routing::to(msg, kernel_config::system::PORT_IO_TO_ROGUE)),
+        control::ROGUE_MODE => Some(Routing::to(msg, ports::IO_TO_ROGUE)),
         _ => {
             defmt::warn!("io: unknown control key {=u16:#x}", key);
             None

@@ -18,9 +18,35 @@ pub mod rogue;
 use core::mem::MaybeUninit;
 
 use fsw_bridge::{HostToTarget, TargetToHost};
-use kernel_config::system::OUTBOUND_MESSAGE_SIZE;
 
-use crate::sys;
+use crate::port::{Port, PortError};
+
+/// The ports the partitions use: named as in the configuration (their ids derived from the
+/// names at compile time), typed with what they carry.
+pub mod ports {
+    use fsw_bridge::{HostToTarget, TargetToHost};
+
+    use crate::port::Port;
+
+    /// Host messages routed by the I/O partition to the executive.
+    pub const IO_TO_EXECUTIVE: Port<HostToTarget> = Port::named("io_to_executive");
+    /// Host messages routed by the I/O partition to the planner.
+    pub const IO_TO_PLANNER: Port<HostToTarget> = Port::named("io_to_planner");
+    /// The executive's messages for the host.
+    pub const EXECUTIVE_TO_IO: Port<TargetToHost> = Port::named("executive_to_io");
+    /// The planner's messages for the host.
+    pub const PLANNER_TO_IO: Port<TargetToHost> = Port::named("planner_to_io");
+    /// The planner's summary for the executive (its accumulator).
+    pub const PLAN_SUMMARY: Port<u32> = Port::named("plan_summary");
+    /// The executive's status for the planner (state updates handled).
+    pub const EXECUTIVE_STATUS: Port<u32> = Port::named("executive_status");
+    /// Test image: host messages for the rogue partition.
+    #[cfg(feature = "test-partitions")]
+    pub const IO_TO_ROGUE: Port<HostToTarget> = Port::named("io_to_rogue");
+    /// Test image: the rogue partition's messages for the host.
+    #[cfg(feature = "test-partitions")]
+    pub const ROGUE_TO_IO: Port<TargetToHost> = Port::named("rogue_to_io");
+}
 
 /// Types whose all-zero bit pattern is a valid value: a partition's state in its section is
 /// zeroed by the partition start, and used in place without being constructed (so a state of a
@@ -40,20 +66,19 @@ pub unsafe fn zeroed_state<T: ZeroValid>(slot: *mut MaybeUninit<T>) -> &'static 
 }
 
 /// Send a message for the host through an outbound port (to the I/O partition).
-pub fn send_to_host(port: usize, msg: &TargetToHost) -> Result<(), i32> {
-    let mut buf = [0u8; OUTBOUND_MESSAGE_SIZE as usize];
-    let bytes = postcard::to_slice(msg, &mut buf).map_err(|_| kernel_config::abi::E_TOO_BIG)?;
-    sys::port_send(port, bytes)
+pub fn send_to_host(port: Port<TargetToHost>, msg: &TargetToHost) -> Result<(), PortError> {
+    port.send(msg)
 }
 
 /// The next routed host message on `port`, with the I/O partition's generation when it sent it.
-pub fn receive_routed(port: usize) -> Option<(HostToTarget, u32)> {
-    let mut buf = [0u8; kernel_config::system::ROUTED_MESSAGE_SIZE as usize];
+pub fn receive_routed(port: Port<HostToTarget>) -> Option<(HostToTarget, u32)> {
     loop {
-        let got = sys::port_receive(port, &mut buf).ok()?;
-        match postcard::from_bytes::<HostToTarget>(&buf[..got.len]) {
-            Ok(msg) => return Some((msg, got.generation)),
-            Err(_) => defmt::warn!("port {=usize}: undecodable message dropped", port),
+        match port.receive() {
+            Ok(Some(got)) => return Some((got.value, got.generation)),
+            Ok(None) | Err(PortError::Sys(_) | PortError::TooBig) => return None,
+            Err(PortError::Undecodable) => {
+                defmt::warn!("port {=usize}: undecodable message dropped", port.id())
+            }
         }
     }
 }

@@ -15,9 +15,8 @@ use core::ptr::addr_of_mut;
 use crc::{Crc, CRC_32_ISO_HDLC};
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
 use kernel_config::abi::{control, metric};
-use kernel_config::system::{PORT_IO_TO_PLANNER, PORT_PLANNER_TO_IO, PORT_PLAN_SUMMARY};
 
-use super::{receive_routed, send_to_host, zeroed_state, ZeroValid};
+use super::{ports, receive_routed, send_to_host, zeroed_state, ZeroValid};
 use crate::sys;
 
 pub const TABLE_WORDS: usize = 16 * 1024;
@@ -57,7 +56,7 @@ pub extern "C" fn partition_planner_main() -> ! {
         *entry = x;
     }
     loop {
-        while let Some((msg, _generation)) = receive_routed(PORT_IO_TO_PLANNER) {
+        while let Some((msg, _generation)) = receive_routed(ports::IO_TO_PLANNER) {
             handle(state, msg);
         }
         for _ in 0..WORK_PER_WINDOW {
@@ -66,7 +65,7 @@ pub extern "C" fn partition_planner_main() -> ! {
             state.cursor = state.cursor.wrapping_add(1);
         }
         state.iterations = state.iterations.wrapping_add(1);
-        let _ = sys::port_send(PORT_PLAN_SUMMARY, &state.accumulator.to_be_bytes());
+        let _ = ports::PLAN_SUMMARY.send(&state.accumulator);
         // The placeholder's work is a fixed amount per window, not something the module has to
         // finish: it lets the module stop its schedule while waiting for the host.
         sys::wait_idle();
@@ -75,7 +74,7 @@ pub extern "C" fn partition_planner_main() -> ! {
 
 fn metric(id: u16, value: u64) {
     let _ = send_to_host(
-        PORT_PLANNER_TO_IO,
+        ports::PLANNER_TO_IO,
         &TargetToHost::Telemetry(TelemetryEvent::Metric { id, value }),
     );
 }
@@ -95,7 +94,7 @@ fn handle(state: &mut PlannerState, msg: HostToTarget) {
             metric(metric::PLANNER_ITERATIONS, u64::from(state.iterations));
         }
         HostToTarget::UplinkChunk { seq, .. } => {
-            let _ = send_to_host(PORT_PLANNER_TO_IO, &TargetToHost::UplinkAck { seq });
+            let _ = send_to_host(ports::PLANNER_TO_IO, &TargetToHost::UplinkAck { seq });
         }
         _ => {}
     }

@@ -1,15 +1,16 @@
 //! The rogue partition, built only into the test image: on command (a StateUpdate with the
 //! reserved key `control::ROGUE_MODE`, value `Enum(abi::rogue::*)`) it writes into the
-//! planner's memory, spins forever, passes bad pointers to every system call, panics, or runs a
-//! privileged instruction, so the tests can watch the kernel contain it.
+//! planner's memory, spins forever, passes bad pointers to every system call, panics, runs a
+//! privileged instruction, sends a message and restarts before it is taken (a stale message),
+//! or makes the kernel itself fault, so the tests can watch the kernel contain it.
 use core::arch::asm;
 use core::ptr::addr_of_mut;
 
-use fsw_bridge::{HostToTarget, StateKey, StateValue};
+use fsw_bridge::{HostToTarget, StateKey, StateValue, TargetToHost, TelemetryEvent};
 use kernel_config::abi::{self, control, rogue};
 use kernel_config::system::{PORT_IO_TO_EXECUTIVE, PORT_IO_TO_ROGUE, ROGUE_REGION};
 
-use super::receive_routed;
+use super::{ports, receive_routed};
 use crate::sys;
 
 #[no_mangle]
@@ -17,7 +18,7 @@ pub extern "C" fn partition_rogue_main() -> ! {
     let (_, generation) = sys::identity();
     defmt::info!("rogue: started, generation {=u32}", generation);
     loop {
-        while let Some((msg, _)) = receive_routed(PORT_IO_TO_ROGUE) {
+        while let Some((msg, _)) = receive_routed(ports::IO_TO_ROGUE) {
             if let HostToTarget::StateUpdate {
                 key: StateKey(control::ROGUE_MODE),
                 value: StateValue::Enum(mode),
@@ -63,7 +64,30 @@ fn act(mode: u16) {
             unsafe { asm!("mfmsr {0}", out(reg) _, options(nomem, nostack)) };
             defmt::error!("rogue: mfmsr went through");
         }
+        rogue::SEND_THEN_RESTART => {
+            send_probe();
+            panic!("rogue: restarting with a message in flight");
+        }
+        rogue::SEND => send_probe(),
+        rogue::KERNEL_FAULT => {
+            defmt::info!("rogue: asking the kernel to fault");
+            let _ = sys::raw_number(rogue::KERNEL_FAULT_CALL, [0; 5]);
+            defmt::error!("rogue: the kernel did not fault");
+        }
         _ => defmt::warn!("rogue: unknown mode {=u16}", mode),
+    }
+}
+
+/// Send the host a probe through `rogue_to_io`: a metric whose value is this generation.
+fn send_probe() {
+    let (_, generation) = sys::identity();
+    let probe = TargetToHost::Telemetry(TelemetryEvent::Metric {
+        id: rogue::PROBE_METRIC,
+        value: u64::from(generation),
+    });
+    match ports::ROGUE_TO_IO.send(&probe) {
+        Ok(()) => defmt::info!("rogue: probe sent, generation {=u32}", generation),
+        Err(_) => defmt::error!("rogue: probe refused"),
     }
 }
 
@@ -121,9 +145,9 @@ fn bad_pointers() {
     ];
     let mut refused = 0u32;
     for (call, args) in cases {
-        let (r3, _, _) = sys::raw(call, args);
-        defmt::info!("rogue: call {=u32} -> {=i32}", call, r3);
-        if r3 < 0 {
+        let (r3, _, _) = sys::raw_number(call, args);
+        defmt::info!("rogue: call {=u32} -> {=i32}", call, r3 as i32);
+        if kernel_config::abi::decode_result(r3).is_err() {
             refused += 1;
         }
     }

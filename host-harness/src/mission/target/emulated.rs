@@ -26,9 +26,9 @@ use crate::time::fmt_wall;
 /// a hung target, not a measurement: a round's work is a frame's).
 pub const ROUND_TIMEOUT: Duration = Duration::from_secs(60);
 
-/// Bytes of the emulated target's warm-restart area that hold checkpoints (slots A and B).
-const EMULATED_WARM_CHECKPOINT_BYTES: u32 =
-    kernel_config::WARM_AREA_SIZE - kernel_config::WARM_BOOT_RECORD_SIZE;
+/// Bytes of the emulated target's warm-restart area that hold the executive's checkpoints
+/// (slots A and B): its slice.
+const EMULATED_WARM_CHECKPOINT_BYTES: u32 = kernel_config::system::EXECUTIVE_WARM.len;
 /// What the executive does for a frame besides what FrameDone's `busy_ticks` counts (the
 /// autonomy step and the checkpoint encoding): decoding the grant, copying the checkpoint into
 /// the warm-restart area, queuing its messages. Measured on the flyby: 400 to 500 ticks.

@@ -86,6 +86,7 @@ pub fn hello_message(h: &Hello) -> TargetToHost {
         build_id: h.build_id,
         reset_cause: h.reset_cause,
         boot_count: h.boot_count,
+        kernel_fault: h.kernel_fault,
     }
 }
 
@@ -96,11 +97,13 @@ pub fn hello_of(msg: &TargetToHost) -> Option<Hello> {
             build_id,
             reset_cause,
             boot_count,
+            kernel_fault,
             ..
         } => Some(Hello {
             build_id,
             reset_cause,
             boot_count,
+            kernel_fault,
         }),
         _ => None,
     }

@@ -310,6 +310,7 @@ impl MissionTarget for NativeTarget {
             build_id: NATIVE_BUILD_ID,
             reset_cause: cause,
             boot_count: self.boot_count,
+            kernel_fault: None,
         })
     }
 

@@ -17,6 +17,11 @@
 //!   events itself before it enables external interrupts.
 //! - OldWorld line numbers (`include/hw/misc/macio/macio.h`): ESCC channel A (QEMU's first
 //!   `-serial`) is line 0x0f, channel B 0x10, CUDA 0x12, IDE0 0x0d, IDE1 0x0e.
+//!
+//! [`Heathrow`] is the driver: the kernel uses one line, ESCC channel A's (the link's receive
+//! interrupt), enabled only while the schedule is stopped waiting for input, so that a
+//! partition's CPU time, counted with the decrementer, never includes an interrupt handler.
+use crate::Bus;
 
 /// Offset of the controller in mac-io.
 pub const PIC_OFFSET: usize = 0x0;
@@ -72,11 +77,121 @@ impl PicLine {
 pub const ALL_MASKS: [usize; 2] = [PIC_OFFSET + 0x14, PIC_OFFSET + 0x24];
 pub const ALL_CLEARS: [usize; 2] = [PIC_OFFSET + 0x18, PIC_OFFSET + 0x28];
 
+/// The controller, in mac-io at `base` (the mac-io BAR), over register access `B`.
+pub struct Heathrow<B: Bus> {
+    bus: B,
+    /// mac-io's base: [`PicLine`]'s offsets are from there.
+    base: usize,
+}
+
+impl<B: Bus> Heathrow<B> {
+    /// The controller of the mac-io mapped at `mac_io_base` (no register access).
+    #[inline]
+    pub const fn new(bus: B, mac_io_base: usize) -> Self {
+        Self {
+            bus,
+            base: mac_io_base,
+        }
+    }
+
+    /// Heathrow's registers are little-endian: the 750 stores big-endian words.
+    #[inline]
+    fn write(&self, offset: usize, value: u32) {
+        self.bus.write32(self.base + offset, value.swap_bytes())
+    }
+
+    #[inline]
+    fn read(&self, offset: usize) -> u32 {
+        self.bus.read32(self.base + offset).swap_bytes()
+    }
+
+    /// Mask every line and clear whatever is latched. Boot only (before anything is enabled): a
+    /// warm reset in QEMU keeps the mask and the latched events of the previous boot.
+    pub fn init(&self) {
+        for (mask, clear) in ALL_MASKS.iter().zip(ALL_CLEARS.iter()) {
+            self.write(*mask, 0);
+            self.write(*clear, u32::MAX);
+        }
+    }
+
+    /// Let `line` alone of its bank reach the CPU (true) or hold the bank back (false). An
+    /// event latched while it was held back raises the interrupt as soon as it is let through.
+    #[inline]
+    pub fn enable_only(&self, line: PicLine, enabled: bool) {
+        self.write(line.mask, if enabled { line.bit } else { 0 });
+    }
+
+    /// Clear `line`'s latched event; true if it was set.
+    #[inline]
+    pub fn take_event(&self, line: PicLine) -> bool {
+        let pending = self.read(line.events) & line.bit != 0;
+        if pending {
+            self.write(line.clear, line.bit);
+        }
+        pending
+    }
+}
+
 #[cfg(test)]
 mod tests {
     extern crate std;
 
     use super::*;
+
+    use crate::mock::{Access, MockBus};
+
+    const BASE: usize = crate::pci::MAC_IO_BASE;
+
+    fn escc_a() -> PicLine {
+        PicLine::of(ESCC_A_LINE).unwrap()
+    }
+
+    #[test]
+    fn init_masks_both_banks_and_clears_every_latched_event_little_endian() {
+        let bus = MockBus::new();
+        Heathrow::new(&bus, BASE).init();
+        assert_eq!(
+            bus.take_log(),
+            std::vec![
+                Access::W32(BASE + 0x14, 0),
+                Access::W32(BASE + 0x18, u32::MAX),
+                Access::W32(BASE + 0x24, 0),
+                Access::W32(BASE + 0x28, u32::MAX),
+            ]
+        );
+    }
+
+    #[test]
+    fn enabling_the_link_line_writes_its_bit_byte_swapped_to_bank_1_mask() {
+        let bus = MockBus::new();
+        let pic = Heathrow::new(&bus, BASE);
+        pic.enable_only(escc_a(), true);
+        pic.enable_only(escc_a(), false);
+        // Bit 15 is 0x0000_8000; little-endian on the bus: 0x0080_0000.
+        assert_eq!(
+            bus.take_log(),
+            std::vec![
+                Access::W32(BASE + 0x24, 0x0080_0000),
+                Access::W32(BASE + 0x24, 0),
+            ]
+        );
+    }
+
+    #[test]
+    fn take_event_acks_only_a_latched_line_and_only_its_bit() {
+        let bus = MockBus::new();
+        // Line 15 and line 0 latched; then only line 0.
+        bus.script(BASE + 0x20, &[(0x8001u32).swap_bytes(), 1u32.swap_bytes()]);
+        let pic = Heathrow::new(&bus, BASE);
+        assert!(pic.take_event(escc_a()));
+        assert_eq!(
+            bus.writes(),
+            std::vec![Access::W32(BASE + 0x28, 0x0080_0000)]
+        );
+        let _ = bus.take_log();
+        assert!(!pic.take_event(escc_a()));
+        assert!(bus.writes().is_empty());
+    }
 
     #[test]
     fn the_escc_a_line_is_bit_15_of_bank_1_at_0x20() {
