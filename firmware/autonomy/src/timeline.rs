@@ -117,6 +117,9 @@ const _: () = assert!(MAX_PLAN_EVENTS < u16::MAX as usize);
 #[derive(Clone, Debug)]
 pub struct PlanEvents {
     events: Vec<Event, MAX_PLAN_EVENTS>,
+    /// Scratch of `build`: each contributing entry's contribution, definition, instance and
+    /// impacted timelines (empty outside `build`).
+    impacting: Vec<(Contribution, u8, u16, u64), MAX_PLAN_ENTRIES>,
     /// Events of timeline `t`: `events[first[t]..first[t + 1]]`, for `t < timelines`.
     first: [u16; MAX_TIMELINES + 1],
     timelines: u8,
@@ -137,6 +140,7 @@ impl PlanEvents {
     pub const fn new() -> Self {
         Self {
             events: Vec::new(),
+            impacting: Vec::new(),
             first: [0; MAX_TIMELINES + 1],
             timelines: 0,
             entries: 0,
@@ -147,6 +151,7 @@ impl PlanEvents {
     /// Empties the table (no view uses it until it is built again).
     pub fn clear(&mut self) {
         self.events.clear();
+        self.impacting.clear();
         self.timelines = 0;
         self.entries = 0;
         self.complete = false;
@@ -160,21 +165,17 @@ impl PlanEvents {
         else {
             return;
         };
-        // Each entry's impacted timelines (a bit per timeline), found once rather than once
-        // per timeline (an entry that impacts none is left out); its contribution and
-        // definition are looked up again only for the timelines it impacts. An entry's index
-        // and mask, not its contribution and definition too: at MAX_PLAN_ENTRIES this list is
-        // on the stack (8 KiB on the target). More entries than a plan holds: no table.
-        let mut impacting: Vec<(u16, u64), MAX_PLAN_ENTRIES> = Vec::new();
-        for (i, e) in entries.iter().enumerate() {
-            if let (Some(_), Some(spec)) = (e.contribution(), network.task(e.def)) {
+        // Each entry's contribution, definition and impacted timelines (a bit per timeline),
+        // found once rather than once per timeline (an entry that impacts none is left out).
+        // Kept in the table (20 KiB at MAX_PLAN_ENTRIES), not on the stack. More entries than
+        // a plan holds: no table (views generate the events).
+        for e in entries {
+            if let (Some(c), Some(spec)) = (e.contribution(), network.task(e.def)) {
                 let mask = spec.impacts.iter().fold(0u64, |m, i| {
                     m | 1u64.checked_shl(u32::from(i.timeline)).unwrap_or(0)
                 });
-                let Ok(index) = u16::try_from(i) else {
-                    return;
-                };
-                if mask != 0 && impacting.push((index, mask)).is_err() {
+                if mask != 0 && self.impacting.push((c, e.def, e.instance, mask)).is_err() {
+                    self.impacting.clear();
                     return;
                 }
             }
@@ -185,20 +186,18 @@ impl PlanEvents {
                 *slot = self.events.len() as u16;
             }
             let bit = 1u64 << t;
-            for &(i, mask) in &impacting {
+            for &(c, def, instance, mask) in &self.impacting {
                 if mask & bit == 0 {
                     continue;
                 }
-                let Some(e) = entries.get(usize::from(i)) else {
-                    continue;
-                };
-                if let (Some(c), Some(spec)) = (e.contribution(), network.task(e.def)) {
-                    impact_events(spec, e.instance, c, t as u8, &mut |ev| {
+                if let Some(spec) = network.task(def) {
+                    impact_events(spec, instance, c, t as u8, &mut |ev| {
                         fits &= self.events.push(ev).is_ok();
                     });
                 }
             }
         }
+        self.impacting.clear();
         if let Some(slot) = self.first.get_mut(timelines) {
             *slot = self.events.len() as u16;
         }
