@@ -290,12 +290,7 @@ impl Autonomy {
         } = self;
         let mut to_planner = |m: ToPlanner| planner.receive(m);
         if let Some(seq) = self.restored.take() {
-            out.telemetry(TelemetryEvent::PlanModification {
-                kind: PlanModificationKind::Restored as u8,
-                task: 0,
-                template: seq as u16,
-                at: now,
-            });
+            out.telemetry(restored_event(seq, now));
             control.after_reset_values(network, now, &mut to_planner);
         }
         if !self.loaded {
@@ -529,4 +524,15 @@ struct ImageMeta {
     now: MissionTimeUs,
     state_type_mismatches: u32,
     last_state_type_mismatch: Option<StateKey>,
+}
+
+/// The `Restored` plan modification: the core restarted from checkpoint record `sequence`
+/// (its low 16 bits in the `template` field).
+pub(crate) fn restored_event(sequence: u32, at: MissionTimeUs) -> TelemetryEvent {
+    TelemetryEvent::PlanModification {
+        kind: PlanModificationKind::Restored as u8,
+        task: 0,
+        template: sequence as u16,
+        at,
+    }
 }

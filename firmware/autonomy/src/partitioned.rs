@@ -75,7 +75,6 @@ use crate::in_place;
 use crate::interface::{Commit, Outputs, ToPlanner};
 use crate::model::TaskNetwork;
 use crate::planner::{Planner, PlannerInPlace};
-use crate::telemetry::PlanModificationKind;
 use crate::uplink;
 use crate::LoadError;
 use fsw_bridge::{
@@ -760,12 +759,7 @@ impl ExecutivePartition {
             }
         };
         if let Some(seq) = self.restored.take() {
-            out.telemetry(TelemetryEvent::PlanModification {
-                kind: PlanModificationKind::Restored as u8,
-                task: 0,
-                template: seq as u16,
-                at: now,
-            });
+            out.telemetry(crate::autonomy::restored_event(seq, now));
             control.after_reset_values(network, now, &mut to_planner);
         }
         if self.loaded {
@@ -805,18 +799,12 @@ impl ExecutivePartition {
     /// after a restore, the acknowledgement, then the messages not sent yet), until `send`
     /// refuses one.
     pub fn transmit(&mut self, send: &mut impl FnMut(Wire<PlannerInput>) -> bool) {
-        if self.resume {
-            if !send(Wire::Resume {
-                received: self.from_planner.received,
-            }) {
-                return;
-            }
-            self.resume = false;
-        }
-        if let Some(upto) = self.from_planner.ack() {
-            let _ = send(Wire::Ack { upto });
-        }
-        self.to_planner.transmit(send);
+        transmit(
+            &mut self.resume,
+            &mut self.from_planner,
+            &mut self.to_planner,
+            send,
+        );
     }
 
     /// When the host must grant next, after this frame's second window: one major frame on
@@ -877,33 +865,12 @@ impl ExecutivePartition {
         self.from_planner.checkpointed();
     }
 
-    /// Writes this side's checkpoint into its own area (and, written, marks what it holds:
-    /// see [`ExecutivePartition::checkpointed`]).
-    pub fn checkpoint_to(
-        &mut self,
-        area: &mut WarmRestartArea<'_>,
-    ) -> Result<WrittenRecord, CheckpointError> {
-        let written = area.write_record(|buf| self.encode_state(buf))?;
-        self.checkpointed();
-        Ok(written)
-    }
-
-    /// Restores this side from the newest whole record of its area, then prepares the
-    /// restart: tasks whose command was out are interrupted, command ids skip ahead, the
-    /// `Restored` event and the after-reset values come at the next first window, every
-    /// message not acknowledged goes again, and the planner hears what we have applied.
-    pub fn restore_from(&mut self, area: &WarmRestartArea<'_>) -> Result<u32, SideRestoreError> {
-        let (slot, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
-        self.restore_record(Record {
-            slot,
-            sequence,
-            payload,
-        })
-        .map(|info| info.sequence)
-    }
-
-    /// As [`ExecutivePartition::restore_from`], from one record the caller found whole (its
-    /// CRC is not checked again). On error this side is a cold, empty one.
+    /// Restores this side from one record the caller found whole (its CRC is not checked
+    /// again), then prepares the restart: tasks whose command was out are interrupted, command
+    /// ids skip ahead, the `Restored` event and the after-reset values come at the next first
+    /// window, every message not acknowledged goes again, and the planner hears what we have
+    /// applied. On error this side is a cold, empty one. (From an area:
+    /// [`PartitionSide::restore_from`].)
     pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
         let Record {
             slot,
@@ -1238,18 +1205,12 @@ impl PlannerPartition {
     /// After this side's checkpoint: a `Resume` after a restore, the acknowledgement, then
     /// what was not sent yet, until `send` refuses one.
     pub fn transmit(&mut self, send: &mut impl FnMut(Wire<ExecutiveInput>) -> bool) {
-        if self.resume {
-            if !send(Wire::Resume {
-                received: self.from_executive.received,
-            }) {
-                return;
-            }
-            self.resume = false;
-        }
-        if let Some(upto) = self.from_executive.ack() {
-            let _ = send(Wire::Ack { upto });
-        }
-        self.to_executive.transmit(send);
+        transmit(
+            &mut self.resume,
+            &mut self.from_executive,
+            &mut self.to_executive,
+            send,
+        );
     }
 
     /// Encodes this side's whole state (the checkpoint payload): with a network image in
@@ -1289,32 +1250,11 @@ impl PlannerPartition {
         self.from_executive.checkpointed();
     }
 
-    /// Writes this side's checkpoint into its own area (and, written, marks what it holds:
-    /// see [`PlannerPartition::checkpointed`]).
-    pub fn checkpoint_to(
-        &mut self,
-        area: &mut WarmRestartArea<'_>,
-    ) -> Result<WrittenRecord, CheckpointError> {
-        let written = area.write_record(|buf| self.encode_state(buf))?;
-        self.checkpointed();
-        Ok(written)
-    }
-
-    /// Restores this side from the newest whole record of its area; every message not
-    /// acknowledged goes again, the executive hears what we have applied, and a new cycle
-    /// starts (the state may have changed while the target was down).
-    pub fn restore_from(&mut self, area: &WarmRestartArea<'_>) -> Result<u32, SideRestoreError> {
-        let (slot, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
-        self.restore_record(Record {
-            slot,
-            sequence,
-            payload,
-        })
-        .map(|info| info.sequence)
-    }
-
-    /// As [`PlannerPartition::restore_from`], from one record the caller found whole (its CRC
-    /// is not checked again). On error this side is a cold, empty one.
+    /// Restores this side from one record the caller found whole (its CRC is not checked
+    /// again): every message not acknowledged goes again, the executive hears what we have
+    /// applied, and a new cycle starts (the state may have changed while the target was down).
+    /// On error this side is a cold, empty one. (From an area:
+    /// [`PartitionSide::restore_from`].)
     pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
         let Record {
             slot,
@@ -1367,6 +1307,84 @@ impl PlannerPartition {
         self.refused_networks = meta.refused_networks;
         Some(())
     }
+}
+
+/// What both sides do with their checkpoints.
+pub trait PartitionSide {
+    /// The whole state as a checkpoint payload.
+    fn encode_state(&self, buf: &mut [u8]) -> Option<usize>;
+    /// The checkpoint now holds the whole state: what it kept may go, what it applied may be
+    /// acknowledged.
+    fn checkpointed(&mut self);
+    /// Restores from one whole record (see each side's `restore_record`).
+    fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError>;
+
+    /// Writes this side's checkpoint into its own area and, written, marks what it holds.
+    fn checkpoint_to(
+        &mut self,
+        area: &mut WarmRestartArea<'_>,
+    ) -> Result<WrittenRecord, CheckpointError> {
+        let written = area.write_record(|buf| self.encode_state(buf))?;
+        self.checkpointed();
+        Ok(written)
+    }
+
+    /// Restores this side from the newest whole record of its area; its sequence number.
+    fn restore_from(&mut self, area: &WarmRestartArea<'_>) -> Result<u32, SideRestoreError> {
+        let (slot, sequence, payload) = area.latest().ok_or(SideRestoreError::NoRecord)?;
+        self.restore_record(Record {
+            slot,
+            sequence,
+            payload,
+        })
+        .map(|info| info.sequence)
+    }
+}
+
+impl PartitionSide for ExecutivePartition {
+    fn encode_state(&self, buf: &mut [u8]) -> Option<usize> {
+        ExecutivePartition::encode_state(self, buf)
+    }
+    fn checkpointed(&mut self) {
+        ExecutivePartition::checkpointed(self)
+    }
+    fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
+        ExecutivePartition::restore_record(self, record)
+    }
+}
+
+impl PartitionSide for PlannerPartition {
+    fn encode_state(&self, buf: &mut [u8]) -> Option<usize> {
+        PlannerPartition::encode_state(self, buf)
+    }
+    fn checkpointed(&mut self) {
+        PlannerPartition::checkpointed(self)
+    }
+    fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
+        PlannerPartition::restore_record(self, record)
+    }
+}
+
+/// One side's transmission: a `Resume` when it (re)started, the acknowledgement of what its
+/// checkpoint holds, then what its outbox may send, until `send` refuses one.
+fn transmit<T: Clone, const N: usize>(
+    resume: &mut bool,
+    inbox: &mut Inbox,
+    outbox: &mut Outbox<T, N>,
+    send: &mut impl FnMut(Wire<T>) -> bool,
+) {
+    if *resume {
+        if !send(Wire::Resume {
+            received: inbox.received,
+        }) {
+            return;
+        }
+        *resume = false;
+    }
+    if let Some(upto) = inbox.ack() {
+        let _ = send(Wire::Ack { upto });
+    }
+    outbox.transmit(send);
 }
 
 /// The network in uplink format behind a 4-byte length.
