@@ -550,13 +550,51 @@ pub fn metric_named(name: &str) -> Option<&'static Metric> {
     metrics().find(|m| m.name == name)
 }
 
+/// What the link needs of a metric entry: its ids and its channel. The firmware routes by
+/// these compact tables, made from the dictionary at compile time, so that the names and
+/// meanings (kilobytes of text the reset stub would check at every warm boot) stay out of the
+/// image; only the host reads them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Route {
+    id: u16,
+    instances: u16,
+    channel: VirtualChannel,
+}
+
+const fn routes<const N: usize>(table: &[Metric]) -> [Route; N] {
+    let mut out = [Route {
+        id: 0,
+        instances: 0,
+        channel: VirtualChannel::Instrument,
+    }; N];
+    let mut i = 0;
+    while i < N {
+        out[i] = Route {
+            id: table[i].id,
+            instances: table[i].instances,
+            channel: table[i].channel,
+        };
+        i += 1;
+    }
+    out
+}
+
+const PLATFORM_ROUTES: [Route; platform::PLATFORM_METRICS.len()] =
+    routes(platform::PLATFORM_METRICS);
+const APP_ROUTES: [Route; app::APP_METRICS.len()] = routes(app::APP_METRICS);
+
 /// The virtual channel metric `id` travels on. An id the dictionary does not know goes on the
 /// Instrument channel: only the Mission channel must be identical on every target.
 pub fn metric_channel(id: u16) -> VirtualChannel {
-    match metric(id) {
-        Some(m) => m.channel,
-        None => VirtualChannel::Instrument,
-    }
+    let routes: &[Route] = if id < 0x1000 {
+        &PLATFORM_ROUTES
+    } else {
+        &APP_ROUTES
+    };
+    routes
+        .iter()
+        .find(|r| id >= r.id && id - r.id < r.instances)
+        .map_or(VirtualChannel::Instrument, |r| r.channel)
 }
 
 /// A metric whose value is a measurement on the guest clock (left out of transcript hashes).
@@ -615,17 +653,72 @@ pub const fn event(event: &TelemetryEvent) -> &'static Event {
     }
 }
 
+/// The channel of each event kind, by id (from [`EVENTS`] at compile time: no names linked).
+const EVENT_CHANNELS: [VirtualChannel; EVENTS.len()] = {
+    let mut out = [VirtualChannel::Instrument; EVENTS.len()];
+    let mut i = 0;
+    while i < EVENTS.len() {
+        out[i] = EVENTS[i].channel;
+        i += 1;
+    }
+    out
+};
+
 /// The virtual channel `event` travels on (a metric: its entry's).
 pub fn event_channel(ev: &TelemetryEvent) -> VirtualChannel {
-    match ev {
-        TelemetryEvent::Metric { id, .. } => metric_channel(*id),
-        other => event(other).channel,
-    }
+    let kind = match ev {
+        TelemetryEvent::Metric { id, .. } => return metric_channel(*id),
+        TelemetryEvent::TaskTransition { .. } => 0,
+        TelemetryEvent::PlanModification { .. } => 1,
+        TelemetryEvent::HealthMonitor { .. } => 2,
+        TelemetryEvent::StateStale { .. } => 4,
+    };
+    EVENT_CHANNELS
+        .get(kind)
+        .copied()
+        .unwrap_or(VirtualChannel::Instrument)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_compact_routes_the_firmware_links_agree_with_the_dictionary() {
+        for m in metrics() {
+            for id in m.id..m.id + m.instances {
+                assert_eq!(metric_channel(id), m.channel, "{}", m.name);
+            }
+        }
+        for id in [0x0fff, 0x1fff, 0xffff] {
+            if metric(id).is_none() {
+                assert_eq!(metric_channel(id), VirtualChannel::Instrument);
+            }
+        }
+        let at = crate::MissionTimeUs::ZERO;
+        let events = [
+            TelemetryEvent::TaskTransition {
+                task: 1,
+                from: 0,
+                to: 1,
+                at,
+            },
+            TelemetryEvent::PlanModification {
+                kind: 1,
+                task: 1,
+                template: 1,
+                at,
+            },
+            TelemetryEvent::StateStale {
+                key: crate::StateKey(1),
+                measured_at: at,
+                at,
+            },
+        ];
+        for ev in &events {
+            assert_eq!(event_channel(ev), event(ev).channel);
+        }
+    }
     use crate::security::SecurityRefusal;
     use std::collections::BTreeSet;
     use std::vec::Vec;
