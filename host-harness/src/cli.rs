@@ -157,6 +157,14 @@ enum BenchWhat {
         #[arg(long)]
         json: bool,
     },
+    /// Planner cycle cost against network size (synthetic networks of 8, 32, 128 and 256 tasks,
+    /// natively, in validity checks), the growth exponent, and each network's uplink and
+    /// checkpoint size against the uplink buffer and a checkpoint slot.
+    Planner {
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
     /// Boot-to-Hello time, ping round trips and frames per second on the link.
     Link {
         /// Number of pings (sequential, then the same number pipelined).
@@ -372,6 +380,18 @@ fn execute(command: Command) -> Result<ExitCode, String> {
                 println!("{}", serde_json::to_string_pretty(&bench).unwrap());
             } else {
                 print!("{}", hil::bench::link_table(&bench));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Bench {
+            what: Some(BenchWhat::Planner { json }),
+            ..
+        } => {
+            let b = hil::bench_planner::planner(&hil::bench_planner::SIZES)?;
+            if json {
+                println!("{}", serde_json::to_string_pretty(&b).unwrap());
+            } else {
+                print!("{}", hil::bench_planner::table(&b));
             }
             Ok(ExitCode::SUCCESS)
         }

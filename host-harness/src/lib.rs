@@ -12,6 +12,7 @@
 pub mod bench;
 pub mod bench_kernel;
 pub mod bench_missions;
+pub mod bench_planner;
 pub mod budget;
 pub mod campaign;
 pub mod cleanup;

@@ -318,10 +318,11 @@ impl Autonomy {
             },
             out,
         );
-        for instance in overflow {
+        // By reference: a list moved into its iterator is copied whole (its capacity).
+        for &instance in &overflow {
             planner.on_returned(instance);
         }
-        for c in commits {
+        for &c in &commits {
             control.accept(c, &mut |m| planner.receive(m));
         }
         let t2 = clock();

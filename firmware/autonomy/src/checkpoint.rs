@@ -465,23 +465,23 @@ pub enum PayloadSite {
     /// The planner as a whole (its cursor, counters and the lists below).
     Planner,
     /// Plan entry `i`.
-    PlanEntry(u8),
+    PlanEntry(u16),
     /// The anchor of timeline `i`.
-    Anchor(u8),
+    Anchor(u16),
     /// The failure ledger of task definition `i`.
-    Ledger(u8),
+    Ledger(u16),
     /// Queued execution report `i`.
-    Report(u8),
+    Report(u16),
     /// Conflict `i` already tried in the current planner cycle.
-    Tried(u8),
+    Tried(u16),
     /// The executive as a whole.
     Executive,
     /// Executive entry `i`.
-    ExecEntry(u8),
+    ExecEntry(u16),
     /// The state buffer copy as a whole.
     States,
     /// State-buffer entry `i`.
-    StateEntry(u8),
+    StateEntry(u16),
     /// After the last part.
     End,
 }
@@ -496,8 +496,9 @@ pub(crate) struct RestoredState<'a> {
     pub states: &'a StateTable,
 }
 
-fn index(i: usize) -> u8 {
-    u8::try_from(i).unwrap_or(u8::MAX)
+/// A list index as a [`PayloadSite`] names it (every list's capacity is below `u16::MAX`).
+fn index(i: usize) -> u16 {
+    u16::try_from(i).unwrap_or(u16::MAX)
 }
 
 fn time_ok(t: MissionTimeUs) -> bool {
@@ -627,7 +628,8 @@ pub(crate) fn check_planner_restored(
         let times_ok = time_ok(a.at) && a.measured.is_none_or(|m| time_ok(m.at));
         check(times_ok, TimeOutOfRange, at)?;
         let spec = network
-            .timeline(index(i))
+            .timelines()
+            .get(i)
             .ok_or(PayloadError::new(CountMismatch, at))?;
         match spec.kind {
             TimelineKind::State { value_count, .. } => {

@@ -596,8 +596,12 @@ impl Planner {
 
     /// Applies queued execution reports in arrival order, with contingencies.
     fn intake(&mut self, ctx: &Ctx<'_>, out: &mut impl Outputs) {
-        let reports = core::mem::take(&mut self.reports);
-        for r in &reports {
+        // By index, then cleared: taking the list would copy all of it, its capacity
+        // (MAX_TASK_REPORTS), onto the stack at every step. Nothing in the loop queues reports.
+        for k in 0..self.reports.len() {
+            let Some(r) = self.reports.get(k).copied() else {
+                break;
+            };
             let Some(i) = self.entry_index(r.instance) else {
                 continue;
             };
@@ -644,6 +648,7 @@ impl Planner {
                 }
             }
         }
+        self.reports.clear();
     }
 
     /// Gives up requested tasks whose window has closed without a placement.
@@ -1291,10 +1296,19 @@ impl Planner {
             return out;
         };
         self.fill_candidates(&ctx, &entry, lo, hi);
-        let candidates = core::mem::take(&mut self.scratch.candidates);
+        // By index: taking the list would copy all of it (MAX_CANDIDATES, 32 KiB) onto the
+        // stack. The validity checks do not touch the candidates.
         let mut open: Option<ValidInterval> = None;
-        for (j, &c) in candidates.iter().enumerate() {
-            let piece_end = candidates.get(j + 1).map(|n| n - 1).unwrap_or(hi.0);
+        for j in 0..self.scratch.candidates.len() {
+            let Some(&c) = self.scratch.candidates.get(j) else {
+                break;
+            };
+            let piece_end = self
+                .scratch
+                .candidates
+                .get(j + 1)
+                .map(|n| n - 1)
+                .unwrap_or(hi.0);
             if self.placement_valid(&ctx, &entry, MissionTimeUs(c)) {
                 open = Some(match open {
                     Some(iv) => ValidInterval {
@@ -1313,7 +1327,6 @@ impl Planner {
         if let Some(iv) = open {
             let _ = out.push(iv);
         }
-        self.scratch.candidates = candidates;
         out
     }
 

@@ -356,3 +356,243 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
 pub fn flyby_network() -> Option<TaskNetwork> {
     TaskNetwork::from_spec(flyby_spec().ok()?).ok()
 }
+
+/// Opcode of the synthetic networks' tasks (argument: the task's index).
+pub const SYNTHETIC_TASK: Opcode = Opcode(0x0301);
+
+/// Resources (claimable timelines) the tasks of a synthetic network share.
+pub const SYNTHETIC_RESOURCES: usize = 8;
+/// Timelines every synthetic network has: the resources, `Energy` (cumulative) and `Mode`
+/// (state, four values).
+pub const SYNTHETIC_BASE_TIMELINES: usize = SYNTHETIC_RESOURCES + 2;
+
+/// The shape of a synthetic network ([`synthetic_into`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SyntheticShape {
+    /// Requested tasks.
+    pub tasks: usize,
+    /// Timelines: at least [`SYNTHETIC_BASE_TIMELINES`]; the others are cumulative `Aux<k>`
+    /// timelines that the extra constraints and impacts use.
+    pub timelines: usize,
+    /// Constraints per task: at least 2 (PRE on `Mode`, MAINTAIN on `Energy`); the others are
+    /// MAINTAIN ranges on `Aux` timelines (always satisfiable).
+    pub constraints: usize,
+    /// Impacts per task: at least 3 (claim of a resource, PRE use of energy, POST mode); the
+    /// others are MAINTAIN additions on `Aux` timelines.
+    pub impacts: usize,
+    /// Seed of the deterministic generator (xorshift32; 0 is taken as 1).
+    pub seed: u32,
+}
+
+impl SyntheticShape {
+    /// The planner benchmark's networks: `tasks` tasks contending for
+    /// [`SYNTHETIC_RESOURCES`] resources, two constraints and three impacts each.
+    pub const fn bench(tasks: usize) -> Self {
+        Self {
+            tasks,
+            timelines: SYNTHETIC_BASE_TIMELINES,
+            constraints: 2,
+            impacts: 3,
+            seed: 0x5eed_0014,
+        }
+    }
+
+    /// Every capacity at once: [`crate::MAX_TASKS`] tasks, [`crate::MAX_TIMELINES`]
+    /// timelines, [`crate::MAX_CONSTRAINTS_PER_TASK`] constraints and
+    /// [`crate::MAX_IMPACTS_PER_TASK`] impacts in every task.
+    pub const fn at_capacity() -> Self {
+        Self {
+            tasks: crate::MAX_TASKS,
+            timelines: crate::MAX_TIMELINES,
+            constraints: crate::MAX_CONSTRAINTS_PER_TASK,
+            impacts: crate::MAX_IMPACTS_PER_TASK,
+            seed: 0x5eed_0014,
+        }
+    }
+}
+
+struct XorShift(u32);
+
+impl XorShift {
+    fn next(&mut self) -> u32 {
+        let mut x = self.0;
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        self.0 = x;
+        x
+    }
+
+    /// A number in `0..n` (n > 0).
+    fn below(&mut self, n: u64) -> u64 {
+        u64::from(self.next()) % n.max(1)
+    }
+}
+
+/// Writes a synthetic network of `shape` into `spec` (in place: a network at capacity is too
+/// large for a partition's stack), for the planner benchmark and the capacity tests. The same
+/// shape gives the same network. Task `i` (id `i + 1`, `T<i>`) becomes ready about 2 minutes
+/// after task `i - 1`, runs 5 to 30 minutes, claims resource `i % 8` for its duration, uses
+/// energy, requires `Mode` to be 0 or 1 and sets it to `i % 2`; its window is a day long, and
+/// the scheduling window and horizon cover a week, so a planner cycle schedules every task.
+/// Fails when the shape is over a capacity (a spec's lists refuse the item that does not fit)
+/// or under the base timelines and constraints it needs.
+pub fn synthetic_into(
+    spec: &mut NetworkSpec,
+    shape: SyntheticShape,
+) -> Result<(), CapacityExceeded> {
+    use core::fmt::Write;
+    const ENERGY: u8 = SYNTHETIC_RESOURCES as u8;
+    const MODE: u8 = ENERGY + 1;
+    const FULL: i64 = 1_000_000_000_000;
+    const AUX: i64 = 1_000_000_000;
+    if shape.timelines < SYNTHETIC_BASE_TIMELINES || shape.constraints < 2 || shape.impacts < 3 {
+        return Err(CapacityExceeded);
+    }
+    let aux_count = shape.timelines - SYNTHETIC_BASE_TIMELINES;
+    let day = 24 * 60 * MIN;
+    let config = PlannerConfig {
+        commit_window_us: MIN,
+        scheduling_window_us: 7 * day,
+        plan_horizon_us: 7 * day,
+        plan_process_interval_us: 5 * MIN,
+    };
+    // Field by field: a whole `NetworkSpec` value would be built on the stack.
+    spec.header = NetworkHeader {
+        format_version: UPLINK_FORMAT_VERSION,
+        network_id: 0x5157,
+        config,
+        responses: ResponsePolicy::DEFAULT,
+    };
+    spec.timelines.clear();
+    spec.conditions.clear();
+    spec.tasks.clear();
+    spec.temporal.clear();
+    let label = |prefix: &str, i: usize| -> Result<Name, CapacityExceeded> {
+        let mut n = Name::new();
+        write!(n, "{prefix}{i}").map_err(|_| CapacityExceeded)?;
+        Ok(n)
+    };
+    let timeline = |name: Name, kind: TimelineKind| TimelineSpec {
+        name,
+        kind,
+        state_key: None,
+        after_reset: None,
+        stale_after_us: None,
+    };
+    for r in 0..SYNTHETIC_RESOURCES {
+        spec.timelines
+            .push(timeline(label("Res", r)?, TimelineKind::Claimable))
+            .map_err(|_| CapacityExceeded)?;
+    }
+    let energy = TimelineKind::Cumulative {
+        initial: FULL,
+        min: 0,
+        max: FULL,
+    };
+    spec.timelines
+        .push(timeline(name("Energy")?, energy))
+        .map_err(|_| CapacityExceeded)?;
+    let mode = TimelineKind::State {
+        value_count: 4,
+        initial: 0,
+    };
+    spec.timelines
+        .push(timeline(name("Mode")?, mode))
+        .map_err(|_| CapacityExceeded)?;
+    for k in 0..aux_count {
+        let aux = TimelineKind::Cumulative {
+            initial: 0,
+            min: -AUX,
+            max: AUX,
+        };
+        spec.timelines
+            .push(timeline(label("Aux", k)?, aux))
+            .map_err(|_| CapacityExceeded)?;
+    }
+    let aux_timeline = |i: usize, j: usize| -> Result<u8, CapacityExceeded> {
+        let k = (i + j) % aux_count.max(1);
+        u8::try_from(SYNTHETIC_BASE_TIMELINES + k).map_err(|_| CapacityExceeded)
+    };
+    let mut rng = XorShift(shape.seed.max(1));
+    for i in 0..shape.tasks {
+        let duration_us = (5 + rng.below(26)) * MIN;
+        let ready = MissionTimeUs(10 * MIN + (i as u64) * 2 * MIN + rng.below(10 * MIN));
+        let use_energy = 1_000 + rng.below(9_000) as i64;
+        let priority = rng.below(100) as u8;
+        spec.tasks
+            .push(TaskSpec {
+                id: u16::try_from(i + 1).map_err(|_| CapacityExceeded)?,
+                name: label("T", i)?,
+                priority,
+                role: TaskRole::Requested,
+                command: Some(CommandSpec {
+                    opcode: SYNTHETIC_TASK,
+                    args: args(&[i32::try_from(i).map_err(|_| CapacityExceeded)?])?,
+                }),
+                duration_us,
+                min_duration_us: duration_us,
+                earliest_start: ready,
+                latest_start: MissionTimeUs(ready.0 + day),
+                latest_end: MissionTimeUs::MAX,
+                constraints: heapless::Vec::new(),
+                impacts: heapless::Vec::new(),
+                control: control(duration_us + MIN, 0),
+                contingencies: heapless::Vec::new(),
+                permissions: no_permissions(),
+            })
+            .map_err(|_| CapacityExceeded)?;
+        let t = spec.tasks.last_mut().ok_or(CapacityExceeded)?;
+        let mut constraints = [
+            constraint(
+                ConstraintWhen::Pre,
+                MODE,
+                Requirement::OneOf {
+                    mask: mask(&[0, 1]),
+                },
+                0,
+            ),
+            constraint(
+                ConstraintWhen::Maintain,
+                ENERGY,
+                Requirement::Range { min: 0, max: FULL },
+                0,
+            ),
+        ]
+        .into_iter()
+        .map(Ok)
+        .chain((2..shape.constraints).map(|j| {
+            Ok(constraint(
+                ConstraintWhen::Maintain,
+                aux_timeline(i, j)?,
+                Requirement::Range {
+                    min: -AUX,
+                    max: AUX,
+                },
+                0,
+            ))
+        }));
+        constraints.try_for_each(|c: Result<ConstraintSpec, CapacityExceeded>| {
+            t.constraints.push(c?).map_err(|_| CapacityExceeded)
+        })?;
+        let resource = u8::try_from(i % SYNTHETIC_RESOURCES).map_err(|_| CapacityExceeded)?;
+        let mut impacts = [
+            impact(ImpactWhen::Maintain, resource, Effect::Claim),
+            impact(ImpactWhen::Pre, ENERGY, Effect::Add(-use_energy)),
+            impact(ImpactWhen::Post, MODE, Effect::Assign((i % 2) as i64)),
+        ]
+        .into_iter()
+        .map(Ok)
+        .chain((3..shape.impacts).map(|j| {
+            Ok(impact(
+                ImpactWhen::Maintain,
+                aux_timeline(i, j)?,
+                Effect::Add(1),
+            ))
+        }));
+        impacts.try_for_each(|m: Result<ImpactSpec, CapacityExceeded>| {
+            t.impacts.push(m?).map_err(|_| CapacityExceeded)
+        })?;
+    }
+    Ok(())
+}

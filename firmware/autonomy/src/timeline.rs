@@ -84,17 +84,29 @@ impl Event {
 
     /// The instance whose impact this event is (the upper bits of the tie-break key).
     pub fn instance(&self) -> u16 {
-        (self.seq >> 4) as u16
+        (self.seq >> SEQ_INSTANCE_SHIFT) as u16
     }
 }
 
-// A timeline's bit in a `u16` (see `PlanEvents::build`).
-const _: () = assert!(MAX_TIMELINES <= 16);
+// A timeline's bit in a `u64` (see `PlanEvents::build`).
+const _: () = assert!(MAX_TIMELINES <= 64);
 
-/// Most events a [`PlanEvents`] table holds (4 KiB). A plan with more (at most
+/// Most events a [`PlanEvents`] table holds (1024 events of 32 bytes, 32 KiB: two per plan
+/// entry at [`MAX_PLAN_ENTRIES`]; the table was 128 events when a plan held 48 entries). A
+/// plan with more (at most
 /// `MAX_PLAN_ENTRIES * MAX_IMPACTS_PER_TASK * 2`) is answered without the table, as fast as
-/// before it existed; the flyby plans have a few dozen.
-pub const MAX_PLAN_EVENTS: usize = 128;
+/// before it existed; the flyby plans have a few dozen. Only `build` fills it and only the
+/// events listed are read, so its size costs RAM, not time.
+pub const MAX_PLAN_EVENTS: usize = 1024;
+
+/// Bits of an event's tie-break key ([`Event::seq`]) below the instance id: the impact's index
+/// in its task (4 bits: [`MAX_IMPACTS_PER_TASK`] is at most 16) and whether the event ends a
+/// MAINTAIN interval (1 bit). Events of one instance at one instant sort in impact order.
+const SEQ_INSTANCE_SHIFT: u32 = 5;
+const SEQ_IMPACT_MASK: u32 = (1 << (SEQ_INSTANCE_SHIFT - 1)) - 1;
+const _: () = assert!(MAX_IMPACTS_PER_TASK <= 1 << (SEQ_INSTANCE_SHIFT - 1));
+// The table's indices are u16.
+const _: () = assert!(MAX_PLAN_EVENTS < u16::MAX as usize);
 
 /// Every event the entries of a plan put on each timeline, generated once: the events of
 /// timeline `t` are those [`PlanView::for_each_event`] would generate from the entries, in the
@@ -102,16 +114,25 @@ pub const MAX_PLAN_EVENTS: usize = 128;
 /// [`PlanView::with_events`]) reads them from it instead of generating them from the entries
 /// for every query; exclusions and the hypothetical placement are applied as before. The table
 /// describes the entries as they were when it was built: build it again after any change.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct PlanEvents {
     events: Vec<Event, MAX_PLAN_EVENTS>,
+    /// Scratch of `build`: each contributing entry's contribution, definition, instance and
+    /// impacted timelines (empty outside `build`).
+    impacting: Vec<(Contribution, u8, u16, u64), MAX_PLAN_ENTRIES>,
     /// Events of timeline `t`: `events[first[t]..first[t + 1]]`, for `t < timelines`.
     first: [u16; MAX_TIMELINES + 1],
     timelines: u8,
     /// Number of entries the table was built from (a cheap check that a view matches it).
-    entries: u8,
+    entries: u16,
     /// False when the events did not fit (then views ignore the table).
     complete: bool,
+}
+
+impl Default for PlanEvents {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl PlanEvents {
@@ -119,6 +140,7 @@ impl PlanEvents {
     pub const fn new() -> Self {
         Self {
             events: Vec::new(),
+            impacting: Vec::new(),
             first: [0; MAX_TIMELINES + 1],
             timelines: 0,
             entries: 0,
@@ -129,6 +151,7 @@ impl PlanEvents {
     /// Empties the table (no view uses it until it is built again).
     pub fn clear(&mut self) {
         self.events.clear();
+        self.impacting.clear();
         self.timelines = 0;
         self.entries = 0;
         self.complete = false;
@@ -138,20 +161,21 @@ impl PlanEvents {
     pub fn build(&mut self, network: &TaskNetwork, entries: &[PlanEntry]) {
         self.clear();
         let timelines = network.timelines().len();
-        let (Ok(entry_count), true) = (u8::try_from(entries.len()), timelines <= MAX_TIMELINES)
+        let (Ok(entry_count), true) = (u16::try_from(entries.len()), timelines <= MAX_TIMELINES)
         else {
             return;
         };
         // Each entry's contribution, definition and impacted timelines (a bit per timeline),
         // found once rather than once per timeline (an entry that impacts none is left out).
-        // More entries than a plan holds: no table (views generate the events).
-        let mut impacting: Vec<(Contribution, &TaskSpec, u16, u16), MAX_PLAN_ENTRIES> = Vec::new();
+        // Kept in the table (20 KiB at MAX_PLAN_ENTRIES), not on the stack. More entries than
+        // a plan holds: no table (views generate the events).
         for e in entries {
             if let (Some(c), Some(spec)) = (e.contribution(), network.task(e.def)) {
-                let mask = spec.impacts.iter().fold(0u16, |m, i| {
-                    m | 1u16.checked_shl(u32::from(i.timeline)).unwrap_or(0)
+                let mask = spec.impacts.iter().fold(0u64, |m, i| {
+                    m | 1u64.checked_shl(u32::from(i.timeline)).unwrap_or(0)
                 });
-                if mask != 0 && impacting.push((c, spec, e.instance, mask)).is_err() {
+                if mask != 0 && self.impacting.push((c, e.def, e.instance, mask)).is_err() {
+                    self.impacting.clear();
                     return;
                 }
             }
@@ -161,15 +185,19 @@ impl PlanEvents {
             if let Some(slot) = self.first.get_mut(t) {
                 *slot = self.events.len() as u16;
             }
-            let bit = 1u16 << t;
-            for &(c, spec, instance, mask) in &impacting {
-                if mask & bit != 0 {
+            let bit = 1u64 << t;
+            for &(c, def, instance, mask) in &self.impacting {
+                if mask & bit == 0 {
+                    continue;
+                }
+                if let Some(spec) = network.task(def) {
                     impact_events(spec, instance, c, t as u8, &mut |ev| {
                         fits &= self.events.push(ev).is_ok();
                     });
                 }
             }
         }
+        self.impacting.clear();
         if let Some(slot) = self.first.get_mut(timelines) {
             *slot = self.events.len() as u16;
         }
@@ -212,7 +240,7 @@ pub fn impact_events(
         if impact.timeline != timeline {
             continue;
         }
-        let seq = (u32::from(instance) << 4) | ((i as u32 & 7) << 1);
+        let seq = (u32::from(instance) << SEQ_INSTANCE_SHIFT) | ((i as u32 & SEQ_IMPACT_MASK) << 1);
         match impact.when {
             ImpactWhen::Pre => f(Event {
                 at: shift(c.start, impact.start_offset_us),
@@ -766,15 +794,23 @@ pub fn consolidate(
     if !entries.iter().any(foldable) {
         return 0;
     }
-    // New anchors: the value at the fold time seen through the folded instances only.
-    let mut folded_only: Vec<PlanEntry, MAX_PLAN_ENTRIES> = Vec::new();
-    for e in entries.iter().filter(|e| foldable(e)) {
-        let _ = folded_only.push(*e);
+    // New anchors: the value at the fold time seen through the folded instances only. They
+    // are moved to the front of `entries` (a stable partition in place: a copy of them would
+    // be up to MAX_PLAN_ENTRIES entries, 24 KiB, on the stack), each group keeping its order.
+    let mut folded = 0;
+    for i in 0..entries.len() {
+        if entries.get(i).is_some_and(foldable) {
+            if let Some(run) = entries.get_mut(folded..=i) {
+                run.rotate_right(1);
+            }
+            folded += 1;
+        }
     }
+    let folded_only = entries.get(..folded).unwrap_or(&[]);
     let mut new_anchors: Anchors = Vec::new();
     for t in 0..anchors.len() {
         let tl = t as u8;
-        let view = PlanView::new(network, &folded_only, anchors);
+        let view = PlanView::new(network, folded_only, anchors);
         let value = view.value_at(tl, fold_at);
         let mut rate = anchors.get(t).map(|a| a.rate).unwrap_or(0);
         view.for_each_event(tl, |e| {

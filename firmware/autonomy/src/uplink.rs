@@ -182,7 +182,9 @@ pub enum ErrorSite {
         node: u8,
     },
     Task {
-        task: u8,
+        /// `u16`: a network holds up to [`MAX_TASKS`] (256) tasks, and the site of a refused
+        /// 257th task is task 256.
+        task: u16,
         field: TaskField,
     },
     Temporal(u8),
@@ -221,6 +223,10 @@ fn err(code: ValidationCode, site: ErrorSite) -> VResult {
 
 fn u8_index(i: usize) -> u8 {
     u8::try_from(i).unwrap_or(u8::MAX)
+}
+
+fn u16_index(i: usize) -> u16 {
+    u16::try_from(i).unwrap_or(u16::MAX)
 }
 
 /// Checks the planner windows and the format version.
@@ -446,7 +452,7 @@ fn check_magnitude(v: i64) -> bool {
 /// Checks task `index` (its id uniqueness is checked when `ids` is built).
 pub fn validate_task(index: usize, task: &TaskSpec, ctx: &TaskContext<'_>) -> VResult {
     use ValidationCode::*;
-    let task_index = u8_index(index);
+    let task_index = u16_index(index);
     let site = |field| ErrorSite::Task {
         task: task_index,
         field,
@@ -629,7 +635,7 @@ pub fn validate_temporal(
 
 fn push_id(ids: &mut Vec<(u16, TaskRole), MAX_TASKS>, index: usize, task: &TaskSpec) -> VResult {
     let site = ErrorSite::Task {
-        task: u8_index(index),
+        task: u16_index(index),
         field: TaskField::Id,
     };
     if ids.iter().any(|&(id, _)| id == task.id) {
@@ -939,7 +945,7 @@ impl<'a> Reader<'a> {
         tasks: &mut Vec<TaskSpec, N>,
     ) -> Result<(), ValidationError> {
         use ValidationCode::*;
-        let task = u8_index(index);
+        let task = u16_index(index);
         let site = |field| ErrorSite::Task { task, field };
         let id = self.take(site(TaskField::Id))?;
         let name = self.name(site(TaskField::Name))?;
@@ -1004,7 +1010,7 @@ impl<'a> Reader<'a> {
         one.pop().ok_or(ValidationError::new(
             ValidationCode::Decode,
             ErrorSite::Task {
-                task: u8_index(index),
+                task: u16_index(index),
                 field: TaskField::Whole,
             },
         ))
@@ -1099,7 +1105,7 @@ pub fn validate_uplink(bytes: &[u8]) -> VResult {
         MAX_TASKS,
         TooManyTasks,
         ErrorSite::Task {
-            task: u8_index(MAX_TASKS),
+            task: u16_index(MAX_TASKS),
             field: TaskField::Whole,
         },
     )?;
@@ -1202,7 +1208,7 @@ pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult 
         MAX_TASKS,
         TooManyTasks,
         ErrorSite::Task {
-            task: u8_index(MAX_TASKS),
+            task: u16_index(MAX_TASKS),
             field: TaskField::Whole,
         },
     )?;

@@ -17,7 +17,8 @@ use autonomy::*;
 use common::*;
 use serde::{Deserialize, Serialize};
 
-type List<T> = heapless::Vec<T, 64>;
+/// Room for one item more than any list of a saved core holds.
+type List<T> = heapless::Vec<T, { autonomy::MAX_PLAN_ENTRIES + 1 }>;
 
 /// The payload's header part (`ImageMeta` in the core).
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -151,7 +152,7 @@ fn plan_index(p: &Payload, what: impl Fn(&PlanEntry) -> bool) -> usize {
 }
 
 fn entry_site(i: usize) -> PayloadSite {
-    PayloadSite::PlanEntry(i as u8)
+    PayloadSite::PlanEntry(i as u16)
 }
 
 #[test]
@@ -200,7 +201,7 @@ fn payloads_that_do_not_decode_are_refused_with_the_part_they_are_in() {
         restore(&trailing),
         Err(error(PayloadDefect::TrailingBytes, PayloadSite::End))
     );
-    // A list over its capacity does not decode: 49 plan entries.
+    // A list over its capacity does not decode: MAX_PLAN_ENTRIES + 1 plan entries.
     let e = refusal(|p| {
         let first = p.planner.entries[0];
         p.planner
@@ -315,7 +316,11 @@ fn ids_and_indices_out_of_their_range_are_refused() {
         error(IdOutOfRange, PayloadSite::Executive)
     );
     assert_eq!(
-        refusal(|p| p.planner.tried.push((ID_FLYBY, 4)).unwrap()),
+        refusal(|p| p
+            .planner
+            .tried
+            .push((ID_FLYBY, MAX_CONSTRAINTS_PER_TASK as u8))
+            .unwrap()),
         error(IndexOutOfRange, PayloadSite::Tried(0))
     );
 }
@@ -426,7 +431,7 @@ fn states_the_core_never_reaches_are_refused() {
         .iter()
         .position(|e| e.state == TaskState::Running && e.command_id == 0)
         .unwrap();
-    let exec = |i: usize| PayloadSite::ExecEntry(i as u8);
+    let exec = |i: usize| PayloadSite::ExecEntry(i as u16);
     assert_eq!(
         refusal(|p| p.executive.entries[d].state = TaskState::Completed),
         error(ImpossibleState, exec(d))
@@ -486,7 +491,7 @@ fn counts_over_their_bound_are_refused() {
 #[test]
 fn timeline_values_their_timeline_cannot_hold_are_refused() {
     use PayloadDefect::ValueOutOfRange;
-    let attitude = PayloadSite::Anchor(TL_ATTITUDE);
+    let attitude = PayloadSite::Anchor(TL_ATTITUDE.into());
     assert_eq!(
         refusal(|p| p.planner.anchors[TL_ATTITUDE as usize].value = 5), // 5 values: 0..=4
         error(ValueOutOfRange, attitude)
@@ -506,7 +511,7 @@ fn timeline_values_their_timeline_cannot_hold_are_refused() {
     );
     assert_eq!(
         refusal(|p| p.planner.anchors[TL_INSTRUMENT as usize].rate = -1),
-        error(ValueOutOfRange, PayloadSite::Anchor(TL_INSTRUMENT))
+        error(ValueOutOfRange, PayloadSite::Anchor(TL_INSTRUMENT.into()))
     );
     // Unknown is a value every timeline can hold; a rate on a cumulative one is fine.
     let mut p = Payload::decode(&repaired_flyby_payload());

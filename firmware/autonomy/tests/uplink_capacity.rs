@@ -14,12 +14,39 @@ use serde::Serialize;
 /// A list or name far over every capacity. postcard writes any list as its length and its
 /// items, and a `u16` count exactly as a list length, so a network that fits encodes to the
 /// same bytes as `encode_spec` (checked below).
-type Wide<T> = heapless::Vec<T, 40>;
-type Few<T> = heapless::Vec<T, 9>;
+/// A list with no capacity (serialized as postcard writes any list: its length, then its items).
+#[derive(Clone, Debug)]
+struct Wide<T>(Vec<T>);
+
+impl<T: Serialize> Serialize for Wide<T> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_seq(self.0.iter())
+    }
+}
+
+impl<T> FromIterator<T> for Wide<T> {
+    fn from_iter<I: IntoIterator<Item = T>>(items: I) -> Self {
+        Self(items.into_iter().collect())
+    }
+}
+
+impl<T> std::ops::Deref for Wide<T> {
+    type Target = Vec<T>;
+    fn deref(&self) -> &Vec<T> {
+        &self.0
+    }
+}
+
+impl<T> std::ops::DerefMut for Wide<T> {
+    fn deref_mut(&mut self) -> &mut Vec<T> {
+        &mut self.0
+    }
+}
+type Few<T> = heapless::Vec<T, 20>;
 type WideName = heapless::String<64>;
 
-fn wide<T: Clone, const N: usize>(items: &[T]) -> heapless::Vec<T, N> {
-    heapless::Vec::from_slice(items).unwrap()
+fn wide<T: Clone, C: FromIterator<T>>(items: &[T]) -> C {
+    items.iter().cloned().collect()
 }
 
 fn wide_name(s: &str) -> WideName {
@@ -170,7 +197,7 @@ fn refused(edit: impl FnOnce(&mut WideNetwork)) -> (ValidationCode, ErrorSite) {
     (e.code, e.site)
 }
 
-fn task(i: u8, field: TaskField) -> ErrorSite {
+fn task(i: u16, field: TaskField) -> ErrorSite {
     ErrorSite::Task { task: i, field }
 }
 
@@ -289,11 +316,9 @@ fn conditions_with_too_many_terms_are_refused_at_the_first_term_that_does_not_fi
         value: 1,
     };
     let (code, site) = refused(|n| {
-        n.conditions
-            .push(WideCondition {
-                nodes: wide(&[term; MAX_CONDITION_TERMS + 1]),
-            })
-            .unwrap()
+        n.conditions.push(WideCondition {
+            nodes: wide(&[term; MAX_CONDITION_TERMS + 1]),
+        })
     });
     assert_eq!(code, ValidationCode::TooManyConditionTerms);
     assert_eq!(
@@ -312,9 +337,12 @@ fn network_lists_over_capacity_are_refused_at_the_first_element_that_does_not_fi
     assert_eq!(
         refused(|n| {
             let t = n.timelines[0].clone();
-            n.timelines.resize(MAX_TIMELINES + 1, t).unwrap();
+            n.timelines.resize(MAX_TIMELINES + 1, t);
         }),
-        (TooManyTimelines, ErrorSite::Timeline(16))
+        (
+            TooManyTimelines,
+            ErrorSite::Timeline(u8::try_from(MAX_TIMELINES).unwrap())
+        )
     );
     assert_eq!(
         refused(|n| {
@@ -332,9 +360,9 @@ fn network_lists_over_capacity_are_refused_at_the_first_element_that_does_not_fi
     assert_eq!(
         refused(|n| {
             let t = n.tasks[0].clone();
-            n.tasks.resize(MAX_TASKS + 1, t).unwrap();
+            n.tasks.resize(MAX_TASKS + 1, t);
         }),
-        (TooManyTasks, task(32, TaskField::Whole))
+        (TooManyTasks, task(256, TaskField::Whole))
     );
     assert_eq!(
         refused(|n| {

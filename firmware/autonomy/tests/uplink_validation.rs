@@ -21,7 +21,10 @@ fn rejected(spec: &NetworkSpec) -> (ValidationCode, ErrorSite) {
 }
 
 fn task(i: u8, field: TaskField) -> ErrorSite {
-    ErrorSite::Task { task: i, field }
+    ErrorSite::Task {
+        task: i.into(),
+        field,
+    }
 }
 
 #[test]
@@ -189,7 +192,9 @@ fn byte_level_defects_are_refused() {
     spec.temporal.clear();
     let mut short = encode(&spec);
     short.truncate(short.len() - 2); // drop "0 tasks, 0 temporal"
-    short.push((MAX_TASKS + 1) as u8);
+    let mut count = [0u8; 3];
+    let count = postcard::to_slice(&((MAX_TASKS + 1) as u16), &mut count).unwrap();
+    short.extend_from_slice(count);
     assert_eq!(
         validate_uplink(&short).unwrap_err().code,
         ValidationCode::TooManyTasks

@@ -34,8 +34,11 @@ use fsw_bridge::{
 pub use sdls::{SecurityAssociation, SecurityStore, StoreError};
 
 /// Largest secured task-network uplink the application accepts, in bytes: the image plus its
-/// security header and trailer (`sdls::uplink::OVERHEAD`, 42 bytes).
-pub const MAX_UPLINK_BYTES: usize = 16 * 1024;
+/// security header and trailer (`sdls::uplink::OVERHEAD`, 42 bytes). 32 KiB since the lander
+/// capacities (issue 14): a network of 256 light tasks (two constraints, three impacts each) is
+/// about 25 KiB; at 16 KiB the largest such network was 162 tasks. What a checkpoint slot
+/// holds is the tighter bound now (see the README's "Capacities and RAM").
+pub const MAX_UPLINK_BYTES: usize = 32 * 1024;
 
 /// `UplinkNak` reasons of the transfer itself (validation failures use the autonomy core's
 /// `ValidationCode::code()`, which stay below 0xff00).

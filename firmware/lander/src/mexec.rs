@@ -12,8 +12,10 @@
 //! missed, as the planner's own candidates miss one with rate impacts.
 //!
 //! Limits: a plan's primitives and the planner's entries share the autonomy crate's
-//! [`autonomy::MAX_PLAN_ENTRIES`] (48 today; issue 14 raises it to 512): a plan that would
-//! need more is refused (counted in [`MexecPlacement::plan_full`]). The primitives' durations
+//! [`autonomy::MAX_PLAN_ENTRIES`] (512): a plan that would need more is refused (counted in
+//! [`MexecPlacement::plan_full`]). One list of entries (24 KiB at that capacity) is on the
+//! stack during a placement; each trial start appends to it and truncates it back, rather than
+//! copying it (a partition's stack is 64 KiB). The primitives' durations
 //! are the task definitions' durations, which should match the HTN model's.
 use heapless::Vec;
 
@@ -137,16 +139,15 @@ impl ChainPlacement for MexecPlacement<'_> {
         }
         starts.sort_unstable();
         let mut previous = None;
+        let held = base.len();
         for &s in &starts {
             if previous == Some(s) {
                 continue;
             }
             previous = Some(s);
-            let mut trial = base.clone();
-            if self
-                .lay_out(flat, &mut trial, candidate, MissionTimeUs(s), true)
-                .is_some()
-            {
+            let placed = self.lay_out(flat, &mut base, candidate, MissionTimeUs(s), true);
+            base.truncate(held);
+            if placed.is_some() {
                 return Some(MissionTimeUs(s));
             }
         }

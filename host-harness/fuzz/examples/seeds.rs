@@ -37,7 +37,10 @@ mod fsw_bridge_fuzz;
 
 use std::path::{Path, PathBuf};
 
-use autonomy::{ConstraintSpec, NetworkSpec, TaskSpec, MAX_CONDITION_TERMS};
+use autonomy::{
+    ConstraintSpec, NetworkSpec, TaskSpec, MAX_CONDITION_TERMS, MAX_CONSTRAINTS_PER_TASK,
+    MAX_IMPACTS_PER_TASK, MAX_TASKS,
+};
 use flight_app_fuzz::{encode_ops, Harness, Op};
 use fsw_bridge::codec::{encode, FrameDecoder, MAX_FRAME_LEN};
 use fsw_bridge::link::{
@@ -51,6 +54,17 @@ use hil::mission::target::{MissionTarget, NativeTarget, ResetLanding, TargetErro
 use hil::session::Hello;
 
 fn main() {
+    // At the lander capacities (issue 14) the flight application and the networks the
+    // generator builds by value outgrow the main thread's 8 MiB stack in a debug build.
+    std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(generate)
+        .unwrap()
+        .join()
+        .unwrap();
+}
+
+fn generate() {
     // The harness secures with hil's test key, so that the recorded missions verify in it.
     assert_eq!(flight_app_fuzz::KEY, hil::mission::auth::TEST_KEY);
     let root = hil::repo_root();
@@ -644,14 +658,14 @@ fn capacity_variants(spec: &NetworkSpec) -> Vec<(String, Vec<u8>)> {
             "too-many-constraints.uplink".to_string(),
             variant(&|p| {
                 let c = p.2[0];
-                p.2.extend([c; 3]);
+                p.2.resize(MAX_CONSTRAINTS_PER_TASK + 1, c);
             }),
         ),
         (
             "too-many-impacts.uplink".into(),
             variant(&|p| {
                 let i = p.3[0];
-                p.3.extend([i, i, i]);
+                p.3.resize(MAX_IMPACTS_PER_TASK + 1, i);
             }),
         ),
         (
@@ -677,13 +691,13 @@ fn capacity_variants(spec: &NetworkSpec) -> Vec<(String, Vec<u8>)> {
             variant(&|p| p.0 = "x".repeat(33)),
         ),
     ];
-    // 33 tasks announced.
+    // One task more than MAX_TASKS announced (a u16 count: postcard's varint).
     let mut few = spec.clone();
     few.tasks.clear();
     few.temporal.clear();
     let mut b = uplink_with(&few, None);
     b.truncate(b.len() - 2);
-    b.push(33);
+    b.extend(bytes(&(MAX_TASKS as u16 + 1)));
     out.push(("too-many-tasks.uplink".into(), b));
     // A condition of nine terms.
     let mut cond = spec.clone();
