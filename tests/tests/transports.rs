@@ -73,12 +73,20 @@ fn missions_give_the_same_transcript_decisions_and_costs_over_both_transports() 
             (1..200).contains(&device_setup),
             "{name}: the link device's set-up took {device_setup} ticks of the kernel's boot"
         );
+        // The set-up is the same at every boot: each side of the difference is a tick reading
+        // that can straddle one tick, so the difference may move by two (measured at warm
+        // boots: 70 to 72 ticks against 72 at power-on).
         for i in 0..serial.boots.len() {
             let kernel = kernel_part(&shared, i) as i64 - kernel_part(&serial, i) as i64;
-            assert!(kernel.abs_diff(device_setup) <= 1, "{name}: boot {i}");
+            assert!(
+                kernel.abs_diff(device_setup) <= 2,
+                "{name}: boot {i}: the link device's set-up took {kernel} ticks, {device_setup} at the first boot"
+            );
             assert!(
                 executive_part(&serial, i).abs_diff(executive_part(&shared, i)) <= 1,
-                "{name}: boot {i}"
+                "{name}: boot {i}: the executive's part is {} ticks over serial, {} over shared memory",
+                executive_part(&serial, i),
+                executive_part(&shared, i)
             );
         }
         // The link's Mission traffic is the same frame for frame, so are its faults and
