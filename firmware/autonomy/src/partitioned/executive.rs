@@ -170,8 +170,8 @@ impl ExecutivePartition {
         Ok(())
     }
 
-    fn after_load(&mut self) {
-        self.loaded = true;
+    /// A new generation of the network, streamed to the planner from its start.
+    fn start_transfer(&mut self) {
         self.generation = self.generation.wrapping_add(1).max(1);
         let image = self.image.get(..self.image_len).unwrap_or(&[]);
         self.transfer = Some(Transfer {
@@ -181,6 +181,11 @@ impl ExecutivePartition {
             begun: false,
         });
         self.pump();
+    }
+
+    fn after_load(&mut self) {
+        self.loaded = true;
+        self.start_transfer();
     }
 
     /// Puts the next part of the network image in the channel; after its end, what the state
@@ -288,15 +293,7 @@ impl ExecutivePartition {
             return;
         }
         self.status = None;
-        self.generation = self.generation.wrapping_add(1).max(1);
-        let image = self.image.get(..self.image_len).unwrap_or(&[]);
-        self.transfer = Some(Transfer {
-            len: u32::try_from(image.len()).unwrap_or(u32::MAX),
-            pushed: 0,
-            crc: CRC32.checksum(image),
-            begun: false,
-        });
-        self.pump();
+        self.start_transfer();
         if self.frame != 0 {
             self.to_planner.push(PlannerInput::Frame {
                 frame: self.frame,
@@ -443,18 +440,10 @@ impl ExecutivePartition {
         };
         let mut len = postcard::to_slice(&meta, buf).ok()?.len();
         len += encode_network(&self.network, buf.get_mut(len..)?)?;
-        len += postcard::to_slice(&self.control.executive, buf.get_mut(len..)?)
-            .ok()?
-            .len();
-        len += postcard::to_slice(&self.control.states, buf.get_mut(len..)?)
-            .ok()?
-            .len();
-        len += postcard::to_slice(&self.to_planner, buf.get_mut(len..)?)
-            .ok()?
-            .len();
-        len += postcard::to_slice(&self.from_planner, buf.get_mut(len..)?)
-            .ok()?
-            .len();
+        put(&self.control.executive, buf, &mut len)?;
+        put(&self.control.states, buf, &mut len)?;
+        put(&self.to_planner, buf, &mut len)?;
+        put(&self.from_planner, buf, &mut len)?;
         Some(len)
     }
 

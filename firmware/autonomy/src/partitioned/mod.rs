@@ -248,6 +248,12 @@ fn transmit<T: Clone, const N: usize>(
     outbox.transmit(send);
 }
 
+/// Appends `value`'s postcard encoding to the `len` bytes of `buf` already used.
+fn put<T: Serialize>(value: &T, buf: &mut [u8], len: &mut usize) -> Option<()> {
+    *len += postcard::to_slice(value, buf.get_mut(*len..)?).ok()?.len();
+    Some(())
+}
+
 /// The network in uplink format behind a 4-byte length.
 fn encode_network(network: &TaskNetwork, buf: &mut [u8]) -> Option<usize> {
     let body = buf.get_mut(4..)?;

@@ -283,15 +283,9 @@ impl PlannerPartition {
             len += part.len();
         }
         len += encode_network(&self.network, buf.get_mut(len..)?)?;
-        len += postcard::to_slice(&self.planner, buf.get_mut(len..)?)
-            .ok()?
-            .len();
-        len += postcard::to_slice(&self.to_executive, buf.get_mut(len..)?)
-            .ok()?
-            .len();
-        len += postcard::to_slice(&self.from_executive, buf.get_mut(len..)?)
-            .ok()?
-            .len();
+        put(&self.planner, buf, &mut len)?;
+        put(&self.to_executive, buf, &mut len)?;
+        put(&self.from_executive, buf, &mut len)?;
         Some(len)
     }
 
