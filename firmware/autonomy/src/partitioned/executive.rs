@@ -455,32 +455,17 @@ impl ExecutivePartition {
         self.from_planner.checkpointed();
     }
 
-    /// Restores this side from one record the caller found whole (its CRC is not checked
-    /// again), then prepares the restart: tasks whose command was out are interrupted, command
-    /// ids skip ahead, the `Restored` event and the after-reset values come at the next first
-    /// window, every message not acknowledged goes again, and the planner hears what we have
-    /// applied. On error this side is a cold, empty one. (From an area:
-    /// [`PartitionSide::restore_from`].)
-    pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
-        let Record {
-            slot,
-            sequence,
-            payload,
-        } = record;
-        if self.decode_state(payload).is_none() {
-            self.reset();
-            return Err(SideRestoreError::BadPayload);
-        }
+    /// The restart adjustments after a decoded checkpoint numbered `sequence`: tasks whose
+    /// command was out are interrupted, command ids skip ahead, the `Restored` event and the
+    /// after-reset values come at the next first window, every message not acknowledged goes
+    /// again, and the planner hears what we have applied. (A whole restore:
+    /// [`PartitionSide::restore_record`], [`PartitionSide::restore_from`].)
+    pub(super) fn prepare_restart(&mut self, sequence: u32) {
         self.control.executive.after_restore();
         self.to_planner.after_restore();
         self.from_planner.checkpointed();
         self.restored = Some(sequence);
         self.resume = true;
-        Ok(RestoreInfo {
-            slot,
-            sequence,
-            payload_len: u32::try_from(payload.len()).unwrap_or(u32::MAX),
-        })
     }
 
     /// Makes this side what [`ExecutivePartition::new`] is, in place.
@@ -503,7 +488,7 @@ impl ExecutivePartition {
     }
 
     /// Replaces the state with one [`ExecutivePartition::encode_state`] wrote, checked as a
-    /// restored checkpoint is (no restart adjustments: [`ExecutivePartition::restore_record`]
+    /// restored checkpoint is (no restart adjustments: [`PartitionSide::restore_record`]
     /// adds them). None when refused; the state may then be partly overwritten.
     pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
         let (meta, rest): (ExecutiveMeta, _) = postcard::take_from_bytes(payload).ok()?;

@@ -177,8 +177,34 @@ pub trait PartitionSide {
     /// The checkpoint now holds the whole state: what it kept may go, what it applied may be
     /// acknowledged.
     fn checkpointed(&mut self);
-    /// Restores from one whole record (see each side's `restore_record`).
-    fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError>;
+    /// Replaces the state with a checkpoint's (checked as a restored checkpoint is); None when
+    /// refused.
+    fn decode_state(&mut self, payload: &[u8]) -> Option<()>;
+    /// Makes this side a cold, empty one.
+    fn reset(&mut self);
+    /// The restart adjustments after a decoded checkpoint numbered `sequence` (see each
+    /// side's `prepare_restart`).
+    fn prepare_restart(&mut self, sequence: u32);
+
+    /// Restores this side from one record the caller found whole (its CRC is not checked
+    /// again) and prepares the restart. On error this side is a cold, empty one.
+    fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
+        let Record {
+            slot,
+            sequence,
+            payload,
+        } = record;
+        if self.decode_state(payload).is_none() {
+            self.reset();
+            return Err(SideRestoreError::BadPayload);
+        }
+        self.prepare_restart(sequence);
+        Ok(RestoreInfo {
+            slot,
+            sequence,
+            payload_len: u32::try_from(payload.len()).unwrap_or(u32::MAX),
+        })
+    }
 
     /// Writes this side's checkpoint into its own area and, written, marks what it holds.
     fn checkpoint_to(
@@ -209,8 +235,14 @@ impl PartitionSide for ExecutivePartition {
     fn checkpointed(&mut self) {
         ExecutivePartition::checkpointed(self)
     }
-    fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
-        ExecutivePartition::restore_record(self, record)
+    fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
+        ExecutivePartition::decode_state(self, payload)
+    }
+    fn reset(&mut self) {
+        ExecutivePartition::reset(self)
+    }
+    fn prepare_restart(&mut self, sequence: u32) {
+        ExecutivePartition::prepare_restart(self, sequence)
     }
 }
 
@@ -221,8 +253,14 @@ impl PartitionSide for PlannerPartition {
     fn checkpointed(&mut self) {
         PlannerPartition::checkpointed(self)
     }
-    fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
-        PlannerPartition::restore_record(self, record)
+    fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
+        PlannerPartition::decode_state(self, payload)
+    }
+    fn reset(&mut self) {
+        PlannerPartition::reset(self)
+    }
+    fn prepare_restart(&mut self, sequence: u32) {
+        PlannerPartition::prepare_restart(self, sequence)
     }
 }
 

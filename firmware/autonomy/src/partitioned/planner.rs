@@ -296,30 +296,15 @@ impl PlannerPartition {
         self.from_executive.checkpointed();
     }
 
-    /// Restores this side from one record the caller found whole (its CRC is not checked
-    /// again): every message not acknowledged goes again, the executive hears what we have
-    /// applied, and a new cycle starts (the state may have changed while the target was down).
-    /// On error this side is a cold, empty one. (From an area:
-    /// [`PartitionSide::restore_from`].)
-    pub fn restore_record(&mut self, record: Record<'_>) -> Result<RestoreInfo, SideRestoreError> {
-        let Record {
-            slot,
-            sequence,
-            payload,
-        } = record;
-        if self.decode_state(payload).is_none() {
-            self.reset();
-            return Err(SideRestoreError::BadPayload);
-        }
+    /// The restart adjustments after a decoded checkpoint: every message not acknowledged goes
+    /// again, the executive hears what we have applied, and a new cycle starts (the state may
+    /// have changed while the target was down). (A whole restore:
+    /// [`PartitionSide::restore_record`], [`PartitionSide::restore_from`].)
+    pub(super) fn prepare_restart(&mut self, _sequence: u32) {
         self.planner.after_restore();
         self.to_executive.after_restore();
         self.from_executive.checkpointed();
         self.resume = true;
-        Ok(RestoreInfo {
-            slot,
-            sequence,
-            payload_len: u32::try_from(payload.len()).unwrap_or(u32::MAX),
-        })
     }
 
     /// Replaces the state with one [`PlannerPartition::encode_state`] wrote, checked as a
