@@ -642,15 +642,20 @@ pub const EVENTS: [Event; 5] = [
     },
 ];
 
+/// The index in [`EVENTS`] of `event`'s kind (its variant index).
+const fn event_index(event: &TelemetryEvent) -> usize {
+    match event {
+        TelemetryEvent::TaskTransition { .. } => 0,
+        TelemetryEvent::PlanModification { .. } => 1,
+        TelemetryEvent::HealthMonitor { .. } => 2,
+        TelemetryEvent::Metric { .. } => 3,
+        TelemetryEvent::StateStale { .. } => 4,
+    }
+}
+
 /// The dictionary entry of `event`'s kind.
 pub const fn event(event: &TelemetryEvent) -> &'static Event {
-    match event {
-        TelemetryEvent::TaskTransition { .. } => &EVENTS[0],
-        TelemetryEvent::PlanModification { .. } => &EVENTS[1],
-        TelemetryEvent::HealthMonitor { .. } => &EVENTS[2],
-        TelemetryEvent::Metric { .. } => &EVENTS[3],
-        TelemetryEvent::StateStale { .. } => &EVENTS[4],
-    }
+    &EVENTS[event_index(event)]
 }
 
 /// The channel of each event kind, by id (from [`EVENTS`] at compile time: no names linked).
@@ -666,17 +671,13 @@ const EVENT_CHANNELS: [VirtualChannel; EVENTS.len()] = {
 
 /// The virtual channel `event` travels on (a metric: its entry's).
 pub fn event_channel(ev: &TelemetryEvent) -> VirtualChannel {
-    let kind = match ev {
-        TelemetryEvent::Metric { id, .. } => return metric_channel(*id),
-        TelemetryEvent::TaskTransition { .. } => 0,
-        TelemetryEvent::PlanModification { .. } => 1,
-        TelemetryEvent::HealthMonitor { .. } => 2,
-        TelemetryEvent::StateStale { .. } => 4,
-    };
-    EVENT_CHANNELS
-        .get(kind)
-        .copied()
-        .unwrap_or(VirtualChannel::Instrument)
+    match ev {
+        TelemetryEvent::Metric { id, .. } => metric_channel(*id),
+        other => EVENT_CHANNELS
+            .get(event_index(other))
+            .copied()
+            .unwrap_or(VirtualChannel::Instrument),
+    }
 }
 
 #[cfg(test)]
