@@ -97,8 +97,9 @@ pub const MAX_CHUNKS_PER_FRAME: usize = 16;
 pub const MAX_TO_EXECUTIVE_IN_FLIGHT: usize = 128;
 /// Bytes of network image per chunk.
 pub const NETWORK_CHUNK_BYTES: usize = 96;
-/// Largest network image the two partitions exchange (the uplink's limit).
-pub const MAX_NETWORK_IMAGE: usize = 16 * 1024;
+/// Largest network image the two partitions exchange: the flight application's uplink
+/// buffer (32 KiB, a 256-task network of the lander capacities is about 25 KiB).
+pub const MAX_NETWORK_IMAGE: usize = 32 * 1024;
 /// Planner telemetry the executive holds between its receipt and the second window.
 pub const MAX_FORWARDED_TELEMETRY: usize = 128;
 
