@@ -407,6 +407,11 @@ pub mod platform {
         /// place and the checkpoint records of both memories read through the kernel.
         BOOT_EXECUTIVE_INIT_TICKS = 0x0317,
             "boot_executive_init_ticks", Ticks, MeasuredCost, Executive, Instrument;
+        /// The planner partition's start at a boot: its statics and stack zeroed by the
+        /// kernel's partition start, up to its entry function (its restore is
+        /// PLANNER_RESTORE_TICKS). Sent once per boot.
+        BOOT_PLANNER_START_TICKS = 0x0318,
+            "boot_planner_start_ticks", Ticks, MeasuredCost, Planner, Instrument;
     }
 }
 

@@ -24,10 +24,8 @@
 #![forbid(unsafe_code)]
 
 use autonomy::checkpoint::{self, Record, RECORD_HEADER_LEN};
-use autonomy::partitioned::{
-    ExecutiveInput, ExecutivePartition, PartitionSide, PlannerInput, PlannerPartition,
-    PlannerStatus, Wire,
-};
+pub use autonomy::partitioned::{ExecutiveInput, PlannerInput, PlannerStatus as Status, Wire};
+use autonomy::partitioned::{ExecutivePartition, PartitionSide, PlannerPartition, PlannerStatus};
 use autonomy::{Outputs, RestoreInfo, WarmRestartArea};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::security::{MAC_LEN, MAX_GROUND_HOLDS};
@@ -1117,6 +1115,11 @@ impl PlannerApp {
     /// Whether the executive's frame has come and the window has not run for it.
     pub fn frame_pending(&self) -> bool {
         self.partition.frame_pending()
+    }
+
+    /// Messages for the executive not sent yet (the port was full).
+    pub fn unsent(&self) -> usize {
+        self.partition.unsent()
     }
 
     /// The window for the frame the executive announced, if one came: planning within the

@@ -21,23 +21,29 @@
 //! takes effect). A board without non-volatile memory, or with less than the checkpoint and
 //! security areas, has no key: authenticated traffic is refused with `NoKey`.
 //!
-//! The planner and the executive of the core still run together here; they exchange only
-//! commits and task reports, so splitting them over the planner partition is a move of code,
-//! not of design.
+//! The planner runs in the planner partition (`partitions::planner`): a granted frame starts
+//! here (the first executive window: host input, the first executive pass, a checkpoint, then
+//! the messages for the planner on `executive_to_planner`), goes on in the planner's window, and
+//! ends in a later window of this partition, once the planner's answer has come in on
+//! `planner_to_executive` (the second executive window: the commits, the second pass, a
+//! checkpoint, `FrameDone`). While it waits the partition gives up each window at once: its
+//! CPU per window does not depend on the planner.
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
-use flight_app::{
-    CpuClock, Downlink, FlightApp, Memories, MemoryFetch, MemoryKind, SecurityStore, StoreError,
-};
+use flight_app::{Downlink, ExecutiveApp, Memories, SecurityStore, StoreError, Wire};
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
 use heapless::Deque;
 use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
 use kernel_config::system::{EXECUTIVE_NV, EXECUTIVE_WARM};
 use kernel_config::{WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 
-use super::{ports, receive_routed, send_to_host, zeroed_state, ZeroValid};
+use super::{
+    copy_out, ports, receive_routed, send_to_host, zeroed_state, KernelMemories, PartitionClock,
+    ZeroValid,
+};
 use crate::board::timebase;
+use crate::port::PortError;
 use crate::sys;
 
 /// Bytes of the warm-restart area for this partition's checkpoints: its slice.
@@ -96,25 +102,16 @@ unsafe impl ZeroValid for ExecutiveState {}
 static mut STATE: MaybeUninit<ExecutiveState> = MaybeUninit::uninit();
 
 #[link_section = ".bss.part.executive"]
-static mut APP: MaybeUninit<FlightApp> = MaybeUninit::uninit();
+static mut APP: MaybeUninit<ExecutiveApp> = MaybeUninit::uninit();
 
-// SAFETY: every field of a FlightApp, down to the leaves, is an integer, a bool, an array of
-// them, a fieldless enum whose first variant is 0 (the planner's phase), an Option or tuple
-// of these, or a heapless Vec (a length and MaybeUninit storage: empty when zero); there is no
-// reference, NonZero or function pointer, so all-zero bytes are a valid FlightApp. The
-// partition entry then makes it the new application with `FlightApp::reset`, which writes
-// every field: the application is never copied from a constant image of it (55 KiB in the
-// RAM image, read by the reset stub's image check at every boot, and copied at every start).
-unsafe impl ZeroValid for FlightApp {}
-
-/// CPU time of this partition only, so costs do not depend on other partitions' windows.
-struct PartitionClock;
-
-impl CpuClock for PartitionClock {
-    fn ticks(&mut self) -> u64 {
-        sys::cpu_time().0
-    }
-}
+// SAFETY: every field of an ExecutiveApp, down to the leaves, is an integer, a bool, an array
+// of them, a fieldless enum whose first variant is 0, an Option or tuple of these, or a
+// heapless Vec or Deque (a length or indices and MaybeUninit storage: empty when zero); there
+// is no reference, NonZero or function pointer, so all-zero bytes are a valid ExecutiveApp.
+// The partition entry then makes it the new application with `ExecutiveApp::reset`, which
+// writes every field: the application is never copied from a constant image of it (tens of
+// KiB in the RAM image, read by the reset stub's image check at every boot).
+unsafe impl ZeroValid for ExecutiveApp {}
 
 /// The security area in non-volatile memory, through the kernel (this partition owns NV).
 struct NvSecurityStore;
@@ -133,34 +130,6 @@ impl SecurityStore for NvSecurityStore {
             .and_then(|at| u32::try_from(at).ok())
             .ok_or(StoreError)?;
         sys::nv_write(at, bytes).map_err(|_| StoreError)
-    }
-}
-
-/// The warm-restart area and non-volatile memory, read through the kernel into this
-/// partition's copies: only what the flight application asks for (record headers, then the
-/// records it checks), not both 64 KiB areas.
-struct KernelMemories;
-
-impl MemoryFetch for KernelMemories {
-    fn fetch(
-        &mut self,
-        memory: MemoryKind,
-        offset: usize,
-        bytes: &mut [u8],
-    ) -> Result<(), StoreError> {
-        let offset = u32::try_from(offset).map_err(|_| StoreError)?;
-        let read = match memory {
-            MemoryKind::Warm => sys::warm_read(offset, bytes),
-            MemoryKind::Nv => sys::nv_read(offset, bytes).map(|_| ()),
-        };
-        read.map_err(|_| {
-            defmt::warn!(
-                "executive: a read of {=usize} bytes at {=u32} failed; taken as no record",
-                bytes.len(),
-                offset
-            );
-            StoreError
-        })
     }
 }
 
@@ -194,7 +163,7 @@ pub extern "C" fn partition_executive_main() -> ! {
     let entered = sys::cpu_time().0;
     // SAFETY: as above (APP is zeroed by the partition start too, and FlightApp is
     // ZeroValid); `reset` makes it the new application before its first use.
-    let app: &'static mut FlightApp = unsafe { zeroed_state(addr_of_mut!(APP)) };
+    let app: &'static mut ExecutiveApp = unsafe { zeroed_state(addr_of_mut!(APP)) };
     app.reset();
     // The copies of the two memories start out zero (no record); the flight application
     // reads what it needs into them (`KernelMemories`). Probe non-volatile memory's size first
@@ -285,9 +254,17 @@ pub extern "C" fn partition_executive_main() -> ! {
     // costs, and a reset the host armed inside it (counted by the kernel from that window's
     // start), are the same on every run.
     loop {
+        // The planner's messages (its window ran since our last one), then the host's batch,
+        // then the frame's second window if the planner has answered it, then what the
+        // checkpoints allow to go to the planner.
+        while let Some((wire, _generation)) = receive_planner() {
+            app.receive(wire);
+        }
         if core::mem::replace(&mut state.batch_complete, false) {
             handle_pending(state, app);
         }
+        second_window(state, app);
+        to_planner(state, app);
         flush(state);
         while let Some((msg, _generation)) = receive_routed(ports::IO_TO_EXECUTIVE) {
             if let HostToTarget::StateUpdate {
@@ -321,8 +298,7 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
             state.batch_complete |= answer_awaited;
         }
-        let _ = ports::EXECUTIVE_STATUS.send(&state.state_updates);
-        if state.batch_complete || !state.outbox.is_empty() {
+        if state.batch_complete || !state.outbox.is_empty() || app.awaiting_planner() {
             sys::wait_next_window();
         } else {
             // Nothing to do until the host sends more (a batch still waiting for its grant
@@ -332,8 +308,85 @@ pub extern "C" fn partition_executive_main() -> ! {
     }
 }
 
+/// The next message from the planner partition.
+fn receive_planner() -> Option<(Wire<flight_app::ExecutiveInput>, u32)> {
+    loop {
+        match ports::PLANNER_TO_EXECUTIVE.receive() {
+            Ok(Some(got)) => return Some((got.value, got.generation)),
+            Ok(None) | Err(PortError::Sys(_) | PortError::TooBig) => return None,
+            Err(PortError::Undecodable) => {
+                defmt::warn!("executive: undecodable message from the planner dropped")
+            }
+        }
+    }
+}
+
+/// The frame's second window, once the planner has answered: the commits, the second
+/// executive pass, the checkpoint, FrameDone.
+fn second_window(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
+    if !app.awaiting_planner() {
+        return;
+    }
+    let mut outbox = Outbox {
+        queue: &mut state.outbox,
+        overflows: &mut state.outbox_overflows,
+    };
+    let mut memories = Memories {
+        warm: &mut state.warm,
+        nv: state.has_nv.then_some(&mut state.nv[..]),
+        security: None,
+    };
+    app.second_window(
+        &mut memories,
+        Some(&mut KernelMemories),
+        &mut PartitionClock,
+        &mut outbox,
+    );
+    write_checkpoints(state, app);
+}
+
+/// What the executive's checkpoint holds goes to the planner, until its port is full (the
+/// rest goes at the next window: the channel keeps it).
+fn to_planner(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
+    {
+        let mut outbox = Outbox {
+            queue: &mut state.outbox,
+            overflows: &mut state.outbox_overflows,
+        };
+        let mut memories = Memories {
+            warm: &mut state.warm,
+            nv: state.has_nv.then_some(&mut state.nv[..]),
+            security: None,
+        };
+        app.checkpoint_if_needed(&mut memories, Some(&mut KernelMemories), &mut outbox);
+    }
+    write_checkpoints(state, app);
+    app.transmit(&mut |wire| match ports::EXECUTIVE_TO_PLANNER.send(&wire) {
+        Ok(()) => true,
+        Err(PortError::TooBig) => {
+            defmt::error!("executive: a message for the planner is over its port's size");
+            false
+        }
+        Err(_) => false,
+    });
+}
+
+/// The checkpoint bytes the application wrote into its copies go to the memories.
+fn write_checkpoints(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
+    state.warm_write_errors = state.warm_write_errors.saturating_add(copy_out(
+        &app.take_warm_writes(),
+        &state.warm,
+        sys::warm_write,
+    ));
+    state.nv_write_errors = state.nv_write_errors.saturating_add(copy_out(
+        &app.take_nv_writes(),
+        &state.nv,
+        sys::nv_write,
+    ));
+}
+
 /// Handle every queued host message, in order.
-fn handle_pending(state: &mut ExecutiveState, app: &mut FlightApp) {
+fn handle_pending(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
     while let Some(msg) = state.pending.pop_front() {
         handle(state, app, msg);
         flush(state);
@@ -357,7 +410,7 @@ fn metric(id: u16, value: u64) {
     );
 }
 
-fn handle(state: &mut ExecutiveState, app: &mut FlightApp, msg: HostToTarget) {
+fn handle(state: &mut ExecutiveState, app: &mut ExecutiveApp, msg: HostToTarget) {
     match &msg {
         HostToTarget::StateUpdate {
             key: StateKey(control::SYSCALL_BENCH),
@@ -393,18 +446,7 @@ fn handle(state: &mut ExecutiveState, app: &mut FlightApp, msg: HostToTarget) {
         &mut PartitionClock,
         &mut outbox,
     );
-    if let Some((start, end)) = app.take_warm_write() {
-        // Only the bytes this checkpoint wrote go to the warm-restart area; a reset in the
-        // middle of the copy leaves the other slot whole (A/B records).
-        if sys::warm_write(start as u32, &state.warm[start..end]).is_err() {
-            state.warm_write_errors = state.warm_write_errors.saturating_add(1);
-        }
-    }
-    if let Some((start, end)) = app.take_nv_write() {
-        if sys::nv_write(start as u32, &state.nv[start..end]).is_err() {
-            state.nv_write_errors = state.nv_write_errors.saturating_add(1);
-        }
-    }
+    write_checkpoints(state, app);
 }
 
 /// Ticks for SYSCALL_BENCH_CALLS null system calls, timed at the start of a fresh window so no
