@@ -1,0 +1,321 @@
+//! The search proper: the root, successors pushed on the open lists, the bounded
+//! [`Planner::step`] and the expansion of one node.
+
+use super::*;
+impl<'t, 'm> Planner<'t, 'm> {
+    // ----- search -------------------------------------------------------------------------------
+
+    pub(super) fn start(&mut self) {
+        let task = self.task;
+        let cs = core::mem::take(&mut self.child_state);
+        self.initial_state(cs);
+        self.child_state = cs;
+        let h = {
+            let cs = &*self.child_state;
+            self.relax.evaluate(&task, &|f| Self::fact(cs, f), &[])
+        };
+        self.stats.evaluated += 1;
+        if h == DEAD_END {
+            self.status = Status::Unsolvable;
+            return;
+        }
+        self.stats.best_h = h;
+        let hash = self.state_hash(self.child_state);
+        let Some(root) = self.store_node(NONE, NONE, h, 0, hash) else {
+            self.status = Status::OutOfMemory(Region::Nodes);
+            return;
+        };
+        if self.is_goal(self.child_state) {
+            self.goal_node = root;
+            self.status = Status::Solved;
+            return;
+        }
+        if let Err(r) = self.push_successors(root, h) {
+            self.status = Status::OutOfMemory(r);
+        }
+    }
+
+    /// Push every applicable snap of the state in `child_state` (stored as `node`) into the
+    /// open lists with key `h`; those in the relaxed plan also into the preferred list.
+    pub(super) fn push_successors(&mut self, node: u32, h: u32) -> Result<(), Region> {
+        let task = self.task;
+        let running_n = self.child_state[self.running_at()] as usize;
+        let mut running = [0u32; MAX_RUNNING];
+        running[..running_n].copy_from_slice(self.running(self.child_state));
+        self.load_protection(&running[..running_n], true);
+        let sw = self.probe_state.len();
+        let mut result = Ok(());
+        for a in 0..task.action_count() {
+            let is_running = running[..running_n].binary_search(&(a as u32)).is_ok();
+            let snap = if is_running {
+                (a as u32) << 2 | END
+            } else if self.config.compression && self.compression_safe(a) {
+                (a as u32) << 2 | COMPRESSED
+            } else {
+                (a as u32) << 2 | START
+            };
+            // Cheap precondition test before the full application.
+            let act = task.action(a);
+            let pre = if is_running {
+                FactList::PreEnd
+            } else {
+                FactList::PreStart
+            };
+            if !act
+                .facts(pre)
+                .iter()
+                .all(|f| Self::fact(self.child_state, f))
+            {
+                continue;
+            }
+            let (probe, child) = (&mut *self.probe_state, &*self.child_state);
+            probe[..sw].copy_from_slice(&child[..sw]);
+            let probe = core::mem::take(&mut self.probe_state);
+            let ok = self.apply(probe, snap);
+            self.probe_state = probe;
+            if !ok {
+                continue;
+            }
+            let key = h.min(0xfff) << 20 | (self.seq & 0xf_ffff);
+            self.seq = self.seq.wrapping_add(1);
+            if !self.regular.push(key, node, snap) {
+                if self.config.shed_when_full && self.regular.len > 1 {
+                    self.stats.shed += self.regular.shed_worse_half() as u64;
+                }
+                if !self.regular.push(key, node, snap) {
+                    result = Err(Region::RegularOpen);
+                    break;
+                }
+            }
+            self.stats.generated += 1;
+            let r = 2 * a + usize::from(is_running);
+            if self.config.preferred_operators
+                && self.relax.in_relaxed_plan(r)
+                && !self.preferred.push(key, node, snap)
+            {
+                if self.config.shed_when_full && self.preferred.len > 1 {
+                    self.stats.shed += self.preferred.shed_worse_half() as u64;
+                }
+                if !self.preferred.push(key, node, snap) {
+                    result = Err(Region::PreferredOpen);
+                    break;
+                }
+            }
+        }
+        self.load_protection(&running[..running_n], false);
+        result
+    }
+
+    /// Run at most `budget` expansions.
+    pub fn step(&mut self, budget: u32) -> Status {
+        for _ in 0..budget {
+            if self.status != Status::Searching {
+                break;
+            }
+            let entry = if (self.turn || self.boost > 0) && self.preferred.len > 0 {
+                self.boost = self.boost.saturating_sub(1);
+                self.preferred.pop()
+            } else {
+                self.regular.pop().or_else(|| self.preferred.pop())
+            };
+            self.turn = !self.turn;
+            let Some((_, parent, snap)) = entry else {
+                // With entries shed, an empty open list proves nothing.
+                self.status = if self.stats.shed > 0 {
+                    Status::OutOfMemory(Region::RegularOpen)
+                } else {
+                    Status::Unsolvable
+                };
+                break;
+            };
+            match self.expand(parent, snap) {
+                Ok(()) => {}
+                // A path too long to extend is a branch dropped, not the search's end.
+                Err(Region::PlanLength) => self.stats.too_long += 1,
+                Err(r) => self.status = Status::OutOfMemory(r),
+            }
+        }
+        let s = self.stats();
+        self.stats.peak_words = s.peak_words;
+        self.status
+    }
+
+    pub(super) fn expand(&mut self, parent: u32, snap: u32) -> Result<(), Region> {
+        self.stats.expanded += 1;
+        self.load_path(parent)?;
+        let steps = self.loaded_steps;
+        let task = self.task;
+        let a = (snap >> 2) as usize;
+        // The child's state.
+        let sw = self.child_state.len();
+        self.child_state[..sw].copy_from_slice(&self.parent_state[..sw]);
+        let running_n = self.parent_state[self.running_at()] as usize;
+        let mut running = [0u32; MAX_RUNNING];
+        running[..running_n].copy_from_slice(self.running(self.parent_state));
+        self.load_protection(&running[..running_n], true);
+        let child = core::mem::take(&mut self.child_state);
+        let ok = self.apply(child, snap);
+        self.child_state = child;
+        self.load_protection(&running[..running_n], false);
+        if !ok {
+            return Ok(());
+        }
+        // Its constraints.
+        let mut cons = [Constraint {
+            before: 0,
+            after: 0,
+            lb: 0,
+            ub: 0,
+        }; 64];
+        let mut n = 0usize;
+        let kind = snap & 3;
+        let new_steps = if kind == COMPRESSED { 2 } else { 1 };
+        if steps + new_steps + 2 >= self.path_snap.len() {
+            return Err(Region::PlanLength);
+        }
+        let j = steps + 1;
+        let start_step = if kind == END {
+            let i = running[..running_n].binary_search(&(a as u32)).unwrap_or(0);
+            self.running_start[i] as usize
+        } else {
+            0
+        };
+        self.step_constraints(j, a, kind == END, start_step, &mut cons, &mut n)?;
+        self.path_snap[j] = (a as u32) << 1 | u32::from(kind == END);
+        if kind == COMPRESSED {
+            // The end straight after: the start is a step of the path now.
+            let mut saved = [(0usize, 0u32); 64];
+            let mut n_saved = 0;
+            for_each_write(&task, a, false, &mut |id, _| {
+                if n_saved < saved.len() {
+                    saved[n_saved] = (id, self.last_writer[id]);
+                    n_saved += 1;
+                }
+            });
+            for &(id, _) in &saved[..n_saved] {
+                self.last_writer[id] = j as u32;
+            }
+            self.path_snap[j + 1] = (a as u32) << 1 | 1;
+            let r = self.step_constraints(j + 1, a, true, j, &mut cons, &mut n);
+            for &(id, w) in saved[..n_saved].iter().rev() {
+                self.last_writer[id] = w;
+            }
+            r?;
+        }
+        // STN check, warm-started from the parent's earliest times.
+        let last = steps + new_steps;
+        self.est_child[..=steps].copy_from_slice(&self.est_parent[..=steps]);
+        self.est_child[steps + 1..=last]
+            .iter_mut()
+            .for_each(|x| *x = 0);
+        let base = 3 * self.loaded_constraints;
+        if base + 3 * n > self.path_constraints.len() {
+            return Err(Region::PlanLength);
+        }
+        for (i, c) in cons[..n].iter().enumerate() {
+            self.path_constraints[base + 3 * i] = u32::from(c.before) | u32::from(c.after) << 16;
+            self.path_constraints[base + 3 * i + 1] = c.lb;
+            self.path_constraints[base + 3 * i + 2] = c.ub;
+        }
+        let snaps = &self.path_snap;
+        let window = |k: usize| step_window(&task, snaps[k]);
+        let consistent = earliest_words(
+            last,
+            &self.path_constraints[..base + 3 * n],
+            &window,
+            self.est_child,
+        )
+        .is_ok();
+        if !consistent {
+            self.stats.inconsistent += 1;
+            return Ok(());
+        }
+        // Duplicates.
+        let hash = self.state_hash(self.child_state);
+        let quiescent = self.child_state[self.running_at()] == 0;
+        let prune = match self.config.duplicates {
+            Duplicates::Keep => false,
+            Duplicates::PruneQuiescent => quiescent,
+            Duplicates::PruneAll => true,
+        };
+        if prune && self.find_duplicate(self.child_state, hash) {
+            self.stats.duplicates += 1;
+            return Ok(());
+        }
+        if self.config.duplicates == Duplicates::PruneQuiescent
+            && !quiescent
+            && kind != START
+            && self.repeats_ancestor(&running[..running_n], (kind == END).then_some(a))
+        {
+            self.stats.duplicates += 1;
+            return Ok(());
+        }
+        // Heuristic.
+        let h = {
+            let cs = &*self.child_state;
+            let at = self.running_at();
+            let rn = cs[at] as usize;
+            self.stats.evaluated += 1;
+            self.relax
+                .evaluate(&task, &|f| Self::fact(cs, f), &cs[at + 1..at + 1 + rn])
+        };
+        if h == DEAD_END {
+            self.stats.dead_ends += 1;
+            return Ok(());
+        }
+        if h < self.stats.best_h {
+            self.stats.best_h = h;
+            self.boost += BOOST;
+        }
+        // Store.
+        let mut at = 0usize;
+        for c in &cons[..n] {
+            constraints::encode(c, task.epsilon(), &mut self.child_bytes, &mut at)
+                .map_err(|_| Region::PlanLength)?;
+        }
+        let node = self
+            .store_node(parent, snap, h, at, hash)
+            .ok_or(Region::Nodes)?;
+        if self.is_goal(self.child_state) {
+            self.goal_node = node;
+            self.status = Status::Solved;
+            return Ok(());
+        }
+        self.push_successors(node, h)
+    }
+
+    /// Whether the child state (in `child_state`, reached by an end or a compressed action from
+    /// the loaded path, whose running actions are `parent_running` in the order of
+    /// `running_start`) equals an ancestor's state at which every action running in the child
+    /// was already running, started by the same step. That ancestor dominates the child: the
+    /// same facts, values and running instances, with the running actions as far from their
+    /// ends or farther, and the child's later steps constrained by everything the ancestor's
+    /// are and more. `ended` is the action whose end the child applied.
+    pub(super) fn repeats_ancestor(&self, parent_running: &[u32], ended: Option<usize>) -> bool {
+        // The latest start step among the child's running actions.
+        let mut latest_start = 0usize;
+        for (i, &r) in parent_running.iter().enumerate() {
+            if Some(r as usize) != ended {
+                latest_start = latest_start.max(self.running_start[i] as usize);
+            }
+        }
+        let n = self.used_state_words(self.child_state);
+        let mut steps_at = self.loaded_steps;
+        for d in (0..self.loaded_depth).rev() {
+            if steps_at < latest_start {
+                break;
+            }
+            let node = self.path_nodes[d];
+            let state = self.node_state(node);
+            if state.get(..n) == self.child_state.get(..n) {
+                return true;
+            }
+            steps_at -= match self.node_snap(node) {
+                NONE => 0,
+                s if s & 3 == COMPRESSED => 2,
+                _ => 1,
+            };
+        }
+        false
+    }
+}

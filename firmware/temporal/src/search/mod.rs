@@ -1,0 +1,487 @@
+//! The search: lazy greedy best-first search over snap actions (seed 001, section 4.1) with
+//! two open lists (all successors, and those the relaxed plan prefers), all of it in one fixed
+//! arena of 32-bit words handed in by the caller.
+//!
+//! A search node is a record in the arena: its parent, the snap action that reached it, its h,
+//! its bit-packed state (facts one bit each, numeric values, the running actions) and the
+//! serialised temporal constraints its own step added ([`crate::constraints`]). Nothing else is
+//! stored per state: when a node is taken from an open list, the plan to its parent is walked
+//! back, the ordering annotations are recreated from the steps' conditions and effects, the
+//! constraints are unpacked and the STN is checked ([`crate::stn`]).
+//!
+//! A ground action runs at most once at a time (no self-overlap): its start is applicable
+//! only while it is not running.
+//!
+//! The three temporal rules of 4.1: an end is applicable only while its action runs; the goal
+//! needs every action ended; after every snap action the invariants of the running actions
+//! (and of an action just started) still hold. Compression safety: an action whose end can be
+//! applied straight after its start without losing plans ([`Planner::compression_safe`]) is
+//! applied as one step, start and end together.
+//!
+//! [`Planner::step`] runs a bounded number of expansions and returns; the search state stays in
+//! the arena, so the next call resumes where this one stopped (anytime across windows).
+use crate::constraints::{self, Constraint, MAX_STEPS};
+use crate::heuristic::{self, Relaxation, RelaxedCost, DEAD_END};
+use crate::stn;
+use crate::task::{FactList, NumericList, Task, UNBOUNDED};
+
+mod expand;
+mod path;
+mod state;
+
+use path::{earliest_words, for_each_write, latest_words, step_window};
+
+/// Snap kinds in a snap id (`action << 2 | kind`).
+const START: u32 = 0;
+const END: u32 = 1;
+const COMPRESSED: u32 = 2;
+const NONE: u32 = u32::MAX;
+/// Most actions a plan can hold (two steps each).
+pub const MAX_PLAN_ACTIONS: usize = MAX_STEPS / 2;
+/// Most actions running at once.
+pub const MAX_RUNNING: usize = 64;
+/// Largest serialised constraint list one node may add, in bytes.
+pub const MAX_NODE_CONSTRAINT_BYTES: usize = 2048;
+/// Words of a node record before its state.
+const NODE_HEADER: usize = 5;
+/// Most preferred-queue pops granted after progress (a new best h), as in Fast Downward.
+const BOOST: u32 = 1000;
+
+/// How the planner searches.
+#[derive(Clone, Copy, Debug)]
+pub struct PlannerConfig {
+    /// Longest plan in steps (snap actions) the search may build; at most [`MAX_STEPS`] - 1.
+    pub max_steps: usize,
+    /// Apply the ends of compression-safe actions with their starts.
+    pub compression: bool,
+    /// Which repeated states (facts, values, running actions reached before) are not expanded.
+    pub duplicates: Duplicates,
+    /// Use the second open list of successors the relaxed plan prefers.
+    pub preferred_operators: bool,
+    /// When an open list is full, drop its worse half (by key) and go on, instead of ending
+    /// the search: anytime in fixed memory, at the price of completeness (counted in
+    /// [`Stats::shed`]; an open list emptied after shedding is out of memory, not unsolvable).
+    pub shed_when_full: bool,
+    /// Snap-action costs in the heuristic's cost propagation.
+    pub relaxed_cost: RelaxedCost,
+}
+
+impl Default for PlannerConfig {
+    fn default() -> Self {
+        Self {
+            max_steps: 2048,
+            compression: true,
+            duplicates: Duplicates::PruneQuiescent,
+            preferred_operators: true,
+            shed_when_full: true,
+            relaxed_cost: RelaxedCost::Unit,
+        }
+    }
+}
+
+/// Which repeated states the search prunes.
+///
+/// A state is its facts, numeric values and running actions; it says nothing of when things
+/// happened. Two paths to a state with actions running can differ in how long each has left
+/// to run, and only one of them may be able to finish (a brute-force test found such tasks:
+/// pruning every repeat loses their plans). With nothing running, every later step is ordered
+/// only after earlier ones (lower bounds), so the past's timing cannot make the future
+/// impossible, unless windows (timed initial literals) put deadlines on later steps.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Duplicates {
+    /// Expand every state, however often it is reached (complete, slow).
+    Keep,
+    /// Prune a repeated state only when no action is running in it.
+    PruneQuiescent,
+    /// Prune every repeated state (fastest; may lose plans that need concurrency).
+    PruneAll,
+}
+
+/// Where the arena ran out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Region {
+    /// The arena is too small for the task's tables and scratch.
+    Tables,
+    Nodes,
+    RegularOpen,
+    PreferredOpen,
+    /// A plan would exceed `max_steps` or a step too many constraints (during the search this
+    /// drops the branch and is counted in [`Stats::too_long`]).
+    PlanLength,
+}
+
+/// What a call to [`Planner::step`] ended with.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Status {
+    /// Budget used up; call again.
+    Searching,
+    /// A plan was found: read it with [`Planner::plan`].
+    Solved,
+    /// The open lists are empty: no plan (within the pruning used).
+    Unsolvable,
+    /// The arena is full.
+    OutOfMemory(Region),
+}
+
+/// Search statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    /// Open-list entries taken (successor states materialised).
+    pub expanded: u64,
+    /// Open-list entries added.
+    pub generated: u64,
+    /// Heuristic evaluations.
+    pub evaluated: u64,
+    /// Successors refused by the STN check.
+    pub inconsistent: u64,
+    /// Successors that repeated a state reached before.
+    pub duplicates: u64,
+    /// Successors from which the goal is unreachable even relaxed.
+    pub dead_ends: u64,
+    /// Nodes stored.
+    pub nodes: u64,
+    /// Successors dropped because their plan would exceed `max_steps` (or a step's constraint
+    /// capacity).
+    pub too_long: u64,
+    /// Open-list entries dropped because a list was full (see [`PlannerConfig::shed_when_full`]).
+    pub shed: u64,
+    /// The best h seen.
+    pub best_h: u32,
+    /// Arena words in use at most: tables, scratch, nodes, buckets and open lists.
+    pub peak_words: u64,
+    /// Arena words handed in.
+    pub arena_words: u64,
+}
+
+/// One action of the plan, times in ticks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PlannedAction {
+    pub action: u16,
+    pub start: u32,
+    pub duration: u32,
+    /// The window of start times the STN allows with the makespan kept (section 5.2).
+    pub start_lb: u32,
+    pub start_ub: u32,
+}
+
+/// A binary min-heap of three-word entries (key, node, snap) in an arena slice.
+struct Heap<'m> {
+    words: &'m mut [u32],
+    len: usize,
+    peak: usize,
+}
+
+impl<'m> Heap<'m> {
+    fn push(&mut self, key: u32, node: u32, snap: u32) -> bool {
+        if 3 * (self.len + 1) > self.words.len() {
+            return false;
+        }
+        let mut i = self.len;
+        self.len += 1;
+        self.peak = self.peak.max(self.len);
+        self.words[3 * i..3 * i + 3].copy_from_slice(&[key, node, snap]);
+        while i > 0 {
+            let p = (i - 1) / 2;
+            if self.words[3 * p] <= self.words[3 * i] {
+                break;
+            }
+            for k in 0..3 {
+                self.words.swap(3 * p + k, 3 * i + k);
+            }
+            i = p;
+        }
+        true
+    }
+    /// Drop the worse half of the entries (the highest keys); returns how many went. The
+    /// entries left are sorted, which is a valid heap.
+    fn shed_worse_half(&mut self) -> usize {
+        let (records, _) = self.words[..3 * self.len].as_chunks_mut::<3>();
+        records.sort_unstable_by_key(|r| r[0]);
+        let dropped = self.len - self.len / 2;
+        self.len /= 2;
+        dropped
+    }
+    fn pop(&mut self) -> Option<(u32, u32, u32)> {
+        if self.len == 0 {
+            return None;
+        }
+        let top = (self.words[0], self.words[1], self.words[2]);
+        self.len -= 1;
+        let last = self.len;
+        for k in 0..3 {
+            self.words[k] = self.words[3 * last + k];
+        }
+        let mut i = 0;
+        loop {
+            let (l, r) = (2 * i + 1, 2 * i + 2);
+            let mut m = i;
+            if l < last && self.words[3 * l] < self.words[3 * m] {
+                m = l;
+            }
+            if r < last && self.words[3 * r] < self.words[3 * m] {
+                m = r;
+            }
+            if m == i {
+                break;
+            }
+            for k in 0..3 {
+                self.words.swap(3 * m + k, 3 * i + k);
+            }
+            i = m;
+        }
+        Some(top)
+    }
+}
+
+/// Take `n` words off the front of `rest`.
+fn carve<'m>(rest: &mut &'m mut [u32], n: usize, used: &mut usize) -> Option<&'m mut [u32]> {
+    if n > rest.len() {
+        return None;
+    }
+    let (head, tail) = core::mem::take(rest).split_at_mut(n);
+    *rest = tail;
+    *used += n;
+    Some(head)
+}
+
+/// The planner: a task, its arena, and the search in progress.
+pub struct Planner<'t, 'm> {
+    task: Task<'t>,
+    config: PlannerConfig,
+    relax: Relaxation<'m>,
+    /// Bit per action: compression safe.
+    safe: &'m mut [u32],
+    /// Per fact: how many running actions protect it as an invariant (for the current state).
+    protect: &'m mut [u32],
+    /// Per fact and numeric variable: the last step of the loaded path that wrote it (0: none).
+    last_writer: &'m mut [u32],
+    /// The loaded path: per step its snap (`action << 1 | is_end`), node ids root..parent.
+    path_snap: &'m mut [u32],
+    path_nodes: &'m mut [u32],
+    /// Earliest times of the loaded path and of a candidate child.
+    est_parent: &'m mut [u32],
+    est_child: &'m mut [u32],
+    /// Decoded constraints of the loaded path (three words each) and their count.
+    path_constraints: &'m mut [u32],
+    loaded_constraints: usize,
+    loaded_steps: usize,
+    /// Nodes on the loaded path (`path_nodes[..loaded_depth]`, root first).
+    loaded_depth: usize,
+    loaded_node: u32,
+    /// The running actions' start steps on the loaded path, parallel to its running list.
+    running_start: [u32; MAX_RUNNING],
+    /// The parent's and the child's states, and a temporary for the successor checks.
+    parent_state: &'m mut [u32],
+    child_state: &'m mut [u32],
+    probe_state: &'m mut [u32],
+    /// The child's serialised constraints.
+    child_bytes: [u8; MAX_NODE_CONSTRAINT_BYTES],
+    /// The node store and the duplicate buckets (head node of each chain).
+    nodes: &'m mut [u32],
+    nodes_used: usize,
+    buckets: &'m mut [u32],
+    regular: Heap<'m>,
+    preferred: Heap<'m>,
+    fixed_words: usize,
+    seq: u32,
+    boost: u32,
+    turn: bool,
+    goal_node: u32,
+    status: Status,
+    stats: Stats,
+    fact_words: usize,
+}
+
+/// Words of a packed state: facts, numeric values (two words each), running count and ids.
+fn state_words(task: &Task<'_>) -> usize {
+    task.fact_count().div_ceil(32) + 2 * task.numeric_count() + 1 + MAX_RUNNING
+}
+
+impl<'t, 'm> Planner<'t, 'm> {
+    /// Set up a search for `task` in `arena`. Errors if the arena cannot hold the task's
+    /// tables, the scratch for `config.max_steps` steps and a root node.
+    pub fn new(
+        task: Task<'t>,
+        arena: &'m mut [u32],
+        mut config: PlannerConfig,
+    ) -> Result<Self, Region> {
+        config.max_steps = config.max_steps.clamp(2, MAX_STEPS - 2);
+        let arena_words = arena.len();
+        let facts = task.fact_count();
+        let actions = task.action_count();
+        let ids = facts + task.numeric_count();
+        let all = facts + actions;
+        let relaxed = 2 * actions;
+        let (offsets_n, entries_n, _) = heuristic::index_words(&task);
+        let (add_offsets_n, add_entries_n) = heuristic::add_words(&task);
+        let mut adds = 0;
+        for a in 0..actions {
+            let act = task.action(a);
+            adds += act.facts(FactList::AddStart).len() + act.facts(FactList::AddEnd).len() + 1;
+        }
+        let steps = config.max_steps + 3;
+        let max_constraints = 8 * steps;
+        let sw = state_words(&task);
+        let mut rest: &'m mut [u32] = arena;
+        let mut used = 0usize;
+        let mut take = |n: usize| carve(&mut rest, n, &mut used).ok_or(Region::Tables);
+        let relax = Relaxation {
+            pre_offsets: take(offsets_n)?,
+            pre_index: take(entries_n)?,
+            pre_count: take(relaxed)?,
+            cost: take(all.max(offsets_n))?,
+            supporter: take(all)?,
+            waiting: take(relaxed)?,
+            action_cost: take(relaxed)?,
+            heap: take(2 * (all + adds + 1))?,
+            marked: take(relaxed.div_ceil(32))?,
+            stack: take(entries_n + task.goal_facts().len() + 1)?,
+            goal: take(facts.div_ceil(32))?,
+            add_offsets: take(add_offsets_n)?,
+            add_index: take(add_entries_n)?,
+            own_cost: take(relaxed)?,
+        };
+        let safe = take(actions.div_ceil(32))?;
+        let protect = take(facts)?;
+        let last_writer = take(ids)?;
+        let path_snap = take(steps)?;
+        let path_nodes = take(steps)?;
+        let est_parent = take(steps)?;
+        let est_child = take(steps)?;
+        let path_constraints = take(3 * max_constraints)?;
+        let parent_state = take(sw)?;
+        let child_state = take(sw)?;
+        let probe_state = take(sw)?;
+        let fixed = used;
+        let remaining = rest.len();
+        let bucket_count = (remaining / 64).clamp(1024, 1 << 16).next_power_of_two();
+        let buckets = carve(&mut rest, bucket_count, &mut used).ok_or(Region::Tables)?;
+        let remaining = rest.len();
+        let regular = carve(&mut rest, remaining / 4 / 3 * 3, &mut used).ok_or(Region::Tables)?;
+        let preferred = carve(&mut rest, remaining / 8 / 3 * 3, &mut used).ok_or(Region::Tables)?;
+        let nodes = rest;
+        let mut planner = Self {
+            task,
+            config,
+            relax,
+            safe,
+            protect,
+            last_writer,
+            path_snap,
+            path_nodes,
+            est_parent,
+            est_child,
+            path_constraints,
+            loaded_constraints: 0,
+            loaded_steps: 0,
+            loaded_depth: 0,
+            loaded_node: NONE,
+            running_start: [0; MAX_RUNNING],
+            parent_state,
+            child_state,
+            probe_state,
+            child_bytes: [0; MAX_NODE_CONSTRAINT_BYTES],
+            nodes,
+            nodes_used: 0,
+            buckets,
+            regular: Heap {
+                words: regular,
+                len: 0,
+                peak: 0,
+            },
+            preferred: Heap {
+                words: preferred,
+                len: 0,
+                peak: 0,
+            },
+            fixed_words: fixed + bucket_count,
+            seq: 0,
+            boost: 0,
+            turn: false,
+            goal_node: NONE,
+            status: Status::Searching,
+            stats: Stats {
+                arena_words: arena_words as u64,
+                best_h: u32::MAX,
+                ..Stats::default()
+            },
+            fact_words: facts.div_ceil(32),
+        };
+        planner.buckets.iter_mut().for_each(|b| *b = NONE);
+        planner
+            .relax
+            .build_index(&planner.task, config.relaxed_cost);
+        planner.mark_compression_safe();
+        planner.start();
+        Ok(planner)
+    }
+
+    pub fn task(&self) -> &Task<'t> {
+        &self.task
+    }
+    pub fn status(&self) -> Status {
+        self.status
+    }
+    pub fn stats(&self) -> Stats {
+        let mut s = self.stats;
+        let used =
+            self.fixed_words + self.nodes_used + 3 * self.regular.peak + 3 * self.preferred.peak;
+        s.peak_words = s.peak_words.max(used as u64);
+        s
+    }
+    /// Whether the end of `action` may be applied straight after its start without losing plans.
+    pub fn compression_safe(&self, action: usize) -> bool {
+        self.safe[action / 32] & (1 << (action % 32)) != 0
+    }
+}
+
+impl<'t, 'm> Planner<'t, 'm> {
+    // ----- the plan -----------------------------------------------------------------------------
+
+    /// The plan found (after [`Status::Solved`]): actions in order of their starts, written to
+    /// `out`; returns how many, or None if there is no plan or `out` is too short.
+    pub fn plan(&mut self, out: &mut [PlannedAction]) -> Option<(usize, u32)> {
+        if self.goal_node == NONE {
+            return None;
+        }
+        self.loaded_node = NONE;
+        self.load_path(self.goal_node).ok()?;
+        let steps = self.loaded_steps;
+        let makespan = self.est_parent[..=steps].iter().copied().max().unwrap_or(0);
+        let task = self.task;
+        let snaps = &self.path_snap;
+        let window = |k: usize| step_window(&task, snaps[k]);
+        latest_words(
+            steps,
+            &self.path_constraints[..3 * self.loaded_constraints],
+            &window,
+            makespan,
+            self.est_child,
+        )
+        .ok()?;
+        let mut count = 0;
+        for s in 1..=steps {
+            let snap = self.path_snap[s];
+            if snap & 1 == 1 {
+                continue;
+            }
+            let a = snap >> 1;
+            let mut e = s + 1;
+            while e <= steps && self.path_snap[e] != (a << 1 | 1) {
+                e += 1;
+            }
+            let slot = out.get_mut(count)?;
+            let start = self.est_parent[s];
+            *slot = PlannedAction {
+                action: a as u16,
+                start,
+                duration: self.est_parent.get(e).copied().unwrap_or(start) - start,
+                start_lb: start,
+                start_ub: self.est_child[s],
+            };
+            count += 1;
+        }
+        out[..count].sort_unstable_by_key(|p| (p.start, p.action));
+        Some((count, makespan))
+    }
+}

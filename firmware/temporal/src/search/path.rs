@@ -1,0 +1,413 @@
+//! Search nodes in the arena, and the plan to a node loaded back: its steps, their ordering
+//! annotations and the temporal constraints to check in the STN.
+
+use super::*;
+impl<'t, 'm> Planner<'t, 'm> {
+    // ----- nodes --------------------------------------------------------------------------------
+
+    pub(super) fn node_state(&self, node: u32) -> &[u32] {
+        let at = node as usize + NODE_HEADER;
+        &self.nodes[at..]
+    }
+    pub(super) fn node_parent(&self, node: u32) -> u32 {
+        self.nodes[node as usize]
+    }
+    pub(super) fn node_snap(&self, node: u32) -> u32 {
+        self.nodes[node as usize + 1]
+    }
+    pub(super) fn node_constraint_bytes(&self, node: u32) -> (usize, usize) {
+        let n = node as usize;
+        let bytes = (self.nodes[n + 2] & 0xffff) as usize;
+        let state_len = self.nodes[n + 3] as usize;
+        (n + NODE_HEADER + state_len, bytes)
+    }
+    pub(super) fn state_hash(&self, state: &[u32]) -> u32 {
+        let n = self.used_state_words(state);
+        let mut h: u32 = 0x811c_9dc5;
+        for &w in &state[..n] {
+            h = (h ^ w).wrapping_mul(0x0100_0193);
+            h ^= h >> 15;
+        }
+        h
+    }
+    pub(super) fn find_duplicate(&self, state: &[u32], hash: u32) -> bool {
+        let n = self.used_state_words(state);
+        let mut node = self.buckets[hash as usize & (self.buckets.len() - 1)];
+        while node != NONE {
+            let s = self.node_state(node);
+            if s[..n] == state[..n] {
+                return true;
+            }
+            node = self.nodes[node as usize + 4];
+        }
+        false
+    }
+
+    /// Store the child state with the constraint bytes in `self.child_bytes[..bytes]`.
+    pub(super) fn store_node(
+        &mut self,
+        parent: u32,
+        snap: u32,
+        h: u32,
+        bytes: usize,
+        hash: u32,
+    ) -> Option<u32> {
+        let state_len = self.used_state_words(self.child_state);
+        let words = NODE_HEADER + state_len + bytes.div_ceil(4);
+        if self.nodes_used + words > self.nodes.len() {
+            return None;
+        }
+        let id = self.nodes_used as u32;
+        let at = self.nodes_used;
+        let bucket = hash as usize & (self.buckets.len() - 1);
+        self.nodes[at] = parent;
+        self.nodes[at + 1] = snap;
+        self.nodes[at + 2] = h.min(0xffff) << 16 | bytes as u32;
+        self.nodes[at + 3] = state_len as u32;
+        self.nodes[at + 4] = self.buckets[bucket];
+        self.buckets[bucket] = id;
+        self.nodes[at + NODE_HEADER..at + NODE_HEADER + state_len]
+            .copy_from_slice(&self.child_state[..state_len]);
+        let cat = at + NODE_HEADER + state_len;
+        for (i, chunk) in self.child_bytes[..bytes].chunks(4).enumerate() {
+            let mut w = [0u8; 4];
+            w[..chunk.len()].copy_from_slice(chunk);
+            self.nodes[cat + i] = u32::from_le_bytes(w);
+        }
+        self.nodes_used += words;
+        self.stats.nodes += 1;
+        Some(id)
+    }
+
+    pub(super) fn constraint_byte(&self, node: u32, i: usize) -> u8 {
+        let (at, _) = self.node_constraint_bytes(node);
+        self.nodes[at + i / 4].to_le_bytes()[i % 4]
+    }
+
+    // ----- the loaded path ----------------------------------------------------------------------
+
+    /// Make `node` the loaded path: its steps, decoded constraints, earliest times, last
+    /// writers and its running actions' start steps. False if the plan is too long.
+    pub(super) fn load_path(&mut self, node: u32) -> Result<(), Region> {
+        if self.loaded_node == node {
+            return Ok(());
+        }
+        self.loaded_node = NONE;
+        let mut depth = 0usize;
+        let mut n = node;
+        while n != NONE {
+            if depth >= self.path_nodes.len() {
+                return Err(Region::PlanLength);
+            }
+            self.path_nodes[depth] = n;
+            depth += 1;
+            n = self.node_parent(n);
+        }
+        self.path_nodes[..depth].reverse();
+        self.loaded_depth = depth;
+        let eps = self.task.epsilon();
+        let ids = self.last_writer.len();
+        self.last_writer[..ids].iter_mut().for_each(|x| *x = 0);
+        let mut steps = 0usize;
+        let mut constraints = 0usize;
+        let mut bytes = [0u8; MAX_NODE_CONSTRAINT_BYTES];
+        for d in 0..depth {
+            let n = self.path_nodes[d];
+            let snap = self.node_snap(n);
+            if snap != NONE {
+                let a = snap >> 2;
+                let kinds: &[u32] = match snap & 3 {
+                    START => &[0],
+                    END => &[1],
+                    _ => &[0, 1],
+                };
+                for &k in kinds {
+                    steps += 1;
+                    if steps + 2 >= self.path_snap.len() {
+                        return Err(Region::PlanLength);
+                    }
+                    self.path_snap[steps] = a << 1 | k;
+                    self.record_writes(steps, a as usize, k == 1);
+                }
+            }
+            let (_, len) = self.node_constraint_bytes(n);
+            for (i, b) in bytes[..len].iter_mut().enumerate() {
+                *b = self.constraint_byte(n, i);
+            }
+            let mut at = 0;
+            while at < len {
+                let Ok(c) = constraints::decode(&bytes[..len], eps, &mut at) else {
+                    break;
+                };
+                if 3 * (constraints + 1) > self.path_constraints.len() {
+                    return Err(Region::PlanLength);
+                }
+                self.path_constraints[3 * constraints] =
+                    u32::from(c.before) | u32::from(c.after) << 16;
+                self.path_constraints[3 * constraints + 1] = c.lb;
+                self.path_constraints[3 * constraints + 2] = c.ub;
+                constraints += 1;
+            }
+        }
+        self.loaded_steps = steps;
+        self.loaded_constraints = constraints;
+        // Start steps of the running actions: the last start of each.
+        let state_len = self.used_state_words(self.node_state(node));
+        let (ps, ns) = (
+            &mut *self.parent_state,
+            &self.nodes[node as usize + NODE_HEADER..],
+        );
+        ps[..state_len].copy_from_slice(&ns[..state_len]);
+        let at = self.running_at();
+        let running_n = self.parent_state[at] as usize;
+        for i in 0..running_n {
+            let a = self.parent_state[at + 1 + i];
+            let mut s = steps;
+            while s > 0 && self.path_snap[s] != a << 1 {
+                s -= 1;
+            }
+            self.running_start[i] = s as u32;
+        }
+        // Earliest times of the path (consistent: it was checked when the node was stored).
+        self.est_parent[..=steps].iter_mut().for_each(|x| *x = 0);
+        let task = self.task;
+        let snaps = &self.path_snap;
+        let window = |k: usize| step_window(&task, snaps[k]);
+        earliest_words(
+            steps,
+            &self.path_constraints[..3 * constraints],
+            &window,
+            self.est_parent,
+        )
+        .map_err(|_| Region::PlanLength)?;
+        self.loaded_node = node;
+        Ok(())
+    }
+
+    pub(super) fn record_writes(&mut self, step: usize, a: usize, end: bool) {
+        let act = self.task.action(a);
+        let facts = self.task.fact_count();
+        let (add, del, effs) = if end {
+            (FactList::AddEnd, FactList::DelEnd, NumericList::EffEnd)
+        } else {
+            (
+                FactList::AddStart,
+                FactList::DelStart,
+                NumericList::EffStart,
+            )
+        };
+        for f in act.facts(add).iter().chain(act.facts(del).iter()) {
+            self.last_writer[f] = step as u32;
+        }
+        for e in act.numeric(effs) {
+            self.last_writer[facts + e.target] = step as u32;
+        }
+    }
+
+    /// Whether step `s` of the loaded path reads id `id` (a fact, or `facts + variable`).
+    /// An end's invariants count as reads only against deletes (`for_delete`).
+    pub(super) fn step_reads(&self, s: usize, id: usize, for_delete: bool) -> bool {
+        let snap = self.path_snap[s];
+        snap_reads(&self.task, snap >> 1, snap & 1 == 1, id, for_delete)
+    }
+
+    /// The constraints of a new step `j` (snap of `a`) on the loaded path plus `extra` steps
+    /// already appended, appended to `out` (deduplicated by earlier step).
+    pub(super) fn step_constraints(
+        &self,
+        j: usize,
+        a: usize,
+        end: bool,
+        start_step: usize,
+        out: &mut [Constraint; 64],
+        n: &mut usize,
+    ) -> Result<(), Region> {
+        let task = self.task;
+        let eps = task.epsilon();
+        let facts = task.fact_count();
+        let mut add = |before: usize, lb: u32, ub: u32, n: &mut usize| -> Result<(), Region> {
+            if before == 0 && lb == 0 {
+                return Ok(());
+            }
+            for c in out[..*n].iter_mut() {
+                if c.before as usize == before && c.after as usize == j {
+                    c.lb = c.lb.max(lb);
+                    c.ub = c.ub.min(ub);
+                    return Ok(());
+                }
+            }
+            if *n == out.len() {
+                return Err(Region::PlanLength);
+            }
+            out[*n] = Constraint {
+                before: before as u16,
+                after: j as u16,
+                lb,
+                ub,
+            };
+            *n += 1;
+            Ok(())
+        };
+        // Reads: after the last writer.
+        let mut reads_err = Ok(());
+        for_each_read(&task, a, end, &mut |id| {
+            let w = self.last_writer[id] as usize;
+            if w > 0 && reads_err.is_ok() {
+                reads_err = add(w, eps, UNBOUNDED, n);
+            }
+        });
+        reads_err?;
+        // Writes: after the last writer and every reader since.
+        let mut writes_err = Ok(());
+        for_each_write(&task, a, end, &mut |id, is_delete| {
+            if writes_err.is_err() {
+                return;
+            }
+            let w = self.last_writer[id] as usize;
+            if w > 0 {
+                writes_err = add(w, eps, UNBOUNDED, n);
+            }
+            for s in w + 1..j {
+                if self.step_reads(s, id, is_delete || id >= facts) {
+                    writes_err = add(s, eps, UNBOUNDED, n);
+                    if writes_err.is_err() {
+                        return;
+                    }
+                }
+            }
+        });
+        writes_err?;
+        if end {
+            let act = task.action(a);
+            add(start_step, act.duration_lb, act.duration_ub, n)?;
+        }
+        Ok(())
+    }
+}
+
+/// The window of plan step `snap` (`action << 1 | is_end`).
+pub(super) fn step_window(task: &Task<'_>, snap: u32) -> (u32, u32) {
+    let act = task.action((snap >> 1) as usize);
+    if snap & 1 == 1 {
+        act.end_window
+    } else {
+        act.start_window
+    }
+}
+
+pub(super) fn unpack(words: &[u32], i: usize) -> Constraint {
+    let w = words[3 * i];
+    Constraint {
+        before: (w & 0xffff) as u16,
+        after: (w >> 16) as u16,
+        lb: words[3 * i + 1],
+        ub: words[3 * i + 2],
+    }
+}
+
+/// [`stn::earliest`] over constraints packed three words each.
+pub(super) fn earliest_words(
+    steps: usize,
+    words: &[u32],
+    window: &dyn Fn(usize) -> (u32, u32),
+    est: &mut [u32],
+) -> Result<(), stn::Inconsistent> {
+    stn::earliest_with(steps, words.len() / 3, &|i| unpack(words, i), window, est)
+}
+
+pub(super) fn latest_words(
+    steps: usize,
+    words: &[u32],
+    window: &dyn Fn(usize) -> (u32, u32),
+    horizon: u32,
+    lst: &mut [u32],
+) -> Result<(), stn::Inconsistent> {
+    stn::latest_with(
+        steps,
+        words.len() / 3,
+        &|i| unpack(words, i),
+        window,
+        horizon,
+        lst,
+    )
+}
+
+/// Every fact or variable (`facts + v`) the start or end of `a` reads, for ordering.
+pub(super) fn for_each_read(task: &Task<'_>, a: usize, end: bool, f: &mut dyn FnMut(usize)) {
+    let act = task.action(a);
+    let facts = task.fact_count();
+    let lists: &[FactList] = if end {
+        &[FactList::PreEnd]
+    } else {
+        &[FactList::PreStart, FactList::Invariant]
+    };
+    for &l in lists {
+        for p in act.facts(l).iter() {
+            f(p);
+        }
+    }
+    let numeric: &[NumericList] = if end {
+        &[
+            NumericList::CondEnd,
+            NumericList::CondInvariant,
+            NumericList::EffEnd,
+        ]
+    } else {
+        &[
+            NumericList::CondStart,
+            NumericList::CondInvariant,
+            NumericList::EffStart,
+        ]
+    };
+    for &l in numeric {
+        for c in act.numeric(l) {
+            for v in c.term_vars() {
+                f(facts + v);
+            }
+        }
+    }
+}
+
+/// Every fact or variable the start or end of `a` writes, with whether it is a delete.
+pub(super) fn for_each_write(task: &Task<'_>, a: usize, end: bool, f: &mut dyn FnMut(usize, bool)) {
+    let act = task.action(a);
+    let facts = task.fact_count();
+    let (add, del, effs) = if end {
+        (FactList::AddEnd, FactList::DelEnd, NumericList::EffEnd)
+    } else {
+        (
+            FactList::AddStart,
+            FactList::DelStart,
+            NumericList::EffStart,
+        )
+    };
+    for p in act.facts(add).iter() {
+        f(p, false);
+    }
+    for p in act.facts(del).iter() {
+        f(p, true);
+    }
+    for e in act.numeric(effs) {
+        f(facts + e.target, false);
+    }
+}
+
+/// Whether the start or end of `a` reads `id`; an end's invariants count for deletes only
+/// (and numeric invariants always).
+pub(super) fn snap_reads(task: &Task<'_>, a: u32, end: bool, id: usize, for_delete: bool) -> bool {
+    let act = task.action(a as usize);
+    let facts = task.fact_count();
+    if id < facts {
+        if end {
+            act.facts(FactList::PreEnd).contains(id)
+                || (for_delete && act.facts(FactList::Invariant).contains(id))
+        } else {
+            act.facts(FactList::PreStart).contains(id)
+                || act.facts(FactList::Invariant).contains(id)
+        }
+    } else {
+        let mut found = false;
+        for_each_read(task, a as usize, end, &mut |x| found |= x == id);
+        found
+    }
+}
