@@ -312,6 +312,10 @@ struct Persistence {
     /// What the copies of the warm-restart area and of non-volatile memory hold, when a
     /// [`MemoryFetch`] fills them.
     copies: [CopyState; 2],
+    /// The slot of each memory (warm, non-volatile) that holds the newest whole record, once
+    /// this side has written one there since its boot: the next write goes to the other
+    /// without reading or checking the old records.
+    newest_slot: [Option<u8>; 2],
     /// The newest sequence number of a whole record in either memory (found at boot, then the
     /// last one written): both memories' next checkpoints are numbered after it.
     newest_sequence: Option<u32>,
@@ -338,6 +342,7 @@ fn record_write(writes: &mut Writes, range: (usize, usize)) {
 impl Persistence {
     const NEW: Self = Self {
         copies: [CopyState::COMPLETE; 2],
+        newest_slot: [None; 2],
         newest_sequence: None,
         last_warm_write: heapless::Vec::new(),
         last_nv_write: heapless::Vec::new(),
@@ -353,32 +358,66 @@ impl Persistence {
         mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
     ) -> u64 {
         let newest = self.newest_sequence;
+        let sequence = newest.map_or(1, |n| n.wrapping_add(1));
         let mut failures = 0;
-        // A write goes to the slot that does not hold the newest whole record: the copy must
-        // hold that record (see `MemoryFetch`).
+        // A write goes to the slot that does not hold the newest whole record. Once this side
+        // has written a memory it knows that slot; before (after a boot), the copy must hold
+        // the records to find it (see `MemoryFetch`).
         let [warm_copy, nv_copy] = &mut self.copies;
-        fetch_latest(
-            memories.warm,
-            MemoryKind::Warm,
-            fetch.as_deref_mut(),
-            warm_copy,
-        );
-        match WarmRestartArea::new(memories.warm).write_after(newest, |buf| side.encode_state(buf))
-        {
+        let warm = match self.newest_slot[0] {
+            Some(slot) => {
+                WarmRestartArea::new(memories.warm)
+                    .write_slot(1 - slot, sequence, |buf| side.encode_state(buf))
+            }
+            None => {
+                fetch_latest(
+                    memories.warm,
+                    MemoryKind::Warm,
+                    fetch.as_deref_mut(),
+                    warm_copy,
+                );
+                WarmRestartArea::new(memories.warm)
+                    .write_after(newest, |buf| side.encode_state(buf))
+            }
+        };
+        let warm = match warm {
             Ok(written) => {
                 record_write(&mut self.last_warm_write, written.bytes);
                 self.newest_sequence = Some(newer(self.newest_sequence, written.sequence));
+                self.newest_slot[0] = Some(written.slot);
+                Some(written)
             }
-            Err(_) => failures += 1,
-        }
+            Err(_) => {
+                failures += 1;
+                None
+            }
+        };
         let mut writes = 1;
         if let Some(nv) = memories.nv.as_deref_mut() {
             writes += 1;
-            fetch_latest(nv, MemoryKind::Nv, fetch, nv_copy);
-            match WarmRestartArea::new(nv).write_after(newest, |buf| side.encode_state(buf)) {
+            // The same record: copied from the warm memory's when both are numbered alike
+            // (no second encoding, no second CRC), else written afresh.
+            let record = warm
+                .filter(|w| w.sequence == sequence)
+                .and_then(|w| memories.warm.get(w.bytes.0..w.bytes.1));
+            let written = match (self.newest_slot[1], record) {
+                (Some(slot), Some(record)) => {
+                    WarmRestartArea::new(nv).copy_record(1 - slot, record)
+                }
+                (Some(slot), None) => {
+                    WarmRestartArea::new(nv)
+                        .write_slot(1 - slot, sequence, |buf| side.encode_state(buf))
+                }
+                (None, _) => {
+                    fetch_latest(nv, MemoryKind::Nv, fetch, nv_copy);
+                    WarmRestartArea::new(nv).write_after(newest, |buf| side.encode_state(buf))
+                }
+            };
+            match written {
                 Ok(written) => {
                     record_write(&mut self.last_nv_write, written.bytes);
                     self.newest_sequence = Some(newer(self.newest_sequence, written.sequence));
+                    self.newest_slot[1] = Some(written.slot);
                 }
                 Err(_) => failures += 1,
             }
@@ -397,6 +436,7 @@ impl Persistence {
     /// the copies start out knowing nothing else.
     fn start(&mut self, memories: &mut Memories<'_>, fetch: Option<&mut (dyn MemoryFetch + '_)>) {
         self.copies = [CopyState::COMPLETE; 2];
+        self.newest_slot = [None; 2];
         if let Some(fetch) = fetch {
             self.copies = [CopyState::default(); 2];
             fetch_headers(memories.warm, MemoryKind::Warm, fetch);
@@ -1095,8 +1135,10 @@ impl PlannerApp {
             .persist
             .restore_newest(&mut self.partition, memories, fetch, clock);
         let t1 = clock.ticks();
+        // Restored or not, the planner's CPU counts towards the repaired plan until its first
+        // window with nothing pending: a planner that lost its checkpoint plans afresh.
+        self.recovering = Some(t1.wrapping_sub(t0));
         if let BootOutcome::RestoredWarm(_) | BootOutcome::RestoredNv(_) = outcome {
-            self.recovering = Some(t1.wrapping_sub(t0));
             if t1 != t0 {
                 downlink.send(metric_event(
                     metric::PLANNER_RESTORE_TICKS,
@@ -1307,6 +1349,27 @@ impl FlightApp {
         self.executive.security_refusals(reason)
     }
 
+    /// The ranges the checkpoints since the last call wrote into the warm memory, in the whole
+    /// memory's offsets: the executive's, then the planner's.
+    pub fn take_warm_writes(&mut self) -> heapless::Vec<(usize, usize), 8> {
+        let base = self.share(self.lens.0);
+        both_writes(
+            self.executive.take_warm_writes(),
+            self.planner.take_warm_writes(),
+            base,
+        )
+    }
+
+    /// The same for non-volatile memory's checkpoint part.
+    pub fn take_nv_writes(&mut self) -> heapless::Vec<(usize, usize), 8> {
+        let base = self.share(self.lens.1);
+        both_writes(
+            self.executive.take_nv_writes(),
+            self.planner.take_nv_writes(),
+            base,
+        )
+    }
+
     /// The range the last checkpoint since the last call wrote into the warm memory, in the
     /// whole memory's offsets: the executive's last one if it wrote any (after a frame, its
     /// second window's), else the planner's. What a reset right after could have torn. The
@@ -1470,6 +1533,19 @@ impl FlightApp {
         });
         handled
     }
+}
+
+/// Both sides' write ranges in the whole memory's offsets: the executive's, then the
+/// planner's (whose share starts at `base`).
+fn both_writes(
+    executive: Writes,
+    planner: Writes,
+    base: usize,
+) -> heapless::Vec<(usize, usize), 8> {
+    executive
+        .into_iter()
+        .chain(planner.into_iter().map(|(s, e)| (s + base, e + base)))
+        .collect()
 }
 
 /// `fetch` for one side's share, which starts at `(warm, nv)` offsets.
@@ -1885,7 +1961,9 @@ mod tests {
         assert_eq!(metrics(&out, metric::PLANNER_TICKS), [10]);
         assert_eq!(metrics(&out, metric::PLANNER_CHECKPOINT_TICKS), [10]);
         assert!(metrics(&out, metric::RECOVERY_TICKS).is_empty());
-        assert!(metrics(&out, metric::PLANNER_RECOVERY_TICKS).is_empty());
+        // The planner counts its way to its first plan after any boot, a cold one too (the
+        // host counts it only after a reset).
+        assert_eq!(metrics(&out, metric::PLANNER_RECOVERY_TICKS).len(), 1);
 
         // Warm reset: a fresh application restores, hears two state updates, then a grant.
         let mut app = std::boxed::Box::new(FlightApp::new());

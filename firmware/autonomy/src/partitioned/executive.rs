@@ -36,6 +36,9 @@ pub struct ExecutivePartition {
     /// The loaded network's image (not saved: encoded again from the network after a restore).
     image: [u8; MAX_NETWORK_IMAGE],
     image_len: usize,
+    /// `image` holds the network's image (false after a restore, until a transfer needs it:
+    /// encoding it again costs a restore as much as decoding the network).
+    image_valid: bool,
     pub stats: ExecutivePartitionStats,
 }
 
@@ -88,6 +91,7 @@ impl ExecutivePartition {
             telemetry: Vec::new(),
             image: [0; MAX_NETWORK_IMAGE],
             image_len: 0,
+            image_valid: false,
             stats: ExecutivePartitionStats {
                 stale_commits: 0,
                 telemetry_dropped: 0,
@@ -152,6 +156,7 @@ impl ExecutivePartition {
         uplink::decode_into(&mut self.network, bytes).map_err(LoadError::Invalid)?;
         image.copy_from_slice(bytes);
         self.image_len = bytes.len();
+        self.image_valid = true;
         self.after_load();
         Ok(())
     }
@@ -166,6 +171,7 @@ impl ExecutivePartition {
             .map_err(|_| LoadError::TooLarge)?;
         self.network = network.clone();
         self.image_len = len;
+        self.image_valid = true;
         self.after_load();
         Ok(())
     }
@@ -173,6 +179,7 @@ impl ExecutivePartition {
     /// A new generation of the network, streamed to the planner from its start.
     fn start_transfer(&mut self) {
         self.generation = self.generation.wrapping_add(1).max(1);
+        self.ensure_image();
         let image = self.image.get(..self.image_len).unwrap_or(&[]);
         self.transfer = Some(Transfer {
             len: u32::try_from(image.len()).unwrap_or(u32::MAX),
@@ -188,12 +195,21 @@ impl ExecutivePartition {
         self.start_transfer();
     }
 
+    /// The network's image in `image`, encoded again from the network after a restore.
+    fn ensure_image(&mut self) {
+        if !self.image_valid {
+            self.image_len = self.network.encode(&mut self.image).unwrap_or(0);
+            self.image_valid = true;
+        }
+    }
+
     /// Puts the next part of the network image in the channel; after its end, what the state
     /// buffer already told us.
     fn pump(&mut self) {
         let Some(mut t) = self.transfer else {
             return;
         };
+        self.ensure_image();
         if !t.begun {
             if !self.to_planner.push(PlannerInput::NetworkBegin {
                 generation: self.generation,
@@ -439,7 +455,15 @@ impl ExecutivePartition {
             stats: self.stats,
         };
         let mut len = postcard::to_slice(&meta, buf).ok()?.len();
-        len += encode_network(&self.network, buf.get_mut(len..)?)?;
+        // The image in hand, or the network encoded again (`load_network` before any transfer).
+        len += match self
+            .image
+            .get(..self.image_len)
+            .filter(|_| self.image_valid)
+        {
+            Some(image) => put_network_image(image, buf.get_mut(len..)?)?,
+            None => encode_network(&self.network, buf.get_mut(len..)?)?,
+        };
         put(&self.control.executive, buf, &mut len)?;
         put(&self.control.states, buf, &mut len)?;
         put(&self.to_planner, buf, &mut len)?;
@@ -484,6 +508,7 @@ impl ExecutivePartition {
         self.status = None;
         self.telemetry.clear();
         self.image_len = 0;
+        self.image_valid = false;
         self.stats = ExecutivePartitionStats::default();
     }
 
@@ -492,7 +517,7 @@ impl ExecutivePartition {
     /// adds them). None when refused; the state may then be partly overwritten.
     pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
         let (meta, rest): (ExecutiveMeta, _) = postcard::take_from_bytes(payload).ok()?;
-        let rest = decode_network(&mut self.network, rest)?;
+        let (image, rest) = decode_network(&mut self.network, rest)?;
         let rest = in_place::take_in_place(rest, ExecutiveInPlace(&mut self.control.executive))?;
         let rest = in_place::take_in_place(rest, StateTableInPlace(&mut self.control.states))?;
         let (to_planner, rest) = postcard::take_from_bytes(rest).ok()?;
@@ -508,8 +533,11 @@ impl ExecutivePartition {
             &self.control.states,
         )
         .ok()?;
-        // The image streamed to the planner, again from the network.
-        self.image_len = self.network.encode(&mut self.image).ok()?;
+        // The image streamed to the planner: the checkpoint's bytes (a transfer in progress
+        // goes on with the bytes its CRC covers).
+        self.image.get_mut(..image.len())?.copy_from_slice(image);
+        self.image_len = image.len();
+        self.image_valid = true;
         self.control.state_type_mismatches = meta.state_type_mismatches;
         self.control.last_state_type_mismatch = meta.last_state_type_mismatch;
         self.to_planner = to_planner;

@@ -302,10 +302,20 @@ fn encode_network(network: &TaskNetwork, buf: &mut [u8]) -> Option<usize> {
     Some(4 + n)
 }
 
-/// Decodes and validates what [`encode_network`] wrote into `network`; the bytes after it.
-fn decode_network<'a>(network: &mut TaskNetwork, bytes: &'a [u8]) -> Option<&'a [u8]> {
+/// The network's image (uplink format, as a side holds it) behind a 4-byte length: what
+/// [`encode_network`] writes, without encoding the network again.
+fn put_network_image(image: &[u8], buf: &mut [u8]) -> Option<usize> {
+    buf.get_mut(4..4 + image.len())?.copy_from_slice(image);
+    buf.get_mut(..4)?
+        .copy_from_slice(&u32::try_from(image.len()).ok()?.to_be_bytes());
+    Some(4 + image.len())
+}
+
+/// Decodes and validates what [`encode_network`] (or [`put_network_image`]) wrote into
+/// `network`; the image itself and the bytes after it.
+fn decode_network<'a>(network: &mut TaskNetwork, bytes: &'a [u8]) -> Option<(&'a [u8], &'a [u8])> {
     let n = usize::try_from(u32::from_be_bytes(bytes.get(..4)?.try_into().ok()?)).ok()?;
     let body = bytes.get(4..)?.get(..n)?;
     uplink::decode_then_validate(network, body).ok()?;
-    bytes.get(4 + n..)
+    Some((body, bytes.get(4 + n..)?))
 }
