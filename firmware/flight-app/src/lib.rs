@@ -497,6 +497,13 @@ impl Persistence {
             });
             decode_ticks = decode_ticks.wrapping_add(clock.ticks().wrapping_sub(t));
             if let Ok(info) = restored {
+                // The slot restored holds a whole, valid record: the next write in this memory
+                // goes to the other without checking the old records again.
+                let index = match memory {
+                    MemoryKind::Warm => 0,
+                    MemoryKind::Nv => 1,
+                };
+                self.newest_slot[index] = Some(slot);
                 outcome = match memory {
                     MemoryKind::Warm => BootOutcome::RestoredWarm(info),
                     MemoryKind::Nv => BootOutcome::RestoredNv(info),
