@@ -551,6 +551,9 @@ pub struct ExecutiveApp {
     reported_state_type_mismatches: u32,
     /// The stale-commit count last reported ([`metric::STALE_COMMITS`]).
     reported_stale_commits: u32,
+    /// Frames whose planner cycle stopped on its budget, since boot
+    /// ([`metric::PLANNER_PENDING_FRAMES`]).
+    pending_frames: u32,
     /// The key, the anti-replay counter and the ground holds, read from non-volatile memory at
     /// boot.
     security: SecurityAssociation,
@@ -580,6 +583,7 @@ impl ExecutiveApp {
             persist: Persistence::NEW,
             reported_state_type_mismatches: 0,
             reported_stale_commits: 0,
+            pending_frames: 0,
             security: SecurityAssociation::none(),
             security_refusals: [0; SecurityRefusal::COUNT],
             commands_not_carried_out: 0,
@@ -600,6 +604,7 @@ impl ExecutiveApp {
         self.persist = Persistence::NEW;
         self.reported_state_type_mismatches = 0;
         self.reported_stale_commits = 0;
+        self.pending_frames = 0;
         self.security = SecurityAssociation::none();
         self.security_refusals = [0; SecurityRefusal::COUNT];
         self.commands_not_carried_out = 0;
@@ -891,6 +896,13 @@ impl ExecutiveApp {
         if stale != self.reported_stale_commits {
             downlink.send(metric_event(metric::STALE_COMMITS, u64::from(stale)));
             self.reported_stale_commits = stale;
+        }
+        if status.pending {
+            self.pending_frames = self.pending_frames.saturating_add(1);
+            downlink.send(metric_event(
+                metric::PLANNER_PENDING_FRAMES,
+                u64::from(self.pending_frames),
+            ));
         }
         if let Some(latency) = status.cycle_latency_us.filter(|&l| l > 0) {
             downlink.send(metric_event(metric::PLANNING_LATENCY_US, latency));

@@ -415,6 +415,9 @@ pub mod control {
     pub const PLANNER_CHECKSUM: u16 = 0xff01;
     /// Ask the executive to time SYSCALL_BENCH_CALLS null system calls.
     pub const SYSCALL_BENCH: u16 = 0xff02;
+    /// Set the planner partition's budget, in validity checks per window (value `Int(n)`,
+    /// n >= 1; anything else restores the default). Lasts until the next boot.
+    pub const PLANNER_BUDGET: u16 = 0xff03;
     /// Test image: tell the rogue partition what to do (value `Enum(ROGUE_*)`).
     pub const ROGUE_MODE: u16 = 0xff10;
     /// First reserved key.

@@ -211,6 +211,7 @@ pub fn drive(
         Err(e) => Err(EndedEarly::from(e)),
         Ok(()) => {
             f.inputs = f.sim.publish_all(f.now);
+            f.inputs.extend(f.planner_budget());
             f.fly(progress)
         }
     };
@@ -680,7 +681,19 @@ impl Flight<'_, '_> {
             ),
         );
         self.inputs = self.sim.publish_all(self.now);
+        self.inputs.extend(self.planner_budget());
         Ok(())
+    }
+
+    /// The scenario's planner budget for the target's planner partition (after every boot:
+    /// the target forgets it at a reset), if it sets one.
+    fn planner_budget(&self) -> Option<HostToTarget> {
+        let checks = self.plan.planner_checks_per_window?;
+        Some(HostToTarget::StateUpdate {
+            key: fsw_bridge::StateKey(kernel_config::abi::control::PLANNER_BUDGET),
+            value: fsw_bridge::StateValue::Int(i64::from(checks)),
+            timestamp: self.now,
+        })
     }
 
     /// The next time anything needs to happen, never past the mission's end.

@@ -21,6 +21,11 @@ pub struct ExecutivePartition {
     frame: u32,
     loaded: bool,
     restored: Option<u32>,
+    /// The second window reported a failure (or a skip) that the planner has not seen: the
+    /// next frame comes at once, so that the planner's response (a contingency, a repair)
+    /// does not wait for the next need. The first window's reports reach the planner in the
+    /// same frame.
+    replan_now: bool,
     /// Generation of the loaded network (0: none).
     generation: u32,
     /// The network image being streamed to the planner.
@@ -81,6 +86,7 @@ impl ExecutivePartition {
             frame: 0,
             loaded: false,
             restored: None,
+            replan_now: false,
             generation: 0,
             transfer: None,
             to_planner: Outbox::new(),
@@ -359,6 +365,7 @@ impl ExecutivePartition {
         let now = MissionTimeUs(now.0.min(MAX_MISSION_TIME_US));
         self.now = now;
         self.frame = frame;
+        self.replan_now = false;
         self.pump();
         let transferring = self.transfer.is_some();
         let Self {
@@ -397,9 +404,17 @@ impl ExecutivePartition {
             control,
             to_planner,
             now,
+            replan_now,
             ..
         } = self;
         control.step(network, *now, out, &mut |m| {
+            if let ToPlanner::Report(TaskReport {
+                kind: ReportKind::Failed { .. } | ReportKind::Skipped,
+                ..
+            }) = m
+            {
+                *replan_now = true;
+            }
             to_planner.push(PlannerInput::Core(m));
         });
     }
@@ -432,7 +447,7 @@ impl ExecutivePartition {
         if status.is_none_or(|s| s.pending) || self.transfer.is_some() {
             return Some(MissionTimeUs(self.now.0.saturating_add(MAJOR_FRAME_US)));
         }
-        if self.control.executive.work_pending() || self.restored.is_some() {
+        if self.control.executive.work_pending() || self.restored.is_some() || self.replan_now {
             return Some(self.now);
         }
         let own = self.control.next_wakeup(&self.network, self.now);
@@ -500,6 +515,7 @@ impl ExecutivePartition {
         self.frame = 0;
         self.loaded = false;
         self.restored = None;
+        self.replan_now = false;
         self.generation = 0;
         self.transfer = None;
         self.to_planner = Outbox::new();

@@ -72,7 +72,7 @@ use crate::condition::StateTableInPlace;
 use crate::control::ControlLoop;
 use crate::executive::ExecutiveInPlace;
 use crate::in_place;
-use crate::interface::{Commit, Outputs, ToPlanner};
+use crate::interface::{Commit, Outputs, ReportKind, TaskReport, ToPlanner};
 use crate::model::TaskNetwork;
 use crate::planner::{Planner, PlannerInPlace};
 use crate::uplink;

@@ -501,7 +501,9 @@ fn control(key: u16, msg: HostToTarget) -> Option<Routing> {
             sys::request_metrics(period);
             None
         }
-        control::PLANNER_CHECKSUM => Some(Routing::to(msg, ports::IO_TO_PLANNER)),
+        control::PLANNER_CHECKSUM | control::PLANNER_BUDGET => {
+            Some(Routing::to(msg, ports::IO_TO_PLANNER))
+        }
         control::SYSCALL_BENCH => Some(Routing::to(msg, ports::IO_TO_EXECUTIVE)),
         #[cfg(feature = "test-partitions")]
         control::ROGUE_MODE => Some(Routing::to(msg, ports::IO_TO_ROGUE)),

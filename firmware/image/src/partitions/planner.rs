@@ -19,7 +19,7 @@ use core::ptr::addr_of_mut;
 
 use crc::{Crc, CRC_32_ISO_HDLC};
 use flight_app::{Downlink, Memories, PlannerApp, Wire};
-use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
+use fsw_bridge::{HostToTarget, StateKey, StateValue, TargetToHost, TelemetryEvent};
 use heapless::Deque;
 use kernel_config::abi::{control, metric};
 use kernel_config::system::PLANNER_WARM;
@@ -124,7 +124,7 @@ pub extern "C" fn partition_planner_main() -> ! {
     }
     loop {
         while let Some((msg, _generation)) = receive_routed(ports::IO_TO_PLANNER) {
-            handle(state, msg);
+            handle(state, app, msg);
         }
         while let Some(wire) = receive_executive() {
             app.receive(wire);
@@ -210,7 +210,21 @@ fn metric(state: &mut PlannerState, id: u16, value: u64) {
     }));
 }
 
-fn handle(state: &mut PlannerState, msg: HostToTarget) {
+fn handle(state: &mut PlannerState, app: &mut PlannerApp, msg: HostToTarget) {
+    if let HostToTarget::StateUpdate {
+        key: StateKey(control::PLANNER_BUDGET),
+        value,
+        ..
+    } = msg
+    {
+        let checks = match value {
+            StateValue::Int(n) if n >= 1 => u32::try_from(n).unwrap_or(u32::MAX),
+            _ => flight_app::DEFAULT_PLANNER_BUDGET,
+        };
+        defmt::info!("planner: {=u32} validity checks per window", checks);
+        app.set_budget(checks);
+        return;
+    }
     if let HostToTarget::StateUpdate {
         key: StateKey(control::PLANNER_CHECKSUM),
         ..
