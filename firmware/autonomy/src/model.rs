@@ -569,7 +569,9 @@ impl NetworkSpec {
 }
 
 /// A validated task network. Every index it holds is in range and every value fits its
-/// timeline; see [`crate::uplink`] for the checks.
+/// timeline; see [`crate::uplink`] for the checks. Only the uplink module builds one from a
+/// spec ([`TaskNetwork::from_spec`], [`TaskNetwork::validate_uplink`]): it depends on this
+/// module, never the other way.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct TaskNetwork {
     pub(crate) spec: NetworkSpec,
@@ -594,12 +596,6 @@ impl TaskNetwork {
         self.spec.conditions.clear();
         self.spec.tasks.clear();
         self.spec.temporal.clear();
-    }
-
-    /// Validate `spec` and wrap it. The same checks run on the target for binary uplinks.
-    pub fn from_spec(spec: NetworkSpec) -> Result<Self, crate::uplink::ValidationError> {
-        crate::uplink::validate_spec(&spec)?;
-        Ok(Self { spec })
     }
 
     /// The validated contents.

@@ -14,6 +14,16 @@
 //!
 //! The PIC and the PCI bridge have no embedded-hal trait; their drivers are plain types.
 #![no_std]
+// The kernel's lints (as firmware/autonomy and the image): no panicking path.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
 
 pub mod bus;
 pub mod escc;

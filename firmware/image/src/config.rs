@@ -17,6 +17,9 @@ pub const PORT_COUNT: usize = SYSTEM.ports.len();
 pub const PORT_STORAGE_BYTES: usize = kc::port_storage_bytes(&SYSTEM);
 
 /// The partition that owns the link (the checker makes sure there is exactly one).
+// The tables below are evaluated at compile time: an index out of range is a build error, never a
+// panic on the target.
+#[allow(clippy::indexing_slicing)]
 pub const LINK_OWNER: usize = {
     let mut p = 0;
     while !SYSTEM.partitions[p].capabilities.link_owner {
@@ -87,6 +90,7 @@ pub const SHARED_CODE_BAT: Bat =
     Bat::user(kc::SHARED_CODE_BASE, kc::SHARED_CODE_SIZE, Access::ReadOnly);
 
 /// DBAT1..3 of each partition.
+#[allow(clippy::indexing_slicing)] // Compile time (see LINK_OWNER).
 pub const PARTITION_DBATS: [[Bat; kc::MAX_REGIONS]; PARTITION_COUNT] = {
     let mut table = [[Bat::INVALID; kc::MAX_REGIONS]; PARTITION_COUNT];
     let mut p = 0;
@@ -103,6 +107,7 @@ pub const PARTITION_DBATS: [[Bat; kc::MAX_REGIONS]; PARTITION_COUNT] = {
 };
 
 /// Offset of each port's first slot in the kernel's port storage.
+#[allow(clippy::indexing_slicing)] // Compile time (see LINK_OWNER).
 pub const PORT_OFFSETS: [usize; PORT_COUNT] = {
     let mut offsets = [0; PORT_COUNT];
     let mut total = 0;

@@ -48,7 +48,9 @@ impl Link {
         if TX_BATCH_BYTES - self.tx_len < MAX_FRAME_LEN {
             self.flush();
         }
-        match encode(&LinkFrame::Bd(msg), &mut self.tx_batch[self.tx_len..]) {
+        // The batch's free part (none, so an encode error, should `tx_len` ever be past it).
+        let free = self.tx_batch.get_mut(self.tx_len..).unwrap_or_default();
+        match encode(&LinkFrame::Bd(msg), free) {
             Ok(len) => self.tx_len += len,
             Err(_) => self.tx_encode_errors = self.tx_encode_errors.saturating_add(1),
         }
@@ -58,8 +60,12 @@ impl Link {
     /// the host has not read what went before.
     pub fn flush(&mut self) {
         let mut sent = 0;
-        while sent < self.tx_len {
-            let n = sys::link_write(&self.tx_batch[sent..self.tx_len]);
+        while let Some(rest) = self
+            .tx_batch
+            .get(sent..self.tx_len)
+            .filter(|r| !r.is_empty())
+        {
+            let n = sys::link_write(rest);
             if n == 0 {
                 sys::wait_next_window();
             }
@@ -79,7 +85,11 @@ impl Link {
                     return None;
                 }
             }
-            let byte = self.rx_chunk[self.rx_next];
+            let Some(&byte) = self.rx_chunk.get(self.rx_next) else {
+                // Past what the chunk holds: read a new one.
+                self.rx_len = self.rx_next;
+                continue;
+            };
             self.rx_next += 1;
             if let Some(result) = self.decoder.push::<LinkFrame<HostToTarget>>(byte) {
                 return Some(result);

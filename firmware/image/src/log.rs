@@ -21,12 +21,15 @@ struct Sink {
 
 impl Sink {
     fn push(&mut self, bytes: &[u8]) {
-        if self.len + bytes.len() > LOG_FRAME_MAX {
-            self.overflow = true;
-            return;
+        let end = self.len + bytes.len();
+        match self.bytes.get_mut(self.len..end) {
+            Some(free) => free.copy_from_slice(bytes),
+            None => {
+                self.overflow = true;
+                return;
+            }
         }
-        self.bytes[self.len..self.len + bytes.len()].copy_from_slice(bytes);
-        self.len += bytes.len();
+        self.len = end;
     }
 }
 
@@ -120,8 +123,7 @@ unsafe impl defmt::Logger for Logger {
         } = &mut *f;
         encoder.end_frame(|b| sink.push(b));
         *depth = 0;
-        if !sink.overflow {
-            let bytes = &sink.bytes[..sink.len];
+        if let Some(bytes) = sink.bytes.get(..sink.len).filter(|_| !sink.overflow) {
             if shared::in_kernel() {
                 crate::kernel::klog::with_ring(|ring| ring.push_frame(bytes));
             } else {

@@ -276,8 +276,8 @@ pub fn event_drain(records: &mut [[u32; 4]]) -> usize {
         .zip(bytes.chunks_exact(EVENT_RECORD_SIZE))
         .take(n)
     {
-        for (word, be) in record.iter_mut().zip(raw.chunks_exact(4)) {
-            *word = u32::from_be_bytes([be[0], be[1], be[2], be[3]]);
+        for (word, be) in record.iter_mut().zip(raw.as_chunks::<4>().0) {
+            *word = u32::from_be_bytes(*be);
         }
     }
     n

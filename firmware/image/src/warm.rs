@@ -160,8 +160,9 @@ static BOOT_FAULT: [AtomicU32; 3] = [AtomicU32::new(0), AtomicU32::new(0), Atomi
 
 fn fault_checksum(words: [u32; 3], boot_count: u32) -> u32 {
     let mut bytes = [0u8; 16];
-    for (i, w) in words.iter().chain([boot_count].iter()).enumerate() {
-        bytes[i * 4..i * 4 + 4].copy_from_slice(&w.to_be_bytes());
+    let words = words.iter().chain(core::iter::once(&boot_count));
+    for (chunk, w) in bytes.as_chunks_mut::<4>().0.iter_mut().zip(words) {
+        *chunk = w.to_be_bytes();
     }
     CRC32.checksum(&bytes) ^ MAGIC
 }

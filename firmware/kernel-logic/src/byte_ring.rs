@@ -52,9 +52,14 @@ impl<const N: usize> ByteRing<N> {
             return false;
         }
         let tail = (self.head + self.len) % N;
-        self.bytes[tail] = byte;
-        self.len += 1;
-        true
+        match self.bytes.get_mut(tail) {
+            Some(slot) => {
+                *slot = byte;
+                self.len += 1;
+                true
+            }
+            None => false,
+        }
     }
 
     /// The oldest byte, removed.
@@ -62,7 +67,7 @@ impl<const N: usize> ByteRing<N> {
         if self.is_empty() {
             return None;
         }
-        let byte = self.bytes[self.head];
+        let byte = *self.bytes.get(self.head)?;
         self.head = (self.head + 1) % N;
         self.len -= 1;
         Some(byte)
@@ -71,13 +76,22 @@ impl<const N: usize> ByteRing<N> {
     /// Move the oldest bytes into `out`, as many as fit; returns how many.
     pub fn pop_into(&mut self, out: &mut [u8]) -> usize {
         let n = out.len().min(self.len);
+        let Some((wrapped, from_head)) = self.bytes.split_at_checked(self.head) else {
+            return 0;
+        };
         // At most two contiguous runs: up to the end of the storage, then from its start.
-        let first = n.min(N - self.head);
-        out[..first].copy_from_slice(&self.bytes[self.head..self.head + first]);
-        out[first..n].copy_from_slice(&self.bytes[..n - first]);
-        self.head = (self.head + n) % N;
-        self.len -= n;
-        n
+        let mut given = 0;
+        for run in [from_head, wrapped] {
+            let to = out.get_mut(given..n).unwrap_or_default();
+            let len = to.len().min(run.len());
+            if let (Some(to), Some(from)) = (to.get_mut(..len), run.get(..len)) {
+                to.copy_from_slice(from);
+                given += len;
+            }
+        }
+        self.head = (self.head + given) % N;
+        self.len -= given;
+        given
     }
 
     /// Forget every byte.

@@ -11,6 +11,16 @@
 //! - [`shm_link`]: the shared-memory link transport's layout and ring logic, used by the
 //!   target's kernel and by the host (`hil`) alike.
 #![no_std]
+// The kernel's lints (as firmware/autonomy and the image): no panicking path.
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
 
 pub mod byte_ring;
 pub mod park;

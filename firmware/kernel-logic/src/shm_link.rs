@@ -151,11 +151,15 @@ pub fn produce(
     let n = data.len().min((RING_BYTES - used) as usize);
     let mut taken = 0;
     for (at, len) in pieces(write, n) {
-        memory.write_bytes(ring.data + at, &data[taken..taken + len]);
+        // The pieces add up to `n`, at most `data.len()`.
+        let Some(piece) = data.get(taken..taken + len) else {
+            break;
+        };
+        memory.write_bytes(ring.data + at, piece);
         taken += len;
     }
-    memory.store_word(ring.write_count, write.wrapping_add(n as u32));
-    Ok(n)
+    memory.store_word(ring.write_count, write.wrapping_add(taken as u32));
+    Ok(taken)
 }
 
 /// Take up to `out.len()` bytes; returns how many.
@@ -168,11 +172,15 @@ pub fn consume(
     let n = out.len().min(used as usize);
     let mut given = 0;
     for (at, len) in pieces(read, n) {
-        memory.read_bytes(ring.data + at, &mut out[given..given + len]);
+        // The pieces add up to `n`, at most `out.len()`.
+        let Some(piece) = out.get_mut(given..given + len) else {
+            break;
+        };
+        memory.read_bytes(ring.data + at, piece);
         given += len;
     }
-    memory.store_word(ring.read_count, read.wrapping_add(n as u32));
-    Ok(n)
+    memory.store_word(ring.read_count, read.wrapping_add(given as u32));
+    Ok(given)
 }
 
 /// Forget what `ring` holds (the reader catches up with the writer), after a corrupt count.

@@ -407,6 +407,12 @@ pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult 
 }
 
 impl TaskNetwork {
+    /// Validate `spec` and wrap it. The same checks run on the target for binary uplinks.
+    pub fn from_spec(spec: NetworkSpec) -> Result<Self, ValidationError> {
+        validate_spec(&spec)?;
+        Ok(Self { spec })
+    }
+
     /// Validates a binary uplink without storing it.
     pub fn validate_uplink(bytes: &[u8]) -> VResult {
         validate_uplink(bytes)

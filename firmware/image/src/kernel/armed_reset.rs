@@ -24,7 +24,7 @@ use kernel_config::PortKind;
 
 use super::sched::read_dec;
 use super::umem::copy;
-use super::Kernel;
+use super::{at, Kernel};
 use crate::config::SYSTEM;
 
 /// Bytes a watched warm-area write copies between two looks at the decrementer (a few ticks of
@@ -152,7 +152,7 @@ impl Kernel {
         };
         defmt::info!(
             "reset armed in {=str}'s work on message {=u16} of port {=usize}",
-            SYSTEM.partitions[partition].name,
+            at(SYSTEM.partitions, partition).name,
             messages,
             port
         );
@@ -199,7 +199,7 @@ impl Kernel {
     pub fn armed_reset_stint(&mut self, p: usize, window_dec: i32) -> i32 {
         // Between stints `cpu_total` is the partition's whole CPU time.
         let (partition, anchor) = match self.armed.state {
-            State::Received { partition } => (partition, self.parts[p].cpu_total),
+            State::Received { partition } => (partition, at(&self.parts, p).cpu_total),
             State::Counting {
                 partition, anchor, ..
             } => (partition, anchor),
@@ -213,7 +213,7 @@ impl Kernel {
         let Point::AfterTicks(ticks) = self.armed.point else {
             return window_dec;
         };
-        let used = self.parts[p].cpu_total - anchor;
+        let used = at(&self.parts, p).cpu_total - anchor;
         let Some(to_point) = u64::from(ticks).checked_sub(used).filter(|left| *left > 0) else {
             // Passed while the kernel worked for it past its window end.
             self.armed_reset_now(
@@ -274,22 +274,22 @@ impl Kernel {
         let torn_at = match self.armed.point {
             Point::InWarmWrite { permille } => {
                 let n = len * permille as usize / 1000;
-                copy(&mut area[..n], &data[..n]);
+                copy(area, data.get(..n).unwrap_or_default());
                 Some(n)
             }
             Point::AfterTicks(_)
                 if matches!(self.armed.state, State::Counting { to_point: true, .. }) =>
             {
-                let mut at = 0;
                 let mut torn_at = None;
-                while at < len {
+                let chunks = area
+                    .chunks_mut(WATCHED_COPY_CHUNK)
+                    .zip(data.chunks(WATCHED_COPY_CHUNK));
+                for (i, (to, from)) in chunks.enumerate() {
                     if read_dec() <= 0 {
-                        torn_at = Some(at);
+                        torn_at = Some(i * WATCHED_COPY_CHUNK);
                         break;
                     }
-                    let end = (at + WATCHED_COPY_CHUNK).min(len);
-                    copy(&mut area[at..end], &data[at..end]);
-                    at = end;
+                    copy(to, from);
                 }
                 torn_at
             }
@@ -332,7 +332,7 @@ impl Kernel {
             "armed reset: landed {=u64} after {=u32} ticks of {=str}'s work",
             landed,
             used,
-            SYSTEM.partitions[p].name
+            at(SYSTEM.partitions, p).name
         );
         self.armed = ArmedReset::new();
         self.warm_reset(ResetCause::Warm)

@@ -10,7 +10,7 @@ use heapless::Deque;
 use kernel_config::abi::{EVENT_HEALTH_MONITOR, EVENT_METRIC, EVENT_RECORD_SIZE};
 use kernel_config::{ErrorKind, HmAction, KERNEL_PARTITION_ID};
 
-use super::{klog, Kernel, Next, RunState};
+use super::{at, at_mut, klog, Kernel, Next, RunState};
 use crate::boot;
 use crate::config::SYSTEM;
 use crate::warm;
@@ -88,8 +88,8 @@ pub fn event_message(record: &EventRecord) -> Option<TargetToHost> {
 /// Serialise an event record for SYS_EVENT_DRAIN.
 pub fn record_bytes(record: &EventRecord) -> [u8; EVENT_RECORD_SIZE] {
     let mut out = [0u8; EVENT_RECORD_SIZE];
-    for (i, word) in record.iter().enumerate() {
-        out[i * 4..i * 4 + 4].copy_from_slice(&word.to_be_bytes());
+    for (bytes, word) in out.as_chunks_mut::<4>().0.iter_mut().zip(record) {
+        *bytes = word.to_be_bytes();
     }
     out
 }
@@ -108,7 +108,7 @@ impl Kernel {
         self.events.health(p as u8, kind, reported, action);
         defmt::warn!(
             "hm: partition {=str} {=str} at {=u32:#x}: {=str}",
-            SYSTEM.partitions[p].name,
+            at(SYSTEM.partitions, p).name,
             kind.name(),
             address,
             action.name()
@@ -117,7 +117,7 @@ impl Kernel {
 
     /// An exception (or a panic) in partition `p`, which was running.
     pub fn partition_fault(&mut self, p: usize, kind: ErrorKind, address: u32, now: u64) -> Next {
-        let action = SYSTEM.partitions[p].health.action(kind);
+        let action = at(SYSTEM.partitions, p).health.action(kind);
         self.report(p, kind, address, action);
         match action {
             // Continue after the faulting instruction (the checker refuses this for panics and
@@ -133,7 +133,7 @@ impl Kernel {
     /// A system call from `p` failed with a fault code (already in its r3).
     pub fn syscall_fault(&mut self, p: usize, call: u32, now: u64) -> Next {
         let kind = ErrorKind::IllegalSyscall;
-        let action = SYSTEM.partitions[p].health.action(kind);
+        let action = at(SYSTEM.partitions, p).health.action(kind);
         self.report(p, kind, call, action);
         match action {
             HmAction::Log => Next::Partition(p),
@@ -148,7 +148,7 @@ impl Kernel {
         match action {
             HmAction::Log => Next::Partition(p),
             HmAction::HaltPartition => {
-                self.parts[p].run = RunState::Halted;
+                at_mut(&mut self.parts, p).run = RunState::Halted;
                 Next::Idle
             }
             // A fresh start in the rest of its window.
@@ -166,23 +166,23 @@ impl Kernel {
             HmAction::Log => {
                 // Counted every time (accounting metrics); reported once per (re)start so a
                 // runaway partition does not flood the link.
-                if !self.parts[p].overrun_reported {
-                    self.parts[p].overrun_reported = true;
-                    self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                if !at(&self.parts, p).overrun_reported {
+                    at_mut(&mut self.parts, p).overrun_reported = true;
+                    self.report(p, ErrorKind::Overrun, at(&self.contexts, p).srr0, action);
                 }
             }
             HmAction::HaltPartition => {
-                self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                self.report(p, ErrorKind::Overrun, at(&self.contexts, p).srr0, action);
                 self.armed_reset_on_stop(p);
-                self.parts[p].run = RunState::Halted;
+                at_mut(&mut self.parts, p).run = RunState::Halted;
             }
             HmAction::RestartPartition => {
-                self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                self.report(p, ErrorKind::Overrun, at(&self.contexts, p).srr0, action);
                 self.armed_reset_on_stop(p);
                 self.restart(p);
             }
             HmAction::WarmReset => {
-                self.report(p, ErrorKind::Overrun, self.contexts[p].srr0, action);
+                self.report(p, ErrorKind::Overrun, at(&self.contexts, p).srr0, action);
                 self.warm_reset(ResetCause::HealthMonitor)
             }
         }

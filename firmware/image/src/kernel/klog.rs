@@ -44,10 +44,10 @@ impl LogRing {
     /// Move up to `out.len()` bytes out; returns how many.
     pub fn drain(&mut self, out: &mut [u8]) -> usize {
         let mut n = 0;
-        while n < out.len() {
+        for slot in out.iter_mut() {
             match self.bytes.pop_front() {
                 Some(b) => {
-                    out[n] = b;
+                    *slot = b;
                     n += 1;
                 }
                 None => break,
@@ -79,8 +79,11 @@ pub fn send_direct(link: &mut KernelLink, msg: &TargetToHost) {
     // The kernel's last words before a reset it makes: an expedited frame (the reliable link's
     // sequence numbers die with the I/O partition; the host takes these like the Hello after
     // them).
-    if let Ok(len) = encode(&fsw_bridge::link::LinkFrame::Bd(msg), &mut frame[1..]) {
-        link.write_direct(&frame[..=len]);
+    let Some((_delimiter, body)) = frame.split_first_mut() else {
+        return;
+    };
+    if let Ok(len) = encode(&fsw_bridge::link::LinkFrame::Bd(msg), body) {
+        link.write_direct(frame.get(..=len).unwrap_or_default());
     }
 }
 
@@ -95,7 +98,8 @@ pub fn flush_direct(link: &mut KernelLink, ring: &mut LogRing) {
         send_direct(
             link,
             &TargetToHost::Log {
-                bytes: heapless::Vec::from_slice(&chunk[..n]).unwrap_or_default(),
+                bytes: heapless::Vec::from_slice(chunk.get(..n).unwrap_or_default())
+                    .unwrap_or_default(),
             },
         );
     }

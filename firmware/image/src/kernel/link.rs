@@ -195,7 +195,11 @@ impl KernelLink {
             // Counted as received when they left the UART.
             Transport::Serial => {
                 let n = self.ring.pop_into(out);
-                let taken = out[..n].iter().filter(|&&b| b == FRAME_DELIMITER).count();
+                let taken = out
+                    .iter()
+                    .take(n)
+                    .filter(|&&b| b == FRAME_DELIMITER)
+                    .count();
                 self.delimiters = self.delimiters.saturating_sub(taken);
                 n
             }

@@ -7,6 +7,7 @@ use core::arch::asm;
 
 use kernel_config as kc;
 
+use super::at;
 use crate::config::{Bat, PARTITION_DBATS, SHARED_CODE_BAT};
 
 macro_rules! set_bat {
@@ -53,7 +54,7 @@ pub fn init() {
 
 /// Map partition `p`'s regions into DBAT1..3 (the shared code stays in IBAT0/DBAT0).
 pub fn map(p: usize) {
-    let bats = PARTITION_DBATS[p];
+    let bats = *at(&PARTITION_DBATS, p);
     set_bat!("538", "539", bats[0]);
     set_bat!("540", "541", bats[1]);
     set_bat!("542", "543", bats[2]);

@@ -40,6 +40,39 @@ use crate::shared;
 
 use crate::context::{Context, KERNEL_FAULT_CONTEXT};
 
+/// `table[i]` for an index the kernel made itself (a partition or window of the static
+/// schedule, the running partition): out of range only if the kernel's own state is corrupt,
+/// which ends in [`invariant_broken`] instead of a panic. Costs what a bounds check costs.
+#[inline(always)]
+#[track_caller]
+pub fn at<T>(table: &[T], i: usize) -> &T {
+    match table.get(i) {
+        Some(item) => item,
+        None => invariant_broken(),
+    }
+}
+
+/// [`at`], mutable.
+#[inline(always)]
+#[track_caller]
+pub fn at_mut<T>(table: &mut [T], i: usize) -> &mut T {
+    match table.get_mut(i) {
+        Some(item) => item,
+        None => invariant_broken(),
+    }
+}
+
+/// A kernel invariant did not hold (an index the kernel made itself was out of range): the
+/// kernel reports the site to the host and warm-resets, as for a panic in the kernel
+/// ([`crate::kernel_panic`]), without going through the panic machinery.
+#[cold]
+#[inline(never)]
+#[track_caller]
+pub fn invariant_broken() -> ! {
+    let site = core::panic::Location::caller();
+    crate::kernel_panic(site.file(), site.line())
+}
+
 impl Context {
     /// The context that starts partition `p` from scratch (see `__partition_start`).
     fn partition_start(p: usize) -> Context {
@@ -204,8 +237,8 @@ pub fn start(
     k.boot_cause = boot_cause;
     k.boot_count = boot_count;
     k.nv_bytes = nv_bytes;
-    for p in 0..PARTITION_COUNT {
-        k.contexts[p] = Context::partition_start(p);
+    for (p, ctx) in k.contexts.iter_mut().enumerate() {
+        *ctx = Context::partition_start(p);
     }
     let now = timebase::now().0;
     // The kernel's part of boot to ready: reset stub, board bring-up and the set-up above.
@@ -249,7 +282,7 @@ impl Kernel {
                     let now = timebase::now().0;
                     self.switched_in(p, entry, now);
                 }
-                &self.contexts[p]
+                at(&self.contexts, p)
             }
             Next::Idle => {
                 self.sched.running = None;
@@ -276,15 +309,15 @@ impl Kernel {
     /// (Re)start partition `p` from its entry: fresh statics, next generation.
     pub fn restart(&mut self, p: usize) {
         self.idle_declared.withdraw(p);
-        self.contexts[p] = Context::partition_start(p);
-        let state = &mut self.parts[p];
+        *at_mut(&mut self.contexts, p) = Context::partition_start(p);
+        let state = at_mut(&mut self.parts, p);
         state.generation = state.generation.wrapping_add(1);
         state.run = RunState::Ready;
         state.overrun_reported = false;
     }
 
     pub fn context(&mut self, p: usize) -> &mut Context {
-        &mut self.contexts[p]
+        at_mut(&mut self.contexts, p)
     }
 }
 
@@ -334,12 +367,12 @@ pub extern "C" fn kernel_trap(
     }
     let next = match k.sched.running {
         Some(p) => {
-            debug_assert!(core::ptr::eq(ctx, &k.contexts[p]));
+            debug_assert!(core::ptr::eq(ctx, at(&k.contexts, p)));
             match vector {
                 0x900 => k.on_timer(entry),
                 0xc00 => {
                     #[cfg(feature = "test-partitions")]
-                    test_fault_hook(p, &k.contexts[p]);
+                    test_fault_hook(p, at(&k.contexts, p));
                     k.syscall(p, entry)
                 }
                 // Held back at the controller while partitions run; should one get through
@@ -349,7 +382,7 @@ pub extern "C" fn kernel_trap(
                     Next::Partition(p)
                 }
                 _ => {
-                    let srr0 = k.contexts[p].srr0;
+                    let srr0 = at(&k.contexts, p).srr0;
                     let address = if vector == 0x300 { dar } else { srr0 };
                     let kind = kernel_config::ErrorKind::from_vector(vector);
                     k.partition_fault(p, kind, address, entry)

@@ -28,12 +28,21 @@ pub struct Received {
     pub sent_at: u64,
 }
 
+/// The big-endian word at `at` of a slot (0 past its end: slots are at least a header long).
 fn word(bytes: &[u8], at: usize) -> u32 {
-    u32::from_be_bytes([bytes[at], bytes[at + 1], bytes[at + 2], bytes[at + 3]])
+    bytes
+        .get(at..)
+        .and_then(|rest| rest.first_chunk::<4>())
+        .map_or(0, |be| u32::from_be_bytes(*be))
 }
 
 fn put_word(bytes: &mut [u8], at: usize, value: u32) {
-    bytes[at..at + 4].copy_from_slice(&value.to_be_bytes());
+    if let Some(be) = bytes
+        .get_mut(at..)
+        .and_then(|rest| rest.first_chunk_mut::<4>())
+    {
+        *be = value.to_be_bytes();
+    }
 }
 
 impl Ports {
@@ -45,10 +54,15 @@ impl Ports {
         }
     }
 
-    fn slot(&mut self, port: usize, index: usize) -> &mut [u8] {
-        let size = port_slot_bytes(&SYSTEM.ports[port]);
-        let start = PORT_OFFSETS[port] + index * size;
-        &mut self.storage[start..start + size]
+    /// Slot `index` of `port` in the storage (the configuration sized the storage for every
+    /// slot of every port at compile time, so only a bad port or index misses).
+    fn slot(&mut self, port: usize, index: usize) -> Result<&mut [u8], SysError> {
+        let config = SYSTEM.ports.get(port).ok_or(SysError::BadPort)?;
+        let size = port_slot_bytes(config);
+        let start = PORT_OFFSETS.get(port).ok_or(SysError::BadPort)? + index * size;
+        self.storage
+            .get_mut(start..start + size)
+            .ok_or(SysError::BadPort)
     }
 
     /// `sender` sends `message` on `port`.
@@ -69,17 +83,23 @@ impl Ports {
         }
         let index = match config.kind {
             PortKind::Sampling => 0,
-            PortKind::Queuing => self.state[port]
+            PortKind::Queuing => self
+                .state
+                .get(port)
+                .ok_or(SysError::BadPort)?
                 .push_slot(config.depth)
                 .ok_or(SysError::Full)?,
         };
-        let slot = self.slot(port, index);
+        let slot = self.slot(port, index)?;
+        let body = slot
+            .get_mut(PORT_SLOT_HEADER..PORT_SLOT_HEADER + message.len())
+            .ok_or(SysError::TooBig)?;
+        body.copy_from_slice(message);
         put_word(slot, 0, message.len() as u32);
         put_word(slot, 4, generation);
         put_word(slot, 8, (now >> 32) as u32);
         put_word(slot, 12, now as u32);
-        slot[PORT_SLOT_HEADER..PORT_SLOT_HEADER + message.len()].copy_from_slice(message);
-        let state = &mut self.state[port];
+        let state = self.state.get_mut(port).ok_or(SysError::BadPort)?;
         match config.kind {
             PortKind::Sampling => state.count = 1,
             PortKind::Queuing => state.pushed(),
@@ -120,16 +140,17 @@ impl Ports {
         if !config.destinations.contains(&receiver) {
             return Err(SysError::BadPort);
         }
-        if config.kind == PortKind::Queuing && self.state[port].count > 0 {
+        let base = *PORT_OFFSETS.get(port).ok_or(SysError::BadPort)?;
+        let state = self.state.get_mut(port).ok_or(SysError::BadPort)?;
+        if config.kind == PortKind::Queuing && state.count > 0 {
             let size = port_slot_bytes(config);
-            let base = PORT_OFFSETS[port];
             let storage = &self.storage;
-            let dropped = self.state[port].drop_stale(config.depth, sender_generation, |index| {
+            let dropped = state.drop_stale(config.depth, sender_generation, |index| {
                 word(storage, base + index * size + 4)
             });
             self.stale_dropped = self.stale_dropped.wrapping_add(u32::from(dropped));
         }
-        let state = self.state[port];
+        let state = *state;
         if state.count == 0 {
             return Err(SysError::Empty);
         }
@@ -137,19 +158,24 @@ impl Ports {
             PortKind::Sampling => 0,
             PortKind::Queuing => state.head as usize,
         };
-        let slot = self.slot(port, index);
+        let slot = self.slot(port, index)?;
         let len = word(slot, 0) as usize;
-        if len > buffer.len() {
+        let (Some(to), Some(from)) = (
+            buffer.get_mut(..len),
+            slot.get(PORT_SLOT_HEADER..PORT_SLOT_HEADER + len),
+        ) else {
             return Err(SysError::TooBig);
-        }
+        };
         let received = Received {
             len,
             generation: word(slot, 4),
             sent_at: (u64::from(word(slot, 8)) << 32) | u64::from(word(slot, 12)),
         };
-        buffer[..len].copy_from_slice(&slot[PORT_SLOT_HEADER..PORT_SLOT_HEADER + len]);
+        to.copy_from_slice(from);
         if config.kind == PortKind::Queuing {
-            let _ = self.state[port].pop(config.depth);
+            if let Some(state) = self.state.get_mut(port) {
+                let _ = state.pop(config.depth);
+            }
         }
         Ok(received)
     }

@@ -46,9 +46,9 @@ use core::arch::asm;
 use kernel_config::abi::{metric, JITTER_BOUND_TICKS};
 use kernel_config::ErrorKind;
 
-use super::{Kernel, Next, RunState};
+use super::{at, at_mut, Kernel, Next, RunState};
 use crate::board::timebase;
-use crate::config::{LINK_OWNER, PARTITION_COUNT, SYSTEM, WINDOW_COUNT};
+use crate::config::{LINK_OWNER, SYSTEM, WINDOW_COUNT};
 
 /// Lead time from the kernel's start to the first frame.
 const START_LEAD_TICKS: u64 = 1_000;
@@ -144,11 +144,13 @@ fn set_decrementer_at(deadline: u64) {
 fn window_end_dec(w: usize, deadline: u64, now: u64) -> i32 {
     let left = deadline.saturating_sub(now).clamp(1, 0x7fff_ffff) as u32;
     let left = (left / DEC_EXACT_TICKS).max(1) * DEC_EXACT_TICKS;
-    WINDOW_BUDGETS[w].min(left) as i32
+    (*at(&WINDOW_BUDGETS, w)).min(left) as i32
 }
 
 /// Ticks a partition runs in each window when it is switched in on time: the window's length
 /// less the jitter bound, rounded down to a multiple of DEC_EXACT_TICKS.
+// Evaluated at compile time: an index out of range is a build error, not a panic.
+#[allow(clippy::indexing_slicing)]
 const WINDOW_BUDGETS: [u32; WINDOW_COUNT] = {
     let mut budgets = [0; WINDOW_COUNT];
     let mut w = 0;
@@ -191,7 +193,7 @@ impl Kernel {
     }
 
     fn window_start(&self, w: usize) -> u64 {
-        self.sched.frame_start + u64::from(SYSTEM.schedule.windows[w].offset)
+        self.sched.frame_start + u64::from(at(SYSTEM.schedule.windows, w).offset)
     }
 
     /// Ticks the running partition has used since it was switched in, up to the last kernel
@@ -206,7 +208,7 @@ impl Kernel {
     /// CPU ticks `p` (running) has used since boot, up to this instruction.
     pub fn cpu_now(&self, p: usize) -> u64 {
         let stint = self.sched.stint_dec.wrapping_sub(read_dec()).max(0) as u64;
-        self.parts[p].cpu_total + stint
+        at(&self.parts, p).cpu_total + stint
     }
 
     /// Stop charging `p` (switch-out; the time up to the kernel entry). When `p` is the link
@@ -217,7 +219,7 @@ impl Kernel {
             self.link.ring_doorbell();
         }
         let used = u64::from(self.stint_ticks());
-        let state = &mut self.parts[p];
+        let state = at_mut(&mut self.parts, p);
         state.cpu_total += used;
         state.window_ticks = state.window_ticks.saturating_add(used as u32);
         state.frame_ticks = state.frame_ticks.saturating_add(used as u32);
@@ -236,7 +238,7 @@ impl Kernel {
         if let Some((q, scheduled)) = self.sched.pending_start.take() {
             if q == p {
                 let jitter = now.saturating_sub(scheduled) as u32;
-                let state = &mut self.parts[p];
+                let state = at_mut(&mut self.parts, p);
                 state.max_jitter = state.max_jitter.max(jitter);
                 self.sched.max_jitter = self.sched.max_jitter.max(jitter);
                 self.sched.switch_entry = Some(entry);
@@ -266,7 +268,8 @@ impl Kernel {
                     // An armed reset point, or the count pauses at the window end.
                     self.armed_reset_on_timer(p);
                     self.charge(p, now);
-                    self.parts[p].overruns = self.parts[p].overruns.wrapping_add(1);
+                    let state = at_mut(&mut self.parts, p);
+                    state.overruns = state.overruns.wrapping_add(1);
                     self.overrun(p);
                 }
                 self.after_window(w, now)
@@ -282,7 +285,7 @@ impl Kernel {
     /// input arrives ([`Kernel::on_input_while_idle`]).
     pub fn park(&mut self, p: usize, now: u64) -> Next {
         self.charge(p, now);
-        self.parts[p].run = RunState::Waiting;
+        at_mut(&mut self.parts, p).run = RunState::Waiting;
         self.end_frame();
         self.sched.phase = Phase::Parked;
         self.sched.pending_start = None;
@@ -310,7 +313,7 @@ impl Kernel {
     pub fn wait_next_window(&mut self, p: usize, now: u64) -> Next {
         self.armed_reset_on_wait(p);
         self.charge(p, now);
-        self.parts[p].run = RunState::Waiting;
+        at_mut(&mut self.parts, p).run = RunState::Waiting;
         Next::Idle
     }
 
@@ -343,20 +346,20 @@ impl Kernel {
     }
 
     fn begin_window(&mut self, w: usize, _now: u64) -> Next {
-        let window = &SYSTEM.schedule.windows[w];
+        let window = at(SYSTEM.schedule.windows, w);
         let scheduled = self.window_start(w);
         self.sched.phase = Phase::Window(w);
         // DEC gets the window end when the partition is switched in (`switched_in`).
         self.sched.window_end = scheduled + u64::from(window.duration);
         let p = window.partition;
-        self.parts[p].window_ticks = 0;
-        match self.parts[p].run {
+        at_mut(&mut self.parts, p).window_ticks = 0;
+        match at(&self.parts, p).run {
             RunState::Halted => {
                 set_decrementer_at(self.sched.window_end);
                 Next::Idle
             }
             RunState::Ready | RunState::Waiting => {
-                self.parts[p].run = RunState::Ready;
+                at_mut(&mut self.parts, p).run = RunState::Ready;
                 self.sched.pending_start = Some((p, scheduled));
                 Next::Partition(p)
             }
@@ -381,8 +384,7 @@ impl Kernel {
     pub fn report_metrics(&mut self) {
         self.events
             .metric(metric::FRAME_NUMBER, u64::from(self.sched.frames));
-        for p in 0..PARTITION_COUNT {
-            let s = self.parts[p];
+        for (p, s) in self.parts.iter().enumerate() {
             let id = p as u16;
             self.events
                 .metric(metric::FRAME_TICKS + id, u64::from(s.last_frame_ticks));
@@ -433,7 +435,7 @@ impl Kernel {
 
     /// `p` was still running when its window ended (it has been charged and is preempted).
     fn overrun(&mut self, p: usize) {
-        let action = SYSTEM.partitions[p].health.action(ErrorKind::Overrun);
+        let action = at(SYSTEM.partitions, p).health.action(ErrorKind::Overrun);
         self.overrun_action(p, action);
     }
 }

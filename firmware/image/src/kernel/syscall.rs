@@ -14,7 +14,7 @@ use kernel_logic::park::{
 
 use super::ports::Ports;
 use super::umem::{copy, USlice};
-use super::{health, klog, Kernel, Next, RunState};
+use super::{at, health, klog, Kernel, Next, RunState};
 use crate::config::{PARTITION_COUNT, SYSTEM};
 
 enum Outcome {
@@ -57,7 +57,7 @@ impl Kernel {
     }
 
     fn link_owner(p: usize) -> Result<(), SysError> {
-        if SYSTEM.partitions[p].capabilities.link_owner {
+        if at(SYSTEM.partitions, p).capabilities.link_owner {
             Ok(())
         } else {
             Err(SysError::Denied)
@@ -67,7 +67,7 @@ impl Kernel {
     /// The kernel address of bytes `offset..offset + len` of partition `p`'s slice of the
     /// warm area's checkpoint part.
     fn warm_range(p: usize, offset: u32, len: u32) -> Result<u32, SysError> {
-        let Some(slice) = SYSTEM.partitions[p].capabilities.warm_area else {
+        let Some(slice) = at(SYSTEM.partitions, p).capabilities.warm_area else {
             return Err(SysError::Denied);
         };
         match offset.checked_add(len) {
@@ -81,7 +81,7 @@ impl Kernel {
     /// Bytes of non-volatile memory partition `p`'s slice offers on this board (its slice,
     /// cut at the end of the device).
     fn nv_offered(&self, p: usize) -> Result<(kernel_config::Slice, u32), SysError> {
-        let Some(slice) = SYSTEM.partitions[p].capabilities.nv_memory else {
+        let Some(slice) = at(SYSTEM.partitions, p).capabilities.nv_memory else {
             return Err(SysError::Denied);
         };
         let offered = self.nv_bytes.saturating_sub(slice.offset).min(slice.len);
@@ -118,12 +118,13 @@ impl Kernel {
             }
             Sysnum::PortSend => {
                 let message = USlice::from_raw(a[1], a[2])?.readable_by(p)?;
-                let generation = self.parts[p].generation;
+                let generation = at(&self.parts, p).generation;
                 let port = a[0] as usize;
                 self.ports.send(p, port, message, generation, now)?;
                 // A queued message is work for its destination.
-                let config = &SYSTEM.ports[port];
-                if config.kind == kernel_config::PortKind::Queuing {
+                let queuing = SYSTEM.ports.get(port);
+                if let Some(config) = queuing.filter(|c| c.kind == kernel_config::PortKind::Queuing)
+                {
                     for &destination in config.destinations {
                         self.idle_declared.withdraw(destination);
                     }
@@ -148,7 +149,7 @@ impl Kernel {
                 Ok(Return((t >> 32) as u32, t as u32, 0))
             }
             Sysnum::CpuTime => {
-                let s = &self.parts[p];
+                let s = at(&self.parts, p);
                 let stint = u64::from(self.stint_ticks());
                 let window = u64::from(s.window_ticks) + stint;
                 let total = s.cpu_total + stint;
@@ -201,7 +202,7 @@ impl Kernel {
                 copy(area, data);
                 ok()
             }
-            Sysnum::Identity => Ok(Return(p as u32, self.parts[p].generation, 0)),
+            Sysnum::Identity => Ok(Return(p as u32, at(&self.parts, p).generation, 0)),
             Sysnum::Uptime => {
                 let up = now.wrapping_sub(crate::shared::boot_ticks());
                 let boot = self.boot_ticks.min(u64::from(u32::MAX)) as u32;
@@ -213,7 +214,7 @@ impl Kernel {
                     .unwrap_or(b"<bad pointer>");
                 defmt::error!(
                     "partition {=str} panicked at {=str}:{=u32}",
-                    SYSTEM.partitions[p].name,
+                    at(SYSTEM.partitions, p).name,
                     core::str::from_utf8(file).unwrap_or("<not utf-8>"),
                     a[2]
                 );
@@ -324,9 +325,9 @@ impl Kernel {
 
     /// What SYS_WAIT_FOR_INPUT from `caller` decides on.
     fn module_state(&self, caller: usize) -> ModuleState {
-        let halted = (0..PARTITION_COUNT)
-            .filter(|&q| self.parts[q].run == RunState::Halted)
-            .fold(0u32, |bits, q| bits | 1 << q);
+        let halted = (self.parts.iter().enumerate())
+            .filter(|(_, s)| s.run == RunState::Halted)
+            .fold(0u32, |bits, (q, _)| bits | 1 << q);
         ModuleState {
             input_pending: self.link.pending(),
             busy_partitions: self.idle_declared.busy(caller, halted, PARTITION_COUNT),

@@ -5,6 +5,7 @@
 use kernel_config::abi::SysError;
 use kernel_config::{Access, Region, SHARED_CODE_BASE, SHARED_CODE_SIZE};
 
+use super::at;
 use crate::config::SYSTEM;
 
 /// A range of a partition's address space, not yet trusted.
@@ -33,7 +34,7 @@ impl USlice {
         if self.len == 0 {
             return true;
         }
-        let own = SYSTEM.partitions[partition].regions.iter().any(|r| {
+        let own = at(SYSTEM.partitions, partition).regions.iter().any(|r| {
             let ok = match r.access {
                 Access::ReadWrite => true,
                 Access::ReadOnly => !writable,
@@ -77,7 +78,10 @@ impl USlice {
     }
 }
 
-/// Copy without going through `memcpy` twice for short messages (they are tiny).
+/// Copy without going through `memcpy` twice for short messages (they are tiny). `src` goes to
+/// the front of `dst`; every caller passes a `dst` at least as long (nothing is copied if not).
 pub fn copy(dst: &mut [u8], src: &[u8]) {
-    dst[..src.len()].copy_from_slice(src);
+    if let Some(front) = dst.get_mut(..src.len()) {
+        front.copy_from_slice(src);
+    }
 }
