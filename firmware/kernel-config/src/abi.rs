@@ -72,6 +72,11 @@ pub mod reset_at {
     pub const AFTER_TICKS: u32 = 1;
     /// In the partition's next warm-area write, after `value` permille of its bytes.
     pub const IN_WARM_WRITE: u32 = 2;
+    /// The fourth argument when the point is in the destination partition's own work (no
+    /// next stage). Otherwise it names a port from that partition: the point is then in the
+    /// work of that port's destination on the first message sent there after the anchor,
+    /// counted from its receipt (the planner partition's work on the executive's frame).
+    pub const NO_CHAIN: u32 = u32::MAX;
 
     use fsw_bridge::dictionary::armed_reset_point;
 

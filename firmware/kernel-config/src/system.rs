@@ -119,7 +119,7 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         name: "planner",
         entry: "partition_planner_main",
         regions: &[PLANNER_REGION],
-        stack_size: 0x20000,
+        stack_size: 0x10000,
         capabilities: Capabilities {
             link_owner: false,
             warm_area: Some(PLANNER_WARM),

@@ -230,17 +230,7 @@ fn handle(state: &mut PlannerState, app: &mut PlannerApp, msg: HostToTarget) {
         ..
     } = msg
     {
-        if !state.table_filled {
-            // A deterministic table (xorshift32), the same after every restart.
-            let mut x: u32 = 0x2545_f491;
-            for entry in state.table.iter_mut() {
-                x ^= x << 13;
-                x ^= x >> 17;
-                x ^= x << 5;
-                *entry = x;
-            }
-            state.table_filled = true;
-        }
+        fill_table(state);
         let mut digest = CRC32.digest();
         for word in state.table.iter() {
             digest.update(&word.to_be_bytes());
@@ -255,4 +245,19 @@ fn handle(state: &mut PlannerState, app: &mut PlannerApp, msg: HostToTarget) {
         let iterations = state.iterations;
         metric(state, metric::PLANNER_ITERATIONS, u64::from(iterations));
     }
+}
+
+/// The isolation test's table: deterministic (xorshift32), the same after every restart.
+fn fill_table(state: &mut PlannerState) {
+    if state.table_filled {
+        return;
+    }
+    let mut x: u32 = 0x2545_f491;
+    for entry in state.table.iter_mut() {
+        x ^= x << 13;
+        x ^= x >> 17;
+        x ^= x << 5;
+        *entry = x;
+    }
+    state.table_filled = true;
 }

@@ -38,8 +38,9 @@ fn act(mode: u16) {
             // Taking the address needs no unsafe; the write below is the point of the test.
             let target = addr_of_mut!(super::planner::STATE) as *mut u32;
             defmt::info!(
-                "rogue: writing into the planner's memory at {=u32:#x}",
-                target as u32
+                "rogue: writing into the planner's memory at {=u32:#x} (as partition {=usize})",
+                target as u32,
+                sys::identity().0
             );
             for i in 0..64 {
                 // SAFETY: deliberately not safe: this partition has no mapping for the
