@@ -537,6 +537,7 @@ fn every_platform_metric_is_in_the_dictionary() {
         (BOOT_IMAGE, "BOOT_IMAGE"),
         (BOOT_EXECUTIVE_START_TICKS, "BOOT_EXECUTIVE_START_TICKS"),
         (BOOT_EXECUTIVE_INIT_TICKS, "BOOT_EXECUTIVE_INIT_TICKS"),
+        (BOOT_PLANNER_START_TICKS, "BOOT_PLANNER_START_TICKS"),
     ];
     // The wire ids are fixed (transcripts and budgets depend on them): spot checks.
     assert_eq!(FRAME_TICKS, 0x0100);

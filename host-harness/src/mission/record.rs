@@ -287,6 +287,9 @@ pub struct MissionRecord {
     /// Every frame's autonomy step cost, in order (emulated target).
     #[serde(skip)]
     pub step_costs: Vec<StepCost>,
+    /// The planner partition's last window cost, for the frame whose step comes next.
+    #[serde(skip)]
+    pending_planner_ticks: Option<u64>,
     /// Actual spacecraft states as published, per state key.
     #[serde(skip)]
     pub states: BTreeMap<StateKey, Vec<(MissionTimeUs, StateValue)>>,
@@ -552,16 +555,19 @@ impl MissionRecord {
         use flight_app::metric;
         use kernel_config::abi::metric as platform;
         match id {
-            metric::STEP_TICKS => self.step_costs.push(StepCost {
-                frame: self.frames,
-                step: value,
-                planner: None,
-                executive: None,
-            }),
+            metric::STEP_TICKS => {
+                // A planner partition's window comes before the executive's second one and
+                // reports first; a single core reports its planner part after its step.
+                let planner = self.pending_planner_ticks.take();
+                self.step_costs.push(StepCost {
+                    frame: self.frames,
+                    step: value,
+                    planner,
+                    executive: None,
+                })
+            }
             metric::PLANNER_TICKS => {
-                if let Some(c) = self.step_costs.last_mut() {
-                    c.planner.get_or_insert(value);
-                }
+                self.pending_planner_ticks = Some(value);
             }
             metric::EXECUTIVE_TICKS => {
                 if let Some(c) = self.step_costs.last_mut() {
