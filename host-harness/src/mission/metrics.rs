@@ -394,6 +394,18 @@ pub fn is_guest_cost(name: &str) -> bool {
     lookup(name).is_some_and(|m| m.kind == MetricKind::GuestCost)
 }
 
+/// Whether `name` measures the planner's throttle (its budget per window), which a target that
+/// plans unthrottled (the native one, the reference) never reports.
+pub fn is_throttle_measure(name: &str) -> bool {
+    [
+        flight_app::metric::PLANNING_LATENCY_US,
+        flight_app::metric::PLANNER_PENDING_FRAMES,
+    ]
+    .into_iter()
+    .filter_map(report_name)
+    .any(|n| n == name)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
