@@ -580,11 +580,10 @@ impl MissionRecord {
                 }
                 self.reset_recovered();
             }
-            platform::BOOT_PLANNER_START_TICKS => {
-                if self.boots.len() > 1 {
-                    if let Some(r) = self.resets.last_mut() {
-                        r.planner_start_ticks.get_or_insert(value);
-                    }
+            // Every boot but the first is a reset's.
+            platform::BOOT_PLANNER_START_TICKS if self.boots.len() > 1 => {
+                if let Some(r) = self.resets.last_mut() {
+                    r.planner_start_ticks.get_or_insert(value);
                 }
             }
             metric::PLANNER_RECOVERY_TICKS => {

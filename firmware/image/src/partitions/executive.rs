@@ -31,7 +31,7 @@
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
-use flight_app::{Downlink, ExecutiveApp, Memories, SecurityStore, StoreError, Wire};
+use flight_app::{Downlink, ExecutiveApp, SecurityStore, StoreError};
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
 use heapless::Deque;
 use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
@@ -39,11 +39,10 @@ use kernel_config::system::{EXECUTIVE_NV, EXECUTIVE_WARM};
 use kernel_config::{WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 
 use super::{
-    copy_out, ports, receive_routed, send_to_host, zeroed_state, KernelMemories, PartitionClock,
-    ZeroValid,
+    ports, receive_routed, receive_wire, send_to_host, send_wire, zeroed_state, HostOutbox,
+    KernelMemories, MemoryCopies, PartitionClock, ZeroValid,
 };
 use crate::board::timebase;
-use crate::port::PortError;
 use crate::sys;
 
 /// Bytes of the warm-restart area for this partition's checkpoints: its slice.
@@ -68,24 +67,13 @@ pub struct ExecutiveState {
     pub state_updates: u32,
     pub command_responses: u32,
     pub time_grants: u32,
-    /// Messages lost because the outbox was full.
-    pub outbox_overflows: u32,
-    /// Checkpoint copies the kernel refused.
-    pub warm_write_errors: u32,
-    /// Checkpoint copies to non-volatile memory the kernel refused.
-    pub nv_write_errors: u32,
-    /// This partition's copy of the warm-restart area's checkpoint part: the records the
-    /// flight application read in and those it wrote (the rest stays zero).
-    pub warm: [u8; WARM_CHECKPOINT_BYTES],
-    /// This partition's copy of the start of non-volatile memory (same A/B layout, filled the
-    /// same way).
-    pub nv: [u8; NV_CHECKPOINT_BYTES],
-    /// The board has non-volatile memory large enough for the checkpoint areas.
-    pub has_nv: bool,
+    /// The copies of this partition's slices of the warm-restart area and of the start of
+    /// non-volatile memory (its checkpoint areas).
+    pub copies: MemoryCopies<WARM_CHECKPOINT_BYTES, NV_CHECKPOINT_BYTES>,
     /// The non-volatile memory also holds the security area (it is at least
     /// [`NV_USED_BYTES`] long).
     pub has_security_area: bool,
-    pub outbox: Deque<TargetToHost, OUTBOX_CAPACITY>,
+    pub outbox: HostOutbox<OUTBOX_CAPACITY>,
     /// Host messages received, in order, not handled yet.
     pub pending: Deque<HostToTarget, PENDING_CAPACITY>,
     /// `pending` ends with a message the host waits for: handle it at the next window start.
@@ -141,20 +129,6 @@ fn security_store(
     has_security_area.then_some(store as &mut dyn SecurityStore)
 }
 
-/// Queues messages for the host.
-struct Outbox<'a> {
-    queue: &'a mut Deque<TargetToHost, OUTBOX_CAPACITY>,
-    overflows: &'a mut u32,
-}
-
-impl Downlink for Outbox<'_> {
-    fn send(&mut self, msg: TargetToHost) {
-        if self.queue.push_back(msg).is_err() {
-            *self.overflows = self.overflows.saturating_add(1);
-        }
-    }
-}
-
 #[no_mangle]
 pub extern "C" fn partition_executive_main() -> ! {
     // SAFETY: STATE and APP are this partition's statics, zeroed by the partition start; the
@@ -169,7 +143,7 @@ pub extern "C" fn partition_executive_main() -> ! {
     // reads what it needs into them (`KernelMemories`). Probe non-volatile memory's size first
     // (a read of 0 bytes), so a small device is refused here rather than by the kernel as an
     // out-of-range access.
-    state.has_nv = match sys::nv_read(0, &mut []) {
+    state.copies.has_nv = match sys::nv_read(0, &mut []) {
         Ok(size) if size as usize >= NV_CHECKPOINT_BYTES => {
             state.has_security_area = size as usize >= NV_USED_BYTES;
             if !state.has_security_area {
@@ -198,21 +172,14 @@ pub extern "C" fn partition_executive_main() -> ! {
     // overruns the executive's window.
     sys::wait_next_window();
     {
-        let mut outbox = Outbox {
-            queue: &mut state.outbox,
-            overflows: &mut state.outbox_overflows,
-        };
+        let outbox = &mut state.outbox;
         let mut store = NvSecurityStore;
-        let mut memories = Memories {
-            warm: &mut state.warm,
-            nv: state.has_nv.then_some(&mut state.nv[..]),
-            security: security_store(state.has_nv && state.has_security_area, &mut store),
-        };
+        let secured = state.copies.has_nv && state.has_security_area;
         let outcome = app.boot_fetching(
-            &mut memories,
+            &mut state.copies.memories(security_store(secured, &mut store)),
             Some(&mut KernelMemories),
             &mut PartitionClock,
-            &mut outbox,
+            outbox,
         );
         // Ready: the first grant can be taken. Once per boot (a restart by the health
         // monitor is not a boot, and this partition's CPU time counts from the boot).
@@ -257,7 +224,7 @@ pub extern "C" fn partition_executive_main() -> ! {
         // The planner's messages (its window ran since our last one), then the host's batch,
         // then the frame's second window if the planner has answered it, then what the
         // checkpoints allow to go to the planner.
-        while let Some((wire, _generation)) = receive_planner() {
+        while let Some(wire) = receive_wire(ports::PLANNER_TO_EXECUTIVE) {
             app.receive(wire);
         }
         if core::mem::replace(&mut state.batch_complete, false) {
@@ -298,25 +265,12 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
             state.batch_complete |= answer_awaited;
         }
-        if state.batch_complete || !state.outbox.is_empty() || app.awaiting_planner() {
+        if state.batch_complete || !state.outbox.queue.is_empty() || app.awaiting_planner() {
             sys::wait_next_window();
         } else {
             // Nothing to do until the host sends more (a batch still waiting for its grant
             // included): the module may stop its schedule meanwhile.
             sys::wait_idle();
-        }
-    }
-}
-
-/// The next message from the planner partition.
-fn receive_planner() -> Option<(Wire<flight_app::ExecutiveInput>, u32)> {
-    loop {
-        match ports::PLANNER_TO_EXECUTIVE.receive() {
-            Ok(Some(got)) => return Some((got.value, got.generation)),
-            Ok(None) | Err(PortError::Sys(_) | PortError::TooBig) => return None,
-            Err(PortError::Undecodable) => {
-                defmt::warn!("executive: undecodable message from the planner dropped")
-            }
         }
     }
 }
@@ -327,20 +281,11 @@ fn second_window(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
     if !app.awaiting_planner() {
         return;
     }
-    let mut outbox = Outbox {
-        queue: &mut state.outbox,
-        overflows: &mut state.outbox_overflows,
-    };
-    let mut memories = Memories {
-        warm: &mut state.warm,
-        nv: state.has_nv.then_some(&mut state.nv[..]),
-        security: None,
-    };
     app.second_window(
-        &mut memories,
+        &mut state.copies.memories(None),
         Some(&mut KernelMemories),
         &mut PartitionClock,
-        &mut outbox,
+        &mut state.outbox,
     );
     write_checkpoints(state, app);
 }
@@ -348,41 +293,20 @@ fn second_window(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
 /// What the executive's checkpoint holds goes to the planner, until its port is full (the
 /// rest goes at the next window: the channel keeps it).
 fn to_planner(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
-    {
-        let mut outbox = Outbox {
-            queue: &mut state.outbox,
-            overflows: &mut state.outbox_overflows,
-        };
-        let mut memories = Memories {
-            warm: &mut state.warm,
-            nv: state.has_nv.then_some(&mut state.nv[..]),
-            security: None,
-        };
-        app.checkpoint_if_needed(&mut memories, Some(&mut KernelMemories), &mut outbox);
-    }
+    app.checkpoint_if_needed(
+        &mut state.copies.memories(None),
+        Some(&mut KernelMemories),
+        &mut state.outbox,
+    );
     write_checkpoints(state, app);
-    app.transmit(&mut |wire| match ports::EXECUTIVE_TO_PLANNER.send(&wire) {
-        Ok(()) => true,
-        Err(PortError::TooBig) => {
-            defmt::error!("executive: a message for the planner is over its port's size");
-            false
-        }
-        Err(_) => false,
-    });
+    app.transmit(&mut |wire| send_wire(ports::EXECUTIVE_TO_PLANNER, &wire));
 }
 
 /// The checkpoint bytes the application wrote into its copies go to the memories.
 fn write_checkpoints(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
-    state.warm_write_errors = state.warm_write_errors.saturating_add(copy_out(
-        &app.take_warm_writes(),
-        &state.warm,
-        sys::warm_write,
-    ));
-    state.nv_write_errors = state.nv_write_errors.saturating_add(copy_out(
-        &app.take_nv_writes(),
-        &state.nv,
-        sys::nv_write,
-    ));
+    state
+        .copies
+        .write_out(&app.take_warm_writes(), &app.take_nv_writes());
 }
 
 /// Handle every queued host message, in order.
@@ -395,12 +319,7 @@ fn handle_pending(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
 
 /// Hand queued messages to the I/O partition until its port is full.
 fn flush(state: &mut ExecutiveState) {
-    while let Some(msg) = state.outbox.front() {
-        if send_to_host(ports::EXECUTIVE_TO_IO, msg).is_err() {
-            return;
-        }
-        state.outbox.pop_front();
-    }
+    state.outbox.flush(ports::EXECUTIVE_TO_IO);
 }
 
 fn metric(id: u16, value: u64) {
@@ -429,22 +348,14 @@ fn handle(state: &mut ExecutiveState, app: &mut ExecutiveApp, msg: HostToTarget)
         HostToTarget::TimeGrant { .. } => state.time_grants += 1,
         _ => {}
     }
-    let mut outbox = Outbox {
-        queue: &mut state.outbox,
-        overflows: &mut state.outbox_overflows,
-    };
     let mut store = NvSecurityStore;
-    let mut memories = Memories {
-        warm: &mut state.warm,
-        nv: state.has_nv.then_some(&mut state.nv[..]),
-        security: security_store(state.has_nv && state.has_security_area, &mut store),
-    };
+    let secured = state.copies.has_nv && state.has_security_area;
     app.handle_fetching(
         &msg,
-        &mut memories,
+        &mut state.copies.memories(security_store(secured, &mut store)),
         Some(&mut KernelMemories),
         &mut PartitionClock,
-        &mut outbox,
+        &mut state.outbox,
     );
     write_checkpoints(state, app);
 }

@@ -18,9 +18,14 @@ pub mod rogue;
 
 use core::mem::MaybeUninit;
 
-use flight_app::{CpuClock, MemoryFetch, MemoryKind, StoreError};
+use flight_app::{
+    CpuClock, Downlink, Memories, MemoryFetch, MemoryKind, SecurityStore, StoreError,
+};
 use fsw_bridge::{HostToTarget, TargetToHost};
+use heapless::Deque;
 use kernel_config::abi::SysError;
+use serde::de::DeserializeOwned;
+use serde::Serialize;
 
 use crate::port::{Port, PortError};
 use crate::sys;
@@ -145,5 +150,106 @@ impl MemoryFetch for KernelMemories {
             );
             StoreError
         })
+    }
+}
+
+/// Messages for the host a partition holds while its outbound port is full, and how many were
+/// lost because this queue was full too.
+pub struct HostOutbox<const N: usize> {
+    pub queue: Deque<TargetToHost, N>,
+    pub overflows: u32,
+}
+
+// SAFETY: a heapless Deque whose all-zero value is the empty queue (indices 0, not full; the
+// buffer is MaybeUninit) and an integer.
+unsafe impl<const N: usize> ZeroValid for HostOutbox<N> {}
+
+impl<const N: usize> Downlink for HostOutbox<N> {
+    fn send(&mut self, msg: TargetToHost) {
+        if self.queue.push_back(msg).is_err() {
+            self.overflows = self.overflows.saturating_add(1);
+        }
+    }
+}
+
+impl<const N: usize> HostOutbox<N> {
+    /// Hands queued messages to the I/O partition through `port` until it is full.
+    pub fn flush(&mut self, port: Port<TargetToHost>) {
+        while let Some(msg) = self.queue.front() {
+            if send_to_host(port, msg).is_err() {
+                return;
+            }
+            self.queue.pop_front();
+        }
+    }
+}
+
+/// A partition's copies of its slices of the warm-restart area (`W` bytes) and of non-volatile
+/// memory (`N` bytes): the records its application read in and those it wrote (the rest stays
+/// zero), and the copies the kernel refused.
+pub struct MemoryCopies<const W: usize, const N: usize> {
+    pub warm: [u8; W],
+    pub nv: [u8; N],
+    /// The board has non-volatile memory large enough for the slice.
+    pub has_nv: bool,
+    pub warm_write_errors: u32,
+    pub nv_write_errors: u32,
+}
+
+// SAFETY: byte arrays, a boolean and integers.
+unsafe impl<const W: usize, const N: usize> ZeroValid for MemoryCopies<W, N> {}
+
+impl<const W: usize, const N: usize> MemoryCopies<W, N> {
+    /// The copies as the application's memories, with `security` if the partition owns it.
+    pub fn memories<'a>(&'a mut self, security: Option<&'a mut dyn SecurityStore>) -> Memories<'a> {
+        Memories {
+            warm: &mut self.warm,
+            nv: self.has_nv.then_some(&mut self.nv[..]),
+            security,
+        }
+    }
+
+    /// What the application's checkpoints wrote into the copies (`warm`, `nv`: byte ranges)
+    /// goes to the memories, refusals counted.
+    pub fn write_out(&mut self, warm: &[(usize, usize)], nv: &[(usize, usize)]) {
+        self.warm_write_errors =
+            self.warm_write_errors
+                .saturating_add(copy_out(warm, &self.warm, sys::warm_write));
+        self.nv_write_errors =
+            self.nv_write_errors
+                .saturating_add(copy_out(nv, &self.nv, sys::nv_write));
+    }
+}
+
+/// The next message of the autonomy core's channel on `port` (from the other partition); an
+/// undecodable one is dropped with a warning (the channel sends it again, numbered).
+pub fn receive_wire<T: DeserializeOwned>(port: Port<T>) -> Option<T> {
+    loop {
+        match port.receive() {
+            Ok(Some(got)) => return Some(got.value),
+            Ok(None) | Err(PortError::Sys(_) | PortError::TooBig) => return None,
+            Err(PortError::Undecodable) => {
+                defmt::warn!(
+                    "port {=usize}: undecodable channel message dropped",
+                    port.id()
+                )
+            }
+        }
+    }
+}
+
+/// Sends one message of the channel on `port`; false if it did not go (a full port: the
+/// channel keeps it for the next window).
+pub fn send_wire<T: Serialize>(port: Port<T>, wire: &T) -> bool {
+    match port.send(wire) {
+        Ok(()) => true,
+        Err(PortError::TooBig) => {
+            defmt::error!(
+                "port {=usize}: a channel message is over the port's size",
+                port.id()
+            );
+            false
+        }
+        Err(_) => false,
     }
 }

@@ -18,17 +18,15 @@ use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use crc::{Crc, CRC_32_ISO_HDLC};
-use flight_app::{Downlink, Memories, PlannerApp, Wire};
+use flight_app::{Downlink, PlannerApp};
 use fsw_bridge::{HostToTarget, StateKey, StateValue, TargetToHost, TelemetryEvent};
-use heapless::Deque;
 use kernel_config::abi::{control, metric};
 use kernel_config::system::PLANNER_WARM;
 
 use super::{
-    copy_out, ports, receive_routed, send_to_host, zeroed_state, KernelMemories, PartitionClock,
-    ZeroValid,
+    ports, receive_routed, receive_wire, send_wire, zeroed_state, HostOutbox, KernelMemories,
+    MemoryCopies, PartitionClock, ZeroValid,
 };
-use crate::port::PortError;
 use crate::sys;
 
 /// Words of the table the isolation test checks.
@@ -47,17 +45,11 @@ pub struct PlannerState {
     /// Windows in which the planner planned since its (re)start.
     pub iterations: u32,
     /// This partition's copies of its slices of the two memories.
-    pub warm: [u8; WARM_CHECKPOINT_BYTES],
-    pub nv: [u8; NV_CHECKPOINT_BYTES],
-    pub has_nv: bool,
-    pub warm_write_errors: u32,
-    pub nv_write_errors: u32,
-    pub outbox: Deque<TargetToHost, OUTBOX_CAPACITY>,
-    pub outbox_overflows: u32,
+    pub copies: MemoryCopies<WARM_CHECKPOINT_BYTES, NV_CHECKPOINT_BYTES>,
+    pub outbox: HostOutbox<OUTBOX_CAPACITY>,
 }
 
-// SAFETY: integers, booleans, byte and word arrays, and a heapless Deque whose all-zero value
-// is the empty queue.
+// SAFETY: integers, booleans, word arrays, and ZeroValid parts.
 unsafe impl ZeroValid for PlannerState {}
 
 #[link_section = ".bss.part.planner"]
@@ -74,20 +66,6 @@ unsafe impl ZeroValid for PlannerApp {}
 
 const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
-/// Queues messages for the host.
-struct Outbox<'a> {
-    queue: &'a mut Deque<TargetToHost, OUTBOX_CAPACITY>,
-    overflows: &'a mut u32,
-}
-
-impl Downlink for Outbox<'_> {
-    fn send(&mut self, msg: TargetToHost) {
-        if self.queue.push_back(msg).is_err() {
-            *self.overflows = self.overflows.saturating_add(1);
-        }
-    }
-}
-
 #[no_mangle]
 pub extern "C" fn partition_planner_main() -> ! {
     // SAFETY: STATE and APP are this partition's statics, zeroed by the partition start; the
@@ -97,76 +75,39 @@ pub extern "C" fn partition_planner_main() -> ! {
     // SAFETY: as above; `reset` makes it the new application before its first use.
     let app: &'static mut PlannerApp = unsafe { zeroed_state(addr_of_mut!(APP)) };
     app.reset();
-    state.has_nv =
+    state.copies.has_nv =
         matches!(sys::nv_read(0, &mut []), Ok(size) if size as usize >= NV_CHECKPOINT_BYTES);
-    {
-        let mut outbox = Outbox {
-            queue: &mut state.outbox,
-            overflows: &mut state.outbox_overflows,
-        };
-        let mut memories = Memories {
-            warm: &mut state.warm,
-            nv: state.has_nv.then_some(&mut state.nv[..]),
-            security: None,
-        };
-        if sys::identity().1 == 0 {
-            outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
-                id: metric::BOOT_PLANNER_START_TICKS,
-                value: entered,
-            }));
-        }
-        app.boot_fetching(
-            &mut memories,
-            Some(&mut KernelMemories),
-            &mut PartitionClock,
-            &mut outbox,
-        );
+    if sys::identity().1 == 0 {
+        metric(state, metric::BOOT_PLANNER_START_TICKS, entered);
     }
+    app.boot_fetching(
+        &mut state.copies.memories(None),
+        Some(&mut KernelMemories),
+        &mut PartitionClock,
+        &mut state.outbox,
+    );
     loop {
         while let Some((msg, _generation)) = receive_routed(ports::IO_TO_PLANNER) {
             handle(state, app, msg);
         }
-        while let Some(wire) = receive_executive() {
+        while let Some(wire) = receive_wire(ports::EXECUTIVE_TO_PLANNER) {
             app.receive(wire);
         }
         if app.frame_pending() {
-            let mut outbox = Outbox {
-                queue: &mut state.outbox,
-                overflows: &mut state.outbox_overflows,
-            };
-            let mut memories = Memories {
-                warm: &mut state.warm,
-                nv: state.has_nv.then_some(&mut state.nv[..]),
-                security: None,
-            };
             app.window(
-                &mut memories,
+                &mut state.copies.memories(None),
                 Some(&mut KernelMemories),
                 &mut PartitionClock,
-                &mut outbox,
+                &mut state.outbox,
             );
             state.iterations = state.iterations.wrapping_add(1);
-            state.warm_write_errors = state.warm_write_errors.saturating_add(copy_out(
-                &app.take_warm_writes(),
-                &state.warm,
-                sys::warm_write,
-            ));
-            state.nv_write_errors = state.nv_write_errors.saturating_add(copy_out(
-                &app.take_nv_writes(),
-                &state.nv,
-                sys::nv_write,
-            ));
+            state
+                .copies
+                .write_out(&app.take_warm_writes(), &app.take_nv_writes());
         }
-        app.transmit(&mut |wire| match ports::PLANNER_TO_EXECUTIVE.send(&wire) {
-            Ok(()) => true,
-            Err(PortError::TooBig) => {
-                defmt::error!("planner: a message for the executive is over its port's size");
-                false
-            }
-            Err(_) => false,
-        });
-        flush(state);
-        if app.unsent() > 0 || !state.outbox.is_empty() {
+        app.transmit(&mut |wire| send_wire(ports::PLANNER_TO_EXECUTIVE, &wire));
+        state.outbox.flush(ports::PLANNER_TO_IO);
+        if app.unsent() > 0 || !state.outbox.queue.is_empty() {
             sys::wait_next_window();
         } else {
             // Nothing to plan until the executive sends a frame: the module may stop its
@@ -176,38 +117,13 @@ pub extern "C" fn partition_planner_main() -> ! {
     }
 }
 
-/// The next message from the executive partition.
-fn receive_executive() -> Option<Wire<flight_app::PlannerInput>> {
-    loop {
-        match ports::EXECUTIVE_TO_PLANNER.receive() {
-            Ok(Some(got)) => return Some(got.value),
-            Ok(None) | Err(PortError::Sys(_) | PortError::TooBig) => return None,
-            Err(PortError::Undecodable) => {
-                defmt::warn!("planner: undecodable message from the executive dropped")
-            }
-        }
-    }
-}
-
-/// Hand queued messages to the I/O partition until its port is full.
-fn flush(state: &mut PlannerState) {
-    while let Some(msg) = state.outbox.front() {
-        if send_to_host(ports::PLANNER_TO_IO, msg).is_err() {
-            return;
-        }
-        state.outbox.pop_front();
-    }
-}
-
 fn metric(state: &mut PlannerState, id: u16, value: u64) {
-    let mut outbox = Outbox {
-        queue: &mut state.outbox,
-        overflows: &mut state.outbox_overflows,
-    };
-    outbox.send(TargetToHost::Telemetry(TelemetryEvent::Metric {
-        id,
-        value,
-    }));
+    state
+        .outbox
+        .send(TargetToHost::Telemetry(TelemetryEvent::Metric {
+            id,
+            value,
+        }));
 }
 
 fn handle(state: &mut PlannerState, app: &mut PlannerApp, msg: HostToTarget) {
