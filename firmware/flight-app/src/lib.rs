@@ -1081,6 +1081,19 @@ impl ExecutiveApp {
     }
 }
 
+/// The planner's budget in one window: validity checks, and CPU up to a clock reading.
+struct WindowBudget<'c, C: CpuClock> {
+    checks: u32,
+    until: Option<u64>,
+    clock: &'c mut C,
+}
+
+impl<C: CpuClock> autonomy::planner::Budget for WindowBudget<'_, C> {
+    fn exhausted(&mut self, checks_spent: u32) -> bool {
+        checks_spent >= self.checks || self.until.is_some_and(|t| self.clock.ticks() >= t)
+    }
+}
+
 /// The planner partition's application: the planning loop (`autonomy::partitioned`'s planner
 /// side) with its own checkpoints in its own slices of the two memories. It plans once per
 /// frame, in its window after the executive's first window ([`PlannerApp::window`]), within a
@@ -1090,6 +1103,10 @@ pub struct PlannerApp {
     persist: Persistence,
     /// Validity checks per window.
     budget: u32,
+    /// CPU ticks the planning may take per window (None: no limit): the planner stops before
+    /// the next job once its window's share is spent, so that it yields at its window's end
+    /// instead of being preempted there, and its cycle goes on in the next frame's window.
+    cpu_budget: Option<u64>,
     /// Set at a restore until the first window with no planning pending: the CPU spent so
     /// far, the restore included ([`metric::PLANNER_RECOVERY_TICKS`]).
     recovering: Option<u64>,
@@ -1107,6 +1124,7 @@ impl PlannerApp {
             partition: PlannerPartition::new(),
             persist: Persistence::NEW,
             budget: DEFAULT_PLANNER_BUDGET,
+            cpu_budget: None,
             recovering: None,
         }
     }
@@ -1116,6 +1134,7 @@ impl PlannerApp {
         self.partition.reset();
         self.persist = Persistence::NEW;
         self.budget = DEFAULT_PLANNER_BUDGET;
+        self.cpu_budget = None;
         self.recovering = None;
     }
 
@@ -1127,6 +1146,11 @@ impl PlannerApp {
     /// Validity checks per window (see [`DEFAULT_PLANNER_BUDGET`]).
     pub fn set_budget(&mut self, checks: u32) {
         self.budget = checks;
+    }
+
+    /// CPU ticks the planning may take per window (None: no limit; see the field).
+    pub fn set_cpu_budget(&mut self, ticks: Option<u64>) {
+        self.cpu_budget = ticks;
     }
 
     /// The ranges of warm memory written by the checkpoints since the last call, in order.
@@ -1194,7 +1218,12 @@ impl PlannerApp {
         downlink: &mut impl Downlink,
     ) -> Option<PlannerStatus> {
         let t0 = clock.ticks();
-        let status = self.partition.window(self.budget)?;
+        let budget = WindowBudget {
+            checks: self.budget,
+            until: self.cpu_budget.map(|ticks| t0.saturating_add(ticks)),
+            clock: &mut *clock,
+        };
+        let status = self.partition.window(budget)?;
         let t1 = clock.ticks();
         let failures = self
             .persist

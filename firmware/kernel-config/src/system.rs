@@ -149,6 +149,8 @@ const PARTITIONS_TEST: [Partition; 4] = [
 
 /// 10 ms at 16.6 MHz.
 pub const MAJOR_FRAME_TICKS: u32 = 166_000;
+/// The planner partition's window: 2 ms of each major frame.
+pub const PLANNER_WINDOW_TICKS: u32 = 33_200;
 
 const WINDOWS_PRODUCT: [Window; 3] = [
     Window {
@@ -166,7 +168,7 @@ const WINDOWS_PRODUCT: [Window; 3] = [
     Window {
         partition: PLANNER,
         offset: 91_300,
-        duration: 33_200,
+        duration: PLANNER_WINDOW_TICKS,
     },
 ];
 

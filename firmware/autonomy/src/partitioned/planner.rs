@@ -204,7 +204,7 @@ impl PlannerPartition {
     /// The planner's window: if the executive's frame has come, planning within `budget`
     /// validity checks at the frame's time, then the commits (no more than the channel's log
     /// has room for), then the status. The planner's decisions go to the executive.
-    pub fn window(&mut self, budget: u32) -> Option<PlannerStatus> {
+    pub fn window(&mut self, budget: impl crate::planner::Budget) -> Option<PlannerStatus> {
         let (frame, now) = self.frame.take()?;
         let now = MissionTimeUs(now.0.min(MAX_MISSION_TIME_US));
         self.now = now;

@@ -21,7 +21,7 @@ use crc::{Crc, CRC_32_ISO_HDLC};
 use flight_app::{Downlink, PlannerApp};
 use fsw_bridge::{HostToTarget, StateKey, StateValue, TargetToHost, TelemetryEvent};
 use kernel_config::abi::{control, metric};
-use kernel_config::system::PLANNER_WARM;
+use kernel_config::system::{PLANNER_WARM, PLANNER_WINDOW_TICKS};
 
 use super::{
     ports, receive_routed, receive_wire, send_wire, zeroed_state, HostOutbox, KernelMemories,
@@ -35,6 +35,11 @@ pub const TABLE_WORDS: usize = 16 * 1024;
 pub const WARM_CHECKPOINT_BYTES: usize = PLANNER_WARM.len as usize;
 /// Bytes of non-volatile memory for its checkpoints: its slice, as long as the warm one.
 pub const NV_CHECKPOINT_BYTES: usize = WARM_CHECKPOINT_BYTES;
+/// CPU the planning may take in one window: three quarters of the planner's window, the rest
+/// for what comes before (the executive's messages) and after (the checkpoint, the messages
+/// for the executive). The planner then yields at its window's end, its cycle pending, rather
+/// than being preempted there with no answer for the frame.
+pub const PLANNING_TICKS_PER_WINDOW: u64 = PLANNER_WINDOW_TICKS as u64 * 3 / 4;
 /// Messages for the host the partition holds while the outbound port is full.
 pub const OUTBOX_CAPACITY: usize = 64;
 
@@ -75,6 +80,7 @@ pub extern "C" fn partition_planner_main() -> ! {
     // SAFETY: as above; `reset` makes it the new application before its first use.
     let app: &'static mut PlannerApp = unsafe { zeroed_state(addr_of_mut!(APP)) };
     app.reset();
+    app.set_cpu_budget(Some(PLANNING_TICKS_PER_WINDOW));
     state.copies.has_nv =
         matches!(sys::nv_read(0, &mut []), Ok(size) if size as usize >= NV_CHECKPOINT_BYTES);
     if sys::identity().1 == 0 {
