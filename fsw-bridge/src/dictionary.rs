@@ -407,6 +407,11 @@ pub mod platform {
         /// place and the checkpoint records of both memories read through the kernel.
         BOOT_EXECUTIVE_INIT_TICKS = 0x0317,
             "boot_executive_init_ticks", Ticks, MeasuredCost, Executive, Instrument;
+        /// The planner partition's start at a boot: its statics and stack zeroed by the
+        /// kernel's partition start, up to its entry function (its restore is
+        /// PLANNER_RESTORE_TICKS). Sent once per boot.
+        BOOT_PLANNER_START_TICKS = 0x0318,
+            "boot_planner_start_ticks", Ticks, MeasuredCost, Planner, Instrument;
     }
 }
 
@@ -513,6 +518,35 @@ pub mod app {
         /// ticks when there is nothing to restore).
         RESTORE_DECODE_TICKS = 0x1022,
             "boot_restore_decode_ticks", Ticks, MeasuredCost, FlightApp, Instrument;
+        /// The planner partition: ticks its restore at boot took (finding, decoding and
+        /// validating its checkpoint). Sent when it restored one.
+        PLANNER_RESTORE_TICKS = 0x1023,
+            "planner_restore_ticks", Ticks, MeasuredCost, FlightApp, Instrument;
+        /// The planner partition's CPU from the start of its restore to the end of the first
+        /// window with no planning pending (the repaired plan committed), its checkpoints
+        /// included. Sent once per restore.
+        PLANNER_RECOVERY_TICKS = 0x1024,
+            "planner_recovery_ticks", Ticks, MeasuredCost, FlightApp, Instrument;
+        /// Ticks the planner partition's checkpoint write took (both areas).
+        PLANNER_CHECKPOINT_TICKS = 0x1025,
+            "planner_checkpoint_ticks", Ticks, MeasuredCost, FlightApp, Instrument;
+        /// Checkpoint writes of the planner partition that failed in one window.
+        PLANNER_CHECKPOINT_WRITE_FAILURES = 0x1026,
+            "planner_checkpoint_write_failures", Count, Value, FlightApp, Mission;
+        /// Mission time (µs) from the frame that started a planner cycle to the frame whose
+        /// window finished it, when that is more than one frame (a throttled planner: it
+        /// committed its plan that much later). A value, not a cost: the same on every target
+        /// with the same planner budget.
+        PLANNING_LATENCY_US = 0x1027,
+            "planning_latency_us", Micros, Value, FlightApp, Mission;
+        /// Commits the executive dropped since boot because they were planned for a network
+        /// that is no longer loaded; sent when it changes.
+        STALE_COMMITS = 0x1028,
+            "stale_commits", Count, Value, FlightApp, Mission;
+        /// Frames in which the planner's cycle stopped on its budget and went on in the next
+        /// frame's window (the planner was throttled), since boot; sent when it changes.
+        PLANNER_PENDING_FRAMES = 0x1029,
+            "planner_pending_frames", Count, Value, FlightApp, Mission;
     }
 
     /// The per-reason refusal count metric of `reason`.

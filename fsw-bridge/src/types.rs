@@ -116,4 +116,23 @@ pub enum ResetKind {
     /// torn). If the executive finishes that frame without writing a checkpoint, the reset
     /// happens when it finishes.
     WarmDuringCheckpointWrite { permille: u16 },
+    /// As `WarmAfterTicks`, in the planner partition's work on the next granted frame: once
+    /// it has run `ticks` ticks of CPU from its receipt of the executive's first message of
+    /// that frame (its planning, its checkpoint, its messages). If it finishes first, the
+    /// reset happens when it does.
+    PlannerAfterTicks { ticks: u32 },
+    /// As `WarmDuringCheckpointWrite`, in the planner partition's copy of its checkpoint of
+    /// the next granted frame into its slice of the warm-restart area.
+    PlannerDuringCheckpointWrite { permille: u16 },
+}
+
+impl ResetKind {
+    /// The point is in the planner partition's work (else the executive's, for the mid-frame
+    /// kinds).
+    pub const fn in_planner(self) -> bool {
+        matches!(
+            self,
+            ResetKind::PlannerAfterTicks { .. } | ResetKind::PlannerDuringCheckpointWrite { .. }
+        )
+    }
 }

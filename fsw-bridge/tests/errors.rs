@@ -383,7 +383,7 @@ fn malformed_is_counted() {
         &[0x02, 0x00, 0x01, 0x02, 0x00],       // StateUpdate, Bool(2)
         &[0x03, 0x00, 0x00, 0x02],             // CommandResponse, data Option tag 2
         &[0x03, 0x00, 0x03, 0x00],             // CommandResponse, CommandStatus variant 3
-        &[0x05, 0x03],                         // ResetRequest, ResetKind variant 3
+        &[0x05, 0x05],                         // ResetRequest, ResetKind variant 5
         &[0x00, 0xff, 0xff, 0xff, 0xff, 0x7f], // Ping, seq varint too long for a u32
         &[0x00, 0x05, 0x00],                   // Ping { seq: 5 } and a trailing byte
         &[0xff, 0xff, 0xff, 0xff, 0xff, 0x01], // tag varint longer than a u32

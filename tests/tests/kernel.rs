@@ -46,9 +46,12 @@ fn wait_for(
     loop {
         let left = deadline.saturating_duration_since(Instant::now());
         assert!(!left.is_zero(), "no {what} within {PATIENCE:?}");
-        let msg = target
-            .recv(left)
-            .unwrap_or_else(|e| panic!("waiting for {what}: {e}"));
+        let msg = target.recv(left).unwrap_or_else(|e| {
+            panic!(
+                "waiting for {what}: {e}; the target's log: {:#?}",
+                target.logs.iter().map(|l| &l.message).collect::<Vec<_>>()
+            )
+        });
         if want(&msg) {
             return msg;
         }

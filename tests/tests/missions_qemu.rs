@@ -101,29 +101,37 @@ fn early_reset_recovery_is_measured_in_guest_ticks_and_within_budget() {
         );
     }
     assert_eq!(r.resets[0].boot_to_ready_ticks, Some(warm));
-    assert_eq!(r.resets[0].reset_recovery_ticks, Some(warm + ticks));
-    assert_eq!(r.metrics["max_reset_recovery_ticks"], warm + ticks);
+    // The planner partition's part: its start and its CPU up to its repaired plan.
+    let planner = r.resets[0]
+        .planner_recovery_ticks
+        .expect("the planner partition's recovery measured");
+    assert!(planner > 0);
+    assert_eq!(
+        r.resets[0].reset_recovery_ticks,
+        Some(warm + ticks + planner)
+    );
+    assert_eq!(
+        r.metrics["max_reset_recovery_ticks"],
+        warm + ticks + planner
+    );
     assert_eq!(r.metrics["max_boot_to_ready_ticks_power_on"], cold);
     assert_eq!(r.metrics["max_boot_to_ready_ticks_warm"], warm);
 }
 
-/// Every frame's step is its planner part plus its executive part plus the two clock reads
-/// that split them (partition CPU time through a system call, about 13 ticks each).
+/// Every frame's step is the executive partition's two passes (its executive part); the
+/// planner part is the planner partition's window of that frame, measured there and reported
+/// before the executive's second window.
 fn check_step_split(r: &MissionReport) {
     let costs = &r.record.step_costs;
     assert!(!costs.is_empty());
     for c in costs {
-        let (p, e) = (c.planner.unwrap(), c.executive.unwrap());
-        assert!(
-            p + e <= c.step && c.step <= p + e + 64,
-            "frame {}: step {} vs planner {p} + executive {e}",
-            c.frame,
-            c.step
-        );
+        let e = c.executive.unwrap();
+        assert_eq!(c.step, e, "frame {}", c.frame);
     }
+    assert!(costs.iter().filter(|c| c.planner.is_some()).count() * 2 > costs.len());
     let max = |f: fn(&hil::mission::record::StepCost) -> u64| costs.iter().map(f).max().unwrap();
     assert_eq!(r.metrics["max_step_ticks"], max(|c| c.step));
-    assert_eq!(r.metrics["max_planner_ticks"], max(|c| c.planner.unwrap()));
+    assert!(max(|c| c.planner.unwrap_or(0)) <= r.metrics["max_planner_ticks"]);
     assert_eq!(
         r.metrics["max_executive_ticks"],
         max(|c| c.executive.unwrap())

@@ -335,6 +335,20 @@ impl<'a> WarmRestartArea<'a> {
             (a, b) => a.or(b),
         };
         let sequence = newest.map_or(1, |n| n.wrapping_add(1));
+        self.write_slot(slot, sequence, fill)
+    }
+
+    /// Writes a record numbered `sequence` into `slot`, its payload written by `fill`: for a
+    /// writer that knows the other slot holds the newest whole record (it wrote it), so that
+    /// no CRC of the old records is computed to find it. Breaks the slot's old record first
+    /// and writes the header last, so a torn write is never taken as whole.
+    pub fn write_slot(
+        &mut self,
+        slot: u8,
+        sequence: u32,
+        fill: impl FnOnce(&mut [u8]) -> Option<usize>,
+    ) -> Result<WrittenRecord, CheckpointError> {
+        let slot = slot & 1;
         let capacity = self.payload_capacity();
         let target = self.slot_mut(slot);
         // Break the old record in this slot first, so a torn write is never taken as whole.
@@ -376,6 +390,42 @@ impl<'a> WarmRestartArea<'a> {
             slot,
             sequence,
             bytes: (start, start + RECORD_HEADER_LEN + len),
+        })
+    }
+
+    /// Copies a whole record (its header and payload, as [`WarmRestartArea::write_slot`] made
+    /// it in another area: the bytes do not depend on the slot) into `slot`, in the same
+    /// order (old record broken first, magic last): the same checkpoint in a second memory
+    /// without encoding it or computing its CRC again.
+    pub fn copy_record(
+        &mut self,
+        slot: u8,
+        record: &[u8],
+    ) -> Result<WrittenRecord, CheckpointError> {
+        let slot = slot & 1;
+        if be_u32(record, 0) != Some(MAGIC) {
+            return Err(CheckpointError::AreaTooSmall);
+        }
+        let sequence = be_u32(record, 8).ok_or(CheckpointError::AreaTooSmall)?;
+        let target = self.slot_mut(slot);
+        let dst = target
+            .get_mut(..record.len())
+            .filter(|d| d.len() >= 4)
+            .ok_or(CheckpointError::AreaTooSmall)?;
+        dst.get_mut(..4)
+            .ok_or(CheckpointError::AreaTooSmall)?
+            .copy_from_slice(&[0; 4]);
+        dst.get_mut(4..)
+            .ok_or(CheckpointError::AreaTooSmall)?
+            .copy_from_slice(record.get(4..).unwrap_or(&[]));
+        dst.get_mut(..4)
+            .ok_or(CheckpointError::AreaTooSmall)?
+            .copy_from_slice(record.get(..4).unwrap_or(&[0; 4]));
+        let start = self.slot_offset(slot);
+        Ok(WrittenRecord {
+            slot,
+            sequence,
+            bytes: (start, start + record.len()),
         })
     }
 

@@ -650,7 +650,12 @@ fn an_image_larger_than_the_partitions_exchange_is_refused() {
     let mut spec = Box::new(NetworkSpec::new(0, PlannerConfig::DEFAULT));
     autonomy::scenarios::synthetic_into(
         &mut spec,
-        autonomy::scenarios::SyntheticShape::bench(MAX_TASKS),
+        autonomy::scenarios::SyntheticShape {
+            constraints: 4,
+            impacts: 4,
+            timelines: autonomy::scenarios::SYNTHETIC_BASE_TIMELINES + 4,
+            ..autonomy::scenarios::SyntheticShape::bench(MAX_TASKS)
+        },
     )
     .unwrap();
     let mut big = vec![0u8; 1 << 21];

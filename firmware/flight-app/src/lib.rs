@@ -24,7 +24,9 @@
 #![forbid(unsafe_code)]
 
 use autonomy::checkpoint::{self, Record, RECORD_HEADER_LEN};
-use autonomy::{Autonomy, Outputs, RestoreInfo, StepBudget, WarmRestartArea};
+pub use autonomy::partitioned::{ExecutiveInput, PlannerInput, PlannerStatus as Status, Wire};
+use autonomy::partitioned::{ExecutivePartition, PartitionSide, PlannerPartition, PlannerStatus};
+use autonomy::{Outputs, RestoreInfo, WarmRestartArea};
 use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::security::{MAC_LEN, MAX_GROUND_HOLDS};
 use fsw_bridge::{
@@ -68,10 +70,9 @@ pub mod metric {
     pub const RESTORED_FROM_NV: u64 = restored_from::NV;
 }
 
-/// Planner work allowed per granted frame.
-pub const DEFAULT_STEP_BUDGET: StepBudget = StepBudget {
-    planner_checks: 20_000,
-};
+/// Validity checks the planner may spend in one window (see `autonomy::planner`); a cycle
+/// that needs more goes on in the next frame's window.
+pub const DEFAULT_PLANNER_BUDGET: u32 = 20_000;
 
 /// Where the application's messages go.
 pub trait Downlink {
@@ -304,229 +305,145 @@ impl<D: Downlink> Outputs for Decisions<'_, D> {
     }
 }
 
-/// The flight application: the autonomy core plus the lockstep and uplink protocol around it.
-pub struct FlightApp {
-    autonomy: Autonomy,
-    uplink: [u8; MAX_UPLINK_BYTES],
-    uplink_len: usize,
-    /// (next expected sequence number, announced total) of the transfer in progress.
-    uplink_progress: Option<(u16, u16)>,
-    budget: StepBudget,
-    /// Set after a restore until the repaired plan is committed: the CPU spent on recovery so
-    /// far (see [`metric::RECOVERY_TICKS`]).
-    recovering: Option<u64>,
-    /// The last frame finished and what its FrameDone said: a grant for that frame again (the
-    /// host lost our FrameDone, or its grant reached us twice) is answered without stepping.
-    last_done: Option<(u32, Option<MissionTimeUs>)>,
-    /// Byte range of the warm memory the last checkpoint wrote (a target whose warm-restart
-    /// area sits behind a system call copies just these bytes).
-    last_warm_write: Option<(usize, usize)>,
-    /// The same for non-volatile memory.
-    last_nv_write: Option<(usize, usize)>,
+/// Where one partition's checkpoints stand in its two memories: what its copies hold, the
+/// newest sequence number, and the byte ranges the last checkpoint wrote.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Persistence {
     /// What the copies of the warm-restart area and of non-volatile memory hold, when a
-    /// [`MemoryFetch`] fills them (see [`FlightApp::boot_fetching`]).
+    /// [`MemoryFetch`] fills them.
     copies: [CopyState; 2],
+    /// The slot of each memory (warm, non-volatile) that holds the newest whole record, once
+    /// this side has written one there since its boot: the next write goes to the other
+    /// without reading or checking the old records.
+    newest_slot: [Option<u8>; 2],
     /// The newest sequence number of a whole record in either memory (found at boot, then the
     /// last one written): both memories' next checkpoints are numbered after it.
     newest_sequence: Option<u32>,
-    /// The state type mismatch count last reported ([`metric::STATE_TYPE_MISMATCHES`]).
-    reported_state_type_mismatches: u32,
-    /// The key, the anti-replay counter and the ground holds, read from non-volatile memory at
-    /// boot.
-    security: SecurityAssociation,
-    /// Refusals by the security checks since boot, per reason.
-    security_refusals: [u32; SecurityRefusal::COUNT],
-    /// Authentic ground commands not carried out since boot.
-    commands_not_carried_out: u32,
+    /// Byte ranges of the warm memory the checkpoints since the last take wrote, in order (a
+    /// target whose warm-restart area sits behind a system call copies just these bytes).
+    last_warm_write: Writes,
+    /// The same for non-volatile memory.
+    last_nv_write: Writes,
 }
 
-impl Default for FlightApp {
-    fn default() -> Self {
-        Self::new()
-    }
-}
+/// Byte ranges (start, end) written into a memory's copy, in order.
+pub type Writes = heapless::Vec<(usize, usize), 4>;
 
-impl FlightApp {
-    /// `const` so it can be placed in a partition's static memory.
-    pub const fn new() -> Self {
-        Self {
-            autonomy: Autonomy::new(),
-            uplink: [0; MAX_UPLINK_BYTES],
-            uplink_len: 0,
-            uplink_progress: None,
-            budget: DEFAULT_STEP_BUDGET,
-            recovering: None,
-            last_done: None,
-            last_warm_write: None,
-            last_nv_write: None,
-            copies: [CopyState::COMPLETE; 2],
-            newest_sequence: None,
-            reported_state_type_mismatches: 0,
-            security: SecurityAssociation::none(),
-            security_refusals: [0; SecurityRefusal::COUNT],
-            commands_not_carried_out: 0,
+/// Adds `range` to `writes`; with no room left, the last range grows to cover it (more
+/// bytes copied out, none missed).
+fn record_write(writes: &mut Writes, range: (usize, usize)) {
+    if let Err(range) = writes.push(range) {
+        if let Some(last) = writes.last_mut() {
+            *last = (last.0.min(range.0), last.1.max(range.1));
         }
     }
+}
 
-    /// Makes this application what [`FlightApp::new`] makes, in place, but for the bytes of
-    /// the uplink buffer (only its first `uplink_len` bytes are ever read, and that is now
-    /// 0). Writing `FlightApp::new()` into a static copies a 55 KiB constant image of it,
-    /// mostly zeros, that sits in the firmware image and that the reset stub's image check
-    /// reads at every boot; this writes the fields instead.
-    pub fn reset(&mut self) {
-        self.autonomy.reset();
-        self.uplink_len = 0;
-        self.uplink_progress = None;
-        self.budget = DEFAULT_STEP_BUDGET;
-        self.recovering = None;
-        self.last_done = None;
-        self.last_warm_write = None;
-        self.last_nv_write = None;
-        self.copies = [CopyState::COMPLETE; 2];
-        self.newest_sequence = None;
-        self.reported_state_type_mismatches = 0;
-        self.security = SecurityAssociation::none();
-        self.security_refusals = [0; SecurityRefusal::COUNT];
-        self.commands_not_carried_out = 0;
-    }
+impl Persistence {
+    const NEW: Self = Self {
+        copies: [CopyState::COMPLETE; 2],
+        newest_slot: [None; 2],
+        newest_sequence: None,
+        last_warm_write: heapless::Vec::new(),
+        last_nv_write: heapless::Vec::new(),
+    };
 
-    /// The security association read at boot and updated by every accepted message.
-    pub fn security(&self) -> &SecurityAssociation {
-        &self.security
-    }
-
-    /// Refusals by the security checks since boot for `reason`.
-    pub fn security_refusals(&self, reason: SecurityRefusal) -> u32 {
-        self.security_refusals[reason.index()]
-    }
-
-    pub fn autonomy(&self) -> &Autonomy {
-        &self.autonomy
-    }
-
-    /// The range of warm memory written by the last frame's checkpoint, once (start, end).
-    pub fn take_warm_write(&mut self) -> Option<(usize, usize)> {
-        self.last_warm_write.take()
-    }
-
-    pub fn set_budget(&mut self, budget: StepBudget) {
-        self.budget = budget;
-    }
-
-    /// The range of non-volatile memory written by the last frame's checkpoint, once.
-    pub fn take_nv_write(&mut self) -> Option<(usize, usize)> {
-        self.last_nv_write.take()
-    }
-
-    /// Checkpoint into the warm memory and, if there is one, non-volatile memory, both under
-    /// the sequence number after the newest of either; returns how many of the writes failed.
+    /// Checkpoint `side` into the warm memory and, if there is one, non-volatile memory, both
+    /// under the sequence number after the newest of either; returns how many of the writes
+    /// failed. When one write succeeded the side is told it is checkpointed.
     fn checkpoint_all(
         &mut self,
+        side: &mut impl PartitionSide,
         memories: &mut Memories<'_>,
         mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
     ) -> u64 {
         let newest = self.newest_sequence;
+        let sequence = newest.map_or(1, |n| n.wrapping_add(1));
         let mut failures = 0;
-        // A write goes to the slot that does not hold the newest whole record: the copy must
-        // hold that record (see `MemoryFetch`).
+        // A write goes to the slot that does not hold the newest whole record. Once this side
+        // has written a memory it knows that slot; before (after a boot), the copy must hold
+        // the records to find it (see `MemoryFetch`).
         let [warm_copy, nv_copy] = &mut self.copies;
-        fetch_latest(
-            memories.warm,
-            MemoryKind::Warm,
-            fetch.as_deref_mut(),
-            warm_copy,
-        );
-        match self
-            .autonomy
-            .checkpoint_record_after(&mut WarmRestartArea::new(memories.warm), newest)
-        {
-            Ok(written) => {
-                self.last_warm_write = Some(written.bytes);
-                self.newest_sequence = Some(newer(self.newest_sequence, written.sequence));
+        let warm = match self.newest_slot[0] {
+            Some(slot) => {
+                WarmRestartArea::new(memories.warm)
+                    .write_slot(1 - slot, sequence, |buf| side.encode_state(buf))
             }
-            Err(_) => failures += 1,
-        }
+            None => {
+                fetch_latest(
+                    memories.warm,
+                    MemoryKind::Warm,
+                    fetch.as_deref_mut(),
+                    warm_copy,
+                );
+                WarmRestartArea::new(memories.warm)
+                    .write_after(newest, |buf| side.encode_state(buf))
+            }
+        };
+        let warm = match warm {
+            Ok(written) => {
+                record_write(&mut self.last_warm_write, written.bytes);
+                self.newest_sequence = Some(newer(self.newest_sequence, written.sequence));
+                self.newest_slot[0] = Some(written.slot);
+                Some(written)
+            }
+            Err(_) => {
+                failures += 1;
+                None
+            }
+        };
+        let mut writes = 1;
         if let Some(nv) = memories.nv.as_deref_mut() {
-            fetch_latest(nv, MemoryKind::Nv, fetch, nv_copy);
-            match self
-                .autonomy
-                .checkpoint_record_after(&mut WarmRestartArea::new(nv), newest)
-            {
+            writes += 1;
+            // The same record: copied from the warm memory's when both are numbered alike
+            // (no second encoding, no second CRC), else written afresh.
+            let record = warm
+                .filter(|w| w.sequence == sequence)
+                .and_then(|w| memories.warm.get(w.bytes.0..w.bytes.1));
+            let written = match (self.newest_slot[1], record) {
+                (Some(slot), Some(record)) => {
+                    WarmRestartArea::new(nv).copy_record(1 - slot, record)
+                }
+                (Some(slot), None) => {
+                    WarmRestartArea::new(nv)
+                        .write_slot(1 - slot, sequence, |buf| side.encode_state(buf))
+                }
+                (None, _) => {
+                    fetch_latest(nv, MemoryKind::Nv, fetch, nv_copy);
+                    WarmRestartArea::new(nv).write_after(newest, |buf| side.encode_state(buf))
+                }
+            };
+            match written {
                 Ok(written) => {
-                    self.last_nv_write = Some(written.bytes);
+                    record_write(&mut self.last_nv_write, written.bytes);
                     self.newest_sequence = Some(newer(self.newest_sequence, written.sequence));
+                    self.newest_slot[1] = Some(written.slot);
                 }
                 Err(_) => failures += 1,
             }
         }
+        // A state that fits no slot (a network over what a checkpoint holds) is flown on
+        // unprotected, as a single core was: the side goes on as if checkpointed, so the ports
+        // keep moving, and every failed write is counted (CHECKPOINT_WRITE_FAILURES). A reset
+        // then restores the side's older checkpoint, or none, and the ports' resume brings the
+        // other side up to date.
+        let _ = writes;
+        side.checkpointed();
         failures
     }
 
-    /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories whose
-    /// payload validates (complete copies of both; see [`FlightApp::boot_fetching`]).
-    pub fn boot(
-        &mut self,
-        memories: &mut Memories<'_>,
-        clock: &mut impl CpuClock,
-        downlink: &mut impl Downlink,
-    ) -> BootOutcome {
-        self.boot_fetching(memories, None, clock, downlink)
-    }
-
-    /// As [`FlightApp::boot`], with copies of the memories that `fetch` fills on demand (see
-    /// [`MemoryFetch`]). The choice is the same (see [`FlightApp::restore_newest`]).
-    pub fn boot_fetching(
-        &mut self,
-        memories: &mut Memories<'_>,
-        mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
-        clock: &mut impl CpuClock,
-        downlink: &mut impl Downlink,
-    ) -> BootOutcome {
-        let t0 = clock.ticks();
-        self.security = SecurityAssociation::load(memories.security.as_deref_mut());
-        if self.security.holds() != 0 {
-            downlink.send(metric_event(
-                metric::GROUND_HOLDS,
-                u64::from(self.security.holds()),
-            ));
-        }
-        let t_security = clock.ticks();
+    /// Read the record headers of both memories (a target whose memories sit behind `fetch`);
+    /// the copies start out knowing nothing else.
+    fn start(&mut self, memories: &mut Memories<'_>, fetch: Option<&mut (dyn MemoryFetch + '_)>) {
         self.copies = [CopyState::COMPLETE; 2];
-        if let Some(fetch) = fetch.as_deref_mut() {
+        self.newest_slot = [None; 2];
+        if let Some(fetch) = fetch {
             self.copies = [CopyState::default(); 2];
             fetch_headers(memories.warm, MemoryKind::Warm, fetch);
             if let Some(nv) = memories.nv.as_deref_mut() {
                 fetch_headers(nv, MemoryKind::Nv, fetch);
             }
         }
-        let (outcome, decode_ticks) = self.restore_newest(memories, fetch, clock);
-        let t_end = clock.ticks();
-        if t_end != t0 {
-            downlink.send(metric_event(
-                metric::BOOT_SECURITY_TICKS,
-                t_security.wrapping_sub(t0),
-            ));
-            downlink.send(metric_event(
-                metric::RESTORE_CHECK_TICKS,
-                t_end.wrapping_sub(t_security).wrapping_sub(decode_ticks),
-            ));
-            downlink.send(metric_event(metric::RESTORE_DECODE_TICKS, decode_ticks));
-        }
-        if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
-            self.recovering = Some(0);
-            let from = match outcome {
-                BootOutcome::RestoredNv(_) => metric::RESTORED_FROM_NV,
-                _ => metric::RESTORED_FROM_WARM,
-            };
-            downlink.send(metric_event(metric::RESTORE_TICKS, t_end.wrapping_sub(t0)));
-            downlink.send(metric_event(
-                metric::RESTORED_SEQUENCE,
-                u64::from(info.sequence),
-            ));
-            downlink.send(metric_event(metric::RESTORED_FROM, from));
-            downlink.send(metric_event(metric::RESTORED_SLOT, u64::from(info.slot)));
-        }
-        outcome
     }
 
     /// The restore choice: the records of both memories (two slots each), newest first by
@@ -538,6 +455,7 @@ impl FlightApp {
     /// spent decoding and validating payloads.
     fn restore_newest(
         &mut self,
+        side: &mut impl PartitionSide,
         memories: &mut Memories<'_>,
         mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
         clock: &mut impl CpuClock,
@@ -572,13 +490,20 @@ impl FlightApp {
                 .all(|s| state.payloads_read & (1 << s) != 0);
             state.newest_known |= read_before;
             let t = clock.ticks();
-            let restored = self.autonomy.restore_record(Record {
+            let restored = side.restore_record(Record {
                 slot,
                 sequence,
                 payload,
             });
             decode_ticks = decode_ticks.wrapping_add(clock.ticks().wrapping_sub(t));
             if let Ok(info) = restored {
+                // The slot restored holds a whole, valid record: the next write in this memory
+                // goes to the other without checking the old records again.
+                let index = match memory {
+                    MemoryKind::Warm => 0,
+                    MemoryKind::Nv => 1,
+                };
+                self.newest_slot[index] = Some(slot);
                 outcome = match memory {
                     MemoryKind::Warm => BootOutcome::RestoredWarm(info),
                     MemoryKind::Nv => BootOutcome::RestoredNv(info),
@@ -588,6 +513,193 @@ impl FlightApp {
         }
         self.newest_sequence = newest;
         (outcome, decode_ticks)
+    }
+}
+
+/// The frame whose first window ran and whose planner answer is awaited.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Awaiting {
+    frame: u32,
+    /// Ticks of the first window's executive pass and of its checkpoint.
+    pass_ticks: u64,
+    checkpoint_ticks: u64,
+}
+
+/// The executive partition's application: the control loop (`autonomy::partitioned`'s
+/// executive side) plus the lockstep, uplink and security protocol around it. A granted
+/// frame runs in two windows: [`ExecutiveApp::first_window`] at the grant, and
+/// [`ExecutiveApp::second_window`] once the planner partition has answered the frame (its
+/// commits, decisions and status come through [`ExecutiveApp::receive`]), which ends with
+/// `FrameDone`. Between them [`ExecutiveApp::transmit`] hands the planner what the first
+/// window checkpointed.
+pub struct ExecutiveApp {
+    executive: ExecutivePartition,
+    uplink: [u8; MAX_UPLINK_BYTES],
+    uplink_len: usize,
+    /// (next expected sequence number, announced total) of the transfer in progress.
+    uplink_progress: Option<(u16, u16)>,
+    /// Set after a restore until the repaired plan is committed: the CPU spent on recovery so
+    /// far (see [`metric::RECOVERY_TICKS`]).
+    recovering: Option<u64>,
+    /// The last frame finished and what its FrameDone said: a grant for that frame again (the
+    /// host lost our FrameDone, or its grant reached us twice) is answered without stepping.
+    last_done: Option<(u32, Option<MissionTimeUs>)>,
+    /// The frame between its two windows.
+    awaiting: Option<Awaiting>,
+    persist: Persistence,
+    /// The state type mismatch count last reported ([`metric::STATE_TYPE_MISMATCHES`]).
+    reported_state_type_mismatches: u32,
+    /// The stale-commit count last reported ([`metric::STALE_COMMITS`]).
+    reported_stale_commits: u32,
+    /// Frames whose planner cycle stopped on its budget, since boot
+    /// ([`metric::PLANNER_PENDING_FRAMES`]).
+    pending_frames: u32,
+    /// The key, the anti-replay counter and the ground holds, read from non-volatile memory at
+    /// boot.
+    security: SecurityAssociation,
+    /// Refusals by the security checks since boot, per reason.
+    security_refusals: [u32; SecurityRefusal::COUNT],
+    /// Authentic ground commands not carried out since boot.
+    commands_not_carried_out: u32,
+}
+
+impl Default for ExecutiveApp {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl ExecutiveApp {
+    /// `const` so it can be placed in a partition's static memory.
+    pub const fn new() -> Self {
+        Self {
+            executive: ExecutivePartition::new(),
+            uplink: [0; MAX_UPLINK_BYTES],
+            uplink_len: 0,
+            uplink_progress: None,
+            recovering: None,
+            last_done: None,
+            awaiting: None,
+            persist: Persistence::NEW,
+            reported_state_type_mismatches: 0,
+            reported_stale_commits: 0,
+            pending_frames: 0,
+            security: SecurityAssociation::none(),
+            security_refusals: [0; SecurityRefusal::COUNT],
+            commands_not_carried_out: 0,
+        }
+    }
+
+    /// Makes this application what [`ExecutiveApp::new`] makes, in place, but for the bytes of
+    /// the uplink buffer (only its first `uplink_len` bytes are ever read, and that is now 0):
+    /// writing a constant image of it into a static would copy tens of KiB that sit in the
+    /// firmware image and that the reset stub's image check reads at every boot.
+    pub fn reset(&mut self) {
+        self.executive.reset();
+        self.uplink_len = 0;
+        self.uplink_progress = None;
+        self.recovering = None;
+        self.last_done = None;
+        self.awaiting = None;
+        self.persist = Persistence::NEW;
+        self.reported_state_type_mismatches = 0;
+        self.reported_stale_commits = 0;
+        self.pending_frames = 0;
+        self.security = SecurityAssociation::none();
+        self.security_refusals = [0; SecurityRefusal::COUNT];
+        self.commands_not_carried_out = 0;
+    }
+
+    /// The security association read at boot and updated by every accepted message.
+    pub fn security(&self) -> &SecurityAssociation {
+        &self.security
+    }
+
+    /// Refusals by the security checks since boot for `reason`.
+    pub fn security_refusals(&self, reason: SecurityRefusal) -> u32 {
+        self.security_refusals[reason.index()]
+    }
+
+    /// The control loop's side of the core.
+    pub fn executive(&self) -> &ExecutivePartition {
+        &self.executive
+    }
+
+    /// The ranges of warm memory written by the checkpoints since the last call, in order.
+    pub fn take_warm_writes(&mut self) -> Writes {
+        core::mem::take(&mut self.persist.last_warm_write)
+    }
+
+    /// The same for non-volatile memory.
+    pub fn take_nv_writes(&mut self) -> Writes {
+        core::mem::take(&mut self.persist.last_nv_write)
+    }
+
+    /// Whether a frame waits for the planner's answer.
+    pub fn awaiting_planner(&self) -> bool {
+        self.awaiting.is_some()
+    }
+
+    /// Come up after a (re)boot: restore the newest whole checkpoint of the two memories whose
+    /// payload validates (complete copies of both; see [`ExecutiveApp::boot_fetching`]).
+    pub fn boot(
+        &mut self,
+        memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> BootOutcome {
+        self.boot_fetching(memories, None, clock, downlink)
+    }
+
+    /// As [`ExecutiveApp::boot`], with copies of the memories that `fetch` fills on demand (see
+    /// [`MemoryFetch`]). The choice is the same (see `Persistence::restore_newest`).
+    pub fn boot_fetching(
+        &mut self,
+        memories: &mut Memories<'_>,
+        mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> BootOutcome {
+        let t0 = clock.ticks();
+        self.security = SecurityAssociation::load(memories.security.as_deref_mut());
+        if self.security.holds() != 0 {
+            downlink.send(metric_event(
+                metric::GROUND_HOLDS,
+                u64::from(self.security.holds()),
+            ));
+        }
+        let t_security = clock.ticks();
+        self.persist.start(memories, fetch.as_deref_mut());
+        let (outcome, decode_ticks) =
+            self.persist
+                .restore_newest(&mut self.executive, memories, fetch, clock);
+        let t_end = clock.ticks();
+        if t_end != t0 {
+            downlink.send(metric_event(
+                metric::BOOT_SECURITY_TICKS,
+                t_security.wrapping_sub(t0),
+            ));
+            downlink.send(metric_event(
+                metric::RESTORE_CHECK_TICKS,
+                t_end.wrapping_sub(t_security).wrapping_sub(decode_ticks),
+            ));
+            downlink.send(metric_event(metric::RESTORE_DECODE_TICKS, decode_ticks));
+        }
+        if let BootOutcome::RestoredWarm(info) | BootOutcome::RestoredNv(info) = outcome {
+            self.recovering = Some(0);
+            let from = match outcome {
+                BootOutcome::RestoredNv(_) => metric::RESTORED_FROM_NV,
+                _ => metric::RESTORED_FROM_WARM,
+            };
+            downlink.send(metric_event(metric::RESTORE_TICKS, t_end.wrapping_sub(t0)));
+            downlink.send(metric_event(
+                metric::RESTORED_SEQUENCE,
+                u64::from(info.sequence),
+            ));
+            downlink.send(metric_event(metric::RESTORED_FROM, from));
+            downlink.send(metric_event(metric::RESTORED_SLOT, u64::from(info.slot)));
+        }
+        outcome
     }
 
     /// Handle one message from the host. Returns false for messages that are not the
@@ -602,8 +714,9 @@ impl FlightApp {
         self.handle_fetching(msg, memories, None, clock, downlink)
     }
 
-    /// As [`FlightApp::handle`], for copies of the memories filled on demand by `fetch` (the
-    /// same as at [`FlightApp::boot_fetching`]).
+    /// As [`ExecutiveApp::handle`], for copies of the memories filled on demand by `fetch`
+    /// (the same as at [`ExecutiveApp::boot_fetching`]). A time grant runs the frame's first
+    /// window.
     pub fn handle_fetching(
         &mut self,
         msg: &HostToTarget,
@@ -618,9 +731,9 @@ impl FlightApp {
                 key,
                 value,
                 timestamp,
-            } => self.autonomy.on_state_update(*key, *value, *timestamp),
+            } => self.executive.on_state_update(*key, *value, *timestamp),
             HostToTarget::CommandResponse { id, status, .. } => {
-                self.autonomy.on_command_response(*id, *status)
+                self.executive.on_command_response(*id, *status)
             }
             HostToTarget::UplinkChunk { seq, total, bytes } => {
                 self.uplink_chunk((*seq, *total, bytes), memories, fetch, clock, downlink)
@@ -632,7 +745,7 @@ impl FlightApp {
             } => self.ground_command(header, command, mac, memories, downlink),
             HostToTarget::TimeGrant { frame, now, .. } => {
                 // Accounts its own recovery time.
-                self.frame(*frame, *now, memories, fetch, clock, downlink);
+                self.first_window(*frame, *now, memories, fetch, clock, downlink);
                 return true;
             }
             HostToTarget::Ping { .. } | HostToTarget::ResetRequest { .. } => return false,
@@ -640,6 +753,176 @@ impl FlightApp {
         if let (Some(t0), Some(spent)) = (t0, self.recovering.as_mut()) {
             *spent = spent.wrapping_add(clock.ticks().wrapping_sub(t0));
         }
+        true
+    }
+
+    /// Takes one message from the planner partition.
+    pub fn receive(&mut self, wire: Wire<ExecutiveInput>) {
+        self.executive.receive(wire);
+    }
+
+    /// Checkpoints now if messages for the planner wait for a checkpoint (they were made
+    /// outside a window's work: the planner came up without its checkpoint and is sent the
+    /// network again). Returns whether it wrote one.
+    pub fn checkpoint_if_needed(
+        &mut self,
+        memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
+        downlink: &mut impl Downlink,
+    ) -> bool {
+        if !self.executive.awaits_checkpoint() {
+            return false;
+        }
+        let failures = self
+            .persist
+            .checkpoint_all(&mut self.executive, memories, fetch);
+        if failures > 0 {
+            downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
+        }
+        true
+    }
+
+    /// Hands the planner partition what the last checkpoint holds (see
+    /// `autonomy::partitioned`), until `send` refuses one (a full port).
+    pub fn transmit(&mut self, send: &mut impl FnMut(Wire<PlannerInput>) -> bool) {
+        self.executive.transmit(send);
+    }
+
+    /// The first window of granted frame `frame` at `now`: the first executive pass, the
+    /// checkpoint, then the frame waits for the planner (a grant for a frame already done is
+    /// answered with its FrameDone again; one for the frame in progress is ignored).
+    fn first_window(
+        &mut self,
+        frame: u32,
+        now: MissionTimeUs,
+        memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) {
+        if let Some((done, next_wakeup)) = self.last_done {
+            if done == frame {
+                downlink.send(TargetToHost::FrameDone { frame, next_wakeup });
+                return;
+            }
+        }
+        if self.awaiting.is_some_and(|a| a.frame == frame) {
+            return;
+        }
+        let t0 = clock.ticks();
+        self.executive.first_window(
+            frame,
+            now,
+            &mut Decisions {
+                downlink: &mut *downlink,
+            },
+        );
+        let t1 = clock.ticks();
+        let failures = self
+            .persist
+            .checkpoint_all(&mut self.executive, memories, fetch);
+        let t2 = clock.ticks();
+        if failures > 0 {
+            downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
+        }
+        if let Some(spent) = self.recovering.as_mut() {
+            *spent = spent.wrapping_add(t2.wrapping_sub(t0));
+        }
+        self.awaiting = Some(Awaiting {
+            frame,
+            pass_ticks: t1.wrapping_sub(t0),
+            checkpoint_ticks: t2.wrapping_sub(t1),
+        });
+    }
+
+    /// The second window of the frame in progress, once the planner has answered it: the
+    /// planner's decisions for the host, the second executive pass, the checkpoint, the
+    /// frame's metrics and `FrameDone`. False (nothing done) while the planner has not
+    /// answered.
+    pub fn second_window(
+        &mut self,
+        memories: &mut Memories<'_>,
+        fetch: Option<&mut (dyn MemoryFetch + '_)>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> bool {
+        let Some(awaiting) = self.awaiting else {
+            return false;
+        };
+        if !self.executive.planner_answered() {
+            return false;
+        }
+        let t0 = clock.ticks();
+        self.executive.second_window(&mut Decisions {
+            downlink: &mut *downlink,
+        });
+        let t1 = clock.ticks();
+        let status = self.executive.planner_status().unwrap_or_default();
+        let repaired = !status.pending;
+        if let Some(spent) = self.recovering.as_mut() {
+            *spent = spent.wrapping_add(t1.wrapping_sub(t0));
+            if repaired {
+                // The repaired plan is committed.
+                downlink.send(metric_event(metric::RECOVERY_TICKS, *spent));
+                self.recovering = None;
+            }
+        }
+        let failures = self
+            .persist
+            .checkpoint_all(&mut self.executive, memories, fetch);
+        let t2 = clock.ticks();
+        if let Some(spent) = self.recovering.as_mut() {
+            // Still repairing: this frame's checkpoint is on the way to the committed plan.
+            *spent = spent.wrapping_add(t2.wrapping_sub(t1));
+        }
+        if failures > 0 {
+            downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
+        }
+        let mismatches = self.executive.control().state_type_mismatches();
+        if mismatches != self.reported_state_type_mismatches {
+            downlink.send(metric_event(
+                metric::STATE_TYPE_MISMATCHES,
+                u64::from(mismatches),
+            ));
+            if let Some(key) = self.executive.control().last_state_type_mismatch() {
+                downlink.send(metric_event(
+                    metric::STATE_TYPE_MISMATCH_KEY,
+                    u64::from(key.0),
+                ));
+            }
+            self.reported_state_type_mismatches = mismatches;
+        }
+        let stale = self.executive.stats.stale_commits;
+        if stale != self.reported_stale_commits {
+            downlink.send(metric_event(metric::STALE_COMMITS, u64::from(stale)));
+            self.reported_stale_commits = stale;
+        }
+        if status.pending {
+            self.pending_frames = self.pending_frames.saturating_add(1);
+            downlink.send(metric_event(
+                metric::PLANNER_PENDING_FRAMES,
+                u64::from(self.pending_frames),
+            ));
+        }
+        if let Some(latency) = status.cycle_latency_us.filter(|&l| l > 0) {
+            downlink.send(metric_event(metric::PLANNING_LATENCY_US, latency));
+        }
+        if t2 != t0 {
+            let pass = awaiting.pass_ticks.wrapping_add(t1.wrapping_sub(t0));
+            let checkpoint = awaiting.checkpoint_ticks.wrapping_add(t2.wrapping_sub(t1));
+            downlink.send(metric_event(metric::STEP_TICKS, pass));
+            downlink.send(metric_event(metric::EXECUTIVE_TICKS, pass));
+            downlink.send(metric_event(metric::CHECKPOINT_TICKS, checkpoint));
+            downlink.send(metric_event(
+                metric::FRAME_BUSY_TICKS,
+                pass.wrapping_add(checkpoint),
+            ));
+        }
+        let next_wakeup = self.executive.next_wakeup();
+        let frame = awaiting.frame;
+        self.awaiting = None;
+        self.last_done = Some((frame, next_wakeup));
+        downlink.send(TargetToHost::FrameDone { frame, next_wakeup });
         true
     }
 
@@ -715,12 +998,14 @@ impl FlightApp {
                 });
             }
         };
-        match self.autonomy.load_uplink(image) {
+        match self.executive.load_uplink(image) {
             // The whole network was accepted. It is checkpointed before the acknowledgement
             // (seq == total) goes out, so a network the ground saw acknowledged survives a
             // reset even before the first frame has run.
             Ok(()) => {
-                let failures = self.checkpoint_all(memories, fetch);
+                let failures = self
+                    .persist
+                    .checkpoint_all(&mut self.executive, memories, fetch);
                 if failures > 0 {
                     downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
                 }
@@ -794,78 +1079,564 @@ impl FlightApp {
         }
         downlink.send(TargetToHost::GroundCommandAck { sequence });
     }
+}
 
-    fn frame(
+/// The planner's budget in one window: validity checks, and CPU up to a clock reading.
+struct WindowBudget<'c, C: CpuClock> {
+    checks: u32,
+    until: Option<u64>,
+    clock: &'c mut C,
+}
+
+impl<C: CpuClock> autonomy::planner::Budget for WindowBudget<'_, C> {
+    fn exhausted(&mut self, checks_spent: u32) -> bool {
+        checks_spent >= self.checks || self.until.is_some_and(|t| self.clock.ticks() >= t)
+    }
+}
+
+/// The planner partition's application: the planning loop (`autonomy::partitioned`'s planner
+/// side) with its own checkpoints in its own slices of the two memories. It plans once per
+/// frame, in its window after the executive's first window ([`PlannerApp::window`]), within a
+/// budget of validity checks, and sends the executive its commits, decisions and status.
+pub struct PlannerApp {
+    partition: PlannerPartition,
+    persist: Persistence,
+    /// Validity checks per window.
+    budget: u32,
+    /// CPU ticks the planning may take per window (None: no limit): the planner stops before
+    /// the next job once its window's share is spent, so that it yields at its window's end
+    /// instead of being preempted there, and its cycle goes on in the next frame's window.
+    cpu_budget: Option<u64>,
+    /// Set at a restore until the first window with no planning pending: the CPU spent so
+    /// far, the restore included ([`metric::PLANNER_RECOVERY_TICKS`]).
+    recovering: Option<u64>,
+}
+
+impl Default for PlannerApp {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl PlannerApp {
+    pub const fn new() -> Self {
+        Self {
+            partition: PlannerPartition::new(),
+            persist: Persistence::NEW,
+            budget: DEFAULT_PLANNER_BUDGET,
+            cpu_budget: None,
+            recovering: None,
+        }
+    }
+
+    /// Makes this application what [`PlannerApp::new`] makes, in place.
+    pub fn reset(&mut self) {
+        self.partition.reset();
+        self.persist = Persistence::NEW;
+        self.budget = DEFAULT_PLANNER_BUDGET;
+        self.cpu_budget = None;
+        self.recovering = None;
+    }
+
+    /// The planning loop's side of the core.
+    pub fn partition(&self) -> &PlannerPartition {
+        &self.partition
+    }
+
+    /// Validity checks per window (see [`DEFAULT_PLANNER_BUDGET`]).
+    pub fn set_budget(&mut self, checks: u32) {
+        self.budget = checks;
+    }
+
+    /// CPU ticks the planning may take per window (None: no limit; see the field).
+    pub fn set_cpu_budget(&mut self, ticks: Option<u64>) {
+        self.cpu_budget = ticks;
+    }
+
+    /// The ranges of warm memory written by the checkpoints since the last call, in order.
+    pub fn take_warm_writes(&mut self) -> Writes {
+        core::mem::take(&mut self.persist.last_warm_write)
+    }
+
+    /// The same for non-volatile memory.
+    pub fn take_nv_writes(&mut self) -> Writes {
+        core::mem::take(&mut self.persist.last_nv_write)
+    }
+
+    /// Come up after a (re)boot: restore the newest whole checkpoint of this partition's two
+    /// memories (copies filled by `fetch` on demand, or complete ones).
+    pub fn boot_fetching(
         &mut self,
-        frame: u32,
-        now: MissionTimeUs,
+        memories: &mut Memories<'_>,
+        mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> BootOutcome {
+        let t0 = clock.ticks();
+        self.persist.start(memories, fetch.as_deref_mut());
+        let (outcome, _) = self
+            .persist
+            .restore_newest(&mut self.partition, memories, fetch, clock);
+        let t1 = clock.ticks();
+        // Restored or not, the planner's CPU counts towards the repaired plan until its first
+        // window with nothing pending: a planner that lost its checkpoint plans afresh.
+        self.recovering = Some(t1.wrapping_sub(t0));
+        if let BootOutcome::RestoredWarm(_) | BootOutcome::RestoredNv(_) = outcome {
+            if t1 != t0 {
+                downlink.send(metric_event(
+                    metric::PLANNER_RESTORE_TICKS,
+                    t1.wrapping_sub(t0),
+                ));
+            }
+        }
+        outcome
+    }
+
+    /// Takes one message from the executive partition.
+    pub fn receive(&mut self, wire: Wire<PlannerInput>) {
+        self.partition.receive(wire);
+    }
+
+    /// Whether the executive's frame has come and the window has not run for it.
+    pub fn frame_pending(&self) -> bool {
+        self.partition.frame_pending()
+    }
+
+    /// Messages for the executive not sent yet (the port was full).
+    pub fn unsent(&self) -> usize {
+        self.partition.unsent()
+    }
+
+    /// The window for the frame the executive announced, if one came: planning within the
+    /// budget, then the checkpoint (after which [`PlannerApp::transmit`] may send the
+    /// commits, decisions and status). Its costs go to `downlink` as metrics.
+    pub fn window(
+        &mut self,
         memories: &mut Memories<'_>,
         fetch: Option<&mut (dyn MemoryFetch + '_)>,
         clock: &mut impl CpuClock,
         downlink: &mut impl Downlink,
-    ) {
-        if let Some((done, next_wakeup)) = self.last_done {
-            if done == frame {
-                downlink.send(TargetToHost::FrameDone { frame, next_wakeup });
-                return;
-            }
-        }
+    ) -> Option<PlannerStatus> {
         let t0 = clock.ticks();
-        let (report, cost) = self.autonomy.step_timed(
-            now,
-            self.budget,
-            &mut Decisions {
-                downlink: &mut *downlink,
-            },
-            &mut || clock.ticks(),
-        );
+        let budget = WindowBudget {
+            checks: self.budget,
+            until: self.cpu_budget.map(|ticks| t0.saturating_add(ticks)),
+            clock: &mut *clock,
+        };
+        let status = self.partition.window(budget)?;
         let t1 = clock.ticks();
+        let failures = self
+            .persist
+            .checkpoint_all(&mut self.partition, memories, fetch);
+        let t2 = clock.ticks();
+        if failures > 0 {
+            downlink.send(metric_event(
+                metric::PLANNER_CHECKPOINT_WRITE_FAILURES,
+                failures,
+            ));
+        }
         if let Some(spent) = self.recovering.as_mut() {
-            *spent = spent.wrapping_add(t1.wrapping_sub(t0));
-            if !report.planner_pending {
-                // The repaired plan is committed.
-                downlink.send(metric_event(metric::RECOVERY_TICKS, *spent));
+            *spent = spent.wrapping_add(t2.wrapping_sub(t0));
+            if !status.pending {
+                if t2 != t0 {
+                    downlink.send(metric_event(metric::PLANNER_RECOVERY_TICKS, *spent));
+                }
                 self.recovering = None;
             }
         }
-        let failures = self.checkpoint_all(memories, fetch);
-        let t2 = clock.ticks();
-        if let Some(spent) = self.recovering.as_mut() {
-            // Still repairing: this frame's checkpoint is on the way to the committed plan.
-            *spent = spent.wrapping_add(t2.wrapping_sub(t1));
-        }
-        if failures > 0 {
-            downlink.send(metric_event(metric::CHECKPOINT_WRITE_FAILURES, failures));
-        }
-        let mismatches = self.autonomy.state_type_mismatches();
-        if mismatches != self.reported_state_type_mismatches {
-            downlink.send(metric_event(
-                metric::STATE_TYPE_MISMATCHES,
-                u64::from(mismatches),
-            ));
-            if let Some(key) = self.autonomy.last_state_type_mismatch() {
-                downlink.send(metric_event(
-                    metric::STATE_TYPE_MISMATCH_KEY,
-                    u64::from(key.0),
-                ));
-            }
-            self.reported_state_type_mismatches = mismatches;
-        }
         if t2 != t0 {
-            downlink.send(metric_event(metric::STEP_TICKS, t1.wrapping_sub(t0)));
-            downlink.send(metric_event(metric::PLANNER_TICKS, cost.planner));
-            downlink.send(metric_event(metric::EXECUTIVE_TICKS, cost.executive));
-            downlink.send(metric_event(metric::CHECKPOINT_TICKS, t2.wrapping_sub(t1)));
-            downlink.send(metric_event(metric::FRAME_BUSY_TICKS, t2.wrapping_sub(t0)));
+            downlink.send(metric_event(metric::PLANNER_TICKS, t1.wrapping_sub(t0)));
+            downlink.send(metric_event(
+                metric::PLANNER_CHECKPOINT_TICKS,
+                t2.wrapping_sub(t1),
+            ));
         }
-        let next_wakeup = if report.planner_pending {
-            Some(now)
-        } else {
-            self.autonomy.next_wakeup()
-        };
-        self.last_done = Some((frame, next_wakeup));
-        downlink.send(TargetToHost::FrameDone { frame, next_wakeup });
+        Some(status)
     }
+
+    /// Hands the executive partition what the last checkpoint holds, until `send` refuses one.
+    pub fn transmit(&mut self, send: &mut impl FnMut(Wire<ExecutiveInput>) -> bool) {
+        self.partition.transmit(send);
+    }
+}
+
+/// Rounds of the planner's and the executive's windows one grant may take in [`FlightApp`]: one,
+/// and one more when the planner must be brought up to date first.
+const MAX_ROUNDS_PER_FRAME: usize = 2;
+
+/// Bytes of the warm memory and of non-volatile memory's checkpoint part that
+/// [`FlightApp`] gives the executive's side (the rest is the planner's), as the kernel
+/// gives each partition its slice.
+pub const fn executive_share(len: usize) -> usize {
+    len / 2
+}
+
+/// Offsets a [`MemoryFetch`] by the start of one side's share of the memories.
+struct ShareFetch<'f, 'g> {
+    fetch: &'f mut (dyn MemoryFetch + 'g),
+    warm_offset: usize,
+    nv_offset: usize,
+}
+
+impl MemoryFetch for ShareFetch<'_, '_> {
+    fn fetch(
+        &mut self,
+        memory: MemoryKind,
+        offset: usize,
+        bytes: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let base = match memory {
+            MemoryKind::Warm => self.warm_offset,
+            MemoryKind::Nv => self.nv_offset,
+        };
+        self.fetch.fetch(memory, base + offset, bytes)
+    }
+}
+
+/// The whole flight software in one place, for a target without partitions (`hil`'s native
+/// target, tests): the executive's and the planner's applications with the ports between them
+/// as direct calls, each with its share of the memories ([`executive_share`]). A time grant
+/// runs the executive's first window, the planner's window and the executive's second window,
+/// as the partitions' windows run in one major frame of the target.
+pub struct FlightApp {
+    executive: ExecutiveApp,
+    planner: PlannerApp,
+    /// Bytes of each memory's checkpoint part that are the executive's (the rest is the
+    /// planner's); None: half of each ([`executive_share`]).
+    executive_bytes: Option<usize>,
+    /// The lengths of the warm memory and of non-volatile memory's checkpoint part last seen.
+    lens: (usize, usize),
+}
+
+impl Default for FlightApp {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl FlightApp {
+    pub const fn new() -> Self {
+        let mut planner = PlannerApp::new();
+        // The unthrottled reference: the planner's cycle runs to its end in every frame.
+        planner.budget = u32::MAX;
+        Self {
+            executive: ExecutiveApp::new(),
+            planner,
+            executive_bytes: None,
+            lens: (0, 0),
+        }
+    }
+
+    /// As [`FlightApp::new`], with the memories split as the kernel splits them: the first
+    /// `executive_bytes` of each memory's checkpoint part are the executive partition's slice,
+    /// the rest the planner's (`kernel_config::system::EXECUTIVE_WARM`).
+    pub const fn with_executive_share(executive_bytes: usize) -> Self {
+        let mut app = Self::new();
+        app.executive_bytes = Some(executive_bytes);
+        app
+    }
+
+    /// Makes this application what [`FlightApp::new`] makes, in place (the memories' split
+    /// and the planner's budget are kept).
+    pub fn reset(&mut self) {
+        let budget = self.planner.budget;
+        self.executive.reset();
+        self.planner.reset();
+        self.planner.budget = budget;
+    }
+
+    /// The executive's bytes of a memory part of `len` bytes.
+    fn share(&self, len: usize) -> usize {
+        self.executive_bytes
+            .map_or(executive_share(len), |b| b.min(len))
+    }
+
+    /// Where the planner's shares of `memories` start (warm, non-volatile), remembered for
+    /// [`FlightApp::take_warm_write`].
+    fn shares(&mut self, memories: &Memories<'_>) -> (usize, usize) {
+        self.lens = (
+            memories.warm.len(),
+            memories.nv.as_deref().map_or(0, <[u8]>::len),
+        );
+        (self.share(self.lens.0), self.share(self.lens.1))
+    }
+
+    pub fn executive(&self) -> &ExecutiveApp {
+        &self.executive
+    }
+
+    pub fn planner(&self) -> &PlannerApp {
+        &self.planner
+    }
+
+    /// Both sides' whole states, the executive's then the planner's, as their checkpoints
+    /// hold them (tests compare them to show that something left the state untouched).
+    pub fn encode_state(&self, buf: &mut [u8]) -> Option<usize> {
+        let n = self.executive.executive().encode_state(buf)?;
+        let m = self.planner.partition().encode_state(buf.get_mut(n..)?)?;
+        Some(n + m)
+    }
+
+    /// The executive's network (the one loaded last).
+    pub fn network(&self) -> &autonomy::TaskNetwork {
+        self.executive.executive().network()
+    }
+
+    /// Validity checks per planner window.
+    pub fn set_planner_budget(&mut self, checks: u32) {
+        self.planner.set_budget(checks);
+    }
+
+    /// The security association read at boot and updated by every accepted message.
+    pub fn security(&self) -> &SecurityAssociation {
+        self.executive.security()
+    }
+
+    /// Refusals by the security checks since boot for `reason`.
+    pub fn security_refusals(&self, reason: SecurityRefusal) -> u32 {
+        self.executive.security_refusals(reason)
+    }
+
+    /// The ranges the checkpoints since the last call wrote into the warm memory, in the whole
+    /// memory's offsets: the executive's, then the planner's.
+    pub fn take_warm_writes(&mut self) -> heapless::Vec<(usize, usize), 8> {
+        let base = self.share(self.lens.0);
+        both_writes(
+            self.executive.take_warm_writes(),
+            self.planner.take_warm_writes(),
+            base,
+        )
+    }
+
+    /// The same for non-volatile memory's checkpoint part.
+    pub fn take_nv_writes(&mut self) -> heapless::Vec<(usize, usize), 8> {
+        let base = self.share(self.lens.1);
+        both_writes(
+            self.executive.take_nv_writes(),
+            self.planner.take_nv_writes(),
+            base,
+        )
+    }
+
+    /// The range the last checkpoint since the last call wrote into the warm memory, in the
+    /// whole memory's offsets: the executive's last one if it wrote any (after a frame, its
+    /// second window's), else the planner's. What a reset right after could have torn. The
+    /// others are forgotten.
+    pub fn take_warm_write(&mut self) -> Option<(usize, usize)> {
+        let base = self.share(self.lens.0);
+        let planner = self.planner.take_warm_writes();
+        let executive = self.executive.take_warm_writes();
+        executive
+            .last()
+            .copied()
+            .or_else(|| planner.last().map(|&(s, e)| (s + base, e + base)))
+    }
+
+    /// The same for non-volatile memory's checkpoint part.
+    pub fn take_nv_write(&mut self) -> Option<(usize, usize)> {
+        let base = self.share(self.lens.1);
+        let planner = self.planner.take_nv_writes();
+        let executive = self.executive.take_nv_writes();
+        executive
+            .last()
+            .copied()
+            .or_else(|| planner.last().map(|&(s, e)| (s + base, e + base)))
+    }
+
+    /// Come up after a (re)boot: each side restores its newest whole checkpoint from its share
+    /// of the memories. The executive's outcome is the application's.
+    pub fn boot(
+        &mut self,
+        memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> BootOutcome {
+        self.boot_fetching(memories, None, clock, downlink)
+    }
+
+    /// As [`FlightApp::boot`], with copies filled by `fetch` on demand.
+    pub fn boot_fetching(
+        &mut self,
+        memories: &mut Memories<'_>,
+        mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> BootOutcome {
+        let at = self.shares(memories);
+        let outcome = {
+            let (mut mem, _) = split(memories, at);
+            let mut fetch = fetch.as_deref_mut().map(|f| ShareFetch {
+                fetch: f,
+                warm_offset: 0,
+                nv_offset: 0,
+            });
+            self.executive.boot_fetching(
+                &mut mem,
+                fetch.as_mut().map(|f| f as &mut dyn MemoryFetch),
+                clock,
+                downlink,
+            )
+        };
+        let (_, mut mem) = split(memories, at);
+        let mut fetch = fetch.map(|f| ShareFetch {
+            fetch: f,
+            warm_offset: at.0,
+            nv_offset: at.1,
+        });
+        self.planner.boot_fetching(
+            &mut mem,
+            fetch.as_mut().map(|f| f as &mut dyn MemoryFetch),
+            clock,
+            downlink,
+        );
+        outcome
+    }
+
+    /// Handle one message from the host (see [`ExecutiveApp::handle`]); a time grant runs the
+    /// whole frame, both partitions.
+    pub fn handle(
+        &mut self,
+        msg: &HostToTarget,
+        memories: &mut Memories<'_>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> bool {
+        self.handle_fetching(msg, memories, None, clock, downlink)
+    }
+
+    /// As [`FlightApp::handle`], for copies filled by `fetch` on demand.
+    pub fn handle_fetching(
+        &mut self,
+        msg: &HostToTarget,
+        memories: &mut Memories<'_>,
+        mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
+        clock: &mut impl CpuClock,
+        downlink: &mut impl Downlink,
+    ) -> bool {
+        let at = self.shares(memories);
+        let share = |planner: bool| if planner { at } else { (0, 0) };
+        let handled = {
+            let (mut mem, _) = split(memories, at);
+            let mut f = share_fetch(fetch.as_deref_mut(), share(false));
+            self.executive.handle_fetching(
+                msg,
+                &mut mem,
+                f.as_mut().map(|f| f as &mut dyn MemoryFetch),
+                clock,
+                downlink,
+            )
+        };
+        // The rest of the frame: the planner's window, then the executive's second. A second
+        // round (a major frame more on the target) when the planner had to be brought up to
+        // date first; never more.
+        if !self.executive.awaiting_planner() {
+            return handled;
+        }
+        let Self {
+            executive, planner, ..
+        } = self;
+        for _ in 0..MAX_ROUNDS_PER_FRAME {
+            if !executive.awaiting_planner() {
+                break;
+            }
+            {
+                let (mut mem, _) = split(memories, at);
+                let mut f = share_fetch(fetch.as_deref_mut(), share(false));
+                executive.checkpoint_if_needed(
+                    &mut mem,
+                    f.as_mut().map(|f| f as &mut dyn MemoryFetch),
+                    downlink,
+                );
+            }
+            executive.transmit(&mut |w| {
+                planner.receive(w);
+                true
+            });
+            {
+                let (_, mut mem) = split(memories, at);
+                let mut f = share_fetch(fetch.as_deref_mut(), share(true));
+                planner.window(
+                    &mut mem,
+                    f.as_mut().map(|f| f as &mut dyn MemoryFetch),
+                    clock,
+                    downlink,
+                );
+            }
+            planner.transmit(&mut |w| {
+                executive.receive(w);
+                true
+            });
+            let (mut mem, _) = split(memories, at);
+            let mut f = share_fetch(fetch.as_deref_mut(), share(false));
+            executive.second_window(
+                &mut mem,
+                f.as_mut().map(|f| f as &mut dyn MemoryFetch),
+                clock,
+                downlink,
+            );
+        }
+        executive.transmit(&mut |w| {
+            planner.receive(w);
+            true
+        });
+        handled
+    }
+}
+
+/// Both sides' write ranges in the whole memory's offsets: the executive's, then the
+/// planner's (whose share starts at `base`).
+fn both_writes(
+    executive: Writes,
+    planner: Writes,
+    base: usize,
+) -> heapless::Vec<(usize, usize), 8> {
+    executive
+        .into_iter()
+        .chain(planner.into_iter().map(|(s, e)| (s + base, e + base)))
+        .collect()
+}
+
+/// `fetch` for one side's share, which starts at `(warm, nv)` offsets.
+fn share_fetch<'f, 'g>(
+    fetch: Option<&'f mut (dyn MemoryFetch + 'g)>,
+    (warm_offset, nv_offset): (usize, usize),
+) -> Option<ShareFetch<'f, 'g>> {
+    fetch.map(|fetch| ShareFetch {
+        fetch,
+        warm_offset,
+        nv_offset,
+    })
+}
+
+/// The executive's and the planner's shares of `memories` (the security area is the
+/// executive's).
+fn split<'m, 'a: 'm>(
+    memories: &'m mut Memories<'a>,
+    (warm_at, nv_at): (usize, usize),
+) -> (Memories<'m>, Memories<'m>) {
+    let (exec_warm, planner_warm) = memories.warm.split_at_mut(warm_at);
+    let (exec_nv, planner_nv) = match memories.nv.as_deref_mut() {
+        Some(nv) => {
+            let (a, b) = nv.split_at_mut(nv_at);
+            (Some(a), Some(b))
+        }
+        None => (None, None),
+    };
+    (
+        Memories {
+            warm: exec_warm,
+            nv: exec_nv,
+            security: match memories.security.as_mut() {
+                Some(s) => Some(&mut **s),
+                None => None,
+            },
+        },
+        Memories {
+            warm: planner_warm,
+            nv: planner_nv,
+            security: None,
+        },
+    )
 }
 
 /// Count a refusal for `reason`; the new count.
@@ -949,6 +1720,33 @@ mod tests {
                 metric::RESTORE_DECODE_TICKS,
                 "RESTORE_DECODE_TICKS",
                 Instrument,
+            ),
+            (
+                metric::PLANNER_RESTORE_TICKS,
+                "PLANNER_RESTORE_TICKS",
+                Instrument,
+            ),
+            (
+                metric::PLANNER_RECOVERY_TICKS,
+                "PLANNER_RECOVERY_TICKS",
+                Instrument,
+            ),
+            (
+                metric::PLANNER_CHECKPOINT_TICKS,
+                "PLANNER_CHECKPOINT_TICKS",
+                Instrument,
+            ),
+            (
+                metric::PLANNER_CHECKPOINT_WRITE_FAILURES,
+                "PLANNER_CHECKPOINT_WRITE_FAILURES",
+                Mission,
+            ),
+            (metric::PLANNING_LATENCY_US, "PLANNING_LATENCY_US", Mission),
+            (metric::STALE_COMMITS, "STALE_COMMITS", Mission),
+            (
+                metric::PLANNER_PENDING_FRAMES,
+                "PLANNER_PENDING_FRAMES",
+                Mission,
             ),
         ];
         assert_eq!(
@@ -1143,10 +1941,14 @@ mod tests {
         out
     }
 
+    /// Both sides' whole states, as their checkpoints hold them.
     fn encoded_core(app: &FlightApp) -> Vec<u8> {
         let mut buf = std::vec![0u8; 1 << 16];
-        let len = app.autonomy.encode_state(&mut buf).unwrap();
+        let len = app.executive.executive.encode_state(&mut buf).unwrap();
         buf.truncate(len);
+        let mut planner = std::vec![0u8; 1 << 16];
+        let len = app.planner.partition.encode_state(&mut planner).unwrap();
+        buf.extend_from_slice(&planner[..len]);
         buf
     }
 
@@ -1156,28 +1958,28 @@ mod tests {
         let first = fly_ten_frames(&mut used);
         let fresh = std::boxed::Box::new(FlightApp::new());
         assert_ne!(encoded_core(&used), encoded_core(&fresh));
-        assert_ne!(used.security, fresh.security);
+        assert_ne!(used.security(), fresh.security());
         used.reset();
         assert_eq!(encoded_core(&used), encoded_core(&fresh));
-        assert_eq!(used.uplink_len, fresh.uplink_len);
-        assert_eq!(used.uplink_progress, fresh.uplink_progress);
-        assert_eq!(used.budget, fresh.budget);
-        assert_eq!(used.recovering, fresh.recovering);
-        assert_eq!(used.last_done, fresh.last_done);
-        assert_eq!(used.last_warm_write, fresh.last_warm_write);
-        assert_eq!(used.last_nv_write, fresh.last_nv_write);
-        assert_eq!(used.copies, fresh.copies);
-        assert_eq!(used.newest_sequence, fresh.newest_sequence);
+        let (u, f) = (&used.executive, &fresh.executive);
+        assert_eq!(u.uplink_len, f.uplink_len);
+        assert_eq!(u.uplink_progress, f.uplink_progress);
+        assert_eq!(u.recovering, f.recovering);
+        assert_eq!(u.last_done, f.last_done);
+        assert_eq!(u.awaiting, f.awaiting);
+        assert_eq!(u.persist, f.persist);
         assert_eq!(
-            used.reported_state_type_mismatches,
-            fresh.reported_state_type_mismatches
+            u.reported_state_type_mismatches,
+            f.reported_state_type_mismatches
         );
-        assert_eq!(used.security, fresh.security);
-        assert_eq!(used.security_refusals, fresh.security_refusals);
-        assert_eq!(
-            used.commands_not_carried_out,
-            fresh.commands_not_carried_out
-        );
+        assert_eq!(u.reported_stale_commits, f.reported_stale_commits);
+        assert_eq!(u.security, f.security);
+        assert_eq!(u.security_refusals, f.security_refusals);
+        assert_eq!(u.commands_not_carried_out, f.commands_not_carried_out);
+        let (u, f) = (&used.planner, &fresh.planner);
+        assert_eq!(u.persist, f.persist);
+        assert_eq!(u.budget, f.budget);
+        assert_eq!(u.recovering, f.recovering);
         assert_eq!(fly_ten_frames(&mut used), first);
     }
 
@@ -1197,11 +1999,19 @@ mod tests {
         app.handle(&grant(0, 9 * 3600), &mut mem, &mut clock, &mut |m| {
             out.push(m)
         });
-        // Step: one read before, four inside (executive, planner, executive), one after.
-        assert_eq!(metrics(&out, metric::STEP_TICKS), [50]);
+        // Each window reads the clock before its work, between the work and its checkpoint,
+        // and after: the executive's two passes (10 each), the planner's (10), each checkpoint
+        // 10.
+        assert_eq!(metrics(&out, metric::STEP_TICKS), [20]);
         assert_eq!(metrics(&out, metric::EXECUTIVE_TICKS), [20]);
+        assert_eq!(metrics(&out, metric::CHECKPOINT_TICKS), [20]);
+        assert_eq!(metrics(&out, metric::FRAME_BUSY_TICKS), [40]);
         assert_eq!(metrics(&out, metric::PLANNER_TICKS), [10]);
+        assert_eq!(metrics(&out, metric::PLANNER_CHECKPOINT_TICKS), [10]);
         assert!(metrics(&out, metric::RECOVERY_TICKS).is_empty());
+        // The planner counts its way to its first plan after any boot, a cold one too (the
+        // host counts it only after a reset).
+        assert_eq!(metrics(&out, metric::PLANNER_RECOVERY_TICKS).len(), 1);
 
         // Warm reset: a fresh application restores, hears two state updates, then a grant.
         let mut app = std::boxed::Box::new(FlightApp::new());
@@ -1219,13 +2029,18 @@ mod tests {
         app.handle(&grant(1, 9 * 3600 + 60), &mut mem, &mut clock, &mut |m| {
             out.push(m)
         });
-        // 10 ticks per state update, 50 for the step.
-        assert_eq!(metrics(&out, metric::RECOVERY_TICKS), [70]);
+        // The executive: 10 ticks per state update, 20 for the first window and its
+        // checkpoint, 10 for the second window's pass (the plan is repaired: its checkpoint is
+        // not counted). The planner partition counts its own, from its restore on.
+        assert_eq!(metrics(&out, metric::RECOVERY_TICKS), [50]);
+        assert_eq!(metrics(&out, metric::PLANNER_RECOVERY_TICKS).len(), 1);
+        assert!(metrics(&out, metric::PLANNER_RECOVERY_TICKS)[0] >= 20);
         // Once per restore.
         app.handle(&grant(2, 9 * 3600 + 120), &mut mem, &mut clock, &mut |m| {
             out.push(m)
         });
-        assert_eq!(metrics(&out, metric::RECOVERY_TICKS), [70]);
+        assert_eq!(metrics(&out, metric::RECOVERY_TICKS), [50]);
+        assert_eq!(metrics(&out, metric::PLANNER_RECOVERY_TICKS).len(), 1);
         assert_eq!(metrics(&out, metric::STEP_TICKS).len(), 2);
     }
 
@@ -1342,13 +2157,13 @@ mod tests {
             out.pop(),
             Some(TargetToHost::UplinkNak { seq: 1, .. })
         ));
-        assert!(app.autonomy().network().tasks().is_empty());
+        assert!(app.executive().executive().network().tasks().is_empty());
     }
 
     /// The whole plan and execution state, to show that a refusal left it untouched.
     fn state_image(app: &FlightApp) -> Vec<u8> {
         let mut buf = std::vec![0u8; 64 * 1024];
-        let n = app.autonomy().encode_state(&mut buf).unwrap();
+        let n = app.executive().executive().encode_state(&mut buf).unwrap();
         buf.truncate(n);
         buf
     }
@@ -1379,7 +2194,13 @@ mod tests {
         let mut app = std::boxed::Box::new(FlightApp::new());
         boot_and_uplink_flyby(&mut app, mem);
         app.handle(&grant(0, 9 * 3600), mem, &mut NoClock, &mut |_| {});
-        assert!(app.autonomy().executive().entries().is_empty());
+        assert!(app
+            .executive()
+            .executive()
+            .control()
+            .executive()
+            .entries()
+            .is_empty());
         app
     }
 
@@ -1462,7 +2283,7 @@ mod tests {
             app.boot(&mut mem, &mut NoClock, &mut |_| {});
             let out = send_uplink(&mut app, &mut mem, &signed_flyby(&TEST_KEY, 1));
             assert_eq!(nak_reason(&out), Some(SecurityRefusal::NoKey));
-            assert!(app.autonomy().network().tasks().is_empty());
+            assert!(app.executive().executive().network().tasks().is_empty());
         }
         let mut blank = TestNv::provisioned(&TEST_KEY);
         blank.area = [0; sdls::nv::SECURITY_AREA_BYTES];
@@ -1484,7 +2305,7 @@ mod tests {
         app.boot(&mut mem, &mut NoClock, &mut |_| {});
         let out = send_uplink(&mut app, &mut mem, &signed_flyby(&TEST_KEY, 1));
         assert_eq!(nak_reason(&out), Some(SecurityRefusal::CounterNotStored));
-        assert!(app.autonomy().network().tasks().is_empty());
+        assert!(app.executive().executive().network().tasks().is_empty());
         assert_eq!(app.security().last_sequence(), 0);
     }
 
@@ -1518,7 +2339,7 @@ mod tests {
         );
         let out = send_uplink(&mut app, &mut mem, &last);
         assert_eq!(nak_reason(&out), Some(SecurityRefusal::Replay));
-        assert!(app.autonomy().network().tasks().is_empty());
+        assert!(app.executive().executive().network().tasks().is_empty());
         let out = send_uplink(&mut app, &mut mem, &signed_flyby(&TEST_KEY, 2));
         assert!(matches!(
             verdict(&out),
@@ -1753,11 +2574,11 @@ mod tests {
     /// Reads logged by [`Backing`]: (memory, offset, length).
     type Reads = Vec<(MemoryKind, usize, usize)>;
 
-    /// Warm and non-volatile memory after the flyby uplink and `frames` granted frames, and the
-    /// security area.
+    /// The executive's shares of warm and non-volatile memory (`AREA` bytes each) after the
+    /// flyby uplink and `frames` granted frames, and the security area.
     fn flown(frames: u32) -> (Vec<u8>, Vec<u8>, TestNv) {
         let mut app = std::boxed::Box::new(FlightApp::new());
-        let (mut warm, mut nv) = (std::vec![0u8; AREA], std::vec![0u8; AREA]);
+        let (mut warm, mut nv) = (std::vec![0u8; 2 * AREA], std::vec![0u8; 2 * AREA]);
         let mut security = TestNv::provisioned(&TEST_KEY);
         let mut mem = Memories {
             warm: &mut warm,
@@ -1769,6 +2590,9 @@ mod tests {
             let at = 9 * 3600 + 600 * u64::from(frame);
             app.handle(&grant(frame, at), &mut mem, &mut NoClock, &mut |_| {});
         }
+        assert_eq!(executive_share(2 * AREA), AREA);
+        warm.truncate(AREA);
+        nv.truncate(AREA);
         (warm, nv, security)
     }
 
@@ -1783,17 +2607,18 @@ mod tests {
         usize::from(WarmRestartArea::new(area).latest().unwrap().0)
     }
 
-    /// Boot and fly one frame twice: with complete copies of the memories (`boot`, `handle`),
-    /// and with empty copies filled on demand from `Backing` (`boot_fetching`,
-    /// `handle_fetching`, each checkpoint's bytes copied out as the firmware does). Both must
-    /// decide the same, say the same, and leave the memories byte for byte the same. Returns
-    /// the outcome and the reads of the fetching boot (before the frame) and of the frame.
+    /// Boot the executive's application and run the first window of a frame twice: with
+    /// complete copies of the memories (`boot`, `handle`), and with empty copies filled on
+    /// demand from `Backing` (`boot_fetching`, `handle_fetching`, each checkpoint's bytes
+    /// copied out as the firmware does). Both must decide the same, say the same, and leave
+    /// the memories byte for byte the same. Returns the outcome and the reads of the fetching
+    /// boot (before the frame) and of the frame.
     fn boot_both_ways(warm: &[u8], nv: &[u8], security: &TestNv) -> (BootOutcome, Reads, Reads) {
         let frame = grant(40, 10 * 3600);
         // Complete copies.
         let (mut full_warm, mut full_nv) = (warm.to_vec(), nv.to_vec());
         let mut full_security = security.clone();
-        let mut full_app = std::boxed::Box::new(FlightApp::new());
+        let mut full_app = std::boxed::Box::new(ExecutiveApp::new());
         let mut full_out: Vec<TargetToHost> = Vec::new();
         let mut mem = Memories {
             warm: &mut full_warm,
@@ -1810,7 +2635,7 @@ mod tests {
         };
         let (mut copy_warm, mut copy_nv) = (std::vec![0u8; AREA], std::vec![0u8; AREA]);
         let mut copy_security = security.clone();
-        let mut app = std::boxed::Box::new(FlightApp::new());
+        let mut app = std::boxed::Box::new(ExecutiveApp::new());
         let mut out: Vec<TargetToHost> = Vec::new();
         let mut mem = Memories {
             warm: &mut copy_warm,
@@ -1828,16 +2653,26 @@ mod tests {
             &mut NoClock,
             &mut |m| out.push(m),
         );
-        if let Some((start, end)) = app.take_warm_write() {
+        for (start, end) in app.take_warm_writes() {
             backing.warm[start..end].copy_from_slice(&mem.warm[start..end]);
         }
-        if let Some((start, end)) = app.take_nv_write() {
+        for (start, end) in app.take_nv_writes() {
             let nv = mem.nv.as_deref().unwrap();
             backing.nv[start..end].copy_from_slice(&nv[start..end]);
         }
         assert_eq!(outcome, full_outcome);
         assert_eq!(out, full_out);
-        assert!(backing.warm == full_warm, "warm memories differ");
+        if backing.warm != full_warm {
+            let diff: Vec<usize> = (0..full_warm.len())
+                .filter(|&i| backing.warm[i] != full_warm[i])
+                .collect();
+            panic!(
+                "warm memories differ at {} bytes, first {:?} last {:?}",
+                diff.len(),
+                diff.first(),
+                diff.last()
+            );
+        }
         assert!(backing.nv == full_nv, "non-volatile memories differ");
         (outcome, boot_reads, backing.reads)
     }
@@ -1882,16 +2717,18 @@ mod tests {
         assert!(matches!(outcome, BootOutcome::RestoredNv(_)));
         assert_eq!(payload_reads(&boot, MemoryKind::Nv), 1);
 
-        // ... with its newest record torn: its other one is as old as the warm area's: warm
-        // (tried first of the two), so non-volatile memory's other record is read only before
-        // its first write.
+        // ... with its newest record torn: its other one (the checkpoint of the same frame's
+        // first window) is still newer than the warm area's: non-volatile memory's other
+        // slot, and the warm area's records are read only before its first write.
         let nv_slot = newest_slot(&mut later_nv.clone());
         let (outcome, boot, frame) =
             boot_both_ways(&warm, &torn(later_nv.clone(), nv_slot, 3), &security);
-        assert!(matches!(outcome, BootOutcome::RestoredWarm(_)));
-        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 1);
-        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 1);
-        assert_eq!(payload_reads(&frame, MemoryKind::Nv), 1);
+        assert!(
+            matches!(outcome, BootOutcome::RestoredNv(info) if usize::from(info.slot) != nv_slot)
+        );
+        assert_eq!(payload_reads(&boot, MemoryKind::Nv), 2);
+        assert_eq!(payload_reads(&boot, MemoryKind::Warm), 0);
+        assert_eq!(payload_reads(&frame, MemoryKind::Warm), 1);
 
         // A power cycle: the warm area is gone.
         let (outcome, _, _) = boot_both_ways(&std::vec![0u8; AREA], &nv, &security);
@@ -1904,7 +2741,8 @@ mod tests {
 
         // The warm area's newest record whole but not a plan (a firmware whose layout changed
         // without a new format version): the next newest whole record of either memory, here
-        // the warm area's other one (a frame newer than non-volatile memory's).
+        // the warm area's other one (a frame newer than non-volatile memory's; the uplink's
+        // checkpoint is number 1, and each frame writes two, one per executive window).
         let not_a_plan = |buf: &mut [u8]| {
             buf[..4].copy_from_slice(&[0xff; 4]);
             Some(4)
@@ -1913,7 +2751,7 @@ mod tests {
             .write(not_a_plan)
             .unwrap();
         let (outcome, boot, _) = boot_both_ways(&later_warm, &nv, &security);
-        assert!(matches!(outcome, BootOutcome::RestoredWarm(info) if info.sequence == 5));
+        assert!(matches!(outcome, BootOutcome::RestoredWarm(info) if info.sequence == 9));
         assert_eq!(payload_reads(&boot, MemoryKind::Warm), 2);
         assert_eq!(payload_reads(&boot, MemoryKind::Nv), 0);
 
@@ -1923,7 +2761,7 @@ mod tests {
             .write(not_a_plan)
             .unwrap();
         let (outcome, boot, _) = boot_both_ways(&later_warm, &nv, &security);
-        assert!(matches!(outcome, BootOutcome::RestoredNv(info) if info.sequence == 4));
+        assert!(matches!(outcome, BootOutcome::RestoredNv(info) if info.sequence == 7));
         assert_eq!(payload_reads(&boot, MemoryKind::Warm), 2);
         assert_eq!(payload_reads(&boot, MemoryKind::Nv), 1);
     }
@@ -1967,7 +2805,7 @@ mod tests {
         assert_eq!(payload_reads(&frame, MemoryKind::Warm), 1);
         let mut full_warm = warm.clone();
         let mut full_nv = nv.clone();
-        let mut app = std::boxed::Box::new(FlightApp::new());
+        let mut app = std::boxed::Box::new(ExecutiveApp::new());
         let mut security_copy = security.clone();
         let mut mem = Memories {
             warm: &mut full_warm,

@@ -10,6 +10,9 @@ use fsw_bridge::messages::UPLINK_CHUNK_MAX;
 use fsw_bridge::{HostToTarget, MissionTimeUs, StateValue, TargetToHost};
 
 const AREA: usize = 16 * 1024;
+/// The executive's share of each memory (`FlightApp::new` splits them in half; the planner's
+/// checkpoints are in the other half).
+const EXEC: usize = AREA / 2;
 
 fn new_app() -> Box<FlightApp> {
     Box::new(FlightApp::new())
@@ -102,13 +105,15 @@ fn flyby_payloads(frames: u64) -> Vec<Vec<u8>> {
     (0..frames)
         .map(|f| {
             send(&mut app, &mut mem, &grant(f as u32, 590 + f));
-            records(mem.warm)[0].unwrap().payload.to_vec()
+            records(&mem.warm[..EXEC])[0].unwrap().payload.to_vec()
         })
         .collect()
 }
 
-/// Writes `payload` into `area` as a record with sequence number `sequence`.
+/// Writes `payload` into the executive's share of `area` as a record with sequence number
+/// `sequence`.
 fn put(area: &mut [u8], sequence: u32, payload: &[u8]) {
+    let area = &mut area[..EXEC];
     WarmRestartArea::new(area)
         .write_after(Some(sequence.wrapping_sub(1)), |buf| {
             buf[..payload.len()].copy_from_slice(payload);
@@ -147,7 +152,10 @@ fn the_newer_memory_wins_across_the_sequence_number_wrap() {
     put(&mut nv, 0, newer);
     let (outcome, app) = boot(&mut warm, &mut nv);
     assert_eq!(restored(outcome), ("nv", 0));
-    assert_eq!(app.autonomy().now(), MissionTimeUs::from_mins(591));
+    assert_eq!(
+        app.executive().executive().now(),
+        MissionTimeUs::from_mins(591)
+    );
     // And the other way round.
     let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
     put(&mut warm, 0, newer);
@@ -163,7 +171,7 @@ fn the_newer_memory_wins_across_the_sequence_number_wrap() {
 #[test]
 fn both_memories_carry_one_sequence_number_per_checkpoint_even_after_a_power_cycle() {
     let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
-    let newest = |area: &[u8]| records(area)[0].map(|r| r.sequence);
+    let newest = |area: &[u8]| records(&area[..EXEC])[0].map(|r| r.sequence);
     {
         let mut mem = Memories {
             warm: &mut warm,
@@ -176,12 +184,13 @@ fn both_memories_carry_one_sequence_number_per_checkpoint_even_after_a_power_cyc
             send(&mut app, &mut mem, &grant(f, 590 + u64::from(f)));
         }
     }
-    assert_eq!(newest(&warm), Some(6)); // the uplink's and five frames'
-    assert_eq!(newest(&nv), Some(6));
+    // The uplink's, and two per frame (the executive's first and second windows).
+    assert_eq!(newest(&warm), Some(11));
+    assert_eq!(newest(&nv), Some(11));
     // Power cycle: the warm area is gone, the plan comes back from non-volatile memory.
     warm.fill(0);
     let (outcome, mut app) = boot(&mut warm, &mut nv);
-    assert_eq!(restored(outcome), ("nv", 6));
+    assert_eq!(restored(outcome), ("nv", 11));
     let mut mem = Memories {
         warm: &mut warm,
         nv: Some(&mut nv),
@@ -189,8 +198,8 @@ fn both_memories_carry_one_sequence_number_per_checkpoint_even_after_a_power_cyc
     };
     send(&mut app, &mut mem, &grant(5, 600));
     // The warm area continues the numbering instead of starting again at 1.
-    assert_eq!(newest(mem.warm), Some(7));
-    assert_eq!(newest(mem.nv.as_deref().unwrap()), Some(7));
+    assert_eq!(newest(mem.warm), Some(13));
+    assert_eq!(newest(mem.nv.as_deref().unwrap()), Some(13));
 }
 
 #[test]
@@ -221,15 +230,18 @@ fn a_torn_non_volatile_write_after_a_power_cycle_does_not_hide_the_newer_warm_ch
         }
     }
     // The last frame's non-volatile write is torn: its record is not whole.
-    let torn = records(&nv)[0].unwrap();
-    let at = usize::from(torn.slot) * (AREA / 2) + 40;
+    let torn = records(&nv[..EXEC])[0].unwrap();
+    let at = usize::from(torn.slot) * (EXEC / 2) + 40;
     nv[at] ^= 0xff;
-    assert_eq!(records(&nv)[0].unwrap().sequence, 43);
-    assert_eq!(records(&warm)[0].unwrap().sequence, 44);
-    // The warm area has the newest whole checkpoint: frame 42's.
+    assert_eq!(records(&nv[..EXEC])[0].unwrap().sequence, 86);
+    assert_eq!(records(&warm[..EXEC])[0].unwrap().sequence, 87);
+    // The warm area has the newest whole checkpoint: frame 42's second window's.
     let (outcome, app) = boot(&mut warm, &mut nv);
-    assert_eq!(restored(outcome), ("warm", 44));
-    assert_eq!(app.autonomy().now(), MissionTimeUs::from_mins(590 + 42));
+    assert_eq!(restored(outcome), ("warm", 87));
+    assert_eq!(
+        app.executive().executive().now(),
+        MissionTimeUs::from_mins(590 + 42)
+    );
 }
 
 #[test]
@@ -243,15 +255,18 @@ fn a_refused_record_falls_back_to_the_next_newest_of_either_memory() {
     put(&mut nv, 11, &payloads[1]);
     let (outcome, app) = boot(&mut warm, &mut nv);
     assert_eq!(restored(outcome), ("nv", 11));
-    assert_eq!(app.autonomy().now(), MissionTimeUs::from_mins(591));
+    assert_eq!(
+        app.executive().executive().now(),
+        MissionTimeUs::from_mins(591)
+    );
     // Nothing valid anywhere: cold, waiting for an uplink.
     let (mut warm, mut nv) = (vec![0u8; AREA], vec![0u8; AREA]);
     put(&mut warm, 12, &refused);
     put(&mut nv, 12, &refused);
     let (outcome, app) = boot(&mut warm, &mut nv);
     assert_eq!(outcome, BootOutcome::Cold);
-    assert!(app.autonomy().plan().is_empty());
-    assert_eq!(app.autonomy().next_wakeup(), None);
+    assert!(app.planner().partition().planner().entries().is_empty());
+    assert_eq!(app.executive().executive().next_wakeup(), None);
 }
 
 #[test]
@@ -281,7 +296,14 @@ fn a_restored_application_runs_on_from_the_checkpoint_it_chose() {
         out.last(),
         Some(TargetToHost::FrameDone { frame: 9, .. })
     ));
-    // The next checkpoint is numbered across the wrap, in both memories.
-    assert_eq!(records(mem.warm)[0].unwrap().sequence, 0);
-    assert_eq!(records(mem.nv.as_deref().unwrap())[0].unwrap().sequence, 0);
+    // The next checkpoints are numbered across the wrap, in both memories: the frame's two,
+    // and one more for the round that brought the planner (cold: its share is empty) up to
+    // date.
+    assert_eq!(records(&mem.warm[..EXEC])[0].unwrap().sequence, 2);
+    assert_eq!(
+        records(&mem.nv.as_deref().unwrap()[..EXEC])[0]
+            .unwrap()
+            .sequence,
+        2
+    );
 }

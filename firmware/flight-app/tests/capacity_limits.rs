@@ -18,6 +18,9 @@ use fsw_bridge::{HostToTarget, MissionTimeUs, TargetToHost, TelemetryEvent};
 /// The target's checkpoint memory for the flight application: the executive partition's slice
 /// of the warm-restart area (its A/B records; the planner partition has the rest).
 const WARM_CHECKPOINT_BYTES: usize = kernel_config::system::EXECUTIVE_WARM.len as usize;
+/// The whole checkpoint part of the warm-restart area: the executive's slice, then the
+/// planner's.
+const WARM_BYTES: usize = WARM_CHECKPOINT_BYTES + kernel_config::system::PLANNER_WARM.len as usize;
 
 const KEY: sdls::Key = sdls::Key {
     spi: 3,
@@ -42,7 +45,7 @@ impl SecurityStore for ProvisionedNv {
 
 fn new_app() -> Box<FlightApp> {
     let mut app: Box<std::mem::MaybeUninit<FlightApp>> = Box::new_uninit();
-    app.write(FlightApp::new());
+    app.write(FlightApp::with_executive_share(WARM_CHECKPOINT_BYTES));
     // SAFETY: just initialised.
     unsafe { app.assume_init() }
 }
@@ -118,7 +121,7 @@ impl Rig {
     }
 
     fn loaded_tasks(&self) -> usize {
-        self.app.autonomy().network().tasks().len()
+        self.app.executive().executive().network().tasks().len()
     }
 }
 
@@ -166,7 +169,7 @@ fn grant(rig: &mut Rig, frame: u32) -> Vec<TargetToHost> {
 /// target's warm-restart area and flies one frame (every task planned); returns the rig and
 /// the checkpoint failures counted at the load and in the frame.
 fn fly(tasks: usize) -> (Rig, Vec<u64>) {
-    let mut rig = Rig::new(WARM_CHECKPOINT_BYTES);
+    let mut rig = Rig::new(WARM_BYTES);
     let bytes = secured(&network(tasks), 1);
     assert!(
         bytes.len() <= MAX_UPLINK_BYTES,
@@ -193,15 +196,23 @@ fn a_network_of_max_tasks_fits_the_uplink_buffer_and_its_checkpoint_is_counted_w
     let (mut rig, failures) = fly(autonomy::MAX_TASKS);
     // Its planned state (36 KiB) is over a slot (16 KiB of the executive's 32 KiB slice):
     // every write fails and is counted, and the plan flies on.
-    assert_eq!(failures, [1, 1], "at the load and in frame 0");
+    // The executive checkpoints at the load and in both of its windows of every frame.
+    assert_eq!(failures, [1, 1, 1], "at the load and in frame 0");
     for frame in 1..4 {
-        assert_eq!(checkpoint_failures(&grant(&mut rig, frame)), [1]);
+        assert_eq!(checkpoint_failures(&grant(&mut rig, frame)), [1, 1]);
     }
-    assert!(autonomy::checkpoint::records(&rig.warm)
-        .iter()
-        .all(Option::is_none));
+    assert!(
+        autonomy::checkpoint::records(&rig.warm[..WARM_CHECKPOINT_BYTES])
+            .iter()
+            .all(Option::is_none)
+    );
     let mut state = vec![0u8; 1 << 20];
-    let payload = rig.app.autonomy().encode_state(&mut state).unwrap();
+    let payload = rig
+        .app
+        .executive()
+        .executive()
+        .encode_state(&mut state)
+        .unwrap();
     println!(
         "its planned state is {payload} bytes; a checkpoint slot holds {}",
         slot_capacity()
@@ -232,9 +243,11 @@ fn the_largest_network_whose_checkpoint_fits_a_slot_is_checkpointed_every_frame(
     for frame in 1..4 {
         assert!(checkpoint_failures(&grant(&mut rig, frame)).is_empty());
     }
-    assert!(autonomy::checkpoint::records(&rig.warm)
-        .iter()
-        .any(Option::is_some));
+    assert!(
+        autonomy::checkpoint::records(&rig.warm[..WARM_CHECKPOINT_BYTES])
+            .iter()
+            .any(Option::is_some)
+    );
 }
 
 #[test]

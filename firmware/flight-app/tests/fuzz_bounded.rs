@@ -56,7 +56,7 @@ fn message_seeds_load_networks_fly_frames_and_restore_after_resets() {
                 _ => {}
             }
         }
-        if !h.app().autonomy().network().tasks().is_empty() {
+        if !h.app().network().tasks().is_empty() {
             loaded += 1;
         }
     }
@@ -83,7 +83,7 @@ fn chunk_seeds_deliver_whole_networks() {
         for op in &ops {
             h.apply(op);
         }
-        if !h.app().autonomy().network().tasks().is_empty() && total > 1 {
+        if !h.app().network().tasks().is_empty() && total > 1 {
             acknowledged += 1;
         }
     }
@@ -159,6 +159,6 @@ fn an_unsecured_or_altered_chunked_uplink_is_refused_before_validation() {
             "{:?}",
             h.verdicts()
         );
-        assert!(h.app().autonomy().network().tasks().is_empty());
+        assert!(h.app().network().tasks().is_empty());
     }
 }

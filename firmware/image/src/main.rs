@@ -19,10 +19,6 @@ mod kernel;
 mod link;
 mod log;
 mod mem;
-// TODO(issue 14 item 5): the partitions (edited elsewhere) still index and panic in a few
-// places (io's link configuration, executive's checkpoint ranges, the planner's table); they
-// get the kernel's lints once those are rewritten.
-#[allow(clippy::indexing_slicing, clippy::panic)]
 mod partitions;
 mod port;
 mod shared;

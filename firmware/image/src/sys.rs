@@ -305,8 +305,13 @@ pub fn reset_module() -> ! {
 /// Link owner: warm-reset the module at a point inside the work the destination partition of
 /// `port` does on the message last queued there (`mode`: `reset_at::AFTER_TICKS` with `value`
 /// ticks, or `reset_at::IN_WARM_WRITE` with `value` permille of its next warm-area write).
-pub fn arm_reset(mode: u32, value: u32, port: usize) -> Result<(), SysError> {
-    let (r3, _, _) = raw(Sysnum::ResetModule, [mode, value, port as u32, 0, 0]);
+///
+/// With `chain`, a port from that destination partition: the point is in the work of
+/// `chain`'s destination on the first message sent there after the anchor, counted from its
+/// receipt.
+pub fn arm_reset(mode: u32, value: u32, port: usize, chain: Option<usize>) -> Result<(), SysError> {
+    let chain = chain.map_or(reset_at::NO_CHAIN, |c| c as u32);
+    let (r3, _, _) = raw(Sysnum::ResetModule, [mode, value, port as u32, chain, 0]);
     result(r3).map(|_| ())
 }
 

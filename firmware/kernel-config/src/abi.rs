@@ -72,6 +72,11 @@ pub mod reset_at {
     pub const AFTER_TICKS: u32 = 1;
     /// In the partition's next warm-area write, after `value` permille of its bytes.
     pub const IN_WARM_WRITE: u32 = 2;
+    /// The fourth argument when the point is in the destination partition's own work (no
+    /// next stage). Otherwise it names a port from that partition: the point is then in the
+    /// work of that port's destination on the first message sent there after the anchor,
+    /// counted from its receipt (the planner partition's work on the executive's frame).
+    pub const NO_CHAIN: u32 = u32::MAX;
 
     use fsw_bridge::dictionary::armed_reset_point;
 
@@ -415,6 +420,9 @@ pub mod control {
     pub const PLANNER_CHECKSUM: u16 = 0xff01;
     /// Ask the executive to time SYSCALL_BENCH_CALLS null system calls.
     pub const SYSCALL_BENCH: u16 = 0xff02;
+    /// Set the planner partition's budget, in validity checks per window (value `Int(n)`,
+    /// n >= 1; anything else restores the default). Lasts until the next boot.
+    pub const PLANNER_BUDGET: u16 = 0xff03;
     /// Test image: tell the rogue partition what to do (value `Enum(ROGUE_*)`).
     pub const ROGUE_MODE: u16 = 0xff10;
     /// First reserved key.

@@ -107,7 +107,7 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         name: "executive",
         entry: "partition_executive_main",
         regions: &[EXECUTIVE_REGION],
-        stack_size: 0x10000,
+        stack_size: 0x20000,
         capabilities: Capabilities {
             link_owner: false,
             warm_area: Some(EXECUTIVE_WARM),
@@ -149,6 +149,8 @@ const PARTITIONS_TEST: [Partition; 4] = [
 
 /// 10 ms at 16.6 MHz.
 pub const MAJOR_FRAME_TICKS: u32 = 166_000;
+/// The planner partition's window: 2 ms of each major frame.
+pub const PLANNER_WINDOW_TICKS: u32 = 33_200;
 
 const WINDOWS_PRODUCT: [Window; 3] = [
     Window {
@@ -166,7 +168,7 @@ const WINDOWS_PRODUCT: [Window; 3] = [
     Window {
         partition: PLANNER,
         offset: 91_300,
-        duration: 33_200,
+        duration: PLANNER_WINDOW_TICKS,
     },
 ];
 
@@ -184,6 +186,14 @@ const WINDOWS_TEST: [Window; 4] = [
 /// Largest message routed from the link to a partition (a postcard-encoded `HostToTarget`;
 /// an UplinkChunk with 128 bytes is the largest).
 pub const ROUTED_MESSAGE_SIZE: u32 = 160;
+/// Largest message from the executive to the planner: a postcard-encoded
+/// `Wire<autonomy::partitioned::PlannerInput>`, the largest being a network chunk of 96 bytes
+/// (a flight-app test checks that every kind fits).
+pub const EXECUTIVE_TO_PLANNER_MESSAGE_SIZE: u32 = 128;
+/// Largest message from the planner to the executive: a postcard-encoded
+/// `Wire<autonomy::partitioned::ExecutiveInput>` (a commit, a planner decision for the host,
+/// the planner's status).
+pub const PLANNER_TO_EXECUTIVE_MESSAGE_SIZE: u32 = 96;
 /// Largest message a partition sends towards the host (a postcard-encoded `TargetToHost`
 /// other than Log: CommandDispatch, Telemetry, FrameDone).
 pub const OUTBOUND_MESSAGE_SIZE: u32 = 64;
@@ -221,21 +231,23 @@ const PORTS_PRODUCT: [Port; 6] = [
         source: PLANNER,
         destinations: &[IO],
     },
+    // The planner partition's channel with the executive (`autonomy::partitioned`): numbered
+    // messages kept by the sender until acknowledged, so a full port only delays them.
     Port {
-        name: "plan_summary",
-        kind: PortKind::Sampling,
-        message_size: 32,
-        depth: 1,
-        source: PLANNER,
-        destinations: &[EXECUTIVE],
-    },
-    Port {
-        name: "executive_status",
-        kind: PortKind::Sampling,
-        message_size: 32,
-        depth: 1,
+        name: "executive_to_planner",
+        kind: PortKind::Queuing,
+        message_size: EXECUTIVE_TO_PLANNER_MESSAGE_SIZE,
+        depth: 16,
         source: EXECUTIVE,
         destinations: &[PLANNER],
+    },
+    Port {
+        name: "planner_to_executive",
+        kind: PortKind::Queuing,
+        message_size: PLANNER_TO_EXECUTIVE_MESSAGE_SIZE,
+        depth: 16,
+        source: PLANNER,
+        destinations: &[EXECUTIVE],
     },
 ];
 
@@ -273,8 +285,8 @@ pub const PORT_IO_TO_EXECUTIVE: usize = port_id(&PRODUCT, "io_to_executive");
 pub const PORT_IO_TO_PLANNER: usize = port_id(&PRODUCT, "io_to_planner");
 pub const PORT_EXECUTIVE_TO_IO: usize = port_id(&PRODUCT, "executive_to_io");
 pub const PORT_PLANNER_TO_IO: usize = port_id(&PRODUCT, "planner_to_io");
-pub const PORT_PLAN_SUMMARY: usize = port_id(&PRODUCT, "plan_summary");
-pub const PORT_EXECUTIVE_STATUS: usize = port_id(&PRODUCT, "executive_status");
+pub const PORT_EXECUTIVE_TO_PLANNER: usize = port_id(&PRODUCT, "executive_to_planner");
+pub const PORT_PLANNER_TO_EXECUTIVE: usize = port_id(&PRODUCT, "planner_to_executive");
 pub const PORT_IO_TO_ROGUE: usize = port_id(&TEST, "io_to_rogue");
 pub const PORT_ROGUE_TO_IO: usize = port_id(&TEST, "rogue_to_io");
 

@@ -479,8 +479,9 @@ fn region_containment_rejects_wrap_around_and_straddling() {
 
 #[test]
 fn port_storage_is_sized_from_the_configuration() {
-    // 4 ports of 160/64 bytes x 8, 2 sampling ports of 32 bytes, 16-byte slot headers.
-    let product = 2 * 8 * (160 + 16) + 2 * 8 * (64 + 16) + 2 * (32 + 16);
+    // 4 ports of 160/64 bytes x 8, the planner's channel (128 and 96 bytes x 16), 16-byte
+    // slot headers.
+    let product = 2 * 8 * (160 + 16) + 2 * 8 * (64 + 16) + 16 * (128 + 16) + 16 * (96 + 16);
     assert_eq!(port_storage_bytes(&PRODUCT), product);
     // Plus io_to_rogue (160 bytes x 2) and rogue_to_io (64 bytes x 2).
     assert_eq!(
@@ -536,6 +537,7 @@ fn every_platform_metric_is_in_the_dictionary() {
         (BOOT_IMAGE, "BOOT_IMAGE"),
         (BOOT_EXECUTIVE_START_TICKS, "BOOT_EXECUTIVE_START_TICKS"),
         (BOOT_EXECUTIVE_INIT_TICKS, "BOOT_EXECUTIVE_INIT_TICKS"),
+        (BOOT_PLANNER_START_TICKS, "BOOT_PLANNER_START_TICKS"),
     ];
     // The wire ids are fixed (transcripts and budgets depend on them): spot checks.
     assert_eq!(FRAME_TICKS, 0x0100);
@@ -646,8 +648,8 @@ fn every_port_name_resolves_and_is_unique() {
         ("io_to_planner", PORT_IO_TO_PLANNER),
         ("executive_to_io", PORT_EXECUTIVE_TO_IO),
         ("planner_to_io", PORT_PLANNER_TO_IO),
-        ("plan_summary", PORT_PLAN_SUMMARY),
-        ("executive_status", PORT_EXECUTIVE_STATUS),
+        ("executive_to_planner", PORT_EXECUTIVE_TO_PLANNER),
+        ("planner_to_executive", PORT_PLANNER_TO_EXECUTIVE),
     ];
     for (name, id) in named {
         assert_eq!(PRODUCT.ports[id].name, name);

@@ -168,6 +168,8 @@ pub fn reset_kinds() -> impl Strategy<Value = ResetKind> {
         Just(ResetKind::Warm),
         u32s().prop_map(|ticks| ResetKind::WarmAfterTicks { ticks }),
         u16s().prop_map(|permille| ResetKind::WarmDuringCheckpointWrite { permille }),
+        u32s().prop_map(|ticks| ResetKind::PlannerAfterTicks { ticks }),
+        u16s().prop_map(|permille| ResetKind::PlannerDuringCheckpointWrite { permille }),
     ]
 }
 pub fn reset_request() -> impl Strategy<Value = HostToTarget> {

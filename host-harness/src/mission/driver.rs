@@ -46,6 +46,9 @@ pub const MAX_ZERO_ADVANCE_FRAMES: u32 = 10_000;
 /// often (a 48-byte frame crosses a link that corrupts 5 % of the bytes one time in twelve, a
 /// 150-byte one one time in 2,000), and a lost one costs less to send again.
 pub const UPLINK_CHUNK_BYTES: usize = 32;
+/// Uplink chunks queued on the link at once: well inside the 255 frames its send window holds
+/// a channel, with room for the frame's other messages.
+pub const UPLINK_CHUNKS_PER_BATCH: usize = 128;
 
 /// Why a mission could not start.
 #[derive(Debug, thiserror::Error)]
@@ -211,6 +214,7 @@ pub fn drive(
         Err(e) => Err(EndedEarly::from(e)),
         Ok(()) => {
             f.inputs = f.sim.publish_all(f.now);
+            f.inputs.extend(f.planner_budget());
             f.fly(progress)
         }
     };
@@ -309,31 +313,45 @@ impl Flight<'_, '_> {
         let total = u16::try_from(chunks.len()).map_err(|_| MissionError::UplinkTooLarge {
             chunks: chunks.len(),
         })?;
-        for (seq, chunk) in chunks.iter().enumerate() {
-            self.link.send(HostToTarget::UplinkChunk {
-                seq: seq as u16,
-                total,
-                bytes: heapless::Vec::from_slice(chunk).expect("a chunk fits its message"),
-            })?;
-        }
+        // In batches the link's send window holds (it queues at most 255 frames a channel),
+        // each exchanged until the target acknowledged its last chunk, refused the uplink, or
+        // came back from a reset.
         let mut verdict = None;
-        let (end, delivered) = self.link.exchange(
-            &mut *self.target,
-            Some(&mut |m: &TargetToHost| match m {
-                TargetToHost::UplinkNak { .. } => true,
-                TargetToHost::UplinkAck { seq } => *seq == total,
-                _ => false,
-            }),
-        )?;
-        for msg in delivered {
-            match &msg {
-                TargetToHost::UplinkNak { reason, .. } => {
-                    verdict.get_or_insert(UplinkVerdict::Refused(*reason));
+        let mut end = Exchanged::Settled;
+        for (batch, part) in chunks.chunks(UPLINK_CHUNKS_PER_BATCH).enumerate() {
+            let first = batch * UPLINK_CHUNKS_PER_BATCH;
+            for (i, chunk) in part.iter().enumerate() {
+                self.link.send(HostToTarget::UplinkChunk {
+                    seq: (first + i) as u16,
+                    total,
+                    bytes: heapless::Vec::from_slice(chunk).expect("a chunk fits its message"),
+                })?;
+            }
+            // The whole uplink's acknowledgement is `total`; a batch's, its last chunk's.
+            let last = (first + part.len()) as u16;
+            let awaited = if last == total { total } else { last - 1 };
+            let (ended, delivered) = self.link.exchange(
+                &mut *self.target,
+                Some(&mut |m: &TargetToHost| match m {
+                    TargetToHost::UplinkNak { .. } => true,
+                    TargetToHost::UplinkAck { seq } => *seq == awaited,
+                    _ => false,
+                }),
+            )?;
+            end = ended;
+            for msg in delivered {
+                match &msg {
+                    TargetToHost::UplinkNak { reason, .. } => {
+                        verdict.get_or_insert(UplinkVerdict::Refused(*reason));
+                    }
+                    TargetToHost::UplinkAck { seq } if *seq == total => {
+                        verdict.get_or_insert(UplinkVerdict::Accepted);
+                    }
+                    other => self.take(other.clone()),
                 }
-                TargetToHost::UplinkAck { seq } if *seq == total => {
-                    verdict.get_or_insert(UplinkVerdict::Accepted);
-                }
-                other => self.take(other.clone()),
+            }
+            if verdict.is_some() || matches!(end, Exchanged::TargetReset(_)) {
+                break;
             }
         }
         Ok(match (end, verdict) {
@@ -680,7 +698,19 @@ impl Flight<'_, '_> {
             ),
         );
         self.inputs = self.sim.publish_all(self.now);
+        self.inputs.extend(self.planner_budget());
         Ok(())
+    }
+
+    /// The scenario's planner budget for the target's planner partition (after every boot:
+    /// the target forgets it at a reset), if it sets one.
+    fn planner_budget(&self) -> Option<HostToTarget> {
+        let checks = self.plan.planner_checks_per_window?;
+        Some(HostToTarget::StateUpdate {
+            key: fsw_bridge::StateKey(kernel_config::abi::control::PLANNER_BUDGET),
+            value: fsw_bridge::StateValue::Int(i64::from(checks)),
+            timestamp: self.now,
+        })
     }
 
     /// The next time anything needs to happen, never past the mission's end.

@@ -36,6 +36,10 @@ pub fn evaluate(
             name.clone(),
             Ok("not applicable: the native target counts no guest cycles".to_string()),
         ),
+        Expect::Metric { name, .. } if !counts_cycles && metrics::is_throttle_measure(name) => (
+            name.clone(),
+            Ok("not applicable: the native target plans unthrottled (the reference)".to_string()),
+        ),
         Expect::Task {
             task,
             instance,

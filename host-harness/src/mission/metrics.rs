@@ -168,6 +168,31 @@ pub const FROM_WIRE: &[FromWire] = {
         wire(app::PLANNER_TICKS, Max, MAX_PLANNER_TICKS),
         wire(app::EXECUTIVE_TICKS, Max, MAX_EXECUTIVE_TICKS),
         wire(app::CHECKPOINT_TICKS, Max, MAX_CHECKPOINT_TICKS),
+        wire(
+            app::PLANNER_CHECKPOINT_TICKS,
+            Max,
+            "the worst checkpoint write of the planner partition (warm and non-volatile)",
+        ),
+        wire(
+            app::PLANNER_RESTORE_TICKS,
+            Max,
+            "the worst restore of the planner partition's checkpoint at boot",
+        ),
+        wire(
+            app::PLANNER_RECOVERY_TICKS,
+            Max,
+            "the planner partition's worst CPU from its restore to its first window with nothing pending",
+        ),
+        wire(
+            app::PLANNING_LATENCY_US,
+            Max,
+            "the worst planning latency: mission time from the frame that started a planner cycle to the frame whose window finished it (a throttled planner)",
+        ),
+        wire(
+            app::PLANNER_PENDING_FRAMES,
+            Last,
+            "frames whose planner cycle stopped on its budget and went on in the next frame (the planner throttled)",
+        ),
         wire(app::RESTORE_TICKS, Max, MAX_RESTORE_TICKS),
         wire_with_instructions(app::RECOVERY_TICKS, MAX_RECOVERY_TICKS),
         wire(
@@ -367,6 +392,18 @@ pub fn names() -> Vec<&'static str> {
 /// True if only the emulated target measures `name`.
 pub fn is_guest_cost(name: &str) -> bool {
     lookup(name).is_some_and(|m| m.kind == MetricKind::GuestCost)
+}
+
+/// Whether `name` measures the planner's throttle (its budget per window), which a target that
+/// plans unthrottled (the native one, the reference) never reports.
+pub fn is_throttle_measure(name: &str) -> bool {
+    [
+        flight_app::metric::PLANNING_LATENCY_US,
+        flight_app::metric::PLANNER_PENDING_FRAMES,
+    ]
+    .into_iter()
+    .filter_map(report_name)
+    .any(|n| n == name)
 }
 
 #[cfg(test)]

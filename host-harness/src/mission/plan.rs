@@ -37,6 +37,9 @@ pub struct MissionPlan {
     pub max_frame_us: Option<u64>,
     /// How often the whole state buffer is published again (None: only after resets).
     pub republish_us: Option<u64>,
+    /// The planner partition's budget per window, sent after every boot (None: the
+    /// firmware's default).
+    pub planner_checks_per_window: Option<u32>,
     /// Scenario events in time order (ties in file order).
     pub events: Vec<Event>,
     pub link: LinkFaults,
@@ -295,6 +298,13 @@ impl MissionPlan {
                 ));
             }
         }
+        let planner_checks_per_window = section.planner_checks_per_window;
+        if planner_checks_per_window == Some(0) {
+            return Err(src.error_at(
+                "mission.planner_checks_per_window",
+                "0 validity checks per window: the planner would never plan (at least 1)",
+            ));
+        }
         let republish_us = scenario
             .spacecraft
             .republish_every
@@ -353,6 +363,7 @@ impl MissionPlan {
             end,
             max_frame_us,
             republish_us,
+            planner_checks_per_window,
             events,
             link,
             key,

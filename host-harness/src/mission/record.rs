@@ -186,7 +186,15 @@ pub struct ResetRecord {
     pub restored_from: Option<String>,
     #[serde(skip)]
     restored_sequence: Option<u64>,
-    /// Reset vector to repaired plan committed: `boot_to_ready_ticks + recovery_ticks`.
+    /// The planner partition's part, on a target that runs the planner in a partition of its
+    /// own: its start (`BOOT_PLANNER_START_TICKS`) plus its CPU from its restore to the end of
+    /// its first window with nothing pending (`PLANNER_RECOVERY_TICKS`), when measured.
+    pub planner_recovery_ticks: Option<u64>,
+    #[serde(skip)]
+    planner_start_ticks: Option<u64>,
+    /// Reset vector to repaired plan committed: `boot_to_ready_ticks + recovery_ticks`, plus
+    /// `planner_recovery_ticks` where the planner has a partition of its own (the CPU of both
+    /// partitions on the way to the repaired plan).
     pub reset_recovery_ticks: Option<u64>,
 }
 
@@ -279,6 +287,9 @@ pub struct MissionRecord {
     /// Every frame's autonomy step cost, in order (emulated target).
     #[serde(skip)]
     pub step_costs: Vec<StepCost>,
+    /// The planner partition's last window cost, for the frame whose step comes next.
+    #[serde(skip)]
+    pending_planner_ticks: Option<u64>,
     /// Actual spacecraft states as published, per state key.
     #[serde(skip)]
     pub states: BTreeMap<StateKey, Vec<(MissionTimeUs, StateValue)>>,
@@ -544,16 +555,19 @@ impl MissionRecord {
         use flight_app::metric;
         use kernel_config::abi::metric as platform;
         match id {
-            metric::STEP_TICKS => self.step_costs.push(StepCost {
-                frame: self.frames,
-                step: value,
-                planner: None,
-                executive: None,
-            }),
+            metric::STEP_TICKS => {
+                // A planner partition's window comes before the executive's second one and
+                // reports first; a single core reports its planner part after its step.
+                let planner = self.pending_planner_ticks.take();
+                self.step_costs.push(StepCost {
+                    frame: self.frames,
+                    step: value,
+                    planner,
+                    executive: None,
+                })
+            }
             metric::PLANNER_TICKS => {
-                if let Some(c) = self.step_costs.last_mut() {
-                    c.planner.get_or_insert(value);
-                }
+                self.pending_planner_ticks = Some(value);
             }
             metric::EXECUTIVE_TICKS => {
                 if let Some(c) = self.step_costs.last_mut() {
@@ -563,6 +577,20 @@ impl MissionRecord {
             metric::RECOVERY_TICKS => {
                 if let Some(r) = self.resets.last_mut() {
                     r.recovery_ticks.get_or_insert(value);
+                }
+                self.reset_recovered();
+            }
+            // Every boot but the first is a reset's.
+            platform::BOOT_PLANNER_START_TICKS if self.boots.len() > 1 => {
+                if let Some(r) = self.resets.last_mut() {
+                    r.planner_start_ticks.get_or_insert(value);
+                }
+            }
+            metric::PLANNER_RECOVERY_TICKS => {
+                if let Some(r) = self.resets.last_mut() {
+                    if let Some(start) = r.planner_start_ticks {
+                        r.planner_recovery_ticks.get_or_insert(start + value);
+                    }
                 }
                 self.reset_recovered();
             }
@@ -659,12 +687,18 @@ impl MissionRecord {
         let Some(r) = self.resets.last_mut() else {
             return;
         };
-        if let (Some(boot), Some(recovery), None) = (
+        // Where the planner has a partition (its start was reported), its part is needed too.
+        let planner = match (r.planner_start_ticks, r.planner_recovery_ticks) {
+            (None, _) => Some(0),
+            (Some(_), measured) => measured,
+        };
+        if let (Some(boot), Some(recovery), Some(planner), None) = (
             r.boot_to_ready_ticks,
             r.recovery_ticks,
+            planner,
             r.reset_recovery_ticks,
         ) {
-            let total = boot + recovery;
+            let total = boot + recovery + planner;
             r.reset_recovery_ticks = Some(total);
             self.max_metric("max_reset_recovery_ticks", total);
             self.max_metric("max_reset_recovery_instructions", to_instructions(total));
@@ -714,6 +748,8 @@ impl MissionRecord {
             reset_cause: crate::scenario::cause_name(cause).into(),
             boot_to_ready_ticks: None,
             recovery_ticks: None,
+            planner_recovery_ticks: None,
+            planner_start_ticks: None,
             restored_from: None,
             restored_sequence: None,
             reset_recovery_ticks: None,
@@ -775,8 +811,8 @@ mod tests {
 
     #[test]
     fn boot_to_ready_goes_to_its_boot_and_a_reset_adds_its_recovery() {
-        use flight_app::metric::{PLANNER_TICKS, RECOVERY_TICKS};
-        use kernel_config::abi::metric::BOOT_TO_READY_TICKS;
+        use flight_app::metric::{PLANNER_RECOVERY_TICKS, PLANNER_TICKS, RECOVERY_TICKS};
+        use kernel_config::abi::metric::{BOOT_PLANNER_START_TICKS, BOOT_TO_READY_TICKS};
         let mut rec = MissionRecord::default();
         rec.boot(MissionTimeUs(0), ResetCause::PowerOn);
         metric(
@@ -801,6 +837,16 @@ mod tests {
         assert_eq!(rec.boots[1].kernel_boot_ticks, None);
         assert_eq!(rec.resets[0].reset_recovery_ticks, Some(90_000));
         assert_eq!(rec.resets[1].reset_recovery_ticks, Some(81_000));
+        // A target with a planner partition: its start and its recovery count too, and the
+        // total waits for them.
+        rec.reset(MissionTimeUs(30), "warm reset", 5, ResetCause::Warm);
+        metric(&mut rec, BOOT_TO_READY_TICKS, 60_000);
+        metric(&mut rec, BOOT_PLANNER_START_TICKS, 1_000);
+        metric(&mut rec, RECOVERY_TICKS, 10_000);
+        assert_eq!(rec.resets[2].reset_recovery_ticks, None);
+        metric(&mut rec, PLANNER_RECOVERY_TICKS, 2_000);
+        assert_eq!(rec.resets[2].planner_recovery_ticks, Some(3_000));
+        assert_eq!(rec.resets[2].reset_recovery_ticks, Some(73_000));
         let m = &rec.metrics;
         assert_eq!(m["max_boot_to_ready_ticks_power_on"], 40_000);
         assert_eq!(m["max_boot_to_ready_ticks_warm"], 71_000);

@@ -278,8 +278,12 @@ pub fn summary(r: &MissionReport) -> String {
             reset.reset_recovery_ticks,
         ) {
             (Some(boot), Some(recovery), Some(total)) => format!(
-                "; reset to repaired plan {total} ticks = {} instructions (boot to ready {boot}, recovery {recovery})",
-                super::record::to_instructions(total)
+                "; reset to repaired plan {total} ticks = {} instructions (boot to ready {boot}, recovery {recovery}{})",
+                super::record::to_instructions(total),
+                reset
+                    .planner_recovery_ticks
+                    .map(|p| format!(", planner partition {p}"))
+                    .unwrap_or_default()
             ),
             (_, Some(recovery), _) => format!(
                 "; recovery took {recovery} ticks = {} instructions",

@@ -10,6 +10,9 @@
 //! start = "09:50"
 //! end = "11:30"
 //! max_frame = "5min"                # longest grant when nothing happens (default: no limit)
+//! planner_checks_per_window = 64     # emulated target: the planner partition's budget per
+//!                                   # window (default: the firmware's, 20,000); the native
+//!                                   # target plans unthrottled whatever it says
 //!
 //! [[events]]
 //! at = "10:30"
@@ -68,6 +71,9 @@ pub struct MissionSection {
     pub end: TimeText,
     /// Longest single grant; idle stretches longer than this are split (default: no limit).
     pub max_frame: Option<TimeText>,
+    /// The planner partition's budget in validity checks per window (emulated target; the
+    /// native target is the unthrottled reference and ignores it).
+    pub planner_checks_per_window: Option<u32>,
 }
 
 /// One `[[events]]` entry: a time and exactly one action.

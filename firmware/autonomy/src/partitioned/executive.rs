@@ -21,6 +21,11 @@ pub struct ExecutivePartition {
     frame: u32,
     loaded: bool,
     restored: Option<u32>,
+    /// The second window reported a failure (or a skip) that the planner has not seen: the
+    /// next frame comes at once, so that the planner's response (a contingency, a repair)
+    /// does not wait for the next need. The first window's reports reach the planner in the
+    /// same frame.
+    replan_now: bool,
     /// Generation of the loaded network (0: none).
     generation: u32,
     /// The network image being streamed to the planner.
@@ -36,6 +41,9 @@ pub struct ExecutivePartition {
     /// The loaded network's image (not saved: encoded again from the network after a restore).
     image: [u8; MAX_NETWORK_IMAGE],
     image_len: usize,
+    /// `image` holds the network's image (false after a restore, until a transfer needs it:
+    /// encoding it again costs a restore as much as decoding the network).
+    image_valid: bool,
     pub stats: ExecutivePartitionStats,
 }
 
@@ -78,6 +86,7 @@ impl ExecutivePartition {
             frame: 0,
             loaded: false,
             restored: None,
+            replan_now: false,
             generation: 0,
             transfer: None,
             to_planner: Outbox::new(),
@@ -88,6 +97,7 @@ impl ExecutivePartition {
             telemetry: Vec::new(),
             image: [0; MAX_NETWORK_IMAGE],
             image_len: 0,
+            image_valid: false,
             stats: ExecutivePartitionStats {
                 stale_commits: 0,
                 telemetry_dropped: 0,
@@ -152,6 +162,7 @@ impl ExecutivePartition {
         uplink::decode_into(&mut self.network, bytes).map_err(LoadError::Invalid)?;
         image.copy_from_slice(bytes);
         self.image_len = bytes.len();
+        self.image_valid = true;
         self.after_load();
         Ok(())
     }
@@ -166,6 +177,7 @@ impl ExecutivePartition {
             .map_err(|_| LoadError::TooLarge)?;
         self.network = network.clone();
         self.image_len = len;
+        self.image_valid = true;
         self.after_load();
         Ok(())
     }
@@ -173,6 +185,7 @@ impl ExecutivePartition {
     /// A new generation of the network, streamed to the planner from its start.
     fn start_transfer(&mut self) {
         self.generation = self.generation.wrapping_add(1).max(1);
+        self.ensure_image();
         let image = self.image.get(..self.image_len).unwrap_or(&[]);
         self.transfer = Some(Transfer {
             len: u32::try_from(image.len()).unwrap_or(u32::MAX),
@@ -188,12 +201,21 @@ impl ExecutivePartition {
         self.start_transfer();
     }
 
+    /// The network's image in `image`, encoded again from the network after a restore.
+    fn ensure_image(&mut self) {
+        if !self.image_valid {
+            self.image_len = self.network.encode(&mut self.image).unwrap_or(0);
+            self.image_valid = true;
+        }
+    }
+
     /// Puts the next part of the network image in the channel; after its end, what the state
     /// buffer already told us.
     fn pump(&mut self) {
         let Some(mut t) = self.transfer else {
             return;
         };
+        self.ensure_image();
         if !t.begun {
             if !self.to_planner.push(PlannerInput::NetworkBegin {
                 generation: self.generation,
@@ -343,6 +365,7 @@ impl ExecutivePartition {
         let now = MissionTimeUs(now.0.min(MAX_MISSION_TIME_US));
         self.now = now;
         self.frame = frame;
+        self.replan_now = false;
         self.pump();
         let transferring = self.transfer.is_some();
         let Self {
@@ -381,9 +404,17 @@ impl ExecutivePartition {
             control,
             to_planner,
             now,
+            replan_now,
             ..
         } = self;
         control.step(network, *now, out, &mut |m| {
+            if let ToPlanner::Report(TaskReport {
+                kind: ReportKind::Failed { .. } | ReportKind::Skipped,
+                ..
+            }) = m
+            {
+                *replan_now = true;
+            }
             to_planner.push(PlannerInput::Core(m));
         });
     }
@@ -416,7 +447,7 @@ impl ExecutivePartition {
         if status.is_none_or(|s| s.pending) || self.transfer.is_some() {
             return Some(MissionTimeUs(self.now.0.saturating_add(MAJOR_FRAME_US)));
         }
-        if self.control.executive.work_pending() || self.restored.is_some() {
+        if self.control.executive.work_pending() || self.restored.is_some() || self.replan_now {
             return Some(self.now);
         }
         let own = self.control.next_wakeup(&self.network, self.now);
@@ -439,7 +470,15 @@ impl ExecutivePartition {
             stats: self.stats,
         };
         let mut len = postcard::to_slice(&meta, buf).ok()?.len();
-        len += encode_network(&self.network, buf.get_mut(len..)?)?;
+        // The image in hand, or the network encoded again (`load_network` before any transfer).
+        len += match self
+            .image
+            .get(..self.image_len)
+            .filter(|_| self.image_valid)
+        {
+            Some(image) => put_network_image(image, buf.get_mut(len..)?)?,
+            None => encode_network(&self.network, buf.get_mut(len..)?)?,
+        };
         put(&self.control.executive, buf, &mut len)?;
         put(&self.control.states, buf, &mut len)?;
         put(&self.to_planner, buf, &mut len)?;
@@ -476,6 +515,7 @@ impl ExecutivePartition {
         self.frame = 0;
         self.loaded = false;
         self.restored = None;
+        self.replan_now = false;
         self.generation = 0;
         self.transfer = None;
         self.to_planner = Outbox::new();
@@ -484,6 +524,7 @@ impl ExecutivePartition {
         self.status = None;
         self.telemetry.clear();
         self.image_len = 0;
+        self.image_valid = false;
         self.stats = ExecutivePartitionStats::default();
     }
 
@@ -492,7 +533,7 @@ impl ExecutivePartition {
     /// adds them). None when refused; the state may then be partly overwritten.
     pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
         let (meta, rest): (ExecutiveMeta, _) = postcard::take_from_bytes(payload).ok()?;
-        let rest = decode_network(&mut self.network, rest)?;
+        let (image, rest) = decode_network(&mut self.network, rest)?;
         let rest = in_place::take_in_place(rest, ExecutiveInPlace(&mut self.control.executive))?;
         let rest = in_place::take_in_place(rest, StateTableInPlace(&mut self.control.states))?;
         let (to_planner, rest) = postcard::take_from_bytes(rest).ok()?;
@@ -508,8 +549,11 @@ impl ExecutivePartition {
             &self.control.states,
         )
         .ok()?;
-        // The image streamed to the planner, again from the network.
-        self.image_len = self.network.encode(&mut self.image).ok()?;
+        // The image streamed to the planner: the checkpoint's bytes (a transfer in progress
+        // goes on with the bytes its CRC covers).
+        self.image.get_mut(..image.len())?.copy_from_slice(image);
+        self.image_len = image.len();
+        self.image_valid = true;
         self.control.state_type_mismatches = meta.state_type_mismatches;
         self.control.last_state_type_mismatch = meta.last_state_type_mismatch;
         self.to_planner = to_planner;

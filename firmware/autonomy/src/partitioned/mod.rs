@@ -72,7 +72,7 @@ use crate::condition::StateTableInPlace;
 use crate::control::ControlLoop;
 use crate::executive::ExecutiveInPlace;
 use crate::in_place;
-use crate::interface::{Commit, Outputs, ToPlanner};
+use crate::interface::{Commit, Outputs, ReportKind, TaskReport, ToPlanner};
 use crate::model::TaskNetwork;
 use crate::planner::{Planner, PlannerInPlace};
 use crate::uplink;
@@ -97,8 +97,9 @@ pub const MAX_CHUNKS_PER_FRAME: usize = 16;
 pub const MAX_TO_EXECUTIVE_IN_FLIGHT: usize = 128;
 /// Bytes of network image per chunk.
 pub const NETWORK_CHUNK_BYTES: usize = 96;
-/// Largest network image the two partitions exchange (the uplink's limit).
-pub const MAX_NETWORK_IMAGE: usize = 16 * 1024;
+/// Largest network image the two partitions exchange: the flight application's uplink
+/// buffer (32 KiB, a 256-task network of the lander capacities is about 25 KiB).
+pub const MAX_NETWORK_IMAGE: usize = 32 * 1024;
 /// Planner telemetry the executive holds between its receipt and the second window.
 pub const MAX_FORWARDED_TELEMETRY: usize = 128;
 
@@ -301,10 +302,20 @@ fn encode_network(network: &TaskNetwork, buf: &mut [u8]) -> Option<usize> {
     Some(4 + n)
 }
 
-/// Decodes and validates what [`encode_network`] wrote into `network`; the bytes after it.
-fn decode_network<'a>(network: &mut TaskNetwork, bytes: &'a [u8]) -> Option<&'a [u8]> {
+/// The network's image (uplink format, as a side holds it) behind a 4-byte length: what
+/// [`encode_network`] writes, without encoding the network again.
+fn put_network_image(image: &[u8], buf: &mut [u8]) -> Option<usize> {
+    buf.get_mut(4..4 + image.len())?.copy_from_slice(image);
+    buf.get_mut(..4)?
+        .copy_from_slice(&u32::try_from(image.len()).ok()?.to_be_bytes());
+    Some(4 + image.len())
+}
+
+/// Decodes and validates what [`encode_network`] (or [`put_network_image`]) wrote into
+/// `network`; the image itself and the bytes after it.
+fn decode_network<'a>(network: &mut TaskNetwork, bytes: &'a [u8]) -> Option<(&'a [u8], &'a [u8])> {
     let n = usize::try_from(u32::from_be_bytes(bytes.get(..4)?.try_into().ok()?)).ok()?;
     let body = bytes.get(4..)?.get(..n)?;
     uplink::decode_then_validate(network, body).ok()?;
-    bytes.get(4 + n..)
+    Some((body, bytes.get(4 + n..)?))
 }

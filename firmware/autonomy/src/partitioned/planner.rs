@@ -17,6 +17,8 @@ pub struct PlannerPartition {
     /// `image`.
     assembly: Option<(u32, u32, u32)>,
     image: [u8; MAX_NETWORK_IMAGE],
+    /// `image[..image_len]` is the loaded network's image (no assembly in progress).
+    image_len: usize,
     to_executive: Outbox<ExecutiveInput, MAX_TO_EXECUTIVE_IN_FLIGHT>,
     from_executive: Inbox,
     resume: bool,
@@ -66,6 +68,7 @@ impl PlannerPartition {
             frame: None,
             assembly: None,
             image: [0; MAX_NETWORK_IMAGE],
+            image_len: 0,
             to_executive: Outbox::new(),
             from_executive: EMPTY_INBOX,
             resume: true,
@@ -82,6 +85,7 @@ impl PlannerPartition {
         self.generation = 0;
         self.frame = None;
         self.assembly = None;
+        self.image_len = 0;
         self.to_executive = Outbox::new();
         self.from_executive = EMPTY_INBOX;
         self.resume = true;
@@ -156,6 +160,7 @@ impl PlannerPartition {
                 self.loaded = false;
                 self.planner.reset();
                 self.network.clear();
+                self.image_len = 0;
                 self.assembly = (len as usize <= MAX_NETWORK_IMAGE).then_some((generation, len, 0));
                 if self.assembly.is_none() {
                     self.refused_networks = self.refused_networks.saturating_add(1);
@@ -184,6 +189,7 @@ impl PlannerPartition {
                 let image = self.image.get(..len as usize).unwrap_or(&[]);
                 let whole = g == generation && got == len && CRC32.checksum(image) == crc;
                 if whole && uplink::decode_then_validate(&mut self.network, image).is_ok() {
+                    self.image_len = len as usize;
                     self.planner.load(&self.network);
                     self.generation = generation;
                     self.loaded = true;
@@ -198,7 +204,7 @@ impl PlannerPartition {
     /// The planner's window: if the executive's frame has come, planning within `budget`
     /// validity checks at the frame's time, then the commits (no more than the channel's log
     /// has room for), then the status. The planner's decisions go to the executive.
-    pub fn window(&mut self, budget: u32) -> Option<PlannerStatus> {
+    pub fn window(&mut self, budget: impl crate::planner::Budget) -> Option<PlannerStatus> {
         let (frame, now) = self.frame.take()?;
         let now = MissionTimeUs(now.0.min(MAX_MISSION_TIME_US));
         self.now = now;
@@ -282,7 +288,15 @@ impl PlannerPartition {
             buf.get_mut(len..len + part.len())?.copy_from_slice(part);
             len += part.len();
         }
-        len += encode_network(&self.network, buf.get_mut(len..)?)?;
+        // The loaded network's image as it came (no encoding again), or the empty network.
+        len += match self
+            .image
+            .get(..self.image_len)
+            .filter(|_| self.assembly.is_none())
+        {
+            Some(image) if self.image_len > 0 => put_network_image(image, buf.get_mut(len..)?)?,
+            _ => encode_network(&self.network, buf.get_mut(len..)?)?,
+        };
         put(&self.planner, buf, &mut len)?;
         put(&self.to_executive, buf, &mut len)?;
         put(&self.from_executive, buf, &mut len)?;
@@ -319,7 +333,7 @@ impl PlannerPartition {
             self.image.get_mut(..part.len())?.copy_from_slice(part);
             rest = rest.get(got as usize..)?;
         }
-        let rest = decode_network(&mut self.network, rest)?;
+        let (image, rest) = decode_network(&mut self.network, rest)?;
         let rest = in_place::take_in_place(rest, PlannerInPlace(&mut self.planner))?;
         let (to_executive, rest) = postcard::take_from_bytes(rest).ok()?;
         let (from_executive, rest) = postcard::take_from_bytes(rest).ok()?;
@@ -336,6 +350,11 @@ impl PlannerPartition {
         self.frame = meta.frame;
         self.assembly = meta.assembly;
         self.refused_networks = meta.refused_networks;
+        self.image_len = 0;
+        if meta.assembly.is_none() && meta.loaded {
+            self.image.get_mut(..image.len())?.copy_from_slice(image);
+            self.image_len = image.len();
+        }
         Some(())
     }
 }

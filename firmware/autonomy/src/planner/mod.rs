@@ -214,6 +214,19 @@ struct Ctx<'a> {
     now: MissionTimeUs,
 }
 
+/// When the planner's cycle stops for this step: asked before each scheduling or repair job
+/// (a job that starts finishes) with the validity checks spent in the step so far.
+pub trait Budget {
+    fn exhausted(&mut self, checks_spent: u32) -> bool;
+}
+
+/// A number of validity checks.
+impl Budget for u32 {
+    fn exhausted(&mut self, checks_spent: u32) -> bool {
+        checks_spent >= *self
+    }
+}
+
 impl Planner {
     pub const fn new() -> Self {
         Self {
@@ -454,13 +467,14 @@ impl Planner {
         next
     }
 
-    /// Runs the planner up to `budget` validity checks: intake, then the cycle (resumed or
-    /// started), then commits. Commits go to `commits`; decisions to `out` as telemetry.
+    /// Runs the planner until `budget` is exhausted (a number of validity checks, or see
+    /// [`Budget`]): intake, then the cycle (resumed or started), then commits. Commits go to
+    /// `commits`; decisions to `out` as telemetry.
     pub fn step(
         &mut self,
         network: &TaskNetwork,
         now: MissionTimeUs,
-        budget: u32,
+        mut budget: impl Budget,
         commits: &mut impl FnMut(Commit),
         out: &mut impl Outputs,
     ) -> PlannerStepReport {
@@ -496,7 +510,7 @@ impl Planner {
                     self.phase = Phase::Schedule;
                 }
                 Phase::Schedule => {
-                    if spent(self) >= budget {
+                    if budget.exhausted(spent(self)) {
                         break;
                     }
                     match self.next_to_schedule(&ctx) {
@@ -524,7 +538,7 @@ impl Planner {
                     }
                 }
                 Phase::Repair => {
-                    if spent(self) >= budget {
+                    if budget.exhausted(spent(self)) {
                         break;
                     }
                     let conflict = if self.tried.is_full() {

@@ -34,7 +34,8 @@
 //! as chunked uplinks (regenerate them with
 //! `cargo run --manifest-path host-harness/fuzz/Cargo.toml --example seeds`).
 use autonomy::checkpoint::records;
-use autonomy::{Autonomy, TaskNetwork, TaskRole};
+use autonomy::partitioned::{ExecutivePartition, PlannerPartition};
+use autonomy::{TaskNetwork, TaskRole};
 use flight_app::{
     metric, uplink_reason, BootOutcome, FlightApp, Memories, NoClock, SecurityStore, StoreError,
     MAX_UPLINK_BYTES,
@@ -54,12 +55,23 @@ pub mod bounded;
 /// The targets of this crate, by name.
 pub const TARGETS: &[bounded::Target] = &[("messages", messages), ("uplink_chunks", uplink_chunks)];
 
-/// Bytes of the warm-restart area in the harness (a checkpoint slot is half): small enough
-/// that a large fuzzed network overflows it now and then (a failed checkpoint write) while
-/// non-volatile memory still takes it.
-pub const WARM_BYTES: usize = 16 * 1024;
+/// Bytes of the warm-restart area in the harness: the executive's and the planner's shares
+/// (`flight_app::executive_share`: half each; a checkpoint slot is half a share), small enough
+/// that a large fuzzed network overflows a share now and then (a failed checkpoint write)
+/// while non-volatile memory still takes it.
+pub const WARM_BYTES: usize = 32 * 1024;
 /// Bytes of non-volatile checkpoint memory in the harness (the security area is apart).
-pub const NV_BYTES: usize = 64 * 1024;
+pub const NV_BYTES: usize = 128 * 1024;
+
+/// The executive's share of a memory.
+fn executive_part(memory: &[u8]) -> &[u8] {
+    &memory[..flight_app::executive_share(memory.len())]
+}
+
+/// The planner's share of a memory.
+fn planner_part(memory: &[u8]) -> &[u8] {
+    &memory[flight_app::executive_share(memory.len())..]
+}
 /// Most operations one input is cut to (keeps one input's run time bounded).
 pub const MAX_OPS: usize = 1_000;
 
@@ -577,9 +589,14 @@ impl Harness {
         &self.verdicts
     }
 
-    /// The payload of the newest checkpoint in the warm-restart area.
+    /// The payload of the executive's newest checkpoint in the warm-restart area.
     pub fn warm_checkpoint(&self) -> Option<&[u8]> {
-        records(&self.warm)[0].map(|r| r.payload)
+        records(executive_part(&self.warm))[0].map(|r| r.payload)
+    }
+
+    /// The payload of the planner's newest checkpoint in the warm-restart area.
+    pub fn planner_checkpoint(&self) -> Option<&[u8]> {
+        records(planner_part(&self.warm))[0].map(|r| r.payload)
     }
 
     /// Performs `op` and checks what the application did.
@@ -624,7 +641,7 @@ impl Harness {
     fn boot(&mut self) -> BootOutcome {
         let newest = [&self.warm, &self.nv]
             .into_iter()
-            .filter_map(|m| records(m)[0].map(|r| r.sequence))
+            .filter_map(|m| records(executive_part(m))[0].map(|r| r.sequence))
             .reduce(|a, b| {
                 if autonomy::checkpoint::is_newer(b, a) {
                     b
@@ -667,20 +684,32 @@ impl Harness {
         outcome
     }
 
-    /// The whole plan and execution state, to show that something left it untouched.
+    /// The whole plan and execution state (both partitions'), to show that something left it
+    /// untouched.
     fn state_image(&self) -> Vec<u8> {
-        let mut buf = vec![0u8; 2 * MAX_UPLINK_BYTES + 64 * 1024];
+        let mut buf = vec![0u8; 4 * MAX_UPLINK_BYTES + 64 * 1024];
         let len = self
             .app
-            .autonomy()
+            .executive()
+            .executive()
             .encode_state(&mut buf)
             .expect("the state fits");
-        buf.truncate(len);
+        let more = self
+            .app
+            .planner()
+            .partition()
+            .encode_state(&mut buf[len..])
+            .expect("the state fits");
+        buf.truncate(len + more);
         buf
     }
 
     fn message(&mut self, msg: &HostToTarget) {
-        let busy = !self.app.autonomy().executive().entries().is_empty();
+        // Busy while the executive owns tasks, or the last network is still on its way to the
+        // planner.
+        let executive = self.app.executive().executive();
+        let busy =
+            !executive.control().executive().entries().is_empty() || executive.transferring();
         let expected = match msg {
             HostToTarget::UplinkChunk { seq, total, bytes } => {
                 Some(self.model.answer(*seq, *total, bytes))
@@ -823,13 +852,13 @@ impl Harness {
                 self.verdicts.loaded += 1;
                 let mut network = TaskNetwork::EMPTY;
                 autonomy::uplink::decode_into(&mut network, image).expect("validated");
-                assert_eq!(self.app.autonomy().network(), &network, "loaded network");
-                let requested = network
-                    .tasks()
-                    .iter()
-                    .filter(|t| t.role == TaskRole::Requested)
-                    .count();
-                assert_eq!(self.app.autonomy().plan().len(), requested, "a fresh plan");
+                assert_eq!(
+                    self.app.executive().executive().network(),
+                    &network,
+                    "loaded network"
+                );
+                // The planner loads it in the next frame, from the executive's stream.
+                let _ = TaskRole::Requested;
                 TargetToHost::UplinkAck { seq: total }
             }
         };
@@ -945,10 +974,21 @@ impl Harness {
     /// written with the same state under the same number; the non-volatile copy is checked
     /// against the warm one, or on its own when the warm write failed.
     fn check_checkpoints(&mut self) {
-        let warm = self.app.take_warm_write().is_some();
-        let nv = self.app.take_nv_write().is_some();
+        let share = flight_app::executive_share(self.warm.len());
+        let nv_share = flight_app::executive_share(self.nv.len());
+        let warm_writes: Vec<_> = self.app.take_warm_writes().into_iter().collect();
+        let nv_writes: Vec<_> = self.app.take_nv_writes().into_iter().collect();
+        self.check_planner_checkpoints(
+            warm_writes.iter().any(|w| w.0 >= share),
+            nv_writes.iter().any(|w| w.0 >= nv_share),
+        );
+        let warm = warm_writes.iter().any(|w| w.0 < share);
+        let nv = nv_writes.iter().any(|w| w.0 < nv_share);
         if warm && nv {
-            let (w, n) = (records(&self.warm)[0], records(&self.nv)[0]);
+            let (w, n) = (
+                records(executive_part(&self.warm))[0],
+                records(executive_part(&self.nv))[0],
+            );
             let (w, n) = (w.expect("written"), n.expect("written"));
             assert_eq!(w.sequence, n.sequence, "both memories carry one number");
             assert_eq!(
@@ -960,13 +1000,30 @@ impl Harness {
             if !written {
                 continue;
             }
-            let record = records(memory)[0].expect("a record was written");
-            let mut core = Box::new(Autonomy::new());
-            if let Err(e) = core.decode_state(record.payload) {
-                panic!("a checkpoint the application wrote is refused: {e:?}");
+            let record = records(executive_part(memory))[0].expect("a record was written");
+            let mut side = Box::new(ExecutivePartition::new());
+            if side.decode_state(record.payload).is_none() {
+                panic!("an executive checkpoint the application wrote is refused");
             }
             let mut again = vec![0u8; record.payload.len()];
-            let len = core.encode_state(&mut again).expect("fits as before");
+            let len = side.encode_state(&mut again).expect("fits as before");
+            assert_eq!(&again[..len], record.payload, "restore changed the state");
+        }
+    }
+
+    /// The same for the planner's records.
+    fn check_planner_checkpoints(&self, warm: bool, nv: bool) {
+        for (written, memory) in [(warm, &self.warm), (nv && !warm, &self.nv)] {
+            if !written {
+                continue;
+            }
+            let record = records(planner_part(memory))[0].expect("a record was written");
+            let mut side = Box::new(PlannerPartition::new());
+            if side.decode_state(record.payload).is_none() {
+                panic!("a planner checkpoint the application wrote is refused");
+            }
+            let mut again = vec![0u8; record.payload.len()];
+            let len = side.encode_state(&mut again).expect("fits as before");
             assert_eq!(&again[..len], record.payload, "restore changed the state");
         }
     }

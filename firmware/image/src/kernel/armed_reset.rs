@@ -22,7 +22,7 @@ use fsw_bridge::ResetCause;
 use kernel_config::abi::{metric, reset_at, SysError};
 use kernel_config::PortKind;
 
-use super::sched::read_dec;
+use super::sched::{read_dec, DEC_EXACT_TICKS};
 use super::umem::copy;
 use super::{at, Kernel};
 use crate::config::SYSTEM;
@@ -43,10 +43,17 @@ enum Point {
 enum State {
     Off,
     /// `partition` has `messages` more to receive from `port`; the last one is the anchor.
+    /// With `chain`, the anchor arms the next stage instead: the destination of port `chain`,
+    /// anchored on the first message sent there after it (the planner partition's work on
+    /// the executive's first message of the frame). `from_receipt`: the count starts at the
+    /// anchor's receipt (a partition that works on a message in the window it receives it),
+    /// not at the partition's next window.
     Armed {
         partition: usize,
         port: usize,
         messages: u16,
+        chain: Option<usize>,
+        from_receipt: bool,
     },
     /// `partition` received the anchor; the count starts at its next switch-in.
     Received {
@@ -122,6 +129,7 @@ impl Kernel {
         mode: u32,
         value: u32,
         port: usize,
+        chain: Option<usize>,
     ) -> Result<(), SysError> {
         let point = match mode {
             reset_at::AFTER_TICKS => Point::AfterTicks(value),
@@ -139,6 +147,17 @@ impl Kernel {
         if messages == 0 {
             return Err(SysError::Empty);
         }
+        if let Some(chain) = chain {
+            // The next stage's port: a queuing port from the first stage's partition to one
+            // other.
+            let next = SYSTEM.ports.get(chain).ok_or(SysError::BadPort)?;
+            if next.kind != PortKind::Queuing
+                || next.source != partition
+                || next.destinations.len() != 1
+            {
+                return Err(SysError::BadPort);
+            }
+        }
         // The counted partition is not running (the caller is), so the decrementer is not
         // pointed at an earlier reset point.
         self.armed = ArmedReset {
@@ -146,6 +165,8 @@ impl Kernel {
                 partition,
                 port,
                 messages,
+                chain,
+                from_receipt: false,
             },
             point,
             last_write: None,
@@ -162,23 +183,78 @@ impl Kernel {
     /// `p` (running, in SYS_PORT_RECEIVE) took a message from `port`: after the anchor, the
     /// count starts with its next window.
     pub fn armed_reset_on_receive(&mut self, p: usize, port: usize) {
-        if let State::Armed {
+        let State::Armed {
             partition,
             port: anchor_port,
             messages,
+            chain,
+            from_receipt,
         } = self.armed.state
-        {
-            if partition == p && anchor_port == port {
-                if messages > 1 {
-                    self.armed.state = State::Armed {
-                        partition,
-                        port,
-                        messages: messages - 1,
-                    };
-                } else {
-                    self.armed.state = State::Received { partition };
-                }
+        else {
+            return;
+        };
+        if partition != p || anchor_port != port {
+            return;
+        }
+        if messages > 1 {
+            self.armed.state = State::Armed {
+                partition,
+                port,
+                messages: messages - 1,
+                chain,
+                from_receipt,
+            };
+            return;
+        }
+        match chain {
+            Some(next) => {
+                // The next stage: the first message `p` sends on `next` from here on is the
+                // anchor of its destination's work.
+                let Some(&[destination]) = SYSTEM.ports.get(next).map(|c| c.destinations) else {
+                    self.armed.state = State::Off;
+                    return;
+                };
+                let queued = self.ports.queued(next).saturating_add(1);
+                self.armed.state = State::Armed {
+                    partition: destination,
+                    port: next,
+                    messages: queued,
+                    chain: None,
+                    from_receipt: true,
+                };
             }
+            None if from_receipt => self.armed_count_from_now(p),
+            None => self.armed.state = State::Received { partition },
+        }
+    }
+
+    /// Starts counting the running partition `p`'s CPU from now (inside its stint): the
+    /// decrementer is pointed at the reset point if that comes before the window end, the
+    /// stint's accounting kept (what it used so far stays charged).
+    fn armed_count_from_now(&mut self, p: usize) {
+        let anchor = self.cpu_now(p);
+        self.armed.state = State::Counting {
+            partition: p,
+            anchor,
+            to_point: false,
+        };
+        let Point::AfterTicks(ticks) = self.armed.point else {
+            return;
+        };
+        let window_dec = read_dec();
+        // An exact count (see `sched`): a multiple of DEC_EXACT_TICKS, written at the same
+        // instruction of the partition's work on every run.
+        let exact = (ticks / DEC_EXACT_TICKS).max(1) * DEC_EXACT_TICKS;
+        let Ok(to_point) = i32::try_from(exact) else {
+            return;
+        };
+        if to_point < window_dec {
+            self.repoint_stint(to_point);
+            self.armed.state = State::Counting {
+                partition: p,
+                anchor,
+                to_point: true,
+            };
         }
     }
 

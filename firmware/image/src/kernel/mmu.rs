@@ -16,12 +16,20 @@ macro_rules! set_bat {
         // SAFETY:
         // 1. Supervisor state with translation off: the BATs only affect partitions.
         // 2. The upper word is written invalid first, so no half-written BAT is ever valid.
+        //    It keeps the old block's address and length while invalid: QEMU drops the
+        //    translations it cached for a BAT over the length of the value written, so writing
+        //    0 (a 128 KiB length) left the rest of a larger old block (the planner's 4 MiB, the
+        //    executive's 2 MiB) readable and writable by the next partition until QEMU's TLB
+        //    happened to lose it. A real 750 caches no BAT translations; this is the same
+        //    there.
         unsafe {
             asm!(
-                concat!("mtspr ", $upper, ", {zero}"),
+                concat!("mfspr {old}, ", $upper),
+                "rlwinm {old}, {old}, 0, 0, 29",
+                concat!("mtspr ", $upper, ", {old}"),
                 concat!("mtspr ", $lower, ", {lower}"),
                 concat!("mtspr ", $upper, ", {upper}"),
-                zero = in(reg) 0u32,
+                old = out(reg) _,
                 lower = in(reg) bat.lower,
                 upper = in(reg) bat.upper,
                 options(nostack, nomem)

@@ -206,6 +206,16 @@ impl Kernel {
     }
 
     /// CPU ticks `p` (running) has used since boot, up to this instruction.
+    /// Points the decrementer at `ticks` from now inside the running partition's stint (an
+    /// armed reset point that came before its window end), keeping the stint's accounting:
+    /// what it used so far stays charged.
+    pub fn repoint_stint(&mut self, ticks: i32) {
+        let used = self.sched.stint_dec.wrapping_sub(read_dec());
+        let ticks = ticks.max(MIN_DEC_TICKS);
+        self.sched.stint_dec = used.wrapping_add(ticks);
+        write_dec(ticks);
+    }
+
     pub fn cpu_now(&self, p: usize) -> u64 {
         let stint = self.sched.stint_dec.wrapping_sub(read_dec()).max(0) as u64;
         at(&self.parts, p).cpu_total + stint

@@ -267,7 +267,8 @@ impl Kernel {
                 match a[0] {
                     reset_at::NOW => self.warm_reset(ResetCause::Warm),
                     mode => {
-                        self.arm_reset(p, mode, a[1], a[2] as usize)?;
+                        let chain = (a[3] != reset_at::NO_CHAIN).then_some(a[3] as usize);
+                        self.arm_reset(p, mode, a[1], a[2] as usize, chain)?;
                         ok()
                     }
                 }

@@ -21,22 +21,27 @@
 //! takes effect). A board without non-volatile memory, or with less than the checkpoint and
 //! security areas, has no key: authenticated traffic is refused with `NoKey`.
 //!
-//! The planner and the executive of the core still run together here; they exchange only
-//! commits and task reports, so splitting them over the planner partition is a move of code,
-//! not of design.
+//! The planner runs in the planner partition (`partitions::planner`): a granted frame starts
+//! here (the first executive window: host input, the first executive pass, a checkpoint, then
+//! the messages for the planner on `executive_to_planner`), goes on in the planner's window, and
+//! ends in a later window of this partition, once the planner's answer has come in on
+//! `planner_to_executive` (the second executive window: the commits, the second pass, a
+//! checkpoint, `FrameDone`). While it waits the partition gives up each window at once: its
+//! CPU per window does not depend on the planner.
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
-use flight_app::{
-    CpuClock, Downlink, FlightApp, Memories, MemoryFetch, MemoryKind, SecurityStore, StoreError,
-};
+use flight_app::{Downlink, ExecutiveApp, SecurityStore, StoreError};
 use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
 use heapless::Deque;
 use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
 use kernel_config::system::{EXECUTIVE_NV, EXECUTIVE_WARM};
 use kernel_config::{WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 
-use super::{ports, receive_routed, send_to_host, zeroed_state, ZeroValid};
+use super::{
+    ports, receive_routed, receive_wire, send_to_host, send_wire, zeroed_state, HostOutbox,
+    KernelMemories, MemoryCopies, PartitionClock, ZeroValid,
+};
 use crate::board::timebase;
 use crate::sys;
 
@@ -62,24 +67,13 @@ pub struct ExecutiveState {
     pub state_updates: u32,
     pub command_responses: u32,
     pub time_grants: u32,
-    /// Messages lost because the outbox was full.
-    pub outbox_overflows: u32,
-    /// Checkpoint copies the kernel refused.
-    pub warm_write_errors: u32,
-    /// Checkpoint copies to non-volatile memory the kernel refused.
-    pub nv_write_errors: u32,
-    /// This partition's copy of the warm-restart area's checkpoint part: the records the
-    /// flight application read in and those it wrote (the rest stays zero).
-    pub warm: [u8; WARM_CHECKPOINT_BYTES],
-    /// This partition's copy of the start of non-volatile memory (same A/B layout, filled the
-    /// same way).
-    pub nv: [u8; NV_CHECKPOINT_BYTES],
-    /// The board has non-volatile memory large enough for the checkpoint areas.
-    pub has_nv: bool,
+    /// The copies of this partition's slices of the warm-restart area and of the start of
+    /// non-volatile memory (its checkpoint areas).
+    pub copies: MemoryCopies<WARM_CHECKPOINT_BYTES, NV_CHECKPOINT_BYTES>,
     /// The non-volatile memory also holds the security area (it is at least
     /// [`NV_USED_BYTES`] long).
     pub has_security_area: bool,
-    pub outbox: Deque<TargetToHost, OUTBOX_CAPACITY>,
+    pub outbox: HostOutbox<OUTBOX_CAPACITY>,
     /// Host messages received, in order, not handled yet.
     pub pending: Deque<HostToTarget, PENDING_CAPACITY>,
     /// `pending` ends with a message the host waits for: handle it at the next window start.
@@ -96,25 +90,16 @@ unsafe impl ZeroValid for ExecutiveState {}
 static mut STATE: MaybeUninit<ExecutiveState> = MaybeUninit::uninit();
 
 #[link_section = ".bss.part.executive"]
-static mut APP: MaybeUninit<FlightApp> = MaybeUninit::uninit();
+static mut APP: MaybeUninit<ExecutiveApp> = MaybeUninit::uninit();
 
-// SAFETY: every field of a FlightApp, down to the leaves, is an integer, a bool, an array of
-// them, a fieldless enum whose first variant is 0 (the planner's phase), an Option or tuple
-// of these, or a heapless Vec (a length and MaybeUninit storage: empty when zero); there is no
-// reference, NonZero or function pointer, so all-zero bytes are a valid FlightApp. The
-// partition entry then makes it the new application with `FlightApp::reset`, which writes
-// every field: the application is never copied from a constant image of it (55 KiB in the
-// RAM image, read by the reset stub's image check at every boot, and copied at every start).
-unsafe impl ZeroValid for FlightApp {}
-
-/// CPU time of this partition only, so costs do not depend on other partitions' windows.
-struct PartitionClock;
-
-impl CpuClock for PartitionClock {
-    fn ticks(&mut self) -> u64 {
-        sys::cpu_time().0
-    }
-}
+// SAFETY: every field of an ExecutiveApp, down to the leaves, is an integer, a bool, an array
+// of them, a fieldless enum whose first variant is 0, an Option or tuple of these, or a
+// heapless Vec or Deque (a length or indices and MaybeUninit storage: empty when zero); there
+// is no reference, NonZero or function pointer, so all-zero bytes are a valid ExecutiveApp.
+// The partition entry then makes it the new application with `ExecutiveApp::reset`, which
+// writes every field: the application is never copied from a constant image of it (tens of
+// KiB in the RAM image, read by the reset stub's image check at every boot).
+unsafe impl ZeroValid for ExecutiveApp {}
 
 /// The security area in non-volatile memory, through the kernel (this partition owns NV).
 struct NvSecurityStore;
@@ -136,54 +121,12 @@ impl SecurityStore for NvSecurityStore {
     }
 }
 
-/// The warm-restart area and non-volatile memory, read through the kernel into this
-/// partition's copies: only what the flight application asks for (record headers, then the
-/// records it checks), not both 64 KiB areas.
-struct KernelMemories;
-
-impl MemoryFetch for KernelMemories {
-    fn fetch(
-        &mut self,
-        memory: MemoryKind,
-        offset: usize,
-        bytes: &mut [u8],
-    ) -> Result<(), StoreError> {
-        let offset = u32::try_from(offset).map_err(|_| StoreError)?;
-        let read = match memory {
-            MemoryKind::Warm => sys::warm_read(offset, bytes),
-            MemoryKind::Nv => sys::nv_read(offset, bytes).map(|_| ()),
-        };
-        read.map_err(|_| {
-            defmt::warn!(
-                "executive: a read of {=usize} bytes at {=u32} failed; taken as no record",
-                bytes.len(),
-                offset
-            );
-            StoreError
-        })
-    }
-}
-
 /// The security store of a board that has the security area.
 fn security_store(
     has_security_area: bool,
     store: &mut NvSecurityStore,
 ) -> Option<&mut dyn SecurityStore> {
     has_security_area.then_some(store as &mut dyn SecurityStore)
-}
-
-/// Queues messages for the host.
-struct Outbox<'a> {
-    queue: &'a mut Deque<TargetToHost, OUTBOX_CAPACITY>,
-    overflows: &'a mut u32,
-}
-
-impl Downlink for Outbox<'_> {
-    fn send(&mut self, msg: TargetToHost) {
-        if self.queue.push_back(msg).is_err() {
-            *self.overflows = self.overflows.saturating_add(1);
-        }
-    }
 }
 
 #[no_mangle]
@@ -194,13 +137,13 @@ pub extern "C" fn partition_executive_main() -> ! {
     let entered = sys::cpu_time().0;
     // SAFETY: as above (APP is zeroed by the partition start too, and FlightApp is
     // ZeroValid); `reset` makes it the new application before its first use.
-    let app: &'static mut FlightApp = unsafe { zeroed_state(addr_of_mut!(APP)) };
+    let app: &'static mut ExecutiveApp = unsafe { zeroed_state(addr_of_mut!(APP)) };
     app.reset();
     // The copies of the two memories start out zero (no record); the flight application
     // reads what it needs into them (`KernelMemories`). Probe non-volatile memory's size first
     // (a read of 0 bytes), so a small device is refused here rather than by the kernel as an
     // out-of-range access.
-    state.has_nv = match sys::nv_read(0, &mut []) {
+    state.copies.has_nv = match sys::nv_read(0, &mut []) {
         Ok(size) if size as usize >= NV_CHECKPOINT_BYTES => {
             state.has_security_area = size as usize >= NV_USED_BYTES;
             if !state.has_security_area {
@@ -229,21 +172,14 @@ pub extern "C" fn partition_executive_main() -> ! {
     // overruns the executive's window.
     sys::wait_next_window();
     {
-        let mut outbox = Outbox {
-            queue: &mut state.outbox,
-            overflows: &mut state.outbox_overflows,
-        };
+        let outbox = &mut state.outbox;
         let mut store = NvSecurityStore;
-        let mut memories = Memories {
-            warm: &mut state.warm,
-            nv: state.has_nv.then_some(&mut state.nv[..]),
-            security: security_store(state.has_nv && state.has_security_area, &mut store),
-        };
+        let secured = state.copies.has_nv && state.has_security_area;
         let outcome = app.boot_fetching(
-            &mut memories,
+            &mut state.copies.memories(security_store(secured, &mut store)),
             Some(&mut KernelMemories),
             &mut PartitionClock,
-            &mut outbox,
+            outbox,
         );
         // Ready: the first grant can be taken. Once per boot (a restart by the health
         // monitor is not a boot, and this partition's CPU time counts from the boot).
@@ -285,9 +221,17 @@ pub extern "C" fn partition_executive_main() -> ! {
     // costs, and a reset the host armed inside it (counted by the kernel from that window's
     // start), are the same on every run.
     loop {
+        // The planner's messages (its window ran since our last one), then the host's batch,
+        // then the frame's second window if the planner has answered it, then what the
+        // checkpoints allow to go to the planner.
+        while let Some(wire) = receive_wire(ports::PLANNER_TO_EXECUTIVE) {
+            app.receive(wire);
+        }
         if core::mem::replace(&mut state.batch_complete, false) {
             handle_pending(state, app);
         }
+        second_window(state, app);
+        to_planner(state, app);
         flush(state);
         while let Some((msg, _generation)) = receive_routed(ports::IO_TO_EXECUTIVE) {
             if let HostToTarget::StateUpdate {
@@ -321,8 +265,7 @@ pub extern "C" fn partition_executive_main() -> ! {
             }
             state.batch_complete |= answer_awaited;
         }
-        let _ = ports::EXECUTIVE_STATUS.send(&state.state_updates);
-        if state.batch_complete || !state.outbox.is_empty() {
+        if state.batch_complete || !state.outbox.queue.is_empty() || app.awaiting_planner() {
             sys::wait_next_window();
         } else {
             // Nothing to do until the host sends more (a batch still waiting for its grant
@@ -332,8 +275,42 @@ pub extern "C" fn partition_executive_main() -> ! {
     }
 }
 
+/// The frame's second window, once the planner has answered: the commits, the second
+/// executive pass, the checkpoint, FrameDone.
+fn second_window(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
+    if !app.awaiting_planner() {
+        return;
+    }
+    app.second_window(
+        &mut state.copies.memories(None),
+        Some(&mut KernelMemories),
+        &mut PartitionClock,
+        &mut state.outbox,
+    );
+    write_checkpoints(state, app);
+}
+
+/// What the executive's checkpoint holds goes to the planner, until its port is full (the
+/// rest goes at the next window: the channel keeps it).
+fn to_planner(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
+    app.checkpoint_if_needed(
+        &mut state.copies.memories(None),
+        Some(&mut KernelMemories),
+        &mut state.outbox,
+    );
+    write_checkpoints(state, app);
+    app.transmit(&mut |wire| send_wire(ports::EXECUTIVE_TO_PLANNER, &wire));
+}
+
+/// The checkpoint bytes the application wrote into its copies go to the memories.
+fn write_checkpoints(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
+    state
+        .copies
+        .write_out(&app.take_warm_writes(), &app.take_nv_writes());
+}
+
 /// Handle every queued host message, in order.
-fn handle_pending(state: &mut ExecutiveState, app: &mut FlightApp) {
+fn handle_pending(state: &mut ExecutiveState, app: &mut ExecutiveApp) {
     while let Some(msg) = state.pending.pop_front() {
         handle(state, app, msg);
         flush(state);
@@ -342,12 +319,7 @@ fn handle_pending(state: &mut ExecutiveState, app: &mut FlightApp) {
 
 /// Hand queued messages to the I/O partition until its port is full.
 fn flush(state: &mut ExecutiveState) {
-    while let Some(msg) = state.outbox.front() {
-        if send_to_host(ports::EXECUTIVE_TO_IO, msg).is_err() {
-            return;
-        }
-        state.outbox.pop_front();
-    }
+    state.outbox.flush(ports::EXECUTIVE_TO_IO);
 }
 
 fn metric(id: u16, value: u64) {
@@ -357,7 +329,7 @@ fn metric(id: u16, value: u64) {
     );
 }
 
-fn handle(state: &mut ExecutiveState, app: &mut FlightApp, msg: HostToTarget) {
+fn handle(state: &mut ExecutiveState, app: &mut ExecutiveApp, msg: HostToTarget) {
     match &msg {
         HostToTarget::StateUpdate {
             key: StateKey(control::SYSCALL_BENCH),
@@ -376,35 +348,16 @@ fn handle(state: &mut ExecutiveState, app: &mut FlightApp, msg: HostToTarget) {
         HostToTarget::TimeGrant { .. } => state.time_grants += 1,
         _ => {}
     }
-    let mut outbox = Outbox {
-        queue: &mut state.outbox,
-        overflows: &mut state.outbox_overflows,
-    };
     let mut store = NvSecurityStore;
-    let mut memories = Memories {
-        warm: &mut state.warm,
-        nv: state.has_nv.then_some(&mut state.nv[..]),
-        security: security_store(state.has_nv && state.has_security_area, &mut store),
-    };
+    let secured = state.copies.has_nv && state.has_security_area;
     app.handle_fetching(
         &msg,
-        &mut memories,
+        &mut state.copies.memories(security_store(secured, &mut store)),
         Some(&mut KernelMemories),
         &mut PartitionClock,
-        &mut outbox,
+        &mut state.outbox,
     );
-    if let Some((start, end)) = app.take_warm_write() {
-        // Only the bytes this checkpoint wrote go to the warm-restart area; a reset in the
-        // middle of the copy leaves the other slot whole (A/B records).
-        if sys::warm_write(start as u32, &state.warm[start..end]).is_err() {
-            state.warm_write_errors = state.warm_write_errors.saturating_add(1);
-        }
-    }
-    if let Some((start, end)) = app.take_nv_write() {
-        if sys::nv_write(start as u32, &state.nv[start..end]).is_err() {
-            state.nv_write_errors = state.nv_write_errors.saturating_add(1);
-        }
-    }
+    write_checkpoints(state, app);
 }
 
 /// Ticks for SYSCALL_BENCH_CALLS null system calls, timed at the start of a fresh window so no

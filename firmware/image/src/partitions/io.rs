@@ -133,7 +133,8 @@ pub extern "C" fn partition_io_main() -> ! {
         (*addr_of_mut!(ENDPOINT)).write(match TargetEndpoint::new(Role::Responder, LINK_CONFIG) {
             Ok(e) => e,
             // The configuration is a constant checked by the link's tests; a partition restart
-            // would meet the same error.
+            // would meet the same error, so the health monitor hears of it as a panic.
+            #[allow(clippy::panic)]
             Err(_) => panic!("bad link configuration"),
         })
     };
@@ -156,7 +157,7 @@ pub extern "C" fn partition_io_main() -> ! {
         defmt::warn!("io: restarted, generation {=u32}", generation);
     }
     // A mid-frame reset the host asked for, waiting for the grant it applies to: (mode, value).
-    let mut reset_in_next_frame: Option<(u32, u32)> = None;
+    let mut reset_in_next_frame: Option<(u32, u32, bool)> = None;
     let mut rounds = Rounds {
         answer_due: false,
         mission_held: Held::new(),
@@ -298,7 +299,8 @@ fn pump_kernel(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
             break;
         }
         let log = TargetToHost::Log {
-            bytes: heapless::Vec::from_slice(&chunk[..n]).unwrap_or_default(),
+            bytes: heapless::Vec::from_slice(chunk.get(..n).unwrap_or_default())
+                .unwrap_or_default(),
         };
         submit(endpoint, rounds, log);
     }
@@ -389,7 +391,7 @@ fn route(port: Port<HostToTarget>, msg: &HostToTarget) -> Result<(), RouteError>
 
 /// Route the inbound messages, oldest first, until one meets a full port (it and those behind
 /// it wait: the order the host sent them in is the order their partitions see).
-fn route_inbound(inbound: &mut Inbound, reset_in_next_frame: &mut Option<(u32, u32)>) {
+fn route_inbound(inbound: &mut Inbound, reset_in_next_frame: &mut Option<(u32, u32, bool)>) {
     while let Some(routing) = inbound.pop_front() {
         if let Some(left) = deliver(routing, reset_in_next_frame) {
             // Cannot fail: one was just taken off.
@@ -400,7 +402,10 @@ fn route_inbound(inbound: &mut Inbound, reset_in_next_frame: &mut Option<(u32, u
 }
 
 /// Deliver `routing` to the ports it still has to reach; what is left if one is full.
-fn deliver(mut routing: Routing, reset_in_next_frame: &mut Option<(u32, u32)>) -> Option<Routing> {
+fn deliver(
+    mut routing: Routing,
+    reset_in_next_frame: &mut Option<(u32, u32, bool)>,
+) -> Option<Routing> {
     let mut delivered = false;
     for slot in routing.to.iter_mut() {
         let Some(port) = *slot else {
@@ -416,8 +421,10 @@ fn deliver(mut routing: Routing, reset_in_next_frame: &mut Option<(u32, u32)>) -
     if delivered && matches!(routing.msg, HostToTarget::TimeGrant { .. }) {
         // The grant is now the last message for the executive: the kernel counts the
         // executive's work from its receipt.
-        if let Some((mode, value)) = reset_in_next_frame.take() {
-            if let Err(error) = sys::arm_reset(mode, value, ports::IO_TO_EXECUTIVE.id()) {
+        if let Some((mode, value, planner)) = reset_in_next_frame.take() {
+            // In the planner's work: on the executive's first message to it after the grant.
+            let chain = planner.then_some(ports::EXECUTIVE_TO_PLANNER.id());
+            if let Err(error) = sys::arm_reset(mode, value, ports::IO_TO_EXECUTIVE.id(), chain) {
                 defmt::warn!(
                     "io: the kernel refused the mid-frame reset ({=i32})",
                     error.code()
@@ -431,7 +438,7 @@ fn deliver(mut routing: Routing, reset_in_next_frame: &mut Option<(u32, u32)>) -
 /// Act on one host message; a message for partitions is returned, to be routed in order.
 fn handle(
     link: &mut Link,
-    reset_in_next_frame: &mut Option<(u32, u32)>,
+    reset_in_next_frame: &mut Option<(u32, u32, bool)>,
     msg: HostToTarget,
 ) -> Option<Routing> {
     let routing = match msg {
@@ -454,12 +461,24 @@ fn handle(
                 }
                 ResetKind::WarmAfterTicks { ticks } => {
                     defmt::info!("reset requested by host: warm, {=u32} ticks into the executive's next frame", ticks);
-                    *reset_in_next_frame = Some((reset_at::AFTER_TICKS, ticks));
+                    *reset_in_next_frame = Some((reset_at::AFTER_TICKS, ticks, false));
                 }
                 ResetKind::WarmDuringCheckpointWrite { permille } => {
                     defmt::info!("reset requested by host: warm, {=u16} permille into the next checkpoint write", permille);
+                    *reset_in_next_frame = Some((
+                        reset_at::IN_WARM_WRITE,
+                        u32::from(permille.min(1000)),
+                        false,
+                    ));
+                }
+                ResetKind::PlannerAfterTicks { ticks } => {
+                    defmt::info!("reset requested by host: warm, {=u32} ticks into the planner's work on the next frame", ticks);
+                    *reset_in_next_frame = Some((reset_at::AFTER_TICKS, ticks, true));
+                }
+                ResetKind::PlannerDuringCheckpointWrite { permille } => {
+                    defmt::info!("reset requested by host: warm, {=u16} permille into the planner's next checkpoint write", permille);
                     *reset_in_next_frame =
-                        Some((reset_at::IN_WARM_WRITE, u32::from(permille.min(1000))));
+                        Some((reset_at::IN_WARM_WRITE, u32::from(permille.min(1000)), true));
                 }
             }
             return None;
@@ -501,7 +520,9 @@ fn control(key: u16, msg: HostToTarget) -> Option<Routing> {
             sys::request_metrics(period);
             None
         }
-        control::PLANNER_CHECKSUM => Some(Routing::to(msg, ports::IO_TO_PLANNER)),
+        control::PLANNER_CHECKSUM | control::PLANNER_BUDGET => {
+            Some(Routing::to(msg, ports::IO_TO_PLANNER))
+        }
         control::SYSCALL_BENCH => Some(Routing::to(msg, ports::IO_TO_EXECUTIVE)),
         #[cfg(feature = "test-partitions")]
         control::ROGUE_MODE => Some(Routing::to(msg, ports::IO_TO_ROGUE)),

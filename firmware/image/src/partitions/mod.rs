@@ -6,8 +6,9 @@
 //! - [`io`]: owns the UART and the frame codec; says Hello, answers pings, routes host messages
 //!   to the other partitions' ports and their outbound messages, the kernel's log and events
 //!   to the host.
-//! - [`executive`] and [`planner`]: placeholders with real regions, stacks, windows and ports,
-//!   where the autonomy core goes.
+//! - [`executive`]: the flight application's executive side (the control loop, the lockstep
+//!   protocol with the host, uplinks and security).
+//! - [`planner`]: the flight application's planner side, anytime across its windows.
 //! - `rogue` (test image only): misbehaves on command, to prove the isolation.
 pub mod executive;
 pub mod io;
@@ -17,13 +18,53 @@ pub mod rogue;
 
 use core::mem::MaybeUninit;
 
+use flight_app::{
+    CpuClock, Downlink, Memories, MemoryFetch, MemoryKind, SecurityStore, StoreError,
+};
 use fsw_bridge::{HostToTarget, TargetToHost};
+use heapless::Deque;
+use kernel_config::abi::SysError;
+use serde::de::DeserializeOwned;
+use serde::Serialize;
 
 use crate::port::{Port, PortError};
+use crate::sys;
+
+/// CPU time of the calling partition only, so costs do not depend on other partitions' windows.
+pub struct PartitionClock;
+
+impl CpuClock for PartitionClock {
+    fn ticks(&mut self) -> u64 {
+        sys::cpu_time().0
+    }
+}
+
+/// Copies the byte ranges a checkpoint wrote into a partition's copy of a memory to the memory
+/// itself (`write`: `sys::warm_write` or `sys::nv_write`), in order; only those bytes, so a
+/// reset in the middle of a copy leaves the other slot whole (A/B records). Returns the number
+/// of copies refused.
+pub fn copy_out(
+    ranges: &[(usize, usize)],
+    copy: &[u8],
+    write: fn(u32, &[u8]) -> Result<(), SysError>,
+) -> u32 {
+    let mut refused = 0u32;
+    for &(start, end) in ranges {
+        let ok = match (copy.get(start..end), u32::try_from(start)) {
+            (Some(bytes), Ok(at)) => write(at, bytes).is_ok(),
+            _ => false,
+        };
+        if !ok {
+            refused = refused.saturating_add(1);
+        }
+    }
+    refused
+}
 
 /// The ports the partitions use: named as in the configuration (their ids derived from the
 /// names at compile time), typed with what they carry.
 pub mod ports {
+    use flight_app::{ExecutiveInput, PlannerInput, Wire};
     use fsw_bridge::{HostToTarget, TargetToHost};
 
     use crate::port::Port;
@@ -36,10 +77,11 @@ pub mod ports {
     pub const EXECUTIVE_TO_IO: Port<TargetToHost> = Port::named("executive_to_io");
     /// The planner's messages for the host.
     pub const PLANNER_TO_IO: Port<TargetToHost> = Port::named("planner_to_io");
-    /// The planner's summary for the executive (its accumulator).
-    pub const PLAN_SUMMARY: Port<u32> = Port::named("plan_summary");
-    /// The executive's status for the planner (state updates handled).
-    pub const EXECUTIVE_STATUS: Port<u32> = Port::named("executive_status");
+    /// The executive's side of the autonomy core's channel to the planner.
+    pub const EXECUTIVE_TO_PLANNER: Port<Wire<PlannerInput>> = Port::named("executive_to_planner");
+    /// The planner's side of it.
+    pub const PLANNER_TO_EXECUTIVE: Port<Wire<ExecutiveInput>> =
+        Port::named("planner_to_executive");
     /// Test image: host messages for the rogue partition.
     #[cfg(feature = "test-partitions")]
     pub const IO_TO_ROGUE: Port<HostToTarget> = Port::named("io_to_rogue");
@@ -80,5 +122,134 @@ pub fn receive_routed(port: Port<HostToTarget>) -> Option<(HostToTarget, u32)> {
                 defmt::warn!("port {=usize}: undecodable message dropped", port.id())
             }
         }
+    }
+}
+
+/// The warm-restart area and non-volatile memory (the calling partition's slices), read
+/// through the kernel into the partition's copies: only what the flight application asks for (record headers, then the
+/// records it checks), not both 64 KiB areas.
+pub struct KernelMemories;
+
+impl MemoryFetch for KernelMemories {
+    fn fetch(
+        &mut self,
+        memory: MemoryKind,
+        offset: usize,
+        bytes: &mut [u8],
+    ) -> Result<(), StoreError> {
+        let offset = u32::try_from(offset).map_err(|_| StoreError)?;
+        let read = match memory {
+            MemoryKind::Warm => sys::warm_read(offset, bytes),
+            MemoryKind::Nv => sys::nv_read(offset, bytes).map(|_| ()),
+        };
+        read.map_err(|_| {
+            defmt::warn!(
+                "a read of {=usize} bytes at {=u32} failed; taken as no record",
+                bytes.len(),
+                offset
+            );
+            StoreError
+        })
+    }
+}
+
+/// Messages for the host a partition holds while its outbound port is full, and how many were
+/// lost because this queue was full too.
+pub struct HostOutbox<const N: usize> {
+    pub queue: Deque<TargetToHost, N>,
+    pub overflows: u32,
+}
+
+// SAFETY: a heapless Deque whose all-zero value is the empty queue (indices 0, not full; the
+// buffer is MaybeUninit) and an integer.
+unsafe impl<const N: usize> ZeroValid for HostOutbox<N> {}
+
+impl<const N: usize> Downlink for HostOutbox<N> {
+    fn send(&mut self, msg: TargetToHost) {
+        if self.queue.push_back(msg).is_err() {
+            self.overflows = self.overflows.saturating_add(1);
+        }
+    }
+}
+
+impl<const N: usize> HostOutbox<N> {
+    /// Hands queued messages to the I/O partition through `port` until it is full.
+    pub fn flush(&mut self, port: Port<TargetToHost>) {
+        while let Some(msg) = self.queue.front() {
+            if send_to_host(port, msg).is_err() {
+                return;
+            }
+            self.queue.pop_front();
+        }
+    }
+}
+
+/// A partition's copies of its slices of the warm-restart area (`W` bytes) and of non-volatile
+/// memory (`N` bytes): the records its application read in and those it wrote (the rest stays
+/// zero), and the copies the kernel refused.
+pub struct MemoryCopies<const W: usize, const N: usize> {
+    pub warm: [u8; W],
+    pub nv: [u8; N],
+    /// The board has non-volatile memory large enough for the slice.
+    pub has_nv: bool,
+    pub warm_write_errors: u32,
+    pub nv_write_errors: u32,
+}
+
+// SAFETY: byte arrays, a boolean and integers.
+unsafe impl<const W: usize, const N: usize> ZeroValid for MemoryCopies<W, N> {}
+
+impl<const W: usize, const N: usize> MemoryCopies<W, N> {
+    /// The copies as the application's memories, with `security` if the partition owns it.
+    pub fn memories<'a>(&'a mut self, security: Option<&'a mut dyn SecurityStore>) -> Memories<'a> {
+        Memories {
+            warm: &mut self.warm,
+            nv: self.has_nv.then_some(&mut self.nv[..]),
+            security,
+        }
+    }
+
+    /// What the application's checkpoints wrote into the copies (`warm`, `nv`: byte ranges)
+    /// goes to the memories, refusals counted.
+    pub fn write_out(&mut self, warm: &[(usize, usize)], nv: &[(usize, usize)]) {
+        self.warm_write_errors =
+            self.warm_write_errors
+                .saturating_add(copy_out(warm, &self.warm, sys::warm_write));
+        self.nv_write_errors =
+            self.nv_write_errors
+                .saturating_add(copy_out(nv, &self.nv, sys::nv_write));
+    }
+}
+
+/// The next message of the autonomy core's channel on `port` (from the other partition); an
+/// undecodable one is dropped with a warning (the channel sends it again, numbered).
+pub fn receive_wire<T: DeserializeOwned>(port: Port<T>) -> Option<T> {
+    loop {
+        match port.receive() {
+            Ok(Some(got)) => return Some(got.value),
+            Ok(None) | Err(PortError::Sys(_) | PortError::TooBig) => return None,
+            Err(PortError::Undecodable) => {
+                defmt::warn!(
+                    "port {=usize}: undecodable channel message dropped",
+                    port.id()
+                )
+            }
+        }
+    }
+}
+
+/// Sends one message of the channel on `port`; false if it did not go (a full port: the
+/// channel keeps it for the next window).
+pub fn send_wire<T: Serialize>(port: Port<T>, wire: &T) -> bool {
+    match port.send(wire) {
+        Ok(()) => true,
+        Err(PortError::TooBig) => {
+            defmt::error!(
+                "port {=usize}: a channel message is over the port's size",
+                port.id()
+            );
+            false
+        }
+        Err(_) => false,
     }
 }

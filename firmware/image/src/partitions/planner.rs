@@ -1,53 +1,179 @@
-//! The planner partition (placeholder until the autonomy core's planner moves in): an anytime
-//! worker that keeps a 64 KiB search table and a 1 MiB arena in its 4 MiB region, does a
-//! bounded amount of integer work per window and waits for the next. On request it reports the
-//! CRC-32 of its search table, which the isolation test compares before and after a rogue
-//! partition tries to write it. It acknowledges uplink chunks.
+//! The planner partition: the flight application's planner side (`flight_app::PlannerApp`:
+//! the autonomy core's planning loop, its copy of the network, its end of the channel with the
+//! executive), in its own windows, with its own slices of the warm-restart area and of
+//! non-volatile memory for its checkpoints.
 //!
-//! Where the autonomy core goes: [`PlannerState`] lives in `.bss.part.planner` and is used in
-//! place (never constructed on the stack); replace the table and arena with the planner's
-//! state (a `ZeroValid` struct of up to ~3.9 MiB), initialise it in
-//! [`partition_planner_main`], run one bounded planner step per loop iteration: the kernel
-//! preempts it at the window end anyway, and it resumes where it was.
+//! Each window it takes what the executive sent (`executive_to_planner`: task reports,
+//! measurements, returned commits, a network streamed in chunks, and the frame to plan for);
+//! when a frame has come it plans within its budget of validity checks
+//! ([`flight_app::DEFAULT_PLANNER_BUDGET`]), checkpoints, and sends its commits, decisions and
+//! status (`planner_to_executive`). A cycle that needs more than one window's budget stops and
+//! goes on in the next frame's window: the planner is anytime, and the executive's windows run
+//! on schedule whatever it does. With nothing to plan and nothing to send it declares itself
+//! idle, so the module can stop its schedule while the host thinks.
+//!
+//! On request (`control::PLANNER_CHECKSUM`) it reports the CRC-32 of a table in its region,
+//! which the isolation test compares before and after a rogue partition tries to write it.
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use crc::{Crc, CRC_32_ISO_HDLC};
-use fsw_bridge::{HostToTarget, StateKey, TargetToHost, TelemetryEvent};
+use flight_app::{Downlink, PlannerApp};
+use fsw_bridge::{HostToTarget, StateKey, StateValue, TargetToHost, TelemetryEvent};
 use kernel_config::abi::{control, metric};
+use kernel_config::system::{PLANNER_WARM, PLANNER_WINDOW_TICKS};
 
-use super::{ports, receive_routed, send_to_host, zeroed_state, ZeroValid};
+use super::{
+    ports, receive_routed, receive_wire, send_wire, zeroed_state, HostOutbox, KernelMemories,
+    MemoryCopies, PartitionClock, ZeroValid,
+};
 use crate::sys;
 
+/// Words of the table the isolation test checks.
 pub const TABLE_WORDS: usize = 16 * 1024;
-/// Room reserved for the autonomy core's planner state (proves a megabyte-sized state fits).
-pub const ARENA_BYTES: usize = 1 << 20;
-/// Table entries visited per window.
-const WORK_PER_WINDOW: usize = 2048;
+/// Bytes of the warm-restart area for this partition's checkpoints: its slice.
+pub const WARM_CHECKPOINT_BYTES: usize = PLANNER_WARM.len as usize;
+/// Bytes of non-volatile memory for its checkpoints: its slice, as long as the warm one.
+pub const NV_CHECKPOINT_BYTES: usize = WARM_CHECKPOINT_BYTES;
+/// CPU the planning may take in one window: three quarters of the planner's window, the rest
+/// for what comes before (the executive's messages) and after (the checkpoint, the messages
+/// for the executive). The planner then yields at its window's end, its cycle pending, rather
+/// than being preempted there with no answer for the frame.
+pub const PLANNING_TICKS_PER_WINDOW: u64 = PLANNER_WINDOW_TICKS as u64 * 3 / 4;
+/// Messages for the host the partition holds while the outbound port is full.
+pub const OUTBOX_CAPACITY: usize = 64;
 
 pub struct PlannerState {
+    /// The isolation test's table, filled at its first request.
     pub table: [u32; TABLE_WORDS],
-    pub cursor: u32,
-    pub accumulator: u32,
+    pub table_filled: bool,
+    /// Windows in which the planner planned since its (re)start.
     pub iterations: u32,
-    #[allow(dead_code)] // reserved for the autonomy core
-    pub arena: [u8; ARENA_BYTES],
+    /// This partition's copies of its slices of the two memories.
+    pub copies: MemoryCopies<WARM_CHECKPOINT_BYTES, NV_CHECKPOINT_BYTES>,
+    pub outbox: HostOutbox<OUTBOX_CAPACITY>,
 }
 
-// SAFETY: integers and arrays of integers only.
+// SAFETY: integers, booleans, word arrays, and ZeroValid parts.
 unsafe impl ZeroValid for PlannerState {}
 
 #[link_section = ".bss.part.planner"]
 pub static mut STATE: MaybeUninit<PlannerState> = MaybeUninit::uninit();
 
+#[link_section = ".bss.part.planner"]
+static mut APP: MaybeUninit<PlannerApp> = MaybeUninit::uninit();
+
+// SAFETY: as for the executive's application (see `partitions::executive`): integers, bools,
+// arrays of them, fieldless enums whose first variant is 0, Options and tuples of these, and
+// heapless Vecs and Deques; all-zero bytes are a valid PlannerApp, which `PlannerApp::reset`
+// then makes the new application.
+unsafe impl ZeroValid for PlannerApp {}
+
 const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 
 #[no_mangle]
 pub extern "C" fn partition_planner_main() -> ! {
-    // SAFETY: STATE is this partition's static, zeroed by the partition start; entry runs once
-    // per (re)start.
+    // SAFETY: STATE and APP are this partition's statics, zeroed by the partition start; the
+    // entry runs once per (re)start, so nothing else refers to them.
     let state = unsafe { zeroed_state(addr_of_mut!(STATE)) };
-    // A deterministic table (xorshift32), the same after every restart.
+    let entered = sys::cpu_time().0;
+    // SAFETY: as above; `reset` makes it the new application before its first use.
+    let app: &'static mut PlannerApp = unsafe { zeroed_state(addr_of_mut!(APP)) };
+    app.reset();
+    app.set_cpu_budget(Some(PLANNING_TICKS_PER_WINDOW));
+    state.copies.has_nv =
+        matches!(sys::nv_read(0, &mut []), Ok(size) if size as usize >= NV_CHECKPOINT_BYTES);
+    if sys::identity().1 == 0 {
+        metric(state, metric::BOOT_PLANNER_START_TICKS, entered);
+    }
+    app.boot_fetching(
+        &mut state.copies.memories(None),
+        Some(&mut KernelMemories),
+        &mut PartitionClock,
+        &mut state.outbox,
+    );
+    loop {
+        while let Some((msg, _generation)) = receive_routed(ports::IO_TO_PLANNER) {
+            handle(state, app, msg);
+        }
+        while let Some(wire) = receive_wire(ports::EXECUTIVE_TO_PLANNER) {
+            app.receive(wire);
+        }
+        if app.frame_pending() {
+            app.window(
+                &mut state.copies.memories(None),
+                Some(&mut KernelMemories),
+                &mut PartitionClock,
+                &mut state.outbox,
+            );
+            state.iterations = state.iterations.wrapping_add(1);
+            state
+                .copies
+                .write_out(&app.take_warm_writes(), &app.take_nv_writes());
+        }
+        app.transmit(&mut |wire| send_wire(ports::PLANNER_TO_EXECUTIVE, &wire));
+        state.outbox.flush(ports::PLANNER_TO_IO);
+        if app.unsent() > 0 || !state.outbox.queue.is_empty() {
+            sys::wait_next_window();
+        } else {
+            // Nothing to plan until the executive sends a frame: the module may stop its
+            // schedule meanwhile.
+            sys::wait_idle();
+        }
+    }
+}
+
+fn metric(state: &mut PlannerState, id: u16, value: u64) {
+    state
+        .outbox
+        .send(TargetToHost::Telemetry(TelemetryEvent::Metric {
+            id,
+            value,
+        }));
+}
+
+fn handle(state: &mut PlannerState, app: &mut PlannerApp, msg: HostToTarget) {
+    if let HostToTarget::StateUpdate {
+        key: StateKey(control::PLANNER_BUDGET),
+        value,
+        ..
+    } = msg
+    {
+        let checks = match value {
+            StateValue::Int(n) if n >= 1 => u32::try_from(n).unwrap_or(u32::MAX),
+            _ => flight_app::DEFAULT_PLANNER_BUDGET,
+        };
+        defmt::info!("planner: {=u32} validity checks per window", checks);
+        app.set_budget(checks);
+        return;
+    }
+    if let HostToTarget::StateUpdate {
+        key: StateKey(control::PLANNER_CHECKSUM),
+        ..
+    } = msg
+    {
+        fill_table(state);
+        let mut digest = CRC32.digest();
+        for word in state.table.iter() {
+            digest.update(&word.to_be_bytes());
+        }
+        let checksum = digest.finalize();
+        metric(state, metric::PLANNER_CHECKSUM, u64::from(checksum));
+        metric(
+            state,
+            metric::PLANNER_GENERATION,
+            u64::from(sys::identity().1),
+        );
+        let iterations = state.iterations;
+        metric(state, metric::PLANNER_ITERATIONS, u64::from(iterations));
+    }
+}
+
+/// The isolation test's table: deterministic (xorshift32), the same after every restart.
+fn fill_table(state: &mut PlannerState) {
+    if state.table_filled {
+        return;
+    }
     let mut x: u32 = 0x2545_f491;
     for entry in state.table.iter_mut() {
         x ^= x << 13;
@@ -55,47 +181,5 @@ pub extern "C" fn partition_planner_main() -> ! {
         x ^= x << 5;
         *entry = x;
     }
-    loop {
-        while let Some((msg, _generation)) = receive_routed(ports::IO_TO_PLANNER) {
-            handle(state, msg);
-        }
-        for _ in 0..WORK_PER_WINDOW {
-            let i = state.cursor as usize % TABLE_WORDS;
-            state.accumulator = state.accumulator.rotate_left(5) ^ state.table[i];
-            state.cursor = state.cursor.wrapping_add(1);
-        }
-        state.iterations = state.iterations.wrapping_add(1);
-        let _ = ports::PLAN_SUMMARY.send(&state.accumulator);
-        // The placeholder's work is a fixed amount per window, not something the module has to
-        // finish: it lets the module stop its schedule while waiting for the host.
-        sys::wait_idle();
-    }
-}
-
-fn metric(id: u16, value: u64) {
-    let _ = send_to_host(
-        ports::PLANNER_TO_IO,
-        &TargetToHost::Telemetry(TelemetryEvent::Metric { id, value }),
-    );
-}
-
-fn handle(state: &mut PlannerState, msg: HostToTarget) {
-    match msg {
-        HostToTarget::StateUpdate {
-            key: StateKey(control::PLANNER_CHECKSUM),
-            ..
-        } => {
-            let mut digest = CRC32.digest();
-            for word in state.table.iter() {
-                digest.update(&word.to_be_bytes());
-            }
-            metric(metric::PLANNER_CHECKSUM, u64::from(digest.finalize()));
-            metric(metric::PLANNER_GENERATION, u64::from(sys::identity().1));
-            metric(metric::PLANNER_ITERATIONS, u64::from(state.iterations));
-        }
-        HostToTarget::UplinkChunk { seq, .. } => {
-            let _ = send_to_host(ports::PLANNER_TO_IO, &TargetToHost::UplinkAck { seq });
-        }
-        _ => {}
-    }
+    state.table_filled = true;
 }

@@ -2,7 +2,9 @@
 //! reserved key `control::ROGUE_MODE`, value `Enum(abi::rogue::*)`) it writes into the
 //! planner's memory, spins forever, passes bad pointers to every system call, panics, runs a
 //! privileged instruction, sends a message and restarts before it is taken (a stale message),
-//! or makes the kernel itself fault, so the tests can watch the kernel contain it.
+//! or makes the kernel itself fault, so the tests can watch the kernel contain it. Panicking is
+//! one of its jobs, hence the allowance.
+#![allow(clippy::panic)]
 use core::arch::asm;
 use core::ptr::addr_of_mut;
 
@@ -38,8 +40,9 @@ fn act(mode: u16) {
             // Taking the address needs no unsafe; the write below is the point of the test.
             let target = addr_of_mut!(super::planner::STATE) as *mut u32;
             defmt::info!(
-                "rogue: writing into the planner's memory at {=u32:#x}",
-                target as u32
+                "rogue: writing into the planner's memory at {=u32:#x} (as partition {=usize})",
+                target as u32,
+                sys::identity().0
             );
             for i in 0..64 {
                 // SAFETY: deliberately not safe: this partition has no mapping for the

@@ -29,6 +29,8 @@ pub const ROUND_TIMEOUT: Duration = Duration::from_secs(60);
 /// Bytes of the emulated target's warm-restart area that hold the executive's checkpoints
 /// (slots A and B): its slice.
 const EMULATED_WARM_CHECKPOINT_BYTES: u32 = kernel_config::system::EXECUTIVE_WARM.len;
+/// The planner partition's slice of the warm-restart area (its own A/B records).
+const PLANNER_WARM_CHECKPOINT_BYTES: u32 = kernel_config::system::PLANNER_WARM.len;
 /// What the executive does for a frame besides what FrameDone's `busy_ticks` counts (the
 /// autonomy step and the checkpoint encoding): decoding the grant, copying the checkpoint into
 /// the warm-restart area, queuing its messages. Measured on the flyby: 400 to 500 ticks.
@@ -42,18 +44,36 @@ pub const EXPECTED_WORK_QUANTUM: u32 = 1_024;
 /// copy into the warm-restart area (a seeded permille of its bytes), otherwise after a number
 /// of the executive's ticks drawn uniformly from 1 to `expected_ticks` (rounded up to
 /// [`EXPECTED_WORK_QUANTUM`]).
-pub fn mid_frame_reset_kind(seed: u64, expected_ticks: u32) -> ResetKind {
+pub fn mid_frame_reset_kind(
+    seed: u64,
+    expected_ticks: u32,
+    planner_expected_ticks: u32,
+) -> ResetKind {
     let mut rng = Rng::new(seed).fork(0x71);
-    if rng.below(4) == 0 {
-        ResetKind::WarmDuringCheckpointWrite {
-            permille: rng.below(1000) as u16,
+    let write = rng.below(4) == 0;
+    // Half the points fall in the planner partition's work on the frame (the executive's
+    // first message to it, its planning, its checkpoint), half in the executive's.
+    let planner = rng.fork(0x72).below(2) == 0;
+    let expected_ticks = if planner {
+        planner_expected_ticks
+    } else {
+        expected_ticks
+    };
+    if write {
+        let permille = rng.below(1000) as u16;
+        if planner {
+            ResetKind::PlannerDuringCheckpointWrite { permille }
+        } else {
+            ResetKind::WarmDuringCheckpointWrite { permille }
         }
     } else {
         let span = u64::from(expected_ticks.div_ceil(EXPECTED_WORK_QUANTUM).max(1))
             * u64::from(EXPECTED_WORK_QUANTUM);
-        let ticks = 1 + ((span * (rng.next_u64() >> 32)) >> 32);
-        ResetKind::WarmAfterTicks {
-            ticks: ticks.min(u64::from(u32::MAX)) as u32,
+        let ticks = (1 + ((span * (rng.next_u64() >> 32)) >> 32)).min(u64::from(u32::MAX)) as u32;
+        if planner {
+            ResetKind::PlannerAfterTicks { ticks }
+        } else {
+            ResetKind::WarmAfterTicks { ticks }
         }
     }
 }
@@ -113,8 +133,11 @@ impl MidFrameReport {
     pub fn describe(&self) -> Vec<String> {
         let at = crate::time::fmt_time(self.frame_at);
         let armed = match self.kind {
-            ResetKind::WarmAfterTicks { ticks } => format!("armed at tick {ticks}"),
-            ResetKind::WarmDuringCheckpointWrite { permille } => {
+            ResetKind::WarmAfterTicks { ticks } | ResetKind::PlannerAfterTicks { ticks } => {
+                format!("armed at tick {ticks}")
+            }
+            ResetKind::WarmDuringCheckpointWrite { permille }
+            | ResetKind::PlannerDuringCheckpointWrite { permille } => {
                 format!("armed at {permille} permille of the checkpoint write")
             }
             ResetKind::Warm => "armed at once".into(),
@@ -122,31 +145,38 @@ impl MidFrameReport {
         let ticks = self
             .ticks
             .map_or_else(|| "?".to_string(), |t| t.to_string());
-        // A point in the executive's own code is where it was armed (the kernel measures a
+        // A point in the partition's own code is where it was armed (the kernel measures a
         // few ticks more: its own entry); other landings say what the kernel measured.
         let point = match self.kind {
-            ResetKind::WarmAfterTicks { ticks } => ticks.to_string(),
+            ResetKind::WarmAfterTicks { ticks } | ResetKind::PlannerAfterTicks { ticks } => {
+                ticks.to_string()
+            }
             _ => ticks.clone(),
+        };
+        let who = if self.kind.in_planner() {
+            "planner"
+        } else {
+            "executive"
         };
         let write = self.checkpoint_write;
         let mut lines = vec![match (self.landed, write) {
             (Some(reset_at::LANDED_IN_WARM_WRITE), Some(w)) => format!(
-                "reset after {ticks} executive ticks in the frame at {at} ({armed}): inside the executive's work, in its checkpoint write to warm slot {}: {} of {} bytes copied (write ticks {}..{}), slot {} torn",
+                "reset after {ticks} {who} ticks in the frame at {at} ({armed}): inside the {who}'s work, in its checkpoint write to warm slot {}: {} of {} bytes copied (write ticks {}..{}), slot {} torn",
                 slot_name(w.slot), w.copied, w.len, w.start_tick, w.end_tick, slot_name(w.slot)
             ),
             (Some(reset_at::LANDED_IN_CODE), Some(w)) => format!(
-                "reset after {point} executive ticks in the frame at {at}: inside the executive's work, after its checkpoint write to warm slot {} ({} bytes, write ticks {}..{}) completed, before its FrameDone left the target",
+                "reset after {point} {who} ticks in the frame at {at}: inside the {who}'s work, after its checkpoint write to warm slot {} ({} bytes, write ticks {}..{}) completed, before its FrameDone left the target",
                 slot_name(w.slot), w.len, w.start_tick, w.end_tick
             ),
             (Some(reset_at::LANDED_IN_CODE), None) => format!(
-                "reset after {point} executive ticks in the frame at {at}: inside the executive's work, before its checkpoint write (the warm area held the previous frame's checkpoint)"
+                "reset after {point} {who} ticks in the frame at {at}: inside the {who}'s work, before its checkpoint write (the warm area held the previous frame's checkpoint)"
             ),
             (Some(reset_at::LANDED_AFTER_WORK), w) => format!(
-                "frame finished first: the executive's work on the frame at {at} took {ticks} ticks ({armed}{}); reset at the boundary, as it finished, before its FrameDone left the target",
+                "frame finished first: the {who}'s work on the frame at {at} took {ticks} ticks ({armed}{}); reset at the boundary, as it finished, before its FrameDone left the target",
                 w.map(|w| format!("; checkpoint write to warm slot {} at ticks {}..{}", slot_name(w.slot), w.start_tick, w.end_tick)).unwrap_or_default()
             ),
             (Some(reset_at::LANDED_PARTITION_STOPPED), _) => format!(
-                "the health monitor stopped the executive after {ticks} ticks of its work on the frame at {at} ({armed}); reset then"
+                "the health monitor stopped the {who} after {ticks} ticks of its work on the frame at {at} ({armed}); reset then"
             ),
             _ => format!(
                 "reset in the frame at {at} ({armed}); the target did not say where it landed"
@@ -190,6 +220,8 @@ pub struct EmulatedTarget {
     mid_frame_arm: Option<MidFrameArm>,
     /// Busy ticks of the last frame the executive stepped (its FRAME_BUSY_TICKS metric).
     last_busy_ticks: u32,
+    /// The planner partition's work on the last frame (its window's planning and checkpoint).
+    last_planner_ticks: u32,
     /// A mid-frame reset armed for the next round: its request goes out ahead of the burst.
     pending_request: Option<ResetKind>,
     /// The Hello that ended a frame with a mid-frame reset, for the next `boot`.
@@ -246,6 +278,7 @@ impl EmulatedTarget {
             echo_logs,
             mid_frame_arm: None,
             last_busy_ticks: 0,
+            last_planner_ticks: 0,
             pending_request: None,
             pending_hello: None,
             mid_frame_reports: Vec::new(),
@@ -274,6 +307,20 @@ impl EmulatedTarget {
                 value,
             }) if value > 0 => {
                 self.last_busy_ticks = u32::try_from(value).unwrap_or(u32::MAX);
+            }
+            TargetToHost::Telemetry(TelemetryEvent::Metric {
+                id: flight_app::metric::PLANNER_TICKS,
+                value,
+            }) if value > 0 => {
+                self.last_planner_ticks = u32::try_from(value).unwrap_or(u32::MAX);
+            }
+            TargetToHost::Telemetry(TelemetryEvent::Metric {
+                id: flight_app::metric::PLANNER_CHECKPOINT_TICKS,
+                value,
+            }) if value > 0 => {
+                self.last_planner_ticks = self
+                    .last_planner_ticks
+                    .saturating_add(u32::try_from(value).unwrap_or(u32::MAX));
             }
             TargetToHost::Log { ref bytes } => {
                 if let Some(s) = self.session.as_mut() {
@@ -329,7 +376,12 @@ impl EmulatedTarget {
             let (offset, len) = ((write >> 32) as u32, write as u32);
             let ticks = write_ticks.unwrap_or(0);
             report.checkpoint_write = Some(CheckpointWriteReport {
-                slot: (offset / (EMULATED_WARM_CHECKPOINT_BYTES / 2)) as u8,
+                slot: (offset
+                    / (if report.kind.in_planner() {
+                        PLANNER_WARM_CHECKPOINT_BYTES
+                    } else {
+                        EMULATED_WARM_CHECKPOINT_BYTES
+                    } / 2)) as u8,
                 len,
                 copied: copied.map_or(len, |c| c as u32),
                 start_tick: (ticks >> 32) as u32,
@@ -515,6 +567,7 @@ impl MissionTarget for EmulatedTarget {
             MidFrameArm::Seeded(seed) => mid_frame_reset_kind(
                 seed,
                 self.last_busy_ticks.saturating_add(FRAME_OVERHEAD_TICKS),
+                self.last_planner_ticks.saturating_add(FRAME_OVERHEAD_TICKS),
             ),
         };
         self.mid_frame_reports.push(MidFrameReport {

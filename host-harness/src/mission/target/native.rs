@@ -20,8 +20,12 @@ use crate::mission::auth::{NV_SECURITY_BYTES, NV_SECURITY_OFFSET};
 use crate::mission::link::service_of;
 use crate::mission::rng::Rng;
 
-/// Bytes of the warm-restart area given to the flight application (as on the target).
-pub const WARM_AREA_BYTES: usize = 60 * 1024;
+/// Bytes of the warm-restart area given to the flight application (as on the target: the
+/// checkpoint part of the area, the executive partition's slice then the planner's).
+pub const WARM_AREA_BYTES: usize =
+    (kernel_config::WARM_AREA_SIZE - kernel_config::WARM_BOOT_RECORD_SIZE) as usize;
+/// The executive partition's slice of each memory's checkpoint part (as on the target).
+const EXECUTIVE_SHARE_BYTES: usize = kernel_config::system::EXECUTIVE_WARM.len as usize;
 /// Bytes of non-volatile memory given to the flight application (as on the target).
 pub const NV_BYTES: usize = 1 << 20;
 /// Bytes of non-volatile memory holding checkpoints (as on the target: the security area
@@ -197,6 +201,14 @@ impl NativeTarget {
         if let HostToTarget::TimeGrant { now, .. } = msg {
             self.last_grant = Some(now);
         }
+        // The partitions' control keys are the I/O partition's to route; this target has no
+        // partitions, and its planner runs unthrottled (the reference): the planner budget
+        // does not apply.
+        if let HostToTarget::StateUpdate { key, .. } = msg {
+            if key.0 == kernel_config::abi::control::PLANNER_BUDGET {
+                return;
+            }
+        }
         let (checkpoints, mut security) = split_nv(&mut self.nv);
         let mut memories = Memories {
             warm: &mut self.warm,
@@ -276,7 +288,7 @@ fn slot_of(area: &[u8], offset: usize) -> &'static str {
 fn new_app() -> Box<FlightApp> {
     // FlightApp is large; build it in place on the heap rather than on the stack.
     let mut app: Box<std::mem::MaybeUninit<FlightApp>> = Box::new_uninit();
-    app.write(FlightApp::new());
+    app.write(FlightApp::with_executive_share(EXECUTIVE_SHARE_BYTES));
     // SAFETY: just initialised.
     unsafe { app.assume_init() }
 }
