@@ -200,6 +200,8 @@ struct Scratch {
     events: PlanEvents,
     /// When the cycle in progress started (not saved: a restore starts a new cycle).
     cycle_started_at: Option<MissionTimeUs>,
+    /// Each entry's first and last impact event, for one consolidation.
+    spans: crate::timeline::Spans,
 }
 
 impl Default for Planner {
@@ -255,6 +257,7 @@ impl Planner {
                 candidates: Vec::new(),
                 events: PlanEvents::new(),
                 cycle_started_at: None,
+                spans: Vec::new(),
             },
         }
     }
@@ -506,7 +509,13 @@ impl Planner {
             match self.phase {
                 Phase::Idle => break,
                 Phase::Consolidate => {
-                    consolidate(network, &mut self.entries, &mut self.anchors, now);
+                    consolidate(
+                        network,
+                        &mut self.entries,
+                        &mut self.anchors,
+                        now,
+                        &mut self.scratch.spans,
+                    );
                     self.phase = Phase::Schedule;
                 }
                 Phase::Schedule => {

@@ -69,6 +69,10 @@ impl TimelineAnchor {
 /// The anchors of every timeline of the loaded network.
 pub type Anchors = Vec<TimelineAnchor, MAX_TIMELINES>;
 
+/// Per plan entry: whether it is terminal, and its first and last impact event (None: it has
+/// none). Scratch space for [`consolidate`].
+pub type Spans = Vec<(bool, Option<(MissionTimeUs, MissionTimeUs)>), MAX_PLAN_ENTRIES>;
+
 /// Consolidation (seed 000 IV.A.3): folds finished instances whose impacts all lie at or before
 /// the fold time into the anchors and removes them from `entries`. The fold time is `now`,
 /// pulled back to the first impact of any instance that stays, so that no remaining event
@@ -78,6 +82,7 @@ pub fn consolidate(
     entries: &mut Vec<PlanEntry, MAX_PLAN_ENTRIES>,
     anchors: &mut Anchors,
     now: MissionTimeUs,
+    spans: &mut Spans,
 ) -> usize {
     let first_last = |e: &PlanEntry| -> Option<(MissionTimeUs, MissionTimeUs)> {
         let c = e.contribution()?;
@@ -94,14 +99,18 @@ pub fn consolidate(
         span
     };
     // Find the fold time: shrink until every instance is either wholly before it or after it.
+    // Each entry's span is worked out once (the passes can be as many as the entries).
+    spans.clear();
+    for e in entries.iter() {
+        let _ = spans.push((e.state.is_terminal(), first_last(e)));
+    }
     let mut fold_at = now;
     loop {
         let mut changed = false;
-        for e in entries.iter() {
-            let foldable =
-                e.state.is_terminal() && first_last(e).is_none_or(|(_, last)| last <= fold_at);
+        for &(terminal, span) in spans.iter() {
+            let foldable = terminal && span.is_none_or(|(_, last)| last <= fold_at);
             if !foldable {
-                if let Some((first, _)) = first_last(e) {
+                if let Some((first, _)) = span {
                     if first < fold_at {
                         fold_at = first;
                         changed = true;
