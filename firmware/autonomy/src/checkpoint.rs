@@ -453,6 +453,9 @@ pub enum PayloadDefect {
     ValueOutOfRange,
     /// Two state-buffer entries with the same key.
     DuplicateKey,
+    /// Two plan entries with the same instance id (the planner gives each instance its own;
+    /// reports and commands find their instance by it).
+    DuplicateInstance,
 }
 
 /// Where in a restored payload a defect is.
@@ -621,6 +624,12 @@ pub(crate) fn check_planner_restored(
         );
         let started_unstarted = e.started && unstarted;
         check(!executive_state && !started_unstarted, ImpossibleState, at)?;
+        let seen_before = planner
+            .entries()
+            .iter()
+            .take(i)
+            .any(|x| x.instance == e.instance);
+        check(!seen_before, DuplicateInstance, at)?;
     }
 
     for (i, a) in planner.anchors().iter().enumerate() {
