@@ -453,8 +453,9 @@ pub enum PayloadDefect {
     ValueOutOfRange,
     /// Two state-buffer entries with the same key.
     DuplicateKey,
-    /// Two plan entries with the same instance id (the planner gives each instance its own;
-    /// reports and commands find their instance by it).
+    /// Two plan entries with the same instance id, or the id the planner gives next already
+    /// in the plan (the planner gives each instance its own; reports and commands find their
+    /// instance by it).
     DuplicateInstance,
 }
 
@@ -564,6 +565,12 @@ pub(crate) fn check_planner_restored(
         IdOutOfRange,
         At::Planner,
     )?;
+    // The id the next added instance gets is one no instance has.
+    let next_in_use = planner
+        .entries()
+        .iter()
+        .any(|e| e.instance == planner.next_instance_id());
+    check(!next_in_use, DuplicateInstance, At::Planner)?;
     check(
         planner.schedule_passes() < MAX_SCHEDULE_PASSES,
         CountOutOfRange,

@@ -614,7 +614,7 @@ fn grants_and_state_updates_past_the_latest_mission_time_keep_every_time_in_rang
 }
 
 #[test]
-fn two_plan_entries_with_one_instance_id_are_refused() {
+fn two_plan_entries_with_one_instance_id_or_a_next_id_in_use_are_refused() {
     // Found by the checkpoint fuzz target (seed regression-duplicate-instance): an added and a
     // restarted instance with one id restored, then the executive's reports for one reached
     // the other, and the core wrote a checkpoint it refuses (a started, committed instance).
@@ -632,5 +632,12 @@ fn two_plan_entries_with_one_instance_id_are_refused() {
             PayloadDefect::DuplicateInstance,
             entry_site(p.planner.entries.len())
         )
+    );
+    // The id the planner gives next must be free (seed regression-instance-id-in-use: the
+    // next instance added took the id of one in the plan).
+    let id = p.planner.entries[added].instance;
+    assert_eq!(
+        refusal(|p| p.planner.next_instance = id),
+        error(PayloadDefect::DuplicateInstance, PayloadSite::Planner)
     );
 }
