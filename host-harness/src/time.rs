@@ -71,8 +71,9 @@ fn day_of_year_time(text: &str) -> Option<Result<i64, String>> {
     let (year, day) = date.split_once('-')?;
     let (year, day): (i64, i64) = (year.parse().ok()?, day.parse().ok()?);
     Some((|| {
-        if year < 1 {
-            return Err(format!("year {year} out of range in {text:?}"));
+        // Four digits at most: the arithmetic below stays far inside i64.
+        if !(1..=9999).contains(&year) {
+            return Err(format!("year {year} out of range 1..=9999 in {text:?}"));
         }
         if !(1..=366).contains(&day) {
             return Err(format!(
@@ -322,6 +323,12 @@ mod tests {
             .unwrap_err()
             .contains("before the epoch"));
         assert!(t("2028-400T00:00").unwrap_err().contains("day of year 400"));
+        // Found by the tasknet_toml fuzz target: a huge year overflowed the day count.
+        assert!(parse_epoch("2020000008-040T00:00")
+            .unwrap_err()
+            .contains("year 2020000008 out of range 1..=9999"));
+        assert!(parse_epoch("0-040T00:00").unwrap_err().contains("year 0"));
+        assert!(t("10000-001T00:00").unwrap_err().contains("year 10000"));
         assert!(t("xT10:00").unwrap_err().contains("bad day"));
         assert!(parse_time(&TimeText::Seconds(-1), Epoch::default()).is_err());
     }

@@ -612,3 +612,32 @@ fn grants_and_state_updates_past_the_latest_mission_time_keep_every_time_in_rang
         .restore_from(&area)
         .expect("a checkpoint the core wrote restores");
 }
+
+#[test]
+fn two_plan_entries_with_one_instance_id_or_a_next_id_in_use_are_refused() {
+    // Found by the checkpoint fuzz target (seed regression-duplicate-instance): an added and a
+    // restarted instance with one id restored, then the executive's reports for one reached
+    // the other, and the core wrote a checkpoint it refuses (a started, committed instance).
+    let p = Payload::decode(&repaired_flyby_payload());
+    let added = plan_index(&p, |e| matches!(e.origin, Origin::Added { .. }));
+    let e = refusal(|p| {
+        let mut twin = p.planner.entries[added];
+        twin.state = TaskState::Unscheduled;
+        twin.started = false;
+        p.planner.entries.push(twin).unwrap();
+    });
+    assert_eq!(
+        e,
+        error(
+            PayloadDefect::DuplicateInstance,
+            entry_site(p.planner.entries.len())
+        )
+    );
+    // The id the planner gives next must be free (seed regression-instance-id-in-use: the
+    // next instance added took the id of one in the plan).
+    let id = p.planner.entries[added].instance;
+    assert_eq!(
+        refusal(|p| p.planner.next_instance = id),
+        error(PayloadDefect::DuplicateInstance, PayloadSite::Planner)
+    );
+}

@@ -162,3 +162,51 @@ fn an_unsecured_or_altered_chunked_uplink_is_refused_before_validation() {
         assert!(h.app().network().tasks().is_empty());
     }
 }
+
+/// What a harness ended with: the verdicts, the model's counter and holds, the application's
+/// whole plan and execution state and its memories.
+fn outcome(h: &Harness) -> impl PartialEq + std::fmt::Debug {
+    let mut state = vec![0u8; 256 * 1024];
+    let len = h.app().encode_state(&mut state).unwrap();
+    state.truncate(len);
+    (
+        h.verdicts().clone(),
+        (h.security().last_sequence, h.security().holds),
+        state,
+        h.warm_checkpoint().map(<[u8]>::to_vec),
+    )
+}
+
+#[test]
+fn a_harness_powered_on_again_runs_every_seed_as_a_new_one_does() {
+    // The targets reuse one harness (`Harness::power_on` between inputs): after any earlier
+    // input, the next must run exactly as on a new harness.
+    let mut seeds = seeds("messages");
+    seeds.extend(self::seeds("uplink_chunks"));
+    let ops_of = |name: &str, bytes: &[u8]| {
+        if name.ends_with(".chunks") {
+            fuzz_logic::chunk_ops(bytes)
+        } else {
+            decode_ops(bytes)
+        }
+    };
+    let mut reused = Harness::new();
+    let mut compared = 0;
+    for (i, (name, bytes)) in seeds.iter().enumerate() {
+        // The reused harness first runs the previous seed, so it carries a network, a plan,
+        // checkpoints, a spent counter and holds into the power-on.
+        let (prev_name, prev) = &seeds[(i + seeds.len() - 1) % seeds.len()];
+        for op in &ops_of(prev_name, prev) {
+            reused.apply(op);
+        }
+        reused.power_on();
+        let mut new = Harness::new();
+        for op in &ops_of(name, bytes) {
+            reused.apply(op);
+            new.apply(op);
+        }
+        assert_eq!(outcome(&reused), outcome(&new), "{name} after {prev_name}");
+        compared += 1;
+    }
+    assert!(compared >= 20, "{compared} seeds");
+}

@@ -66,18 +66,63 @@ pub fn uplink(data: &[u8]) {
             let mut again = TaskNetwork::EMPTY;
             uplink::decode_into(&mut again, &buf[..len]).expect("re-encoded network decodes");
             assert_eq!(again, network, "encode/decode does not round-trip");
-            let mut core = Box::new(Autonomy::new());
-            core.load_network(network).expect("an idle core loads");
-            let start = core
-                .network()
-                .tasks()
-                .iter()
-                .map(|t| t.earliest_start)
-                .min()
-                .unwrap_or(MissionTimeUs::ZERO);
-            fly(&mut core, start, seed_of(data));
+            with_scratch(|Scratch { core, checker }| {
+                let core = fresh(core);
+                core.load_network(network).expect("an idle core loads");
+                let start = core
+                    .network()
+                    .tasks()
+                    .iter()
+                    .map(|t| t.earliest_start)
+                    .min()
+                    .unwrap_or(MissionTimeUs::ZERO);
+                fly(core, checker, start, seed_of(data));
+            });
         }
     }
+}
+
+/// The cores and buffers an input needs, kept from input to input: a fresh core and a
+/// zeroed 64 KiB buffer per use would allocate and page in memory many times per input.
+/// Every use starts from [`fresh`] or overwrites what it reads.
+struct Scratch {
+    /// The core an input loads its network into or restores its checkpoint into.
+    core: Box<Autonomy>,
+    /// Checks that checkpoints restore ([`Checker::restores`]).
+    checker: Checker,
+}
+
+/// A second core and two buffers, to restore a checkpoint and encode it again.
+struct Checker {
+    core: Box<Autonomy>,
+    buf: Vec<u8>,
+    again: Vec<u8>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Option<Scratch>> = const { std::cell::RefCell::new(None) };
+}
+
+/// Runs `f` on this thread's [`Scratch`].
+fn with_scratch<R>(f: impl FnOnce(&mut Scratch) -> R) -> R {
+    SCRATCH.with(|cell| {
+        let mut slot = cell.borrow_mut();
+        let scratch = slot.get_or_insert_with(|| Scratch {
+            core: Box::new(Autonomy::new()),
+            checker: Checker {
+                core: Box::new(Autonomy::new()),
+                buf: vec![0; CHECKPOINT_BUF],
+                again: vec![0; CHECKPOINT_BUF],
+            },
+        });
+        f(scratch)
+    })
+}
+
+/// `core` reset to a newly constructed one, in place.
+fn fresh(core: &mut Autonomy) -> &mut Autonomy {
+    *core = Autonomy::new();
+    core
 }
 
 /// The field-by-field element decoders of the uplink accept exactly what postcard's derived
@@ -103,28 +148,30 @@ pub fn checkpoint(data: &[u8]) {
         Some(data.len())
     })
     .expect("the area holds the payload");
-    let mut core = Box::new(Autonomy::new());
-    match core.restore_from(&area) {
-        Err(_) => assert_cold(&core),
-        Ok(info) => {
-            assert_eq!((info.slot, info.sequence), (0, 1));
-            // What was accepted re-encodes to a payload that is accepted again, unchanged.
-            let again = restores(&core).expect("a restored core checkpoints");
-            let mut twice = Box::new(Autonomy::new());
-            twice
-                .decode_state(&again)
-                .expect("the re-encoded payload restores");
-            let mut buf = vec![0u8; CHECKPOINT_BUF];
-            let len = twice.encode_state(&mut buf).expect("fits");
-            assert_eq!(
-                &buf[..len],
-                &again[..],
-                "checkpoint encoding is not a fixed point"
-            );
-            let now = core.now();
-            fly(&mut core, now, seed_of(data));
+    with_scratch(|Scratch { core, checker }| {
+        let core = fresh(core);
+        match core.restore_from(&area) {
+            Err(_) => assert_cold(core),
+            Ok(info) => {
+                assert_eq!((info.slot, info.sequence), (0, 1));
+                // What was accepted re-encodes to a payload that is accepted again, unchanged.
+                let again = checker.restores(core).expect("a restored core checkpoints");
+                let twice = fresh(&mut checker.core);
+                twice
+                    .decode_state(&again)
+                    .expect("the re-encoded payload restores");
+                let buf = &mut checker.buf;
+                let len = twice.encode_state(buf).expect("fits");
+                assert_eq!(
+                    &buf[..len],
+                    &again[..],
+                    "checkpoint encoding is not a fixed point"
+                );
+                let now = core.now();
+                fly(core, checker, now, seed_of(data));
+            }
         }
-    }
+    });
 }
 
 /// A core that restored nothing: empty, cold, waiting for an uplink.
@@ -137,21 +184,22 @@ fn assert_cold(core: &Autonomy) {
     assert_eq!(core.next_wakeup(), None);
 }
 
-/// The checkpoint payload of `core`, after checking that a fresh core accepts it and encodes
-/// it back to the same bytes. None when it does not fit (the core reports that as a failed
-/// checkpoint write).
-fn restores(core: &Autonomy) -> Option<Vec<u8>> {
-    let mut buf = vec![0u8; CHECKPOINT_BUF];
-    let len = core.encode_state(&mut buf)?;
-    buf.truncate(len);
-    let mut fresh = Box::new(Autonomy::new());
-    if let Err(e) = fresh.decode_state(&buf) {
-        panic!("a checkpoint the core wrote is refused: {e:?}");
+impl Checker {
+    /// The checkpoint payload of `core`, after checking that a fresh core accepts it and
+    /// encodes it back to the same bytes. None when it does not fit (the core reports that as
+    /// a failed checkpoint write).
+    fn restores(&mut self, core: &Autonomy) -> Option<Vec<u8>> {
+        let len = core.encode_state(&mut self.buf)?;
+        let buf = &self.buf[..len];
+        let restored = fresh(&mut self.core);
+        if let Err(e) = restored.decode_state(buf) {
+            panic!("a checkpoint the core wrote is refused: {e:?}");
+        }
+        let again = &mut self.again;
+        let len = restored.encode_state(again).expect("fits as before");
+        assert_eq!(&again[..len], buf, "restore changed the state");
+        Some(buf.to_vec())
     }
-    let mut again = vec![0u8; CHECKPOINT_BUF];
-    let len = fresh.encode_state(&mut again).expect("fits as before");
-    assert_eq!(&again[..len], &buf[..], "restore changed the state");
-    Some(buf)
 }
 
 /// FNV-1a of the input: the deterministic choices of [`fly`] (values published, responses).
@@ -178,7 +226,7 @@ impl autonomy::Outputs for Sink {
 /// (a value of its type, now and then one of the wrong type or unknown), every command is
 /// answered (Ok, Failed, Rejected, or not at all), the core steps at its next wakeup (or a
 /// minute later), and every frame's checkpoint must restore.
-fn fly(core: &mut Autonomy, start: MissionTimeUs, seed: u64) {
+fn fly(core: &mut Autonomy, checker: &mut Checker, start: MissionTimeUs, seed: u64) {
     let mut rng = bounded::Mutator::new(seed);
     let mut now = start;
     let mut pending: Vec<u32> = Vec::new();
@@ -207,7 +255,7 @@ fn fly(core: &mut Autonomy, start: MissionTimeUs, seed: u64) {
         let mut sink = Sink::default();
         core.step(now, FUZZ_BUDGET, &mut sink);
         pending = sink.dispatched;
-        let _ = restores(core);
+        let _ = checker.restores(core);
         let next = core.next_wakeup().unwrap_or(now.saturating_add(60_000_000));
         now = next.max(now.saturating_add(1));
     }

@@ -76,6 +76,10 @@ pub enum PayloadDefect {
     ValueOutOfRange,
     /// Two state-buffer entries with the same key.
     DuplicateKey,
+    /// Two plan entries with the same instance id, or the id the planner gives next already
+    /// in the plan (the planner gives each instance its own; reports and commands find their
+    /// instance by it).
+    DuplicateInstance,
 }
 
 /// Where in a restored payload a defect is.
@@ -184,6 +188,12 @@ pub(crate) fn check_planner_restored(
         IdOutOfRange,
         At::Planner,
     )?;
+    // The id the next added instance gets is one no instance has.
+    let next_in_use = planner
+        .entries()
+        .iter()
+        .any(|e| e.instance == planner.next_instance_id());
+    check(!next_in_use, DuplicateInstance, At::Planner)?;
     check(
         planner.schedule_passes() < MAX_SCHEDULE_PASSES,
         CountOutOfRange,
@@ -244,6 +254,12 @@ pub(crate) fn check_planner_restored(
         );
         let started_unstarted = e.started && unstarted;
         check(!executive_state && !started_unstarted, ImpossibleState, at)?;
+        let seen_before = planner
+            .entries()
+            .iter()
+            .take(i)
+            .any(|x| x.instance == e.instance);
+        check(!seen_before, DuplicateInstance, at)?;
     }
 
     for (i, a) in planner.anchors().iter().enumerate() {

@@ -616,12 +616,24 @@ impl Planner {
         self.entries.iter().position(|e| e.instance == instance)
     }
 
+    /// The id for an instance being added: [`Planner::next_instance_id`], which no plan entry
+    /// has (a helper about to be added takes it beforehand). The counter then moves on to the
+    /// next id no entry has, so an id stays its instance's own after the counter wraps (the
+    /// executive's reports and the commands find their instance by it).
     fn new_instance_id(&mut self) -> u16 {
         let id = self.next_instance;
-        self.next_instance = self
-            .next_instance
-            .checked_add(1)
-            .unwrap_or(FIRST_INSTANCE_ID);
+        // The plan holds fewer entries than there are planner-given ids, so one of the next
+        // MAX_PLAN_ENTRIES + 1 is free.
+        for _ in 0..=MAX_PLAN_ENTRIES {
+            self.next_instance = self
+                .next_instance
+                .checked_add(1)
+                .unwrap_or(FIRST_INSTANCE_ID);
+            let next = self.next_instance;
+            if !self.entries.iter().any(|e| e.instance == next) {
+                break;
+            }
+        }
         id
     }
 }

@@ -138,10 +138,32 @@ pub fn encode_ops(ops: &[Op]) -> Vec<u8> {
 
 /// Any sequence of host messages and resets.
 pub fn messages(data: &[u8]) {
-    let mut harness = Harness::new();
-    for op in decode_ops(data) {
-        harness.apply(&op);
-    }
+    with_harness(|harness| {
+        for op in decode_ops(data) {
+            harness.apply(&op);
+        }
+    });
+}
+
+thread_local! {
+    /// The harness the targets reuse from input to input, put back to a power-on state
+    /// ([`Harness::power_on`]) before each: a fresh one would allocate and page in the
+    /// application, a checkpoint core and the memories anew for every input.
+    static HARNESS: std::cell::RefCell<Option<Harness>> = const { std::cell::RefCell::new(None) };
+}
+
+/// Runs `f` on a harness in the state [`Harness::new`] gives, reusing this thread's.
+fn with_harness(f: impl FnOnce(&mut Harness)) {
+    HARNESS.with(|cell| {
+        let mut slot = cell.borrow_mut();
+        match slot.as_mut() {
+            Some(harness) => harness.power_on(),
+            None => *slot = Some(Harness::new()),
+        }
+        if let Some(harness) = slot.as_mut() {
+            f(harness);
+        }
+    });
 }
 
 /// An uplink image cut into chunks and delivered with a script of defects. Layout: image
@@ -151,10 +173,11 @@ pub fn messages(data: &[u8]) {
 /// [`chunk_ops`]). A grant follows the last chunk, so a network that loads is flown for a
 /// frame and checkpointed.
 pub fn uplink_chunks(data: &[u8]) {
-    let mut harness = Harness::new();
-    for op in chunk_ops(data) {
-        harness.apply(&op);
-    }
+    with_harness(|harness| {
+        for op in chunk_ops(data) {
+            harness.apply(&op);
+        }
+    });
 }
 
 /// The control byte's bit that sends an [`uplink_chunks`] image without securing it.
@@ -475,6 +498,22 @@ struct SecurityNv {
     writes_fail: bool,
 }
 
+impl SecurityNv {
+    /// An area with [`KEY`] provisioned and nothing else, writes succeeding.
+    fn provisioned() -> Self {
+        static AREA: std::sync::OnceLock<[u8; SECURITY_AREA_BYTES]> = std::sync::OnceLock::new();
+        let area = *AREA.get_or_init(|| {
+            let mut area = [0u8; SECURITY_AREA_BYTES];
+            sdls::nv::provision(&mut area, &KEY).expect("a whole security area");
+            area
+        });
+        Self {
+            area,
+            writes_fail: false,
+        }
+    }
+}
+
 impl SecurityStore for SecurityNv {
     fn read(&mut self, area: &mut [u8; SECURITY_AREA_BYTES]) -> Result<(), StoreError> {
         area.copy_from_slice(&self.area);
@@ -521,7 +560,15 @@ pub struct Harness {
     model: UplinkModel,
     security: SecurityModel,
     verdicts: Verdicts,
+    /// The sides a written checkpoint is restored into (reset before each restore).
+    restored_executive: Box<ExecutivePartition>,
+    restored_planner: Box<PlannerPartition>,
+    /// Room for an encoded state (the state images and the re-encoded checkpoints).
+    state_buf: Vec<u8>,
 }
+
+/// Bytes of [`Harness`]'s buffer for an encoded state: far more than any state needs.
+const STATE_BUF_BYTES: usize = 4 * MAX_UPLINK_BYTES + 64 * 1024;
 
 impl Default for Harness {
     fn default() -> Self {
@@ -556,22 +603,46 @@ fn metric_values(out: &[TargetToHost], id: u16) -> Vec<u64> {
 impl Harness {
     /// A power-on with both checkpoint memories empty and [`KEY`] provisioned: cold.
     pub fn new() -> Self {
-        let mut area = [0u8; SECURITY_AREA_BYTES];
-        sdls::nv::provision(&mut area, &KEY).expect("a whole security area");
         let mut h = Self {
             app: Box::new(FlightApp::new()),
             warm: vec![0; WARM_BYTES],
             nv: vec![0; NV_BYTES],
-            security_nv: SecurityNv {
-                area,
-                writes_fail: false,
-            },
+            security_nv: SecurityNv::provisioned(),
             model: UplinkModel::default(),
             security: SecurityModel::default(),
             verdicts: Verdicts::default(),
+            restored_executive: Box::new(ExecutivePartition::new()),
+            restored_planner: Box::new(PlannerPartition::new()),
+            state_buf: vec![0; STATE_BUF_BYTES],
         };
         assert_eq!(h.boot(), BootOutcome::Cold);
         h
+    }
+
+    /// Puts this harness back to the state [`Harness::new`] gives (both memories empty,
+    /// [`KEY`] freshly provisioned, the models at their start, booted cold), in the memory it
+    /// already has. Every field is named, so a field added later cannot be forgotten here.
+    pub fn power_on(&mut self) {
+        let Self {
+            app: _,
+            warm,
+            nv,
+            security_nv,
+            model,
+            security,
+            verdicts,
+            restored_executive: _,
+            restored_planner: _,
+            state_buf: _,
+        } = self;
+        warm.fill(0);
+        nv.fill(0);
+        *security_nv = SecurityNv::provisioned();
+        *model = UplinkModel::default();
+        *security = SecurityModel::default();
+        *verdicts = Verdicts::default();
+        // The application and the restore core are rebuilt from `new()` where they are used.
+        assert_eq!(self.boot(), BootOutcome::Cold);
     }
 
     /// The application.
@@ -686,22 +757,12 @@ impl Harness {
 
     /// The whole plan and execution state (both partitions'), to show that something left it
     /// untouched.
-    fn state_image(&self) -> Vec<u8> {
-        let mut buf = vec![0u8; 4 * MAX_UPLINK_BYTES + 64 * 1024];
+    fn state_image(&mut self) -> Vec<u8> {
         let len = self
             .app
-            .executive()
-            .executive()
-            .encode_state(&mut buf)
+            .encode_state(&mut self.state_buf)
             .expect("the state fits");
-        let more = self
-            .app
-            .planner()
-            .partition()
-            .encode_state(&mut buf[len..])
-            .expect("the state fits");
-        buf.truncate(len + more);
-        buf
+        self.state_buf[..len].to_vec()
     }
 
     fn message(&mut self, msg: &HostToTarget) {
@@ -1001,29 +1062,32 @@ impl Harness {
                 continue;
             }
             let record = records(executive_part(memory))[0].expect("a record was written");
-            let mut side = Box::new(ExecutivePartition::new());
+            // A fresh side, in the memory of the last one (no allocation per check).
+            let side = &mut *self.restored_executive;
+            side.reset();
             if side.decode_state(record.payload).is_none() {
                 panic!("an executive checkpoint the application wrote is refused");
             }
-            let mut again = vec![0u8; record.payload.len()];
-            let len = side.encode_state(&mut again).expect("fits as before");
+            let again = &mut self.state_buf[..record.payload.len()];
+            let len = side.encode_state(again).expect("fits as before");
             assert_eq!(&again[..len], record.payload, "restore changed the state");
         }
     }
 
     /// The same for the planner's records.
-    fn check_planner_checkpoints(&self, warm: bool, nv: bool) {
+    fn check_planner_checkpoints(&mut self, warm: bool, nv: bool) {
         for (written, memory) in [(warm, &self.warm), (nv && !warm, &self.nv)] {
             if !written {
                 continue;
             }
             let record = records(planner_part(memory))[0].expect("a record was written");
-            let mut side = Box::new(PlannerPartition::new());
+            let side = &mut *self.restored_planner;
+            side.reset();
             if side.decode_state(record.payload).is_none() {
                 panic!("a planner checkpoint the application wrote is refused");
             }
-            let mut again = vec![0u8; record.payload.len()];
-            let len = side.encode_state(&mut again).expect("fits as before");
+            let again = &mut self.state_buf[..record.payload.len()];
+            let len = side.encode_state(again).expect("fits as before");
             assert_eq!(&again[..len], record.payload, "restore changed the state");
         }
     }
