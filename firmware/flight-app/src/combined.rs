@@ -166,23 +166,21 @@ impl FlightApp {
     /// others are forgotten.
     pub fn take_warm_write(&mut self) -> Option<(usize, usize)> {
         let base = self.share(self.lens.0);
-        let planner = self.planner.take_warm_writes();
-        let executive = self.executive.take_warm_writes();
-        executive
-            .last()
-            .copied()
-            .or_else(|| planner.last().map(|&(s, e)| (s + base, e + base)))
+        last_write(
+            &self.executive.take_warm_writes(),
+            &self.planner.take_warm_writes(),
+            base,
+        )
     }
 
     /// The same for non-volatile memory's checkpoint part.
     pub fn take_nv_write(&mut self) -> Option<(usize, usize)> {
         let base = self.share(self.lens.1);
-        let planner = self.planner.take_nv_writes();
-        let executive = self.executive.take_nv_writes();
-        executive
-            .last()
-            .copied()
-            .or_else(|| planner.last().map(|&(s, e)| (s + base, e + base)))
+        last_write(
+            &self.executive.take_nv_writes(),
+            &self.planner.take_nv_writes(),
+            base,
+        )
     }
 
     /// Come up after a (re)boot: each side restores its newest whole checkpoint from its share
@@ -379,4 +377,13 @@ pub(crate) fn split<'m, 'a: 'm>(
             security: None,
         },
     )
+}
+
+/// The executive's last write if it made any, else the planner's (whose share starts at
+/// `base`), in the whole memory's offsets.
+fn last_write(executive: &Writes, planner: &Writes, base: usize) -> Option<(usize, usize)> {
+    executive
+        .last()
+        .copied()
+        .or_else(|| planner.last().map(|&(s, e)| (s + base, e + base)))
 }

@@ -89,9 +89,7 @@ impl Persistence {
                 None
             }
         };
-        let mut writes = 1;
         if let Some(nv) = memories.nv.as_deref_mut() {
-            writes += 1;
             // The same record: copied from the warm memory's when both are numbered alike
             // (no second encoding, no second CRC), else written afresh.
             let record = warm
@@ -124,7 +122,6 @@ impl Persistence {
         // keep moving, and every failed write is counted (CHECKPOINT_WRITE_FAILURES). A reset
         // then restores the side's older checkpoint, or none, and the ports' resume brings the
         // other side up to date.
-        let _ = writes;
         side.checkpointed();
         failures
     }
