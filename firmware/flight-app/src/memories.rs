@@ -94,26 +94,31 @@ pub(crate) fn fetch_payload(
 
 /// Makes `copy` hold its memory's newest whole record, before a checkpoint write into it:
 /// reads the payloads of the slots whose headers claim a record, newest claim first, until one
-/// is whole (what [`WarmRestartArea::latest`] will look at). The headers must be in `copy`
-/// already.
+/// is whole (what [`WarmRestartArea::latest`] would look at). The headers must be in `copy`
+/// already. Returns that record's (slot, sequence), None when no slot holds a whole record:
+/// what the write needs to know where it goes, so that it checks no CRC again.
 pub(crate) fn fetch_latest(
     copy: &mut [u8],
     memory: MemoryKind,
     mut fetch: Option<&mut (dyn MemoryFetch + '_)>,
     state: &mut CopyState,
-) {
+) -> Option<(u8, u32)> {
     if state.newest_known {
-        return;
-    }
-    let candidates = WarmRestartArea::new(copy).candidates();
-    for index in candidates.into_iter().flatten() {
-        if fetch_payload(copy, memory, index, fetch.as_deref_mut(), state)
-            && WarmRestartArea::new(copy).record(index).is_some()
-        {
-            break;
-        }
+        // Read before (a restore tried this memory's records): the copy holds them.
+        return WarmRestartArea::new(copy)
+            .latest()
+            .map(|(slot, sequence, _)| (slot, sequence));
     }
     state.newest_known = true;
+    let candidates = WarmRestartArea::new(copy).candidates();
+    for index in candidates.into_iter().flatten() {
+        if fetch_payload(copy, memory, index, fetch.as_deref_mut(), state) {
+            if let Some((sequence, _)) = WarmRestartArea::new(copy).record(index) {
+                return Some((index, sequence));
+            }
+        }
+    }
+    None
 }
 
 /// Read the two record headers of an A/B area into its copy (a failed read leaves that

@@ -67,14 +67,14 @@ impl Persistence {
                     .write_slot(1 - slot, sequence, |buf| side.encode_state(buf))
             }
             None => {
-                fetch_latest(
+                let newest_here = fetch_latest(
                     memories.warm,
                     MemoryKind::Warm,
                     fetch.as_deref_mut(),
                     warm_copy,
                 );
                 WarmRestartArea::new(memories.warm)
-                    .write_after(newest, |buf| side.encode_state(buf))
+                    .write_following(newest_here, newest, |buf| side.encode_state(buf))
             }
         };
         let warm = match warm {
@@ -103,9 +103,19 @@ impl Persistence {
                     WarmRestartArea::new(nv)
                         .write_slot(1 - slot, sequence, |buf| side.encode_state(buf))
                 }
-                (None, _) => {
-                    fetch_latest(nv, MemoryKind::Nv, fetch, nv_copy);
-                    WarmRestartArea::new(nv).write_after(newest, |buf| side.encode_state(buf))
+                (None, record) => {
+                    // The first write since the boot: find this memory's newest whole record
+                    // (one CRC) and write into the other slot, by copying the warm record
+                    // when it carries the number this write would (as a later write does).
+                    let newest_here = fetch_latest(nv, MemoryKind::Nv, fetch, nv_copy);
+                    let (slot, after) = checkpoint::following(newest_here, newest);
+                    match record.filter(|_| after == sequence) {
+                        Some(record) => WarmRestartArea::new(nv).copy_record(slot, record),
+                        None => {
+                            WarmRestartArea::new(nv)
+                                .write_following(newest_here, newest, |buf| side.encode_state(buf))
+                        }
+                    }
                 }
             };
             match written {

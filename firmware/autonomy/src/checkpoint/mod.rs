@@ -109,6 +109,18 @@ fn candidates_in(bytes: &[u8]) -> [Option<u8>; 2] {
     }
 }
 
+/// Where the next record of an area goes and its number: the slot after the area's newest
+/// whole record `newest_here` (slot, sequence; slot A when there is none), numbered after both
+/// it and `newest_elsewhere` (another area holding the same checkpoints).
+pub fn following(newest_here: Option<(u8, u32)>, newest_elsewhere: Option<u32>) -> (u8, u32) {
+    let slot = newest_here.map_or(0, |(s, _)| 1 - (s & 1));
+    let newest = match (newest_here.map(|(_, seq)| seq), newest_elsewhere) {
+        (Some(a), Some(b)) => Some(if is_newer(b, a) { b } else { a }),
+        (a, b) => a.or(b),
+    };
+    (slot, newest.map_or(1, |n| n.wrapping_add(1)))
+}
+
 /// The whole record in slot `index`, as (sequence, payload): header and payload pass the CRC.
 fn record_in(bytes: &[u8], index: u8) -> Option<(u32, &[u8])> {
     let slot = slot_in(bytes, index);
@@ -253,12 +265,19 @@ impl<'a> WarmRestartArea<'a> {
         fill: impl FnOnce(&mut [u8]) -> Option<usize>,
     ) -> Result<WrittenRecord, CheckpointError> {
         let newest_here = self.latest().map(|(s, seq, _)| (s, seq));
-        let slot = newest_here.map_or(0, |(s, _)| 1 - s);
-        let newest = match (newest_here.map(|(_, seq)| seq), newest_elsewhere) {
-            (Some(a), Some(b)) => Some(if is_newer(b, a) { b } else { a }),
-            (a, b) => a.or(b),
-        };
-        let sequence = newest.map_or(1, |n| n.wrapping_add(1));
+        self.write_following(newest_here, newest_elsewhere, fill)
+    }
+
+    /// [`WarmRestartArea::write_after`] for a writer that already knows this area's newest
+    /// whole record (slot, sequence), e.g. from having checked it while reading it in: no CRC
+    /// is computed again. `newest_here` must be what [`WarmRestartArea::latest`] says.
+    pub fn write_following(
+        &mut self,
+        newest_here: Option<(u8, u32)>,
+        newest_elsewhere: Option<u32>,
+        fill: impl FnOnce(&mut [u8]) -> Option<usize>,
+    ) -> Result<WrittenRecord, CheckpointError> {
+        let (slot, sequence) = following(newest_here, newest_elsewhere);
         self.write_slot(slot, sequence, fill)
     }
 

@@ -277,3 +277,51 @@ fn a_boot_that_reads_what_it_needs_compares_sequence_numbers_across_the_wrap() {
     assert!(matches!(outcome, BootOutcome::RestoredWarm(info) if info.sequence == 0));
     assert_eq!(payload_reads(&boot, MemoryKind::Nv), 0);
 }
+
+/// The first checkpoint after a boot that restored the warm area's record: non-volatile
+/// memory's record goes into the slot that does not hold its newest whole record (found with
+/// one CRC), as a byte copy of the warm record just written; with non-volatile memory's
+/// newest record torn (a reset during its write), into the torn slot, so its older whole
+/// record survives until the new one is whole.
+#[test]
+fn the_first_checkpoint_after_a_boot_keeps_the_newest_whole_record_of_non_volatile_memory() {
+    let (warm, nv, security) = flown(3);
+    let nv_newest = newest_slot(&mut nv.clone());
+    for (nv, kept) in [
+        (nv.clone(), nv_newest),
+        (torn(nv.clone(), nv_newest, 5), 1 - nv_newest),
+    ] {
+        let kept_record = autonomy::checkpoint::records(&nv)[0].unwrap();
+        assert_eq!(usize::from(kept_record.slot), kept);
+        let kept_sequence = kept_record.sequence;
+        let (mut warm, mut nv, mut security) = (warm.clone(), nv.clone(), security.clone());
+        let mut app = std::boxed::Box::new(ExecutiveApp::new());
+        let mut mem = Memories {
+            warm: &mut warm,
+            nv: Some(&mut nv),
+            security: Some(&mut security),
+        };
+        let outcome = app.boot(&mut mem, &mut NoClock, &mut |_| {});
+        assert!(matches!(outcome, BootOutcome::RestoredWarm(_)));
+        app.handle(&grant(40, 10 * 3600), &mut mem, &mut NoClock, &mut |_| {});
+        let [warm_newest, _] = autonomy::checkpoint::records(&warm);
+        let [nv_new, nv_old] = autonomy::checkpoint::records(&nv);
+        let (warm_newest, nv_new, nv_old) =
+            (warm_newest.unwrap(), nv_new.unwrap(), nv_old.unwrap());
+        assert_eq!(
+            usize::from(nv_new.slot),
+            1 - kept,
+            "written beside the kept record"
+        );
+        assert_eq!(usize::from(nv_old.slot), kept);
+        assert_eq!(
+            nv_old.sequence, kept_sequence,
+            "the kept record is untouched"
+        );
+        assert_eq!(nv_new.sequence, warm_newest.sequence);
+        assert_eq!(
+            nv_new.payload, warm_newest.payload,
+            "a copy of the warm record"
+        );
+    }
+}
