@@ -142,8 +142,11 @@ pub enum Event {
 pub struct Observation {
     pub now: MissionTimeUs,
     pub battery_mj: u64,
-    /// Whether the pending primitive's preconditions hold now (the executive's check on the
-    /// world).
+    /// Whether the preconditions of the pending primitive (the first of
+    /// [`Executor::remaining`] before this step) hold now: the executive's check on the
+    /// world. When the step makes another primitive pending (the previous one finished, or a
+    /// new plan), it does not dispatch it on this answer but returns a [`Directive::Wait`]
+    /// (until now, if it is due), so that the next observation answers for it.
     pub preconditions_met: bool,
     pub event: Option<Event>,
 }
@@ -325,6 +328,8 @@ pub struct Executor<const NODES: usize = MAX_SEARCH_NODES, const QUEUE: usize = 
     replan_pending: Option<Reason>,
     search: Search<NODES, QUEUE>,
     planning_from: (MissionTimeUs, u64),
+    /// Plans installed so far (tells a pending primitive of a new plan from the old one's).
+    plans: u32,
     log: Vec<Decision, MAX_DECISIONS>,
     stats: ExecStats,
     last_search: SearchStats,
@@ -363,6 +368,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             replan_pending: None,
             search: Search::new(SearchConfig::exhaustive(0)),
             planning_from: (timeline.horizon_start, timeline.battery_mj),
+            plans: 0,
             log: Vec::new(),
             stats: ExecStats::default(),
             last_search: SearchStats::default(),
@@ -475,6 +481,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
     pub fn step(&mut self, observation: &Observation, budget: u32) -> Directive {
         self.now = observation.now;
         self.battery_mj = observation.battery_mj;
+        let observed = self.pending();
         match observation.event {
             Some(Event::Finished(outcome)) => self.on_finished(outcome, observation),
             Some(Event::GroundResume) => {
@@ -509,7 +516,8 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                     }
                 }
                 Mode::Ready | Mode::Pushing { .. } => {
-                    if let Some(d) = self.advance(observation) {
+                    let met = observation.preconditions_met && self.pending() == observed;
+                    if let Some(d) = self.advance(met, self.pending() == observed) {
                         return d;
                     }
                 }
@@ -520,8 +528,16 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         }
     }
 
-    /// Ready or pushing: dispatch the next primitive, wait, push, or fail it.
-    fn advance(&mut self, observation: &Observation) -> Option<Directive> {
+    /// The pending primitive: (plan number, chain, primitive), if any.
+    fn pending(&self) -> Option<(u32, u16, u8)> {
+        self.steps
+            .get(self.cursor)
+            .map(|s| (self.plans, s.chain, s.primitive))
+    }
+
+    /// Ready or pushing: dispatch the next primitive, wait, push, or fail it. `observed`: the
+    /// observation's preconditions are about this primitive (`met` says whether they hold).
+    fn advance(&mut self, met: bool, observed: bool) -> Option<Directive> {
         let Some(step) = self.steps.get(self.cursor).copied() else {
             if let Some(reason) = self.replan_pending.take() {
                 self.begin_planning(reason);
@@ -531,11 +547,13 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             self.record(NONE_CHAIN, NONE_PRIMITIVE, DecisionKind::Finished);
             return Some(Directive::Done);
         };
-        if self.now < step.start {
+        if self.now < step.start || !observed {
             self.mode = Mode::Ready;
-            return Some(Directive::Wait { until: step.start });
+            return Some(Directive::Wait {
+                until: step.start.max(self.now),
+            });
         }
-        if observation.preconditions_met {
+        if met {
             return Some(self.dispatch());
         }
         if !self.config.flexible() {
@@ -886,6 +904,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             }
         }
         self.mode = Mode::Ready;
+        self.plans = self.plans.wrapping_add(1);
         self.record(
             NONE_CHAIN,
             NONE_PRIMITIVE,

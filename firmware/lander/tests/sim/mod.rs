@@ -60,6 +60,9 @@ pub struct Scripted {
     pub site: Option<u8>,
     pub target: Option<u8>,
     pub attempt: u32,
+    /// Only the n-th dispatch of (kind, site, target) in the run, counting every chain's
+    /// (for primitives without a site, such as the analysis).
+    pub nth: Option<usize>,
     pub result: TaskResult,
     /// Measured duration and energy, when not the predicted ones.
     pub measured: Option<(u64, u64)>,
@@ -76,6 +79,7 @@ impl Scripted {
             site,
             target,
             attempt: 1,
+            nth: None,
             result: TaskResult::Succeeded,
             measured: None,
             biosignature: None,
@@ -170,6 +174,10 @@ impl Sim {
                     expected_energy_mj,
                 } => {
                     dispatched.push((kind, site, target));
+                    let nth = dispatched
+                        .iter()
+                        .filter(|d| **d == (kind, site, target))
+                        .count();
                     let attempt = match attempts.iter_mut().find(|(k, _)| *k == (chain, primitive))
                     {
                         Some((_, n)) => {
@@ -182,12 +190,15 @@ impl Sim {
                         }
                     };
                     let scripted = self.script.iter().find(|s| {
-                        s.kind == kind && s.site == site && s.target == target && s.attempt == attempt
+                        s.kind == kind
+                            && s.site == site
+                            && s.target == target
+                            && s.attempt == attempt
+                            && s.nth.is_none_or(|n| n == nth)
                     });
-                    let (duration, energy) = scripted.and_then(|s| s.measured).unwrap_or((
-                        expected_end.0 - now.0,
-                        expected_energy_mj,
-                    ));
+                    let (duration, energy) = scripted
+                        .and_then(|s| s.measured)
+                        .unwrap_or((expected_end.0 - now.0, expected_energy_mj));
                     now = MissionTimeUs(now.0 + duration);
                     battery = battery.saturating_sub(energy);
                     if let Some(s) = scripted {
@@ -243,7 +254,9 @@ impl Sim {
                     now = MissionTimeUs(now.0 + GROUND_DELAY_US);
                     event = Some(Event::GroundResume);
                 }
-                Directive::HaltedForGround { .. } | Directive::Abandoned { .. } | Directive::Done => {
+                Directive::HaltedForGround { .. }
+                | Directive::Abandoned { .. }
+                | Directive::Done => {
                     return RunEnd {
                         last: directive,
                         now,
