@@ -58,6 +58,9 @@ use crate::utility::RankedUtility;
 pub const MAX_EXEC_STEPS: usize = 256;
 /// Decisions kept in the log (later ones are counted in [`ExecStats::log_overflows`]).
 pub const MAX_DECISIONS: usize = 512;
+/// The search's exploration bound per batch unless configured otherwise
+/// ([`ExecConfig::exploration_bound`]).
+pub const DEFAULT_EXPLORATION_BOUND: u32 = 1_000;
 /// Measured (kind, site) parameters kept.
 pub const MAX_PARAMETER_UPDATES: usize = 64;
 
@@ -94,7 +97,7 @@ impl ExecConfig {
             strategy,
             push_timeout_us: 3_600_000_000,
             max_retries: 2,
-            exploration_bound: Some(1_000),
+            exploration_bound: Some(DEFAULT_EXPLORATION_BOUND),
             reserve_mj: 0,
         }
     }
@@ -333,6 +336,7 @@ pub struct Executor<const NODES: usize = MAX_SEARCH_NODES, const QUEUE: usize = 
     log: Vec<Decision, MAX_DECISIONS>,
     stats: ExecStats,
     last_search: SearchStats,
+    last_plan_value: (RankedUtility, u64),
     initial_battery_mj: u64,
     now: MissionTimeUs,
     battery_mj: u64,
@@ -372,6 +376,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             log: Vec::new(),
             stats: ExecStats::default(),
             last_search: SearchStats::default(),
+            last_plan_value: (RankedUtility::ZERO, 0),
             initial_battery_mj: timeline.battery_mj,
             now: timeline.horizon_start,
             battery_mj: timeline.battery_mj,
@@ -394,6 +399,11 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
     /// The statistics of the last search (initial plan or replan).
     pub fn last_search(&self) -> &SearchStats {
         &self.last_search
+    }
+
+    /// The utility (as the Assessor predicted it) and energy of the last plan the search made.
+    pub fn last_plan_value(&self) -> (RankedUtility, u64) {
+        self.last_plan_value
     }
 
     pub fn log(&self) -> &[Decision] {
@@ -859,6 +869,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         }
         let s = *self.search.stats();
         self.last_search = s;
+        self.last_plan_value = self.search.best_value();
         self.stats.explored = self.stats.explored.saturating_add(s.explored);
         self.stats.nodes = self.stats.nodes.saturating_add(s.nodes);
         let mut plan: Vec<PlacedChain, MAX_PLAN_CHAINS> = Vec::new();
