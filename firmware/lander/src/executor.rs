@@ -533,9 +533,8 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                 }
             }
         }
-        Directive::Planning {
-            reason: Reason::Initial,
-        }
+        // Not reached with the modes above; asking again is always safe.
+        Directive::Wait { until: self.now }
     }
 
     /// The pending primitive: (plan number, chain, primitive), if any.

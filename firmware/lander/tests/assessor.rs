@@ -315,3 +315,62 @@ fn the_search_with_the_assessor_leaves_a_negative_site() {
     let with = samples_per_site(Some(&c));
     assert_eq!(with, [0, 3, 3]);
 }
+
+/// The site of the one sample the search chooses when the battery pays for only one.
+fn one_sample_site(context: Option<&ScienceContext>) -> Vec<u8> {
+    let options = Rsm1Options {
+        sites: 3,
+        targets_per_site: 1,
+        panoramas: 0,
+        uplinks: 2,
+    };
+    let model = rsm1::model(options).unwrap();
+    let net = flatten(
+        &model,
+        FlattenOptions {
+            fully_autonomous: true,
+        },
+    )
+    .unwrap();
+    let battery = 3_500 * WH_MJ;
+    let mut search: Box<Search<4_096, 16_384>> =
+        Box::new(Search::new(SearchConfig::exhaustive(battery)));
+    search.start(&net, &[]).unwrap();
+    let timeline = rsm1::placement(4, battery).unwrap();
+    let science = chain_science(&model.primitives, &net);
+    match context {
+        Some(context) => search.run(
+            &net,
+            &mut AssessedPlacement {
+                inner: timeline,
+                assessor: Assessor::default(),
+                context,
+                science: &science,
+                refused: 0,
+            },
+        ),
+        None => search.run(&net, &mut timeline.clone()),
+    }
+    assert!(search.stats().exhaustive());
+    let mut plan: HVec<PlacedChain, 64> = HVec::new();
+    search.best_plan(&mut plan);
+    plan.iter()
+        .filter_map(|p| science[usize::from(p.chain)].sample.map(|x| x.site))
+        .collect()
+}
+
+#[test]
+fn the_search_ranks_plans_by_the_assessed_utility() {
+    // The model's flattened utilities favour site 0; the context (vision after landing) says
+    // site 2 is worth most: with the Assessor the search samples there.
+    assert_eq!(one_sample_site(None), vec![0]);
+    let options = Rsm1Options {
+        sites: 3,
+        targets_per_site: 1,
+        panoramas: 0,
+        uplinks: 2,
+    };
+    let mut c = rsm1::context(options);
+    c.sites[2].estimated = s(9_900);
+    assert_eq!(one_sample_site(Some(&c)), vec![2]);
+}

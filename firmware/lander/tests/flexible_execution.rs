@@ -419,3 +419,55 @@ fn the_step_api_is_deterministic_and_independent_of_the_search_budget() {
     assert_eq!(stats_a, stats_c);
     assert!(stats_a.replans >= 1 && stats_a.retries == 1);
 }
+
+#[test]
+fn a_plan_made_before_execution_is_executed_as_made() {
+    // The executor's own first plan, handed to a new executor as a plan made beforehand (the
+    // Static strategy's "generated before execution time"): the same primitives, in the same
+    // order, at the same times.
+    let mut planner = executor(Strategy::FlexibleExecution);
+    let _ = planned_step(&mut planner, COLLECT_00.0, COLLECT_00.1, COLLECT_00.2);
+    let mut plan: Vec<lander::search::PlacedChain> = Vec::new();
+    for s in planner.remaining() {
+        if !plan.iter().any(|p| p.chain == s.chain) {
+            plan.push(lander::search::PlacedChain {
+                chain: s.chain,
+                start: s.planned_start,
+            });
+        }
+    }
+    let (model, net) = small();
+    let timeline = lander::rsm1::placement(SOLS, BATTERY_MJ).unwrap();
+    let mut given = Box::new(
+        Exec::new(
+            ExecConfig::new(Strategy::Static),
+            &model,
+            &net,
+            &timeline,
+            &lander::rsm1::context(SMALL),
+            Some(&plan),
+        )
+        .unwrap(),
+    );
+    assert_eq!(given.remaining(), planner.remaining());
+    let a = Sim::new(vec![]).run(&mut planner);
+    let b = Sim::new(vec![]).run(&mut given);
+    assert_eq!(a, b);
+    assert_eq!(given.stats().explored, 0, "no search");
+    // A plan naming a chain the network does not have is refused.
+    let bad = [lander::search::PlacedChain {
+        chain: 999,
+        start: MissionTimeUs::ZERO,
+    }];
+    assert!(matches!(
+        Exec::new(
+            ExecConfig::new(Strategy::Static),
+            &model,
+            &net,
+            &timeline,
+            &lander::rsm1::context(SMALL),
+            Some(&bad),
+        ),
+        Err(ExecError::UnknownChain)
+    ));
+}
