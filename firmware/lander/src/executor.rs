@@ -514,10 +514,9 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                 Mode::Abandoned { reason } => return Directive::Abandoned { reason },
                 Mode::Running => {
                     return Directive::Running {
-                        expected_end: self
-                            .steps
-                            .get(self.cursor)
-                            .map_or(self.now, |s| MissionTimeUs(s.start.0 + s.duration_us)),
+                        expected_end: self.steps.get(self.cursor).map_or(self.now, |s| {
+                            MissionTimeUs(s.start.0.saturating_add(s.duration_us))
+                        }),
                     }
                 }
                 Mode::Planning { reason } => {
