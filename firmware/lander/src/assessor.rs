@@ -5,8 +5,8 @@
 //! (onboard vision), its pre- and post-excavation imagery scores once taken; per target its
 //! estimated value, its pre-collection imaging score once taken, whether it was collected, and
 //! its biosignature result once analysed. The planned context is the sampling tasks the plan
-//! already holds before the new one ([`SampleRef`]s) and whether the new task's own chain
-//! plans the excavation and the imaging that support it ([`Support`]).
+//! already holds before the new one ([`SampleRef`]s) and whether the excavation and the
+//! imaging that support it are planned, by its own chain or an earlier one ([`Support`]).
 //!
 //! A prediction for sample (site N, target M) is, rank by rank:
 //! - Mission: the subway map. Sites are ordered by estimated value (ties: lower index), targets
@@ -291,7 +291,12 @@ impl Assessor {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct ChainScience {
     pub sample: Option<SampleRef>,
+    /// The support the chain plans for its own sample.
     pub support: Support,
+    /// The site the chain excavates, if any (support for later samples there).
+    pub excavates: Option<u8>,
+    /// The site whose targets the chain images, if any (support for later samples there).
+    pub images: Option<u8>,
     /// Utility of the chain's primitives the Assessor does not predict (downlinks, panoramas):
     /// added to the prediction.
     pub other_utility: RankedUtility,
@@ -325,8 +330,14 @@ pub fn chain_science(
                 (PrimitiveKind::CollectSample, Some(site), Some(target)) => {
                     science.sample = Some(SampleRef { site, target });
                 }
-                (PrimitiveKind::ExcavateSite, _, _) => science.support.excavation = true,
-                (PrimitiveKind::FindCollectionTargets, _, _) => science.support.imaging = true,
+                (PrimitiveKind::ExcavateSite, site, _) => {
+                    science.support.excavation = true;
+                    science.excavates = site;
+                }
+                (PrimitiveKind::FindCollectionTargets, site, _) => {
+                    science.support.imaging = true;
+                    science.images = site;
+                }
                 _ => {}
             }
         }
@@ -347,6 +358,10 @@ pub fn chain_science(
 /// A placement that asks the Assessor: sampling chains the subway map forbids in the plan's
 /// context are refused, and every sampling chain adds its predicted utility (plus its other
 /// primitives' model utility) instead of its flattened one. Other chains pass through.
+///
+/// The planned context of a sample is the plan's chains before it: the samples they take (for
+/// the map's counts) and the excavation and imaging they plan at its site (support, as if its
+/// own chain planned them).
 pub struct AssessedPlacement<'a, P> {
     pub inner: P,
     pub assessor: Assessor,
@@ -372,9 +387,17 @@ impl<P> AssessedPlacement<'_, P> {
         let science = self.science.get(usize::from(candidate))?;
         let sample = science.sample?;
         let planned = self.planned(plan);
+        let mut support = science.support;
+        for earlier in plan
+            .iter()
+            .filter_map(|p| self.science.get(usize::from(p.chain)))
+        {
+            support.excavation |= earlier.excavates == Some(sample.site);
+            support.imaging |= earlier.images == Some(sample.site);
+        }
         Some(
             self.assessor
-                .predict_sample(self.context, &planned, sample, science.support)
+                .predict_sample(self.context, &planned, sample, support)
                 .map(|u| u.saturating_add(&science.other_utility)),
         )
     }

@@ -374,3 +374,70 @@ fn the_search_ranks_plans_by_the_assessed_utility() {
     c.sites[2].estimated = s(9_900);
     assert_eq!(one_sample_site(Some(&c)), vec![2]);
 }
+
+#[test]
+fn planned_tasks_that_support_a_sample_are_its_context() {
+    use lander::htn::{Chain, FlatNetwork, PrimitiveKind, PrimitiveSpec};
+    use lander::search::ChainPlacement;
+    let spec = |kind, site, target| PrimitiveSpec {
+        kind,
+        site,
+        target,
+        duration_us: 3_600_000_000,
+        energy_mj: WH_MJ,
+        utility: RankedUtility::ZERO,
+        product: None,
+    };
+    // Excavation, imaging and collection as separate tasks (the reference model folds them
+    // into each sampling chain).
+    let primitives = [
+        spec(PrimitiveKind::ExcavateSite, Some(0), None),
+        spec(PrimitiveKind::FindCollectionTargets, Some(0), None),
+        spec(PrimitiveKind::CollectSample, Some(0), Some(1)),
+        spec(PrimitiveKind::ExcavateSite, Some(1), None),
+    ];
+    let mut net = FlatNetwork::default();
+    for (slot, p) in [0u8, 1, 2, 3].into_iter().enumerate() {
+        let mut c = Chain::bare(slot as u16, slot as u8, RankedUtility::ZERO, WH_MJ);
+        c.primitives.push(p).unwrap();
+        c.duration_us = 3_600_000_000;
+        net.chains.push(c).unwrap();
+    }
+    let science = chain_science(&primitives, &net);
+    let c = context();
+    let mut placement = AssessedPlacement {
+        inner: rsm1::placement(4, 10_000 * WH_MJ).unwrap(),
+        assessor: Assessor::default(),
+        context: &c,
+        science: &science,
+        refused: 0,
+    };
+    // Chains at the start of surface operations, `hour` hours in.
+    let at = |chain: u16, hour: u64| PlacedChain {
+        chain,
+        start: fsw_bridge::MissionTimeUs(rsm1::SOL_US + hour * rsm1::HOUR_US),
+    };
+    // Alone, the collection has no excavation: the map refuses it.
+    assert_eq!(placement.place(&net, &[], 2), None);
+    // Another site's excavation does not help.
+    assert_eq!(placement.place(&net, &[at(3, 0)], 2), None);
+    // After a planned excavation of its site it is allowed, with the predicted post-excavation
+    // score, and no pre-collection score (no imaging planned).
+    let excavated = [at(0, 0)];
+    assert!(placement.place(&net, &excavated, 2).is_some());
+    let u = placement.utility(&net, &excavated, 2);
+    let a = Assessor::default();
+    assert_eq!(
+        u.at(Rank::PostExcavation),
+        u32::from(a.post_excavation_prior.ten_thousandths())
+    );
+    assert_eq!(u.at(Rank::PreCollection), 0);
+    // With the imaging planned too, its prior is predicted.
+    let imaged = [at(0, 0), at(1, 1)];
+    let u = placement.utility(&net, &imaged, 2);
+    assert_eq!(
+        u.at(Rank::PreCollection),
+        u32::from(a.pre_collection_prior.ten_thousandths())
+    );
+    assert_eq!(placement.refused, 2);
+}
