@@ -38,6 +38,10 @@
 //!   next chain boundary, after a negative biosignature (utility discovery: the subway map
 //!   moves on) and when measured overruns leave the remaining plan more energy than the charge.
 //!
+//! States in a replan: targets collected, biosignatures and excavated sites are in the
+//! Assessor's context; an excavation of a site already excavated costs nothing and is not
+//! dispatched ([`already_done`]).
+//!
 //! Limits: a replan drops the interrupted chain's remaining primitives (its task counts as
 //! failed); ground holds are not carried into a replan (the replan's placement starts with
 //! none in force), so replanning is meant for the fully-autonomous flag; plans hold at most
@@ -829,7 +833,12 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         if reason != Reason::Initial {
             self.stats.replans += 1;
         }
-        reparameterize(&self.primitives, &self.params, &mut self.network);
+        reparameterize(
+            &self.primitives,
+            &self.params,
+            &self.context,
+            &mut self.network,
+        );
         self.planning_from = (self.now, self.battery_mj);
         let config = SearchConfig {
             battery_mj: self.battery_mj,
@@ -893,10 +902,13 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                 .get(usize::from(p.chain))
                 .ok_or(ExecError::UnknownChain)?;
             let mut at = p.start.0;
-            let count = chain.primitives.len();
-            for (i, &primitive) in chain.primitives.iter().enumerate() {
+            let first = self.steps.len();
+            for &primitive in chain.primitives.iter() {
                 let (duration_us, energy_mj) = predicted(&self.primitives, &self.params, primitive)
                     .ok_or(ExecError::UnknownChain)?;
+                if already_done(&self.primitives, &self.context, primitive) {
+                    continue;
+                }
                 self.steps
                     .push(ExecStep {
                         chain: p.chain,
@@ -906,10 +918,21 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                         duration_us,
                         energy_mj,
                         retries: 0,
-                        last_in_chain: i + 1 == count,
+                        last_in_chain: false,
                     })
                     .map_err(|_| ExecError::PlanTooLong)?;
                 at = at.saturating_add(duration_us);
+            }
+            match self.steps.get_mut(first..).and_then(|s| s.last_mut()) {
+                Some(last) => last.last_in_chain = true,
+                // Nothing left to do in it: executed as it stands.
+                None => {
+                    let task = chain.task_slot;
+                    if !self.closed_tasks.contains(&task) {
+                        let _ = self.closed_tasks.push(task);
+                    }
+                    let _ = self.executed.push(*p);
+                }
             }
         }
         self.mode = Mode::Ready;
@@ -942,12 +965,28 @@ pub fn predicted(
     }))
 }
 
+/// Whether primitive `index` has nothing left to do in the state `context` describes: the
+/// excavation of a site already excavated (the reference model folds an excavation into every
+/// sampling chain; the trench is dug once). Such a primitive costs nothing in a replan and is
+/// not dispatched.
+pub fn already_done(primitives: &[PrimitiveSpec], context: &ScienceContext, index: u8) -> bool {
+    primitives.get(usize::from(index)).is_some_and(|spec| {
+        spec.kind == PrimitiveKind::ExcavateSite
+            && spec
+                .site
+                .and_then(|site| context.sites.get(usize::from(site)))
+                .is_some_and(|site| site.post_excavation.is_some())
+    })
+}
+
 /// Recomputes every chain's duration, energy and product offsets from its primitives under the
-/// measured `params` (IV.C.3). Utilities are left as flattened: the Assessor predicts them in
-/// context during the search.
+/// measured `params` (IV.C.3) in the state `context` describes (primitives
+/// [`already_done`] cost nothing). Utilities are left as flattened: the Assessor predicts them
+/// in context during the search.
 pub fn reparameterize(
     primitives: &[PrimitiveSpec],
     params: &[ParameterUpdate],
+    context: &ScienceContext,
     network: &mut FlatNetwork,
 ) {
     for chain in network.chains.iter_mut() {
@@ -956,6 +995,11 @@ pub fn reparameterize(
         for &p in &chain.primitives {
             let Some((d, e)) = predicted(primitives, params, p) else {
                 continue;
+            };
+            let (d, e) = if already_done(primitives, context, p) {
+                (0, 0)
+            } else {
+                (d, e)
             };
             duration = duration.saturating_add(d);
             energy = energy.saturating_add(e).min(MAX_ENERGY_MJ);

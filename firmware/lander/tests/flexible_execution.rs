@@ -286,7 +286,12 @@ fn reparameterize_updates_the_chains_of_the_same_site_only() {
         energy_mj: prior.energy_mj + 100 * WH_MJ,
     }];
     let mut net = flat.clone();
-    reparameterize(&model.primitives, &params, &mut net);
+    reparameterize(
+        &model.primitives,
+        &params,
+        &lander::assessor::ScienceContext::default(),
+        &mut net,
+    );
     let mut changed = 0;
     for (before, after) in flat.chains.iter().zip(&net.chains) {
         let site0 = before.primitives.iter().any(|&p| {
@@ -308,7 +313,12 @@ fn reparameterize_updates_the_chains_of_the_same_site_only() {
     assert_eq!(changed, 4, "two targets at site 0, raw and compressed");
     // Without measurements, the flattened network is reproduced.
     let mut same = flat.clone();
-    reparameterize(&model.primitives, &[], &mut same);
+    reparameterize(
+        &model.primitives,
+        &[],
+        &lander::assessor::ScienceContext::default(),
+        &mut same,
+    );
     assert_eq!(same, flat);
 }
 
@@ -355,12 +365,13 @@ fn replanning_starts_from_the_current_state() {
 
 #[test]
 fn an_energy_overrun_replans_with_the_measured_charge_and_parameters() {
-    // The excavation of site 0 costs 6,000 Wh instead of 900: the rest of the plan no longer
-    // fits the charge. Replan replans at the chain's end, with the measured excavation cost for
-    // site 0, and drops the second sample there; FE goes on with the plan.
+    // The collection at (0, 0) costs 5,000 Wh instead of 400: the rest of the plan no longer
+    // fits the charge. Replan replans at the chain's end, with the measured collection cost
+    // for site 0, and drops the second sample there; FE goes on with the plan.
+    let measured = (6 * HOUR_US, 5_000 * WH_MJ);
     let overrun = Scripted {
-        measured: Some((6 * HOUR_US, 6_000 * WH_MJ)),
-        ..Scripted::on(K::ExcavateSite, Some(0), None)
+        measured: Some(measured),
+        ..Scripted::on(K::CollectSample, Some(0), Some(0))
     };
     let mut exec = executor(Strategy::Replan);
     let end = Sim::new(vec![overrun]).run(&mut exec);
@@ -375,17 +386,14 @@ fn an_energy_overrun_replans_with_the_measured_charge_and_parameters() {
         vec![(0, 0)],
         "the second sample at site 0 no longer fits"
     );
-    // The replan's network carries the measured excavation energy.
+    // The replan's network carries the measured collection energy.
     let model = small().0;
-    let excavate_0 = model
+    let collect_01 = model
         .primitives
         .iter()
-        .position(|p| p.kind == K::ExcavateSite && p.site == Some(0))
+        .position(|p| p.kind == K::CollectSample && p.site == Some(0) && p.target == Some(1))
         .unwrap() as u8;
-    assert_eq!(
-        exec.predicted(excavate_0),
-        Some((6 * HOUR_US, 6_000 * WH_MJ))
-    );
+    assert_eq!(exec.predicted(collect_01), Some(measured));
     let mut fe = executor(Strategy::FlexibleExecution);
     let end = Sim::new(vec![overrun]).run(&mut fe);
     assert_eq!(fe.stats().replans, 0);
@@ -470,4 +478,58 @@ fn a_plan_made_before_execution_is_executed_as_made() {
         ),
         Err(ExecError::UnknownChain)
     ));
+}
+
+#[test]
+fn a_replan_does_not_excavate_a_site_twice() {
+    // The state: site 0 excavated. Its excavation then costs nothing in a replan, and only
+    // there.
+    let model = small().0;
+    let excavate_0 = model
+        .primitives
+        .iter()
+        .position(|p| p.kind == K::ExcavateSite && p.site == Some(0))
+        .unwrap() as u8;
+    let mut context = lander::rsm1::context(SMALL);
+    assert!(!already_done(&model.primitives, &context, excavate_0));
+    context.sites[0].post_excavation = Some(lander::utility::Score::ONE);
+    assert!(already_done(&model.primitives, &context, excavate_0));
+    let (_, flat) = small();
+    let mut net = flat.clone();
+    reparameterize(&model.primitives, &[], &context, &mut net);
+    for (before, after) in flat.chains.iter().zip(&net.chains) {
+        if before.primitives.contains(&excavate_0) {
+            let prior = &model.primitives[usize::from(excavate_0)];
+            assert_eq!(after.energy_mj, before.energy_mj - prior.energy_mj);
+            assert_eq!(after.duration_us, before.duration_us - prior.duration_us);
+        } else {
+            assert_eq!(after, before);
+        }
+    }
+    // In execution: the collection at (0, 0) is lost after the excavation; Replan plans (0, 1)
+    // without a second excavation, where the plan made before execution has two.
+    let lost = Scripted {
+        result: TaskResult::Failed,
+        blocks_for_us: 100 * HOUR_US,
+        ..Scripted::on(K::CollectSample, Some(0), Some(0))
+    };
+    let excavations = |end: &RunEnd| {
+        end.dispatched
+            .iter()
+            .filter(|d| **d == (K::ExcavateSite, Some(0), None))
+            .count()
+    };
+    let mut exec = executor(Strategy::Replan);
+    let end = Sim::new(vec![lost]).run(&mut exec);
+    assert_eq!(end.last, Directive::Done);
+    assert_eq!(exec.stats().replans, 1);
+    assert!(samples(&end).contains(&(0, 1)));
+    assert_eq!(excavations(&end), 1);
+    let mut fe = executor(Strategy::FlexibleExecution);
+    let end = Sim::new(vec![]).run(&mut fe);
+    assert_eq!(
+        excavations(&end),
+        2,
+        "the plan made before excavates per sample"
+    );
 }
