@@ -150,4 +150,13 @@ impl<P: ChainPlacement> ChainPlacement for DownlinkGate<P> {
             None
         }
     }
+
+    fn utility(
+        &mut self,
+        network: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+    ) -> crate::utility::RankedUtility {
+        self.inner.utility(network, plan, candidate)
+    }
 }

@@ -11,6 +11,11 @@
 //!   trait, implemented by [`placement`] (a simple single-resource timeline with energy),
 //!   [`gate`] (the downlink manager's veto on top of another placement) and [`mexec`] (the
 //!   autonomy crate's MEXEC timelines).
+//! - [`assessor`]: the Assessor (IV.C.2), utility predicted from the science context, and
+//!   the science subway map enforced through the Mission rank ([`assessor::AssessedPlacement`]).
+//! - [`executor`]: flexible execution (task push, automated retry), replanning from the current
+//!   state, model parameter updates and the four strategies (III.B-D, IV.C.3), as a value-in,
+//!   value-out step with a search budget.
 //! - [`downlink`]: the downlink manager (Appendix A): Critical and Decisional products placed
 //!   first, the rest by an exact, anytime multiple-knapsack branch and bound.
 //!
@@ -29,8 +34,10 @@
 #[cfg(test)]
 extern crate std;
 
+pub mod assessor;
 pub mod capacity;
 pub mod downlink;
+pub mod executor;
 pub mod gate;
 pub mod htn;
 pub mod mexec;

@@ -13,6 +13,7 @@ use heapless::Vec;
 use autonomy::Name;
 use fsw_bridge::MissionTimeUs;
 
+use crate::assessor::{ScienceContext, SiteRecord, TargetRecord};
 use crate::downlink::DownlinkOpportunity;
 use crate::htn::*;
 use crate::placement::TimelinePlacement;
@@ -445,4 +446,26 @@ pub fn opportunities(periods: u16) -> Vec<DownlinkOpportunity, { crate::capacity
         });
     }
     out
+}
+
+/// The science context of the reference model before the mission: sites and targets with the
+/// estimated values the model's utilities were written from (earlier sites and targets are
+/// worth more), nothing excavated, imaged or collected yet.
+pub fn context(options: Rsm1Options) -> ScienceContext {
+    let mut context = ScienceContext::default();
+    for site in 0..options.sites {
+        let mut record = SiteRecord {
+            estimated: score(9_000u32.saturating_sub(2_000 * u32::from(site))),
+            pre_excavation: None,
+            post_excavation: None,
+            targets: Vec::new(),
+        };
+        for target in 0..options.targets_per_site {
+            let _ = record.targets.push(TargetRecord::estimated(score(
+                9_000u32.saturating_sub(1_500 * u32::from(target) + 700 * u32::from(site)),
+            )));
+        }
+        let _ = context.sites.push(record);
+    }
+    context
 }

@@ -55,6 +55,23 @@ pub trait ChainPlacement {
         plan: &[PlacedChain],
         candidate: u16,
     ) -> Option<MissionTimeUs>;
+
+    /// The utility chain `candidate` adds to `plan`, asked after [`Self::place`] accepted it.
+    /// The default is the chain's own (flattened) utility; a placement that knows the mission
+    /// rules overrides it with a prediction in the plan's context (the Assessor,
+    /// [`crate::assessor::AssessedPlacement`]). Must depend only on its arguments.
+    fn utility(
+        &mut self,
+        network: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+    ) -> RankedUtility {
+        let _ = plan;
+        network
+            .chains
+            .get(usize::from(candidate))
+            .map_or(RankedUtility::ZERO, |c| c.utility)
+    }
 }
 
 /// The configuration of one search.
@@ -208,6 +225,10 @@ pub struct Search<const NODES: usize = MAX_SEARCH_NODES, const QUEUE: usize = MA
     best: u16,
     stats: SearchStats,
     scratch: Vec<PlacedChain, MAX_PLAN_CHAINS>,
+    /// Tasks left out of the search ([`Self::start_excluding`]).
+    excluded: TaskSet,
+    /// Utility and cost of the fixed plan (each chain's utility as it was when it was added).
+    fixed_value: (RankedUtility, u64),
 }
 
 impl<const NODES: usize, const QUEUE: usize> Default for Search<NODES, QUEUE> {
@@ -233,6 +254,8 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             best: 0,
             stats: SearchStats::default(),
             scratch: Vec::new(),
+            excluded: TaskSet::default(),
+            fixed_value: (RankedUtility::ZERO, 0),
         }
     }
 
@@ -256,8 +279,25 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         network: &FlatNetwork,
         initial: &[PlacedChain],
     ) -> Result<(), SearchError> {
+        self.start_excluding(network, initial, &[])
+    }
+
+    /// [`Self::start`], with the top-level tasks of `excluded` (task slots) left out of the
+    /// search as if they were in the plan: tasks already executed, or failed, when replanning
+    /// from the current state (their time and energy are in the placement's horizon and
+    /// charge, not in the plan).
+    pub fn start_excluding(
+        &mut self,
+        network: &FlatNetwork,
+        initial: &[PlacedChain],
+        excluded: &[u8],
+    ) -> Result<(), SearchError> {
         if network.chains.len() >= usize::from(NO_PARENT) {
             return Err(SearchError::TooManyChains);
+        }
+        self.excluded = TaskSet::default();
+        for &slot in excluded {
+            self.excluded.insert(slot);
         }
         self.fixed.clear();
         for (index, placed) in initial.iter().enumerate() {
@@ -287,6 +327,17 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         self.stats = SearchStats::default();
         self.next_seq = 0;
         self.stage = Stage::Exogenous { next: 0 };
+        self.fixed_value = self
+            .fixed
+            .iter()
+            .fold((RankedUtility::ZERO, 0), |(u, e), p| {
+                network
+                    .chains
+                    .get(usize::from(p.chain))
+                    .map_or((u, e), |c| {
+                        (u.saturating_add(&c.utility), e.saturating_add(c.energy_mj))
+                    })
+            });
         self.reset_root(network);
         Ok(())
     }
@@ -382,14 +433,12 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             parent: NO_PARENT,
             chain: NO_PARENT,
             start: MissionTimeUs::ZERO,
-            utility: RankedUtility::ZERO,
-            cost_mj: 0,
-            tasks: TaskSet::default(),
+            utility: self.fixed_value.0,
+            cost_mj: self.fixed_value.1,
+            tasks: self.excluded,
         };
         for p in &self.fixed {
             if let Some(c) = network.chains.get(usize::from(p.chain)) {
-                root.utility = root.utility.saturating_add(&c.utility);
-                root.cost_mj = root.cost_mj.saturating_add(c.energy_mj);
                 root.tasks.insert(c.task_slot);
             }
         }
@@ -430,7 +479,12 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         }
         self.stats.placement_calls += 1;
         if let Some(start) = placement.place(network, &self.fixed, chain) {
+            let utility = placement.utility(network, &self.fixed, chain);
             if self.fixed.push(PlacedChain { chain, start }).is_ok() {
+                self.fixed_value = (
+                    self.fixed_value.0.saturating_add(&utility),
+                    self.fixed_value.1.saturating_add(c.energy_mj),
+                );
                 self.reset_root(network);
             }
         }
@@ -495,6 +549,10 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         }
         self.stats.placement_calls += 1;
         let placed = placement.place(network, &plan, pair.chain);
+        let utility = match placed {
+            Some(_) => placement.utility(network, &plan, pair.chain),
+            None => RankedUtility::ZERO,
+        };
         self.scratch = plan;
         let Some(start) = placed else {
             return;
@@ -505,7 +563,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             parent: pair.node,
             chain: pair.chain,
             start,
-            utility: parent.utility.saturating_add(&chain.utility),
+            utility: parent.utility.saturating_add(&utility),
             cost_mj: parent.cost_mj.saturating_add(chain.energy_mj),
             tasks,
         };
@@ -539,6 +597,9 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
 
     /// Holds the best plan of the finished batch fixed.
     fn fix_best(&mut self, network: &FlatNetwork) {
+        if let Some(best) = self.nodes.get(usize::from(self.best)) {
+            self.fixed_value = (best.utility, best.cost_mj);
+        }
         let mut path = core::mem::take(&mut self.scratch);
         self.path_of(self.best, &mut path);
         self.fixed.clear();
