@@ -359,3 +359,117 @@ fn a_full_open_list_sheds_its_worse_half_and_the_search_goes_on() {
         .validate(&with.plan)
         .expect("valid");
 }
+
+/// Flexible dispatch of real plans (rovers, satellite and driverlog instances 1-2): executed
+/// with every action ready at once and lasting as planned, each starts at its planned start
+/// (the earliest the plan's network allows) and no replan is asked for; an action that
+/// overruns its duration by the whole makespan makes the dispatcher ask for a replan.
+#[test]
+fn benchmark_plans_dispatch_as_planned_and_an_overrun_asks_for_a_replan() {
+    use temporal::{Decision, Dispatcher, PlanNetwork};
+    for (domain, instance) in [
+        ("rovers", 1),
+        ("rovers", 2),
+        ("satellite", 1),
+        ("driverlog", 2),
+    ] {
+        let (d, p) = files(domain, instance);
+        let compiled = common::compile(&d, &p).expect("compiles");
+        let task = temporal::Task::parse(&compiled.task).expect("valid");
+        let mut arena = vec![0u32; ARENA_WORDS];
+        let mut planner =
+            temporal::Planner::new(task, &mut arena, PlannerConfig::default()).expect("fits");
+        while planner.step(1 << 16) == temporal::Status::Searching {}
+        let mut out = vec![temporal::PlannedAction::default(); 512];
+        let (n, makespan) = planner.plan(&mut out).expect("solved");
+        let planned = &out[..n];
+        let mut net = Box::new(PlanNetwork::new());
+        planner.plan_network(&mut net).expect("network");
+        assert_eq!(net.makespan, makespan);
+        assert_eq!(
+            net.step_count(),
+            2 * n,
+            "{domain} {instance}: a start and an end per action"
+        );
+        let duration = |a: u16| {
+            planned
+                .iter()
+                .find(|p| p.action == a)
+                .map(|p| p.duration)
+                .unwrap()
+        };
+        // As planned.
+        let mut dispatcher = Dispatcher::new((*net).clone(), makespan).expect("consistent");
+        let (mut now, mut started) = (0u32, Vec::new());
+        let mut guard = 0;
+        loop {
+            guard += 1;
+            assert!(
+                guard < 100_000,
+                "{domain} {instance}: dispatch does not end"
+            );
+            // Report the ends due by now.
+            for s in 1..=net.step_count() {
+                let st = net.step(s).unwrap();
+                if let (false, Some(at)) = (st.end, dispatcher.executed_at(s)) {
+                    let e = net.end_of(s).unwrap();
+                    let end = at + duration(st.action);
+                    if dispatcher.executed_at(e).is_none() && end <= now {
+                        dispatcher.executed(e, end).unwrap();
+                    }
+                }
+            }
+            match dispatcher.poll(now, &|_| true) {
+                Decision::Start { step, action } => {
+                    dispatcher.executed(step, now).unwrap();
+                    started.push((action, now));
+                }
+                Decision::Finished => break,
+                Decision::Wait { until } => {
+                    // The next due end or the next lb, whichever comes first.
+                    let next_end = (1..=net.step_count())
+                        .filter_map(|s| {
+                            let st = net.step(s).unwrap();
+                            let at = dispatcher.executed_at(s)?;
+                            let e = net.end_of(s)?;
+                            (!st.end && dispatcher.executed_at(e).is_none())
+                                .then(|| at + duration(st.action))
+                        })
+                        .min();
+                    now = [until, next_end]
+                        .into_iter()
+                        .flatten()
+                        .min()
+                        .expect("something pending");
+                }
+                Decision::Replan { step, ub } => {
+                    panic!("{domain} {instance}: replan at {now}, step {step}, ub {ub}")
+                }
+            }
+        }
+        let mut expected: Vec<(u16, u32)> = planned.iter().map(|p| (p.action, p.start)).collect();
+        started.sort_unstable_by_key(|&(a, t)| (t, a));
+        expected.sort_unstable_by_key(|&(a, t)| (t, a));
+        assert_eq!(
+            started, expected,
+            "{domain} {instance}: each at its planned start"
+        );
+        // The first action overruns by the makespan: the rest cannot keep it.
+        let mut dispatcher = Dispatcher::new((*net).clone(), makespan).expect("consistent");
+        let Decision::Start { step, .. } = dispatcher.poll(0, &|_| true) else {
+            panic!("{domain} {instance}: nothing to start at 0");
+        };
+        dispatcher.executed(step, 0).unwrap();
+        let end = net.end_of(step).unwrap();
+        if n > 1 {
+            dispatcher.executed(end, 2 * makespan).unwrap();
+            assert!(
+                matches!(
+                    dispatcher.poll(2 * makespan, &|_| true),
+                    Decision::Replan { .. }
+                ),
+                "{domain} {instance}: an overrun past the makespan asks for a replan"
+            );
+        }
+    }
+}

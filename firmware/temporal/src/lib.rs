@@ -9,17 +9,20 @@
 //! [`Planner::step`] expands a bounded number of states and can be called again to resume.
 //!
 //! The parts: [`task`] (the binary task), [`constraints`] (the compact serialised encoding of
-//! temporal constraints), [`stn`] (temporal consistency), [`heuristic`] (FF on the temporal
+//! temporal constraints), [`stn`] (temporal consistency), [`dispatch`] (flexible
+//! dispatch of a plan, section 5.2), [`heuristic`] (FF on the temporal
 //! relaxation, with running-action facts and preferred operators), [`search`] (the planner).
 #![no_std]
 #![forbid(unsafe_code)]
 #![deny(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 pub mod constraints;
+pub mod dispatch;
 pub mod heuristic;
 pub mod search;
 pub mod stn;
 pub mod task;
 
+pub use dispatch::{Decision, Dispatcher, NetworkError, PlanNetwork, PlanStep};
 pub use search::{Duplicates, PlannedAction, Planner, PlannerConfig, Region, Stats, Status};
 pub use task::{Task, TaskError, TaskErrorKind};

@@ -29,7 +29,8 @@ mod expand;
 mod path;
 mod state;
 
-use path::{earliest_words, for_each_write, latest_words, step_window};
+use crate::dispatch::{NetworkError, PlanNetwork, PlanStep};
+use path::{earliest_words, for_each_write, latest_words, step_window, unpack};
 
 /// Snap kinds in a snap id (`action << 2 | kind`).
 const START: u32 = 0;
@@ -437,6 +438,33 @@ impl<'t, 'm> Planner<'t, 'm> {
 
 impl<'t, 'm> Planner<'t, 'm> {
     // ----- the plan -----------------------------------------------------------------------------
+
+    /// The plan's temporal network (after [`Status::Solved`]): its steps in plan order, the
+    /// constraints the search recreated between them (orderings, durations) and the
+    /// makespan, for flexible dispatch ([`crate::dispatch::Dispatcher`]).
+    pub fn plan_network(&mut self, net: &mut PlanNetwork) -> Result<(), NetworkError> {
+        if self.goal_node == NONE {
+            return Err(NetworkError::NoPlan);
+        }
+        self.loaded_node = NONE;
+        self.load_path(self.goal_node)
+            .map_err(|_| NetworkError::NoPlan)?;
+        let steps = self.loaded_steps;
+        net.clear();
+        net.makespan = self.est_parent[..=steps].iter().copied().max().unwrap_or(0);
+        for s in 1..=steps {
+            let snap = self.path_snap[s];
+            net.add_step(PlanStep {
+                action: (snap >> 1) as u16,
+                end: snap & 1 == 1,
+                window: step_window(&self.task, snap),
+            })?;
+        }
+        for i in 0..self.loaded_constraints {
+            net.add_constraint(unpack(self.path_constraints, i))?;
+        }
+        Ok(())
+    }
 
     /// The plan found (after [`Status::Solved`]): actions in order of their starts, written to
     /// `out`; returns how many, or None if there is no plan or `out` is too short.
