@@ -16,6 +16,11 @@ use crate::task::{FactList, Task};
 /// h of a dead end (the goal is unreachable even relaxed).
 pub const DEAD_END: u32 = u32::MAX;
 
+/// Whether bit `i` of a dropped-goals mask is set (goals past the 64th are never dropped).
+pub fn goal_dropped(mask: u64, i: usize) -> bool {
+    i < 64 && mask & (1 << i) != 0
+}
+
 /// What a relaxed snap action costs in the cost propagation that picks best supporters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum RelaxedCost {
@@ -113,7 +118,9 @@ fn for_each_pre(task: &Task<'_>, r: usize, f: &mut dyn FnMut(usize)) {
 
 impl<'m> Relaxation<'m> {
     /// Fill the precondition index and the effect table (once, when the planner starts).
-    pub fn build_index(&mut self, task: &Task<'_>, costs: RelaxedCost) {
+    /// `dropped_goals`: bit i set leaves the task's i-th goal fact out of the goal (see
+    /// [`crate::PlannerConfig::dropped_goals`]).
+    pub fn build_index(&mut self, task: &Task<'_>, costs: RelaxedCost, dropped_goals: u64) {
         let facts = task.fact_count() + task.action_count();
         self.pre_offsets.iter_mut().for_each(|x| *x = 0);
         for r in 0..2 * task.action_count() {
@@ -154,8 +161,10 @@ impl<'m> Relaxation<'m> {
         }
         self.add_offsets[2 * task.action_count()] = at as u32;
         self.goal.iter_mut().for_each(|x| *x = 0);
-        for g in task.goal_facts().iter() {
-            self.goal[g / 32] |= 1 << (g % 32);
+        for (i, g) in task.goal_facts().iter().enumerate() {
+            if !goal_dropped(dropped_goals, i) {
+                self.goal[g / 32] |= 1 << (g % 32);
+            }
         }
         // Fill using `cost` as the per-fact insertion cursor.
         for f in 0..facts {
@@ -286,14 +295,20 @@ impl<'m> Relaxation<'m> {
                 }
             }
         }
-        if goals.iter().any(|g| self.cost[g] == u32::MAX) {
+        let is_goal = |goal: &[u32], g: usize| goal[g / 32] & (1 << (g % 32)) != 0;
+        if goals
+            .iter()
+            .any(|g| is_goal(self.goal, g) && self.cost[g] == u32::MAX)
+        {
             return DEAD_END;
         }
         // Extract the relaxed plan from the best supporters.
         let mut top = 0usize;
         for g in goals.iter() {
-            self.stack[top] = g as u32;
-            top += 1;
+            if is_goal(self.goal, g) {
+                self.stack[top] = g as u32;
+                top += 1;
+            }
         }
         let mut h = 0u32;
         while top > 0 {

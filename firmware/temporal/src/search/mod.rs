@@ -65,6 +65,10 @@ pub struct PlannerConfig {
     pub shed_when_full: bool,
     /// Snap-action costs in the heuristic's cost propagation.
     pub relaxed_cost: RelaxedCost,
+    /// Goal facts left out of the goal: bit i for the task's i-th goal fact (the first 64 can
+    /// be dropped; numeric goal conditions always stay). An opportunistic goal that makes
+    /// planning fail is dropped this way and planning tried again ([`crate::opportunistic`]).
+    pub dropped_goals: u64,
 }
 
 impl Default for PlannerConfig {
@@ -76,6 +80,7 @@ impl Default for PlannerConfig {
             preferred_operators: true,
             shed_when_full: true,
             relaxed_cost: RelaxedCost::Unit,
+            dropped_goals: 0,
         }
     }
 }
@@ -411,7 +416,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         planner.buckets.iter_mut().for_each(|b| *b = NONE);
         planner
             .relax
-            .build_index(&planner.task, config.relaxed_cost);
+            .build_index(&planner.task, config.relaxed_cost, config.dropped_goals);
         planner.mark_compression_safe();
         planner.start();
         Ok(planner)

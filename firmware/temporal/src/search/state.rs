@@ -280,7 +280,9 @@ impl<'t, 'm> Planner<'t, 'm> {
 
     pub(super) fn is_goal(&self, state: &[u32]) -> bool {
         state[self.running_at()] == 0
-            && self.task.goal_facts().iter().all(|g| Self::fact(state, g))
+            && self.task.goal_facts().iter().enumerate().all(|(i, g)| {
+                heuristic::goal_dropped(self.config.dropped_goals, i) || Self::fact(state, g)
+            })
             && self
                 .task
                 .goal_conditions()
