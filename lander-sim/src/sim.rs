@@ -212,6 +212,32 @@ struct Block {
     until: u64,
 }
 
+/// The resolvability class of a failure (V.A).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum FailureClass {
+    /// A retry resolves it.
+    FlexibleExecution = 0,
+    /// A replan (or the ground) resolves it.
+    Replan = 1,
+    /// Only the ground resolves it.
+    Ground = 2,
+}
+
+/// One dispatch's failure draw: None (success) with probability 1 - p_fail, else the class
+/// with probabilities p_fe, p_replan and the rest (p_ground); all in parts per million.
+pub fn draw_failure(rng: &mut Rng, p_fail: u32, p_fe: u32, p_replan: u32) -> Option<FailureClass> {
+    let draw = rng.below(1_000_000) as u32;
+    if draw >= p_fail {
+        None
+    } else if draw < p_fe {
+        Some(FailureClass::FlexibleExecution)
+    } else if draw < p_fe + p_replan {
+        Some(FailureClass::Replan)
+    } else {
+        Some(FailureClass::Ground)
+    }
+}
+
 /// The world's state during a run.
 pub struct World {
     pub earth: EarthSchedule,
@@ -754,21 +780,13 @@ impl World {
         let mut duration = mul_milli(spec.duration_us, heat);
         let mut energy = mul_milli(mul_milli(spec.energy_mj, factor), heat);
         // Failure draw (one per dispatch, from its own stream).
-        let draw = self.rng_fail.below(1_000_000) as u32;
+        let drawn = draw_failure(&mut self.rng_fail, self.p_fail, self.p_fe, self.p_replan);
         let resolved_at = self.resolved.iter().position(|r| *r == (chain, primitive));
         let class = if let Some(i) = resolved_at {
             self.resolved.swap_remove(i);
             None
-        } else if draw < self.p_fail {
-            Some(if draw < self.p_fe {
-                0u8
-            } else if draw < self.p_fe + self.p_replan {
-                1
-            } else {
-                2
-            })
         } else {
-            None
+            drawn.map(|c| c as u8)
         };
         let mut biosignature = None;
         let result = if let Some(class) = class {
