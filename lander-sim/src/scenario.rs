@@ -410,7 +410,7 @@ impl Scenario {
                     .into(),
             });
         }
-        if u64::from(m.sols) > lander::capacity::MAX_SOLS as u64 {
+        if m.sols > lander::capacity::MAX_SOLS as u64 {
             e.push(FieldError {
                 field: "mission.sols".into(),
                 message: format!("at most {} sols", lander::capacity::MAX_SOLS),

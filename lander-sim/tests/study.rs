@@ -35,7 +35,7 @@ fn well_formed_xml(text: &str) -> Result<(), String> {
         }
         let end = rest[i..].find('>').ok_or("unclosed tag")? + i;
         let tag = &rest[i + 1..end];
-        if tag.matches('"').count() % 2 != 0 {
+        if !tag.matches('"').count().is_multiple_of(2) {
             return Err(format!("unbalanced quotes in <{tag}>"));
         }
         if let Some(name) = tag.strip_prefix('/') {
