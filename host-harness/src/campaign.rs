@@ -1256,7 +1256,11 @@ pub fn cli(args: CampaignArgs) -> Result<ExitCode, String> {
         let mut opts = CampaignOptions::new(scenario, args.runs, args.seed);
         opts.native = args.native;
         opts.jobs = args.jobs.unwrap_or(0);
-        opts.shard = args.shard.as_deref().map(Shard::parse).transpose()?;
+        opts.shard = if args.only.is_some() {
+            args.shard.as_deref().map(Shard::parse).transpose()?
+        } else {
+            crate::shard_env::resolve(args.shard.as_deref(), &crate::shard_env::process_vars())?
+        };
         opts.reset_window = args.reset_window.as_deref().map(parse_window).transpose()?;
         opts.recovery = parse_recovery(&args.recovery)?;
         opts.only = args.only;

@@ -90,6 +90,11 @@ enum Command {
     /// Campaign: many seeded random-reset variants of a mission scenario, in parallel,
     /// shardable across machines, merged into one report.
     Campaign(hil::campaign::CampaignArgs),
+    /// The strategy study of seed 000 V.A on the host lander simulation: BSM-1 under Static,
+    /// Ground, FE and Replan and three energy variants, mean utility with 95% intervals beside
+    /// the analytical model (equations 2-5); shardable (--shard, or the batch engine's
+    /// environment), `hil study merge` to merge.
+    Study(hil::study::StudyArgs),
     /// Plan a temporal PDDL problem with the onboard temporal planner (seed 001): print the
     /// plan, its makespan, the search statistics and the planner's peak arena bytes.
     Plan(hil::plan::PlanArgs),
@@ -396,6 +401,7 @@ fn execute(command: Command) -> Result<ExitCode, String> {
             Ok(ExitCode::SUCCESS)
         }
         Command::Campaign(args) => hil::campaign::cli(args),
+        Command::Study(args) => hil::study::cli(args),
         Command::Plan(args) => hil::plan::cli(args),
         Command::Bench {
             what: Some(BenchWhat::Kernel { frames, json }),

@@ -28,7 +28,9 @@ pub mod qemu;
 pub mod run;
 pub mod scenario;
 pub mod session;
+pub mod shard_env;
 pub mod shm;
+pub mod study;
 pub mod tasknet;
 pub mod time;
 
