@@ -5,6 +5,7 @@
 use core::arch::asm;
 
 use kernel_config::abi::*;
+use kernel_logic::event::{record_from_bytes, EventRecord};
 
 /// System call `call` with up to five arguments; returns (r3, r4, r5). The kernel restores
 /// every other register.
@@ -120,7 +121,6 @@ pub struct Received {
     /// The sender's generation when it sent the message.
     pub generation: u32,
     /// Ticks since it was sent.
-    #[allow(dead_code)]
     pub age: u32,
 }
 
@@ -142,7 +142,6 @@ pub fn port_receive(port: usize, buffer: &mut [u8]) -> Result<Received, SysError
     })
 }
 
-#[allow(dead_code)] // for the autonomy core
 /// Mission time in µs (as last granted by the host).
 pub fn mission_time_us() -> u64 {
     let (hi, lo, _) = raw(Sysnum::MissionTime, [0; 5]);
@@ -171,7 +170,6 @@ pub fn log(frame: &[u8]) -> Result<(), SysError> {
     result(r3).map(|_| ())
 }
 
-#[allow(dead_code)] // for the autonomy core's checkpoints
 pub fn warm_read(offset: u32, buffer: &mut [u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
         Sysnum::WarmRead,
@@ -186,7 +184,6 @@ pub fn warm_read(offset: u32, buffer: &mut [u8]) -> Result<(), SysError> {
     result(r3).map(|_| ())
 }
 
-#[allow(dead_code)] // for the autonomy core's checkpoints
 pub fn warm_write(offset: u32, data: &[u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
         Sysnum::WarmWrite,
@@ -261,9 +258,9 @@ pub fn log_drain(buffer: &mut [u8]) -> usize {
     result(r3).unwrap_or(0) as usize
 }
 
-/// Link owner: kernel event records, oldest first, into `records`; how many were written
-/// (0: none waiting).
-pub fn event_drain(records: &mut [[u32; 4]]) -> usize {
+/// Link owner: kernel event records (`kernel_logic::event`), oldest first, into `records`; how
+/// many were written (0: none waiting).
+pub fn event_drain(records: &mut [EventRecord]) -> usize {
     let mut bytes = [0u8; EVENT_RECORD_SIZE * EVENT_DRAIN_BATCH];
     let batch = records.len().min(EVENT_DRAIN_BATCH);
     let (r3, _, _) = raw(
@@ -273,12 +270,10 @@ pub fn event_drain(records: &mut [[u32; 4]]) -> usize {
     let n = result(r3).unwrap_or(0) as usize;
     for (record, raw) in records
         .iter_mut()
-        .zip(bytes.chunks_exact(EVENT_RECORD_SIZE))
+        .zip(bytes.as_chunks::<EVENT_RECORD_SIZE>().0)
         .take(n)
     {
-        for (word, be) in record.iter_mut().zip(raw.as_chunks::<4>().0) {
-            *word = u32::from_be_bytes(*be);
-        }
+        *record = record_from_bytes(raw);
     }
     n
 }
