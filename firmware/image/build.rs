@@ -47,8 +47,10 @@ fn main() {
         "firmware/task-rogue/src",
         "firmware/kernel-config/src",
         "firmware/kernel-logic/src",
+        "firmware/drv/src",
         "firmware/autonomy/src",
         "firmware/flight-app/src",
+        "firmware/sdls/src",
         "fsw-bridge/src",
     ] {
         collect(&repo.join(dir), &mut files);
