@@ -40,17 +40,36 @@ fn main() {
     let mut files = Vec::new();
     for dir in [
         "firmware/image/src",
+        "firmware/userlib/src",
+        "firmware/task-io/src",
+        "firmware/task-executive/src",
+        "firmware/task-planner/src",
+        "firmware/task-rogue/src",
         "firmware/kernel-config/src",
         "firmware/kernel-logic/src",
+        "firmware/drv/src",
         "firmware/autonomy/src",
         "firmware/flight-app/src",
+        "firmware/sdls/src",
         "fsw-bridge/src",
     ] {
         collect(&repo.join(dir), &mut files);
         println!("cargo:rerun-if-changed={}", repo.join(dir).display());
     }
     files.push(script);
-    files.push(manifest.join("Cargo.toml"));
+    // The manifests of this workspace (features and dependencies: which partitions go in).
+    for member in [
+        "image",
+        "userlib",
+        "task-io",
+        "task-executive",
+        "task-planner",
+        "task-rogue",
+    ] {
+        let path = repo.join("firmware").join(member).join("Cargo.toml");
+        println!("cargo:rerun-if-changed={}", path.display());
+        files.push(path);
+    }
     files.sort();
     // FNV-1a, 64 bit, over paths and contents (and which image this is).
     let mut hash: u64 = 0xcbf2_9ce4_8422_2325;

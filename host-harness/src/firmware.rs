@@ -1,8 +1,10 @@
 //! Building and identifying the target image.
 //!
 //! `hil` builds `firmware/image` with cargo for `powerpc-unknown-linux-gnu` (cargo does nothing
-//! when it is up to date) into `target/firmware`, and reads the build id the image carries
-//! (symbol `FIRMWARE_BUILD_ID`) to check the target runs what was built.
+//! when it is up to date: it tracks the image's workspace, the partition crates
+//! `firmware/userlib` and `firmware/task-*` included, and every path dependency) into
+//! `target/firmware`, and reads the build id the image carries (symbol `FIRMWARE_BUILD_ID`) to
+//! check the target runs what was built.
 use std::path::{Path, PathBuf};
 use std::process::Command;
 

@@ -11,6 +11,15 @@ pub const SYSTEM: SystemConfig = system::TEST;
 // A bad configuration stops the build here, with a message naming the offending entry.
 const _: () = kc::assert_valid(&SYSTEM);
 
+// The partitions look their ports up in userlib's copy of the choice: it must be this one
+// (`cargo build --workspace` here would unify userlib's test-partitions feature, which the
+// rogue partition needs, with an image built without it).
+const _: () = assert!(
+    userlib::SYSTEM.partitions.len() == SYSTEM.partitions.len()
+        && userlib::SYSTEM.ports.len() == SYSTEM.ports.len(),
+    "userlib and the image run different configurations: build the image with the same `test-partitions` feature as userlib"
+);
+
 pub const PARTITION_COUNT: usize = SYSTEM.partitions.len();
 pub const WINDOW_COUNT: usize = SYSTEM.schedule.windows.len();
 pub const PORT_COUNT: usize = SYSTEM.ports.len();

@@ -127,7 +127,7 @@ unsafe impl defmt::Logger for Logger {
             if shared::in_kernel() {
                 crate::kernel::klog::with_ring(|ring| ring.push_frame(bytes));
             } else {
-                let _ = crate::sys::log(bytes);
+                let _ = userlib::sys::log(bytes);
             }
         }
         if shared::in_kernel() {

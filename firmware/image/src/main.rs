@@ -2,6 +2,8 @@
 //! (`-cpu 750`, `-bios`), brings up PCI, mac-io and the ESCC UART, determines the reset cause,
 //! and starts the partitioning kernel, which runs the I/O, executive and planner partitions
 //! (and, in the test image, a rogue one) in problem state in their windows of the major frame.
+//! The partitions are crates of their own (`firmware/task-*`, on `firmware/userlib`); the image
+//! links them, and its build script places each one's statics in its region.
 #![no_std]
 #![no_main]
 #![deny(
@@ -16,14 +18,18 @@ mod boot;
 mod config;
 mod context;
 mod kernel;
-mod link;
 mod log;
 mod mem;
-mod partitions;
-mod port;
 mod shared;
-mod sys;
 mod warm;
+
+// The partitions: linked for their entry functions, which the kernel finds by their symbols
+// (`config::partition_image`, generated from the configuration).
+extern crate task_executive;
+extern crate task_io;
+extern crate task_planner;
+#[cfg(feature = "test-partitions")]
+extern crate task_rogue;
 
 use core::panic::PanicInfo;
 
@@ -40,7 +46,8 @@ include!(concat!(env!("OUT_DIR"), "/build_id.rs"));
 #[repr(C, align(4))]
 pub struct BuildId(pub [u8; 8]);
 
-/// The build id, also readable by the host from the ELF symbol table.
+/// The build id, also readable by the host from the ELF symbol table, and by the I/O
+/// partition (for its Hello) by this symbol.
 #[no_mangle]
 #[used]
 pub static FIRMWARE_BUILD_ID: BuildId = BuildId(BUILD_ID);
@@ -144,7 +151,7 @@ fn panic(info: &PanicInfo) -> ! {
         .unwrap_or(("<unknown>", 0));
     if !shared::in_kernel() {
         // A partition: the health monitor decides (restart, halt, warm reset).
-        sys::panic(file, line);
+        userlib::sys::panic(file, line);
     }
     kernel_panic(file, line)
 }

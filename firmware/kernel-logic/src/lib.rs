@@ -4,6 +4,8 @@
 //! drivers, register logic included, are in `drv-g3beige` (`firmware/drv`).
 //!
 //! - [`byte_ring`]: the fixed-capacity byte ring the kernel drains the link's UART into;
+//! - [`event`]: the kernel's event records (health-monitor events, metrics) as the I/O
+//!   partition drains them, and the message each stands for;
 //! - [`park`]: whether the module may stop its schedule and wait for the host
 //!   (`SYS_WAIT_FOR_INPUT`), and the check of that call's arguments;
 //! - [`port_queue`]: a queuing port's ring, and the rule that drops messages sent before
@@ -23,6 +25,7 @@
 )]
 
 pub mod byte_ring;
+pub mod event;
 pub mod park;
 pub mod port_queue;
 pub mod shm_link;

@@ -5,21 +5,18 @@
 //! `kernel_config::ErrorKind`, `kernel_config::HmAction`) plus a defmt line. A fault in the
 //! kernel itself is reported with partition `KERNEL_PARTITION_ID` and warm-resets the module
 //! with reset cause HealthMonitor. No fault ends in a `while(1)`.
-use fsw_bridge::{ResetCause, TargetToHost, TelemetryEvent};
+use fsw_bridge::ResetCause;
 use heapless::Deque;
-use kernel_config::abi::{EVENT_HEALTH_MONITOR, EVENT_METRIC, EVENT_RECORD_SIZE};
 use kernel_config::{ErrorKind, HmAction, KERNEL_PARTITION_ID};
+use kernel_logic::event::{self, event_message, EventRecord};
 
 use super::{at, at_mut, klog, Kernel, Next, RunState};
 use crate::boot;
 use crate::config::SYSTEM;
 use crate::warm;
 
-/// Kernel events waiting for the I/O partition.
+/// Kernel events waiting for the I/O partition (records: `kernel_logic::event`).
 pub const EVENT_QUEUE_DEPTH: usize = 48;
-
-/// A kernel event as the I/O partition drains it (see `abi::EVENT_RECORD_SIZE`).
-pub type EventRecord = [u32; 4];
 
 pub struct EventQueue {
     queue: Deque<EventRecord, EVENT_QUEUE_DEPTH>,
@@ -41,21 +38,11 @@ impl EventQueue {
     }
 
     pub fn metric(&mut self, id: u16, value: u64) {
-        self.push([
-            EVENT_METRIC,
-            u32::from(id),
-            (value >> 32) as u32,
-            value as u32,
-        ]);
+        self.push(event::metric_record(id, value));
     }
 
     pub fn health(&mut self, partition: u8, kind: ErrorKind, address: u32, action: HmAction) {
-        self.push([
-            EVENT_HEALTH_MONITOR,
-            u32::from(partition) | (kind as u32) << 8 | (action as u32) << 16,
-            address,
-            0,
-        ]);
+        self.push(event::health_record(partition, kind, address, action));
     }
 
     pub fn pop(&mut self) -> Option<EventRecord> {
@@ -65,33 +52,6 @@ impl EventQueue {
     pub fn is_empty(&self) -> bool {
         self.queue.is_empty()
     }
-}
-
-/// The message an event record stands for.
-pub fn event_message(record: &EventRecord) -> Option<TargetToHost> {
-    let event = match record[0] {
-        EVENT_HEALTH_MONITOR => TelemetryEvent::HealthMonitor {
-            partition: record[1] as u8,
-            kind: (record[1] >> 8) as u8,
-            address: record[2],
-            action: (record[1] >> 16) as u8,
-        },
-        EVENT_METRIC => TelemetryEvent::Metric {
-            id: record[1] as u16,
-            value: (u64::from(record[2]) << 32) | u64::from(record[3]),
-        },
-        _ => return None,
-    };
-    Some(TargetToHost::Telemetry(event))
-}
-
-/// Serialise an event record for SYS_EVENT_DRAIN.
-pub fn record_bytes(record: &EventRecord) -> [u8; EVENT_RECORD_SIZE] {
-    let mut out = [0u8; EVENT_RECORD_SIZE];
-    for (bytes, word) in out.as_chunks_mut::<4>().0.iter_mut().zip(record) {
-        *bytes = word.to_be_bytes();
-    }
-    out
 }
 
 impl Kernel {

@@ -252,7 +252,7 @@ impl Kernel {
                     let Some(record) = self.events.pop() else {
                         break;
                     };
-                    copy(slot, &health::record_bytes(&record));
+                    copy(slot, &kernel_logic::event::record_bytes(&record));
                     written += 1;
                 }
                 Ok(Return(written, 0, 0))

@@ -1,20 +1,43 @@
-//! The partitions of the image. Each has an entry function (named in the configuration), runs
-//! in problem state in its own windows, keeps its state in statics placed in its own region
-//! (`#[link_section = ".bss.part.<name>"]`, zeroed at every (re)start) and talks to the others
-//! only through ports and system calls.
+//! The partitions' side of the RAD750-proxy kernel (after Hubris's `sys/userlib`): what every
+//! partition crate (`firmware/task-*`) links to talk to the kernel and to the others. Code here
+//! runs in problem state, in the calling partition's windows; the kernel is `firmware/image`.
 //!
-//! - [`io`]: owns the UART and the frame codec; says Hello, answers pings, routes host messages
-//!   to the other partitions' ports and their outbound messages, the kernel's log and events
-//!   to the host.
-//! - [`executive`]: the flight application's executive side (the control loop, the lockstep
-//!   protocol with the host, uplinks and security).
-//! - [`planner`]: the flight application's planner side, anytime across its windows.
-//! - `rogue` (test image only): misbehaves on command, to prove the isolation.
-pub mod executive;
-pub mod io;
-pub mod planner;
+//! - [`sys`]: the system calls, thin wrappers over `sc` (numbers and errors:
+//!   `kernel_config::abi`);
+//! - [`port`]: typed ports, a [`Port<T>`](port::Port) found by its name in [`SYSTEM`] at compile
+//!   time and carrying `T` over postcard; [`ports`] lists this image's ports, typed;
+//! - a partition's state: [`ZeroValid`] and [`zeroed_state`] (used in place in its
+//!   `.bss.part.<name>` section, zeroed by the kernel at every (re)start);
+//! - the flight application's glue, shared by the executive and planner partitions: their CPU
+//!   clock, their memories read and written through the kernel, their outbox for the host and
+//!   the autonomy core's channel between them.
+//!
+//! A partition crate exports its entry function (`#[no_mangle] extern "C"`, named in the
+//! configuration), keeps its state in statics placed in its own region
+//! (`#[link_section = ".bss.part.<name>"]`) and talks to the others only through ports and
+//! system calls. The image links the partition crates, and its build script places each
+//! partition's sections in its region.
+#![no_std]
+// The partitions are held to the autonomy core's lints: no panicking path.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+pub mod port;
+pub mod sys;
+
+use kernel_config::{system, SystemConfig};
+
+/// The configuration the image runs (kernel-config's PRODUCT, or TEST with the rogue partition
+/// under the `test-partitions` feature): ports are looked up in it. The image checks at compile
+/// time that it runs the same one.
+#[cfg(not(feature = "test-partitions"))]
+pub const SYSTEM: SystemConfig = system::PRODUCT;
 #[cfg(feature = "test-partitions")]
-pub mod rogue;
+pub const SYSTEM: SystemConfig = system::TEST;
 
 use core::mem::MaybeUninit;
 
@@ -28,7 +51,6 @@ use serde::de::DeserializeOwned;
 use serde::Serialize;
 
 use crate::port::{Port, PortError};
-use crate::sys;
 
 /// CPU time of the calling partition only, so costs do not depend on other partitions' windows.
 pub struct PartitionClock;
@@ -97,6 +119,23 @@ pub mod ports {
 /// # Safety
 /// Implement only for types made of integers, arrays of them, and other `ZeroValid` types.
 pub unsafe trait ZeroValid {}
+
+// SAFETY: every field of an ExecutiveApp, down to the leaves, is an integer, a bool, an array
+// of them, a fieldless enum whose first variant is 0, an Option or tuple of these, or a
+// heapless Vec or Deque (a length or indices and MaybeUninit storage: empty when zero); there
+// is no reference, NonZero or function pointer, so all-zero bytes are a valid ExecutiveApp.
+// The executive partition's entry then makes it the new application with
+// `ExecutiveApp::reset`, which writes every field: the application is never copied from a
+// constant image of it (tens of KiB in the RAM image, read by the reset stub's image check at
+// every boot). (Here rather than in `task-executive`: the trait's crate or the type's must
+// hold the impl.)
+unsafe impl ZeroValid for flight_app::ExecutiveApp {}
+
+// SAFETY: as for ExecutiveApp: integers, bools, arrays of them, fieldless enums whose first
+// variant is 0, Options and tuples of these, and heapless Vecs and Deques; all-zero bytes are a
+// valid PlannerApp, which the planner partition's entry makes the new application with
+// `PlannerApp::reset`.
+unsafe impl ZeroValid for flight_app::PlannerApp {}
 
 /// The partition's state in its section, as zeroed by the partition start.
 ///

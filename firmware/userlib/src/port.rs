@@ -8,8 +8,8 @@ use kernel_config::abi::SysError;
 use serde::de::DeserializeOwned;
 use serde::Serialize;
 
-use crate::config::SYSTEM;
 use crate::sys;
+use crate::SYSTEM;
 
 /// Bytes of the largest message of any port of this image (the buffers' size).
 const MAX_MESSAGE: usize = kernel_config::max_port_message(&SYSTEM);
@@ -52,7 +52,6 @@ pub struct Message<T> {
     /// The sender's generation when it sent the message.
     pub generation: u32,
     /// Ticks since it was sent.
-    #[allow(dead_code)]
     pub age: u32,
 }
 

@@ -21,13 +21,24 @@
 //! takes effect). A board without non-volatile memory, or with less than the checkpoint and
 //! security areas, has no key: authenticated traffic is refused with `NoKey`.
 //!
-//! The planner runs in the planner partition (`partitions::planner`): a granted frame starts
+//! The planner runs in the planner partition (`task-planner`): a granted frame starts
 //! here (the first executive window: host input, the first executive pass, a checkpoint, then
 //! the messages for the planner on `executive_to_planner`), goes on in the planner's window, and
 //! ends in a later window of this partition, once the planner's answer has come in on
 //! `planner_to_executive` (the second executive window: the commits, the second pass, a
 //! checkpoint, `FrameDone`). While it waits the partition gives up each window at once: its
 //! CPU per window does not depend on the planner.
+//!
+//! Entry: [`partition_executive_main`]; state: `.bss.part.executive`.
+#![no_std]
+// The partitions are held to the autonomy core's lints: no panicking path.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
@@ -38,12 +49,11 @@ use kernel_config::abi::{control, metric, SYSCALL_BENCH_CALLS};
 use kernel_config::system::{EXECUTIVE_NV, EXECUTIVE_WARM};
 use kernel_config::{WARM_AREA_SIZE, WARM_BOOT_RECORD_SIZE};
 
-use super::{
-    ports, receive_routed, receive_wire, send_to_host, send_wire, zeroed_state, HostOutbox,
+use drv_g3beige::timebase::Timebase;
+use userlib::{
+    ports, receive_routed, receive_wire, send_to_host, send_wire, sys, zeroed_state, HostOutbox,
     KernelMemories, MemoryCopies, PartitionClock, ZeroValid,
 };
-use crate::board::timebase;
-use crate::sys;
 
 /// Bytes of the warm-restart area for this partition's checkpoints: its slice.
 pub const WARM_CHECKPOINT_BYTES: usize = EXECUTIVE_WARM.len as usize;
@@ -92,14 +102,8 @@ static mut STATE: MaybeUninit<ExecutiveState> = MaybeUninit::uninit();
 #[link_section = ".bss.part.executive"]
 static mut APP: MaybeUninit<ExecutiveApp> = MaybeUninit::uninit();
 
-// SAFETY: every field of an ExecutiveApp, down to the leaves, is an integer, a bool, an array
-// of them, a fieldless enum whose first variant is 0, an Option or tuple of these, or a
-// heapless Vec or Deque (a length or indices and MaybeUninit storage: empty when zero); there
-// is no reference, NonZero or function pointer, so all-zero bytes are a valid ExecutiveApp.
-// The partition entry then makes it the new application with `ExecutiveApp::reset`, which
-// writes every field: the application is never copied from a constant image of it (tens of
-// KiB in the RAM image, read by the reset stub's image check at every boot).
-unsafe impl ZeroValid for ExecutiveApp {}
+// ExecutiveApp is ZeroValid (`userlib`): the partition entry makes it the new application
+// with `ExecutiveApp::reset`, in place.
 
 /// The security area in non-volatile memory, through the kernel (this partition owns NV).
 struct NvSecurityStore;
@@ -364,9 +368,9 @@ fn handle(state: &mut ExecutiveState, app: &mut ExecutiveApp, msg: HostToTarget)
 /// window switch falls inside the measurement.
 fn syscall_bench() -> u64 {
     sys::wait_next_window();
-    let start = timebase::now().0;
+    let start = Timebase::read();
     for _ in 0..SYSCALL_BENCH_CALLS {
         sys::identity();
     }
-    timebase::now().0 - start
+    Timebase::read() - start
 }

@@ -9,7 +9,7 @@ use fsw_bridge::codec::{encode, DecodeError, FrameDecoder, MAX_FRAME_LEN};
 use fsw_bridge::link::{FrameSink, LinkFrame};
 use fsw_bridge::{HostToTarget, LinkCounters, TargetToHost};
 
-use crate::sys;
+use userlib::sys;
 
 /// Bytes taken from the kernel's receive ring at a time.
 pub const RX_CHUNK_BYTES: usize = 256;

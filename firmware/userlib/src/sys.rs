@@ -5,6 +5,7 @@
 use core::arch::asm;
 
 use kernel_config::abi::*;
+use kernel_logic::event::{record_from_bytes, EventRecord};
 
 /// System call `call` with up to five arguments; returns (r3, r4, r5). The kernel restores
 /// every other register.
@@ -36,23 +37,27 @@ pub fn raw_number(call: u32, a: [u32; 5]) -> (u32, u32, u32) {
     (r3, r4, r5)
 }
 
+#[inline]
 fn result(r3: u32) -> Result<u32, SysError> {
     decode_result(r3)
 }
 
 /// Give up the rest of this window; returns at the start of the next one.
+#[inline]
 pub fn wait_next_window() {
     raw(Sysnum::WaitNextWindow, [wait::NEXT_WINDOW, 0, 0, 0, 0]);
 }
 
 /// Give up the rest of this window with nothing to do until a message arrives on one of this
 /// partition's ports (the module may stop its schedule meanwhile); returns at a window start.
+#[inline]
 pub fn wait_idle() {
     raw(Sysnum::WaitNextWindow, [wait::IDLE, 0, 0, 0, 0]);
 }
 
 /// Link owner: move received link bytes into `buffer`; how many (the kernel reports bytes its
 /// receiver lost in its accounting reports).
+#[inline]
 pub fn link_read(buffer: &mut [u8]) -> usize {
     let (r3, _, _) = raw(
         Sysnum::LinkRead,
@@ -62,6 +67,7 @@ pub fn link_read(buffer: &mut [u8]) -> usize {
 }
 
 /// Link owner: send bytes to the host; how many the kernel took (0: no room yet).
+#[inline]
 pub fn link_write(data: &[u8]) -> usize {
     let (r3, _, _) = raw(
         Sysnum::LinkWrite,
@@ -84,6 +90,7 @@ pub enum InputWait {
 
 /// Link owner: everything is sent and the caller waits for the host (see
 /// `abi::SYS_WAIT_FOR_INPUT`).
+#[inline]
 pub fn wait_for_input() -> InputWait {
     let (r3, reasons, busy) = raw(Sysnum::WaitForInput, [0; 5]);
     match r3 {
@@ -95,11 +102,13 @@ pub fn wait_for_input() -> InputWait {
 
 /// Link owner: why the module could not park now (`abi::wait_input` reason bits, 0: everyone
 /// else is done and nothing is in flight) and which partitions are busy, without waiting.
+#[inline]
 pub fn link_quiet() -> (u32, u32) {
     let (_, reasons, busy) = raw(Sysnum::WaitForInput, [wait_input::QUERY, 0, 0, 0, 0]);
     (reasons, busy)
 }
 
+#[inline]
 pub fn port_send(port: usize, message: &[u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
         Sysnum::PortSend,
@@ -120,10 +129,10 @@ pub struct Received {
     /// The sender's generation when it sent the message.
     pub generation: u32,
     /// Ticks since it was sent.
-    #[allow(dead_code)]
     pub age: u32,
 }
 
+#[inline]
 pub fn port_receive(port: usize, buffer: &mut [u8]) -> Result<Received, SysError> {
     let (r3, generation, age) = raw(
         Sysnum::PortReceive,
@@ -142,14 +151,15 @@ pub fn port_receive(port: usize, buffer: &mut [u8]) -> Result<Received, SysError
     })
 }
 
-#[allow(dead_code)] // for the autonomy core
 /// Mission time in µs (as last granted by the host).
+#[inline]
 pub fn mission_time_us() -> u64 {
     let (hi, lo, _) = raw(Sysnum::MissionTime, [0; 5]);
     (u64::from(hi) << 32) | u64::from(lo)
 }
 
 /// (ticks used since boot, ticks used in this window so far).
+#[inline]
 pub fn cpu_time() -> (u64, u32) {
     let (hi, lo, window) = raw(Sysnum::CpuTime, [0; 5]);
     ((u64::from(hi) << 32) | u64::from(lo), window)
@@ -157,12 +167,14 @@ pub fn cpu_time() -> (u64, u32) {
 
 /// (ticks since the reset vector, ticks the kernel's boot took: reset vector to the start of
 /// the schedule).
+#[inline]
 pub fn uptime() -> (u64, u64) {
     let (hi, lo, boot) = raw(Sysnum::Uptime, [0; 5]);
     ((u64::from(hi) << 32) | u64::from(lo), u64::from(boot))
 }
 
 /// One whole defmt frame.
+#[inline]
 pub fn log(frame: &[u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
         Sysnum::Log,
@@ -171,7 +183,7 @@ pub fn log(frame: &[u8]) -> Result<(), SysError> {
     result(r3).map(|_| ())
 }
 
-#[allow(dead_code)] // for the autonomy core's checkpoints
+#[inline]
 pub fn warm_read(offset: u32, buffer: &mut [u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
         Sysnum::WarmRead,
@@ -186,7 +198,7 @@ pub fn warm_read(offset: u32, buffer: &mut [u8]) -> Result<(), SysError> {
     result(r3).map(|_| ())
 }
 
-#[allow(dead_code)] // for the autonomy core's checkpoints
+#[inline]
 pub fn warm_write(offset: u32, data: &[u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
         Sysnum::WarmWrite,
@@ -197,6 +209,7 @@ pub fn warm_write(offset: u32, data: &[u8]) -> Result<(), SysError> {
 
 /// Read non-volatile memory at `offset`; Ok(size of the memory offered), Err(SysError::NoDevice)
 /// when the board has none.
+#[inline]
 pub fn nv_read(offset: u32, buffer: &mut [u8]) -> Result<u32, SysError> {
     let (r3, _, _) = raw(
         Sysnum::NvRead,
@@ -211,6 +224,7 @@ pub fn nv_read(offset: u32, buffer: &mut [u8]) -> Result<u32, SysError> {
     result(r3)
 }
 
+#[inline]
 pub fn nv_write(offset: u32, data: &[u8]) -> Result<(), SysError> {
     let (r3, _, _) = raw(
         Sysnum::NvWrite,
@@ -220,6 +234,7 @@ pub fn nv_write(offset: u32, data: &[u8]) -> Result<(), SysError> {
 }
 
 /// (partition index, generation).
+#[inline]
 pub fn identity() -> (usize, u32) {
     let (p, generation, _) = raw(Sysnum::Identity, [0; 5]);
     (p as usize, generation)
@@ -238,12 +253,14 @@ pub fn panic(file: &str, line: u32) -> ! {
 }
 
 /// Link owner: (reset cause code, boot count).
+#[inline]
 pub fn boot_info() -> (u32, u32) {
     let (cause, count, _) = raw(Sysnum::BootInfo, [BOOT_INFO_CAUSE, 0, 0, 0, 0]);
     (cause, count)
 }
 
 /// Link owner: the kernel fault that caused this boot's reset, if any.
+#[inline]
 pub fn boot_kernel_fault() -> Option<fsw_bridge::KernelFault> {
     let (r3, pc, dar) = raw(Sysnum::BootInfo, [BOOT_INFO_KERNEL_FAULT, 0, 0, 0, 0]);
     match result(r3) {
@@ -253,6 +270,7 @@ pub fn boot_kernel_fault() -> Option<fsw_bridge::KernelFault> {
 }
 
 /// Link owner: move kernel log bytes into `buffer`.
+#[inline]
 pub fn log_drain(buffer: &mut [u8]) -> usize {
     let (r3, _, _) = raw(
         Sysnum::LogDrain,
@@ -261,9 +279,10 @@ pub fn log_drain(buffer: &mut [u8]) -> usize {
     result(r3).unwrap_or(0) as usize
 }
 
-/// Link owner: kernel event records, oldest first, into `records`; how many were written
-/// (0: none waiting).
-pub fn event_drain(records: &mut [[u32; 4]]) -> usize {
+/// Link owner: kernel event records (`kernel_logic::event`), oldest first, into `records`; how
+/// many were written (0: none waiting).
+#[inline]
+pub fn event_drain(records: &mut [EventRecord]) -> usize {
     let mut bytes = [0u8; EVENT_RECORD_SIZE * EVENT_DRAIN_BATCH];
     let batch = records.len().min(EVENT_DRAIN_BATCH);
     let (r3, _, _) = raw(
@@ -273,12 +292,10 @@ pub fn event_drain(records: &mut [[u32; 4]]) -> usize {
     let n = result(r3).unwrap_or(0) as usize;
     for (record, raw) in records
         .iter_mut()
-        .zip(bytes.chunks_exact(EVENT_RECORD_SIZE))
+        .zip(bytes.as_chunks::<EVENT_RECORD_SIZE>().0)
         .take(n)
     {
-        for (word, be) in record.iter_mut().zip(raw.as_chunks::<4>().0) {
-            *word = u32::from_be_bytes(*be);
-        }
+        *record = record_from_bytes(raw);
     }
     n
 }
@@ -287,6 +304,7 @@ pub fn event_drain(records: &mut [[u32; 4]]) -> usize {
 pub const EVENT_DRAIN_BATCH: usize = 16;
 
 /// Link owner: the host granted mission time `us`.
+#[inline]
 pub fn set_mission_time(us: u64) {
     raw(
         Sysnum::SetMissionTime,
@@ -309,6 +327,7 @@ pub fn reset_module() -> ! {
 /// With `chain`, a port from that destination partition: the point is in the work of
 /// `chain`'s destination on the first message sent there after the anchor, counted from its
 /// receipt.
+#[inline]
 pub fn arm_reset(mode: u32, value: u32, port: usize, chain: Option<usize>) -> Result<(), SysError> {
     let chain = chain.map_or(reset_at::NO_CHAIN, |c| c as u32);
     let (r3, _, _) = raw(Sysnum::ResetModule, [mode, value, port as u32, chain, 0]);
@@ -317,6 +336,7 @@ pub fn arm_reset(mode: u32, value: u32, port: usize, chain: Option<usize>) -> Re
 
 /// Link owner: have the kernel queue its accounting metrics now (0), every `period` frames,
 /// or stop (REPORT_OFF).
+#[inline]
 pub fn request_metrics(period: u32) {
     raw(Sysnum::RequestMetrics, [period, 0, 0, 0, 0]);
 }

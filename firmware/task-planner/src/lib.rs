@@ -14,6 +14,17 @@
 //!
 //! On request (`control::PLANNER_CHECKSUM`) it reports the CRC-32 of a table in its region,
 //! which the isolation test compares before and after a rogue partition tries to write it.
+//!
+//! Entry: [`partition_planner_main`]; state: `.bss.part.planner`.
+#![no_std]
+// The partitions are held to the autonomy core's lints: no panicking path.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
@@ -23,11 +34,10 @@ use fsw_bridge::{HostToTarget, StateKey, StateValue, TargetToHost, TelemetryEven
 use kernel_config::abi::{control, metric};
 use kernel_config::system::{PLANNER_WARM, PLANNER_WINDOW_TICKS};
 
-use super::{
-    ports, receive_routed, receive_wire, send_wire, zeroed_state, HostOutbox, KernelMemories,
+use userlib::{
+    ports, receive_routed, receive_wire, send_wire, sys, zeroed_state, HostOutbox, KernelMemories,
     MemoryCopies, PartitionClock, ZeroValid,
 };
-use crate::sys;
 
 /// Words of the table the isolation test checks.
 pub const TABLE_WORDS: usize = 16 * 1024;
@@ -57,17 +67,17 @@ pub struct PlannerState {
 // SAFETY: integers, booleans, word arrays, and ZeroValid parts.
 unsafe impl ZeroValid for PlannerState {}
 
+/// The partition's state. Exported by name for the isolation test only: the test image's rogue
+/// partition writes at this address (and must be stopped), without linking this crate.
 #[link_section = ".bss.part.planner"]
+#[export_name = "partition_planner_state"]
 pub static mut STATE: MaybeUninit<PlannerState> = MaybeUninit::uninit();
 
 #[link_section = ".bss.part.planner"]
 static mut APP: MaybeUninit<PlannerApp> = MaybeUninit::uninit();
 
-// SAFETY: as for the executive's application (see `partitions::executive`): integers, bools,
-// arrays of them, fieldless enums whose first variant is 0, Options and tuples of these, and
-// heapless Vecs and Deques; all-zero bytes are a valid PlannerApp, which `PlannerApp::reset`
-// then makes the new application.
-unsafe impl ZeroValid for PlannerApp {}
+// PlannerApp is ZeroValid (`userlib`): the partition entry makes it the new application
+// with `PlannerApp::reset`, in place.
 
 const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 

@@ -4,16 +4,32 @@
 //! privileged instruction, sends a message and restarts before it is taken (a stale message),
 //! or makes the kernel itself fault, so the tests can watch the kernel contain it. Panicking is
 //! one of its jobs, hence the allowance.
+//!
+//! Entry: [`partition_rogue_main`]; it has no state of its own.
+#![no_std]
+// The partitions are held to the autonomy core's lints: no panicking path...
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+// ...except that panicking on command is one of this one's jobs.
 #![allow(clippy::panic)]
+
 use core::arch::asm;
 use core::ptr::addr_of_mut;
 
 use fsw_bridge::{HostToTarget, StateKey, StateValue, TargetToHost, TelemetryEvent};
 use kernel_config::abi::{self, control, rogue};
 use kernel_config::system::{PORT_IO_TO_EXECUTIVE, PORT_IO_TO_ROGUE, ROGUE_REGION};
+use userlib::{ports, receive_routed, sys};
 
-use super::{ports, receive_routed};
-use crate::sys;
+extern "C" {
+    /// The planner partition's state (`task-planner`'s `STATE`), by its symbol: the rogue
+    /// knows the address, as a stray pointer would, but not the crate.
+    static mut partition_planner_state: u32;
+}
 
 #[no_mangle]
 pub extern "C" fn partition_rogue_main() -> ! {
@@ -38,7 +54,7 @@ fn act(mode: u16) {
     match mode {
         rogue::WRITE_PLANNER => {
             // Taking the address needs no unsafe; the write below is the point of the test.
-            let target = addr_of_mut!(super::planner::STATE) as *mut u32;
+            let target = addr_of_mut!(partition_planner_state);
             defmt::info!(
                 "rogue: writing into the planner's memory at {=u32:#x} (as partition {=usize})",
                 target as u32,

@@ -20,6 +20,19 @@
 //!
 //! After answering a round, with everything handled and sent, it waits for the host with
 //! `SYS_WAIT_FOR_INPUT`: the kernel stops the schedule until the host's next burst.
+//!
+//! Entry: [`partition_io_main`]; state: `.bss.part.io`.
+#![no_std]
+// The partitions are held to the autonomy core's lints: no panicking path.
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing
+)]
+
+mod link;
+
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
@@ -33,11 +46,11 @@ use fsw_bridge::{
     PROTOCOL_VERSION,
 };
 use kernel_config::abi::{control, reset_at, SysError, REPORT_OFF};
+use kernel_logic::event::event_message;
+use userlib::port::{Port, PortError};
+use userlib::{ports, sys};
 
-use super::ports;
 use crate::link::Link;
-use crate::port::{Port, PortError};
-use crate::sys;
 
 #[link_section = ".bss.part.io"]
 static mut LINK: MaybeUninit<Link> = MaybeUninit::uninit();
@@ -113,6 +126,21 @@ fn channel_of(msg: &TargetToHost) -> VirtualChannel {
     }
 }
 
+extern "C" {
+    /// The image's build id (`firmware/image`, stamped by its build script: a hash of every
+    /// source that goes into it), in the shared code every partition may read.
+    static FIRMWARE_BUILD_ID: [u8; 8];
+}
+
+/// The build id of the image this partition runs in.
+fn build_id() -> [u8; 8] {
+    // SAFETY:
+    // 1. The image defines `FIRMWARE_BUILD_ID` as 8 bytes (word-aligned, which [u8; 8] does
+    //    not require), never written.
+    // 2. It is in the shared code block every partition maps read-only.
+    unsafe { FIRMWARE_BUILD_ID }
+}
+
 fn reset_cause(code: u32) -> ResetCause {
     match code {
         2 => ResetCause::Warm,
@@ -145,7 +173,7 @@ pub extern "C" fn partition_io_main() -> ! {
         let (cause, boot_count) = sys::boot_info();
         link.send_expedited(&TargetToHost::Hello {
             protocol_version: PROTOCOL_VERSION,
-            build_id: crate::BUILD_ID,
+            build_id: build_id(),
             reset_cause: reset_cause(cause),
             boot_count,
             kernel_fault: sys::boot_kernel_fault(),
@@ -308,7 +336,7 @@ fn pump_kernel(endpoint: &mut TargetEndpoint, rounds: &mut Rounds) {
         let mut records = [[0u32; 4]; OUTBOUND_HELD_CAPACITY];
         let n = sys::event_drain(&mut records);
         for record in records.iter().take(n) {
-            if let Some(msg) = crate::kernel::health::event_message(record) {
+            if let Some(msg) = event_message(record) {
                 submit(endpoint, rounds, msg);
             }
         }
