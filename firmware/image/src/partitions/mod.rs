@@ -8,13 +8,15 @@
 //!   to the host.
 //! - [`executive`]: the flight application's executive side (the control loop, the lockstep
 //!   protocol with the host, uplinks and security).
-//! - [`planner`]: the flight application's planner side, anytime across its windows.
+//! - [`planner`]: the flight application's planner side, anytime across its windows, and
+//!   the temporal PDDL planner's plug-in ([`temporal`]).
 //! - `rogue` (test image only): misbehaves on command, to prove the isolation.
 pub mod executive;
 pub mod io;
 pub mod planner;
 #[cfg(feature = "test-partitions")]
 pub mod rogue;
+pub mod temporal;
 
 use core::mem::MaybeUninit;
 
