@@ -166,6 +166,8 @@ pub enum TemporalReport {
         planning_ticks: u64,
         /// Planner windows in which the search ran.
         windows: u32,
+        /// The costliest expansion's CPU (with a clock reading), timebase ticks (0 natively).
+        worst_expansion_ticks: u32,
     },
 }
 

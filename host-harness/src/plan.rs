@@ -295,8 +295,8 @@ pub fn summary(report: &PlanReport) -> String {
     ));
     if let Some(e) = &report.emulated {
         s.push_str(&format!(
-            "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) planning, in {} planner windows; {} frames granted ({} ms of mission time)\n",
-            e.guest_instructions, e.planning_ticks, e.planner_windows, e.frames, e.frames as u64 * crate::plan_emulated::FRAME_US / 1000
+            "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) planning, in {} planner windows (costliest expansion {} ticks); {} frames granted ({} ms of mission time)\n",
+            e.guest_instructions, e.planning_ticks, e.planner_windows, e.worst_expansion_ticks, e.frames, e.frames as u64 * crate::plan_emulated::FRAME_US / 1000
         ));
     }
     s
@@ -545,8 +545,16 @@ mod tests {
             #[command(flatten)]
             plan: PlanArgs,
         }
-        let a = Cli::try_parse_from(["hil", "d.pddl", "p.pddl", "--emulated", "--firmware", "fw.elf", "--json"])
-            .expect("parses");
+        let a = Cli::try_parse_from([
+            "hil",
+            "d.pddl",
+            "p.pddl",
+            "--emulated",
+            "--firmware",
+            "fw.elf",
+            "--json",
+        ])
+        .expect("parses");
         assert!(a.plan.emulated && a.plan.json);
         assert_eq!(a.plan.firmware.as_deref(), Some(Path::new("fw.elf")));
         // --firmware alone, and --native with --emulated, are refused by name.

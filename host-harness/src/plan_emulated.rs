@@ -38,6 +38,9 @@ pub struct EmulatedCosts {
     pub guest_instructions: u64,
     /// Planner windows in which the search ran.
     pub planner_windows: u32,
+    /// The costliest expansion, timebase ticks (a planner window is 33,200; its planning
+    /// share 24,900).
+    pub worst_expansion_ticks: u32,
     /// Frames granted from the task's acceptance to the plan's end (mission time:
     /// `frames` x 10 ms).
     pub frames: u32,
@@ -177,9 +180,7 @@ impl EmulatedPlanner {
             self.exchange(job, &mut got, None)?;
         }
         if !got.accepted && got.refused.is_none() {
-            let mut answered = |m: &TargetToHost| {
-                matches!(m, TargetToHost::Temporal(TemporalReport::Accepted { job: j, .. } | TemporalReport::Refused { job: j, .. }) if *j == job)
-            };
+            let mut answered = |m: &TargetToHost| matches!(m, TargetToHost::Temporal(TemporalReport::Accepted { job: j, .. } | TemporalReport::Refused { job: j, .. }) if *j == job);
             self.exchange(job, &mut got, Some(&mut answered))?;
         }
         match got.refused {
@@ -214,7 +215,11 @@ impl EmulatedPlanner {
     }
 
     /// Grant frames until `job`'s Done, at most `max_frames`.
-    fn plan_frames(&mut self, job: u16, max_frames: u32) -> Result<(Collected, u32), EmulatedError> {
+    fn plan_frames(
+        &mut self,
+        job: u16,
+        max_frames: u32,
+    ) -> Result<(Collected, u32), EmulatedError> {
         let mut got = Collected::default();
         let mut frames = 0;
         while got.done.is_none() {
@@ -230,9 +235,7 @@ impl EmulatedPlanner {
                     until,
                 })
                 .map_err(|e| EmulatedError::Target(e.to_string()))?;
-            let mut done = |m: &TargetToHost| {
-                matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame)
-            };
+            let mut done = |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
             self.exchange(job, &mut got, Some(&mut done))?;
             self.frame = self.frame.wrapping_add(1);
             self.now = until;
@@ -263,6 +266,7 @@ impl EmulatedPlanner {
             arena_bytes,
             planning_ticks,
             windows,
+            worst_expansion_ticks,
             ..
         }) = got.done
         else {
@@ -334,6 +338,7 @@ impl EmulatedPlanner {
             planning_ticks,
             guest_instructions: (planning_ticks as f64 * INSTRUCTIONS_PER_TICK).round() as u64,
             planner_windows: windows,
+            worst_expansion_ticks,
             frames,
             link_rounds: self.link.summary().rounds - rounds_before,
         });

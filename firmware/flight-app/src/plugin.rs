@@ -17,6 +17,12 @@ pub struct PluginWindow<'w, 'm> {
     /// native reference). A plug-in stops before its next unit of work once it is reached,
     /// keeps its search, and goes on in the next granted frame's window.
     pub until: Option<u64>,
+    /// The reading by which the window's work must be done (its end, less what the partition
+    /// does after its plug-ins). A plug-in whose unit of work does not fit the share may
+    /// still start one if it fits before this; one that does not fit a window at all runs
+    /// anyway when it ran nothing in the window before (and overruns: the kernel preempts it
+    /// and its health monitor reports it).
+    pub hard_until: Option<u64>,
 }
 
 /// A planner the planner partition runs.

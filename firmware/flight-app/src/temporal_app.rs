@@ -30,8 +30,9 @@ pub const MAX_TEMPORAL_TASK_BYTES: usize = 1 << 20;
 /// Most actions of a plan the target reports: plans of up to 2,048 snap actions
 /// (`temporal::PlannerConfig`'s default `max_steps`; a job asking for more is held to it).
 pub const MAX_TEMPORAL_PLAN_ACTIONS: usize = 1024;
-/// Expansions between two readings of the CPU clock: one, since one expansion of a large
-/// task costs a good part of a window.
+/// Expansions between two readings of the CPU clock: one, since one expansion costs a good
+/// part of a window (satellite 2: about 270,000 guest instructions, 18,000 ticks, of the
+/// planner window's 33,200).
 const EXPANSIONS_PER_CHECK: u32 = 1;
 
 /// The memory a job plans in.
@@ -65,6 +66,10 @@ struct Job {
     spent_ticks: u64,
     /// Windows in which the search ran.
     windows: u32,
+    /// The CPU of the costliest expansion so far (with its clock reading), timebase ticks.
+    most_step_ticks: u64,
+    /// The last window ran no expansion (the costliest did not fit it).
+    stalled: bool,
     outcome: Option<TemporalOutcome>,
     /// Actions of the plan (in `TemporalApp::plan`) and its makespan.
     plan_len: usize,
@@ -220,6 +225,8 @@ impl<'a> TemporalApp<'a> {
             ticks_per_unit: 0,
             spent_ticks: 0,
             windows: 0,
+            most_step_ticks: 0,
+            stalled: false,
             outcome: None,
             plan_len: 0,
             makespan: 0,
@@ -320,7 +327,7 @@ impl<'a> TemporalApp<'a> {
     }
 
     /// One window of search within `until` on `clock` (None: to the end).
-    fn search(&mut self, clock: &mut dyn CpuClock, until: Option<u64>) {
+    fn search(&mut self, clock: &mut dyn CpuClock, until: Option<u64>, hard_until: Option<u64>) {
         let t0 = clock.ticks();
         let Some(job) = self.job else {
             return;
@@ -329,17 +336,42 @@ impl<'a> TemporalApp<'a> {
             return;
         }
         let mut outcome = None;
-        if self.planner.is_none() {
+        let mut most = job.most_step_ticks;
+        let mut ran = 0u32;
+        // Setting the search up (tables, the root's heuristic) is a window's work of its own:
+        // it is not anytime, and costs more than an expansion (satellite 2: about 54,000
+        // ticks, more than a window, which then overruns).
+        let set_up = self.planner.is_none();
+        if set_up {
             if let Err(r) = self.set_up() {
                 outcome = Some(TemporalOutcome::OutOfMemory(region(r)));
             }
+            ran = 1;
         }
-        if let (None, Some(planner)) = (outcome, self.planner.as_mut()) {
+        let mut ran_none = true;
+        if let (None, Some(planner), false) = (outcome, self.planner.as_mut(), set_up) {
+            let mut now = clock.ticks();
             loop {
-                if until.is_some_and(|u| clock.ticks() >= u) {
-                    break;
+                // Stop before an expansion that would end past the share, going by the
+                // costliest one so far; the first of a window may use the rest of the window,
+                // and runs whatever it costs after a window that ran none (progress).
+                if let Some(u) = until {
+                    let end = now.saturating_add(most);
+                    let fits = if ran == 0 {
+                        now < u && (end <= hard_until.unwrap_or(u) || job.stalled)
+                    } else {
+                        end <= u
+                    };
+                    if !fits {
+                        break;
+                    }
                 }
+                ran += 1;
+                ran_none = false;
                 let status = planner.step(EXPANSIONS_PER_CHECK);
+                let after = clock.ticks();
+                most = most.max(after.wrapping_sub(now));
+                now = after;
                 outcome = match status {
                     Status::Searching => None,
                     Status::Solved => Some(TemporalOutcome::Solved),
@@ -360,6 +392,8 @@ impl<'a> TemporalApp<'a> {
             return;
         };
         job.spent_ticks = job.spent_ticks.wrapping_add(spent);
+        job.most_step_ticks = most;
+        job.stalled = ran_none && ran == 0;
         job.windows = job.windows.saturating_add(1);
         if outcome.is_none() && job.config.max_windows > 0 && job.windows >= job.config.max_windows
         {
@@ -423,7 +457,7 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn window(&mut self, w: &mut PluginWindow<'_, '_>) {
-        self.search(w.clock, w.until);
+        self.search(w.clock, w.until, w.hard_until);
     }
 
     fn report(&mut self, mut room: usize, downlink: &mut dyn Downlink) {
@@ -484,6 +518,7 @@ impl PlannerPlugin for TemporalApp<'_> {
                 arena_bytes: self.arena_bytes,
                 planning_ticks: job.spent_ticks,
                 windows: job.windows,
+                worst_expansion_ticks: sat(job.most_step_ticks),
             }));
             self.finished = self.finished.saturating_add(1);
             self.end_job();

@@ -130,6 +130,7 @@ fn plan_in_windows(app: &mut TemporalApp<'static>, share: u64) -> (Vec<TemporalR
                 clock: &mut clock,
                 downlink: &mut sink,
                 until: Some(until),
+                hard_until: Some(until + share / 4),
             };
             app.window(&mut w);
         }
@@ -223,12 +224,13 @@ fn a_task_uplinked_in_chunks_is_planned_across_windows_with_the_plan_of_one_go()
             again.as_slice(),
             [TemporalReport::Accepted { job: 8, .. }]
         ));
+        // With a share larger than the search: one window to set up, one to search.
         let (reports, _) = plan_in_windows(&mut app, 1_000_000);
         assert!(matches!(
             reports.last(),
             Some(TemporalReport::Done {
                 outcome: TemporalOutcome::Solved,
-                windows: 1,
+                windows: 2,
                 ..
             })
         ));

@@ -235,6 +235,7 @@ pub fn largest_temporal_report(i: usize) -> TemporalReport {
             arena_bytes: m,
             planning_ticks: u64::MAX,
             windows: m,
+            worst_expansion_ticks: m,
         },
         _ => panic!("TemporalReport has no kind {i}"),
     }

@@ -406,11 +406,17 @@ pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
             u16s(),
             outcome,
             u16s(),
-            [u32s(), u32s(), u32s(), u32s(), u32s()],
+            [u32s(), u32s(), u32s(), u32s(), u32s(), u32s()],
             u64s()
         )
             .prop_map(
-                |(job, outcome, steps, [makespan, tpu, peak, arena, windows], planning_ticks)| {
+                |(
+                    job,
+                    outcome,
+                    steps,
+                    [makespan, tpu, peak, arena, windows, worst],
+                    planning_ticks,
+                )| {
                     TemporalReport::Done {
                         job,
                         outcome,
@@ -421,6 +427,7 @@ pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
                         arena_bytes: arena,
                         planning_ticks,
                         windows,
+                        worst_expansion_ticks: worst,
                     }
                 }
             ),

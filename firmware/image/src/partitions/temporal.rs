@@ -17,9 +17,15 @@ use flight_app::{
 use fsw_bridge::HostToTarget;
 use temporal::PlannedAction;
 
+use kernel_config::system::PLANNER_WINDOW_TICKS;
+
 use super::{HostOutbox, PartitionClock};
 
 const ARENA_WORDS: usize = TEMPORAL_ARENA_BYTES / 4;
+/// Ticks of the planner window kept for what follows the plug-ins (the messages for the
+/// executive and the host) and for what preceded the MEXEC window's clock reading (the
+/// messages taken in).
+const WINDOW_RESERVE_TICKS: u64 = 2_000;
 
 #[link_section = ".bss.noinit.planner"]
 static mut TASK: MaybeUninit<[u8; MAX_TEMPORAL_TASK_BYTES]> = MaybeUninit::uninit();
@@ -102,6 +108,9 @@ pub fn window<const N: usize>(
         clock: &mut clock,
         downlink: outbox,
         until: Some(window_started.saturating_add(share_ticks)),
+        hard_until: Some(
+            window_started.saturating_add(u64::from(PLANNER_WINDOW_TICKS).saturating_sub(WINDOW_RESERVE_TICKS)),
+        ),
     };
     app.window(&mut w);
 }
