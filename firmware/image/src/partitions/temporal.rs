@@ -102,16 +102,17 @@ pub fn window<const N: usize>(
     }
     give_storage(app);
     let mut clock = PartitionClock;
-    let mut w = PluginWindow {
-        memories,
-        fetch: None,
-        clock: &mut clock,
-        downlink: outbox,
-        until: Some(window_started.saturating_add(share_ticks)),
-        hard_until: Some(
-            window_started.saturating_add(u64::from(PLANNER_WINDOW_TICKS).saturating_sub(WINDOW_RESERVE_TICKS)),
-        ),
-    };
+    let mut w =
+        PluginWindow {
+            memories,
+            fetch: None,
+            clock: &mut clock,
+            downlink: outbox,
+            until: Some(window_started.saturating_add(share_ticks)),
+            hard_until: Some(window_started.saturating_add(
+                u64::from(PLANNER_WINDOW_TICKS).saturating_sub(WINDOW_RESERVE_TICKS),
+            )),
+        };
     app.window(&mut w);
 }
 
