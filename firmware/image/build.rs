@@ -5,7 +5,10 @@
 //!
 //! Generated into OUT_DIR:
 //! - `partitions.ld`: one NOLOAD output section per partition at its first region's base
-//!   (stack, run-time header, `.bss.part.<name>` statics), and ASSERTs that every partition fits its
+//!   (stack, run-time header, `.bss.part.<name>` statics, zeroed at every partition start),
+//!   then its statics that are never zeroed (`.bss.noinit.<name>`: large buffers a partition
+//!   initialises itself, such as the temporal planner's arena, so that a partition start or a
+//!   warm boot does not pay for clearing them), and ASSERTs that every partition fits its
 //!   region and that the kernel symbols in g3beige.ld agree with the configuration's constants;
 //! - `partitions.rs`: the entry symbols and the zero/stack ranges of each partition, so the
 //!   kernel starts exactly what the linker placed.
@@ -51,6 +54,7 @@ fn main() {
         "firmware/autonomy/src",
         "firmware/flight-app/src",
         "firmware/sdls/src",
+        "firmware/temporal/src",
         "fsw-bridge/src",
     ] {
         collect(&repo.join(dir), &mut files);
@@ -101,7 +105,7 @@ fn linker_fragment(config: &SystemConfig) -> String {
         let n = p.name;
         writeln!(
             s,
-            ".part.{n} 0x{base:08x} (NOLOAD) :\n{{\n    __part_{n}_start = .;\n    . += 0x{stack:x};\n    __part_{n}_stack_top = .;\n    . += {header};\n    *(.bss.part.{n} .bss.part.{n}.*)\n    . = ALIGN(32);\n    __part_{n}_end = .;\n}} :NONE\nASSERT(__part_{n}_end <= 0x{end:08x}, \"partition {n}: stack, header and statics do not fit in its region 0 (0x{base:08x}, 0x{size:x} bytes): grow the region in kernel-config or shrink the state\")",
+            ".part.{n} 0x{base:08x} (NOLOAD) :\n{{\n    __part_{n}_start = .;\n    . += 0x{stack:x};\n    __part_{n}_stack_top = .;\n    . += {header};\n    *(.bss.part.{n} .bss.part.{n}.*)\n    . = ALIGN(32);\n    __part_{n}_end = .;\n}} :NONE\n.part.{n}.noinit (NOLOAD) : ALIGN(32)\n{{\n    *(.bss.noinit.{n} .bss.noinit.{n}.*)\n    . = ALIGN(32);\n    __part_{n}_noinit_end = .;\n}} :NONE\nASSERT(__part_{n}_noinit_end <= 0x{end:08x}, \"partition {n}: its statics that are not zeroed (.bss.noinit.{n}) do not fit in its region 0 after the zeroed ones: grow the region in kernel-config or shrink them\")\nASSERT(__part_{n}_end <= 0x{end:08x}, \"partition {n}: stack, header and statics do not fit in its region 0 (0x{base:08x}, 0x{size:x} bytes): grow the region in kernel-config or shrink the state\")",
             base = r.base,
             header = kc::PARTITION_HEADER_SIZE,
             stack = p.stack_size,

@@ -20,6 +20,7 @@ pub mod dictionary;
 pub mod link;
 pub mod messages;
 pub mod security;
+pub mod temporal;
 pub mod types;
 
 pub use messages::{HostToTarget, LinkCounters, TargetToHost, TelemetryEvent};

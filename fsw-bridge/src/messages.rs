@@ -8,6 +8,7 @@ use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
 use crate::security::{CommandRefusal, GroundCommand, SecurityHeader, MAC_LEN};
+use crate::temporal::{TemporalChunkBytes, TemporalConfig, TemporalReport};
 use crate::types::{
     CommandArgs, CommandStatus, KernelFault, MissionTimeUs, Opcode, ResetCause, ResetKind,
     StateKey, StateValue,
@@ -92,6 +93,21 @@ pub enum HostToTarget {
         command: GroundCommand,
         mac: Vec<u8, MAC_LEN>,
     },
+    /// A temporal planning job for the planner partition ([`crate::temporal`]): `len` bytes of
+    /// compiled task with CRC-32 `crc32` follow in TemporalChunks. A new Begin abandons the
+    /// job before it.
+    TemporalBegin {
+        job: u16,
+        len: u32,
+        crc32: u32,
+        config: TemporalConfig,
+    },
+    /// The task's bytes at `offset` (chunks in order, each at the end of the one before).
+    TemporalChunk {
+        job: u16,
+        offset: u32,
+        bytes: TemporalChunkBytes,
+    },
 }
 
 /// Messages the target sends to the host (in protocol v2 inside the reliable link's frames,
@@ -150,6 +166,8 @@ pub enum TargetToHost {
         sequence: u32,
         reason: CommandRefusal,
     },
+    /// What the planner partition says about a temporal planning job.
+    Temporal(TemporalReport),
 }
 
 /// Events reported as telemetry. New kinds are appended at the end (postcard encodes the

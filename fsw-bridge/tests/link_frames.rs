@@ -120,8 +120,14 @@ fn the_largest_instance_of_every_frame_kind_fits_the_payload() {
     // The envelope costs 3 bytes over the bare message (tag, VC, N(S)).
     assert_eq!(
         largest_ad,
-        postcard_bytes(&largest_h2t(4)).len() + 3,
-        "the largest AD frame wraps the largest uplink chunk"
+        postcard_bytes(&largest_h2t(8)).len() + 3,
+        "the largest AD frame wraps the largest temporal task chunk"
+    );
+    // Two bytes over the largest task-network chunk: a job and a 32-bit offset instead of
+    // two 16-bit counts.
+    assert_eq!(
+        postcard_bytes(&largest_h2t(8)).len(),
+        postcard_bytes(&largest_h2t(4)).len() + 2
     );
 }
 

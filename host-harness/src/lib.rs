@@ -24,6 +24,7 @@ pub mod link;
 pub mod mission;
 pub mod options;
 pub mod plan;
+pub mod plan_emulated;
 pub mod qemu;
 pub mod run;
 pub mod scenario;

@@ -3,8 +3,8 @@
 //! chosen size, the way the planner partition will run it; print the plan, its makespan, the
 //! search statistics and the arena's high-water mark.
 //!
-//! `--emulated` (the planner on the RAD750 proxy) needs the planner partition of issue 14 and
-//! is refused with that reason until it exists.
+//! `--emulated` plans on the RAD750 proxy instead, in the planner partition, with the same
+//! search (see [`crate::plan_emulated`]), and adds the guest CPU it took.
 use std::path::Path;
 use std::time::Instant;
 
@@ -78,9 +78,51 @@ pub struct PlanReport {
     pub best_h: u32,
     pub peak_arena_bytes: u64,
     pub arena_bytes: u64,
-    /// Host wall time, milliseconds (depends on the host and its load).
+    /// Host wall time, milliseconds (depends on the host and its load; the search's is 0 on
+    /// the emulated target, whose cost is `emulated`).
     pub compile_ms: f64,
     pub search_ms: f64,
+    /// "native" or "emulated".
+    pub target: String,
+    /// The emulated target's costs (guest CPU), None natively.
+    pub emulated: Option<crate::plan_emulated::EmulatedCosts>,
+}
+
+/// A report of `compiled` with nothing planned yet.
+pub fn empty_report(compiled: &pddl::Compiled) -> PlanReport {
+    let (facts, numeric_variables, actions) = match temporal::Task::parse(&compiled.task) {
+        Ok(t) => (t.fact_count(), t.numeric_count(), t.action_count()),
+        Err(_) => (0, 0, 0),
+    };
+    PlanReport {
+        domain: String::new(),
+        problem: String::new(),
+        outcome: String::new(),
+        solved: false,
+        makespan: None,
+        plan: Vec::new(),
+        facts,
+        numeric_variables,
+        actions,
+        til_windows: compiled.til_windows,
+        task_bytes: compiled.task.len(),
+        expanded: 0,
+        generated: 0,
+        evaluated: 0,
+        inconsistent: 0,
+        duplicates: 0,
+        dead_ends: 0,
+        nodes: 0,
+        too_long: 0,
+        shed: 0,
+        best_h: 0,
+        peak_arena_bytes: 0,
+        arena_bytes: 0,
+        compile_ms: 0.0,
+        search_ms: 0.0,
+        target: "native".into(),
+        emulated: None,
+    }
 }
 
 /// Read, compile and plan. File and PDDL errors are diagnostics at file:line:column.
@@ -90,6 +132,22 @@ pub fn plan_files(
     modules: &pddl::ModuleRegistry,
     options: &PlanOptions,
 ) -> Result<PlanReport, Diagnostic> {
+    let (d, p, compiled, compile_ms) = compile_files(domain, problem, modules, options)?;
+    let mut report = plan_compiled(&compiled, options).map_err(|m| p.error(0..0, "", m))?;
+    report.domain = d.name.clone();
+    report.problem = p.name.clone();
+    report.compile_ms = compile_ms;
+    Ok(report)
+}
+
+/// Read and compile the two files; the sources (for diagnostics), the task and the host
+/// milliseconds compiling took.
+pub fn compile_files(
+    domain: &Path,
+    problem: &Path,
+    modules: &pddl::ModuleRegistry,
+    options: &PlanOptions,
+) -> Result<(SourceFile, SourceFile, pddl::Compiled, f64), Diagnostic> {
     let d = SourceFile::read(domain)?;
     let p = SourceFile::read(problem)?;
     let started = Instant::now();
@@ -110,11 +168,7 @@ pub fn plan_files(
         file.error(e.span.clone(), "", e.message.clone())
     })?;
     let compile_ms = started.elapsed().as_secs_f64() * 1e3;
-    let mut report = plan_compiled(&compiled, options).map_err(|m| p.error(0..0, "", m))?;
-    report.domain = d.name.clone();
-    report.problem = p.name.clone();
-    report.compile_ms = compile_ms;
-    Ok(report)
+    Ok((d, p, compiled, compile_ms))
 }
 
 /// Plan a compiled task natively.
@@ -126,33 +180,8 @@ pub fn plan_compiled(
     let mut arena = vec![0u32; options.arena_bytes / 4];
     let started = Instant::now();
     let tpu = f64::from(task.ticks_per_unit());
-    let mut report = PlanReport {
-        domain: String::new(),
-        problem: String::new(),
-        outcome: String::new(),
-        solved: false,
-        makespan: None,
-        plan: Vec::new(),
-        facts: task.fact_count(),
-        numeric_variables: task.numeric_count(),
-        actions: task.action_count(),
-        til_windows: compiled.til_windows,
-        task_bytes: compiled.task.len(),
-        expanded: 0,
-        generated: 0,
-        evaluated: 0,
-        inconsistent: 0,
-        duplicates: 0,
-        dead_ends: 0,
-        nodes: 0,
-        too_long: 0,
-        shed: 0,
-        best_h: 0,
-        peak_arena_bytes: 0,
-        arena_bytes: (arena.len() * 4) as u64,
-        compile_ms: 0.0,
-        search_ms: 0.0,
-    };
+    let mut report = empty_report(compiled);
+    report.arena_bytes = (arena.len() * 4) as u64;
     let mut planner = match temporal::Planner::new(task, &mut arena, options.config) {
         Ok(p) => p,
         Err(region) => {
@@ -264,6 +293,12 @@ pub fn summary(report: &PlanReport) -> String {
         report.peak_arena_bytes as f64 / 1024.0,
         report.arena_bytes
     ));
+    if let Some(e) = &report.emulated {
+        s.push_str(&format!(
+            "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) planning, in {} planner windows (costliest expansion {} ticks); {} frames granted ({} ms of mission time)\n",
+            e.guest_instructions, e.planning_ticks, e.planner_windows, e.worst_expansion_ticks, e.frames, e.frames as u64 * crate::plan_emulated::FRAME_US / 1000
+        ));
+    }
     s
 }
 
@@ -277,9 +312,16 @@ pub struct PlanArgs {
     /// Plan on the host with the no_std planner (the default).
     #[arg(long, conflicts_with = "emulated")]
     pub native: bool,
-    /// Plan on the emulated target (needs the planner partition: not yet).
+    /// Plan on the emulated RAD750, in the planner partition (QEMU), with an arena of
+    /// `flight_app::TEMPORAL_ARENA_BYTES` (8 MiB); `--arena-kib` does not apply.
     #[arg(long)]
     pub emulated: bool,
+    /// With --emulated: the firmware ELF to boot (default: build it).
+    #[arg(long, requires = "emulated")]
+    pub firmware: Option<std::path::PathBuf>,
+    /// With --emulated: give up after this many granted frames (10 ms of mission time each).
+    #[arg(long, default_value_t = 200_000)]
+    pub max_frames: u32,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -319,8 +361,14 @@ pub enum DuplicatesArg {
 
 /// Run `hil plan`. Exit 0 with a plan, 1 without one, 2 on bad input.
 pub fn cli(args: PlanArgs) -> Result<std::process::ExitCode, String> {
-    if args.emulated {
-        return Err("hil plan --emulated needs the planner partition on the target (issue 14), which does not exist yet; use --native".into());
+    // A missing firmware is refused before anything is compiled or built.
+    if let Some(elf) = &args.firmware {
+        if !elf.is_file() {
+            return Err(format!(
+                "--firmware {}: no such file (give the firmware ELF, e.g. target/firmware/powerpc-unknown-linux-gnu/release/rad750-firmware, or leave --firmware out to build it)",
+                elf.display()
+            ));
+        }
     }
     let options = PlanOptions {
         arena_bytes: args.arena_kib * 1024,
@@ -343,13 +391,17 @@ pub fn cli(args: PlanArgs) -> Result<std::process::ExitCode, String> {
         },
         ..PlanOptions::default()
     };
-    let report = plan_files(
-        &args.domain,
-        &args.problem,
-        &pddl::ModuleRegistry::new(),
-        &options,
-    )
-    .map_err(|e| e.render())?;
+    let report = if args.emulated {
+        plan_emulated_files(&args, &options)?
+    } else {
+        plan_files(
+            &args.domain,
+            &args.problem,
+            &pddl::ModuleRegistry::new(),
+            &options,
+        )
+        .map_err(|e| e.render())?
+    };
     if args.json {
         println!(
             "{}",
@@ -365,6 +417,32 @@ pub fn cli(args: PlanArgs) -> Result<std::process::ExitCode, String> {
     } else {
         std::process::ExitCode::FAILURE
     })
+}
+
+/// `hil plan --emulated`: compile on the host, plan on the emulated target.
+fn plan_emulated_files(args: &PlanArgs, options: &PlanOptions) -> Result<PlanReport, String> {
+    let (d, p, compiled, compile_ms) = compile_files(
+        &args.domain,
+        &args.problem,
+        &pddl::ModuleRegistry::new(),
+        options,
+    )
+    .map_err(|e| e.render())?;
+    let fw = match &args.firmware {
+        Some(elf) => crate::firmware::FirmwareImage::open(elf).map_err(|e| e.to_string())?,
+        None => {
+            eprintln!("building firmware (cargo, powerpc-unknown-linux-gnu) ...");
+            crate::firmware::build().map_err(|e| e.to_string())?
+        }
+    };
+    let mut target = crate::plan_emulated::EmulatedPlanner::boot(&fw)?;
+    let mut report = target
+        .plan(&compiled, options, args.max_frames)
+        .map_err(|e| e.to_string())?;
+    report.domain = d.name.clone();
+    report.problem = p.name.clone();
+    report.compile_ms = compile_ms;
+    Ok(report)
 }
 
 #[cfg(test)]
@@ -434,12 +512,14 @@ mod tests {
     }
 
     #[test]
-    fn emulated_planning_says_it_needs_the_planner_partition() {
+    fn a_missing_firmware_is_a_clear_error_before_anything_runs() {
         let args = PlanArgs {
             domain: bench("satellite", "domain.pddl"),
             problem: bench("satellite", "instance-1.pddl"),
             native: false,
             emulated: true,
+            firmware: Some("/nonexistent/rad750-firmware".into()),
+            max_frames: 10,
             json: false,
             plan_only: false,
             arena_kib: 1024,
@@ -450,7 +530,56 @@ mod tests {
             no_preferred: false,
             duration_costs: false,
         };
-        let e = cli(args).expect_err("not yet");
-        assert!(e.contains("issue 14"), "{e}");
+        let e = cli(args).expect_err("no firmware");
+        assert!(
+            e.contains("--firmware /nonexistent/rad750-firmware: no such file"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_arguments_parse_and_firmware_needs_emulated() {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            plan: PlanArgs,
+        }
+        let a = Cli::try_parse_from([
+            "hil",
+            "d.pddl",
+            "p.pddl",
+            "--emulated",
+            "--firmware",
+            "fw.elf",
+            "--json",
+        ])
+        .expect("parses");
+        assert!(a.plan.emulated && a.plan.json);
+        assert_eq!(a.plan.firmware.as_deref(), Some(Path::new("fw.elf")));
+        // --firmware alone, and --native with --emulated, are refused by name.
+        let e = Cli::try_parse_from(["hil", "d.pddl", "p.pddl", "--firmware", "fw.elf"])
+            .err()
+            .expect("refused");
+        assert!(e.to_string().contains("--emulated"), "{e}");
+        let e = Cli::try_parse_from(["hil", "d.pddl", "p.pddl", "--native", "--emulated"])
+            .err()
+            .expect("refused");
+        assert!(e.to_string().contains("cannot be used with"), "{e}");
+    }
+
+    #[test]
+    fn the_wire_configuration_is_the_native_search_configuration() {
+        let options = PlanOptions::default();
+        let wire = crate::plan_emulated::wire_config(&options).expect("fits");
+        let back = flight_app::planner_config(&wire, flight_app::MAX_TEMPORAL_PLAN_ACTIONS);
+        let native = options.config;
+        assert_eq!(back.max_steps, native.max_steps);
+        assert_eq!(back.compression, native.compression);
+        assert_eq!(back.duplicates, native.duplicates);
+        assert_eq!(back.preferred_operators, native.preferred_operators);
+        assert_eq!(back.shed_when_full, native.shed_when_full);
+        assert_eq!(back.relaxed_cost, native.relaxed_cost);
+        assert_eq!(back.dropped_goals, native.dropped_goals);
     }
 }

@@ -234,7 +234,11 @@ impl ExecutiveApp {
                 self.first_window(*frame, *now, memories, fetch, clock, downlink);
                 return true;
             }
-            HostToTarget::Ping { .. } | HostToTarget::ResetRequest { .. } => return false,
+            // Temporal planning jobs are the planner partition's (`TemporalApp`).
+            HostToTarget::Ping { .. }
+            | HostToTarget::ResetRequest { .. }
+            | HostToTarget::TemporalBegin { .. }
+            | HostToTarget::TemporalChunk { .. } => return false,
         }
         if let (Some(t0), Some(spent)) = (t0, self.recovering.as_mut()) {
             *spent = spent.wrapping_add(clock.ticks().wrapping_sub(t0));

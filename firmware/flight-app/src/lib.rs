@@ -148,6 +148,8 @@ mod executive_app;
 mod memories;
 pub mod persistence;
 mod planner_app;
+mod plugin;
+mod temporal_app;
 #[cfg(test)]
 mod tests;
 
@@ -156,3 +158,5 @@ pub use executive_app::*;
 pub use memories::*;
 pub use persistence::*;
 pub use planner_app::*;
+pub use plugin::*;
+pub use temporal_app::*;

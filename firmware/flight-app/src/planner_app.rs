@@ -31,6 +31,9 @@ pub struct PlannerApp {
     /// Set at a restore until the first window with no planning pending: the CPU spent so
     /// far, the restore included ([`metric::PLANNER_RECOVERY_TICKS`]).
     pub(crate) recovering: Option<u64>,
+    /// The CPU clock's reading at the start of the last window: other plug-ins of the
+    /// partition share the window's planning CPU from there.
+    pub(crate) window_started: u64,
 }
 
 impl Default for PlannerApp {
@@ -47,6 +50,7 @@ impl PlannerApp {
             budget: DEFAULT_PLANNER_BUDGET,
             cpu_budget: None,
             recovering: None,
+            window_started: 0,
         }
     }
 
@@ -57,6 +61,12 @@ impl PlannerApp {
         self.budget = DEFAULT_PLANNER_BUDGET;
         self.cpu_budget = None;
         self.recovering = None;
+        self.window_started = 0;
+    }
+
+    /// The CPU clock's reading at the start of the last window ([`PlannerApp::window`]).
+    pub fn window_started(&self) -> u64 {
+        self.window_started
     }
 
     /// The planning loop's side of the core.
@@ -139,6 +149,7 @@ impl PlannerApp {
         downlink: &mut impl Downlink,
     ) -> Option<PlannerStatus> {
         let t0 = clock.ticks();
+        self.window_started = t0;
         let budget = WindowBudget {
             checks: self.budget,
             until: self.cpu_budget.map(|ticks| t0.saturating_add(ticks)),

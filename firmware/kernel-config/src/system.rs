@@ -11,8 +11,8 @@
 //! | 0x00110000-0x0011ffff   | hashed page table (all invalid)        | nothing                |
 //! | 0x00200000-0x0027ffff   | I/O partition (512 KiB)                | I/O: read/write        |
 //! | 0x00400000-0x005fffff   | executive (2 MiB)                      | executive: read/write  |
-//! | 0x00800000-0x00bfffff   | planner (4 MiB)                        | planner: read/write    |
 //! | 0x00c00000-0x00c1ffff   | rogue (128 KiB, test image only)       | rogue: read/write      |
+//! | 0x01000000-0x01ffffff   | planner (16 MiB)                       | planner: read/write    |
 //! | 0x90000000-             | non-volatile memory (ivshmem)          | via system calls only  |
 //! | 0x98000000-0x9801ffff   | shared-memory link (emulated target)   | nothing (kernel only)  |
 //! | 0xf3000000-0xf307ffff   | mac-io (ESCC UART, Heathrow PIC)       | nothing (kernel only)  |
@@ -54,9 +54,13 @@ pub const EXECUTIVE_REGION: Region = Region {
     size: 0x0020_0000,
     access: Access::ReadWrite,
 };
+/// 16 MiB (one BAT block, so 16 MiB-aligned): the MEXEC planner's state (about 0.8 MiB), and
+/// the temporal planner's search arena (8 MiB) and task buffer (1 MiB), which are not zeroed
+/// at the partition's start (`.bss.noinit.planner`; see `firmware/image/build.rs`). It was
+/// 4 MiB at 0x00800000 before the temporal planner.
 pub const PLANNER_REGION: Region = Region {
-    base: 0x0080_0000,
-    size: 0x0040_0000,
+    base: 0x0100_0000,
+    size: 0x0100_0000,
     access: Access::ReadWrite,
 };
 pub const ROGUE_REGION: Region = Region {

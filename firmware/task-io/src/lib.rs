@@ -526,6 +526,10 @@ fn handle(
         HostToTarget::CommandResponse { .. }
         | HostToTarget::UplinkChunk { .. }
         | HostToTarget::GroundCommand { .. } => Routing::to(msg, ports::IO_TO_EXECUTIVE),
+        // Temporal planning jobs are the planner partition's.
+        HostToTarget::TemporalBegin { .. } | HostToTarget::TemporalChunk { .. } => {
+            Routing::to(msg, ports::IO_TO_PLANNER)
+        }
     };
     Some(routing)
 }

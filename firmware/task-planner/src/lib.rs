@@ -25,11 +25,13 @@
     clippy::indexing_slicing
 )]
 
+mod temporal;
+
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use crc::{Crc, CRC_32_ISO_HDLC};
-use flight_app::{Downlink, PlannerApp};
+use flight_app::{Downlink, PlannerApp, PlannerPlugin};
 use fsw_bridge::{HostToTarget, StateKey, StateValue, TargetToHost, TelemetryEvent};
 use kernel_config::abi::{control, metric};
 use kernel_config::system::{PLANNER_WARM, PLANNER_WINDOW_TICKS};
@@ -96,6 +98,7 @@ pub extern "C" fn partition_planner_main() -> ! {
     if sys::identity().1 == 0 {
         metric(state, metric::BOOT_PLANNER_START_TICKS, entered);
     }
+    let temporal = temporal::start();
     app.boot_fetching(
         &mut state.copies.memories(None),
         Some(&mut KernelMemories),
@@ -104,7 +107,9 @@ pub extern "C" fn partition_planner_main() -> ! {
     );
     loop {
         while let Some((msg, _generation)) = receive_routed(ports::IO_TO_PLANNER) {
-            handle(state, app, msg);
+            if !temporal::handle(temporal, &msg, &mut state.outbox) {
+                handle(state, app, msg);
+            }
         }
         while let Some(wire) = receive_wire(ports::EXECUTIVE_TO_PLANNER) {
             app.receive(wire);
@@ -120,10 +125,19 @@ pub extern "C" fn partition_planner_main() -> ! {
             state
                 .copies
                 .write_out(&app.take_warm_writes(), &app.take_nv_writes());
+            // The temporal planner's share: what is left of the window's planning CPU.
+            temporal::window(
+                temporal,
+                app.window_started(),
+                PLANNING_TICKS_PER_WINDOW,
+                &mut state.copies.memories(None),
+                &mut state.outbox,
+            );
         }
+        temporal::report(temporal, &mut state.outbox);
         app.transmit(&mut |wire| send_wire(ports::PLANNER_TO_EXECUTIVE, &wire));
         state.outbox.flush(ports::PLANNER_TO_IO);
-        if app.unsent() > 0 || !state.outbox.queue.is_empty() {
+        if app.unsent() > 0 || !state.outbox.queue.is_empty() || temporal.busy() {
             sys::wait_next_window();
         } else {
             // Nothing to plan until the executive sends a frame: the module may stop its

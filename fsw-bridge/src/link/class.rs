@@ -115,6 +115,10 @@ impl LinkMessage for HostToTarget {
             HostToTarget::UplinkChunk { .. } => MessageClass::UplinkChunk,
             HostToTarget::ResetRequest { .. } => MessageClass::ResetRequest,
             HostToTarget::GroundCommand { .. } => MessageClass::GroundCommand,
+            // A temporal task is an uplink too, counted with the task-network chunks.
+            HostToTarget::TemporalBegin { .. } | HostToTarget::TemporalChunk { .. } => {
+                MessageClass::UplinkChunk
+            }
         }
     }
 }
@@ -143,6 +147,8 @@ impl LinkMessage for TargetToHost {
             TargetToHost::GroundCommandAck { .. } | TargetToHost::GroundCommandNak { .. } => {
                 MessageClass::GroundCommandReply
             }
+            // The answers to a temporal uplink, its plan included.
+            TargetToHost::Temporal(_) => MessageClass::UplinkReply,
         }
     }
 }
@@ -169,7 +175,9 @@ pub fn uplink_service(msg: &HostToTarget) -> Service {
         | HostToTarget::CommandResponse { .. }
         | HostToTarget::UplinkChunk { .. }
         | HostToTarget::ResetRequest { .. }
-        | HostToTarget::GroundCommand { .. } => Service::Sequenced(VirtualChannel::Mission),
+        | HostToTarget::GroundCommand { .. }
+        | HostToTarget::TemporalBegin { .. }
+        | HostToTarget::TemporalChunk { .. } => Service::Sequenced(VirtualChannel::Mission),
     }
 }
 
@@ -195,6 +203,7 @@ pub fn downlink_service(msg: &TargetToHost) -> Service {
         | TargetToHost::UplinkAck { .. }
         | TargetToHost::UplinkNak { .. }
         | TargetToHost::GroundCommandAck { .. }
-        | TargetToHost::GroundCommandNak { .. } => Service::Sequenced(Mission),
+        | TargetToHost::GroundCommandNak { .. }
+        | TargetToHost::Temporal(_) => Service::Sequenced(Mission),
     }
 }

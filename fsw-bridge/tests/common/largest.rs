@@ -2,6 +2,10 @@
 //! longest, every Vec full, every Option Some), shared by the codec and link encoding tests.
 use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
 use fsw_bridge::security::{SecurityRefusal, MAC_LEN};
+use fsw_bridge::temporal::{
+    TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalRefusal, TemporalRegion,
+    TemporalReport, TEMPORAL_CHUNK_MAX,
+};
 use fsw_bridge::{
     CommandRefusal, CommandStatus, GroundCommand, HostToTarget, LinkCounters, MissionTimeUs,
     Opcode, ResetCause, ResetKind, SecurityHeader, StateKey, StateValue, TargetToHost,
@@ -9,8 +13,8 @@ use fsw_bridge::{
 };
 
 /// Variants of each message set.
-pub const H2T_VARIANTS: usize = 7;
-pub const T2H_VARIANTS: usize = 11;
+pub const H2T_VARIANTS: usize = 9;
+pub const T2H_VARIANTS: usize = 12;
 
 /// Declaration index of each variant. Exhaustive on purpose: adding a variant breaks the build
 /// here, which is the reminder to bump VARIANT_COUNT and extend these tests.
@@ -23,6 +27,8 @@ pub fn h2t_index(m: &HostToTarget) -> usize {
         HostToTarget::UplinkChunk { .. } => 4,
         HostToTarget::ResetRequest { .. } => 5,
         HostToTarget::GroundCommand { .. } => 6,
+        HostToTarget::TemporalBegin { .. } => 7,
+        HostToTarget::TemporalChunk { .. } => 8,
     }
 }
 
@@ -39,6 +45,7 @@ pub fn t2h_index(m: &TargetToHost) -> usize {
         TargetToHost::Panic { .. } => 8,
         TargetToHost::GroundCommandAck { .. } => 9,
         TargetToHost::GroundCommandNak { .. } => 10,
+        TargetToHost::Temporal(_) => 11,
     }
 }
 
@@ -81,6 +88,17 @@ pub fn largest_h2t(i: usize) -> HostToTarget {
             },
             command: GroundCommand::ReleaseHold(u8::MAX),
             mac: full::<MAC_LEN>(0xff),
+        },
+        7 => HostToTarget::TemporalBegin {
+            job: u16::MAX,
+            len: u32::MAX,
+            crc32: u32::MAX,
+            config: largest_temporal_config(),
+        },
+        8 => HostToTarget::TemporalChunk {
+            job: u16::MAX,
+            offset: u32::MAX,
+            bytes: full::<TEMPORAL_CHUNK_MAX>(0xff),
         },
         _ => panic!("HostToTarget has no variant {i}"),
     }
@@ -142,6 +160,83 @@ pub fn largest_t2h(i: usize) -> TargetToHost {
             sequence: u32::MAX,
             reason: CommandRefusal::Security(SecurityRefusal::CounterNotStored),
         },
+        // The longest temporal report: the statistics.
+        11 => TargetToHost::Temporal(largest_temporal_report(3)),
         _ => panic!("TargetToHost has no variant {i}"),
+    }
+}
+
+/// The largest temporal configuration (every varint at its longest).
+pub fn largest_temporal_config() -> TemporalConfig {
+    TemporalConfig {
+        max_steps: u16::MAX,
+        compression: true,
+        preferred_operators: true,
+        shed_when_full: true,
+        duplicates: TemporalDuplicates::PruneAll,
+        duration_costs: true,
+        dropped_goals: u64::MAX,
+        max_expansions: u32::MAX,
+        max_windows: u32::MAX,
+    }
+}
+
+/// Kinds of temporal report.
+pub const TEMPORAL_REPORT_KINDS: usize = 5;
+
+/// The largest temporal report of kind `i` (Accepted, Refused, Step, Stats, Done).
+pub fn largest_temporal_report(i: usize) -> TemporalReport {
+    let job = u16::MAX;
+    let m = u32::MAX;
+    match i {
+        0 => TemporalReport::Accepted {
+            job,
+            facts: m,
+            actions: m,
+            task_bytes: m,
+            ticks_per_unit: m,
+        },
+        1 => TemporalReport::Refused {
+            job,
+            reason: TemporalRefusal::BadTask {
+                kind: u8::MAX,
+                offset: m,
+            },
+        },
+        2 => TemporalReport::Step {
+            job,
+            index: u16::MAX,
+            action: u16::MAX,
+            start: m,
+            duration: m,
+            start_lb: m,
+            start_ub: m,
+        },
+        3 => TemporalReport::Stats {
+            job,
+            expanded: m,
+            generated: m,
+            evaluated: m,
+            inconsistent: m,
+            duplicates: m,
+            dead_ends: m,
+            nodes: m,
+            too_long: m,
+            shed: m,
+            best_h: m,
+        },
+        4 => TemporalReport::Done {
+            job,
+            outcome: TemporalOutcome::OutOfMemory(TemporalRegion::PreferredOpen),
+            steps: u16::MAX,
+            makespan: m,
+            ticks_per_unit: m,
+            peak_arena_bytes: m,
+            arena_bytes: m,
+            planning_ticks: u64::MAX,
+            windows: m,
+            worst_expansion_ticks: m,
+        },
+        _ => panic!("TemporalReport has no kind {i}"),
     }
 }

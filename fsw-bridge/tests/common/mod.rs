@@ -209,7 +209,55 @@ pub fn host_to_target() -> impl Strategy<Value = HostToTarget> {
         uplink_chunk(),
         reset_request(),
         ground_command(),
+        temporal_begin(),
+        temporal_chunk(),
     ]
+}
+
+pub fn temporal_configs() -> impl Strategy<Value = fsw_bridge::temporal::TemporalConfig> {
+    use fsw_bridge::temporal::{TemporalConfig, TemporalDuplicates};
+    (
+        u16s(),
+        any::<[bool; 4]>(),
+        prop_oneof![
+            Just(TemporalDuplicates::Keep),
+            Just(TemporalDuplicates::PruneQuiescent),
+            Just(TemporalDuplicates::PruneAll),
+        ],
+        u64s(),
+        u32s(),
+        u32s(),
+    )
+        .prop_map(
+            |(max_steps, flags, duplicates, dropped_goals, max_expansions, max_windows)| {
+                TemporalConfig {
+                    max_steps,
+                    compression: flags[0],
+                    preferred_operators: flags[1],
+                    shed_when_full: flags[2],
+                    duplicates,
+                    duration_costs: flags[3],
+                    dropped_goals,
+                    max_expansions,
+                    max_windows,
+                }
+            },
+        )
+}
+pub fn temporal_begin() -> impl Strategy<Value = HostToTarget> {
+    (u16s(), u32s(), u32s(), temporal_configs()).prop_map(|(job, len, crc32, config)| {
+        HostToTarget::TemporalBegin {
+            job,
+            len,
+            crc32,
+            config,
+        }
+    })
+}
+pub fn temporal_chunk() -> impl Strategy<Value = HostToTarget> {
+    use fsw_bridge::temporal::TEMPORAL_CHUNK_MAX;
+    (u16s(), u32s(), hvec::<u8, _, TEMPORAL_CHUNK_MAX>(any::<u8>))
+        .prop_map(|(job, offset, bytes)| HostToTarget::TemporalChunk { job, offset, bytes })
 }
 
 pub fn hello() -> impl Strategy<Value = TargetToHost> {
@@ -293,7 +341,98 @@ pub fn target_to_host() -> impl Strategy<Value = TargetToHost> {
         uplink_nak(),
         panic_report(),
         ground_command_reply(),
+        temporal_report(),
     ]
+}
+
+pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
+    use fsw_bridge::temporal::{TemporalOutcome, TemporalRefusal, TemporalRegion, TemporalReport};
+    let region = prop_oneof![
+        Just(TemporalRegion::Tables),
+        Just(TemporalRegion::Nodes),
+        Just(TemporalRegion::RegularOpen),
+        Just(TemporalRegion::PreferredOpen),
+        Just(TemporalRegion::PlanLength),
+    ];
+    let outcome = prop_oneof![
+        Just(TemporalOutcome::Solved),
+        Just(TemporalOutcome::Unsolvable),
+        region.prop_map(TemporalOutcome::OutOfMemory),
+        Just(TemporalOutcome::ExpansionLimit),
+        Just(TemporalOutcome::WindowLimit),
+    ];
+    let refusal = prop_oneof![
+        u32s().prop_map(|expected_offset| TemporalRefusal::OutOfSequence { expected_offset }),
+        u32s().prop_map(|capacity| TemporalRefusal::TooLarge { capacity }),
+        u32s().prop_map(|computed| TemporalRefusal::BadCrc { computed }),
+        (any::<u8>(), u32s()).prop_map(|(kind, offset)| TemporalRefusal::BadTask { kind, offset }),
+    ];
+    prop_oneof![
+        (u16s(), [u32s(), u32s(), u32s(), u32s()]).prop_map(|(job, [f, a, b, t])| {
+            TemporalReport::Accepted {
+                job,
+                facts: f,
+                actions: a,
+                task_bytes: b,
+                ticks_per_unit: t,
+            }
+        }),
+        (u16s(), refusal).prop_map(|(job, reason)| TemporalReport::Refused { job, reason }),
+        (u16s(), u16s(), u16s(), [u32s(), u32s(), u32s(), u32s()]).prop_map(
+            |(job, index, action, [start, duration, start_lb, start_ub])| TemporalReport::Step {
+                job,
+                index,
+                action,
+                start,
+                duration,
+                start_lb,
+                start_ub,
+            }
+        ),
+        (u16s(), proptest::array::uniform10(u32s())).prop_map(|(job, v)| TemporalReport::Stats {
+            job,
+            expanded: v[0],
+            generated: v[1],
+            evaluated: v[2],
+            inconsistent: v[3],
+            duplicates: v[4],
+            dead_ends: v[5],
+            nodes: v[6],
+            too_long: v[7],
+            shed: v[8],
+            best_h: v[9],
+        }),
+        (
+            u16s(),
+            outcome,
+            u16s(),
+            [u32s(), u32s(), u32s(), u32s(), u32s(), u32s()],
+            u64s()
+        )
+            .prop_map(
+                |(
+                    job,
+                    outcome,
+                    steps,
+                    [makespan, tpu, peak, arena, windows, worst],
+                    planning_ticks,
+                )| {
+                    TemporalReport::Done {
+                        job,
+                        outcome,
+                        steps,
+                        makespan,
+                        ticks_per_unit: tpu,
+                        peak_arena_bytes: peak,
+                        arena_bytes: arena,
+                        planning_ticks,
+                        windows,
+                        worst_expansion_ticks: worst,
+                    }
+                }
+            ),
+    ]
+    .prop_map(TargetToHost::Temporal)
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -205,6 +205,18 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
             kind: ResetKind::WarmDuringCheckpointWrite { permille: 500 },
         },
         flight_app_fuzz::secure_command(9, GroundCommand::SetHold(3)),
+        HostToTarget::TemporalBegin {
+            job: 1,
+            len: 300,
+            crc32: 0x1234_5678,
+            config: fsw_bridge::temporal::TemporalConfig::DEFAULT,
+        },
+        HostToTarget::TemporalChunk {
+            job: 1,
+            offset: 128,
+            bytes: heapless::Vec::from_slice(&[0x53; fsw_bridge::temporal::TEMPORAL_CHUNK_MAX])
+                .unwrap(),
+        },
     ];
     let to_host = [
         TargetToHost::Hello {
@@ -269,6 +281,15 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
                 dar: 0,
             }),
         },
+        TargetToHost::Temporal(fsw_bridge::temporal::TemporalReport::Step {
+            job: 1,
+            index: 0,
+            action: 12,
+            start: 0,
+            duration: 5_000,
+            start_lb: 0,
+            start_ub: 1_000,
+        }),
     ];
     let mut seeds = Vec::new();
     for (i, m) in to_target.iter().enumerate() {

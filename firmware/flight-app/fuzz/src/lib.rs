@@ -794,6 +794,12 @@ impl Harness {
             HostToTarget::Ping { .. } | HostToTarget::ResetRequest { .. } => {
                 assert!(!handled && out.is_empty(), "{msg:?} is the I/O layer's");
             }
+            HostToTarget::TemporalBegin { .. } | HostToTarget::TemporalChunk { .. } => {
+                assert!(
+                    !handled && out.is_empty(),
+                    "{msg:?} is the planner partition's"
+                );
+            }
             HostToTarget::StateUpdate { .. } | HostToTarget::CommandResponse { .. } => {
                 assert!(handled && out.is_empty(), "{msg:?} answered with {out:?}");
             }

@@ -1,0 +1,527 @@
+//! The temporal PDDL planner (seed 001, crate `temporal`) as a plug-in of the planner
+//! partition (issue 13): a compiled task uplinked in chunks ([`HostToTarget::TemporalBegin`],
+//! [`HostToTarget::TemporalChunk`]) is checked (length, CRC-32, then `temporal::Task::parse`)
+//! and planned anytime, in the windows of granted frames, within the window's CPU share; the
+//! plan, the statistics and the costs go back as [`TemporalReport`]s.
+//!
+//! Memory: the task's bytes and the search arena are handed in by the partition
+//! ([`TemporalStorage`]); on the target they are statics of the planner partition's region
+//! that are not zeroed at its start. The search borrows them while a job plans; when the job
+//! ends (or a new one begins) the borrow ends with it and the application asks for them
+//! again ([`TemporalApp::needs_storage`]). Nothing here allocates, and nothing from outside
+//! can make it panic: bad bytes are a [`TemporalRefusal`].
+//!
+//! Not authenticated: a temporal task does not go through the executive's SDLS-checked uplink
+//! path (the key and the anti-replay counter are the executive partition's); its integrity
+//! check is the CRC-32 and the task's own validation.
+use fsw_bridge::temporal::{
+    TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalRefusal, TemporalRegion,
+    TemporalReport,
+};
+use temporal::{PlannedAction, Planner, Region, Status, Task, TaskErrorKind};
+
+use super::*;
+
+/// Bytes of the search arena on the target: 8 MiB. The benchmark instances 1-3 of satellite,
+/// rovers and driverlog peak at 0.5 to 2.2 MiB (`hil plan --native`).
+pub const TEMPORAL_ARENA_BYTES: usize = 8 << 20;
+/// Largest compiled task the target takes: 1 MiB (satellite 3 is about 18 KiB).
+pub const MAX_TEMPORAL_TASK_BYTES: usize = 1 << 20;
+/// Most actions of a plan the target reports: plans of up to 2,048 snap actions
+/// (`temporal::PlannerConfig`'s default `max_steps`; a job asking for more is held to it).
+pub const MAX_TEMPORAL_PLAN_ACTIONS: usize = 1024;
+/// Expansions between two readings of the CPU clock: one, since one expansion costs a good
+/// part of a window (satellite 2: about 270,000 guest instructions, 18,000 ticks, of the
+/// planner window's 33,200).
+const EXPANSIONS_PER_CHECK: u32 = 1;
+
+/// The memory a job plans in.
+pub struct TemporalStorage<'a> {
+    /// Room for the task's bytes ([`MAX_TEMPORAL_TASK_BYTES`] on the target).
+    pub task: &'a mut [u8],
+    /// The search arena ([`TEMPORAL_ARENA_BYTES`] on the target).
+    pub arena: &'a mut [u32],
+}
+
+/// Where a job is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    /// Chunks arriving: `received` bytes so far.
+    Receiving { received: u32 },
+    /// Accepted: searching in granted windows (the search is set up in the first).
+    Planning,
+    /// The search ended: reporting the plan's action `next`, then the statistics, then Done.
+    Reporting { next: usize, stats_sent: bool },
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Job {
+    id: u16,
+    len: u32,
+    crc32: u32,
+    config: TemporalConfig,
+    phase: Phase,
+    ticks_per_unit: u32,
+    /// CPU spent setting up and searching, timebase ticks.
+    spent_ticks: u64,
+    /// Windows in which the search ran.
+    windows: u32,
+    /// The CPU of the costliest expansion so far (with its clock reading), timebase ticks.
+    most_step_ticks: u64,
+    /// The last window ran no expansion (the costliest did not fit it).
+    stalled: bool,
+    outcome: Option<TemporalOutcome>,
+    /// Actions of the plan (in `TemporalApp::plan`) and its makespan.
+    plan_len: usize,
+    makespan: u32,
+    stats: temporal::Stats,
+}
+
+/// The temporal planner plug-in.
+pub struct TemporalApp<'a> {
+    storage: Option<TemporalStorage<'a>>,
+    planner: Option<Planner<'a, 'a>>,
+    job: Option<Job>,
+    /// The plan of the job being reported, in order of starts.
+    plan: &'a mut [PlannedAction],
+    arena_bytes: u32,
+    /// Bytes of task the storage holds.
+    task_capacity: u32,
+    /// Jobs refused and jobs planned since the start (for logs and tests).
+    pub refused: u32,
+    pub finished: u32,
+}
+
+/// `temporal::PlannerConfig` for a job's configuration (`max_steps` held to what the plan
+/// buffer of `plan_capacity` actions reports).
+pub fn planner_config(config: &TemporalConfig, plan_capacity: usize) -> temporal::PlannerConfig {
+    temporal::PlannerConfig {
+        max_steps: usize::from(config.max_steps).min(2 * plan_capacity),
+        compression: config.compression,
+        duplicates: match config.duplicates {
+            TemporalDuplicates::Keep => temporal::Duplicates::Keep,
+            TemporalDuplicates::PruneQuiescent => temporal::Duplicates::PruneQuiescent,
+            TemporalDuplicates::PruneAll => temporal::Duplicates::PruneAll,
+        },
+        preferred_operators: config.preferred_operators,
+        shed_when_full: config.shed_when_full,
+        relaxed_cost: if config.duration_costs {
+            temporal::heuristic::RelaxedCost::Duration
+        } else {
+            temporal::heuristic::RelaxedCost::Unit
+        },
+        dropped_goals: config.dropped_goals,
+    }
+}
+
+fn region(r: Region) -> TemporalRegion {
+    match r {
+        Region::Tables => TemporalRegion::Tables,
+        Region::Nodes => TemporalRegion::Nodes,
+        Region::RegularOpen => TemporalRegion::RegularOpen,
+        Region::PreferredOpen => TemporalRegion::PreferredOpen,
+        Region::PlanLength => TemporalRegion::PlanLength,
+    }
+}
+
+/// The index of a task error kind on the wire.
+pub fn task_error_code(kind: TaskErrorKind) -> u8 {
+    match kind {
+        TaskErrorKind::BadMagic => 0,
+        TaskErrorKind::UnsupportedVersion => 1,
+        TaskErrorKind::Truncated => 2,
+        TaskErrorKind::FactOutOfRange => 3,
+        TaskErrorKind::VariableOutOfRange => 4,
+        TaskErrorKind::BadComparison => 5,
+        TaskErrorKind::BadEffectOp => 6,
+        TaskErrorKind::DurationBoundsReversed => 7,
+        TaskErrorKind::WindowReversed => 8,
+        TaskErrorKind::OffsetOutOfRange => 9,
+        TaskErrorKind::TooMany => 10,
+        TaskErrorKind::BadName => 11,
+        TaskErrorKind::ZeroEpsilon => 12,
+    }
+}
+
+fn sat(v: u64) -> u32 {
+    u32::try_from(v).unwrap_or(u32::MAX)
+}
+
+const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
+/// CRC-32 (ISO-HDLC, the link's) of a temporal task, as TemporalBegin carries it.
+pub fn temporal_crc32(bytes: &[u8]) -> u32 {
+    CRC32.checksum(bytes)
+}
+
+impl<'a> TemporalApp<'a> {
+    /// An application with `plan` for the plan of the job being reported (at most its length
+    /// in actions is planned: see [`planner_config`]).
+    pub fn new(plan: &'a mut [PlannedAction]) -> Self {
+        Self {
+            storage: None,
+            planner: None,
+            job: None,
+            plan,
+            arena_bytes: 0,
+            task_capacity: 0,
+            refused: 0,
+            finished: 0,
+        }
+    }
+
+    /// No job holds the task bytes and the arena, and none were given since: hand them in
+    /// with [`TemporalApp::give_storage`] before the next message or window.
+    pub fn needs_storage(&self) -> bool {
+        self.storage.is_none() && self.planner.is_none()
+    }
+
+    /// The memory jobs plan in.
+    pub fn give_storage(&mut self, storage: TemporalStorage<'a>) {
+        self.arena_bytes = sat((storage.arena.len() * 4) as u64);
+        self.task_capacity = sat(storage.task.len() as u64);
+        self.storage = Some(storage);
+    }
+
+    /// The job in progress, if any.
+    pub fn job(&self) -> Option<u16> {
+        self.job.map(|j| j.id)
+    }
+
+    fn refuse(&mut self, job: u16, reason: TemporalRefusal, downlink: &mut dyn Downlink) {
+        self.refused = self.refused.saturating_add(1);
+        downlink.send(TargetToHost::Temporal(TemporalReport::Refused {
+            job,
+            reason,
+        }));
+    }
+
+    /// Ends the job in progress: the search's borrow of the storage ends with it.
+    fn end_job(&mut self) {
+        self.planner = None;
+        self.job = None;
+    }
+
+    fn begin(
+        &mut self,
+        id: u16,
+        len: u32,
+        crc32: u32,
+        config: TemporalConfig,
+        downlink: &mut dyn Downlink,
+    ) {
+        self.end_job();
+        let capacity = self.task_capacity;
+        if len == 0 || len > capacity {
+            self.refuse(id, TemporalRefusal::TooLarge { capacity }, downlink);
+            return;
+        }
+        self.job = Some(Job {
+            id,
+            len,
+            crc32,
+            config,
+            phase: Phase::Receiving { received: 0 },
+            ticks_per_unit: 0,
+            spent_ticks: 0,
+            windows: 0,
+            most_step_ticks: 0,
+            stalled: false,
+            outcome: None,
+            plan_len: 0,
+            makespan: 0,
+            stats: temporal::Stats::default(),
+        });
+    }
+
+    fn chunk(&mut self, id: u16, offset: u32, bytes: &[u8], downlink: &mut dyn Downlink) {
+        let (Some(job), Some(storage)) = (self.job.as_mut(), self.storage.as_mut()) else {
+            self.refuse(
+                id,
+                TemporalRefusal::OutOfSequence { expected_offset: 0 },
+                downlink,
+            );
+            return;
+        };
+        let Phase::Receiving { received } = job.phase else {
+            let expected_offset = job.len;
+            self.refuse(
+                id,
+                TemporalRefusal::OutOfSequence { expected_offset },
+                downlink,
+            );
+            return;
+        };
+        let end = offset.checked_add(sat(bytes.len() as u64));
+        let fits = end.is_some_and(|e| e <= job.len);
+        if job.id != id || offset != received || !fits {
+            // The job in progress stays as it is: the chunk is the stranger.
+            self.refuse(
+                id,
+                TemporalRefusal::OutOfSequence {
+                    expected_offset: received,
+                },
+                downlink,
+            );
+            return;
+        }
+        let (start, end) = (offset as usize, end.unwrap_or(offset) as usize);
+        let Some(dest) = storage.task.get_mut(start..end) else {
+            let capacity = sat(storage.task.len() as u64);
+            self.refuse(id, TemporalRefusal::TooLarge { capacity }, downlink);
+            return;
+        };
+        dest.copy_from_slice(bytes);
+        let received = end as u32;
+        job.phase = Phase::Receiving { received };
+        if received < job.len {
+            return;
+        }
+        let (len, crc32) = (job.len as usize, job.crc32);
+        let task_bytes = storage.task.get(..len).unwrap_or_default();
+        let computed = temporal_crc32(task_bytes);
+        if computed != crc32 {
+            self.end_job();
+            self.refuse(id, TemporalRefusal::BadCrc { computed }, downlink);
+            return;
+        }
+        match Task::parse(task_bytes) {
+            Err(e) => {
+                self.end_job();
+                self.refuse(
+                    id,
+                    TemporalRefusal::BadTask {
+                        kind: task_error_code(e.kind),
+                        offset: sat(e.offset as u64),
+                    },
+                    downlink,
+                );
+            }
+            Ok(task) => {
+                job.phase = Phase::Planning;
+                job.ticks_per_unit = task.ticks_per_unit();
+                downlink.send(TargetToHost::Temporal(TemporalReport::Accepted {
+                    job: id,
+                    facts: sat(task.fact_count() as u64),
+                    actions: sat(task.action_count() as u64),
+                    task_bytes: job.len,
+                    ticks_per_unit: task.ticks_per_unit(),
+                }));
+            }
+        }
+    }
+
+    /// Sets the search up for the accepted job (its first window).
+    fn set_up(&mut self) -> Result<(), Region> {
+        let (Some(job), Some(storage)) = (self.job.as_ref(), self.storage.take()) else {
+            return Err(Region::Tables);
+        };
+        let TemporalStorage { task, arena } = storage;
+        let task: &'a [u8] = task;
+        let bytes = task.get(..job.len as usize).unwrap_or_default();
+        // Validated on arrival; a failure here would be a bug, reported as bad tables.
+        let parsed = Task::parse(bytes).map_err(|_| Region::Tables)?;
+        let config = planner_config(&job.config, self.plan.len());
+        self.planner = Some(Planner::new(parsed, arena, config)?);
+        Ok(())
+    }
+
+    /// One window of search within `until` on `clock` (None: to the end).
+    fn search(&mut self, clock: &mut dyn CpuClock, until: Option<u64>, hard_until: Option<u64>) {
+        let t0 = clock.ticks();
+        let Some(job) = self.job else {
+            return;
+        };
+        if job.phase != Phase::Planning {
+            return;
+        }
+        let mut outcome = None;
+        let mut most = job.most_step_ticks;
+        let mut ran = 0u32;
+        // Setting the search up (tables, the root's heuristic) is a window's work of its own:
+        // it is not anytime, and costs more than an expansion (satellite 2: about 54,000
+        // ticks, more than a window, which then overruns).
+        let set_up = self.planner.is_none();
+        if set_up {
+            if let Err(r) = self.set_up() {
+                outcome = Some(TemporalOutcome::OutOfMemory(region(r)));
+            }
+            ran = 1;
+        }
+        let mut ran_none = true;
+        if let (None, Some(planner), false) = (outcome, self.planner.as_mut(), set_up) {
+            let mut now = clock.ticks();
+            loop {
+                // Stop before an expansion that would end past the share, going by the
+                // costliest one so far; the first of a window may use the rest of the window,
+                // and runs whatever it costs after a window that ran none (progress).
+                if let Some(u) = until {
+                    let end = now.saturating_add(most);
+                    let fits = if ran == 0 {
+                        now < u && (end <= hard_until.unwrap_or(u) || job.stalled)
+                    } else {
+                        end <= u
+                    };
+                    if !fits {
+                        break;
+                    }
+                }
+                ran += 1;
+                ran_none = false;
+                let status = planner.step(EXPANSIONS_PER_CHECK);
+                let after = clock.ticks();
+                most = most.max(after.wrapping_sub(now));
+                now = after;
+                outcome = match status {
+                    Status::Searching => None,
+                    Status::Solved => Some(TemporalOutcome::Solved),
+                    Status::Unsolvable => Some(TemporalOutcome::Unsolvable),
+                    Status::OutOfMemory(r) => Some(TemporalOutcome::OutOfMemory(region(r))),
+                };
+                let limit = job.config.max_expansions;
+                if outcome.is_none() && limit > 0 && planner.stats().expanded >= u64::from(limit) {
+                    outcome = Some(TemporalOutcome::ExpansionLimit);
+                }
+                if outcome.is_some() {
+                    break;
+                }
+            }
+        }
+        let spent = clock.ticks().wrapping_sub(t0);
+        let Some(job) = self.job.as_mut() else {
+            return;
+        };
+        job.spent_ticks = job.spent_ticks.wrapping_add(spent);
+        job.most_step_ticks = most;
+        job.stalled = ran_none && ran == 0;
+        job.windows = job.windows.saturating_add(1);
+        if outcome.is_none() && job.config.max_windows > 0 && job.windows >= job.config.max_windows
+        {
+            outcome = Some(TemporalOutcome::WindowLimit);
+        }
+        let Some(outcome) = outcome else {
+            return;
+        };
+        job.outcome = Some(outcome);
+        job.phase = Phase::Reporting {
+            next: 0,
+            stats_sent: false,
+        };
+        if let Some(planner) = self.planner.as_mut() {
+            job.stats = planner.stats();
+            if outcome == TemporalOutcome::Solved {
+                match planner.plan(self.plan) {
+                    Some((n, makespan)) => {
+                        job.plan_len = n;
+                        job.makespan = makespan;
+                    }
+                    // Longer than the plan buffer (cannot happen with `max_steps` held to
+                    // it): reported as a plan too long.
+                    None => {
+                        job.outcome = Some(TemporalOutcome::OutOfMemory(TemporalRegion::PlanLength))
+                    }
+                }
+            }
+        }
+    }
+}
+
+impl PlannerPlugin for TemporalApp<'_> {
+    fn name(&self) -> &'static str {
+        "temporal"
+    }
+
+    fn handle(&mut self, msg: &HostToTarget, downlink: &mut dyn Downlink) -> bool {
+        match msg {
+            HostToTarget::TemporalBegin {
+                job,
+                len,
+                crc32,
+                config,
+            } => self.begin(*job, *len, *crc32, *config, downlink),
+            HostToTarget::TemporalChunk { job, offset, bytes } => {
+                self.chunk(*job, *offset, bytes, downlink)
+            }
+            _ => return false,
+        }
+        true
+    }
+
+    fn planning_pending(&self) -> bool {
+        self.job.is_some_and(|j| j.phase == Phase::Planning)
+    }
+
+    fn busy(&self) -> bool {
+        self.job
+            .is_some_and(|j| matches!(j.phase, Phase::Reporting { .. }))
+    }
+
+    fn window(&mut self, w: &mut PluginWindow<'_, '_>) {
+        self.search(w.clock, w.until, w.hard_until);
+    }
+
+    fn report(&mut self, mut room: usize, downlink: &mut dyn Downlink) {
+        let Some(job) = self.job.as_mut() else {
+            return;
+        };
+        let Phase::Reporting {
+            mut next,
+            mut stats_sent,
+        } = job.phase
+        else {
+            return;
+        };
+        while room > 0 && next < job.plan_len {
+            let Some(a) = self.plan.get(next) else {
+                break;
+            };
+            downlink.send(TargetToHost::Temporal(TemporalReport::Step {
+                job: job.id,
+                index: next as u16,
+                action: a.action,
+                start: a.start,
+                duration: a.duration,
+                start_lb: a.start_lb,
+                start_ub: a.start_ub,
+            }));
+            next += 1;
+            room -= 1;
+        }
+        if room > 0 && next >= job.plan_len && !stats_sent {
+            let s = &job.stats;
+            downlink.send(TargetToHost::Temporal(TemporalReport::Stats {
+                job: job.id,
+                expanded: sat(s.expanded),
+                generated: sat(s.generated),
+                evaluated: sat(s.evaluated),
+                inconsistent: sat(s.inconsistent),
+                duplicates: sat(s.duplicates),
+                dead_ends: sat(s.dead_ends),
+                nodes: sat(s.nodes),
+                too_long: sat(s.too_long),
+                shed: sat(s.shed),
+                best_h: s.best_h,
+            }));
+            stats_sent = true;
+            room -= 1;
+        }
+        job.phase = Phase::Reporting { next, stats_sent };
+        if room > 0 && stats_sent {
+            let solved = job.outcome == Some(TemporalOutcome::Solved);
+            downlink.send(TargetToHost::Temporal(TemporalReport::Done {
+                job: job.id,
+                outcome: job.outcome.unwrap_or(TemporalOutcome::Unsolvable),
+                steps: if solved { job.plan_len as u16 } else { 0 },
+                makespan: if solved { job.makespan } else { 0 },
+                ticks_per_unit: job.ticks_per_unit,
+                peak_arena_bytes: sat(job.stats.peak_words.saturating_mul(4)),
+                arena_bytes: self.arena_bytes,
+                planning_ticks: job.spent_ticks,
+                windows: job.windows,
+                worst_expansion_ticks: sat(job.most_step_ticks),
+            }));
+            self.finished = self.finished.saturating_add(1);
+            self.end_job();
+        }
+    }
+}

@@ -1,0 +1,126 @@
+//! The temporal PDDL planner in the planner partition (issue 13): the memory of its plug-in
+//! (`flight_app::TemporalApp`) and the calls the partition's loop makes.
+//!
+//! The task buffer (1 MiB) and the search arena (8 MiB) are statics in `.bss.noinit.planner`:
+//! in the partition's region, after its zeroed statics, and never zeroed, neither at a
+//! partition start nor at boot (the warm boot's image check covers the RAM image only), so
+//! they cost no boot time. The planner writes every arena word it reads; the task buffer is
+//! read only up to the bytes a job received. The plan buffer is small and zeroed with the
+//! partition's other statics.
+use core::mem::MaybeUninit;
+use core::ptr::addr_of_mut;
+
+use flight_app::{
+    PlannerPlugin, PluginWindow, TemporalApp, TemporalStorage, MAX_TEMPORAL_PLAN_ACTIONS,
+    MAX_TEMPORAL_TASK_BYTES, TEMPORAL_ARENA_BYTES,
+};
+use fsw_bridge::HostToTarget;
+use temporal::PlannedAction;
+
+use kernel_config::system::PLANNER_WINDOW_TICKS;
+
+use userlib::{HostOutbox, PartitionClock};
+
+const ARENA_WORDS: usize = TEMPORAL_ARENA_BYTES / 4;
+/// Ticks of the planner window kept for what follows the plug-ins (the messages for the
+/// executive and the host) and for what preceded the MEXEC window's clock reading (the
+/// messages taken in).
+const WINDOW_RESERVE_TICKS: u64 = 2_000;
+
+#[link_section = ".bss.noinit.planner"]
+static mut TASK: MaybeUninit<[u8; MAX_TEMPORAL_TASK_BYTES]> = MaybeUninit::uninit();
+
+#[link_section = ".bss.noinit.planner"]
+static mut ARENA: MaybeUninit<[u32; ARENA_WORDS]> = MaybeUninit::uninit();
+
+#[link_section = ".bss.part.planner"]
+static mut PLAN: MaybeUninit<[PlannedAction; MAX_TEMPORAL_PLAN_ACTIONS]> = MaybeUninit::uninit();
+
+#[link_section = ".bss.part.planner"]
+static mut APP: MaybeUninit<TemporalApp<'static>> = MaybeUninit::uninit();
+
+/// Messages for the host the plug-in leaves free in the partition's queue (its other
+/// messages: the MEXEC planner's metrics).
+const OUTBOX_RESERVE: usize = 8;
+
+/// The plug-in, made at the partition's (re)start (a job in progress is lost with it).
+pub fn start() -> &'static mut TemporalApp<'static> {
+    // SAFETY: PLAN is this partition's static, zeroed by the partition start, and all-zero
+    // bytes are a valid array of PlannedAction (integers). APP is this partition's static.
+    // The entry runs once per (re)start, so nothing else refers to either.
+    unsafe {
+        let plan = &mut *(addr_of_mut!(PLAN) as *mut [PlannedAction; MAX_TEMPORAL_PLAN_ACTIONS]);
+        (*addr_of_mut!(APP)).write(TemporalApp::new(plan))
+    }
+}
+
+/// Hands the plug-in its task buffer and arena again when no job holds them.
+fn give_storage(app: &mut TemporalApp<'static>) {
+    if !app.needs_storage() {
+        return;
+    }
+    // SAFETY: `needs_storage` says the plug-in holds no reference into TASK or ARENA (the
+    // search that borrowed them ended with its job), and nothing else in the partition refers
+    // to them, so these are the only references. Every bit pattern is a valid u8 and u32, and
+    // the RAM holds whatever it held (defined bytes): nothing reads a value it did not write.
+    let storage = unsafe {
+        TemporalStorage {
+            task: &mut *(addr_of_mut!(TASK) as *mut [u8; MAX_TEMPORAL_TASK_BYTES]),
+            arena: &mut *(addr_of_mut!(ARENA) as *mut [u32; ARENA_WORDS]),
+        }
+    };
+    app.give_storage(storage);
+}
+
+/// A host message routed to the planner partition: true if it was the plug-in's.
+pub fn handle<const N: usize>(
+    app: &mut TemporalApp<'static>,
+    msg: &HostToTarget,
+    outbox: &mut HostOutbox<N>,
+) -> bool {
+    if !matches!(
+        msg,
+        HostToTarget::TemporalBegin { .. } | HostToTarget::TemporalChunk { .. }
+    ) {
+        return false;
+    }
+    give_storage(app);
+    app.handle(msg, outbox)
+}
+
+/// The granted frame's window, after the MEXEC planner's: the search goes on until the
+/// window's planning share, counted from the window's start (`window_started`), is spent.
+pub fn window<const N: usize>(
+    app: &mut TemporalApp<'static>,
+    window_started: u64,
+    share_ticks: u64,
+    memories: &mut flight_app::Memories<'_>,
+    outbox: &mut HostOutbox<N>,
+) {
+    if !app.planning_pending() {
+        return;
+    }
+    give_storage(app);
+    let mut clock = PartitionClock;
+    let mut w =
+        PluginWindow {
+            memories,
+            fetch: None,
+            clock: &mut clock,
+            downlink: outbox,
+            until: Some(window_started.saturating_add(share_ticks)),
+            hard_until: Some(window_started.saturating_add(
+                u64::from(PLANNER_WINDOW_TICKS).saturating_sub(WINDOW_RESERVE_TICKS),
+            )),
+        };
+    app.window(&mut w);
+}
+
+/// What the plug-in has ready for the host, as far as the queue has room.
+pub fn report<const N: usize>(app: &mut TemporalApp<'static>, outbox: &mut HostOutbox<N>) {
+    if !app.busy() {
+        return;
+    }
+    let room = N.saturating_sub(outbox.queue.len() + OUTBOX_RESERVE);
+    app.report(room, outbox);
+}

@@ -1,0 +1,347 @@
+//! `hil plan --emulated`: the temporal planner on the emulated RAD750, in the planner
+//! partition (issue 13). The compiled task goes up in chunks on the reliable link
+//! (`TemporalBegin`, `TemporalChunk`), the planner partition checks and accepts it, and the
+//! host then grants frames in lockstep (one major frame of mission time each) until the plan
+//! comes back: the planner searches in each granted frame's window, within its CPU share, and
+//! resumes in the next (anytime across windows).
+//!
+//! Costs are guest CPU: the planner partition's timebase ticks spent setting up and searching
+//! (its decrementer-counted CPU time, the same run to run), and the guest instructions that
+//! makes under `-icount shift=2` (4 ns each, 15.06 per 16.6 MHz tick). Never host time.
+use fsw_bridge::temporal::{
+    TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalReport, TEMPORAL_CHUNK_MAX,
+};
+use fsw_bridge::{HostToTarget, MissionTimeUs, TargetToHost};
+
+use crate::firmware::FirmwareImage;
+use crate::mission::link::{Exchanged, LinkSession};
+use crate::mission::plan::LinkFaults;
+use crate::mission::target::{hello_message, EmulatedTarget, MissionTarget};
+use crate::plan::{PlanOptions, PlanReport, PlanStep};
+use crate::qemu::QemuProfile;
+
+/// One major frame of mission time per grant while planning is pending.
+pub const FRAME_US: u64 = autonomy::partitioned::MAJOR_FRAME_US;
+/// Guest instructions per timebase tick under `-icount shift=2` (4 ns per instruction, a
+/// 16.6 MHz timebase): 60.24 ns / 4 ns.
+pub const INSTRUCTIONS_PER_TICK: f64 = 1e9 / 16.6e6 / 4.0;
+/// Chunks sent before the link is given a chance to settle (the send window is 16 frames a
+/// virtual channel; the queue takes more).
+const CHUNKS_PER_BATCH: usize = 32;
+
+/// What the emulated target adds to a plan report.
+#[derive(Clone, Debug, Default, serde::Serialize, PartialEq)]
+pub struct EmulatedCosts {
+    /// The planner partition's CPU spent setting up and searching, timebase ticks.
+    pub planning_ticks: u64,
+    /// The same in guest instructions (ticks x 15.06, `-icount shift=2`).
+    pub guest_instructions: u64,
+    /// Planner windows in which the search ran.
+    pub planner_windows: u32,
+    /// The costliest expansion, timebase ticks (a planner window is 33,200; its planning
+    /// share 24,900).
+    pub worst_expansion_ticks: u32,
+    /// Frames granted from the task's acceptance to the plan's end (mission time:
+    /// `frames` x 10 ms).
+    pub frames: u32,
+    /// Lockstep rounds of the link for the whole job (uplink included).
+    pub link_rounds: u64,
+}
+
+/// The job's configuration on the wire, from `hil plan`'s options.
+pub fn wire_config(options: &PlanOptions) -> Result<TemporalConfig, String> {
+    let c = &options.config;
+    Ok(TemporalConfig {
+        max_steps: u16::try_from(c.max_steps).map_err(|_| "max steps over 65535".to_string())?,
+        compression: c.compression,
+        preferred_operators: c.preferred_operators,
+        shed_when_full: c.shed_when_full,
+        duplicates: match c.duplicates {
+            temporal::Duplicates::Keep => TemporalDuplicates::Keep,
+            temporal::Duplicates::PruneQuiescent => TemporalDuplicates::PruneQuiescent,
+            temporal::Duplicates::PruneAll => TemporalDuplicates::PruneAll,
+        },
+        duration_costs: c.relaxed_cost == temporal::heuristic::RelaxedCost::Duration,
+        dropped_goals: c.dropped_goals,
+        max_expansions: u32::try_from(options.max_expansions).unwrap_or(u32::MAX),
+        max_windows: 0,
+    })
+}
+
+/// What the planner partition said about the job.
+#[derive(Debug, Default)]
+struct Collected {
+    accepted: bool,
+    refused: Option<String>,
+    steps: Vec<TemporalReport>,
+    stats: Option<TemporalReport>,
+    done: Option<TemporalReport>,
+    health: Vec<String>,
+}
+
+impl Collected {
+    fn take(&mut self, job: u16, msg: &TargetToHost) {
+        match msg {
+            TargetToHost::Temporal(r) if r.job() == job => match r {
+                TemporalReport::Accepted { .. } => self.accepted = true,
+                TemporalReport::Refused { reason, .. } => {
+                    self.refused = Some(format!("{reason:?}"))
+                }
+                TemporalReport::Step { .. } => self.steps.push(r.clone()),
+                TemporalReport::Stats { .. } => self.stats = Some(r.clone()),
+                TemporalReport::Done { .. } => self.done = Some(r.clone()),
+            },
+            TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::HealthMonitor {
+                partition,
+                kind,
+                action,
+                ..
+            }) => self.health.push(format!(
+                "partition {partition}: error kind {kind}, action {action}"
+            )),
+            _ => {}
+        }
+    }
+}
+
+/// Why an emulated job failed (the target keeps running after each but the last two).
+#[derive(Debug, thiserror::Error)]
+pub enum EmulatedError {
+    #[error("the planner partition refused the task: {0}")]
+    Refused(String),
+    #[error("the target: {0}")]
+    Target(String),
+    #[error("the target reset during the job ({0})")]
+    Reset(String),
+    #[error("no answer from the planner partition after {0} frames")]
+    NoAnswer(u32),
+}
+
+/// A booted emulated target with its link, for one or more jobs.
+pub struct EmulatedPlanner {
+    target: EmulatedTarget,
+    link: LinkSession,
+    frame: u32,
+    now: MissionTimeUs,
+    next_job: u16,
+    /// Health-monitor events seen (for tests: a planner that overran its window).
+    pub health_events: Vec<String>,
+}
+
+impl EmulatedPlanner {
+    /// Boot `firmware` under QEMU (the shipped `rad750-proxy` profile).
+    pub fn boot(firmware: &FirmwareImage) -> Result<Self, String> {
+        let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
+        let mut target = EmulatedTarget::with_temporary_nv(profile, firmware.clone(), false, false)
+            .map_err(|e| format!("cannot create the non-volatile memory file: {e}"))?;
+        let hello = target.boot().map_err(|e| e.to_string())?;
+        let mut link = LinkSession::new(0, &LinkFaults::default());
+        link.hello(&hello_message(&hello));
+        Ok(Self {
+            target,
+            link,
+            frame: 0,
+            now: MissionTimeUs::ZERO,
+            next_job: 1,
+            health_events: Vec::new(),
+        })
+    }
+
+    fn exchange(
+        &mut self,
+        job: u16,
+        got: &mut Collected,
+        until: Option<&mut dyn FnMut(&TargetToHost) -> bool>,
+    ) -> Result<(), EmulatedError> {
+        let (end, delivered) = self
+            .link
+            .exchange(&mut self.target, until)
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        for msg in &delivered {
+            self.target.observe(msg);
+            got.take(job, msg);
+        }
+        match end {
+            Exchanged::Settled => Ok(()),
+            Exchanged::TargetReset(hello) => Err(EmulatedError::Reset(format!("{hello:?}"))),
+        }
+    }
+
+    /// Send raw job messages (tests send damaged ones) and wait for the acceptance or the
+    /// refusal of `job`.
+    pub fn uplink(&mut self, job: u16, msgs: Vec<HostToTarget>) -> Result<(), EmulatedError> {
+        let mut got = Collected::default();
+        for batch in msgs.chunks(CHUNKS_PER_BATCH) {
+            for m in batch {
+                self.link
+                    .send(m.clone())
+                    .map_err(|e| EmulatedError::Target(e.to_string()))?;
+            }
+            self.exchange(job, &mut got, None)?;
+        }
+        if !got.accepted && got.refused.is_none() {
+            let mut answered = |m: &TargetToHost| matches!(m, TargetToHost::Temporal(TemporalReport::Accepted { job: j, .. } | TemporalReport::Refused { job: j, .. }) if *j == job);
+            self.exchange(job, &mut got, Some(&mut answered))?;
+        }
+        match got.refused {
+            Some(reason) => Err(EmulatedError::Refused(reason)),
+            None => Ok(()),
+        }
+    }
+
+    /// The messages that uplink `task` as job `job`.
+    pub fn job_messages(job: u16, task: &[u8], config: TemporalConfig) -> Vec<HostToTarget> {
+        let mut msgs = vec![HostToTarget::TemporalBegin {
+            job,
+            len: task.len() as u32,
+            crc32: flight_app::temporal_crc32(task),
+            config,
+        }];
+        for (i, chunk) in task.chunks(TEMPORAL_CHUNK_MAX).enumerate() {
+            msgs.push(HostToTarget::TemporalChunk {
+                job,
+                offset: (i * TEMPORAL_CHUNK_MAX) as u32,
+                bytes: heapless::Vec::from_slice(chunk).expect("a chunk fits its message"),
+            });
+        }
+        msgs
+    }
+
+    /// A new job id.
+    pub fn new_job(&mut self) -> u16 {
+        let job = self.next_job;
+        self.next_job = self.next_job.wrapping_add(1).max(1);
+        job
+    }
+
+    /// Grant frames until `job`'s Done, at most `max_frames`.
+    fn plan_frames(
+        &mut self,
+        job: u16,
+        max_frames: u32,
+    ) -> Result<(Collected, u32), EmulatedError> {
+        let mut got = Collected::default();
+        let mut frames = 0;
+        while got.done.is_none() {
+            if frames >= max_frames {
+                return Err(EmulatedError::NoAnswer(frames));
+            }
+            let frame = self.frame;
+            let until = self.now.saturating_add(FRAME_US);
+            self.link
+                .send(HostToTarget::TimeGrant {
+                    frame,
+                    now: self.now,
+                    until,
+                })
+                .map_err(|e| EmulatedError::Target(e.to_string()))?;
+            let mut done = |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
+            self.exchange(job, &mut got, Some(&mut done))?;
+            self.frame = self.frame.wrapping_add(1);
+            self.now = until;
+            frames += 1;
+        }
+        self.health_events.append(&mut got.health);
+        Ok((got, frames))
+    }
+
+    /// Plan `compiled` on the target: uplink, frames until the plan, the report.
+    pub fn plan(
+        &mut self,
+        compiled: &pddl::Compiled,
+        options: &PlanOptions,
+        max_frames: u32,
+    ) -> Result<PlanReport, EmulatedError> {
+        let job = self.new_job();
+        let config = wire_config(options).map_err(EmulatedError::Target)?;
+        let rounds_before = self.link.summary().rounds;
+        self.uplink(job, Self::job_messages(job, &compiled.task, config))?;
+        let (got, frames) = self.plan_frames(job, max_frames)?;
+        let mut report = crate::plan::empty_report(compiled);
+        let Some(TemporalReport::Done {
+            outcome,
+            makespan,
+            ticks_per_unit,
+            peak_arena_bytes,
+            arena_bytes,
+            planning_ticks,
+            windows,
+            worst_expansion_ticks,
+            ..
+        }) = got.done
+        else {
+            return Err(EmulatedError::NoAnswer(frames));
+        };
+        let tpu = f64::from(ticks_per_unit.max(1));
+        report.solved = outcome == TemporalOutcome::Solved;
+        report.outcome = match outcome {
+            TemporalOutcome::Solved => "solved".into(),
+            TemporalOutcome::Unsolvable => "unsolvable".into(),
+            TemporalOutcome::OutOfMemory(r) => format!("out of memory ({r:?})"),
+            TemporalOutcome::ExpansionLimit => "expansion limit".into(),
+            TemporalOutcome::WindowLimit => "window limit".into(),
+        };
+        if report.solved {
+            report.makespan = Some(f64::from(makespan) / tpu);
+        }
+        for s in &got.steps {
+            if let TemporalReport::Step {
+                action,
+                start,
+                duration,
+                start_lb,
+                start_ub,
+                ..
+            } = *s
+            {
+                report.plan.push(PlanStep {
+                    start: f64::from(start) / tpu,
+                    action: compiled
+                        .action_names
+                        .get(usize::from(action))
+                        .cloned()
+                        .unwrap_or_else(|| format!("(action {action})")),
+                    duration: f64::from(duration) / tpu,
+                    start_window: [f64::from(start_lb) / tpu, f64::from(start_ub) / tpu],
+                });
+            }
+        }
+        if let Some(TemporalReport::Stats {
+            expanded,
+            generated,
+            evaluated,
+            inconsistent,
+            duplicates,
+            dead_ends,
+            nodes,
+            too_long,
+            shed,
+            best_h,
+            ..
+        }) = got.stats
+        {
+            report.expanded = expanded.into();
+            report.generated = generated.into();
+            report.evaluated = evaluated.into();
+            report.inconsistent = inconsistent.into();
+            report.duplicates = duplicates.into();
+            report.dead_ends = dead_ends.into();
+            report.nodes = nodes.into();
+            report.too_long = too_long.into();
+            report.shed = shed.into();
+            report.best_h = best_h;
+        }
+        report.peak_arena_bytes = peak_arena_bytes.into();
+        report.arena_bytes = arena_bytes.into();
+        report.target = "emulated".into();
+        report.emulated = Some(EmulatedCosts {
+            planning_ticks,
+            guest_instructions: (planning_ticks as f64 * INSTRUCTIONS_PER_TICK).round() as u64,
+            planner_windows: windows,
+            worst_expansion_ticks,
+            frames,
+            link_rounds: self.link.summary().rounds - rounds_before,
+        });
+        Ok(report)
+    }
+}
