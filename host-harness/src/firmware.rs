@@ -146,6 +146,8 @@ fn build_into(features: &[&str], target_dir: PathBuf) -> Result<FirmwareImage, F
     if !features.is_empty() {
         args.extend(["--features", joined.as_str()]);
     }
+    let remap = remap_flags(&root, &cargo_home());
+    args.extend(["--config", remap.as_str()]);
     let output = Command::new(cargo)
         .current_dir(&image_dir)
         .args(&args)
@@ -163,6 +165,31 @@ fn build_into(features: &[&str], target_dir: PathBuf) -> Result<FirmwareImage, F
         });
     }
     FirmwareImage::open(&target_dir.join("powerpc-unknown-linux-gnu/release/rad750-firmware"))
+}
+
+/// A `--config` value that adds `--remap-path-prefix` for the checkout and for cargo's home to
+/// the image's rustflags (cargo merges it with `.cargo/config.toml`'s list). Source paths end up
+/// in the image (panic locations of crates outside the image's directory and of dependencies):
+/// without the remapping the image, and with it the guest instruction counts and the run's
+/// transcript, would depend on where the repository was cloned and where cargo keeps its
+/// registry. With it, the same commit gives the same image on every machine.
+fn remap_flags(root: &Path, cargo_home: &Path) -> String {
+    let flag = |from: &Path, to: &str| {
+        toml::Value::String(format!("--remap-path-prefix={}={to}", from.display())).to_string()
+    };
+    format!(
+        "target.{TARGET}.rustflags=[{}, {}]",
+        flag(root, "/rad750"),
+        flag(cargo_home, "/cargo")
+    )
+}
+
+/// Where cargo keeps registry sources: `CARGO_HOME`, or `~/.cargo`.
+fn cargo_home() -> PathBuf {
+    std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cargo")))
+        .unwrap_or_else(|| PathBuf::from(".cargo"))
 }
 
 /// Read the 8-byte `FIRMWARE_BUILD_ID` symbol's contents from the ELF.
