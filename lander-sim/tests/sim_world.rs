@@ -49,7 +49,11 @@ fn the_ground_answers_at_an_uplink_window_after_seeing_the_halt() {
 fn the_battery_never_goes_negative_and_the_lander_dies_at_zero() {
     let mut s = Scenario::bsm1();
     s.mission.battery_wh = 300;
-    s.power.drops = vec![Drop { at_h: 5, wh: 250 }];
+    s.power.drops = vec![Drop {
+        at_h: 5,
+        wh: 250,
+        to_soc: None,
+    }];
     let (model, ..) = autonomy_inputs(&s, false).unwrap();
     let mut w = World::new(&s, &model, 1, false);
     let mut last = w.battery_mj;
