@@ -1024,15 +1024,20 @@ fn rebuild(
     now: u64,
     charge_mj: u64,
     strategy: Strategy,
+    preamble_done: bool,
 ) -> Result<(HtnModel, Box<Autonomy>), String> {
     let model = rsm1::model(options).map_err(|_| "the new model exceeds the capacities")?;
-    let net = flatten(
+    let mut net = flatten(
         &model,
         FlattenOptions {
             fully_autonomous: s.mission.fully_autonomous,
         },
     )
     .map_err(|e| format!("the new model does not flatten: {e:?}"))?;
+    if preamble_done {
+        // The new model's preamble (task 1) is done already: not planned again.
+        net.chains.retain(|c| c.task != PREAMBLE_TASK);
+    }
     let mut timeline =
         rsm1::placement(s.mission.sols, charge_mj).ok_or("no placement for the mission")?;
     timeline.horizon_start = MissionTimeUs(now);
@@ -1051,12 +1056,24 @@ fn rebuild(
     Ok((model, exec))
 }
 
+/// The reference model's preamble task.
+const PREAMBLE_TASK: u16 = 1;
+
 /// A ground change on its way.
 struct PendingChange {
     index: usize,
     decided_us: u64,
     /// On board (u64::MAX until its trigger happened).
     arrives_us: u64,
+}
+
+/// The next arrival of a ground change still to come.
+fn next_arrival(pending: &[PendingChange]) -> Option<u64> {
+    pending
+        .iter()
+        .map(|p| p.arrives_us)
+        .filter(|&t| t != u64::MAX)
+        .min()
 }
 
 /// Runs one mission of scenario `s` under `config`.
@@ -1175,6 +1192,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                         world.now,
                         world.battery_mj,
                         config.strategy,
+                        preamble_done,
                     )?;
                     model = m;
                     exec = e;
@@ -1280,7 +1298,9 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                 event = Some(Event::Finished(outcome));
             }
             Directive::Wait { until } => {
-                world.advance(until.0.max(world.now).min(horizon));
+                // Stop for a ground change arriving on the way.
+                let next = next_arrival(&pending).unwrap_or(u64::MAX);
+                world.advance(until.0.min(next).max(world.now).min(horizon));
             }
             Directive::Pushing { deadline } => {
                 let next = world
@@ -1289,7 +1309,8 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                     .map(|b| b.until)
                     .filter(|&u| u > world.now)
                     .min()
-                    .map_or(deadline.0, |u| u.min(deadline.0));
+                    .map_or(deadline.0, |u| u.min(deadline.0))
+                    .min(next_arrival(&pending).unwrap_or(u64::MAX));
                 world.advance(next.max(world.now + 1).min(horizon));
             }
             Directive::Planning { .. } | Directive::Running { .. } => {}
