@@ -1107,7 +1107,8 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
     let mut analyses = Vec::new();
     let mut hold_violations = 0u32;
     let mut options = rsm1_options(s);
-    let mut panoramas_done = 0u8;
+    // Panoramas taken (the preamble's first, the panorama tasks' after it).
+    let mut panoramas_taken = 0u8;
     let mut preamble_done = false;
     // Counters of the executors replaced by model uplinks.
     let mut past = lander::executor::ExecStats::default();
@@ -1180,7 +1181,8 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                         options.targets_per_site = t;
                     }
                     // The new model holds the panoramas still to take.
-                    options.panoramas = s.mission.panoramas.saturating_sub(panoramas_done);
+                    let tasks_done = panoramas_taken.saturating_sub(u8::from(preamble_done));
+                    options.panoramas = s.mission.panoramas.saturating_sub(tasks_done);
                     let stats = *exec.stats();
                     past.retries += stats.retries;
                     past.replans += stats.replans;
@@ -1285,9 +1287,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                             }
                         }
                         PrimitiveKind::TakeMonoPanorama => {
-                            if preamble_done {
-                                panoramas_done = panoramas_done.saturating_add(1);
-                            }
+                            panoramas_taken = panoramas_taken.saturating_add(1);
                         }
                         PrimitiveKind::FindExcavationSites => preamble_done = true,
                         PrimitiveKind::DownlinkWithGroundHold => world.set_hold(),
