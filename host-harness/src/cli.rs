@@ -95,6 +95,11 @@ enum Command {
     /// the analytical model (equations 2-5); shardable (--shard, or the batch engine's
     /// environment), `hil study merge` to merge.
     Study(hil::study::StudyArgs),
+    /// Lander missions on the host simulation (seed 000): `hil lander run FILE` runs one
+    /// scenario (RSM-1, an ELAP scenario) and checks its expectations; exit 0 all met, 1 one
+    /// failed, 2 bad input.
+    #[command(subcommand)]
+    Lander(hil::lander::LanderCommand),
     /// Plan a temporal PDDL problem with the onboard temporal planner (seed 001): print the
     /// plan, its makespan, the search statistics and the planner's peak arena bytes.
     Plan(hil::plan::PlanArgs),
@@ -402,6 +407,7 @@ fn execute(command: Command) -> Result<ExitCode, String> {
         }
         Command::Campaign(args) => hil::campaign::cli(args),
         Command::Study(args) => hil::study::cli(args),
+        Command::Lander(command) => hil::lander::cli(command),
         Command::Plan(args) => hil::plan::cli(args),
         Command::Bench {
             what: Some(BenchWhat::Kernel { frames, json }),

@@ -20,6 +20,7 @@ pub mod cli;
 pub mod defmt_log;
 pub mod diag;
 pub mod firmware;
+pub mod lander;
 pub mod link;
 pub mod mission;
 pub mod options;

@@ -5,7 +5,9 @@
 //!   `lander::executor` through its `Observation`/`Directive` step.
 //! - [`study`]: BSM-1 under the four strategies and three energy variants, the statistics, the
 //!   analytical model of equations 2-5, the JSON report, shard merging, and the SVG plot.
+//! - [`expect`]: a scenario's success criteria (`[[expect]]`), checked against a run.
 //! - [`rng`]: the seeded streams.
+pub mod expect;
 pub mod rng;
 pub mod scenario;
 pub mod sim;

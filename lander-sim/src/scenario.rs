@@ -38,6 +38,15 @@ pub struct Scenario {
     pub energy: EnergyNoise,
     #[serde(default)]
     pub replan: ReplanCost,
+    /// Data product volumes, per tier, against the model's.
+    #[serde(default)]
+    pub data: DataVolume,
+    /// How `hil lander run` runs the scenario (the study sets its own strategies and seeds).
+    #[serde(default)]
+    pub run: RunSpec,
+    /// Success criteria, checked at the end of a run ([`crate::expect`]).
+    #[serde(default)]
+    pub expect: Vec<crate::expect::Expectation>,
 }
 
 /// The mission: the reference model (`lander::rsm1`) at this size.
@@ -72,6 +81,9 @@ pub struct Power {
     pub seismometer_w: u64,
     /// Exogenous drops of charge.
     pub drops: Vec<Drop>,
+    /// State of charge at the start, as a fraction of `mission.battery_wh` (the lander knows
+    /// it: its plan starts from this charge).
+    pub start_soc: f64,
 }
 
 impl Default for Power {
@@ -80,16 +92,21 @@ impl Default for Power {
             hotel_w: 8,
             seismometer_w: 2,
             drops: Vec::new(),
+            start_soc: 1.0,
         }
     }
 }
 
-/// A sudden loss of charge at a mission time.
+/// A sudden loss of charge at a mission time: `wh` lost, or (`to_soc`) the charge falls to
+/// this fraction of `mission.battery_wh` if it is above it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Drop {
     pub at_h: u64,
+    #[serde(default)]
     pub wh: u64,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub to_soc: Option<f64>,
 }
 
 /// Heating: excavation, collection and analysis heat their hardware to the operating
@@ -241,7 +258,9 @@ impl Default for Comms {
 }
 
 /// The ground: it sees a halt at the next Earth-in-view plus the light time, works on it, and
-/// answers at the next uplink window.
+/// answers at the next uplink window. It releases ground holds (a hold set by a downlink with
+/// ground hold is released by the first uplink that starts once the ground has had the
+/// downlinked data for `response_h`), and it uplinks changes ([`GroundChange`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Ground {
@@ -249,6 +268,8 @@ pub struct Ground {
     pub uplink_offsets_h: Vec<u64>,
     /// Between the ground seeing a problem and its answer being ready to uplink.
     pub response_h: u64,
+    /// Changes the ground uplinks during the mission.
+    pub changes: Vec<GroundChange>,
 }
 
 impl Default for Ground {
@@ -256,6 +277,107 @@ impl Default for Ground {
         Self {
             uplink_offsets_h: vec![1, 13, 25, 37],
             response_h: 4,
+            changes: Vec::new(),
+        }
+    }
+}
+
+/// A change the ground makes (seed 000 II.D: onboard state values, task parameters, the task
+/// network), with its delay: decided at `at_h` (it goes up at the next uplink window and is on
+/// board a light time later), or in reaction to the lander's `after_samples`-th sample
+/// collection (the ground sees it at the next Earth-in-view plus the light time, answers
+/// `ground.response_h` later at the next uplink window). Exactly one trigger.
+///
+/// A new value or model is a model uplink: the executor is rebuilt at the next chain boundary
+/// from the state (time, charge, the science context it has learned) with the new model, and
+/// plans from there; a new rate applies on arrival.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroundChange {
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub at_h: Option<u64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub after_samples: Option<u32>,
+    /// New estimated science values of the sites, in site order (the excavation order).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub site_values: Vec<f64>,
+    /// A new mission model that samples only the first this many targets of each site,
+    /// whatever their science value.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub targets_per_site: Option<u8>,
+    /// A new DSN downlink rate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rate_bps: Option<u64>,
+    /// A new per-sol communication energy allowance.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub per_sol_wh: Option<u64>,
+}
+
+impl GroundChange {
+    /// Whether the change is a model uplink (the executor is rebuilt).
+    pub fn changes_model(&self) -> bool {
+        !self.site_values.is_empty() || self.targets_per_site.is_some()
+    }
+}
+
+/// Data volumes: each product of a tier is this many times the model's size (seed 000 V.B.1
+/// scenarios 7 and 12: "significantly more" decisional or mandatory data). The autonomy's
+/// model keeps its sizes: the lander does not know.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DataVolume {
+    pub critical: f64,
+    pub decisional: f64,
+    pub mandatory: f64,
+    pub residual: f64,
+}
+
+impl Default for DataVolume {
+    fn default() -> Self {
+        Self {
+            critical: 1.0,
+            decisional: 1.0,
+            mandatory: 1.0,
+            residual: 1.0,
+        }
+    }
+}
+
+/// The strategy, as a scenario names it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StrategyName {
+    Static,
+    Ground,
+    Fe,
+    Replan,
+}
+
+impl StrategyName {
+    pub fn strategy(self) -> lander::executor::Strategy {
+        use lander::executor::Strategy as S;
+        match self {
+            Self::Static => S::Static,
+            Self::Ground => S::Ground,
+            Self::Fe => S::FlexibleExecution,
+            Self::Replan => S::Replan,
+        }
+    }
+}
+
+/// How a single run of the scenario is made (`hil lander run`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RunSpec {
+    pub strategy: StrategyName,
+    pub seed: u64,
+}
+
+impl Default for RunSpec {
+    fn default() -> Self {
+        Self {
+            strategy: StrategyName::Replan,
+            seed: 1,
         }
     }
 }
@@ -383,6 +505,9 @@ impl Scenario {
             failures: Failures::default(),
             energy: EnergyNoise::default(),
             replan: ReplanCost::default(),
+            data: DataVolume::default(),
+            run: RunSpec::default(),
+            expect: Vec::new(),
         }
     }
 
@@ -541,6 +666,83 @@ impl Scenario {
                 message: format!("{} is not a relative bias in [-0.9, 1]", self.energy.bias),
             });
         }
+        fraction(&mut e, "power.start_soc", self.power.start_soc);
+        for (i, d) in self.power.drops.iter().enumerate() {
+            match d.to_soc {
+                Some(x) => {
+                    fraction(&mut e, &format!("power.drops[{i}].to_soc"), x);
+                    if d.wh != 0 {
+                        e.push(FieldError {
+                            field: format!("power.drops[{i}].wh"),
+                            message: "give wh or to_soc, not both".into(),
+                        });
+                    }
+                }
+                None => positive(&mut e, &format!("power.drops[{i}].wh"), d.wh),
+            }
+        }
+        for (field, x) in [
+            ("data.critical", self.data.critical),
+            ("data.decisional", self.data.decisional),
+            ("data.mandatory", self.data.mandatory),
+            ("data.residual", self.data.residual),
+        ] {
+            if x.is_nan() || !(0.0..=1_000.0).contains(&x) {
+                e.push(FieldError {
+                    field: field.into(),
+                    message: format!("{x} is not a volume factor in [0, 1000]"),
+                });
+            }
+        }
+        for (i, c) in self.ground.changes.iter().enumerate() {
+            let at = format!("ground.changes[{i}]");
+            if c.at_h.is_some() == c.after_samples.is_some() {
+                e.push(FieldError {
+                    field: at.clone(),
+                    message: "give exactly one trigger: at_h or after_samples".into(),
+                });
+            }
+            if c.after_samples == Some(0) {
+                e.push(FieldError {
+                    field: format!("{at}.after_samples"),
+                    message: "must be at least 1".into(),
+                });
+            }
+            if !c.changes_model() && c.rate_bps.is_none() && c.per_sol_wh.is_none() {
+                e.push(FieldError {
+                    field: at.clone(),
+                    message: "changes nothing: give site_values, targets_per_site, rate_bps or per_sol_wh".into(),
+                });
+            }
+            if !c.site_values.is_empty() && c.site_values.len() != usize::from(m.sites) {
+                e.push(FieldError {
+                    field: format!("{at}.site_values"),
+                    message: format!("{} value(s) for {} site(s)", c.site_values.len(), m.sites),
+                });
+            }
+            for (k, &v) in c.site_values.iter().enumerate() {
+                fraction(&mut e, &format!("{at}.site_values[{k}]"), v);
+            }
+            if let Some(t) = c.targets_per_site {
+                if t == 0 || t > m.targets_per_site {
+                    e.push(FieldError {
+                        field: format!("{at}.targets_per_site"),
+                        message: format!("must be in 1..={}", m.targets_per_site),
+                    });
+                }
+            }
+            if c.rate_bps == Some(0) {
+                e.push(FieldError {
+                    field: format!("{at}.rate_bps"),
+                    message: "must be at least 1".into(),
+                });
+            }
+        }
+        e.extend(crate::expect::validate(
+            &self.expect,
+            m,
+            self.ground.changes.len(),
+        ));
         e
     }
 }

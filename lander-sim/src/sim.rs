@@ -44,7 +44,9 @@ use lander::executor::{
     Directive, Event, ExecConfig, Executor, Observation, Outcome, Strategy, TaskResult,
 };
 use lander::htn::{flatten, FlattenOptions, HtnModel, PrimitiveKind, PrimitiveSpec, Tier};
-use lander::rsm1::{self, Rsm1Options, HOUR_US, SOL_US, WH_MJ};
+use lander::rsm1::{self, Rsm1Options};
+/// Mission time and energy units (the reference model's).
+pub use lander::rsm1::{HOUR_US, SOL_US, WH_MJ};
 use serde::{Deserialize, Serialize};
 
 use crate::rng::{Rng, Stream};
@@ -145,6 +147,11 @@ pub struct Product {
     pub created_us: u64,
     /// When it reached Earth (transmission end plus light time).
     pub received_us: Option<u64>,
+    /// The sample an analysis product is about.
+    #[serde(default)]
+    pub site: Option<u8>,
+    #[serde(default)]
+    pub target: Option<u8>,
 }
 
 /// How a run ended.
@@ -196,6 +203,41 @@ pub struct RunResult {
     pub downlinks: Vec<DownlinkRecord>,
     /// Products still on board at the end.
     pub unsent: u32,
+    /// Every data product: those that reached Earth, then those still on board.
+    pub products: Vec<Product>,
+    /// Sample collections, in order.
+    pub collections: Vec<SampleEvent>,
+    /// Sample analyses, in order.
+    pub analyses: Vec<SampleEvent>,
+    /// Ground holds set (downlinks with ground hold) and released (by uplinks).
+    pub holds_set: u32,
+    pub holds_released: u32,
+    /// Primitives of chains that wait for the ground's release dispatched while a hold was in
+    /// force.
+    pub hold_violations: u32,
+    /// Ground changes, by their index in the scenario, with when they arrived on board and
+    /// when they took effect (a model uplink at the next chain boundary).
+    pub changes: Vec<AppliedChange>,
+}
+
+/// A sample collected or analysed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SampleEvent {
+    /// When the primitive started.
+    pub at_us: u64,
+    pub site: u8,
+    pub target: u8,
+    /// The analysis' result (analyses only).
+    pub positive: Option<bool>,
+}
+
+/// A ground change as it happened.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct AppliedChange {
+    pub index: usize,
+    pub decided_us: u64,
+    pub arrived_us: u64,
+    pub applied_us: u64,
 }
 
 impl RunResult {
@@ -255,8 +297,16 @@ pub struct World {
     quake_bytes: u64,
     quake_value: u64,
     next_quake: usize,
-    drops: Vec<(u64, u64)>,
+    /// (time, mJ lost, or the charge it falls to).
+    drops: Vec<(u64, u64, Option<u64>)>,
     next_drop: usize,
+    /// Product volume per tier, in thousandths of the model's.
+    volume_milli: [u64; 4],
+    /// A ground hold in force: when the ground's release can be ready (u64::MAX until the held
+    /// downlink's data reached Earth).
+    hold_ready: Option<u64>,
+    pub holds_set: u32,
+    pub holds_released: u32,
     pub stored: Vec<Product>,
     pub sent: Vec<Product>,
     trench_mcm: Vec<u64>,
@@ -267,7 +317,7 @@ pub struct World {
     collapse_ppm_per_h: u32,
     collapse_mcm: u64,
     arm: Option<(u8, u8)>,
-    instrument: Option<(u8, u8)>,
+    pub(crate) instrument: Option<(u8, u8)>,
     /// Per site, per target: (positive, strength in thousandths).
     outcomes: Vec<Vec<(bool, u64)>>,
     negative_value_milli: u64,
@@ -276,12 +326,12 @@ pub struct World {
     /// (chain, primitive) whose failure was resolved: the next attempt succeeds.
     resolved: Vec<(u16, u8)>,
     comm_energy_by_sol: Vec<u64>,
-    light_us: u64,
-    rate_bps: u64,
+    pub(crate) light_us: u64,
+    pub rate_bps: u64,
     overhead_us: u64,
     thermal_limit_us: u64,
     per_downlink_mj: u64,
-    per_sol_mj: u64,
+    pub per_sol_mj: u64,
     radio_mw: u64,
     ground_response_us: u64,
     p_fail: u32,
@@ -358,7 +408,7 @@ pub fn autonomy_inputs(
         },
     )
     .map_err(|e| format!("the model does not flatten: {e:?}"))?;
-    let mut timeline = rsm1::placement(s.mission.sols, s.mission.battery_wh * WH_MJ)
+    let mut timeline = rsm1::placement(s.mission.sols, start_charge_mj(s))
         .ok_or("no placement for the mission")?;
     // The placement's background drain: the hotel load and the seismometer.
     timeline.hotel_load_mw = (s.power.hotel_w + s.power.seismometer_w) * 1_000;
@@ -372,6 +422,14 @@ pub fn rsm1_options(s: &Scenario) -> Rsm1Options {
         panoramas: s.mission.panoramas,
         uplinks: s.mission.uplinks,
     }
+}
+
+/// The charge at the start: `power.start_soc` of the battery.
+pub fn start_charge_mj(s: &Scenario) -> u64 {
+    mul_ppm(
+        s.mission.battery_wh * WH_MJ,
+        u64::from(ppm(s.power.start_soc)),
+    )
 }
 
 /// The mission's horizon end.
@@ -432,18 +490,26 @@ impl World {
                         / u128::from(excavation_prior_us.max(1))) as u64,
                 )
             });
-        let mut drops: Vec<(u64, u64)> = s
+        let capacity = s.mission.battery_wh * WH_MJ;
+        let mut drops: Vec<(u64, u64, Option<u64>)> = s
             .power
             .drops
             .iter()
-            .map(|d| (d.at_h * HOUR_US, d.wh * WH_MJ))
+            .map(|d| {
+                (
+                    d.at_h * HOUR_US,
+                    d.wh * WH_MJ,
+                    d.to_soc.map(|x| mul_ppm(capacity, u64::from(ppm(x)))),
+                )
+            })
             .collect();
+        let volume = |x: f64| milli(x).max(0) as u64;
         drops.sort_unstable();
         let f = &s.failures;
         Self {
             earth,
             now: 0,
-            battery_mj: s.mission.battery_wh * WH_MJ,
+            battery_mj: start_charge_mj(s),
             dead: false,
             hotel_mw: s.power.hotel_w * 1_000,
             seismo_mw: s.power.seismometer_w * 1_000,
@@ -457,6 +523,15 @@ impl World {
             next_quake: 0,
             drops,
             next_drop: 0,
+            volume_milli: [
+                volume(s.data.critical),
+                volume(s.data.decisional),
+                volume(s.data.mandatory),
+                volume(s.data.residual),
+            ],
+            hold_ready: None,
+            holds_set: 0,
+            holds_released: 0,
             stored: Vec::new(),
             sent: Vec::new(),
             trench_mcm: vec![0; usize::from(s.mission.sites)],
@@ -513,6 +588,42 @@ impl World {
         }
     }
 
+    /// A product's volume in this world.
+    fn volume(&self, tier: Tier, bytes: u64) -> u64 {
+        mul_milli(bytes, self.volume_milli[tier_index(tier)])
+    }
+
+    /// Whether a ground hold is in force.
+    pub fn hold_in_force(&self) -> bool {
+        self.hold_ready.is_some()
+    }
+
+    /// A downlink with ground hold ended: a hold is in force until the ground has seen its data
+    /// for `response_h` and an uplink carries the release.
+    fn set_hold(&mut self) {
+        self.holds_set += 1;
+        let received = self.downlinks.last().map(|d| d.end_us + self.light_us);
+        // Only a downlink that carried data gives the ground something to release on.
+        let ready = match received {
+            Some(r) if self.downlinks.last().is_some_and(|d| d.bytes > 0) => {
+                r + self.ground_response_us
+            }
+            _ => u64::MAX,
+        };
+        self.hold_ready = Some(ready);
+    }
+
+    /// An uplink started at `start`: it releases the hold if the ground's release was ready
+    /// when it was sent (a light time before).
+    fn uplink(&mut self, start: u64) {
+        if let Some(ready) = self.hold_ready {
+            if ready.saturating_add(self.light_us) <= start {
+                self.hold_ready = None;
+                self.holds_released += 1;
+            }
+        }
+    }
+
     fn load_mw(&self) -> u64 {
         self.hotel_mw + if self.seismo_on { self.seismo_mw } else { 0 }
     }
@@ -558,12 +669,13 @@ impl World {
                     / u128::from(HOUR_US)) as u64;
             }
             self.now = stop;
-            while let Some(&(t, mj)) = self.drops.get(self.next_drop) {
+            while let Some(&(t, mj, to)) = self.drops.get(self.next_drop) {
                 if t > self.now {
                     break;
                 }
                 self.next_drop += 1;
-                if !self.spend(mj) {
+                let loss = to.map_or(mj, |to| self.battery_mj.saturating_sub(to));
+                if loss > 0 && !self.spend(loss) {
                     return false;
                 }
             }
@@ -576,10 +688,12 @@ impl World {
                     self.stored.push(Product {
                         kind: "quake".into(),
                         tier: Tier::Decisional,
-                        bytes: self.quake_bytes,
+                        bytes: self.volume(Tier::Decisional, self.quake_bytes),
                         value_milli: self.quake_value * 1_000,
                         created_us: t,
                         received_us: None,
+                        site: None,
+                        target: None,
                     });
                 }
             }
@@ -676,13 +790,20 @@ impl World {
                 }
             }
         }
+        let (site, target) = if spec.kind == PrimitiveKind::ScienceAnalyze {
+            self.instrument.unzip()
+        } else {
+            (spec.site, spec.target)
+        };
         self.stored.push(Product {
             kind: format!("{:?}", spec.kind),
             tier: p.tier,
-            bytes: p.size_bytes,
+            bytes: self.volume(p.tier, p.size_bytes),
             value_milli: value,
             created_us: self.now,
             received_us: None,
+            site,
+            target,
         });
     }
 
@@ -731,11 +852,13 @@ impl World {
             self.stored.push(Product {
                 kind: "seismic".into(),
                 tier: Tier::Residual,
-                bytes,
+                bytes: self.volume(Tier::Residual, bytes),
                 value_milli: (u128::from(bytes) * u128::from(self.seismo_value_milli_per_mb)
                     / 1_000_000) as u64,
                 created_us: start,
                 received_us: None,
+                site: None,
+                target: None,
             });
         }
         let mut capacity = (u128::from(self.rate_bps) * u128::from(tx_us) / 8_000_000) as u64;
@@ -877,18 +1000,85 @@ impl World {
             });
         }
     }
+}
 
-    fn realised(&self) -> u64 {
-        self.sent.iter().map(|p| p.value_milli).sum()
-    }
+/// The value of the products that reached Earth.
+fn realised_of(products: &[Product]) -> u64 {
+    products
+        .iter()
+        .filter(|p| p.received_us.is_some())
+        .map(|p| p.value_milli)
+        .sum()
 }
 
 /// The executor type the simulation drives (the default capacities).
 pub type Autonomy = Executor;
 
+/// An executor for the state `now`, `charge_mj`, `context` (what the lander has learned) with
+/// the model of `options` (a model uplink: the executor is rebuilt and plans from the state).
+#[allow(clippy::too_many_arguments)]
+fn rebuild(
+    s: &Scenario,
+    options: Rsm1Options,
+    context: &lander::assessor::ScienceContext,
+    now: u64,
+    charge_mj: u64,
+    strategy: Strategy,
+    preamble_done: bool,
+) -> Result<(HtnModel, Box<Autonomy>), String> {
+    let model = rsm1::model(options).map_err(|_| "the new model exceeds the capacities")?;
+    let mut net = flatten(
+        &model,
+        FlattenOptions {
+            fully_autonomous: s.mission.fully_autonomous,
+        },
+    )
+    .map_err(|e| format!("the new model does not flatten: {e:?}"))?;
+    if preamble_done {
+        // The new model's preamble (task 1) is done already: not planned again.
+        net.chains.retain(|c| c.task != PREAMBLE_TASK);
+    }
+    let mut timeline =
+        rsm1::placement(s.mission.sols, charge_mj).ok_or("no placement for the mission")?;
+    timeline.horizon_start = MissionTimeUs(now);
+    timeline.hotel_load_mw = (s.power.hotel_w + s.power.seismometer_w) * 1_000;
+    let exec = Box::new(
+        Executor::new(
+            ExecConfig::new(strategy),
+            &model,
+            &net,
+            &timeline,
+            context,
+            None,
+        )
+        .map_err(|e| format!("the executor refused the new model: {e:?}"))?,
+    );
+    Ok((model, exec))
+}
+
+/// The reference model's preamble task.
+const PREAMBLE_TASK: u16 = 1;
+
+/// A ground change on its way.
+struct PendingChange {
+    index: usize,
+    decided_us: u64,
+    /// On board (u64::MAX until its trigger happened).
+    arrives_us: u64,
+}
+
+/// The next arrival of a ground change still to come.
+fn next_arrival(pending: &[PendingChange]) -> Option<u64> {
+    pending
+        .iter()
+        .map(|p| p.arrives_us)
+        .filter(|&t| t != u64::MAX)
+        .min()
+}
+
 /// Runs one mission of scenario `s` under `config`.
 pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
-    let (model, net, timeline, context) = autonomy_inputs(s, config.prescient)?;
+    let (mut model, net, timeline, context) = autonomy_inputs(s, config.prescient)?;
     let mut exec: Box<Autonomy> = Box::new(
         Executor::new(
             ExecConfig::new(config.strategy),
@@ -913,7 +1103,37 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
     let mut replans_charged = 0u32;
     let mut analyzed = 0u32;
     let mut negatives = 0u32;
-    let spec_of = |exec: &Autonomy| {
+    let mut collections = Vec::new();
+    let mut analyses = Vec::new();
+    let mut hold_violations = 0u32;
+    let mut options = rsm1_options(s);
+    // Panoramas taken (the preamble's first, the panorama tasks' after it).
+    let mut panoramas_taken = 0u8;
+    let mut preamble_done = false;
+    // Counters of the executors replaced by model uplinks.
+    let mut past = lander::executor::ExecStats::default();
+    let mut applied = Vec::new();
+    let mut pending: Vec<PendingChange> = s
+        .ground
+        .changes
+        .iter()
+        .enumerate()
+        .map(|(index, c)| {
+            let decided = c.at_h.map_or(u64::MAX, |h| h * HOUR_US);
+            PendingChange {
+                index,
+                decided_us: decided,
+                arrives_us: if decided == u64::MAX {
+                    u64::MAX
+                } else {
+                    world.earth.next_uplink(decided) + world.light_us
+                },
+            }
+        })
+        .collect();
+    // The last dispatched primitive's chain, and whether it was the chain's last.
+    let mut last_dispatch: Option<(u16, bool)> = None;
+    let spec_of = |exec: &Autonomy, model: &HtnModel| {
         exec.remaining()
             .first()
             .and_then(|st| model.primitives.get(usize::from(st.primitive)))
@@ -929,7 +1149,68 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
             end = EndReason::MissionEnd;
             break;
         }
-        let preconditions_met = spec_of(&exec).is_none_or(|spec| world.preconditions(&spec));
+        // Ground changes on board: a rate or allowance at once, a model at a chain boundary.
+        if event.is_none() {
+            let boundary = match (exec.remaining().first(), last_dispatch) {
+                (None, _) | (_, None) => true,
+                (Some(step), Some((chain, last))) => last || step.chain != chain,
+            };
+            let mut k = 0;
+            while k < pending.len() {
+                let p = &pending[k];
+                let change = &s.ground.changes[p.index];
+                if p.arrives_us > world.now || (change.changes_model() && !boundary) {
+                    k += 1;
+                    continue;
+                }
+                let p = pending.remove(k);
+                if let Some(r) = change.rate_bps {
+                    world.rate_bps = r;
+                }
+                if let Some(w) = change.per_sol_wh {
+                    world.per_sol_mj = w * WH_MJ;
+                }
+                if change.changes_model() {
+                    let mut context = exec.context().clone();
+                    for (site, &v) in context.sites.iter_mut().zip(&change.site_values) {
+                        site.estimated =
+                            lander::utility::Score::new((milli(v).clamp(0, 1_000) * 10) as u32)
+                                .unwrap_or(lander::utility::Score::ZERO);
+                    }
+                    if let Some(t) = change.targets_per_site {
+                        options.targets_per_site = t;
+                    }
+                    // The new model holds the panoramas still to take.
+                    let tasks_done = panoramas_taken.saturating_sub(u8::from(preamble_done));
+                    options.panoramas = s.mission.panoramas.saturating_sub(tasks_done);
+                    let stats = *exec.stats();
+                    past.retries += stats.retries;
+                    past.replans += stats.replans;
+                    past.ground_halts += stats.ground_halts;
+                    let (m, e) = rebuild(
+                        s,
+                        options,
+                        &context,
+                        world.now,
+                        world.battery_mj,
+                        config.strategy,
+                        preamble_done,
+                    )?;
+                    model = m;
+                    exec = e;
+                    replans_charged = 0;
+                    last_dispatch = None;
+                }
+                applied.push(AppliedChange {
+                    index: p.index,
+                    decided_us: p.decided_us,
+                    arrived_us: p.arrives_us,
+                    applied_us: world.now,
+                });
+            }
+        }
+        let preconditions_met =
+            spec_of(&exec, &model).is_none_or(|spec| world.preconditions(&spec));
         let observation = Observation {
             now: MissionTimeUs(world.now),
             battery_mj: world.battery_mj,
@@ -954,24 +1235,72 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                         "the executor dispatched unknown primitive {primitive}"
                     ));
                 };
+                let chain_info = exec.network().chains.get(usize::from(chain));
+                if world.hold_in_force() && chain_info.is_some_and(|c| c.waits_for_ground_release) {
+                    hold_violations += 1;
+                }
+                last_dispatch = Some((
+                    chain,
+                    exec.remaining().first().is_none_or(|st| st.last_in_chain),
+                ));
                 dispatched += 1;
+                let start = world.now;
                 let (outcome, class) = world.execute(chain, primitive, &spec);
                 if let Some(f) = failures.get_mut(usize::from(class)) {
                     *f += 1;
                 }
                 if outcome.result == TaskResult::Succeeded && !world.dead {
                     completed += 1;
-                    if spec.kind == PrimitiveKind::ScienceAnalyze {
-                        analyzed += 1;
-                        if outcome.biosignature == Some(Biosignature::Negative) {
-                            negatives += 1;
+                    match spec.kind {
+                        PrimitiveKind::ScienceAnalyze => {
+                            analyzed += 1;
+                            let negative = outcome.biosignature == Some(Biosignature::Negative);
+                            if negative {
+                                negatives += 1;
+                            }
+                            if let Some((site, target)) = world.instrument {
+                                analyses.push(SampleEvent {
+                                    at_us: start,
+                                    site,
+                                    target,
+                                    positive: outcome
+                                        .biosignature
+                                        .map(|b| b == Biosignature::Positive),
+                                });
+                            }
                         }
+                        PrimitiveKind::CollectSample => {
+                            if let (Some(site), Some(target)) = (spec.site, spec.target) {
+                                collections.push(SampleEvent {
+                                    at_us: start,
+                                    site,
+                                    target,
+                                    positive: None,
+                                });
+                                let n = collections.len() as u32;
+                                for p in pending.iter_mut() {
+                                    if s.ground.changes[p.index].after_samples == Some(n) {
+                                        p.decided_us = world.now;
+                                        p.arrives_us = world.ground_answer_at(world.now);
+                                    }
+                                }
+                            }
+                        }
+                        PrimitiveKind::TakeMonoPanorama => {
+                            panoramas_taken = panoramas_taken.saturating_add(1);
+                        }
+                        PrimitiveKind::FindExcavationSites => preamble_done = true,
+                        PrimitiveKind::DownlinkWithGroundHold => world.set_hold(),
+                        PrimitiveKind::Uplink => world.uplink(start),
+                        _ => {}
                     }
                 }
                 event = Some(Event::Finished(outcome));
             }
             Directive::Wait { until } => {
-                world.advance(until.0.max(world.now).min(horizon));
+                // Stop for a ground change arriving on the way.
+                let next = next_arrival(&pending).unwrap_or(u64::MAX);
+                world.advance(until.0.min(next).max(world.now).min(horizon));
             }
             Directive::Pushing { deadline } => {
                 let next = world
@@ -980,7 +1309,8 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                     .map(|b| b.until)
                     .filter(|&u| u > world.now)
                     .min()
-                    .map_or(deadline.0, |u| u.min(deadline.0));
+                    .map_or(deadline.0, |u| u.min(deadline.0))
+                    .min(next_arrival(&pending).unwrap_or(u64::MAX));
                 world.advance(next.max(world.now + 1).min(horizon));
             }
             Directive::Planning { .. } | Directive::Running { .. } => {}
@@ -992,7 +1322,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                     break;
                 }
                 if world.advance(at) {
-                    let spec = spec_of(&exec);
+                    let spec = spec_of(&exec, &model);
                     world.ground_fix(spec.as_ref());
                     event = Some(Event::GroundResume);
                 }
@@ -1002,8 +1332,21 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                 break;
             }
             Directive::Done => {
-                end = EndReason::Done;
-                break;
+                // A model uplink still to come brings a new plan: wait for it.
+                let next = pending
+                    .iter()
+                    .filter(|p| s.ground.changes[p.index].changes_model())
+                    .map(|p| p.arrives_us)
+                    .min();
+                match next {
+                    Some(t) if t < horizon => {
+                        world.advance(t.max(world.now));
+                    }
+                    _ => {
+                        end = EndReason::Done;
+                        break;
+                    }
+                }
             }
         }
     }
@@ -1011,9 +1354,11 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
         end = EndReason::BatteryExhausted;
     }
     let stats = *exec.stats();
+    let mut products = std::mem::take(&mut world.sent);
+    products.extend(world.stored.iter().cloned());
     Ok(RunResult {
         seed: config.seed,
-        utility_milli: world.realised(),
+        utility_milli: realised_of(&products),
         end,
         end_us: world.now,
         battery_start_mj: battery_start,
@@ -1021,12 +1366,19 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
         dispatched,
         completed,
         failures,
-        retries: stats.retries,
-        replans: stats.replans,
-        ground_halts: stats.ground_halts,
+        retries: past.retries + stats.retries,
+        replans: past.replans + stats.replans,
+        ground_halts: past.ground_halts + stats.ground_halts,
         samples_analyzed: analyzed,
         negatives,
         downlinks: std::mem::take(&mut world.downlinks),
         unsent: world.stored.len() as u32,
+        products,
+        collections,
+        analyses,
+        holds_set: world.holds_set,
+        holds_released: world.holds_released,
+        hold_violations,
+        changes: applied,
     })
 }

@@ -49,7 +49,11 @@ fn the_ground_answers_at_an_uplink_window_after_seeing_the_halt() {
 fn the_battery_never_goes_negative_and_the_lander_dies_at_zero() {
     let mut s = Scenario::bsm1();
     s.mission.battery_wh = 300;
-    s.power.drops = vec![Drop { at_h: 5, wh: 250 }];
+    s.power.drops = vec![Drop {
+        at_h: 5,
+        wh: 250,
+        to_soc: None,
+    }];
     let (model, ..) = autonomy_inputs(&s, false).unwrap();
     let mut w = World::new(&s, &model, 1, false);
     let mut last = w.battery_mj;
@@ -187,4 +191,29 @@ fn excavation_respects_depth_limits_and_collapses() {
         b.energy_spent_mj(),
         a.energy_spent_mj()
     );
+}
+
+#[test]
+fn the_charge_starts_at_its_state_of_charge_and_a_drop_can_fall_to_one() {
+    let mut s = Scenario::bsm1();
+    s.mission.battery_wh = 1_000;
+    s.power.start_soc = 0.5;
+    s.power.drops = vec![Drop {
+        at_h: 10,
+        wh: 0,
+        to_soc: Some(0.1),
+    }];
+    let (model, _, timeline, _) = autonomy_inputs(&s, false).unwrap();
+    // The lander plans from the charge it has.
+    assert_eq!(timeline.battery_mj, 500 * WH_MJ);
+    let mut w = World::new(&s, &model, 1, false);
+    assert_eq!(w.battery_mj, 500 * WH_MJ);
+    assert!(w.advance(10 * HOUR_US));
+    // 8 W of hotel load for 10 h, then down to 10% of the capacity.
+    assert_eq!(w.battery_mj, 100 * WH_MJ);
+    // A drop to a charge above the present one takes nothing.
+    s.power.drops[0].to_soc = Some(0.9);
+    let mut w = World::new(&s, &model, 1, false);
+    assert!(w.advance(10 * HOUR_US));
+    assert_eq!(w.battery_mj, 420 * WH_MJ);
 }
