@@ -6,7 +6,7 @@ use heapless::Vec;
 use fsw_bridge::MissionTimeUs;
 
 use super::*;
-use crate::assessor::{AssessedPlacement, Biosignature, SampleRef};
+use crate::assessor::{assess_chains, AssessedPlacement, Biosignature, SampleRef};
 
 impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
     /// Model parameter update (IV.C.3).
@@ -120,6 +120,12 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             &self.primitives,
             &self.params,
             &self.context,
+            &mut self.network,
+        );
+        assess_chains(
+            &self.assessor,
+            &self.context,
+            &self.science,
             &mut self.network,
         );
         self.planning_from = (self.now, self.battery_mj);
