@@ -12,7 +12,13 @@
 //! - Mission: the subway map. Sites are ordered by estimated value (ties: lower index), targets
 //!   within a site likewise; position `p = site_rank * MAX_TARGETS_PER_SITE + target_rank`
 //!   scores `SCORE_ONE - (p + 1) * MISSION_STEP`, so a plan that stays at a site beats one that
-//!   moves on early, and better sites and targets come first. A sample the map forbids
+//!   moves on early, and better sites and targets come first. The order is binding: while a
+//!   site earlier on the map is open ([`ScienceContext::open_site_before`]: not negative, not
+//!   full, a target left), a sample at a later site scores its in-order score divided by
+//!   [`MAP_POSITIONS`], below any sample taken in order, so a cheaper excavation at a later site
+//!   cannot win the search's ordering (h) or the plan's value over the map's order (the
+//!   ground's, after it re-values the sites); when the earlier sites cannot be afforded the
+//!   later ones are still sampled. A sample the map forbids
 //!   ([`MapRule`]) gets no prediction at all: the planner refuses it ([`AssessedPlacement`]),
 //!   so zero Mission score is never scheduled.
 //! - Analysis: the target's estimated value; raised halfway to 1.0 when the site already has a
@@ -44,7 +50,11 @@ pub const MAX_TARGETS_PER_SITE: usize = 8;
 pub const MAX_SAMPLES_PER_SITE: usize = 3;
 /// Mission score between two adjacent positions of the map (the last position keeps a positive
 /// score).
-pub const MISSION_STEP: u32 = SCORE_ONE as u32 / (MAX_SITES * MAX_TARGETS_PER_SITE + 1) as u32;
+pub const MISSION_STEP: u32 = SCORE_ONE as u32 / MAP_POSITIONS;
+/// Positions on the map, plus one (so the last position keeps a positive score). An
+/// out-of-order sample's Mission score is its in-order score divided by this: below
+/// [`MISSION_STEP`], the lowest score of any sample taken in order.
+pub const MAP_POSITIONS: u32 = (MAX_SITES * MAX_TARGETS_PER_SITE + 1) as u32;
 
 /// An onboard biosignature analysis result.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -187,6 +197,37 @@ impl ScienceContext {
         )?;
         Some(site_rank * MAX_TARGETS_PER_SITE + target_rank)
     }
+
+    /// Whether a site earlier on the map than `site` (higher estimated value, ties to the
+    /// lower index) is still open given the samples `planned`: no negative biosignature there,
+    /// fewer than [`MAX_SAMPLES_PER_SITE`] samples collected and planned, and a target neither
+    /// collected, failed nor planned. While one is, the map says to sample there first.
+    pub fn open_site_before(&self, planned: &[SampleRef], site: u8) -> bool {
+        let Some(mine) = rank_by_value(self.sites.iter().map(|s| s.estimated), usize::from(site))
+        else {
+            return false;
+        };
+        self.sites.iter().enumerate().any(|(i, s)| {
+            let earlier =
+                rank_by_value(self.sites.iter().map(|s| s.estimated), i).is_some_and(|r| r < mine);
+            let negative = s
+                .targets
+                .iter()
+                .any(|t| t.biosignature == Some(Biosignature::Negative));
+            let here = |p: &&SampleRef| usize::from(p.site) == i;
+            let taken = s.targets.iter().filter(|t| t.collected).count()
+                + planned.iter().filter(here).count();
+            let available = s.targets.iter().enumerate().any(|(t, r)| {
+                !r.collected
+                    && !r.failed
+                    && !planned
+                        .iter()
+                        .filter(here)
+                        .any(|p| usize::from(p.target) == t)
+            });
+            earlier && !negative && taken < MAX_SAMPLES_PER_SITE && available
+        })
+    }
 }
 
 fn clamp_score(v: u32) -> Score {
@@ -248,9 +289,16 @@ impl Assessor {
             .ok_or(MapRule::UnknownTarget)?;
         let target = context.target(sample).ok_or(MapRule::UnknownTarget)?;
         let position = context.map_position(sample).ok_or(MapRule::UnknownTarget)?;
-        let mission = (u32::from(SCORE_ONE))
+        let in_order = (u32::from(SCORE_ONE))
             .saturating_sub((position as u32 + 1).saturating_mul(MISSION_STEP))
             .max(1);
+        // The map's order is binding: while a site earlier on the map is still open, a sample
+        // here scores below every sample taken in order.
+        let mission = if context.open_site_before(planned, sample.site) {
+            (in_order / MAP_POSITIONS).max(1)
+        } else {
+            in_order
+        };
         let positive_here = site
             .targets
             .iter()
@@ -353,6 +401,30 @@ pub fn chain_science(
         let _ = out.push(science);
     }
     out
+}
+
+/// Sets each sampling chain's utility in `network` to the Assessor's prediction for it in
+/// `context` with nothing planned before it (plus its other primitives' model utility; a chain
+/// the map forbids keeps only that), so the search's exploration order (h(P,T) =
+/// P.utility + T.utility/T.cost, T from the network) follows the map of the current context
+/// (the ground's site values after a model uplink, discoveries after a replan) rather than the
+/// values the model was written with. Other chains are left as they are. The plan's value is
+/// still the in-context prediction of [`AssessedPlacement`].
+pub fn assess_chains(
+    assessor: &Assessor,
+    context: &ScienceContext,
+    science: &[ChainScience],
+    network: &mut FlatNetwork,
+) {
+    for (chain, science) in network.chains.iter_mut().zip(science) {
+        let Some(sample) = science.sample else {
+            continue;
+        };
+        chain.utility = match assessor.predict_sample(context, &[], sample, science.support) {
+            Ok(u) => u.saturating_add(&science.other_utility),
+            Err(_) => science.other_utility,
+        };
+    }
 }
 
 /// A placement that asks the Assessor: sampling chains the subway map forbids in the plan's

@@ -365,9 +365,11 @@ fn replanning_starts_from_the_current_state() {
 
 #[test]
 fn an_energy_overrun_replans_with_the_measured_charge_and_parameters() {
-    // The collection at (0, 0) costs 5,000 Wh instead of 400: the rest of the plan no longer
-    // fits the charge. Replan replans at the chain's end, with the measured collection cost
-    // for site 0, and drops the second sample there; FE goes on with the plan.
+    // The collection at (0, 0) costs 5,000 Wh instead of 400: the rest of the plan (four
+    // samples) no longer fits the charge. Replan replans at the chain's end, with the measured
+    // collection cost for site 0; the map's order binds (site 0 is still open), so the second
+    // sample there comes first at its measured cost and site 1's samples no longer fit; FE
+    // goes on with the plan.
     let measured = (6 * HOUR_US, 5_000 * WH_MJ);
     let overrun = Scripted {
         measured: Some(measured),
@@ -380,11 +382,10 @@ fn an_energy_overrun_replans_with_the_measured_charge_and_parameters() {
         count(&exec, DecisionKind::ReplanStarted(Reason::Overrun)),
         1
     );
-    let site0: Vec<_> = samples(&end).into_iter().filter(|s| s.0 == 0).collect();
     assert_eq!(
-        site0,
-        vec![(0, 0)],
-        "the second sample at site 0 no longer fits"
+        samples(&end),
+        vec![(0, 0), (0, 1)],
+        "site 0 finished first at the measured cost; site 1 no longer fits"
     );
     // The replan's network carries the measured collection energy.
     let model = small().0;

@@ -134,6 +134,12 @@ impl Sim {
         }
     }
 
+    /// The same, for an executor of `model` (its primitive table names what is dispatched).
+    pub fn with_model(mut self, model: HtnModel) -> Self {
+        self.model = model;
+        self
+    }
+
     fn preconditions(&self, exec: &Exec, now: MissionTimeUs) -> bool {
         let Some(step) = exec.remaining().first() else {
             return true;

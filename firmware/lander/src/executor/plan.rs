@@ -1,0 +1,308 @@
+//! The executor's model updates (IV.C.3), science context, replanning from the current state
+//! (III.C), plan installation and the prediction helpers: a second `impl` block of
+//! [`Executor`].
+use heapless::Vec;
+
+use fsw_bridge::MissionTimeUs;
+
+use super::*;
+use crate::assessor::{assess_chains, AssessedPlacement, Biosignature, SampleRef};
+
+impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
+    /// Model parameter update (IV.C.3).
+    pub(super) fn learn(&mut self, spec: &PrimitiveSpec, outcome: Outcome) {
+        let Some(site) = spec.site else {
+            return;
+        };
+        let update = ParameterUpdate {
+            kind: spec.kind,
+            site,
+            duration_us: outcome.duration_us,
+            energy_mj: outcome.energy_mj.min(MAX_ENERGY_MJ),
+        };
+        match self
+            .params
+            .iter_mut()
+            .find(|p| p.kind == spec.kind && p.site == site)
+        {
+            Some(p) => *p = update,
+            None => {
+                if self.params.push(update).is_err() {
+                    return;
+                }
+            }
+        }
+        self.stats.parameter_updates += 1;
+        self.record_step(DecisionKind::ParameterUpdated);
+        for i in self.cursor + 1..self.steps.len() {
+            let Some(primitive) = self.steps.get(i).map(|s| s.primitive) else {
+                continue;
+            };
+            let same = self
+                .primitives
+                .get(usize::from(primitive))
+                .is_some_and(|p| p.kind == spec.kind && p.site == Some(site));
+            if let (true, Some(s)) = (same, self.steps.get_mut(i)) {
+                s.duration_us = update.duration_us;
+                s.energy_mj = update.energy_mj;
+            }
+        }
+    }
+
+    /// Updates the science context from a finished primitive of a sampling chain.
+    pub(super) fn note_science(&mut self, spec: &PrimitiveSpec, step: &ExecStep, outcome: Outcome) {
+        let sample: Option<SampleRef> = self
+            .science
+            .get(usize::from(step.chain))
+            .and_then(|s| s.sample);
+        match spec.kind {
+            PrimitiveKind::ExcavateSite => {
+                let prior = self.assessor.post_excavation_prior;
+                if let Some(site) = spec
+                    .site
+                    .and_then(|s| self.context.sites.get_mut(usize::from(s)))
+                {
+                    site.post_excavation.get_or_insert(prior);
+                }
+            }
+            PrimitiveKind::CollectSample => {
+                if let Some(t) = sample.and_then(|s| self.context.target_mut(s)) {
+                    t.collected = true;
+                }
+            }
+            PrimitiveKind::ScienceAnalyze => {
+                if let (Some(bio), Some(t)) = (
+                    outcome.biosignature,
+                    sample.and_then(|s| self.context.target_mut(s)),
+                ) {
+                    t.biosignature = Some(bio);
+                    if bio == Biosignature::Negative {
+                        self.replan_pending = Some(Reason::Discovery);
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+
+    /// A chain ends: executed to the end (`done`), or abandoned after a failure (its task is
+    /// then failed, and its target too).
+    pub(super) fn close_chain(&mut self, chain: u16, done: bool) {
+        let Some(c) = self.network.chains.get(usize::from(chain)) else {
+            return;
+        };
+        if !self.closed_tasks.contains(&c.task_slot) {
+            let _ = self.closed_tasks.push(c.task_slot);
+        }
+        if done {
+            let start = self
+                .steps
+                .iter()
+                .find(|s| s.chain == chain)
+                .map_or(self.now, |s| s.start);
+            let _ = self.executed.push(PlacedChain { chain, start });
+        } else if let Some(sample) = self.science.get(usize::from(chain)).and_then(|s| s.sample) {
+            if let Some(t) = self.context.target_mut(sample) {
+                if !t.collected {
+                    t.failed = true;
+                }
+            }
+        }
+    }
+
+    /// Starts the search from the current state.
+    pub(super) fn begin_planning(&mut self, reason: Reason) {
+        self.record_step(DecisionKind::ReplanStarted(reason));
+        if reason != Reason::Initial {
+            self.stats.replans += 1;
+        }
+        reparameterize(
+            &self.primitives,
+            &self.params,
+            &self.context,
+            &mut self.network,
+        );
+        assess_chains(
+            &self.assessor,
+            &self.context,
+            &self.science,
+            &mut self.network,
+        );
+        self.planning_from = (self.now, self.battery_mj);
+        let config = SearchConfig {
+            battery_mj: self.battery_mj,
+            reserve_mj: self.config.reserve_mj,
+            exploration_bound: self.config.exploration_bound,
+            energy_pruning: true,
+        };
+        self.search = Search::new(config);
+        match self
+            .search
+            .start_excluding(&self.network, &[], &self.closed_tasks)
+        {
+            Ok(()) => self.mode = Mode::Planning { reason },
+            Err(_) => self.halt(Reason::ReplanFailed),
+        }
+    }
+
+    /// Runs the search within `budget`; true when the plan is installed (or planning failed).
+    pub(super) fn continue_planning(&mut self, budget: u32) -> bool {
+        let mut timeline = self.timeline.clone();
+        timeline.horizon_start = self.planning_from.0;
+        timeline.battery_mj = self.planning_from.1;
+        let mut placement = AssessedPlacement {
+            inner: timeline,
+            assessor: self.assessor,
+            context: &self.context,
+            science: &self.science,
+            refused: 0,
+        };
+        let step = self
+            .search
+            .step(&self.network, &mut placement, budget.max(1));
+        if !step.done {
+            return false;
+        }
+        let s = *self.search.stats();
+        self.last_search = s;
+        self.last_plan_value = self.search.best_value();
+        self.stats.explored = self.stats.explored.saturating_add(s.explored);
+        self.stats.nodes = self.stats.nodes.saturating_add(s.nodes);
+        let mut plan: Vec<PlacedChain, MAX_PLAN_CHAINS> = Vec::new();
+        self.search.best_plan(&mut plan);
+        if self.install(&plan).is_err() {
+            self.halt(Reason::ReplanFailed);
+        }
+        true
+    }
+
+    /// Replaces the remaining plan by `plan` (chains, in any order), primitives back to back
+    /// from each chain's start with the current predictions.
+    pub(super) fn install(&mut self, plan: &[PlacedChain]) -> Result<(), ExecError> {
+        let mut sorted: Vec<PlacedChain, MAX_PLAN_CHAINS> =
+            Vec::from_slice(plan).map_err(|_| ExecError::PlanTooLong)?;
+        sorted.sort_unstable_by_key(|p| (p.start, p.chain));
+        self.steps.clear();
+        self.cursor = 0;
+        for p in &sorted {
+            let chain = self
+                .network
+                .chains
+                .get(usize::from(p.chain))
+                .ok_or(ExecError::UnknownChain)?;
+            let mut at = p.start.0;
+            let first = self.steps.len();
+            for &primitive in chain.primitives.iter() {
+                let (duration_us, energy_mj) = predicted(&self.primitives, &self.params, primitive)
+                    .ok_or(ExecError::UnknownChain)?;
+                if already_done(&self.primitives, &self.context, primitive) {
+                    continue;
+                }
+                self.steps
+                    .push(ExecStep {
+                        chain: p.chain,
+                        primitive,
+                        planned_start: MissionTimeUs(at),
+                        start: MissionTimeUs(at),
+                        duration_us,
+                        energy_mj,
+                        retries: 0,
+                        last_in_chain: false,
+                    })
+                    .map_err(|_| ExecError::PlanTooLong)?;
+                at = at.saturating_add(duration_us);
+            }
+            match self.steps.get_mut(first..).and_then(|s| s.last_mut()) {
+                Some(last) => last.last_in_chain = true,
+                // Nothing left to do in it: executed as it stands.
+                None => {
+                    let task = chain.task_slot;
+                    if !self.closed_tasks.contains(&task) {
+                        let _ = self.closed_tasks.push(task);
+                    }
+                    let _ = self.executed.push(*p);
+                }
+            }
+        }
+        self.mode = Mode::Ready;
+        self.plans = self.plans.wrapping_add(1);
+        self.record(
+            NONE_CHAIN,
+            NONE_PRIMITIVE,
+            DecisionKind::Planned {
+                chains: u8::try_from(sorted.len()).unwrap_or(u8::MAX),
+            },
+        );
+        Ok(())
+    }
+}
+
+/// The predicted (duration, energy) of primitive `index` under the measured `params`.
+pub fn predicted(
+    primitives: &[PrimitiveSpec],
+    params: &[ParameterUpdate],
+    index: u8,
+) -> Option<(u64, u64)> {
+    let spec = primitives.get(usize::from(index))?;
+    let measured = spec.site.and_then(|site| {
+        params
+            .iter()
+            .find(|p| p.kind == spec.kind && p.site == site)
+    });
+    Some(measured.map_or((spec.duration_us, spec.energy_mj), |p| {
+        (p.duration_us, p.energy_mj)
+    }))
+}
+
+/// Whether primitive `index` has nothing left to do in the state `context` describes: the
+/// excavation of a site already excavated (the reference model folds an excavation into every
+/// sampling chain; the trench is dug once). Such a primitive costs nothing in a replan and is
+/// not dispatched.
+pub fn already_done(primitives: &[PrimitiveSpec], context: &ScienceContext, index: u8) -> bool {
+    primitives.get(usize::from(index)).is_some_and(|spec| {
+        spec.kind == PrimitiveKind::ExcavateSite
+            && spec
+                .site
+                .and_then(|site| context.sites.get(usize::from(site)))
+                .is_some_and(|site| site.post_excavation.is_some())
+    })
+}
+
+/// Recomputes every chain's duration, energy and product offsets from its primitives under the
+/// measured `params` (IV.C.3) in the state `context` describes (primitives
+/// [`already_done`] cost nothing). Utilities are left as flattened: the Assessor predicts them
+/// in context during the search.
+pub fn reparameterize(
+    primitives: &[PrimitiveSpec],
+    params: &[ParameterUpdate],
+    context: &ScienceContext,
+    network: &mut FlatNetwork,
+) {
+    for chain in network.chains.iter_mut() {
+        let (mut duration, mut energy) = (0u64, 0u64);
+        let mut product = 0usize;
+        for &p in &chain.primitives {
+            let Some((d, e)) = predicted(primitives, params, p) else {
+                continue;
+            };
+            let (d, e) = if already_done(primitives, context, p) {
+                (0, 0)
+            } else {
+                (d, e)
+            };
+            duration = duration.saturating_add(d);
+            energy = energy.saturating_add(e).min(MAX_ENERGY_MJ);
+            if primitives
+                .get(usize::from(p))
+                .is_some_and(|s| s.product.is_some())
+            {
+                if let Some(cp) = chain.products.get_mut(product) {
+                    cp.offset_us = duration;
+                }
+                product += 1;
+            }
+        }
+        chain.duration_us = duration;
+        chain.energy_mj = energy;
+    }
+}
