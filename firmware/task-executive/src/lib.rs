@@ -31,13 +31,8 @@
 //!
 //! Entry: [`partition_executive_main`]; state: `.bss.part.executive`.
 #![no_std]
-// The partitions are held to the autonomy core's lints: no panicking path.
-#![deny(
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::indexing_slicing
-)]
+// The autonomy core's lints (no panicking path) come from the firmware workspace's
+// `[workspace.lints]` (firmware/image/Cargo.toml).
 
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;

@@ -7,14 +7,9 @@
 //!
 //! Entry: [`partition_rogue_main`]; it has no state of its own.
 #![no_std]
-// The partitions are held to the autonomy core's lints: no panicking path...
-#![deny(
-    clippy::unwrap_used,
-    clippy::expect_used,
-    clippy::panic,
-    clippy::indexing_slicing
-)]
-// ...except that panicking on command is one of this one's jobs.
+// The autonomy core's lints (no panicking path) come from the firmware workspace's
+// `[workspace.lints]` (firmware/image/Cargo.toml), except that panicking on command is one of
+// this one's jobs.
 #![allow(clippy::panic)]
 
 use core::arch::asm;
