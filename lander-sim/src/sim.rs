@@ -22,9 +22,10 @@
 //! - **Battery.** Non-rechargeable; the hotel load (and the seismometer) drains it continuously,
 //!   each primitive spends its prior times the energy noise, exogenous drops take charge at
 //!   fixed times. The lander dies at zero charge (the charge never goes negative).
-//! - **Comms.** Earth in view `in_view_h` of every `period_h` (42 of 84); a downlink dispatched
-//!   while Earth is not in view waits for Earth rise (the executor's placement does not model
-//!   Earth-in-view: the wait is an overrun it measures); it transmits at the DSN rate after its
+//! - **Comms.** Earth in view `in_view_h` of every `period_h` (42 of 84), given to the
+//!   executor's placement as its in-view windows ([`EarthSchedule::view_timeline`]) when it is
+//!   built and rebuilt, so downlinks are planned inside them; a downlink dispatched while Earth
+//!   is not in view (an overrun pushed it out) waits for Earth rise; it transmits at the DSN rate after its
 //!   overhead, until its planned end, Earth set or the thermal limit, within the per-downlink and
 //!   per-sol energy allowances, the stored products by tier (Critical first) and age. Utility is
 //!   realised when a product reaches Earth (transmission end plus the light time).
@@ -122,6 +123,27 @@ impl EarthSchedule {
         } else {
             t
         }
+    }
+
+    /// The in-view windows that end after `from` and start before `horizon` (clipped to it), at
+    /// most [`lander::capacity::MAX_VIEW_WINDOWS`]: the availability timeline the executor's
+    /// placement allows downlinks in.
+    pub fn view_timeline(&self, from: u64, horizon: u64) -> lander::placement::ViewTimeline {
+        use lander::placement::{ViewTimeline, ViewWindow};
+        let mut windows = Vec::new();
+        let mut start = (from / self.period_us) * self.period_us;
+        while start < horizon && windows.len() < lander::capacity::MAX_VIEW_WINDOWS {
+            let end = (start + self.in_view_us).min(horizon);
+            if end > from {
+                windows.push(ViewWindow {
+                    start: MissionTimeUs(start),
+                    end: MissionTimeUs(end),
+                });
+            }
+            start += self.period_us;
+        }
+        // Sorted, disjoint, non-empty and within the capacity by construction.
+        ViewTimeline::new(&windows).unwrap_or_default()
     }
 
     /// The first uplink window at or after `t`.
@@ -412,6 +434,8 @@ pub fn autonomy_inputs(
         .ok_or("no placement for the mission")?;
     // The placement's background drain: the hotel load and the seismometer.
     timeline.hotel_load_mw = (s.power.hotel_w + s.power.seismometer_w) * 1_000;
+    // Earth in view: downlinks are placed inside the windows.
+    timeline.earth.windows = EarthSchedule::from_scenario(s).view_timeline(0, horizon_us(s));
     Ok((model, net, timeline, rsm1::context(options)))
 }
 
@@ -1042,6 +1066,7 @@ fn rebuild(
         rsm1::placement(s.mission.sols, charge_mj).ok_or("no placement for the mission")?;
     timeline.horizon_start = MissionTimeUs(now);
     timeline.hotel_load_mw = (s.power.hotel_w + s.power.seismometer_w) * 1_000;
+    timeline.earth.windows = EarthSchedule::from_scenario(s).view_timeline(now, horizon_us(s));
     let exec = Box::new(
         Executor::new(
             ExecConfig::new(strategy),

@@ -21,6 +21,9 @@ pub const MAX_CHAIN_PRODUCTS: usize = 6;
 pub const MAX_PHASES: usize = 16;
 /// Phase changes on the phase timeline.
 pub const MAX_PHASE_CHANGES: usize = 32;
+/// Earth-in-view windows the placement knows ([`crate::placement::ViewTimeline`]): one per
+/// 84 h Earth period covers missions of over 110 days.
+pub const MAX_VIEW_WINDOWS: usize = 32;
 /// Priority batches of the phased outer loop (batch 0 is the exogenous uplinks).
 pub const MAX_BATCHES: usize = 8;
 

@@ -11,13 +11,141 @@
 //! waiting chain's start minus its own duration; so checking those candidates in increasing
 //! order gives the exact earliest start. It is the reference the tests use and what the
 //! measurements run; the MEXEC timelines plug in through [`crate::mexec`].
+//!
+//! **Earth in view** ([`EarthView`], issue 11 items 5 and 8): when the placement is given the
+//! in-view windows (an external availability timeline, [`ViewTimeline`]), a chain's downlink
+//! primitives (from the first one's start to the last one's end, [`DownlinkSpans`]) must lie
+//! entirely inside one window, so the plan's predicted downlink times are real; each window's
+//! opening minus the chain's downlink offset is then one more candidate start (the valid starts
+//! for a window are an interval whose left end is that), so the earliest start stays exact.
+//! A chain that creates data its own downlinks do not carry (no downlink, or products created
+//! after its first downlink starts) is placed only if some window still has room after the
+//! chain's end: in-view time before the horizon end not taken by a placed chain. So a
+//! candidate whose data cannot be downlinked before the mission ends is not added. Without
+//! windows ([`EarthView::default`]) Earth is not modelled (always in view), as before.
 use heapless::Vec;
 
 use fsw_bridge::MissionTimeUs;
 
 use crate::capacity::*;
-use crate::htn::{Chain, FlatNetwork, PhaseTimeline};
+use crate::htn::{Chain, FlatNetwork, PhaseTimeline, PrimitiveKind, PrimitiveSpec};
 use crate::search::{ChainPlacement, PlacedChain};
+
+/// One Earth-in-view window, [start, end).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ViewWindow {
+    pub start: MissionTimeUs,
+    pub end: MissionTimeUs,
+}
+
+/// Why a [`ViewTimeline`] was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ViewError {
+    /// More than [`MAX_VIEW_WINDOWS`] windows.
+    TooMany,
+    /// A window is empty, or not after the previous one (windows must be sorted and disjoint).
+    Order,
+}
+
+/// The Earth-in-view windows: sorted, disjoint, non-empty, at most [`MAX_VIEW_WINDOWS`].
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ViewTimeline {
+    windows: Vec<ViewWindow, MAX_VIEW_WINDOWS>,
+}
+
+impl ViewTimeline {
+    pub fn new(windows: &[ViewWindow]) -> Result<Self, ViewError> {
+        let mut prev_end = 0u64;
+        for (i, w) in windows.iter().enumerate() {
+            if w.start >= w.end || (i > 0 && w.start.0 < prev_end) {
+                return Err(ViewError::Order);
+            }
+            prev_end = w.end.0;
+        }
+        Ok(Self {
+            windows: Vec::from_slice(windows).map_err(|_| ViewError::TooMany)?,
+        })
+    }
+
+    pub fn windows(&self) -> &[ViewWindow] {
+        &self.windows
+    }
+
+    /// Whether [start, end) lies inside one window.
+    pub fn contains(&self, start: u64, end: u64) -> bool {
+        self.windows
+            .iter()
+            .any(|w| w.start.0 <= start && end <= w.end.0)
+    }
+}
+
+/// Per chain of the network (by index): its downlink span relative to the chain's start, from
+/// the first downlink primitive's start to the last one's end, or `None` (no downlink). A chain
+/// past the end of the list has none.
+pub type DownlinkSpans = Vec<Option<(u64, u64)>, MAX_CHAINS>;
+
+/// Whether `kind` transmits to Earth.
+pub fn is_downlink(kind: PrimitiveKind) -> bool {
+    matches!(
+        kind,
+        PrimitiveKind::Downlink | PrimitiveKind::DownlinkWithGroundHold
+    )
+}
+
+/// The downlink spans of `network`'s chains, primitive `p` taking `duration(p)` (`None`: a
+/// primitive the model does not have, taking no time).
+pub fn downlink_spans(
+    primitives: &[PrimitiveSpec],
+    network: &FlatNetwork,
+    duration: impl Fn(u8) -> Option<u64>,
+) -> DownlinkSpans {
+    let mut out = DownlinkSpans::new();
+    for chain in network.chains.iter() {
+        let mut at = 0u64;
+        let mut span: Option<(u64, u64)> = None;
+        for &p in &chain.primitives {
+            let d = duration(p).unwrap_or(0);
+            let end = at.saturating_add(d);
+            if primitives
+                .get(usize::from(p))
+                .is_some_and(|s| is_downlink(s.kind))
+            {
+                span = Some(span.map_or((at, end), |(o, _)| (o, end)));
+            }
+            at = end;
+        }
+        // Never fails: one entry per chain, at most MAX_CHAINS.
+        let _ = out.push(span);
+    }
+    out
+}
+
+/// What the placement knows about Earth: the in-view windows and each chain's downlinks.
+/// The default (no windows) does not model Earth: downlinks go anywhere.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct EarthView {
+    pub windows: ViewTimeline,
+    pub downlinks: DownlinkSpans,
+}
+
+impl EarthView {
+    /// The windows, with the spans of `network` at the model's prior durations.
+    pub fn new(windows: ViewTimeline, primitives: &[PrimitiveSpec], network: &FlatNetwork) -> Self {
+        let downlinks = downlink_spans(primitives, network, |p| {
+            primitives.get(usize::from(p)).map(|s| s.duration_us)
+        });
+        Self { windows, downlinks }
+    }
+
+    /// Whether Earth is modelled at all.
+    pub fn modelled(&self) -> bool {
+        !self.windows.windows().is_empty()
+    }
+
+    fn span(&self, chain: u16) -> Option<(u64, u64)> {
+        self.downlinks.get(usize::from(chain)).copied().flatten()
+    }
+}
 
 /// The simple single-resource timeline with energy.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -31,10 +159,13 @@ pub struct TimelinePlacement {
     pub battery_mj: u64,
     /// Background drain (hotel load, seismometer on) in mW, i.e. mJ per second.
     pub hotel_load_mw: u64,
+    /// Earth-in-view windows and the chains' downlinks ([`EarthView::default`]: not modelled).
+    pub earth: EarthView,
 }
 
 /// Candidate starts examined for one placement.
-const MAX_PLACEMENT_CANDIDATES: usize = 3 * MAX_PLAN_CHAINS + MAX_PHASE_CHANGES + 1;
+const MAX_PLACEMENT_CANDIDATES: usize =
+    3 * MAX_PLAN_CHAINS + MAX_PHASE_CHANGES + MAX_VIEW_WINDOWS + 1;
 
 #[derive(Clone, Copy)]
 struct Span {
@@ -72,6 +203,45 @@ impl TimelinePlacement {
             .filter(|s| s.uplink && s.start >= from)
             .min_by_key(|s| s.start)
             .map_or(u64::MAX, |s| s.end)
+    }
+
+    /// Whether the data `chain` creates (placed as `x`) can reach Earth: its downlinks lie in a
+    /// window, and data they do not carry has a window with room after the chain's end.
+    fn reaches_earth(&self, spans: &[Span], x: Span, chain: &Chain, index: u16) -> bool {
+        if !self.earth.modelled() {
+            return true;
+        }
+        let own = self.earth.span(index);
+        if let Some((from, to)) = own {
+            if !self
+                .earth
+                .windows
+                .contains(x.start.saturating_add(from), x.start.saturating_add(to))
+            {
+                return false;
+            }
+        }
+        let later = chain
+            .products
+            .iter()
+            .any(|p| own.is_none_or(|(from, _)| p.offset_us > from));
+        !later || self.room_after(spans, x.end)
+    }
+
+    /// Whether some window has in-view time after `t`, before the horizon end, that no placed
+    /// chain takes.
+    fn room_after(&self, spans: &[Span], t: u64) -> bool {
+        self.earth.windows.windows().iter().any(|w| {
+            let (a, b) = (w.start.0.max(t), w.end.0.min(self.horizon_end.0));
+            if a >= b {
+                return false;
+            }
+            let taken: u64 = spans
+                .iter()
+                .map(|s| s.end.min(b).saturating_sub(s.start.max(a)))
+                .sum();
+            taken < b - a
+        })
     }
 
     /// Whether `x` may be added next to `spans` (no overlap, holds respected both ways).
@@ -138,9 +308,13 @@ impl ChainPlacement for TimelinePlacement {
             let end = MissionTimeUs(end.max(latest_end));
             energy_mj.saturating_add(self.hotel_energy_mj(end)) <= self.battery_mj
         };
+        let valid = |x: &Span| {
+            self.compatible(&spans, *x, chain)
+                && fits_energy(x.end)
+                && self.reaches_earth(&spans, *x, chain, candidate)
+        };
         if let Some(start) = chain.fixed_start {
-            let x = span_of(chain, start);
-            return (self.compatible(&spans, x, chain) && fits_energy(x.end)).then_some(start);
+            return valid(&span_of(chain, start)).then_some(start);
         }
         let mut candidates: Vec<u64, MAX_PLACEMENT_CANDIDATES> = Vec::new();
         let _ = candidates.push(self.horizon_start.0);
@@ -162,12 +336,20 @@ impl ChainPlacement for TimelinePlacement {
         for t in (0..MAX_PHASE_CHANGES).filter_map(|i| self.phase_change(i)) {
             let _ = candidates.push(t.0);
         }
+        if let (true, Some((from, _))) = (self.earth.modelled(), self.earth.span(candidate)) {
+            // The downlink starts as a window opens.
+            for w in self.earth.windows.windows() {
+                if let Some(s) = w.start.0.checked_sub(from) {
+                    let _ = candidates.push(s);
+                }
+            }
+        }
         candidates.sort_unstable();
         candidates
             .iter()
             .filter(|&&s| s >= self.horizon_start.0 && s != u64::MAX)
             .map(|&s| span_of(chain, MissionTimeUs(s)))
-            .find(|x| self.compatible(&spans, *x, chain) && fits_energy(x.end))
+            .find(valid)
             .map(|x| MissionTimeUs(x.start))
     }
 }

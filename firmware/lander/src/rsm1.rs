@@ -425,6 +425,7 @@ pub fn placement(sols: u64, battery_mj: u64) -> Option<TimelinePlacement> {
         phases: PhaseTimeline::new(&[(MissionTimeUs(SOL_US), PHASE_SURFACE)]).ok()?,
         battery_mj,
         hotel_load_mw: 10_000,
+        earth: crate::placement::EarthView::default(),
     })
 }
 

@@ -240,6 +240,7 @@ fn the_mexec_timelines_decide_as_the_simple_timeline_on_random_htns() {
             phases: PhaseTimeline::default(),
             battery_mj,
             hotel_load_mw: 0,
+            earth: Default::default(),
         };
         let with_mexec = run(&net, &mut mexec);
         let with_simple = run(&net, &mut simple);

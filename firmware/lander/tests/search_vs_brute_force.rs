@@ -27,6 +27,7 @@ fn placement(rng: &mut Rng) -> TimelinePlacement {
         phases: PhaseTimeline::default(),
         battery_mj: u64::MAX / 4,
         hotel_load_mw: 0,
+        earth: Default::default(),
     }
 }
 
@@ -275,6 +276,7 @@ fn exogenous_chains_are_placed_first_at_their_fixed_start() {
         phases: PhaseTimeline::default(),
         battery_mj: u64::MAX / 4,
         hotel_load_mw: 0,
+        earth: Default::default(),
     };
     let mut search: Big = Search::new(SearchConfig::exhaustive(1_000));
     search.start(&net, &[]).expect("starts");

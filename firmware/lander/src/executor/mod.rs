@@ -60,7 +60,7 @@ use crate::assessor::ScienceContext;
 use crate::assessor::{chain_science, Assessor, ChainScience};
 use crate::capacity::*;
 use crate::htn::{FlatNetwork, HtnModel, PrimitiveKind, PrimitiveSpec};
-use crate::placement::TimelinePlacement;
+use crate::placement::{TimelinePlacement, ViewTimeline};
 use crate::search::{PlacedChain, Search, SearchConfig, SearchStats};
 use crate::utility::RankedUtility;
 
@@ -93,8 +93,8 @@ pub struct Executor<const NODES: usize = MAX_SEARCH_NODES, const QUEUE: usize = 
     science: Vec<ChainScience, MAX_CHAINS>,
     context: ScienceContext,
     assessor: Assessor,
-    /// The placement's horizon end, phases and hotel load (its start and charge are set at
-    /// each plan).
+    /// The placement's horizon end, phases, hotel load and Earth-in-view windows (its start
+    /// and charge are set at each plan, its chains' downlink spans computed).
     timeline: TimelinePlacement,
     params: Vec<ParameterUpdate, MAX_PARAMETER_UPDATES>,
     steps: Vec<ExecStep, MAX_EXEC_STEPS>,
@@ -164,6 +164,19 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             None => e.begin_planning(Reason::Initial),
         }
         Ok(e)
+    }
+
+    /// Replaces the Earth-in-view windows the placement allows downlinks in (an external
+    /// availability timeline, e.g. a new DSN schedule); they apply from the next plan or
+    /// replan. The chains' downlink offsets are recomputed at every plan, so the
+    /// `timeline.earth.downlinks` given to [`Executor::new`] need not be filled.
+    pub fn set_view_windows(&mut self, windows: &ViewTimeline) {
+        self.timeline.earth.windows = windows.clone();
+    }
+
+    /// The Earth-in-view windows the placement allows downlinks in (empty: not modelled).
+    pub fn view_windows(&self) -> &ViewTimeline {
+        &self.timeline.earth.windows
     }
 
     pub fn config(&self) -> &ExecConfig {

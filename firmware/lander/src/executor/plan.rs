@@ -7,6 +7,7 @@ use fsw_bridge::MissionTimeUs;
 
 use super::*;
 use crate::assessor::{assess_chains, AssessedPlacement, Biosignature, SampleRef};
+use crate::placement::downlink_spans;
 
 impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
     /// Model parameter update (IV.C.3).
@@ -128,6 +129,16 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             &self.science,
             &mut self.network,
         );
+        // The chains' downlink offsets under the same predictions the plan installs with.
+        let (primitives, params, context) = (&self.primitives, &self.params, &self.context);
+        self.timeline.earth.downlinks = downlink_spans(primitives, &self.network, |p| {
+            let (d, _) = predicted(primitives, params, p)?;
+            Some(if already_done(primitives, context, p) {
+                0
+            } else {
+                d
+            })
+        });
         self.planning_from = (self.now, self.battery_mj);
         let config = SearchConfig {
             battery_mj: self.battery_mj,
