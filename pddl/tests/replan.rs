@@ -302,7 +302,7 @@ fn a_network_rebuilt_from_a_plan_dispatches_it_as_planned() {
     let original = plan_task(task).unwrap();
     let mut net = PlanNetwork::new();
     let mut scratch = vec![0u32; task.fact_count() + task.numeric_count()];
-    replan::network_from_plan(&task, &original, &mut scratch, &mut net).expect("network");
+    replan::network_from_plan(&task, &original, false, &mut scratch, &mut net).expect("network");
     assert_eq!(net.step_count(), 2 * original.len());
     let makespan = original.iter().map(|p| p.start + p.duration).max().unwrap();
     assert_eq!(net.makespan, makespan);

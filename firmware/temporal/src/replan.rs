@@ -650,9 +650,16 @@ fn snap_reads(task: &Task<'_>, a: usize, end: bool, id: usize, for_delete: bool)
 /// The network of `plan` (actions of `task` with their start times and durations, ticks):
 /// its steps in time order (a start before its own end), the constraints recreated between
 /// them, its makespan. `scratch` needs a word per fact and numeric variable of the task.
+///
+/// With `open_ends`, an action's end is bounded below by its duration's lower bound only: an
+/// action that runs longer than planned (a traverse slower than its estimate; ends are
+/// reported, not dispatched) does not by itself invalidate the plan, only when what must
+/// follow it can no longer start within its window (section 5.2). Without, the duration's
+/// upper bound stays and an overrun past it asks for a replan at once.
 pub fn network_from_plan(
     task: &Task<'_>,
     plan: &[PlannedAction],
+    open_ends: bool,
     scratch: &mut [u32],
     net: &mut PlanNetwork,
 ) -> Result<(), NetworkError> {
@@ -756,7 +763,12 @@ pub fn network_from_plan(
         });
         if end {
             let s = start_step.get(usize::from(i)).copied().unwrap_or(0);
-            add(usize::from(s), act.duration_lb, act.duration_ub);
+            let ub = if open_ends {
+                UNBOUNDED
+            } else {
+                act.duration_ub
+            };
+            add(usize::from(s), act.duration_lb, ub);
         }
         if failed {
             return Err(NetworkError::TooManyConstraints);
