@@ -1,0 +1,74 @@
+//! The rover mission of seed 001 (issue 13 items 3 and 5), natively: `hil rover run
+//! scenarios/rover/sahara-day.toml` meets the file's expectations (an overrun noticed past a
+//! step's ub and the replan that follows, a running action paused into its inactive state, an
+//! opportunistic goal accepted and one dropped, every hard goal achieved), the same seed gives
+//! the same transcript, and a bad scenario is a clear error.
+use hil::rover::{run_file, Backend};
+
+fn sahara() -> std::path::PathBuf {
+    hil::repo_root().join("scenarios/rover/sahara-day.toml")
+}
+
+#[test]
+fn the_rover_day_meets_its_expectations_natively() {
+    let (run, verdicts) = run_file(&sahara(), None, &mut Backend::native()).expect("runs");
+    for v in &verdicts {
+        assert!(v.ok, "{}: {}\n{}", v.what, v.got, run.transcript.join("\n"));
+    }
+    // The expectations the file names, and what they stand for in the transcript.
+    assert!(verdicts.len() >= 9, "{verdicts:?}");
+    let text = run.decisions.join("\n");
+    assert!(text.contains("replan: overrun:"), "{text}");
+    assert!(text.contains("pause (sample-rock r0 w2)"), "{text}");
+    assert!(
+        text.contains("drop opportunistic goal (image-sent o4)"),
+        "{text}"
+    );
+    assert!(text.contains("carry (traverse"), "{text}");
+    // A paused sample is done again: the rock is sent.
+    assert!(run.achieved.contains(&"(rock-sent w2)".to_string()));
+    // Nothing is dispatched while planning: every planning's decisions come before the next
+    // dispatch, and each replan after the first plan started from a later mission time.
+    let times: Vec<f64> = run.plannings.iter().map(|p| p.at_s).collect();
+    assert!(times.windows(2).all(|w| w[0] <= w[1]), "{times:?}");
+    assert!(run.plannings.iter().all(|p| p.solved));
+}
+
+#[test]
+fn the_same_seed_gives_the_same_transcript_and_another_seed_another() {
+    let mut backend = Backend::native();
+    let (a, _) = run_file(&sahara(), Some(7), &mut backend).expect("runs");
+    let (b, _) = run_file(&sahara(), Some(7), &mut backend).expect("runs");
+    assert_eq!(a.decisions, b.decisions);
+    assert_eq!(a.decisions_sha256, b.decisions_sha256);
+    let (c, _) = run_file(&sahara(), Some(8), &mut backend).expect("runs");
+    assert_ne!(
+        a.decisions, c.decisions,
+        "the seed drives the simulated terrain"
+    );
+}
+
+#[test]
+fn a_scenario_with_an_unknown_goal_or_field_is_refused_clearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = hil::repo_root().join("scenarios/rover");
+    for f in ["domain.pddl", "problem.pddl"] {
+        std::fs::copy(root.join(f), dir.path().join(f)).unwrap();
+    }
+    let text = std::fs::read_to_string(sahara()).unwrap();
+    let bad_goal = dir.path().join("bad-goal.toml");
+    std::fs::write(
+        &bad_goal,
+        text.replace("(image-sent o4)", "(image-sent o9)"),
+    )
+    .unwrap();
+    let e = run_file(&bad_goal, None, &mut Backend::native()).expect_err("refused");
+    assert!(e.contains("no fact (image-sent o9)"), "{e}");
+    let bad_field = dir.path().join("bad-field.toml");
+    std::fs::write(&bad_field, text.replace("slow_percent", "slowness")).unwrap();
+    let e = run_file(&bad_field, None, &mut Backend::native()).expect_err("refused");
+    assert!(
+        e.contains("bad-field.toml") && e.contains("slowness"),
+        "{e}"
+    );
+}
