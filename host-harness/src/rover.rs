@@ -175,6 +175,9 @@ pub struct Expectations {
     pub min_started_at_lb: usize,
     #[serde(default)]
     pub min_started_late: usize,
+    /// At least this many starts ready early and held to their lb.
+    #[serde(default)]
+    pub min_held_to_lb: usize,
     /// Every step of the last plan executed.
     #[serde(default)]
     pub finished: bool,
@@ -414,6 +417,10 @@ pub struct RoverRun {
     pub paused: usize,
     pub started_at_lb: usize,
     pub started_late: usize,
+    /// Starts before their planned lb (what they follow ended early).
+    pub started_early: usize,
+    /// Starts at lb of a step ready more than a second before it (held to lb).
+    pub held_to_lb: usize,
     pub finished: bool,
     pub end_s: f64,
     /// sha256 of the decision lines (hex, 16 digits).
@@ -458,6 +465,8 @@ struct Mission<'a> {
     dispatcher: Option<Dispatcher>,
     epoch: u32,
     current: Option<pddl::Compiled>,
+    /// Each step's window [lb, ub] when the plan was made (epoch ticks).
+    planned: Vec<(u32, u32)>,
 }
 
 impl Mission<'_> {
@@ -659,6 +668,9 @@ impl Mission<'_> {
         self.run.plannings.push(planning);
         let mut d = Dispatcher::new(net, makespan.saturating_add(self.slack))
             .map_err(|e| format!("the plan's network: {e:?}"))?;
+        self.planned = (0..=d.network().step_count())
+            .map(|k| d.window(k).unwrap_or((0, 0)))
+            .collect();
         self.say(
             t,
             format!(
@@ -801,6 +813,8 @@ pub fn run(
             paused: 0,
             started_at_lb: 0,
             started_late: 0,
+            started_early: 0,
+            held_to_lb: 0,
             finished: false,
             end_s: 0.0,
             decisions_sha256: String::new(),
@@ -808,11 +822,13 @@ pub fn run(
         dispatcher: None,
         epoch: 0,
         current: None,
+        planned: Vec::new(),
     };
     let mut t = 0u32;
     let mut alive = m.replan(0, "initial plan".into())?;
     let base_actions = task.action_count();
     let mut guard = 0u32;
+    let mut held: Option<(u32, u32)> = None;
     while alive {
         guard += 1;
         if guard > 100_000 {
@@ -838,7 +854,9 @@ pub fn run(
         let decision = d.poll(t - epoch, &ready);
         match decision {
             Decision::Start { step, action } => {
-                let (lb, ub) = d.window(step).unwrap_or((0, 0));
+                // The window as planned (the current one has moved up to now).
+                let (lb, ub) = m.planned.get(step).copied().unwrap_or((0, 0));
+                let d = m.dispatcher.as_mut().ok_or("no plan")?;
                 d.executed(step, t - epoch)
                     .map_err(|e| format!("dispatch: {e:?}"))?;
                 let end_step = d.network().end_of(step);
@@ -846,9 +864,21 @@ pub fn run(
                 let estimate = a.duration_lb;
                 let name = m.name(action);
                 let (actual, why) = sim.duration(&name, estimate);
-                let when = if t - epoch == lb {
+                let waited = held.filter(|h| h.0 == t).map_or(0, |h| h.0 - h.1);
+                let when = if t - epoch < lb {
+                    m.run.started_early += 1;
+                    format!(
+                        "{:.3} s before its planned lb (what it follows ended early)",
+                        secs(lb - (t - epoch))
+                    )
+                } else if t - epoch == lb {
                     m.run.started_at_lb += 1;
-                    "at lb".to_string()
+                    if waited > 1000 {
+                        m.run.held_to_lb += 1;
+                        format!("at lb (ready {:.3} s early, held to lb)", secs(waited))
+                    } else {
+                        "at lb".to_string()
+                    }
                 } else {
                     m.run.started_late += 1;
                     format!("{:.3} s after lb, within (lb, ub]", secs(t - epoch - lb))
@@ -934,6 +964,11 @@ pub fn run(
                     m.say(t, "stuck: nothing to wait for".into());
                     break;
                 };
+                // A ready step waits for its lb (and nothing else happens before it).
+                held = until
+                    .map(|u| u + epoch)
+                    .filter(|&u| u == next)
+                    .map(|u| (u, t));
                 t = next;
                 end_actions(&mut m, t, &task)?;
             }
@@ -1090,6 +1125,11 @@ pub fn check(scenario: &RoverScenario, run: &RoverRun) -> Vec<Verdict> {
         "starts within (lb, ub]",
         e.min_started_late,
         run.started_late,
+    );
+    at_least(
+        "starts ready early, held to lb",
+        e.min_held_to_lb,
+        run.held_to_lb,
     );
     if e.finished {
         v.push(Verdict {

@@ -16,8 +16,11 @@ fn the_rover_day_meets_its_expectations_natively() {
         assert!(v.ok, "{}: {}\n{}", v.what, v.got, run.transcript.join("\n"));
     }
     // The expectations the file names, and what they stand for in the transcript.
-    assert!(verdicts.len() >= 9, "{verdicts:?}");
+    assert!(verdicts.len() >= 11, "{verdicts:?}");
     let text = run.decisions.join("\n");
+    // The three dispatch cases of section 5.2: held to lb, late within (lb, ub], replan past ub.
+    assert!(text.contains("held to lb"), "{text}");
+    assert!(text.contains("after lb, within (lb, ub]"), "{text}");
     assert!(text.contains("replan: overrun:"), "{text}");
     assert!(text.contains("pause (sample-rock r0 w2)"), "{text}");
     assert!(
