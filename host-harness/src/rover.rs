@@ -766,7 +766,7 @@ pub fn run(
         if task.goal_facts().contains(usize::from(id)) {
             return Err(format!("opportunity {}: it is already a goal", o.goal));
         }
-        if !(o.at_s >= 0.0) {
+        if o.at_s.is_nan() || o.at_s < 0.0 {
             return Err(format!("opportunity {}: at_s must be 0 or more", o.goal));
         }
         arrivals.push(((o.at_s * 1000.0).round() as u32, id, o.goal.clone()));
