@@ -351,3 +351,101 @@ fn a_network_rebuilt_from_a_plan_dispatches_it_as_planned() {
     }
     assert_eq!(started, original.len());
 }
+
+#[test]
+fn bad_replan_inputs_are_refused_never_a_panic() {
+    use temporal::replan::ReplanError;
+    let (d, p) = rover();
+    let compiled = common::compile(&d, &p).expect("compiles");
+    let task = Task::parse(&compiled.task).unwrap();
+    let original = plan_task(task).unwrap();
+    let mut facts = vec![0u32; replan::fact_words(&task)];
+    let mut values = vec![0i64; task.numeric_count()];
+    // An end before its start, and happenings out of time order.
+    let a = original[0].action;
+    let end_first = [Happening {
+        action: a,
+        end: true,
+        at: 5,
+    }];
+    assert_eq!(
+        replan::replay(&task, &end_first, &mut facts, &mut values),
+        Err(ReplanError::BadHistory)
+    );
+    let backwards = [
+        Happening {
+            action: a,
+            end: false,
+            at: 9,
+        },
+        Happening {
+            action: a,
+            end: true,
+            at: 3,
+        },
+    ];
+    assert_eq!(
+        replan::replay(&task, &backwards, &mut facts, &mut values),
+        Err(ReplanError::BadHistory)
+    );
+    // State storage too small, an unknown action, too many carried, every short buffer.
+    assert_eq!(
+        replan::initial_state(&task, &mut [], &mut values),
+        Err(ReplanError::StateTooSmall)
+    );
+    replan::initial_state(&task, &mut facts, &mut values).unwrap();
+    let input = |carried: &'static [Carried]| ReplanInput {
+        task,
+        now: 1000,
+        facts: Box::leak(facts.clone().into_boxed_slice()),
+        values: Box::leak(values.clone().into_boxed_slice()),
+        carried,
+        extra_goals: &[],
+    };
+    let unknown: &'static [Carried] = Box::leak(Box::new([Carried {
+        action: u16::MAX,
+        remaining_lb: 1,
+        remaining_ub: 1,
+    }]));
+    let mut out = vec![0u8; 1 << 20];
+    assert_eq!(
+        replan::write_replan_task(&input(unknown), &mut out),
+        Err(ReplanError::UnknownAction)
+    );
+    let many: &'static [Carried] = Box::leak(
+        vec![
+            Carried {
+                action: a,
+                remaining_lb: 1,
+                remaining_ub: 1
+            };
+            replan::MAX_CARRIED + 1
+        ]
+        .into_boxed_slice(),
+    );
+    assert_eq!(
+        replan::write_replan_task(&input(many), &mut out),
+        Err(ReplanError::TooMany)
+    );
+    let one: &'static [Carried] = Box::leak(Box::new([Carried {
+        action: a,
+        remaining_lb: 7,
+        remaining_ub: 7,
+    }]));
+    let len = replan::write_replan_task(&input(one), &mut out).expect("fits");
+    for short in 0..len {
+        assert_eq!(
+            replan::write_replan_task(&input(one), &mut out[..short]),
+            Err(ReplanError::NoRoom),
+            "{short} bytes"
+        );
+    }
+    // A network refuses an action the task does not have.
+    let mut net = PlanNetwork::new();
+    let mut scratch = vec![0u32; task.fact_count() + task.numeric_count()];
+    let bad = [PlannedAction {
+        action: u16::MAX,
+        ..PlannedAction::default()
+    }];
+    assert!(replan::network_from_plan(&task, &bad, true, &mut scratch, &mut net).is_err());
+}

@@ -405,6 +405,9 @@ pub fn write_replan_task(input: &ReplanInput<'_>, out: &mut [u8]) -> Result<usiz
     }
     let extra = extra.get(..n_extra).unwrap_or(&[]);
     let goal_count = goals.len() + n_extra + k;
+    if goal_count >= MAX_IDS {
+        return Err(ReplanError::TooMany);
+    }
     let conds_len: usize = task.goal_conditions().map(|c| linear_len(&c, false)).sum();
     let records_at = HEADER_BYTES
         + new_facts.div_ceil(8)
@@ -541,7 +544,8 @@ pub fn write_replan_task(input: &ReplanInput<'_>, out: &mut [u8]) -> Result<usiz
     }
     for c in input.carried {
         let name = task.action_name(usize::from(c.action)).as_bytes();
-        o.u16((COMPLETION_PREFIX.len() + name.len() + 1) as u16)?;
+        let len = COMPLETION_PREFIX.len() + name.len() + 1;
+        o.u16(u16::try_from(len).map_err(|_| ReplanError::TooMany)?)?;
         o.put(COMPLETION_PREFIX)?;
         o.put(name)?;
         o.put(b")")?;
