@@ -84,6 +84,16 @@ pub struct DispatchSection {
     /// Expansions a planning attempt may make (the same limit natively and on the target).
     #[serde(default = "default_expansions")]
     pub max_expansions: u32,
+    /// Mission time planning takes, per expansion, milliseconds: a model of the planner's CPU
+    /// that is the same natively and on the target (the target's measured cost is reported
+    /// in guest instructions beside it; about 135,000 instructions, 0.54 ms at 250 MIPS, per
+    /// expansion on the rover's replans).
+    #[serde(default = "default_ms_per_expansion")]
+    pub planning_ms_per_expansion: f64,
+}
+
+fn default_ms_per_expansion() -> f64 {
+    0.5
 }
 
 fn default_expansions() -> u32 {
@@ -95,6 +105,7 @@ impl Default for DispatchSection {
         Self {
             horizon_slack_s: 0.0,
             max_expansions: default_expansions(),
+            planning_ms_per_expansion: default_ms_per_expansion(),
         }
     }
 }
@@ -455,6 +466,7 @@ struct Mission<'a> {
     backend: &'a mut Backend,
     max_expansions: u32,
     slack: u32,
+    ms_per_expansion: f64,
     facts: Vec<u32>,
     values: Vec<i64>,
     active: Vec<Active>,
@@ -487,9 +499,10 @@ impl Mission<'_> {
             .unwrap_or_else(|| format!("(action {a})"))
     }
 
-    /// Plan from time `t` (nothing running is dispatched meanwhile): pause what is pausable,
-    /// carry the rest, drop opportunistic goals newest first until a plan comes.
-    fn replan(&mut self, t: u32, reason: String) -> Result<bool, String> {
+    /// Plan from time `t`: pause what is pausable, carry the rest, drop opportunistic goals
+    /// newest first until a plan comes. The mission time planning takes (ticks), or None when
+    /// no plan came. Nothing new is dispatched until that time has passed.
+    fn replan(&mut self, t: u32, reason: String) -> Result<Option<u32>, String> {
         self.say(t, format!("replan: {reason}"));
         let task = self.task;
         let inactive = |f: usize| {
@@ -655,7 +668,7 @@ impl Mission<'_> {
             self.say(t, "  no plan: the mission stops here".into());
             self.run.plannings.push(planning);
             self.dispatcher = None;
-            return Ok(false);
+            return Ok(None);
         };
         let new_task = Task::parse(&compiled.task).map_err(|e| e.to_string())?;
         let mut net = PlanNetwork::new();
@@ -663,6 +676,8 @@ impl Mission<'_> {
         replan::network_from_plan(&new_task, &plan, true, &mut scratch, &mut net)
             .map_err(|e| format!("the plan's network: {e:?}"))?;
         let makespan = net.makespan;
+        let expanded: u64 = planning.attempts.iter().map(|a| a.expanded).sum();
+        let planning_ticks = (expanded as f64 * self.ms_per_expansion).round() as u32;
         planning.actions = plan.len();
         planning.makespan_s = secs(makespan);
         self.run.plannings.push(planning);
@@ -715,7 +730,15 @@ impl Mission<'_> {
         self.dispatcher = Some(d);
         self.epoch = t;
         self.current = Some(compiled);
-        Ok(true)
+        self.say(
+            t,
+            format!(
+                "  planning takes {:.3} s ({expanded} expansions): nothing new dispatched until {:.3}",
+                secs(planning_ticks),
+                secs(t + planning_ticks)
+            ),
+        );
+        Ok(Some(planning_ticks))
     }
 }
 
@@ -795,6 +818,7 @@ pub fn run(
         backend,
         max_expansions: scenario.dispatch.max_expansions,
         slack: (scenario.dispatch.horizon_slack_s * 1000.0).round() as u32,
+        ms_per_expansion: scenario.dispatch.planning_ms_per_expansion,
         facts,
         values,
         active: Vec::new(),
@@ -825,7 +849,11 @@ pub fn run(
         planned: Vec::new(),
     };
     let mut t = 0u32;
-    let mut alive = m.replan(0, "initial plan".into())?;
+    let mut alive = false;
+    if let Some(p) = m.replan(0, "initial plan".into())? {
+        alive = true;
+        t = p;
+    }
     let base_actions = task.action_count();
     let mut guard = 0u32;
     let mut held: Option<(u32, u32)> = None;
@@ -838,7 +866,11 @@ pub fn run(
         if arrivals.first().is_some_and(|a| a.0 <= t) {
             let (_, id, name) = arrivals.remove(0);
             m.opportunistic.push(id);
-            alive = m.replan(t, format!("opportunistic goal {name} arrived"))?;
+            let planned = m.replan(t, format!("opportunistic goal {name} arrived"))?;
+            alive = planned.is_some();
+            // While the planner runs, what is running goes on (and may end).
+            t += planned.unwrap_or(0);
+            end_actions(&mut m, t, &task)?;
             continue;
         }
         let epoch = m.epoch;
@@ -938,7 +970,10 @@ pub fn run(
                     )
                 };
                 m.run.overrun_replans += 1;
-                alive = m.replan(t, reason)?;
+                let planned = m.replan(t, reason)?;
+                alive = planned.is_some();
+                t += planned.unwrap_or(0);
+                end_actions(&mut m, t, &task)?;
             }
             Decision::Wait { until } => {
                 // Wake at: a ready step's lb, the next end on the rover, the next arrival, or

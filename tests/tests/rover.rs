@@ -30,8 +30,21 @@ fn the_rover_day_meets_its_expectations_natively() {
     assert!(text.contains("carry (traverse"), "{text}");
     // A paused sample is done again: the rock is sent.
     assert!(run.achieved.contains(&"(rock-sent w2)".to_string()));
-    // Nothing is dispatched while planning: every planning's decisions come before the next
-    // dispatch, and each replan after the first plan started from a later mission time.
+    // Nothing new is dispatched while planning: no dispatch before the time the last planning
+    // said it ends.
+    let mut until = 0.0f64;
+    let mut plannings = 0;
+    for line in &run.decisions {
+        let at: f64 = line.split_whitespace().next().unwrap().parse().unwrap();
+        if let Some(rest) = line.split("nothing new dispatched until ").nth(1) {
+            until = rest.trim().parse().unwrap();
+            plannings += 1;
+        }
+        if line.contains("dispatch (") {
+            assert!(at >= until, "{line} before the planning's end {until}");
+        }
+    }
+    assert_eq!(plannings, run.plannings.len());
     let times: Vec<f64> = run.plannings.iter().map(|p| p.at_s).collect();
     assert!(times.windows(2).all(|w| w[0] <= w[1]), "{times:?}");
     assert!(run.plannings.iter().all(|p| p.solved));
