@@ -850,6 +850,12 @@ pub fn run(
     };
     let mut t = 0u32;
     let mut alive = false;
+    // Opportunistic goals known from the start (`at_s = 0`) are in the first plan's goals.
+    while arrivals.first().is_some_and(|a| a.0 == 0) {
+        let (_, id, name) = arrivals.remove(0);
+        m.say(0, format!("optional goal {name} from the start"));
+        m.opportunistic.push(id);
+    }
     if let Some(p) = m.replan(0, "initial plan".into())? {
         alive = true;
         t = p;

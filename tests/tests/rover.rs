@@ -88,3 +88,25 @@ fn a_scenario_with_an_unknown_goal_or_field_is_refused_clearly() {
         "{e}"
     );
 }
+
+#[test]
+fn the_field_trial_drops_its_optional_goal_when_a_delay_leaves_no_plan_with_it() {
+    let file = hil::repo_root().join("scenarios/rover/field-trial.toml");
+    let (run, verdicts) = run_file(&file, None, &mut Backend::native()).expect("runs");
+    for v in &verdicts {
+        assert!(v.ok, "{}: {}\n{}", v.what, v.got, run.transcript.join("\n"));
+    }
+    // The first plan kept the optional goal; the overrun replan dropped it.
+    let first = &run.plannings[0];
+    assert_eq!(first.attempts.len(), 1);
+    assert_eq!(first.attempts[0].outcome, "solved");
+    assert!(first.dropped.is_empty());
+    let replan = run
+        .plannings
+        .iter()
+        .find(|p| p.reason.starts_with("overrun"))
+        .expect("an overrun replan");
+    assert_eq!(replan.dropped, vec!["(image-sent o4)".to_string()]);
+    assert_eq!(replan.attempts.len(), 2);
+    assert!(!run.achieved.contains(&"(image-sent o4)".to_string()));
+}
