@@ -63,7 +63,7 @@ fn hil_rover_run_exits_0_1_2_and_speaks_json() {
     assert_eq!(code, 0, "{err}");
     let v: serde_json::Value = serde_json::from_str(&out).expect("JSON");
     assert_eq!(v["run"]["target"], "native");
-    assert_eq!(v["run"]["plannings"].as_array().unwrap().len(), 4);
+    assert!(v["run"]["plannings"].as_array().unwrap().len() >= 4);
     assert!(v["verdicts"]
         .as_array()
         .unwrap()

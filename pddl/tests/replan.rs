@@ -139,6 +139,18 @@ fn replan_at(
     .expect("writes");
     let new_task = Task::parse(&out[..len]).expect("the replan task is a valid task");
     assert_eq!(new_task.action_count(), task.action_count() + carried.len());
+    // A carried action starts again only after its completion ended: its completion's fact
+    // is an at-start condition of its own record.
+    for (k, c) in carried.iter().enumerate() {
+        let pre = new_task
+            .action(usize::from(c.action))
+            .facts(temporal::task::FactList::PreStart);
+        assert!(pre.contains(task.fact_count() + k));
+        let before = task
+            .action(usize::from(c.action))
+            .facts(temporal::task::FactList::PreStart);
+        assert_eq!(pre.len(), before.len() + 1);
+    }
     let new_plan = plan_task(new_task).unwrap_or_else(|| panic!("no plan from {cut}"));
     // Every running action carried is ended by the new plan, at the epoch's start.
     for k in 0..carried.len() {

@@ -29,9 +29,9 @@
 //!   write after the last writer and every reader since, `epsilon` apart; an end its duration
 //!   after its start). So a plan made on the target is dispatched exactly as one made here.
 //!
-//! A running action in the planner cannot overlap itself; a running action carried into a
-//! replan as a completion does not stop the planner from starting the same ground action
-//! again before it ends (the domain's own conditions, such as a rover's position, do).
+//! A ground action never overlaps itself in the planner; across a replan, a carried action's
+//! own record also needs its completion's fact at start, so it starts again only after the
+//! running one ended.
 //!
 //! `no_std`, heap-free: the caller hands in the state's storage and the output buffer; at most
 //! [`MAX_CARRIED`] running actions and [`MAX_EXTRA_GOALS`] extra goals.
@@ -415,7 +415,17 @@ pub fn write_replan_task(input: &ReplanInput<'_>, out: &mut [u8]) -> Result<usiz
         + 2 * goal_count
         + conds_len
         + 4 * new_actions;
-    let originals: usize = (0..actions).map(|a| task.action_record(a).len()).sum();
+    // A carried action's own record needs its completion's fact to start again (no
+    // self-overlap across the replan): two bytes more per lock.
+    let locks = |a: usize| {
+        input
+            .carried
+            .iter()
+            .filter(move |c| usize::from(c.action) == a)
+            .count()
+    };
+    let record_len = |a: usize| task.action_record(a).len() + 2 * locks(a);
+    let originals: usize = (0..actions).map(record_len).sum();
     let completions: usize = input
         .carried
         .iter()
@@ -461,7 +471,7 @@ pub fn write_replan_task(input: &ReplanInput<'_>, out: &mut [u8]) -> Result<usiz
     let mut at = records_at;
     for a in 0..actions {
         o.u32(at as u32)?;
-        at += task.action_record(a).len();
+        at += record_len(a);
     }
     for c in input.carried {
         o.u32(at as u32)?;
@@ -479,7 +489,27 @@ pub fn write_replan_task(input: &ReplanInput<'_>, out: &mut [u8]) -> Result<usiz
         for x in [sw.0, sw.1, ew.0, ew.1] {
             o.u32(x)?;
         }
-        o.put(record.get(24..).ok_or(ReplanError::NoRoom)?)?;
+        let n = locks(a);
+        if n == 0 {
+            o.put(record.get(24..).ok_or(ReplanError::NoRoom)?)?;
+            continue;
+        }
+        // The at-start conditions, then the completions' facts, then the rest as it was.
+        let pre = act.facts(FactList::PreStart);
+        o.u16(u16::try_from(pre.len() + n).map_err(|_| ReplanError::TooMany)?)?;
+        for f in pre.iter() {
+            o.u16(f as u16)?;
+        }
+        for (k, c) in input.carried.iter().enumerate() {
+            if usize::from(c.action) == a {
+                o.u16((facts + k) as u16)?;
+            }
+        }
+        o.put(
+            record
+                .get(26 + 2 * pre.len()..)
+                .ok_or(ReplanError::NoRoom)?,
+        )?;
     }
     // The completions.
     for (i, c) in input.carried.iter().enumerate() {
