@@ -27,6 +27,7 @@ pub mod options;
 pub mod plan;
 pub mod plan_emulated;
 pub mod qemu;
+pub mod rover;
 pub mod run;
 pub mod scenario;
 pub mod session;
