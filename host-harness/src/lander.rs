@@ -7,7 +7,9 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use lander_sim::expect::{self, Verdict};
+use lander_sim::report::{self, LanderReport};
 use lander_sim::scenario::{Scenario, StrategyName};
+use lander_sim::sim::trace::{self, Trace};
 use lander_sim::sim::{self, RunConfig, RunResult};
 
 use crate::study::load_scenario;
@@ -15,7 +17,10 @@ use crate::study::load_scenario;
 /// `hil lander`.
 #[derive(Clone, Debug, clap::Subcommand)]
 pub enum LanderCommand {
-    /// Run one lander scenario natively and check its expectations (PASS/FAIL each).
+    /// Run one lander scenario natively and check its expectations (PASS/FAIL each);
+    /// `--report DIR` writes the long-mission report (HTML with a Gantt chart over sols,
+    /// battery, data-on-board and utility timelines, downlinks per tier; JSON and CSV data).
+    /// A progress bar shows on stderr when it is a terminal.
     Run(LanderRunArgs),
 }
 
@@ -32,6 +37,14 @@ pub struct LanderRunArgs {
     /// Write the run's result and verdicts (JSON) here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Write the mission report into this directory: report.html (self-contained, inline SVG:
+    /// a Gantt chart over sols of every dispatched primitive by kind and site, with failures,
+    /// retries, replans and ground halts marked over Earth-in-view bands; the battery's charge
+    /// and the data on board over time; the utility realised, which rises only when a
+    /// downlink's data reaches Earth; each downlink's products and volume per tier), plus
+    /// report.json, primitives.csv, timeline.csv, utility.csv and downlinks.csv.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
 }
 
 fn parse_strategy(s: &str) -> Result<StrategyName, String> {
@@ -85,6 +98,36 @@ pub fn run_checked(
         verdicts,
         wall,
     })
+}
+
+/// [`run_checked`] with the trace the reports need, calling `progress` with the mission time
+/// after every executor step. The result is the same as without the trace.
+pub fn run_checked_traced(
+    s: &Scenario,
+    seed: Option<u64>,
+    strategy: Option<StrategyName>,
+    progress: impl FnMut(u64) + Send + Sync + 'static,
+) -> Result<(LanderOutcome, Trace), String> {
+    let seed = seed.unwrap_or(s.run.seed);
+    let strategy = strategy.unwrap_or(s.run.strategy);
+    let mut trace = Trace::new(s);
+    trace.on_progress(progress);
+    let started = Instant::now();
+    let (result, trace) =
+        trace::run_traced_with(s, &RunConfig::new(strategy.strategy(), seed), trace)?;
+    let wall = started.elapsed();
+    let verdicts = expect::check_all(s, &result);
+    Ok((
+        LanderOutcome {
+            scenario: s.name.clone(),
+            seed,
+            strategy,
+            result,
+            verdicts,
+            wall,
+        },
+        trace,
+    ))
 }
 
 /// The readable summary: what happened, then a PASS/FAIL line per expectation.
@@ -163,12 +206,27 @@ pub fn summary(o: &LanderOutcome) -> String {
 fn run_file(path: &Path, args: &LanderRunArgs) -> Result<ExitCode, String> {
     let scenario = load_scenario(path).map_err(|d| d.render())?;
     println!("hil lander run {} — {}", path.display(), scenario.name);
-    let outcome = run_checked(&scenario, args.seed, args.strategy)?;
+    // Mission hours on stderr, only when it is a terminal.
+    let bar = crate::progress::bar(
+        sim::horizon_us(&scenario) / sim::HOUR_US,
+        "  {bar:40} {pos}/{len} mission hours",
+    );
+    let b = bar.clone();
+    let (outcome, trace) = run_checked_traced(&scenario, args.seed, args.strategy, move |now| {
+        b.set_position(now / sim::HOUR_US)
+    })?;
+    bar.finish_and_clear();
     print!("{}", summary(&outcome));
     if let Some(p) = &args.json {
         let text = serde_json::to_string_pretty(&outcome).map_err(|e| e.to_string())?;
         std::fs::write(p, text + "\n").map_err(|e| format!("cannot write {}: {e}", p.display()))?;
         println!("  result: {}", p.display());
+    }
+    if let Some(dir) = &args.report {
+        let strategy = format!("{:?}", outcome.strategy);
+        let report = LanderReport::new(&scenario, &strategy, outcome.result.clone(), trace);
+        report::write_dir(&report, dir)?;
+        println!("  report: {}", dir.join("report.html").display());
     }
     Ok(if outcome.passed() {
         ExitCode::SUCCESS

@@ -55,6 +55,8 @@ use crate::scenario::{milli, ppm, Scenario};
 
 pub const MIN_US: u64 = 60_000_000;
 
+pub mod trace;
+
 /// How a run is configured beyond its scenario.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RunConfig {
@@ -1103,6 +1105,15 @@ fn next_arrival(pending: &[PendingChange]) -> Option<u64> {
 
 /// Runs one mission of scenario `s` under `config`.
 pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
+    run_with(s, config, None)
+}
+
+/// [`run`], telling `trace` (if given) what happens; it decides nothing.
+pub fn run_with(
+    s: &Scenario,
+    config: &RunConfig,
+    mut trace: Option<&mut trace::Trace>,
+) -> Result<RunResult, String> {
     let (mut model, net, timeline, context) = autonomy_inputs(s, config.prescient)?;
     let mut exec: Box<Autonomy> = Box::new(
         Executor::new(
@@ -1243,6 +1254,9 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
             event: event.take(),
         };
         let directive = exec.step(&observation, config.budget);
+        if let Some(t) = trace.as_deref_mut() {
+            t.step(&world, &directive, exec.stats());
+        }
         let replans = exec.stats().replans;
         while replans_charged < replans {
             replans_charged += 1;
@@ -1271,6 +1285,9 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                 dispatched += 1;
                 let start = world.now;
                 let (outcome, class) = world.execute(chain, primitive, &spec);
+                if let Some(t) = trace.as_deref_mut() {
+                    t.dispatched(&world, chain, primitive, &spec, start, &outcome, class);
+                }
                 if let Some(f) = failures.get_mut(usize::from(class)) {
                     *f += 1;
                 }
@@ -1374,6 +1391,9 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                 }
             }
         }
+    }
+    if let Some(t) = trace.as_deref_mut() {
+        t.end(&world);
     }
     if world.dead {
         end = EndReason::BatteryExhausted;

@@ -1,0 +1,294 @@
+//! A small recorder of what a lander run did, for the long-mission reports
+//! ([`crate::report`], `hil lander run --report DIR`): every dispatched primitive with its
+//! span and outcome, retries, replans and ground halts, the battery's charge and the data on
+//! board over time, and each downlink's products per tier.
+//!
+//! [`super::run_with`] calls it from three places (after each executor step, after each
+//! dispatch, after the loop). It only reads the world and the executor's counters: a run with
+//! the recorder decides exactly as one without (`lander-sim/tests/report.rs` checks the
+//! `RunResult`s are equal). It is a child module of `sim` so that it can read the world's
+//! private state without widening it.
+use lander::executor::{Directive, ExecStats, Outcome, TaskResult};
+use lander::htn::{PrimitiveSpec, Tier};
+use serde::{Deserialize, Serialize};
+
+use super::{tier_index, FailureClass, RunConfig, RunResult, World};
+use crate::scenario::Scenario;
+
+/// The battery's charge and the data on board at one time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Sample {
+    pub at_us: u64,
+    pub battery_mj: u64,
+    /// Bytes of the products on board plus the seismometer's data not yet made a product.
+    pub onboard_bytes: u64,
+}
+
+/// One dispatch of a primitive, as it happened.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct PrimitiveRecord {
+    pub chain: u16,
+    pub primitive: u8,
+    /// The primitive's kind (`ExcavateSite`, `Downlink`, ...).
+    pub kind: String,
+    pub site: Option<u8>,
+    pub target: Option<u8>,
+    pub start_us: u64,
+    pub end_us: u64,
+    /// `succeeded`, `failed` (a failure code) or `faulted`.
+    pub result: String,
+    /// The failure drawn for this dispatch, if one was.
+    pub failure: Option<FailureClass>,
+    /// The executor retried the primitive that failed before it (flexible execution).
+    pub retry: bool,
+    pub energy_mj: u64,
+}
+
+/// A span of mission time (a ground halt: from the halt to the ground's answer on board, or
+/// the run's end).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Span {
+    pub start_us: u64,
+    pub end_us: u64,
+}
+
+/// A product a downlink carried.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SentProduct {
+    pub kind: String,
+    pub tier: Tier,
+    pub bytes: u64,
+    pub value_milli: u64,
+    pub site: Option<u8>,
+    pub target: Option<u8>,
+}
+
+/// One downlink with its products per tier (Critical, Decisional, Mandatory, Residual).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DownlinkTrace {
+    /// Its index in [`RunResult::downlinks`].
+    pub index: usize,
+    pub start_us: u64,
+    pub end_us: u64,
+    /// When its data reached Earth (transmission end plus the light time): its utility counts
+    /// from then.
+    pub received_us: u64,
+    pub bytes_per_tier: [u64; 4],
+    pub products_per_tier: [u32; 4],
+    pub value_milli_per_tier: [u64; 4],
+    pub products: Vec<SentProduct>,
+}
+
+/// What the reports need of a run.
+#[derive(Serialize, Deserialize, Default)]
+pub struct Trace {
+    pub horizon_us: u64,
+    pub light_us: u64,
+    /// Earth in view, clipped to the horizon.
+    pub earth_in_view: Vec<Span>,
+    pub samples: Vec<Sample>,
+    pub primitives: Vec<PrimitiveRecord>,
+    /// When a replan started (the executor's replan counter rose).
+    pub replans: Vec<u64>,
+    pub ground_halts: Vec<Span>,
+    pub downlinks: Vec<DownlinkTrace>,
+    #[serde(skip)]
+    state: State,
+    /// Called with the mission time after each step (a progress bar).
+    #[serde(skip)]
+    progress: Option<Box<dyn FnMut(u64) + Send + Sync>>,
+}
+
+#[derive(Default)]
+struct State {
+    stats: ExecStats,
+    retry_pending: bool,
+    halt_open: Option<u64>,
+    sent_seen: usize,
+    downlinks_seen: usize,
+}
+
+impl std::fmt::Debug for Trace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Trace")
+            .field("samples", &self.samples.len())
+            .field("primitives", &self.primitives.len())
+            .field("replans", &self.replans.len())
+            .field("ground_halts", &self.ground_halts.len())
+            .field("downlinks", &self.downlinks.len())
+            .finish()
+    }
+}
+
+/// The increase of a counter since `last` (a rebuilt executor starts again from zero).
+fn rise(now: u32, last: u32) -> u32 {
+    if now >= last {
+        now - last
+    } else {
+        now
+    }
+}
+
+impl Trace {
+    /// An empty trace for a run of `s`.
+    pub fn new(s: &Scenario) -> Self {
+        let earth = super::EarthSchedule::from_scenario(s);
+        let horizon = super::horizon_us(s);
+        let mut earth_in_view = Vec::new();
+        let mut t = 0;
+        while t < horizon && earth.period_us > 0 {
+            earth_in_view.push(Span {
+                start_us: t,
+                end_us: (t + earth.in_view_us).min(horizon),
+            });
+            t += earth.period_us;
+        }
+        Self {
+            horizon_us: horizon,
+            light_us: s.comms.light_time_min * super::MIN_US,
+            earth_in_view,
+            ..Self::default()
+        }
+    }
+
+    /// Calls `f` with the mission time after every executor step.
+    pub fn on_progress(&mut self, f: impl FnMut(u64) + Send + Sync + 'static) {
+        self.progress = Some(Box::new(f));
+    }
+
+    fn sample(&mut self, world: &World) {
+        let onboard = world.stored.iter().map(|p| p.bytes).sum::<u64>()
+            + world.volume(Tier::Residual, world.seismo_bytes);
+        let sample = Sample {
+            at_us: world.now,
+            battery_mj: world.battery_mj,
+            onboard_bytes: onboard,
+        };
+        match self.samples.last_mut() {
+            Some(last) if last.at_us == sample.at_us => *last = sample,
+            _ => self.samples.push(sample),
+        }
+    }
+
+    fn close_halt(&mut self, now: u64) {
+        if let Some(start) = self.state.halt_open.take() {
+            self.ground_halts.push(Span {
+                start_us: start,
+                end_us: now,
+            });
+        }
+    }
+
+    /// After an executor step: the executor's counters and the directive.
+    pub(super) fn step(&mut self, world: &World, directive: &Directive, stats: &ExecStats) {
+        self.close_halt(world.now);
+        self.sample(world);
+        let last = std::mem::replace(&mut self.state.stats, *stats);
+        if rise(stats.retries, last.retries) > 0 {
+            self.state.retry_pending = true;
+        }
+        for _ in 0..rise(stats.replans, last.replans) {
+            self.replans.push(world.now);
+        }
+        if let Directive::HaltedForGround { .. } = directive {
+            self.state.halt_open = Some(world.now);
+        }
+        if let Some(f) = self.progress.as_mut() {
+            f(world.now);
+        }
+    }
+
+    /// After a dispatch of `spec` that started at `start`.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn dispatched(
+        &mut self,
+        world: &World,
+        chain: u16,
+        primitive: u8,
+        spec: &PrimitiveSpec,
+        start: u64,
+        outcome: &Outcome,
+        class: u8,
+    ) {
+        let failure = match class {
+            0 => Some(FailureClass::FlexibleExecution),
+            1 => Some(FailureClass::Replan),
+            2 => Some(FailureClass::Ground),
+            _ => None,
+        };
+        self.primitives.push(PrimitiveRecord {
+            chain,
+            primitive,
+            kind: format!("{:?}", spec.kind),
+            site: spec.site,
+            target: spec.target,
+            start_us: start,
+            end_us: world.now,
+            result: match outcome.result {
+                TaskResult::Succeeded => "succeeded",
+                TaskResult::Failed => "failed",
+                TaskResult::Faulted => "faulted",
+            }
+            .into(),
+            failure,
+            retry: std::mem::take(&mut self.state.retry_pending),
+            energy_mj: outcome.energy_mj,
+        });
+        // A downlink record appeared: the products sent since the last one are its.
+        if world.downlinks.len() > self.state.downlinks_seen {
+            self.state.downlinks_seen = world.downlinks.len();
+            let index = world.downlinks.len() - 1;
+            let record = &world.downlinks[index];
+            let mut d = DownlinkTrace {
+                index,
+                start_us: record.start_us,
+                end_us: record.end_us,
+                received_us: record.end_us + world.light_us,
+                bytes_per_tier: [0; 4],
+                products_per_tier: [0; 4],
+                value_milli_per_tier: [0; 4],
+                products: Vec::new(),
+            };
+            for p in &world.sent[self.state.sent_seen.min(world.sent.len())..] {
+                let i = tier_index(p.tier);
+                d.bytes_per_tier[i] += p.bytes;
+                d.products_per_tier[i] += 1;
+                d.value_milli_per_tier[i] += p.value_milli;
+                d.products.push(SentProduct {
+                    kind: p.kind.clone(),
+                    tier: p.tier,
+                    bytes: p.bytes,
+                    value_milli: p.value_milli,
+                    site: p.site,
+                    target: p.target,
+                });
+            }
+            self.downlinks.push(d);
+        }
+        self.state.sent_seen = world.sent.len();
+        self.sample(world);
+    }
+
+    /// After the run's loop.
+    pub(super) fn end(&mut self, world: &World) {
+        self.close_halt(world.now);
+        self.sample(world);
+    }
+}
+
+/// Runs one mission of `s` under `config` with a recorder: the same [`RunResult`] as
+/// [`super::run`], and the trace.
+pub fn run_traced(s: &Scenario, config: &RunConfig) -> Result<(RunResult, Trace), String> {
+    run_traced_with(s, config, Trace::new(s))
+}
+
+/// [`run_traced`] with a trace set up by the caller (e.g. with [`Trace::on_progress`]).
+pub fn run_traced_with(
+    s: &Scenario,
+    config: &RunConfig,
+    mut trace: Trace,
+) -> Result<(RunResult, Trace), String> {
+    let result = super::run_with(s, config, Some(&mut trace))?;
+    trace.progress = None;
+    Ok((result, trace))
+}
