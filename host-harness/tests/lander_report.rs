@@ -309,7 +309,8 @@ fn the_battery_timeline_runs_from_the_start_charge_to_the_end_charge() {
             "{name}"
         );
         for w in s.windows(2) {
-            assert!(w[0].at_us < w[1].at_us, "{name}: {w:?}");
+            // (An exogenous drop is two points at its time.)
+            assert!(w[0].at_us <= w[1].at_us, "{name}: {w:?}");
             // Non-rechargeable.
             assert!(w[1].battery_mj <= w[0].battery_mj, "{name}: {w:?}");
         }
@@ -396,4 +397,52 @@ fn hil_study_shows_no_progress_bar_in_a_pipe() {
     );
     let text = std::fs::read_to_string(&json).unwrap();
     assert!(!text.contains('\u{1b}'));
+}
+
+#[test]
+fn an_exogenous_drop_is_a_step_at_its_time() {
+    let mut s =
+        load_scenario(&repo().join("scenarios/lander/elap/08-sudden-low-battery.toml")).unwrap();
+    // The shipped drop (150 h) falls to a state of charge; add one of a fixed energy before.
+    s.power.drops.push(lander_sim::scenario::Drop {
+        at_h: 100,
+        wh: 500,
+        to_soc: None,
+    });
+    let hour = lander_sim::sim::HOUR_US;
+    let to_mj = (s.mission.battery_wh as f64 * 3_600_000.0 * 0.1) as u64;
+    let mut checked = 0;
+    for strategy in STRATEGIES {
+        let (result, trace) = run_traced(&s, &RunConfig::new(strategy.strategy(), 1)).unwrap();
+        if result.end_us <= 150 * hour {
+            // (Static abandons early.)
+            continue;
+        }
+        checked += 1;
+        let at = |t: u64| -> Vec<u64> {
+            trace
+                .samples
+                .iter()
+                .filter(|x| x.at_us == t)
+                .map(|x| x.battery_mj)
+                .collect()
+        };
+        // Two points at each drop's time: before and after (after a primitive's energy too
+        // if one ended then).
+        // 500 Wh: the step is at least the drop's.
+        let first = at(100 * hour);
+        assert_eq!(first.len(), 2, "{strategy:?}: {first:?}");
+        assert!(
+            first[0] - first[1] >= 500 * 3_600_000,
+            "{strategy:?}: {first:?}"
+        );
+        // To 10%: from above to at most the charge it falls to.
+        let second = at(150 * hour);
+        assert_eq!(second.len(), 2, "{strategy:?}: {second:?}");
+        assert!(
+            second[0] > to_mj && second[1] <= to_mj,
+            "{strategy:?}: {second:?}"
+        );
+    }
+    assert!(checked >= 3, "only {checked} run(s) reached the drops");
 }

@@ -106,6 +106,7 @@ struct State {
     halt_open: Option<u64>,
     sent_seen: usize,
     downlinks_seen: usize,
+    drops_seen: usize,
 }
 
 impl std::fmt::Debug for Trace {
@@ -157,6 +158,7 @@ impl Trace {
     }
 
     fn sample(&mut self, world: &World) {
+        self.drops(world);
         let onboard = world.stored.iter().map(|p| p.bytes).sum::<u64>()
             + world.volume(Tier::Residual, world.seismo_bytes);
         let sample = Sample {
@@ -167,6 +169,41 @@ impl Trace {
         match self.samples.last_mut() {
             Some(last) if last.at_us == sample.at_us => *last = sample,
             _ => self.samples.push(sample),
+        }
+    }
+
+    /// Exogenous drops since the last sample, each as two points at its time (before and
+    /// after), the charge before it from the background load since the last sample (constant
+    /// between two samples: only a dispatch switches the seismometer).
+    fn drops(&mut self, world: &World) {
+        while self.state.drops_seen < world.next_drop {
+            let k = self.state.drops_seen;
+            self.state.drops_seen += 1;
+            let (Some(&(at, mj, to)), Some(&last)) = (world.drops.get(k), self.samples.last())
+            else {
+                continue;
+            };
+            if at <= last.at_us || at > world.now {
+                continue;
+            }
+            let dt = at - last.at_us;
+            let drain = (u128::from(world.load_mw()) * u128::from(dt) / 1_000_000) as u64;
+            let before = last.battery_mj.saturating_sub(drain);
+            let after = to.map_or(before.saturating_sub(mj), |to| before.min(to));
+            let grown = if world.seismo_on {
+                let bytes = (u128::from(world.seismo_bytes_per_h) * u128::from(dt)
+                    / u128::from(super::HOUR_US)) as u64;
+                world.volume(Tier::Residual, bytes)
+            } else {
+                0
+            };
+            for battery_mj in [before, after] {
+                self.samples.push(Sample {
+                    at_us: at,
+                    battery_mj,
+                    onboard_bytes: last.onboard_bytes + grown,
+                });
+            }
         }
     }
 
