@@ -17,16 +17,18 @@ use crate::study::load_scenario;
 /// `hil lander`.
 #[derive(Clone, Debug, clap::Subcommand)]
 pub enum LanderCommand {
-    /// Run one lander scenario natively and check its expectations (PASS/FAIL each);
-    /// `--report DIR` writes the long-mission report (HTML with a Gantt chart over sols,
-    /// battery, data-on-board and utility timelines, downlinks per tier; JSON and CSV data).
-    /// A progress bar shows on stderr when it is a terminal.
+    /// Run one lander scenario natively and check its expectations (PASS/FAIL each).
+    ///
+    /// `--report DIR` writes the long-mission report: HTML with a Gantt chart over sols,
+    /// battery, data-on-board and utility timelines and the downlinks per tier, with its data
+    /// as JSON and CSV. A progress bar (mission hours) shows on stderr when it is a terminal,
+    /// never in piped output or the JSON.
     Run(LanderRunArgs),
 }
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct LanderRunArgs {
-    /// Lander scenario (TOML), e.g. scenarios/lander/elap/sudden-low-battery.toml
+    /// Lander scenario (TOML), e.g. scenarios/lander/elap/08-sudden-low-battery.toml
     pub scenario: PathBuf,
     /// Seed (default: the scenario's `run.seed`).
     #[arg(long)]

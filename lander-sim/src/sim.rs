@@ -1392,7 +1392,7 @@ pub fn run_with(
             }
         }
     }
-    if let Some(t) = trace.as_deref_mut() {
+    if let Some(t) = trace {
         t.end(&world);
     }
     if world.dead {
