@@ -446,3 +446,27 @@ fn an_exogenous_drop_is_a_step_at_its_time() {
     }
     assert!(checked >= 3, "only {checked} run(s) reached the drops");
 }
+
+#[test]
+fn hil_lander_run_shows_its_progress_bar_on_a_terminal() {
+    // util-linux `script` gives the command a terminal; skipped (and said so) without it.
+    let probe = Command::new("script").arg("--version").output();
+    if !probe.is_ok_and(|o| o.status.success()) {
+        eprintln!("skipped: no util-linux `script` to run hil on a pseudo-terminal");
+        return;
+    }
+    let hil = env!("CARGO_BIN_EXE_hil");
+    let out = Command::new("script")
+        .current_dir(repo())
+        .args(["-qec"])
+        .arg(format!(
+            "{hil} lander run scenarios/lander/rsm-1.toml > /dev/null"
+        ))
+        .arg("/dev/null")
+        .output()
+        .unwrap();
+    let terminal = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{terminal}");
+    // The bar was drawn on stderr (the terminal), stdout went to /dev/null.
+    assert!(terminal.contains("mission hours"), "{terminal:?}");
+}
