@@ -363,6 +363,13 @@ fn hil_lander_run_writes_the_report_without_a_progress_bar_in_a_pipe() {
     let run: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(report["result"], run["result"]);
+    // And it reads back as a report: the trace has every dispatch.
+    let back: LanderReport =
+        serde_json::from_str(&std::fs::read_to_string(out_dir.join("report.json")).unwrap())
+            .unwrap();
+    assert_eq!(back.trace.primitives.len(), back.result.dispatched as usize);
+    assert_eq!(back.trace.downlinks.len(), back.result.downlinks.len());
+    assert_eq!(report::html(&back), html);
     let text = std::fs::read_to_string(&json).unwrap();
     assert!(!text.contains("mission hours"));
     // The help names the report.
