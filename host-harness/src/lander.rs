@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use lander_sim::expect::{self, Verdict};
 use lander_sim::report::{self, LanderReport};
 use lander_sim::scenario::{Scenario, StrategyName};
-use lander_sim::sim::trace::{self, Trace};
+use lander_sim::sim::trace::{Recording, Trace};
 use lander_sim::sim::{self, RunConfig, RunResult};
 
 use crate::study::load_scenario;
@@ -36,9 +36,6 @@ pub struct LanderRunArgs {
     /// Strategy: static, ground, fe or replan (default: the scenario's `run.strategy`).
     #[arg(long, value_parser = parse_strategy)]
     pub strategy: Option<StrategyName>,
-    /// Write the run's result and verdicts (JSON) here.
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
     /// Write the mission report into this directory: report.html (self-contained, inline SVG:
     /// a Gantt chart over sols of every dispatched primitive by kind and site, with failures,
     /// retries, replans and ground halts marked over Earth-in-view bands; the battery's charge
@@ -47,6 +44,9 @@ pub struct LanderRunArgs {
     /// report.json, primitives.csv, timeline.csv, utility.csv and downlinks.csv.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
+    /// Write the run's result and verdicts (JSON) here.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
 }
 
 fn parse_strategy(s: &str) -> Result<StrategyName, String> {
@@ -100,36 +100,6 @@ pub fn run_checked(
         verdicts,
         wall,
     })
-}
-
-/// [`run_checked`] with the trace the reports need, calling `progress` with the mission time
-/// after every executor step. The result is the same as without the trace.
-pub fn run_checked_traced(
-    s: &Scenario,
-    seed: Option<u64>,
-    strategy: Option<StrategyName>,
-    progress: impl FnMut(u64) + Send + Sync + 'static,
-) -> Result<(LanderOutcome, Trace), String> {
-    let seed = seed.unwrap_or(s.run.seed);
-    let strategy = strategy.unwrap_or(s.run.strategy);
-    let mut trace = Trace::new(s);
-    trace.on_progress(progress);
-    let started = Instant::now();
-    let (result, trace) =
-        trace::run_traced_with(s, &RunConfig::new(strategy.strategy(), seed), trace)?;
-    let wall = started.elapsed();
-    let verdicts = expect::check_all(s, &result);
-    Ok((
-        LanderOutcome {
-            scenario: s.name.clone(),
-            seed,
-            strategy,
-            result,
-            verdicts,
-            wall,
-        },
-        trace,
-    ))
 }
 
 /// The readable summary: what happened, then a PASS/FAIL line per expectation.
@@ -207,18 +177,12 @@ pub fn summary(o: &LanderOutcome) -> String {
 
 fn run_file(path: &Path, args: &LanderRunArgs) -> Result<ExitCode, String> {
     let scenario = load_scenario(path).map_err(|d| d.render())?;
+    // The run is recorded (the report, the progress bar) however it is made.
+    let recording = start_recording(&scenario);
     println!("hil lander run {} — {}", path.display(), scenario.name);
-    // Mission hours on stderr, only when it is a terminal.
-    let bar = crate::progress::bar(
-        sim::horizon_us(&scenario) / sim::HOUR_US,
-        "  {bar:40} {pos}/{len} mission hours",
-    );
-    let b = bar.clone();
-    let (outcome, trace) = run_checked_traced(&scenario, args.seed, args.strategy, move |now| {
-        b.set_position(now / sim::HOUR_US)
-    })?;
-    bar.finish_and_clear();
+    let outcome = run_checked(&scenario, args.seed, args.strategy)?;
     print!("{}", summary(&outcome));
+    let trace = recording.finish();
     if let Some(p) = &args.json {
         let text = serde_json::to_string_pretty(&outcome).map_err(|e| e.to_string())?;
         std::fs::write(p, text + "\n").map_err(|e| format!("cannot write {}: {e}", p.display()))?;
@@ -235,6 +199,21 @@ fn run_file(path: &Path, args: &LanderRunArgs) -> Result<ExitCode, String> {
     } else {
         ExitCode::from(1)
     })
+}
+
+/// A recording of the run about to be made on this thread, with a progress bar in mission
+/// hours on stderr when it is a terminal (cleared when the run ends).
+fn start_recording(s: &Scenario) -> Recording {
+    let bar = crate::progress::bar(
+        sim::horizon_us(s) / sim::HOUR_US,
+        "  {bar:40} {pos}/{len} mission hours",
+    );
+    let mut trace = Trace::new(s);
+    trace.on_progress(move |now| match now {
+        Some(t) => bar.set_position(t / sim::HOUR_US),
+        None => bar.finish_and_clear(),
+    });
+    Recording::start(trace)
 }
 
 /// The `hil lander` command.

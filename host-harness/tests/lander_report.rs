@@ -477,3 +477,24 @@ fn hil_lander_run_shows_its_progress_bar_on_a_terminal() {
     // The bar was drawn on stderr (the terminal), stdout went to /dev/null.
     assert!(terminal.contains("mission hours"), "{terminal:?}");
 }
+
+#[test]
+fn a_recording_holds_only_the_run_made_while_it_is_in_force() {
+    let s = load_scenario(&repo().join("scenarios/lander/rsm-1.toml")).unwrap();
+    let config = RunConfig::new(StrategyName::Replan.strategy(), 2);
+    let (_, a) = run_traced(&s, &config).unwrap();
+    // Runs outside a recording are not recorded anywhere; the next recording starts empty.
+    for seed in 3..6 {
+        sim::run(&s, &RunConfig::new(StrategyName::Fe.strategy(), seed)).unwrap();
+    }
+    let (_, b) = run_traced(&s, &config).unwrap();
+    let json = |t: &lander_sim::sim::trace::Trace| serde_json::to_string(t).unwrap();
+    assert_eq!(json(&a), json(&b));
+    assert!(!a.primitives.is_empty());
+    // Nested: the inner run goes to the inner recording, the outer one gets nothing of it.
+    let outer = lander_sim::sim::trace::Recording::start(lander_sim::sim::trace::Trace::new(&s));
+    let (_, inner) = run_traced(&s, &config).unwrap();
+    let outer = outer.finish();
+    assert_eq!(json(&inner), json(&a));
+    assert!(outer.primitives.is_empty() && outer.samples.is_empty());
+}

@@ -1105,15 +1105,6 @@ fn next_arrival(pending: &[PendingChange]) -> Option<u64> {
 
 /// Runs one mission of scenario `s` under `config`.
 pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
-    run_with(s, config, None)
-}
-
-/// [`run`], telling `trace` (if given) what happens; it decides nothing.
-pub fn run_with(
-    s: &Scenario,
-    config: &RunConfig,
-    mut trace: Option<&mut trace::Trace>,
-) -> Result<RunResult, String> {
     let (mut model, net, timeline, context) = autonomy_inputs(s, config.prescient)?;
     let mut exec: Box<Autonomy> = Box::new(
         Executor::new(
@@ -1177,6 +1168,7 @@ pub fn run_with(
     };
     let mut end = EndReason::MissionEnd;
     for _ in 0..1_000_000 {
+        trace::with(|t| t.loop_top(&world));
         if world.dead {
             end = EndReason::BatteryExhausted;
             break;
@@ -1254,9 +1246,6 @@ pub fn run_with(
             event: event.take(),
         };
         let directive = exec.step(&observation, config.budget);
-        if let Some(t) = trace.as_deref_mut() {
-            t.step(&world, &directive, exec.stats());
-        }
         let replans = exec.stats().replans;
         while replans_charged < replans {
             replans_charged += 1;
@@ -1265,6 +1254,7 @@ pub fn run_with(
                 break;
             }
         }
+        trace::with(|t| t.step(&world, &directive, exec.stats()));
         match directive {
             Directive::Dispatch {
                 chain, primitive, ..
@@ -1285,9 +1275,9 @@ pub fn run_with(
                 dispatched += 1;
                 let start = world.now;
                 let (outcome, class) = world.execute(chain, primitive, &spec);
-                if let Some(t) = trace.as_deref_mut() {
-                    t.dispatched(&world, chain, primitive, &spec, start, &outcome, class);
-                }
+                trace::with(|t| {
+                    t.dispatched(&world, chain, primitive, &spec, start, &outcome, class)
+                });
                 if let Some(f) = failures.get_mut(usize::from(class)) {
                     *f += 1;
                 }
@@ -1392,9 +1382,7 @@ pub fn run_with(
             }
         }
     }
-    if let Some(t) = trace {
-        t.end(&world);
-    }
+    trace::with(|t| t.end(&world));
     if world.dead {
         end = EndReason::BatteryExhausted;
     }

@@ -3,11 +3,17 @@
 //! span and outcome, retries, replans and ground halts, the battery's charge and the data on
 //! board over time, and each downlink's products per tier.
 //!
-//! [`super::run_with`] calls it from three places (after each executor step, after each
-//! dispatch, after the loop). It only reads the world and the executor's counters: a run with
-//! the recorder decides exactly as one without (`lander-sim/tests/report.rs` checks the
-//! `RunResult`s are equal). It is a child module of `sim` so that it can read the world's
-//! private state without widening it.
+//! A [`Recording`] installs a trace for the current thread while it lives; the simulation's
+//! loop ([`super::run`], and whatever else drives the same loop) tells it what happens from
+//! four places (the loop's top, after each executor step, after each dispatch, after the
+//! loop) through [`with`], which does nothing when no recording is in force. Installing it
+//! this way keeps the simulation's signature and loop as they are: one line per place. The
+//! recorder only reads the world and the executor's counters: a run with it decides exactly as
+//! one without (`host-harness/tests/lander_report.rs` checks the `RunResult`s are equal). It is
+//! a child module of `sim` so that it can read the world's private state without widening it.
+//! One recording holds one run.
+use std::cell::RefCell;
+
 use lander::executor::{Directive, ExecStats, Outcome, TaskResult};
 use lander::htn::{PrimitiveSpec, Tier};
 use serde::{Deserialize, Serialize};
@@ -94,13 +100,18 @@ pub struct Trace {
     pub downlinks: Vec<DownlinkTrace>,
     #[serde(skip)]
     state: State,
-    /// Called with the mission time after each step (a progress bar).
+    /// Called with the mission time after each step and with None at the run's end (a
+    /// progress bar).
     #[serde(skip)]
-    progress: Option<Box<dyn FnMut(u64) + Send + Sync>>,
+    progress: Option<Progress>,
 }
+
+type Progress = Box<dyn FnMut(Option<u64>) + Send + Sync>;
 
 #[derive(Default)]
 struct State {
+    /// The current step's time (the loop's top).
+    step_at: u64,
     stats: ExecStats,
     retry_pending: bool,
     halt_open: Option<u64>,
@@ -152,8 +163,9 @@ impl Trace {
         }
     }
 
-    /// Calls `f` with the mission time after every executor step.
-    pub fn on_progress(&mut self, f: impl FnMut(u64) + Send + Sync + 'static) {
+    /// Calls `f` with the mission time after every executor step, and with None when the run
+    /// ends.
+    pub fn on_progress(&mut self, f: impl FnMut(Option<u64>) + Send + Sync + 'static) {
         self.progress = Some(Box::new(f));
     }
 
@@ -216,22 +228,31 @@ impl Trace {
         }
     }
 
-    /// After an executor step: the executor's counters and the directive.
+    /// At the top of the simulation's loop: the state the next step observes.
+    pub(super) fn loop_top(&mut self, world: &World) {
+        self.state.step_at = world.now;
+        self.sample(world);
+    }
+
+    /// After an executor step (and the replans it charged): the executor's counters and the
+    /// directive.
     pub(super) fn step(&mut self, world: &World, directive: &Directive, stats: &ExecStats) {
-        self.close_halt(world.now);
+        let at = self.state.step_at;
+        // A halt lasts until the step that brings the ground's answer.
+        self.close_halt(at);
         self.sample(world);
         let last = std::mem::replace(&mut self.state.stats, *stats);
         if rise(stats.retries, last.retries) > 0 {
             self.state.retry_pending = true;
         }
         for _ in 0..rise(stats.replans, last.replans) {
-            self.replans.push(world.now);
+            self.replans.push(at);
         }
         if let Directive::HaltedForGround { .. } = directive {
             self.state.halt_open = Some(world.now);
         }
         if let Some(f) = self.progress.as_mut() {
-            f(world.now);
+            f(Some(world.now));
         }
     }
 
@@ -310,22 +331,63 @@ impl Trace {
     pub(super) fn end(&mut self, world: &World) {
         self.close_halt(world.now);
         self.sample(world);
+        if let Some(mut f) = self.progress.take() {
+            f(None);
+        }
+    }
+}
+
+thread_local! {
+    /// The trace of this thread's run while a [`Recording`] is in force.
+    static RECORDER: RefCell<Option<Trace>> = const { RefCell::new(None) };
+}
+
+/// Gives the recording in force on this thread, if any, to `f` (the simulation's hooks).
+pub(super) fn with(f: impl FnOnce(&mut Trace)) {
+    RECORDER.with(|r| {
+        // (A progress callback that runs a simulation itself is not recorded.)
+        if let Ok(mut r) = r.try_borrow_mut() {
+            if let Some(t) = r.as_mut() {
+                f(t);
+            }
+        }
+    });
+}
+
+/// While it lives, the simulation run on this thread is recorded into its trace; dropped
+/// without [`Recording::finish`] (an error), the trace is discarded. Recordings nest: the
+/// outer one is restored at the end of the inner.
+pub struct Recording {
+    /// The recording this one replaced (None once restored).
+    outer: Option<Option<Trace>>,
+}
+
+impl Recording {
+    pub fn start(trace: Trace) -> Self {
+        Self {
+            outer: Some(RECORDER.with(|r| r.replace(Some(trace)))),
+        }
+    }
+
+    /// Ends the recording: its trace.
+    pub fn finish(mut self) -> Trace {
+        let outer = self.outer.take().flatten();
+        RECORDER.with(|r| r.replace(outer)).unwrap_or_default()
+    }
+}
+
+impl Drop for Recording {
+    fn drop(&mut self) {
+        if let Some(outer) = self.outer.take() {
+            RECORDER.with(|r| r.replace(outer));
+        }
     }
 }
 
 /// Runs one mission of `s` under `config` with a recorder: the same [`RunResult`] as
 /// [`super::run`], and the trace.
 pub fn run_traced(s: &Scenario, config: &RunConfig) -> Result<(RunResult, Trace), String> {
-    run_traced_with(s, config, Trace::new(s))
-}
-
-/// [`run_traced`] with a trace set up by the caller (e.g. with [`Trace::on_progress`]).
-pub fn run_traced_with(
-    s: &Scenario,
-    config: &RunConfig,
-    mut trace: Trace,
-) -> Result<(RunResult, Trace), String> {
-    let result = super::run_with(s, config, Some(&mut trace))?;
-    trace.progress = None;
-    Ok((result, trace))
+    let recording = Recording::start(Trace::new(s));
+    let result = super::run(s, config)?;
+    Ok((result, recording.finish()))
 }
