@@ -1,5 +1,5 @@
 //! Reports for long lander missions (issue 12 item 5), from a run and its
-//! [`Trace`](crate::sim::trace::Trace): `hil lander run FILE --report DIR` writes
+//! [`Trace`]: `hil lander run FILE --report DIR` writes
 //!
 //! - `report.html`: self-contained HTML with inline SVG (no script, no external resource):
 //!   a Gantt chart over sols (every dispatched primitive by kind and site, its target in the

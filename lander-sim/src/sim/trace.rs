@@ -6,7 +6,7 @@
 //! A [`Recording`] installs a trace for the current thread while it lives; the simulation's
 //! loop ([`super::run`], and whatever else drives the same loop) tells it what happens from
 //! four places (the loop's top, after each executor step, after each dispatch, after the
-//! loop) through [`with`], which does nothing when no recording is in force. Installing it
+//! loop) through `with`, which does nothing when no recording is in force. Installing it
 //! this way keeps the simulation's signature and loop as they are: one line per place. The
 //! recorder only reads the world and the executor's counters: a run with it decides exactly as
 //! one without (`host-harness/tests/lander_report.rs` checks the `RunResult`s are equal). It is
