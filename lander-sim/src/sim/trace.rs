@@ -67,6 +67,10 @@ pub struct SentProduct {
     pub value_milli: u64,
     pub site: Option<u8>,
     pub target: Option<u8>,
+    /// Part of a product too large for one downlink, the rest still on board (its value
+    /// counts when the last part is down).
+    #[serde(default)]
+    pub segment: bool,
 }
 
 /// One downlink with its products per tier (Critical, Decisional, Mandatory, Residual).
@@ -116,6 +120,8 @@ struct State {
     retry_pending: bool,
     halt_open: Option<u64>,
     sent_seen: usize,
+    /// The products on board when a downlink was dispatched: (identity, bytes).
+    onboard_before: Vec<(ProductKey, u64)>,
     downlinks_seen: usize,
     drops_seen: usize,
 }
@@ -130,6 +136,19 @@ impl std::fmt::Debug for Trace {
             .field("downlinks", &self.downlinks.len())
             .finish()
     }
+}
+
+/// What identifies a product on board: kind, tier, creation time, site and target.
+type ProductKey = (String, usize, u64, Option<u8>, Option<u8>);
+
+fn key(p: &super::Product) -> ProductKey {
+    (
+        p.kind.clone(),
+        tier_index(p.tier),
+        p.created_us,
+        p.site,
+        p.target,
+    )
 }
 
 /// The increase of a counter since `last` (a rebuilt executor starts again from zero).
@@ -248,8 +267,13 @@ impl Trace {
         for _ in 0..rise(stats.replans, last.replans) {
             self.replans.push(at);
         }
-        if let Directive::HaltedForGround { .. } = directive {
-            self.state.halt_open = Some(world.now);
+        match directive {
+            Directive::HaltedForGround { .. } => self.state.halt_open = Some(world.now),
+            Directive::Dispatch { kind, .. } if super::is_downlink(*kind) => {
+                self.state.onboard_before =
+                    world.stored.iter().map(|p| (key(p), p.bytes)).collect();
+            }
+            _ => {}
         }
         if let Some(f) = self.progress.as_mut() {
             f(Some(world.now));
@@ -319,11 +343,30 @@ impl Trace {
                     value_milli: p.value_milli,
                     site: p.site,
                     target: p.target,
+                    segment: false,
                 });
+            }
+            // Parts of products still on board (a product larger than one downlink).
+            for p in &world.stored {
+                let before = self.state.onboard_before.iter().find(|(k, _)| *k == key(p));
+                if let Some(&(_, bytes)) = before.filter(|(_, b)| *b > p.bytes) {
+                    let i = tier_index(p.tier);
+                    d.bytes_per_tier[i] += bytes - p.bytes;
+                    d.products.push(SentProduct {
+                        kind: p.kind.clone(),
+                        tier: p.tier,
+                        bytes: bytes - p.bytes,
+                        value_milli: 0,
+                        site: p.site,
+                        target: p.target,
+                        segment: true,
+                    });
+                }
             }
             self.downlinks.push(d);
         }
         self.state.sent_seen = world.sent.len();
+        self.state.onboard_before.clear();
         self.sample(world);
     }
 
