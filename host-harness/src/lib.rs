@@ -26,6 +26,7 @@ pub mod mission;
 pub mod options;
 pub mod plan;
 pub mod plan_emulated;
+pub mod progress;
 pub mod qemu;
 pub mod rover;
 pub mod run;

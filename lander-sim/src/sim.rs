@@ -55,6 +55,8 @@ use crate::scenario::{milli, ppm, Scenario};
 
 pub const MIN_US: u64 = 60_000_000;
 
+pub mod trace;
+
 /// How a run is configured beyond its scenario.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RunConfig {
@@ -1166,6 +1168,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
     };
     let mut end = EndReason::MissionEnd;
     for _ in 0..1_000_000 {
+        trace::with(|t| t.loop_top(&world));
         if world.dead {
             end = EndReason::BatteryExhausted;
             break;
@@ -1251,6 +1254,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                 break;
             }
         }
+        trace::with(|t| t.step(&world, &directive, exec.stats()));
         match directive {
             Directive::Dispatch {
                 chain, primitive, ..
@@ -1271,6 +1275,9 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                 dispatched += 1;
                 let start = world.now;
                 let (outcome, class) = world.execute(chain, primitive, &spec);
+                trace::with(|t| {
+                    t.dispatched(&world, chain, primitive, &spec, start, &outcome, class)
+                });
                 if let Some(f) = failures.get_mut(usize::from(class)) {
                     *f += 1;
                 }
@@ -1375,6 +1382,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
             }
         }
     }
+    trace::with(|t| t.end(&world));
     if world.dead {
         end = EndReason::BatteryExhausted;
     }
