@@ -367,6 +367,9 @@ pub struct World {
     rng_energy: Rng,
     rng_sampling: Rng,
     downlinks: Vec<DownlinkRecord>,
+    /// The downlink being dispatched: its commanded duration and the products the autonomy
+    /// assigned to it (sent first).
+    commanded: Option<(u64, Vec<lander::downlink::DataProduct>)>,
 }
 
 fn mul_ppm(x: u64, ppm: u64) -> u64 {
@@ -609,7 +612,39 @@ impl World {
             rng_energy: Rng::stream(seed, Stream::Energy),
             rng_sampling: Rng::stream(seed, Stream::Sampling),
             downlinks: Vec::new(),
+            commanded: None,
         }
+    }
+
+    /// The link as the autonomy is told it (rate, overhead, thermal limit, radio, allowances).
+    pub fn comms_model(&self) -> lander::comms::CommsModel {
+        lander::comms::CommsModel {
+            rate_bps: self.rate_bps.max(1),
+            overhead_us: self.overhead_us,
+            thermal_limit_us: self.thermal_limit_us,
+            radio_power_mw: self.radio_mw,
+            per_downlink_mj: self.per_downlink_mj,
+            per_sol_mj: self.per_sol_mj,
+            sol_us: SOL_US,
+        }
+    }
+
+    /// The products onboard as the autonomy measures them (most urgent and oldest first, at
+    /// most the downlink manager's capacity).
+    pub fn onboard_products(&self) -> Vec<lander::downlink::DataProduct> {
+        let mut out: Vec<_> = self
+            .stored
+            .iter()
+            .map(|p| lander::downlink::DataProduct {
+                size_bytes: p.bytes,
+                value: p.value_milli / 1_000,
+                created_at: MissionTimeUs(p.created_us),
+                tier: p.tier,
+            })
+            .collect();
+        out.sort_by_key(|p| (tier_index(p.tier), p.created_at));
+        out.truncate(lander::capacity::MAX_DATA_PRODUCTS);
+        out
     }
 
     /// A product's volume in this world.
@@ -846,7 +881,12 @@ impl World {
 
     /// A downlink: waits for Earth if it must, transmits, realises the products' value.
     /// Returns the time it took and false if the battery ran out.
-    fn downlink(&mut self, planned_us: u64, energy_mj: u64) -> (u64, bool) {
+    fn downlink(
+        &mut self,
+        planned_us: u64,
+        energy_mj: u64,
+        payload: &[lander::downlink::DataProduct],
+    ) -> (u64, bool) {
         let dispatched = self.now;
         if !self.advance(self.earth.next_in_view(self.now)) {
             return (self.now - dispatched, false);
@@ -886,8 +926,14 @@ impl World {
             });
         }
         let mut capacity = (u128::from(self.rate_bps) * u128::from(tx_us) / 8_000_000) as u64;
+        // The autonomy's assignment first, then the rest by tier and age.
+        let assigned = |p: &Product| {
+            payload.iter().any(|a| {
+                a.created_at.0 == p.created_us && a.tier == p.tier && a.size_bytes == p.bytes
+            })
+        };
         self.stored
-            .sort_by_key(|p| (tier_index(p.tier), p.created_us));
+            .sort_by_key(|p| (!assigned(p), tier_index(p.tier), p.created_us));
         let mut record = DownlinkRecord {
             dispatched_us: dispatched,
             start_us: tx_start,
@@ -918,6 +964,7 @@ impl World {
     /// Carries out one dispatch of `spec` (chain, primitive) predicted at `expected_us`.
     fn execute(&mut self, chain: u16, primitive: u8, spec: &PrimitiveSpec) -> (Outcome, u8) {
         let start = self.now;
+        let commanded = self.commanded.take();
         let factor = self.energy_factor();
         let heat = if is_heated(spec.kind) {
             self.heat_milli
@@ -956,7 +1003,12 @@ impl World {
                 TaskResult::Failed
             }
         } else if is_downlink(spec.kind) {
-            let _ = self.downlink(duration, energy);
+            // The commanded duration (sized by the autonomy to its data); energy scales.
+            let (commanded, payload) = commanded.unwrap_or((duration, Vec::new()));
+            energy = (u128::from(energy) * u128::from(commanded) / u128::from(duration.max(1)))
+                as u64;
+            duration = commanded;
+            let _ = self.downlink(duration, energy, &payload);
             TaskResult::Succeeded
         } else {
             let mut result = TaskResult::Succeeded;
@@ -1117,6 +1169,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
     );
     // The world's truth: the model's priors (prescient: bias-scaled, as the planner's).
     let mut world = World::new(s, &model, config.seed, config.prescient);
+    let _ = exec.set_comms(Some(world.comms_model()));
     let battery_start = world.battery_mj;
     let horizon = horizon_us(s);
     let replan_us = s.replan.duration_min * MIN_US;
@@ -1195,6 +1248,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                 if let Some(w) = change.per_sol_wh {
                     world.per_sol_mj = w * WH_MJ;
                 }
+                let _ = exec.set_comms(Some(world.comms_model()));
                 if change.changes_model() {
                     let mut context = exec.context().clone();
                     for (site, &v) in context.sites.iter_mut().zip(&change.site_values) {
@@ -1223,6 +1277,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                     )?;
                     model = m;
                     exec = e;
+                    let _ = exec.set_comms(Some(world.comms_model()));
                     replans_charged = 0;
                     last_dispatch = None;
                 }
@@ -1236,6 +1291,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
         }
         let preconditions_met =
             spec_of(&exec, &model).is_none_or(|spec| world.preconditions(&spec));
+        let _ = exec.set_onboard_data(&world.onboard_products());
         let observation = Observation {
             now: MissionTimeUs(world.now),
             battery_mj: world.battery_mj,
@@ -1253,7 +1309,10 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
         }
         match directive {
             Directive::Dispatch {
-                chain, primitive, ..
+                chain,
+                primitive,
+                expected_end,
+                ..
             } => {
                 let Some(spec) = model.primitives.get(usize::from(primitive)).cloned() else {
                     return Err(format!(
@@ -1270,6 +1329,10 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                 ));
                 dispatched += 1;
                 let start = world.now;
+                if is_downlink(spec.kind) {
+                    let payload = exec.downlink_payload().to_vec();
+                    world.commanded = Some((expected_end.0.saturating_sub(start), payload));
+                }
                 let (outcome, class) = world.execute(chain, primitive, &spec);
                 if let Some(f) = failures.get_mut(usize::from(class)) {
                     *f += 1;

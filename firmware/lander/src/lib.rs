@@ -36,6 +36,7 @@ extern crate std;
 
 pub mod assessor;
 pub mod capacity;
+pub mod comms;
 pub mod downlink;
 pub mod executor;
 pub mod gate;
