@@ -419,7 +419,8 @@ pub fn autonomy_inputs(
     String,
 > {
     let options = rsm1_options(s);
-    let mut model = rsm1::model(options).map_err(|_| "the model exceeds the capacities")?;
+    let mut model = rsm1::model_with_drains(options, s.mission.uplinks)
+        .map_err(|_| "the model exceeds the capacities")?;
     if prescient {
         let f = (1_000 + milli(s.energy.bias)).max(0) as u64;
         for p in model.primitives.iter_mut() {
@@ -943,8 +944,16 @@ impl World {
             value_milli: 0,
         };
         let mut kept = Vec::new();
+        // A product larger than any one downlink can carry goes down over several.
+        let largest = self.comms_model();
+        let largest = largest.capacity_of(largest.max_duration_us());
         for mut p in std::mem::take(&mut self.stored) {
-            if p.bytes <= capacity {
+            if p.bytes > largest && p.bytes > capacity && capacity > 0 {
+                p.bytes -= capacity;
+                record.bytes += capacity;
+                capacity = 0;
+                kept.push(p);
+            } else if p.bytes <= capacity {
                 capacity -= p.bytes;
                 record.bytes += p.bytes;
                 record.per_tier[tier_index(p.tier)] += 1;
@@ -1005,8 +1014,8 @@ impl World {
         } else if is_downlink(spec.kind) {
             // The commanded duration (sized by the autonomy to its data); energy scales.
             let (commanded, payload) = commanded.unwrap_or((duration, Vec::new()));
-            energy = (u128::from(energy) * u128::from(commanded) / u128::from(duration.max(1)))
-                as u64;
+            energy =
+                (u128::from(energy) * u128::from(commanded) / u128::from(duration.max(1))) as u64;
             duration = commanded;
             let _ = self.downlink(duration, energy, &payload);
             TaskResult::Succeeded
@@ -1102,7 +1111,8 @@ fn rebuild(
     strategy: Strategy,
     preamble_done: bool,
 ) -> Result<(HtnModel, Box<Autonomy>), String> {
-    let model = rsm1::model(options).map_err(|_| "the new model exceeds the capacities")?;
+    let model = rsm1::model_with_drains(options, s.mission.uplinks)
+        .map_err(|_| "the new model exceeds the capacities")?;
     let mut net = flatten(
         &model,
         FlattenOptions {

@@ -44,7 +44,7 @@ use crate::downlink::{SolAllocation, Tier};
 use crate::htn::{FlatNetwork, PrimitiveKind, PrimitiveSpec};
 use crate::placement::{is_downlink, DownlinkSpans};
 use crate::search::{ChainPlacement, PlacedChain};
-use crate::utility::RankedUtility;
+use crate::utility::{Rank, RankedUtility, Score};
 
 /// Knapsack nodes one placement check may use before its best assignment decides.
 pub const DATA_KNAPSACK_BUDGET: u32 = 4_000;
@@ -106,8 +106,7 @@ impl CommsModel {
 
     /// Bytes sent in `us` of transmission.
     pub fn bytes_in(&self, us: u64) -> u64 {
-        u64::try_from(u128::from(self.rate_bps) * u128::from(us) / 8 / US_PER_S)
-            .unwrap_or(u64::MAX)
+        u64::try_from(u128::from(self.rate_bps) * u128::from(us) / 8 / US_PER_S).unwrap_or(u64::MAX)
     }
 
     /// Transmission time of `bytes` (rounded up).
@@ -199,6 +198,36 @@ impl VolumeFactors {
     }
 }
 
+/// Appends `p` to `products`, split into segments of at most `segment` bytes when it is larger
+/// (a product no single downlink can carry goes down over several, as the onboard file
+/// transfer does; equation 12 then holds per segment). Returns how many items were appended,
+/// or `None` when `products` is full.
+pub fn push_segments(
+    products: &mut Vec<DataProduct, MAX_DATA_PRODUCTS>,
+    p: DataProduct,
+    segment: u64,
+) -> Option<usize> {
+    if segment == 0 || p.size_bytes <= segment {
+        products.push(p).ok()?;
+        return Some(1);
+    }
+    let n = p.size_bytes.div_ceil(segment);
+    let mut left = p.size_bytes;
+    for k in 0..n {
+        let size = left.min(segment);
+        left -= size;
+        let value = p.value / n + u64::from(k < p.value % n);
+        products
+            .push(DataProduct {
+                size_bytes: size,
+                value,
+                ..p
+            })
+            .ok()?;
+    }
+    usize::try_from(n).ok()
+}
+
 /// Per chain: its sized downlink (duration, energy), if it has exactly one downlink primitive.
 pub type DownlinkSizes = Vec<Option<(u64, u64)>, MAX_CHAINS>;
 
@@ -248,11 +277,9 @@ pub fn size_downlinks(
                 let (extra_d, extra_e) = (need - d, energy.saturating_sub(e));
                 if extra_d > 0 {
                     // Products created after the downlink starts move with its end.
-                    let starts_at = chain
-                        .primitives
-                        .iter()
-                        .take(pos)
-                        .fold(0u64, |at, &p| at.saturating_add(prior(p).map_or(0, |(d, _)| d)));
+                    let starts_at = chain.primitives.iter().take(pos).fold(0u64, |at, &p| {
+                        at.saturating_add(prior(p).map_or(0, |(d, _)| d))
+                    });
                     for cp in chain.products.iter_mut() {
                         if cp.offset_us > starts_at {
                             cp.offset_us = cp.offset_us.saturating_add(extra_d);
@@ -328,8 +355,11 @@ impl<'a, P> DataPlacement<'a, P> {
     ) -> Option<(usize, bool)> {
         let comms = self.data.comms;
         let mut opportunities: Vec<(u64, u16, DownlinkOpportunity), MAX_DOWNLINKS> = Vec::new();
-        let mut products: Vec<DataProduct, MAX_DATA_PRODUCTS> =
-            Vec::from_slice(self.data.onboard).ok()?;
+        let segment = comms.capacity_of(comms.max_duration_us());
+        let mut products: Vec<DataProduct, MAX_DATA_PRODUCTS> = Vec::new();
+        for p in self.data.onboard {
+            push_segments(&mut products, *p, segment)?;
+        }
         let mut first_extra = usize::MAX;
         for p in plan.iter().chain(extra.iter()) {
             let chain = network.chains.get(usize::from(p.chain))?;
@@ -344,14 +374,13 @@ impl<'a, P> DataPlacement<'a, P> {
                 first_extra = products.len();
             }
             for cp in &chain.products {
-                products
-                    .push(DataProduct {
-                        size_bytes: cp.spec.size_bytes,
-                        value: cp.spec.value,
-                        created_at: MissionTimeUs(p.start.0.saturating_add(cp.offset_us)),
-                        tier: cp.spec.tier,
-                    })
-                    .ok()?;
+                let made = DataProduct {
+                    size_bytes: cp.spec.size_bytes,
+                    value: cp.spec.value,
+                    created_at: MissionTimeUs(p.start.0.saturating_add(cp.offset_us)),
+                    tier: cp.spec.tier,
+                };
+                push_segments(&mut products, made, segment)?;
             }
         }
         opportunities.sort_unstable_by_key(|&(s, c, _)| (s, c));
@@ -405,15 +434,41 @@ impl<'a, P> DataPlacement<'a, P> {
             self.stats.capacity_vetoes += 1;
             return false;
         };
-        let ok = own
-            && (with == 0
+        let creates = network
+            .chains
+            .get(usize::from(candidate))
+            .is_some_and(|c| !c.products.is_empty());
+        let ok = if creates {
+            own && (with == 0
                 || self
                     .solve(network, plan, None)
-                    .is_some_and(|(without, _)| with <= without));
+                    .is_some_and(|(without, _)| with <= without))
+        } else {
+            // A downlink creating no data: admitted when it carries required data that would
+            // otherwise stay onboard (its utility, [`Self::helped`]).
+            self.helped(network, plan, candidate, start, with) > 0
+        };
         if !ok {
             self.stats.vetoes += 1;
         }
         ok
+    }
+}
+
+impl<P> DataPlacement<'_, P> {
+    /// How many more required products (segments) go down with `candidate` at `start` than
+    /// without it, `with` being the count left behind with it.
+    fn helped(
+        &mut self,
+        network: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+        start: MissionTimeUs,
+        with: usize,
+    ) -> usize {
+        let _ = (candidate, start);
+        self.solve(network, plan, None)
+            .map_or(0, |(without, _)| without.saturating_sub(with))
     }
 }
 
@@ -440,13 +495,37 @@ impl<P: ChainPlacement> ChainPlacement for DataPlacement<'_, P> {
         self.fits(network, plan, candidate, start).then_some(start)
     }
 
+    /// A chain that downlinks without creating data is worth what it saves: a Default-rank
+    /// score of 0.25 per required product (segment) it downlinks that would otherwise stay
+    /// onboard (at most 1.0); other chains as the inner placement says.
     fn utility(
         &mut self,
         network: &FlatNetwork,
         plan: &[PlacedChain],
         candidate: u16,
     ) -> RankedUtility {
-        self.inner.utility(network, plan, candidate)
+        let drain = network.chains.get(usize::from(candidate)).is_some_and(|c| {
+            c.products.is_empty()
+                && matches!(self.data.spans.get(usize::from(candidate)), Some(Some(_)))
+        });
+        if !drain {
+            return self.inner.utility(network, plan, candidate);
+        }
+        let Some(start) = self.inner.place(network, plan, candidate) else {
+            return RankedUtility::ZERO;
+        };
+        let placed = PlacedChain {
+            chain: candidate,
+            start,
+        };
+        let Some((with, _)) = self.solve(network, plan, Some(placed)) else {
+            return RankedUtility::ZERO;
+        };
+        let saved = self.helped(network, plan, candidate, start, with);
+        let score = u32::try_from(saved.saturating_mul(2_500))
+            .unwrap_or(10_000)
+            .min(10_000);
+        RankedUtility::single(Rank::Default, Score::new(score).unwrap_or(Score::ZERO))
     }
 }
 
@@ -481,10 +560,17 @@ pub fn next_downlink(
             break;
         }
     }
+    let segment = comms.capacity_of(comms.max_duration_us());
     let mut products: Vec<DataProduct, MAX_DATA_PRODUCTS> = Vec::new();
+    // Per onboard product, its items' range.
+    let mut ranges: Vec<(usize, usize), MAX_DATA_PRODUCTS> = Vec::new();
     for p in onboard.iter().chain(later) {
-        if products.push(*p).is_err() {
-            break;
+        let first = products.len();
+        match push_segments(&mut products, *p, segment) {
+            Some(n) => {
+                let _ = ranges.push((first, first + n));
+            }
+            None => break,
         }
     }
     let mut allocations: Vec<SolAllocation, MAX_SOLS> = Vec::new();
@@ -503,11 +589,15 @@ pub fn next_downlink(
     }
     manager.step(DATA_KNAPSACK_BUDGET);
     let mut required = 0u64;
-    for (i, p) in onboard.iter().enumerate().take(products.len()) {
-        if manager.placement(i) == Placement::Downlink(0) {
+    for (p, &(a, b)) in onboard.iter().zip(ranges.iter()) {
+        let here: u64 = (a..b)
+            .filter(|&i| manager.placement(i) == Placement::Downlink(0))
+            .filter_map(|i| products.get(i).map(|x| x.size_bytes))
+            .sum();
+        if here > 0 {
             let _ = payload.push(*p);
             if p.tier != Tier::Residual {
-                required = required.saturating_add(p.size_bytes);
+                required = required.saturating_add(here);
             }
         }
     }
@@ -516,9 +606,10 @@ pub fn next_downlink(
     let duration = comms.duration_for(required).max(duration_us).min(longest);
     let mut room = comms.capacity_of(duration);
     payload.retain(|p| {
-        let fits = p.size_bytes <= room;
+        // A product larger than any one downlink goes down in part.
+        let fits = p.size_bytes <= room || (p.size_bytes > segment && room > 0);
         if fits {
-            room -= p.size_bytes;
+            room = room.saturating_sub(p.size_bytes);
         }
         fits
     });

@@ -372,7 +372,11 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                 .ok_or(ExecError::UnknownChain)?;
             let mut at = p.start.0;
             let first = self.steps.len();
-            let sized = self.downlink_sizes.get(usize::from(p.chain)).copied().flatten();
+            let sized = self
+                .downlink_sizes
+                .get(usize::from(p.chain))
+                .copied()
+                .flatten();
             for &primitive in chain.primitives.iter() {
                 let (mut duration_us, mut energy_mj) =
                     predicted(&self.primitives, &self.params, primitive)
