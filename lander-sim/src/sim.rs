@@ -174,6 +174,14 @@ pub struct Product {
     pub site: Option<u8>,
     #[serde(default)]
     pub target: Option<u8>,
+    /// Bytes already sent in earlier downlinks (a product larger than any one downlink goes
+    /// down over several; it reaches Earth with its last part).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub sent_bytes: u64,
+}
+
+fn is_zero(x: &u64) -> bool {
+    *x == 0
 }
 
 /// How a run ended.
@@ -637,7 +645,7 @@ impl World {
             .stored
             .iter()
             .map(|p| lander::downlink::DataProduct {
-                size_bytes: p.bytes,
+                size_bytes: p.bytes - p.sent_bytes,
                 value: p.value_milli / 1_000,
                 created_at: MissionTimeUs(p.created_us),
                 tier: p.tier,
@@ -754,6 +762,7 @@ impl World {
                         received_us: None,
                         site: None,
                         target: None,
+                        sent_bytes: 0,
                     });
                 }
             }
@@ -864,6 +873,7 @@ impl World {
             received_us: None,
             site,
             target,
+            sent_bytes: 0,
         });
     }
 
@@ -924,13 +934,16 @@ impl World {
                 received_us: None,
                 site: None,
                 target: None,
+                sent_bytes: 0,
             });
         }
         let mut capacity = (u128::from(self.rate_bps) * u128::from(tx_us) / 8_000_000) as u64;
         // The autonomy's assignment first, then the rest by tier and age.
         let assigned = |p: &Product| {
             payload.iter().any(|a| {
-                a.created_at.0 == p.created_us && a.tier == p.tier && a.size_bytes == p.bytes
+                a.created_at.0 == p.created_us
+                    && a.tier == p.tier
+                    && a.size_bytes == p.bytes - p.sent_bytes
             })
         };
         self.stored
@@ -948,14 +961,15 @@ impl World {
         let largest = self.comms_model();
         let largest = largest.capacity_of(largest.max_duration_us());
         for mut p in std::mem::take(&mut self.stored) {
-            if p.bytes > largest && p.bytes > capacity && capacity > 0 {
-                p.bytes -= capacity;
+            let left = p.bytes - p.sent_bytes;
+            if left > largest && left > capacity && capacity > 0 {
+                p.sent_bytes += capacity;
                 record.bytes += capacity;
                 capacity = 0;
                 kept.push(p);
-            } else if p.bytes <= capacity {
-                capacity -= p.bytes;
-                record.bytes += p.bytes;
+            } else if left <= capacity {
+                capacity -= left;
+                record.bytes += left;
                 record.per_tier[tier_index(p.tier)] += 1;
                 record.value_milli += p.value_milli;
                 p.received_us = Some(tx_end + self.light_us);
