@@ -230,6 +230,12 @@ fn run() {
         ),
     ];
     println!(
+        "executor RAM: Executor<1024, 2048> (default) {} bytes, Executor<4096, 16384> {} bytes; DataPlacement over the timeline {} bytes",
+        core::mem::size_of::<Executor>(),
+        core::mem::size_of::<Configured>(),
+        core::mem::size_of::<lander::comms::DataPlacement<'static, lander::placement::TimelinePlacement>>()
+    );
+    println!(
         "RSM-1 replans with data volume in the placement (50 kbps, 20 min set-up, 3 h thermal limit, 200 Wh per downlink, 400 Wh per sol; {} sols, Earth in view 42 h of 84; configured bound {}):",
         sols, DEFAULT_EXPLORATION_BOUND
     );
@@ -306,10 +312,15 @@ fn run() {
             "{:<48} best {:?} ({})",
             "",
             best.0.sums(),
-            if proven {
-                "the optimum: the unbounded search was exhaustive"
-            } else {
-                "best known: the unbounded search overflowed its capacity"
+            match (
+                proven,
+                results.last().is_some_and(|(_, r)| r.utility == best.0)
+            ) {
+                (true, true) => "the optimum: the unbounded search was exhaustive",
+                (true, false) => {
+                    "best known: the unbounded search was exhaustive per batch, but the phased loop holds each batch's best fixed and a bounded run did better"
+                }
+                _ => "best known: the unbounded search overflowed its capacity",
             }
         );
     }

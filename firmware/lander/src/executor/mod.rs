@@ -38,6 +38,14 @@
 //!   next chain boundary, after a negative biosignature (utility discovery: the subway map
 //!   moves on) and when measured overruns leave the remaining plan more energy than the charge.
 //!
+//! - **Data volume** ([`crate::comms`]): with a link model ([`Executor::set_comms`]) and the
+//!   products onboard ([`Executor::set_onboard_data`]) as inputs, each plan sizes the chains'
+//!   downlinks to their data at the measured volumes and checks every chain with the downlink
+//!   manager; a dispatched downlink carries the manager's assignment
+//!   ([`Executor::downlink_payload`]) and lasts long enough for it. Under Replan a new link or a
+//!   product measured larger or smaller than modelled replans at the next chain boundary
+//!   ([`Reason::DataVolume`]).
+//!
 //! States in a replan: targets collected, biosignatures and excavated sites are in the
 //! Assessor's context; an excavation of a site already excavated costs nothing and is not
 //! dispatched ([`already_done`]).
