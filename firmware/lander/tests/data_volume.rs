@@ -521,3 +521,30 @@ fn a_larger_product_than_modelled_is_learnt_and_replanned_for() {
     }
     assert!(sized >= 1, "some sampling is still planned");
 }
+
+#[test]
+fn a_rate_drop_moves_data_to_a_later_downlink() {
+    // A 20 MB Mandatory product onboard; the next downlink can last only 1 h (Earth sets),
+    // a later one 3 h.
+    let onboard = [product(20, Tier::Mandatory, 0)];
+    let mut payload = heapless::Vec::new();
+    let next = |rate, payload: &mut heapless::Vec<DataProduct, 64>| {
+        next_downlink(
+            &comms(rate),
+            &onboard,
+            &[],
+            2 * HOUR_US,
+            HOUR_US,
+            3 * HOUR_US,
+            &[(20 * HOUR_US, 23 * HOUR_US)],
+            (0, 0),
+            payload,
+        )
+    };
+    // At 100 kbps the next downlink carries 30 MB: the product goes now.
+    next(100_000, &mut payload);
+    assert_eq!(payload.as_slice(), &onboard);
+    // At 50 kbps it carries 15 MB: the product waits for the later downlink (60 MB).
+    next(50_000, &mut payload);
+    assert!(payload.is_empty());
+}
