@@ -548,3 +548,35 @@ fn a_rate_drop_moves_data_to_a_later_downlink() {
     next(50_000, &mut payload);
     assert!(payload.is_empty());
 }
+
+#[test]
+fn required_data_after_the_plans_last_downlink_gets_a_backlog_downlink() {
+    let model = rsm1::model_with_drains(Rsm1Options::FULL, 6).expect("model");
+    let is_dl = |p: u8| lander::placement::is_downlink(model.primitives[usize::from(p)].kind);
+    let mut w = World::new(1);
+    let mut e = rsm1_executor(Some(comms(50_000)));
+    // Fly until the rest of the plan has no downlink left (only uplinks).
+    fly(&mut e, &mut w, |e, _| {
+        !e.remaining().is_empty() && e.remaining().iter().all(|s| !is_dl(s.primitive))
+    });
+    assert!(!e.remaining().is_empty(), "the plan ends with uplinks");
+    // A quake record (Decisional) appears: at the next chain boundary the executor replans,
+    // and a backlog downlink carries it.
+    let quake = DataProduct {
+        size_bytes: 500_000,
+        value: 5,
+        created_at: MissionTimeUs(w.now.0 + 1),
+        tier: Tier::Decisional,
+    };
+    w.onboard.push(quake);
+    let from = e.log().len();
+    let mut carried = false;
+    fly(&mut e, &mut w, |e, d| {
+        if let Directive::Dispatch { primitive, .. } = d {
+            carried |= is_dl(*primitive) && e.downlink_payload().contains(&quake);
+        }
+        carried
+    });
+    assert!(replanned_for_data_since(&e, from), "{:?}", &e.log()[from..]);
+    assert!(carried, "a downlink carried the quake record");
+}

@@ -544,6 +544,9 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                 }
                 if step.last_in_chain {
                     self.close_chain(step.chain, true);
+                    if self.replan_pending.is_none() && self.stranded_new_data() {
+                        self.replan_pending = Some(Reason::DataVolume);
+                    }
                     if let Some(reason) = self.replan_pending.take() {
                         self.begin_planning(reason);
                     }

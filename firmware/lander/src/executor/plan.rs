@@ -8,6 +8,7 @@ use fsw_bridge::MissionTimeUs;
 use super::*;
 use crate::assessor::{assess_chains, AssessedPlacement, Biosignature, SampleRef};
 use crate::comms::{next_downlink, size_downlinks, DataPlacement, DataView};
+use crate::downlink::Tier;
 use crate::placement::{downlink_spans, is_downlink};
 
 impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
@@ -208,6 +209,38 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                 self.replan_pending.get_or_insert(Reason::DataVolume);
             }
         }
+    }
+
+    /// Under Replan with data volume modelled: whether data onboard that must go down
+    /// (Critical, Decisional, Mandatory) appeared since the last plan started and the rest of
+    /// the plan has no downlink left to carry it (e.g. a quake record after the plan's last
+    /// downlink), and the model has a backlog downlink not yet used: a replan then adds one for
+    /// it.
+    pub(super) fn stranded_new_data(&self) -> bool {
+        if self.comms.is_none() || self.config.strategy != Strategy::Replan {
+            return false;
+        }
+        let since = self.planning_from.0;
+        let new = self
+            .onboard
+            .iter()
+            .any(|p| p.tier != Tier::Residual && p.created_at > since);
+        let downlink_left = self.remaining().iter().skip(1).any(|s| {
+            self.primitives
+                .get(usize::from(s.primitive))
+                .is_some_and(|p| is_downlink(p.kind))
+        });
+        // Only a model with backlog downlinks (no data of their own) still to use can help.
+        let drain_left = self.network.chains.iter().any(|c| {
+            c.products.is_empty()
+                && !self.closed_tasks.contains(&c.task_slot)
+                && c.primitives.iter().any(|&p| {
+                    self.primitives
+                        .get(usize::from(p))
+                        .is_some_and(|s| is_downlink(s.kind))
+                })
+        });
+        new && !downlink_left && drain_left
     }
 
     /// The downlink about to be dispatched: what it carries (the downlink manager's assignment
