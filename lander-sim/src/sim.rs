@@ -28,7 +28,12 @@
 //!   is not in view (an overrun pushed it out) waits for Earth rise; it transmits at the DSN rate after its
 //!   overhead, until its planned end, Earth set or the thermal limit, within the per-downlink and
 //!   per-sol energy allowances, the stored products by tier (Critical first) and age. Utility is
-//!   realised when a product reaches Earth (transmission end plus the light time).
+//!   realised when a product reaches Earth (transmission end plus the light time). The
+//!   autonomy is told the link ([`World::comms_model`], again when the ground changes the rate
+//!   or an allowance) and the products onboard ([`World::onboard_products`]) before each step;
+//!   a downlink lasts as long as the autonomy commands and sends the products it assigned first
+//!   ([`lander::executor::Executor::downlink_payload`]); a product larger than any one downlink
+//!   can carry goes down in parts over several.
 //! - **Ground.** A halt is seen at the next Earth-in-view plus the light time; the answer is
 //!   ready `response_h` later and goes up at the next uplink window; it arrives a light time later
 //!   ([`Event::GroundResume`]) and clears what blocked the primitive.
