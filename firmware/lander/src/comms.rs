@@ -446,7 +446,7 @@ impl<'a, P> DataPlacement<'a, P> {
         } else {
             // A downlink creating no data: admitted when it carries required data that would
             // otherwise stay onboard (its utility, [`Self::helped`]).
-            self.helped(network, plan, candidate, start, with) > 0
+            self.helped(network, plan, with) > 0
         };
         if !ok {
             self.stats.vetoes += 1;
@@ -456,17 +456,9 @@ impl<'a, P> DataPlacement<'a, P> {
 }
 
 impl<P> DataPlacement<'_, P> {
-    /// How many more required products (segments) go down with `candidate` at `start` than
-    /// without it, `with` being the count left behind with it.
-    fn helped(
-        &mut self,
-        network: &FlatNetwork,
-        plan: &[PlacedChain],
-        candidate: u16,
-        start: MissionTimeUs,
-        with: usize,
-    ) -> usize {
-        let _ = (candidate, start);
+    /// How many more required products (segments) go down with a candidate than without it,
+    /// `with` being the count left behind with it.
+    fn helped(&mut self, network: &FlatNetwork, plan: &[PlacedChain], with: usize) -> usize {
         self.solve(network, plan, None)
             .map_or(0, |(without, _)| without.saturating_sub(with))
     }
@@ -521,7 +513,7 @@ impl<P: ChainPlacement> ChainPlacement for DataPlacement<'_, P> {
         let Some((with, _)) = self.solve(network, plan, Some(placed)) else {
             return RankedUtility::ZERO;
         };
-        let saved = self.helped(network, plan, candidate, start, with);
+        let saved = self.helped(network, plan, with);
         let score = u32::try_from(saved.saturating_mul(2_500))
             .unwrap_or(10_000)
             .min(10_000);
