@@ -298,6 +298,10 @@ pub fn summary(report: &PlanReport) -> String {
             "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) planning, in {} planner windows (costliest expansion {} ticks); {} frames granted ({} ms of mission time)\n",
             e.guest_instructions, e.planning_ticks, e.planner_windows, e.worst_expansion_ticks, e.frames, e.frames as u64 * crate::plan_emulated::FRAME_US / 1000
         ));
+        s.push_str(&format!(
+            "            receiving and checking the task: {} guest instructions ({} ticks), authentication {} of them ({} ticks)\n",
+            e.receive_instructions, e.receive_ticks, e.auth_instructions, e.auth_ticks
+        ));
     }
     s
 }

@@ -5,6 +5,11 @@
 //! comes back: the planner searches in each granted frame's window, within its CPU share, and
 //! resumes in the next (anytime across windows).
 //!
+//! Uplinks are authenticated (`sdls::temporal`): `hil` provisions its built-in test key
+//! ([`crate::mission::auth::TEST_KEY`]) into the target's non-volatile memory before boot (the
+//! executive's security area and the planner's), and signs every job with the next sequence
+//! number of its own counter ([`EmulatedPlanner::signed_job_messages`]).
+//!
 //! Costs are guest CPU: the planner partition's timebase ticks spent setting up and searching
 //! (its decrementer-counted CPU time, the same run to run), and the guest instructions that
 //! makes under `-icount shift=2` (4 ns each, 15.06 per 16.6 MHz tick). Never host time.
@@ -14,6 +19,7 @@ use fsw_bridge::temporal::{
 use fsw_bridge::{HostToTarget, MissionTimeUs, TargetToHost};
 
 use crate::firmware::FirmwareImage;
+use crate::mission::auth::{Signer, TEST_KEY};
 use crate::mission::link::{Exchanged, LinkSession};
 use crate::mission::plan::LinkFaults;
 use crate::mission::target::{hello_message, EmulatedTarget, MissionTarget};
@@ -46,6 +52,16 @@ pub struct EmulatedCosts {
     pub frames: u32,
     /// Lockstep rounds of the link for the whole job (uplink included).
     pub link_rounds: u64,
+    /// The planner partition's CPU spent receiving and checking the task (chunks copied and
+    /// absorbed into the MAC, CRC-32, security checks and counter write, validation),
+    /// timebase ticks; not part of `planning_ticks`.
+    pub receive_ticks: u32,
+    /// The same in guest instructions.
+    pub receive_instructions: u64,
+    /// The part of `receive_ticks` spent authenticating the task, timebase ticks.
+    pub auth_ticks: u32,
+    /// The same in guest instructions.
+    pub auth_instructions: u64,
 }
 
 /// The job's configuration on the wire, from `hil plan`'s options.
@@ -72,6 +88,8 @@ pub fn wire_config(options: &PlanOptions) -> Result<TemporalConfig, String> {
 #[derive(Debug, Default)]
 struct Collected {
     accepted: bool,
+    receive_ticks: u32,
+    auth_ticks: u32,
     refused: Option<String>,
     steps: Vec<TemporalReport>,
     stats: Option<TemporalReport>,
@@ -83,7 +101,15 @@ impl Collected {
     fn take(&mut self, job: u16, msg: &TargetToHost) {
         match msg {
             TargetToHost::Temporal(r) if r.job() == job => match r {
-                TemporalReport::Accepted { .. } => self.accepted = true,
+                TemporalReport::Accepted {
+                    receive_ticks,
+                    auth_ticks,
+                    ..
+                } => {
+                    self.accepted = true;
+                    self.receive_ticks = *receive_ticks;
+                    self.auth_ticks = *auth_ticks;
+                }
                 TemporalReport::Refused { reason, .. } => {
                     self.refused = Some(format!("{reason:?}"))
                 }
@@ -124,6 +150,8 @@ pub struct EmulatedPlanner {
     frame: u32,
     now: MissionTimeUs,
     next_job: u16,
+    /// The host's key and anti-replay counter for temporal uplinks.
+    signer: Signer,
     /// Health-monitor events seen (for tests: a planner that overran its window).
     pub health_events: Vec<String>,
 }
@@ -134,6 +162,9 @@ impl EmulatedPlanner {
         let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
         let mut target = EmulatedTarget::with_temporary_nv(profile, firmware.clone(), false, false)
             .map_err(|e| format!("cannot create the non-volatile memory file: {e}"))?;
+        target
+            .provision_key(&TEST_KEY)
+            .map_err(|e| format!("cannot provision the key: {e}"))?;
         let hello = target.boot().map_err(|e| e.to_string())?;
         let mut link = LinkSession::new(0, &LinkFaults::default());
         link.hello(&hello_message(&hello));
@@ -143,6 +174,7 @@ impl EmulatedPlanner {
             frame: 0,
             now: MissionTimeUs::ZERO,
             next_job: 1,
+            signer: Signer::new(TEST_KEY),
             health_events: Vec::new(),
         })
     }
@@ -170,6 +202,15 @@ impl EmulatedPlanner {
     /// Send raw job messages (tests send damaged ones) and wait for the acceptance or the
     /// refusal of `job`.
     pub fn uplink(&mut self, job: u16, msgs: Vec<HostToTarget>) -> Result<(), EmulatedError> {
+        self.uplink_costs(job, msgs).map(|_| ())
+    }
+
+    /// [`Self::uplink`], and the receive and authentication ticks the acceptance reported.
+    fn uplink_costs(
+        &mut self,
+        job: u16,
+        msgs: Vec<HostToTarget>,
+    ) -> Result<(u32, u32), EmulatedError> {
         let mut got = Collected::default();
         for batch in msgs.chunks(CHUNKS_PER_BATCH) {
             for m in batch {
@@ -185,19 +226,37 @@ impl EmulatedPlanner {
         }
         match got.refused {
             Some(reason) => Err(EmulatedError::Refused(reason)),
-            None => Ok(()),
+            None => Ok((got.receive_ticks, got.auth_ticks)),
         }
     }
 
-    /// The messages that uplink `task` as job `job`.
-    pub fn job_messages(job: u16, task: &[u8], config: TemporalConfig) -> Vec<HostToTarget> {
+    /// The messages that uplink `task` as job `job`, signed with the host's key and its next
+    /// sequence number.
+    pub fn signed_job_messages(
+        &mut self,
+        job: u16,
+        task: &[u8],
+        config: TemporalConfig,
+    ) -> Vec<HostToTarget> {
+        let (_, secured) = self.signer.sign_temporal(job, &config, task);
+        Self::job_messages(job, &secured, config)
+    }
+
+    /// The host's signer (tests sign with it, or burn a sequence number).
+    pub fn signer(&mut self) -> &mut Signer {
+        &mut self.signer
+    }
+
+    /// The messages that uplink `bytes` (a secured task, or whatever a test sends) as job
+    /// `job`, with `bytes`' length and CRC-32 in the Begin.
+    pub fn job_messages(job: u16, bytes: &[u8], config: TemporalConfig) -> Vec<HostToTarget> {
         let mut msgs = vec![HostToTarget::TemporalBegin {
             job,
-            len: task.len() as u32,
-            crc32: flight_app::temporal_crc32(task),
+            len: bytes.len() as u32,
+            crc32: flight_app::temporal_crc32(bytes),
             config,
         }];
-        for (i, chunk) in task.chunks(TEMPORAL_CHUNK_MAX).enumerate() {
+        for (i, chunk) in bytes.chunks(TEMPORAL_CHUNK_MAX).enumerate() {
             msgs.push(HostToTarget::TemporalChunk {
                 job,
                 offset: (i * TEMPORAL_CHUNK_MAX) as u32,
@@ -254,8 +313,21 @@ impl EmulatedPlanner {
     ) -> Result<PlanReport, EmulatedError> {
         let job = self.new_job();
         let config = wire_config(options).map_err(EmulatedError::Target)?;
+        let msgs = self.signed_job_messages(job, &compiled.task, config);
+        self.plan_job(job, msgs, compiled, max_frames)
+    }
+
+    /// Plan job `job` uplinked by `msgs` (a signed job of `compiled`'s task: tests keep the
+    /// messages to send them again): uplink, frames until the plan, the report.
+    pub fn plan_job(
+        &mut self,
+        job: u16,
+        msgs: Vec<HostToTarget>,
+        compiled: &pddl::Compiled,
+        max_frames: u32,
+    ) -> Result<PlanReport, EmulatedError> {
         let rounds_before = self.link.summary().rounds;
-        self.uplink(job, Self::job_messages(job, &compiled.task, config))?;
+        let (receive_ticks, auth_ticks) = self.uplink_costs(job, msgs)?;
         let (got, frames) = self.plan_frames(job, max_frames)?;
         let mut report = crate::plan::empty_report(compiled);
         let Some(TemporalReport::Done {
@@ -341,6 +413,10 @@ impl EmulatedPlanner {
             worst_expansion_ticks,
             frames,
             link_rounds: self.link.summary().rounds - rounds_before,
+            receive_ticks,
+            receive_instructions: (f64::from(receive_ticks) * INSTRUCTIONS_PER_TICK).round() as u64,
+            auth_ticks,
+            auth_instructions: (f64::from(auth_ticks) * INSTRUCTIONS_PER_TICK).round() as u64,
         });
         Ok(report)
     }

@@ -2,7 +2,9 @@
 //! --emulated` plans in the planner partition, anytime across its windows, with the plan the
 //! native planner finds (the same search, the same arena size), and every plan passes the
 //! independent validator of `pddl`'s tests. A corrupted or malformed task is refused with its
-//! reason, and the target plans the next one as before.
+//! reason, and the target plans the next one as before. Uplinks are authenticated: a forged
+//! MAC, a replayed sequence number and a chunk tampered with after a valid MAC are refused
+//! with their reason, and the target plans the next authentic one.
 use fsw_bridge::temporal::TemporalConfig;
 use fsw_bridge::HostToTarget;
 use hil::plan::{plan_compiled, PlanOptions, PlanReport};
@@ -96,6 +98,15 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
         let costs = emulated.emulated.clone().expect("guest costs");
         assert!(costs.planning_ticks > 0 && costs.guest_instructions > costs.planning_ticks);
         assert!(costs.planner_windows >= 1 && costs.frames >= costs.planner_windows);
+        assert!(costs.receive_ticks > costs.auth_ticks && costs.auth_ticks > 0);
+        println!(
+            "{tag}: receiving {} guest instructions ({} ticks), authentication {} ({} ticks), {} task bytes",
+            costs.receive_instructions,
+            costs.receive_ticks,
+            costs.auth_instructions,
+            costs.auth_ticks,
+            compiled.task.len()
+        );
         println!(
             "{tag}: makespan {:?}, {} expanded, {} guest instructions, {} planner windows, {} frames, peak arena {} bytes, costliest expansion {} ticks, health events so far {:?}",
             emulated.makespan,
@@ -129,7 +140,7 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
     let task = &compiled.task;
     let config = TemporalConfig::DEFAULT;
     let job = target.new_job();
-    let mut msgs = EmulatedPlanner::job_messages(job, task, config);
+    let mut msgs = target.signed_job_messages(job, task, config);
     if let HostToTarget::TemporalChunk { bytes, .. } = &mut msgs[1] {
         bytes[40] ^= 0x10;
     }
@@ -142,9 +153,8 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
     let mut bad = task.clone();
     bad[0] = b'X';
     let job = target.new_job();
-    let e = target
-        .uplink(job, EmulatedPlanner::job_messages(job, &bad, config))
-        .expect_err("malformed");
+    let msgs = target.signed_job_messages(job, &bad, config);
+    let e = target.uplink(job, msgs).expect_err("malformed");
     assert!(
         matches!(&e, EmulatedError::Refused(r) if r == "BadTask { kind: 0, offset: 0 }"),
         "{e}"
@@ -152,16 +162,15 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
 
     let job = target.new_job();
     let short = &task[..task.len() / 3];
-    let e = target
-        .uplink(job, EmulatedPlanner::job_messages(job, short, config))
-        .expect_err("truncated");
+    let msgs = target.signed_job_messages(job, short, config);
+    let e = target.uplink(job, msgs).expect_err("truncated");
     assert!(
         matches!(&e, EmulatedError::Refused(r) if r.starts_with("BadTask")),
         "{e}"
     );
 
     let job = target.new_job();
-    let stray = EmulatedPlanner::job_messages(job, task, config).remove(2);
+    let stray = target.signed_job_messages(job, task, config).remove(2);
     let e = target.uplink(job, vec![stray]).expect_err("no job");
     assert!(
         matches!(&e, EmulatedError::Refused(r) if r.starts_with("OutOfSequence")),
@@ -188,6 +197,74 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
     // The target kept running: the next job plans as the first did.
     let again = target.plan(&compiled, &options, MAX_FRAMES).unwrap();
     let native = plan_compiled(&compiled, &options).unwrap();
+    assert!(again.solved);
+    assert_eq!(again.plan, native.plan);
+}
+
+/// The security refusal `e` names, if it is one.
+fn security(e: &EmulatedError) -> Option<&str> {
+    match e {
+        EmulatedError::Refused(r) => r.strip_prefix("Security(")?.strip_suffix(')'),
+        _ => None,
+    }
+}
+
+#[test]
+fn forged_replayed_and_tampered_temporal_uplinks_are_refused_and_the_target_plans_on() {
+    let _one = hil_tests::exclusive_qemu();
+    let mut target = EmulatedPlanner::boot(firmware()).unwrap_or_else(|e| panic!("{e}"));
+    let options = options();
+    let (d, p) = files("satellite", 1);
+    let compiled = pddl_common::compile(&d, &p).unwrap();
+    let task = &compiled.task;
+    let config = TemporalConfig::DEFAULT;
+
+    // A forged MAC: signed with a key the target does not hold (same SPI).
+    let forger = sdls::Key {
+        bytes: [0xa5; 32],
+        ..hil::mission::auth::TEST_KEY
+    };
+    let job = target.new_job();
+    let sequence = target.signer().burn_sequence();
+    let forged = hil::mission::auth::secure_temporal(&forger, sequence, job, &config, task);
+    let e = target
+        .uplink(job, EmulatedPlanner::job_messages(job, &forged, config))
+        .expect_err("forged");
+    assert_eq!(security(&e), Some("BadMac"), "{e}");
+
+    // A valid MAC, then a chunk tampered with on the way and the Begin's CRC made to match it:
+    // the CRC passes, the MAC does not.
+    let job = target.new_job();
+    let sequence = target.signer().burn_sequence();
+    let mut secured = hil::mission::auth::secure_temporal(
+        &hil::mission::auth::TEST_KEY,
+        sequence,
+        job,
+        &config,
+        task,
+    );
+    secured[sdls::uplink::HEADER_LEN + 300] ^= 0x01;
+    let e = target
+        .uplink(job, EmulatedPlanner::job_messages(job, &secured, config))
+        .expect_err("tampered");
+    assert_eq!(security(&e), Some("BadMac"), "{e}");
+
+    // An authentic job is planned (the native plan); the same messages sent again are a
+    // replay, refused.
+    let job = target.new_job();
+    let msgs = target.signed_job_messages(job, task, config);
+    let planned = target
+        .plan_job(job, msgs.clone(), &compiled, MAX_FRAMES)
+        .expect("authentic");
+    let native = plan_compiled(&compiled, &options).unwrap();
+    assert!(planned.solved);
+    assert_eq!(planned.plan, native.plan);
+    let e = target.uplink(job, msgs).expect_err("replayed");
+    assert_eq!(security(&e), Some("Replay"), "{e}");
+
+    // The target plans on: the next authentic job (a later sequence number; those the host
+    // burnt above, which the target never saw, leave a gap, as allowed) has the native plan.
+    let again = target.plan(&compiled, &options, MAX_FRAMES).unwrap();
     assert!(again.solved);
     assert_eq!(again.plan, native.plan);
 }

@@ -11,13 +11,43 @@
 //! again ([`TemporalApp::needs_storage`]). Nothing here allocates, and nothing from outside
 //! can make it panic: bad bytes are a [`TemporalRefusal`].
 //!
-//! Not authenticated: a temporal task does not go through the executive's SDLS-checked uplink
-//! path (the key and the anti-replay counter are the executive partition's); its integrity
-//! check is the CRC-32 and the task's own validation.
+//! # Authentication
+//!
+//! The chunks carry a secured task ([`sdls::temporal`]: security header, compiled task,
+//! HMAC-SHA-256 trailer over the service, the job, its configuration and the task). Once the
+//! whole string has arrived and matched its CRC-32 (a line error is `BadCrc`, as before), the
+//! plug-in checks it with its [`SecurityAssociation`] (`NoKey`, `Truncated`, `BadLength`,
+//! `UnknownKey`, `BadMac`, `Replay`, in that order), writes the new anti-replay counter to
+//! non-volatile memory (`CounterNotStored` if it cannot), and only then validates the task and
+//! accepts it. A refusal is [`TemporalRefusal::Security`], counted per reason
+//! ([`TemporalApp::security_refused`]); the refused job plans nothing, no counter moves, and
+//! the plug-in takes the next job as before.
+//!
+//! **Where it is verified: here, in the planner partition**, with a security association of its
+//! own: the same key (provisioned by `hil` into the planner's slice of non-volatile memory as
+//! well as the executive's) and its own A/B anti-replay counter records, written before the
+//! task takes effect, so a replay stays refused after a warm reset and a power cycle, as the
+//! executive's do. Why not the executive, which verifies task networks and commands:
+//! - the planner partition is where the bytes are (it reassembles them in its 1 MiB task
+//!   buffer); routing up to 1 MiB through the executive, or a digest and a verdict between
+//!   the two partitions, would need new traffic on the autonomy core's checkpointed channel
+//!   (`autonomy::partitioned`), which the MEXEC planner's protocol owns, and would make the
+//!   executive's windows, whose costs are budgeted, pay for the planner's jobs;
+//! - each partition's slice of non-volatile memory has one owner (kernel-checked): the
+//!   executive's counter records are written by the executive only, the planner's by the
+//!   planner only, so no two partitions ever race on one A/B record pair;
+//! - the MAC is absorbed chunk by chunk as the task arrives ([`sdls::temporal::TemporalMac`]),
+//!   in the planner's own CPU time, so no window pays for hashing the whole task at once.
+//!
+//! The cost of two associations: the key is held in two places, and the two counters are
+//! separate (each service's sequence numbers are checked against its own counter; a temporal
+//! task's tag has its own service byte, so it can never pass for a task network's or a
+//! command's). The host keeps one sequence counter per association.
 use fsw_bridge::temporal::{
     TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalRefusal, TemporalRegion,
     TemporalReport,
 };
+use sdls::temporal::TemporalMac;
 use temporal::{PlannedAction, Planner, Region, Status, Task, TaskErrorKind};
 
 use super::*;
@@ -57,8 +87,13 @@ enum Phase {
 #[derive(Clone, Copy, Debug)]
 struct Job {
     id: u16,
+    /// Bytes of the secured task (header, task, trailer).
     len: u32,
     crc32: u32,
+    /// Where the compiled task is in the task buffer (after the security header), and its
+    /// length; set when the job is accepted.
+    task_at: u32,
+    task_len: u32,
     config: TemporalConfig,
     phase: Phase,
     ticks_per_unit: u32,
@@ -90,6 +125,23 @@ pub struct TemporalApp<'a> {
     /// Jobs refused and jobs planned since the start (for logs and tests).
     pub refused: u32,
     pub finished: u32,
+    /// Jobs refused by the security checks, per reason (`SecurityRefusal::index`); included
+    /// in `refused`.
+    pub security_refused: [u32; SecurityRefusal::COUNT],
+    /// The key and the anti-replay counter (read from `store` at the first job).
+    security: SecurityAssociation,
+    security_loaded: bool,
+    /// The planner partition's security area in non-volatile memory.
+    store: Option<&'a mut dyn SecurityStore>,
+    /// The MAC of the job being received (None: no key).
+    mac: Option<TemporalMac>,
+    /// The partition's CPU clock for the cost of receiving a job (None: not counted).
+    receive_clock: Option<fn() -> u64>,
+    /// CPU spent so far receiving the job in progress, timebase ticks.
+    receive_ticks: u64,
+    /// The part of it spent on authentication (loading the association, the MAC, the
+    /// checks, the counter write).
+    auth_ticks: u64,
 }
 
 /// `temporal::PlannerConfig` for a job's configuration (`max_steps` held to what the plan
@@ -167,7 +219,38 @@ impl<'a> TemporalApp<'a> {
             task_capacity: 0,
             refused: 0,
             finished: 0,
+            security_refused: [0; SecurityRefusal::COUNT],
+            security: SecurityAssociation::none(),
+            security_loaded: false,
+            store: None,
+            mac: None,
+            receive_clock: None,
+            receive_ticks: 0,
+            auth_ticks: 0,
         }
+    }
+
+    /// The clock that counts what receiving a job costs (`Accepted`'s `receive_ticks`).
+    pub fn set_receive_clock(&mut self, clock: fn() -> u64) {
+        self.receive_clock = Some(clock);
+    }
+
+    fn receive_clock(&self) -> u64 {
+        self.receive_clock.map_or(0, |c| c())
+    }
+
+    /// Where the key and the anti-replay counter of temporal uplinks are: the planner
+    /// partition's security area (None: no key, every job is refused with `NoKey`). Read at
+    /// the first job's Begin, not here, so that a (re)start costs nothing for it.
+    pub fn secure(&mut self, store: Option<&'a mut dyn SecurityStore>) {
+        self.store = store;
+        self.security_loaded = false;
+        self.security = SecurityAssociation::none();
+    }
+
+    /// The security association in use (the last sequence number accepted, for tests).
+    pub fn security(&self) -> &SecurityAssociation {
+        &self.security
     }
 
     /// No job holds the task bytes and the arena, and none were given since: hand them in
@@ -190,6 +273,11 @@ impl<'a> TemporalApp<'a> {
 
     fn refuse(&mut self, job: u16, reason: TemporalRefusal, downlink: &mut dyn Downlink) {
         self.refused = self.refused.saturating_add(1);
+        if let TemporalRefusal::Security(r) = reason {
+            if let Some(n) = self.security_refused.get_mut(r.index()) {
+                *n = n.saturating_add(1);
+            }
+        }
         downlink.send(TargetToHost::Temporal(TemporalReport::Refused {
             job,
             reason,
@@ -200,6 +288,7 @@ impl<'a> TemporalApp<'a> {
     fn end_job(&mut self) {
         self.planner = None;
         self.job = None;
+        self.mac = None;
     }
 
     fn begin(
@@ -210,16 +299,37 @@ impl<'a> TemporalApp<'a> {
         config: TemporalConfig,
         downlink: &mut dyn Downlink,
     ) {
+        // An accepted job is never ended from outside before the new one is authenticated
+        // (which needs the task buffer the search is reading): the Begin is refused instead.
+        if let Some(j) = self.job {
+            if !matches!(j.phase, Phase::Receiving { .. }) {
+                self.refuse(id, TemporalRefusal::Busy { job: j.id }, downlink);
+                return;
+            }
+        }
         self.end_job();
+        self.receive_ticks = 0;
+        self.auth_ticks = 0;
         let capacity = self.task_capacity;
         if len == 0 || len > capacity {
             self.refuse(id, TemporalRefusal::TooLarge { capacity }, downlink);
             return;
         }
+        let t0 = self.receive_clock();
+        if !self.security_loaded {
+            self.security = SecurityAssociation::load(self.store.as_deref_mut());
+            self.security_loaded = true;
+        }
+        // No key: the job is received all the same and refused with `NoKey` at its end, in
+        // the order of the checks (a refusal now would make every chunk a stray).
+        self.mac = self.security.begin_temporal(id, &config, len).ok();
+        self.auth_ticks = self.receive_clock().wrapping_sub(t0);
         self.job = Some(Job {
             id,
             len,
             crc32,
+            task_at: 0,
+            task_len: 0,
             config,
             phase: Phase::Receiving { received: 0 },
             ticks_per_unit: 0,
@@ -234,7 +344,14 @@ impl<'a> TemporalApp<'a> {
         });
     }
 
-    fn chunk(&mut self, id: u16, offset: u32, bytes: &[u8], downlink: &mut dyn Downlink) {
+    fn chunk(
+        &mut self,
+        id: u16,
+        offset: u32,
+        bytes: &[u8],
+        started: u64,
+        downlink: &mut dyn Downlink,
+    ) {
         let (Some(job), Some(storage)) = (self.job.as_mut(), self.storage.as_mut()) else {
             self.refuse(
                 id,
@@ -272,6 +389,13 @@ impl<'a> TemporalApp<'a> {
             return;
         };
         dest.copy_from_slice(bytes);
+        let clock = self.receive_clock;
+        let now = || clock.map_or(0, |c| c());
+        let t0 = now();
+        if let Some(mac) = self.mac.as_mut() {
+            mac.absorb(offset, bytes);
+        }
+        self.auth_ticks = self.auth_ticks.wrapping_add(now().wrapping_sub(t0));
         let received = end as u32;
         job.phase = Phase::Receiving { received };
         if received < job.len {
@@ -285,7 +409,35 @@ impl<'a> TemporalApp<'a> {
             self.refuse(id, TemporalRefusal::BadCrc { computed }, downlink);
             return;
         }
-        match Task::parse(task_bytes) {
+        // Authentic and fresh, with the counter stored, before anything else happens.
+        let t0 = now();
+        let checked = match self.mac.take() {
+            None => Err(SecurityRefusal::NoKey),
+            Some(mac) => self.security.check_temporal(mac, task_bytes),
+        };
+        let (header, image) = match checked {
+            Ok(ok) => ok,
+            Err(r) => {
+                self.end_job();
+                self.refuse(id, TemporalRefusal::Security(r), downlink);
+                return;
+            }
+        };
+        // The task follows the security header (`sdls::temporal`'s layout).
+        let task_at = sdls::uplink::HEADER_LEN as u32;
+        let task_len = sat(image.len() as u64);
+        let holds = self.security.holds();
+        if let Err(r) = self
+            .security
+            .accept(header.sequence, holds, self.store.as_deref_mut())
+        {
+            self.end_job();
+            self.refuse(id, TemporalRefusal::Security(r), downlink);
+            return;
+        }
+        self.auth_ticks = self.auth_ticks.wrapping_add(now().wrapping_sub(t0));
+        // Authentic, so its sequence number is spent whether or not the task validates.
+        match Task::parse(image) {
             Err(e) => {
                 self.end_job();
                 self.refuse(
@@ -298,14 +450,27 @@ impl<'a> TemporalApp<'a> {
                 );
             }
             Ok(task) => {
+                let facts = sat(task.fact_count() as u64);
+                let actions = sat(task.action_count() as u64);
+                let ticks_per_unit = task.ticks_per_unit();
+                let Some(job) = self.job.as_mut() else {
+                    return;
+                };
                 job.phase = Phase::Planning;
-                job.ticks_per_unit = task.ticks_per_unit();
+                job.ticks_per_unit = ticks_per_unit;
+                job.task_at = task_at;
+                job.task_len = task_len;
+                let receive_ticks = sat(self
+                    .receive_ticks
+                    .wrapping_add(self.receive_clock().wrapping_sub(started)));
                 downlink.send(TargetToHost::Temporal(TemporalReport::Accepted {
                     job: id,
-                    facts: sat(task.fact_count() as u64),
-                    actions: sat(task.action_count() as u64),
-                    task_bytes: job.len,
-                    ticks_per_unit: task.ticks_per_unit(),
+                    facts,
+                    actions,
+                    task_bytes: task_len,
+                    ticks_per_unit,
+                    receive_ticks,
+                    auth_ticks: sat(self.auth_ticks),
                 }));
             }
         }
@@ -318,7 +483,8 @@ impl<'a> TemporalApp<'a> {
         };
         let TemporalStorage { task, arena } = storage;
         let task: &'a [u8] = task;
-        let bytes = task.get(..job.len as usize).unwrap_or_default();
+        let (at, len) = (job.task_at as usize, job.task_len as usize);
+        let bytes = task.get(at..at.saturating_add(len)).unwrap_or_default();
         // Validated on arrival; a failure here would be a bug, reported as bad tables.
         let parsed = Task::parse(bytes).map_err(|_| Region::Tables)?;
         let config = planner_config(&job.config, self.plan.len());
@@ -432,6 +598,7 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn handle(&mut self, msg: &HostToTarget, downlink: &mut dyn Downlink) -> bool {
+        let started = self.receive_clock();
         match msg {
             HostToTarget::TemporalBegin {
                 job,
@@ -440,9 +607,17 @@ impl PlannerPlugin for TemporalApp<'_> {
                 config,
             } => self.begin(*job, *len, *crc32, *config, downlink),
             HostToTarget::TemporalChunk { job, offset, bytes } => {
-                self.chunk(*job, *offset, bytes, downlink)
+                self.chunk(*job, *offset, bytes, started, downlink)
             }
             _ => return false,
+        }
+        if self
+            .job
+            .is_some_and(|j| matches!(j.phase, Phase::Receiving { .. }))
+        {
+            self.receive_ticks = self
+                .receive_ticks
+                .wrapping_add(self.receive_clock().wrapping_sub(started));
         }
         true
     }

@@ -1,14 +1,18 @@
 //! The temporal planner as a plug-in of the planner partition (`TemporalApp`, issue 13): a
 //! task uplinked in chunks is accepted and planned across windows of a CPU share, with the
 //! plan the planner finds when it runs to the end in one go; bad uplinks are refused with
-//! their reason and leave the plug-in ready for the next job.
+//! their reason and leave the plug-in ready for the next job. Uplinks are authenticated
+//! (`sdls::temporal`): forged, replayed and tampered ones are refused, counted, and the
+//! plug-in plans the next authentic one.
 use flight_app::{
     planner_config, temporal_crc32, CpuClock, Downlink, Memories, PlannerApp, PlannerPlugin,
-    PluginWindow, TemporalApp, TemporalStorage, MAX_TEMPORAL_PLAN_ACTIONS,
+    PluginWindow, SecurityStore, StoreError, TemporalApp, TemporalStorage,
+    MAX_TEMPORAL_PLAN_ACTIONS,
 };
 use fsw_bridge::temporal::{
     TemporalConfig, TemporalOutcome, TemporalRefusal, TemporalReport, TEMPORAL_CHUNK_MAX,
 };
+use fsw_bridge::SecurityRefusal;
 use fsw_bridge::{HostToTarget, TargetToHost};
 use temporal::PlannedAction;
 
@@ -51,12 +55,67 @@ impl CpuClock for Ticking {
     }
 }
 
+/// The key these tests sign with.
+const KEY: sdls::Key = sdls::Key {
+    spi: 2,
+    bytes: [0x3c; 32],
+};
+
+/// A security area in memory, shared by the applications of one test (as non-volatile memory
+/// is by the partition's restarts).
+#[derive(Clone)]
+struct Nv(std::rc::Rc<std::cell::RefCell<[u8; sdls::nv::SECURITY_AREA_BYTES]>>);
+
+impl Nv {
+    fn provisioned() -> Self {
+        let mut area = [0u8; sdls::nv::SECURITY_AREA_BYTES];
+        sdls::nv::provision(&mut area, &KEY).unwrap();
+        Self(std::rc::Rc::new(std::cell::RefCell::new(area)))
+    }
+}
+
+impl SecurityStore for Nv {
+    fn read(&mut self, area: &mut [u8; sdls::nv::SECURITY_AREA_BYTES]) -> Result<(), StoreError> {
+        area.copy_from_slice(&*self.0.borrow());
+        Ok(())
+    }
+    fn write(&mut self, offset: usize, bytes: &[u8]) -> Result<(), StoreError> {
+        self.0.borrow_mut()[offset..offset + bytes.len()].copy_from_slice(bytes);
+        Ok(())
+    }
+}
+
 fn app() -> TemporalApp<'static> {
+    app_with(Some(Nv::provisioned()))
+}
+
+/// An application whose security area is `nv` (None: no key).
+fn app_with(nv: Option<Nv>) -> TemporalApp<'static> {
     let plan =
         Box::leak(vec![PlannedAction::default(); MAX_TEMPORAL_PLAN_ACTIONS].into_boxed_slice());
     let mut app = TemporalApp::new(plan);
+    app.secure(nv.map(|nv| Box::leak(Box::new(nv)) as &mut dyn SecurityStore));
     give(&mut app);
     app
+}
+
+/// The secured task of `task` for job `job`, signed with `key` and `sequence`.
+fn secured(
+    key: &sdls::Key,
+    sequence: u32,
+    job: u16,
+    config: &TemporalConfig,
+    task: &[u8],
+) -> Vec<u8> {
+    let mut out = vec![0u8; task.len() + sdls::uplink::OVERHEAD];
+    sdls::temporal::sign_into(key, sequence, job, config, task, &mut out).unwrap();
+    out
+}
+
+/// The messages of an authentic job (signed with the test key, sequence `sequence`).
+fn signed(job: u16, sequence: u32, task: &[u8], config: TemporalConfig) -> Vec<HostToTarget> {
+    let bytes = secured(&KEY, sequence, job, &config, task);
+    uplink(job, &bytes, temporal_crc32(&bytes), config)
 }
 
 fn give(app: &mut TemporalApp<'static>) {
@@ -164,7 +223,7 @@ fn a_task_uplinked_in_chunks_is_planned_across_windows_with_the_plan_of_one_go()
         let task = compiled(domain, instance);
         let config = TemporalConfig::DEFAULT;
         let mut app = app();
-        let accepted = handle_all(&mut app, &uplink(7, &task, temporal_crc32(&task), config));
+        let accepted = handle_all(&mut app, &signed(7, 1, &task, config));
         assert!(
             matches!(accepted.as_slice(), [TemporalReport::Accepted { job: 7, task_bytes, .. }] if *task_bytes as usize == task.len()),
             "{accepted:?}"
@@ -219,7 +278,7 @@ fn a_task_uplinked_in_chunks_is_planned_across_windows_with_the_plan_of_one_go()
         assert!(reports.iter().any(|r| matches!(r, TemporalReport::Stats { expanded, .. } if u64::from(*expanded) == stats.expanded)));
         // The job is over: the memory is asked for again, and the next job plans as well.
         assert!(app.job().is_none() && app.needs_storage());
-        let again = handle_all(&mut app, &uplink(8, &task, temporal_crc32(&task), config));
+        let again = handle_all(&mut app, &signed(8, 2, &task, config));
         assert!(matches!(
             again.as_slice(),
             [TemporalReport::Accepted { job: 8, .. }]
@@ -243,11 +302,12 @@ fn bad_uplinks_are_refused_with_their_reason_and_the_next_job_still_plans() {
     let config = TemporalConfig::DEFAULT;
     let mut app = app();
     // A flipped bit: the CRC no longer matches.
-    let mut flipped = task.clone();
+    let good = secured(&KEY, 1, 1, &config, &task);
+    let mut flipped = good.clone();
     flipped[40] ^= 0x10;
     let r = handle_all(
         &mut app,
-        &uplink(1, &flipped, temporal_crc32(&task), config),
+        &uplink(1, &flipped, temporal_crc32(&good), config),
     );
     assert!(
         matches!(
@@ -262,7 +322,7 @@ fn bad_uplinks_are_refused_with_their_reason_and_the_next_job_still_plans() {
     // Damaged with a matching CRC: the task's own validation refuses it, naming where.
     let mut bad = task.clone();
     bad[0] = b'X';
-    let r = handle_all(&mut app, &uplink(2, &bad, temporal_crc32(&bad), config));
+    let r = handle_all(&mut app, &signed(2, 2, &bad, config));
     assert!(
         matches!(
             r.as_slice(),
@@ -275,7 +335,7 @@ fn bad_uplinks_are_refused_with_their_reason_and_the_next_job_still_plans() {
     );
     // Cut short: the length says more than the bytes (a truncated task).
     let short = &task[..task.len() / 2];
-    let r = handle_all(&mut app, &uplink(3, short, temporal_crc32(short), config));
+    let r = handle_all(&mut app, &signed(3, 3, short, config));
     assert!(
         matches!(
             r.as_slice(),
@@ -309,7 +369,7 @@ fn bad_uplinks_are_refused_with_their_reason_and_the_next_job_still_plans() {
         );
     }
     // A chunk out of order, and one of another job: refused, the job goes on.
-    let mut msgs = uplink(5, &task, temporal_crc32(&task), config);
+    let mut msgs = signed(5, 4, &task, config);
     let r = handle_all(&mut app, &msgs[..1]);
     assert!(r.is_empty());
     let r = handle_all(&mut app, &msgs[2..3]);
@@ -331,10 +391,7 @@ fn bad_uplinks_are_refused_with_their_reason_and_the_next_job_still_plans() {
         matches!(r.as_slice(), [TemporalReport::Refused { job: 6, .. }]),
         "{r:?}"
     );
-    let r = handle_all(
-        &mut app,
-        &uplink(5, &task, temporal_crc32(&task), config)[1..],
-    );
+    let r = handle_all(&mut app, &signed(5, 4, &task, config)[1..]);
     assert!(
         matches!(r.as_slice(), [TemporalReport::Accepted { job: 5, .. }]),
         "{r:?}"
@@ -371,7 +428,7 @@ fn a_job_stops_at_its_expansion_and_window_limits() {
         ),
     ] {
         let mut app = app();
-        handle_all(&mut app, &uplink(1, &task, temporal_crc32(&task), config));
+        handle_all(&mut app, &signed(1, 1, &task, config));
         let (reports, _) = plan_in_windows(&mut app, 100);
         assert!(
             matches!(reports.last(), Some(TemporalReport::Done { outcome, steps: 0, makespan: 0, .. }) if *outcome == expected),
@@ -395,4 +452,125 @@ fn the_mexec_planner_is_a_plug_in_too() {
     assert_eq!(PlannerPlugin::name(&temporal), "temporal");
     let mut sink = |_m: TargetToHost| panic!("nothing to say");
     assert!(!temporal.handle(&HostToTarget::Ping { seq: 1 }, &mut sink));
+}
+
+/// The security refusal of the only report in `r` for `job`.
+fn security_refusal(r: &[TemporalReport], job: u16) -> SecurityRefusal {
+    match r {
+        [TemporalReport::Refused {
+            job: j,
+            reason: TemporalRefusal::Security(reason),
+        }] if *j == job => *reason,
+        other => panic!("job {job}: not one security refusal: {other:?}"),
+    }
+}
+
+#[test]
+fn forged_replayed_and_tampered_uplinks_are_refused_counted_and_the_next_authentic_job_plans() {
+    let task = compiled("satellite", 1);
+    let config = TemporalConfig::DEFAULT;
+    let nv = Nv::provisioned();
+    let mut app = app_with(Some(nv.clone()));
+
+    // Signed with another key: a forged MAC.
+    let forger = sdls::Key {
+        bytes: [0x3d; 32],
+        ..KEY
+    };
+    let bytes = secured(&forger, 1, 1, &config, &task);
+    let r = handle_all(&mut app, &uplink(1, &bytes, temporal_crc32(&bytes), config));
+    assert_eq!(security_refusal(&r, 1), SecurityRefusal::BadMac);
+    // Nothing moved: sequence 1 is still fresh.
+    assert_eq!(app.security().last_sequence(), 0);
+
+    // A valid MAC, then one chunk tampered with on the way, its CRC made to match.
+    let good = secured(&KEY, 1, 2, &config, &task);
+    let mut tampered = good.clone();
+    tampered[sdls::uplink::HEADER_LEN + 200] ^= 0x04;
+    let r = handle_all(
+        &mut app,
+        &uplink(2, &tampered, temporal_crc32(&tampered), config),
+    );
+    assert_eq!(security_refusal(&r, 2), SecurityRefusal::BadMac);
+    // The job's configuration changed on the way (under the same task bytes): the MAC covers
+    // it.
+    let looser = TemporalConfig {
+        max_expansions: 3,
+        ..config
+    };
+    let r = handle_all(&mut app, &uplink(2, &good, temporal_crc32(&good), looser));
+    assert_eq!(security_refusal(&r, 2), SecurityRefusal::BadMac);
+    // Another SPI, and the secured string cut short under a matching CRC.
+    let other_spi = sdls::Key { spi: 9, ..KEY };
+    let bytes = secured(&other_spi, 1, 3, &config, &task);
+    let r = handle_all(&mut app, &uplink(3, &bytes, temporal_crc32(&bytes), config));
+    assert_eq!(security_refusal(&r, 3), SecurityRefusal::UnknownKey);
+    let cut = &good[..good.len() - 1];
+    let r = handle_all(&mut app, &uplink(2, cut, temporal_crc32(cut), config));
+    assert_eq!(security_refusal(&r, 2), SecurityRefusal::Truncated);
+
+    // The authentic job is accepted and planned.
+    let r = handle_all(&mut app, &uplink(2, &good, temporal_crc32(&good), config));
+    assert!(
+        matches!(r.as_slice(), [TemporalReport::Accepted { job: 2, .. }]),
+        "{r:?}"
+    );
+    assert_eq!(app.security().last_sequence(), 1);
+    // While it plans, a Begin (here a replayed one) cannot end it: refused as busy.
+    let r = handle_all(
+        &mut app,
+        &uplink(2, &good, temporal_crc32(&good), config)[..1],
+    );
+    assert!(
+        matches!(
+            r.as_slice(),
+            [TemporalReport::Refused {
+                job: 2,
+                reason: TemporalRefusal::Busy { job: 2 }
+            }]
+        ),
+        "{r:?}"
+    );
+    assert!(app.planning_pending());
+    let (reports, _) = plan_in_windows(&mut app, 10_000);
+    assert!(matches!(
+        reports.last(),
+        Some(TemporalReport::Done {
+            job: 2,
+            outcome: TemporalOutcome::Solved,
+            ..
+        })
+    ));
+    // The same messages again: a replay, refused.
+    let r = handle_all(&mut app, &uplink(2, &good, temporal_crc32(&good), config));
+    assert_eq!(security_refusal(&r, 2), SecurityRefusal::Replay);
+    assert!(!app.planning_pending());
+
+    let mut expected = [0u32; SecurityRefusal::COUNT];
+    expected[SecurityRefusal::BadMac.index()] = 3;
+    expected[SecurityRefusal::UnknownKey.index()] = 1;
+    expected[SecurityRefusal::Truncated.index()] = 1;
+    expected[SecurityRefusal::Replay.index()] = 1;
+    assert_eq!(app.security_refused, expected);
+    assert_eq!((app.refused, app.finished), (7, 1));
+
+    // A restart of the partition (a new application on the same non-volatile memory): the
+    // replay stays refused, and the next sequence number is taken.
+    let mut restarted = app_with(Some(nv));
+    let r = handle_all(
+        &mut restarted,
+        &uplink(2, &good, temporal_crc32(&good), config),
+    );
+    assert_eq!(security_refusal(&r, 2), SecurityRefusal::Replay);
+    let r = handle_all(&mut restarted, &signed(4, 2, &task, config));
+    assert!(
+        matches!(r.as_slice(), [TemporalReport::Accepted { job: 4, .. }]),
+        "{r:?}"
+    );
+
+    // No key provisioned: every job is refused, and nothing is planned.
+    let mut keyless = app_with(None);
+    let r = handle_all(&mut keyless, &signed(5, 3, &task, config));
+    assert_eq!(security_refusal(&r, 5), SecurityRefusal::NoKey);
+    assert!(!keyless.planning_pending());
 }

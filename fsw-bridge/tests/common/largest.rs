@@ -195,6 +195,8 @@ pub fn largest_temporal_report(i: usize) -> TemporalReport {
             actions: m,
             task_bytes: m,
             ticks_per_unit: m,
+            receive_ticks: m,
+            auth_ticks: m,
         },
         1 => TemporalReport::Refused {
             job,
