@@ -191,6 +191,17 @@ pub enum TemporalReport {
         /// The costliest expansion's CPU (with a clock reading), timebase ticks (0 natively).
         worst_expansion_ticks: u32,
     },
+    /// After a warm reset (or a restart of the planner partition) the job accepted before it
+    /// was found in memory the reset keeps, its task checked again (CRC-32 and validation)
+    /// and its search restarted from the beginning: the same search, so the same plan. Steps,
+    /// statistics or Done of the job sent before the reset are void; they come again.
+    /// Appended.
+    Resumed {
+        job: u16,
+        task_bytes: u32,
+        /// The planner partition's CPU spent checking the stored task again, timebase ticks.
+        verify_ticks: u32,
+    },
 }
 
 impl TemporalReport {
@@ -201,7 +212,8 @@ impl TemporalReport {
             | TemporalReport::Refused { job, .. }
             | TemporalReport::Step { job, .. }
             | TemporalReport::Stats { job, .. }
-            | TemporalReport::Done { job, .. } => job,
+            | TemporalReport::Done { job, .. }
+            | TemporalReport::Resumed { job, .. } => job,
         }
     }
 }

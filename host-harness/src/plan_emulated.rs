@@ -16,7 +16,7 @@
 use fsw_bridge::temporal::{
     TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalReport, TEMPORAL_CHUNK_MAX,
 };
-use fsw_bridge::{HostToTarget, MissionTimeUs, TargetToHost};
+use fsw_bridge::{HostToTarget, MissionTimeUs, ResetKind, TargetToHost};
 
 use crate::firmware::FirmwareImage;
 use crate::mission::auth::{Signer, TEST_KEY};
@@ -62,6 +62,24 @@ pub struct EmulatedCosts {
     pub auth_ticks: u32,
     /// The same in guest instructions.
     pub auth_instructions: u64,
+    /// Warm resets injected during the search ([`MidSearchReset`]).
+    pub resets: u32,
+    /// The planner partition said it resumed the job after a reset.
+    pub resumed: bool,
+    /// The CPU it spent checking the stored task again before the search restarted, timebase
+    /// ticks (part of `planning_ticks`).
+    pub verify_ticks: u32,
+}
+
+/// A warm reset injected in the middle of the search (`hil plan --emulated
+/// --warm-reset-after-frames N`): before granted frame `after_frames` (counted from the job's
+/// acceptance, from 0) the host arms a reset that lands once the planner partition has run
+/// `planner_ticks` ticks of CPU in that frame (`ResetKind::PlannerAfterTicks`, as `hil run`'s
+/// mid-frame resets), then goes on granting frames; the target resumes the job.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MidSearchReset {
+    pub after_frames: u32,
+    pub planner_ticks: u32,
 }
 
 /// The job's configuration on the wire, from `hil plan`'s options.
@@ -90,6 +108,10 @@ struct Collected {
     accepted: bool,
     receive_ticks: u32,
     auth_ticks: u32,
+    /// The Resumed report's verify ticks.
+    resumed: Option<u32>,
+    /// Every temporal report, of any job.
+    all: Vec<TemporalReport>,
     refused: Option<String>,
     steps: Vec<TemporalReport>,
     stats: Option<TemporalReport>,
@@ -99,6 +121,9 @@ struct Collected {
 
 impl Collected {
     fn take(&mut self, job: u16, msg: &TargetToHost) {
+        if let TargetToHost::Temporal(r) = msg {
+            self.all.push(r.clone());
+        }
         match msg {
             TargetToHost::Temporal(r) if r.job() == job => match r {
                 TemporalReport::Accepted {
@@ -116,6 +141,13 @@ impl Collected {
                 TemporalReport::Step { .. } => self.steps.push(r.clone()),
                 TemporalReport::Stats { .. } => self.stats = Some(r.clone()),
                 TemporalReport::Done { .. } => self.done = Some(r.clone()),
+                TemporalReport::Resumed { verify_ticks, .. } => {
+                    // What came of the job before the reset is void: it comes again.
+                    self.resumed = Some(*verify_ticks);
+                    self.steps.clear();
+                    self.stats = None;
+                    self.done = None;
+                }
             },
             TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::HealthMonitor {
                 partition,
@@ -152,6 +184,10 @@ pub struct EmulatedPlanner {
     next_job: u16,
     /// The host's key and anti-replay counter for temporal uplinks.
     signer: Signer,
+    /// A mid-frame warm reset is armed: the next Hello is its landing, not a failure.
+    armed_reset: bool,
+    /// Warm resets that landed.
+    resets: u32,
     /// Health-monitor events seen (for tests: a planner that overran its window).
     pub health_events: Vec<String>,
 }
@@ -175,6 +211,8 @@ impl EmulatedPlanner {
             now: MissionTimeUs::ZERO,
             next_job: 1,
             signer: Signer::new(TEST_KEY),
+            armed_reset: false,
+            resets: 0,
             health_events: Vec::new(),
         })
     }
@@ -194,9 +232,80 @@ impl EmulatedPlanner {
             got.take(job, msg);
         }
         match end {
+            Exchanged::Settled if self.armed_reset => Err(EmulatedError::Target(
+                "the armed warm reset did not land in its frame".into(),
+            )),
             Exchanged::Settled => Ok(()),
+            Exchanged::TargetReset(hello) if self.armed_reset => {
+                self.armed_reset = false;
+                self.resets += 1;
+                self.link.reset();
+                self.link.hello(&hello);
+                Ok(())
+            }
             Exchanged::TargetReset(hello) => Err(EmulatedError::Reset(format!("{hello:?}"))),
         }
+    }
+
+    /// Power the target off and on (QEMU ends and starts again: RAM gone, the non-volatile
+    /// memory kept) and take its Hello.
+    pub fn power_cycle(&mut self) -> Result<(), EmulatedError> {
+        self.target
+            .power_cycle()
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        let hello = self
+            .target
+            .boot()
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        self.link.reset();
+        self.link.hello(&hello_message(&hello));
+        Ok(())
+    }
+
+    /// Grant `n` frames and return the temporal reports that came, of any job (tests: after a
+    /// cold boot, nothing of a job accepted before it).
+    pub fn grant_frames(&mut self, n: u32) -> Result<Vec<TemporalReport>, EmulatedError> {
+        let mut reports = Vec::new();
+        for _ in 0..n {
+            let mut got = Collected::default();
+            self.grant_one(0, &mut got, None)?;
+            reports.append(&mut got.all);
+            self.health_events.append(&mut got.health);
+        }
+        Ok(reports)
+    }
+
+    /// Grant one frame (after arming `reset` if any) and exchange until its FrameDone, or the
+    /// armed reset's Hello.
+    fn grant_one(
+        &mut self,
+        job: u16,
+        got: &mut Collected,
+        reset: Option<u32>,
+    ) -> Result<(), EmulatedError> {
+        if let Some(ticks) = reset {
+            self.target
+                .arm_mid_frame_reset_exactly(ResetKind::PlannerAfterTicks { ticks });
+            self.target
+                .warm_reset(self.now)
+                .map_err(|e| EmulatedError::Target(e.to_string()))?;
+            self.armed_reset = true;
+        }
+        let frame = self.frame;
+        let until = self.now.saturating_add(FRAME_US);
+        self.link
+            .send(HostToTarget::TimeGrant {
+                frame,
+                now: self.now,
+                until,
+            })
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        let mut done =
+            |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
+        self.exchange(job, got, Some(&mut done))?;
+        self.frame = self.frame.wrapping_add(1);
+        self.now = until;
+        Ok(())
     }
 
     /// Send raw job messages (tests send damaged ones) and wait for the acceptance or the
@@ -224,6 +333,7 @@ impl EmulatedPlanner {
             let mut answered = |m: &TargetToHost| matches!(m, TargetToHost::Temporal(TemporalReport::Accepted { job: j, .. } | TemporalReport::Refused { job: j, .. }) if *j == job);
             self.exchange(job, &mut got, Some(&mut answered))?;
         }
+        self.health_events.append(&mut got.health);
         match got.refused {
             Some(reason) => Err(EmulatedError::Refused(reason)),
             None => Ok((got.receive_ticks, got.auth_ticks)),
@@ -278,6 +388,7 @@ impl EmulatedPlanner {
         &mut self,
         job: u16,
         max_frames: u32,
+        reset: Option<MidSearchReset>,
     ) -> Result<(Collected, u32), EmulatedError> {
         let mut got = Collected::default();
         let mut frames = 0;
@@ -285,19 +396,10 @@ impl EmulatedPlanner {
             if frames >= max_frames {
                 return Err(EmulatedError::NoAnswer(frames));
             }
-            let frame = self.frame;
-            let until = self.now.saturating_add(FRAME_US);
-            self.link
-                .send(HostToTarget::TimeGrant {
-                    frame,
-                    now: self.now,
-                    until,
-                })
-                .map_err(|e| EmulatedError::Target(e.to_string()))?;
-            let mut done = |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
-            self.exchange(job, &mut got, Some(&mut done))?;
-            self.frame = self.frame.wrapping_add(1);
-            self.now = until;
+            let arm = reset
+                .filter(|r| r.after_frames == frames)
+                .map(|r| r.planner_ticks);
+            self.grant_one(job, &mut got, arm)?;
             frames += 1;
         }
         self.health_events.append(&mut got.health);
@@ -314,7 +416,21 @@ impl EmulatedPlanner {
         let job = self.new_job();
         let config = wire_config(options).map_err(EmulatedError::Target)?;
         let msgs = self.signed_job_messages(job, &compiled.task, config);
-        self.plan_job(job, msgs, compiled, max_frames)
+        self.plan_job(job, msgs, compiled, max_frames, None)
+    }
+
+    /// [`Self::plan`] with a warm reset injected in the middle of the search.
+    pub fn plan_with_reset(
+        &mut self,
+        compiled: &pddl::Compiled,
+        options: &PlanOptions,
+        max_frames: u32,
+        reset: Option<MidSearchReset>,
+    ) -> Result<PlanReport, EmulatedError> {
+        let job = self.new_job();
+        let config = wire_config(options).map_err(EmulatedError::Target)?;
+        let msgs = self.signed_job_messages(job, &compiled.task, config);
+        self.plan_job(job, msgs, compiled, max_frames, reset)
     }
 
     /// Plan job `job` uplinked by `msgs` (a signed job of `compiled`'s task: tests keep the
@@ -325,10 +441,12 @@ impl EmulatedPlanner {
         msgs: Vec<HostToTarget>,
         compiled: &pddl::Compiled,
         max_frames: u32,
+        reset: Option<MidSearchReset>,
     ) -> Result<PlanReport, EmulatedError> {
         let rounds_before = self.link.summary().rounds;
+        let resets_before = self.resets;
         let (receive_ticks, auth_ticks) = self.uplink_costs(job, msgs)?;
-        let (got, frames) = self.plan_frames(job, max_frames)?;
+        let (got, frames) = self.plan_frames(job, max_frames, reset)?;
         let mut report = crate::plan::empty_report(compiled);
         let Some(TemporalReport::Done {
             outcome,
@@ -417,6 +535,9 @@ impl EmulatedPlanner {
             receive_instructions: (f64::from(receive_ticks) * INSTRUCTIONS_PER_TICK).round() as u64,
             auth_ticks,
             auth_instructions: (f64::from(auth_ticks) * INSTRUCTIONS_PER_TICK).round() as u64,
+            resets: self.resets - resets_before,
+            resumed: got.resumed.is_some(),
+            verify_ticks: got.resumed.unwrap_or(0),
         });
         Ok(report)
     }

@@ -254,7 +254,7 @@ fn forged_replayed_and_tampered_temporal_uplinks_are_refused_and_the_target_plan
     let job = target.new_job();
     let msgs = target.signed_job_messages(job, task, config);
     let planned = target
-        .plan_job(job, msgs.clone(), &compiled, MAX_FRAMES)
+        .plan_job(job, msgs.clone(), &compiled, MAX_FRAMES, None)
         .expect("authentic");
     let native = plan_compiled(&compiled, &options).unwrap();
     assert!(planned.solved);
@@ -267,4 +267,70 @@ fn forged_replayed_and_tampered_temporal_uplinks_are_refused_and_the_target_plan
     let again = target.plan(&compiled, &options, MAX_FRAMES).unwrap();
     assert!(again.solved);
     assert_eq!(again.plan, native.plan);
+}
+
+#[test]
+fn a_warm_reset_mid_search_resumes_the_job_with_the_same_plan_and_a_cold_boot_resumes_nothing() {
+    let _one = hil_tests::exclusive_qemu();
+    let mut target = EmulatedPlanner::boot(firmware()).unwrap_or_else(|e| panic!("{e}"));
+    let options = options();
+    let (d, p) = files("satellite", 2);
+    let compiled = pddl_common::compile(&d, &p).unwrap();
+    let uninterrupted = target.plan(&compiled, &options, MAX_FRAMES).unwrap();
+    assert!(uninterrupted.solved);
+
+    // A warm reset in the 6th frame of the search (satellite 2 searches for about 58), once
+    // the planner partition has run 10,000 ticks of it: the target comes back, finds the job
+    // in the memory the reset keeps, checks the task again and searches from the start.
+    let reset = hil::plan_emulated::MidSearchReset {
+        after_frames: 5,
+        planner_ticks: 10_000,
+    };
+    let resumed = target
+        .plan_with_reset(&compiled, &options, MAX_FRAMES, Some(reset))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let costs = resumed.emulated.clone().expect("guest costs");
+    assert_eq!(costs.resets, 1, "the reset landed");
+    assert!(costs.resumed, "the target said it resumed the job");
+    assert!(costs.verify_ticks > 0);
+    assert!(resumed.solved);
+    assert_eq!(
+        resumed.plan, uninterrupted.plan,
+        "the same plan as without the reset"
+    );
+    assert_eq!(resumed.makespan, uninterrupted.makespan);
+    assert_eq!(
+        (resumed.expanded, resumed.nodes, resumed.peak_arena_bytes),
+        (
+            uninterrupted.expanded,
+            uninterrupted.nodes,
+            uninterrupted.peak_arena_bytes
+        ),
+        "the same search"
+    );
+    let before = uninterrupted.emulated.clone().unwrap();
+    println!(
+        "satellite 2 with a warm reset in frame {}: {} frames (uninterrupted {}), planning {} guest instructions (uninterrupted {}), stored task checked again in {} ticks = {} instructions",
+        reset.after_frames,
+        costs.frames,
+        before.frames,
+        costs.guest_instructions,
+        before.guest_instructions,
+        costs.verify_ticks,
+        (f64::from(costs.verify_ticks) * hil::plan_emulated::INSTRUCTIONS_PER_TICK).round()
+    );
+
+    // A cold boot (QEMU ended and started again: the RAM is not kept) in the middle of a job:
+    // nothing of it comes back.
+    let job = target.new_job();
+    let msgs = target.signed_job_messages(job, &compiled.task, TemporalConfig::DEFAULT);
+    target.uplink(job, msgs).expect("accepted");
+    let during = target.grant_frames(3).unwrap();
+    assert!(during.is_empty(), "still searching: {during:?}");
+    target.power_cycle().unwrap();
+    let after = target.grant_frames(20).unwrap();
+    assert!(after.is_empty(), "a cold boot resumed something: {after:?}");
+    // And the target plans the next job as before.
+    let again = target.plan(&compiled, &options, MAX_FRAMES).unwrap();
+    assert_eq!(again.plan, uninterrupted.plan);
 }

@@ -11,6 +11,25 @@
 //! again ([`TemporalApp::needs_storage`]). Nothing here allocates, and nothing from outside
 //! can make it panic: bad bytes are a [`TemporalRefusal`].
 //!
+//! # A job kept across a warm reset
+//!
+//! The task buffer and the arena are in memory a warm reset does not clear (on the target,
+//! `.bss.noinit.planner`), and so is a small record of the accepted job
+//! ([`TemporalApp::keep_jobs_in`]: magic, version, job, lengths, CRC-32, where the task is,
+//! its configuration, and the record's own CRC-32). It is written when a job is accepted and
+//! cleared when the job ends or a Begin abandons it. After a (re)start,
+//! [`TemporalApp::resume`] takes the job up again if the record is whole; memory that a cold
+//! boot leaves holding anything (zeros under QEMU, garbage on a board) fails the magic or the
+//! record's CRC and resumes nothing. A resumed job's task is then checked again in the
+//! partition's windows, a piece at a time (its CRC-32 within the window's share, then
+//! `Task::parse`): memory that kept a whole record but not the task is refused (`BadCrc` or
+//! `BadTask`) and nothing is planned. It is not authenticated again: the record is only ever
+//! written by this partition after the job passed the security checks (and its sequence
+//! number is spent), and no other partition can write this memory. Then the search restarts
+//! from the beginning: it is deterministic, so the plan is the one an uninterrupted search
+//! finds. The host is told with [`TemporalReport::Resumed`]; what it received of the job
+//! before the reset is void.
+//!
 //! # Authentication
 //!
 //! The chunks carry a secured task ([`sdls::temporal`]: security header, compiled task,
@@ -60,6 +79,19 @@ pub const MAX_TEMPORAL_TASK_BYTES: usize = 1 << 20;
 /// Most actions of a plan the target reports: plans of up to 2,048 snap actions
 /// (`temporal::PlannerConfig`'s default `max_steps`; a job asking for more is held to it).
 pub const MAX_TEMPORAL_PLAN_ACTIONS: usize = 1024;
+/// Words of the record of the accepted job kept in memory a warm reset does not clear
+/// ([`TemporalApp::keep_jobs_in`]).
+pub const TEMPORAL_RESUME_RECORD_WORDS: usize = 16;
+/// "TJOB": a record of an accepted job.
+const RESUME_MAGIC: u32 = u32::from_be_bytes(*b"TJOB");
+const RESUME_VERSION: u32 = 1;
+/// Bytes of a resumed job's task CRC-checked between two readings of the clock: 4 KiB, about
+/// 2,000 ticks.
+const VERIFY_PIECE_BYTES: usize = 4096;
+/// The CRC of a resumed job's task, checked a piece at a time (a static, so that its digest
+/// can be kept between windows).
+static TASK_CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
 /// Expansions between two readings of the CPU clock: one, since one expansion costs a good
 /// part of a window (satellite 2: about 270,000 guest instructions, 18,000 ticks, of the
 /// planner window's 33,200).
@@ -78,6 +110,8 @@ pub struct TemporalStorage<'a> {
 enum Phase {
     /// Chunks arriving: `received` bytes so far.
     Receiving { received: u32 },
+    /// Resumed after a reset: the stored task is being checked again, `checked` bytes so far.
+    Verifying { checked: u32 },
     /// Accepted: searching in granted windows (the search is set up in the first).
     Planning,
     /// The search ended: reporting the plan's action `next`, then the statistics, then Done.
@@ -139,6 +173,12 @@ pub struct TemporalApp<'a> {
     receive_clock: Option<fn() -> u64>,
     /// CPU spent so far receiving the job in progress, timebase ticks.
     receive_ticks: u64,
+    /// The record of the accepted job, in memory a warm reset keeps (None: not kept).
+    record: Option<&'a mut [u32; TEMPORAL_RESUME_RECORD_WORDS]>,
+    /// The CRC of a resumed job's task, so far.
+    verify_digest: Option<crc::Digest<'static, u32>>,
+    /// Jobs resumed after a reset (their task checked again) since the start.
+    pub resumed: u32,
     /// The part of it spent on authentication (loading the association, the MAC, the
     /// checks, the counter write).
     auth_ticks: u64,
@@ -227,7 +267,38 @@ impl<'a> TemporalApp<'a> {
             receive_clock: None,
             receive_ticks: 0,
             auth_ticks: 0,
+            record: None,
+            verify_digest: None,
+            resumed: 0,
         }
+    }
+
+    /// Keep the record of the accepted job in `record`: memory a warm reset does not clear,
+    /// as the task buffer and the arena. Call [`Self::resume`] after the storage is given.
+    pub fn keep_jobs_in(&mut self, record: &'a mut [u32; TEMPORAL_RESUME_RECORD_WORDS]) {
+        self.record = Some(record);
+    }
+
+    /// After a (re)start, with the storage given: take up the job the record describes, if
+    /// the record is whole (its magic, version, CRC-32 and fields hold) and no job is in
+    /// progress. Its task is checked again in the next windows, then planned from the start.
+    /// False if there is nothing to resume.
+    pub fn resume(&mut self) -> bool {
+        if self.job.is_some() || self.storage.is_none() {
+            return false;
+        }
+        let Some(found) = self.record.as_deref().and_then(decode_record) else {
+            return false;
+        };
+        if found.len > self.task_capacity {
+            return false;
+        }
+        self.job = Some(Job {
+            phase: Phase::Verifying { checked: 0 },
+            ..found
+        });
+        self.verify_digest = Some(TASK_CRC.digest());
+        true
     }
 
     /// The clock that counts what receiving a job costs (`Accepted`'s `receive_ticks`).
@@ -289,6 +360,10 @@ impl<'a> TemporalApp<'a> {
         self.planner = None;
         self.job = None;
         self.mac = None;
+        self.verify_digest = None;
+        if let Some(record) = self.record.as_deref_mut() {
+            record[0] = 0;
+        }
     }
 
     fn begin(
@@ -460,6 +535,10 @@ impl<'a> TemporalApp<'a> {
                 job.ticks_per_unit = ticks_per_unit;
                 job.task_at = task_at;
                 job.task_len = task_len;
+                let kept = *job;
+                if let Some(record) = self.record.as_deref_mut() {
+                    *record = encode_record(&kept);
+                }
                 let receive_ticks = sat(self
                     .receive_ticks
                     .wrapping_add(self.receive_clock().wrapping_sub(started)));
@@ -490,6 +569,85 @@ impl<'a> TemporalApp<'a> {
         let config = planner_config(&job.config, self.plan.len());
         self.planner = Some(Planner::new(parsed, arena, config)?);
         Ok(())
+    }
+
+    /// A window's share of checking a resumed job's task again: its CRC-32 a piece at a time,
+    /// then its validation; then it plans (the search is set up in the next window).
+    fn verify(
+        &mut self,
+        clock: &mut dyn CpuClock,
+        until: Option<u64>,
+        downlink: &mut dyn Downlink,
+    ) {
+        let t0 = clock.ticks();
+        let (Some(job), Some(storage), Some(digest)) = (
+            self.job.as_mut(),
+            self.storage.as_ref(),
+            self.verify_digest.as_mut(),
+        ) else {
+            return;
+        };
+        let Phase::Verifying { mut checked } = job.phase else {
+            return;
+        };
+        let len = job.len as usize;
+        loop {
+            let from = checked as usize;
+            let end = from.saturating_add(VERIFY_PIECE_BYTES).min(len);
+            let Some(piece) = storage.task.get(from..end) else {
+                break;
+            };
+            digest.update(piece);
+            checked = end as u32;
+            if end >= len || until.is_some_and(|u| clock.ticks() >= u) {
+                break;
+            }
+        }
+        job.phase = Phase::Verifying { checked };
+        job.windows = job.windows.saturating_add(1);
+        let (id, crc32) = (job.id, job.crc32);
+        if (checked as usize) < len {
+            job.spent_ticks = job.spent_ticks.wrapping_add(clock.ticks().wrapping_sub(t0));
+            return;
+        }
+        let computed = self.verify_digest.take().map_or(0, |d| d.finalize());
+        if computed != crc32 {
+            self.end_job();
+            self.refuse(id, TemporalRefusal::BadCrc { computed }, downlink);
+            return;
+        }
+        let (at, task_len) = (job.task_at as usize, job.task_len as usize);
+        let image = storage
+            .task
+            .get(at..at.saturating_add(task_len))
+            .unwrap_or_default();
+        match Task::parse(image) {
+            Err(e) => {
+                self.end_job();
+                self.refuse(
+                    id,
+                    TemporalRefusal::BadTask {
+                        kind: task_error_code(e.kind),
+                        offset: sat(e.offset as u64),
+                    },
+                    downlink,
+                );
+            }
+            Ok(_) => {
+                let spent = clock.ticks().wrapping_sub(t0);
+                let Some(job) = self.job.as_mut() else {
+                    return;
+                };
+                job.spent_ticks = job.spent_ticks.wrapping_add(spent);
+                job.phase = Phase::Planning;
+                self.resumed = self.resumed.saturating_add(1);
+                downlink.send(TargetToHost::Temporal(TemporalReport::Resumed {
+                    job: id,
+                    task_bytes: task_len as u32,
+                    verify_ticks: sat(job.spent_ticks),
+                }));
+            }
+        }
     }
 
     /// One window of search within `until` on `clock` (None: to the end).
@@ -623,7 +781,8 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn planning_pending(&self) -> bool {
-        self.job.is_some_and(|j| j.phase == Phase::Planning)
+        self.job
+            .is_some_and(|j| matches!(j.phase, Phase::Planning | Phase::Verifying { .. }))
     }
 
     fn busy(&self) -> bool {
@@ -632,6 +791,13 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn window(&mut self, w: &mut PluginWindow<'_, '_>) {
+        if self
+            .job
+            .is_some_and(|j| matches!(j.phase, Phase::Verifying { .. }))
+        {
+            self.verify(w.clock, w.until, w.downlink);
+            return;
+        }
         self.search(w.clock, w.until, w.hard_until);
     }
 
@@ -699,4 +865,72 @@ impl PlannerPlugin for TemporalApp<'_> {
             self.end_job();
         }
     }
+}
+
+fn record_crc(words: &[u32]) -> u32 {
+    let mut digest = TASK_CRC.digest();
+    for w in words {
+        digest.update(&w.to_be_bytes());
+    }
+    digest.finalize()
+}
+
+/// The record of an accepted job (see "A job kept across a warm reset" above).
+fn encode_record(job: &Job) -> [u32; TEMPORAL_RESUME_RECORD_WORDS] {
+    let mut words = [0u32; TEMPORAL_RESUME_RECORD_WORDS];
+    words[0] = RESUME_MAGIC;
+    words[1] = RESUME_VERSION;
+    words[2] = u32::from(job.id);
+    words[3] = job.len;
+    words[4] = job.crc32;
+    words[5] = job.task_at;
+    words[6] = job.task_len;
+    words[7] = job.ticks_per_unit;
+    let mut config = [0u8; 24];
+    config[..sdls::temporal::CONFIG_BYTES]
+        .copy_from_slice(&sdls::temporal::config_bytes(&job.config));
+    for (w, b) in words[8..14].iter_mut().zip(config.chunks_exact(4)) {
+        *w = u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+    }
+    words[15] = record_crc(&words[..15]);
+    words
+}
+
+/// The job a record describes, if it is a whole record (phase and costs are the caller's).
+fn decode_record(words: &[u32; TEMPORAL_RESUME_RECORD_WORDS]) -> Option<Job> {
+    if words[0] != RESUME_MAGIC
+        || words[1] != RESUME_VERSION
+        || words[14] != 0
+        || words[15] != record_crc(&words[..15])
+    {
+        return None;
+    }
+    let mut config = [0u8; sdls::temporal::CONFIG_BYTES];
+    let mut bytes = [0u8; 24];
+    for (b, w) in bytes.chunks_exact_mut(4).zip(&words[8..14]) {
+        b.copy_from_slice(&w.to_be_bytes());
+    }
+    config.copy_from_slice(&bytes[..sdls::temporal::CONFIG_BYTES]);
+    let (len, task_at, task_len) = (words[3], words[5], words[6]);
+    if task_at.checked_add(task_len)? > len || bytes[23] != 0 {
+        return None;
+    }
+    Some(Job {
+        id: u16::try_from(words[2]).ok()?,
+        len,
+        crc32: words[4],
+        task_at,
+        task_len,
+        config: sdls::temporal::config_from_bytes(&config)?,
+        phase: Phase::Verifying { checked: 0 },
+        ticks_per_unit: words[7],
+        spent_ticks: 0,
+        windows: 0,
+        most_step_ticks: 0,
+        stalled: false,
+        outcome: None,
+        plan_len: 0,
+        makespan: 0,
+        stats: temporal::Stats::default(),
+    })
 }

@@ -574,3 +574,232 @@ fn forged_replayed_and_tampered_uplinks_are_refused_counted_and_the_next_authent
     assert_eq!(security_refusal(&r, 5), SecurityRefusal::NoKey);
     assert!(!keyless.planning_pending());
 }
+
+/// The memory a warm reset keeps (the task buffer, the arena and the job's record), shared by
+/// the applications that a test starts one after the other on it, as the planner partition
+/// does at every (re)start.
+struct KeptMemory {
+    task: *mut [u8],
+    arena: *mut [u32],
+    record: *mut [u32; flight_app::TEMPORAL_RESUME_RECORD_WORDS],
+    nv: Nv,
+}
+
+impl KeptMemory {
+    fn new() -> Self {
+        Self {
+            task: Box::into_raw(vec![0u8; 64 * 1024].into_boxed_slice()),
+            arena: Box::into_raw(vec![0u32; ARENA_WORDS].into_boxed_slice()),
+            record: Box::into_raw(Box::new([0u32; flight_app::TEMPORAL_RESUME_RECORD_WORDS])),
+            nv: Nv::provisioned(),
+        }
+    }
+
+    /// A (re)started application on this memory. The application made before must be gone
+    /// (dropped): it held the only references.
+    fn start(&self) -> TemporalApp<'static> {
+        let plan =
+            Box::leak(vec![PlannedAction::default(); MAX_TEMPORAL_PLAN_ACTIONS].into_boxed_slice());
+        let mut app = TemporalApp::new(plan);
+        app.secure(Some(
+            Box::leak(Box::new(self.nv.clone())) as &mut dyn SecurityStore
+        ));
+        // SAFETY: the buffers live for the test (never freed); the application before this one
+        // was dropped, so these are the only references to them.
+        unsafe {
+            app.keep_jobs_in(&mut *self.record);
+            app.give_storage(TemporalStorage {
+                task: &mut *self.task,
+                arena: &mut *self.arena,
+            });
+        }
+        app
+    }
+
+    /// Fill the three with garbage from `seed` (what a cold boot may leave in RAM).
+    fn garble(&self, seed: u32) {
+        let mut x = seed | 1;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            x
+        };
+        // SAFETY: as in `start`, with no application alive.
+        unsafe {
+            (*self.task).iter_mut().for_each(|b| *b = next() as u8);
+            (*self.record).iter_mut().for_each(|w| *w = next());
+        }
+    }
+}
+
+/// The application ends (a reset): the references it held into the kept memory end with it.
+fn gone(_app: TemporalApp<'static>) {}
+
+/// Windows of `share` ticks, at most `max` of them (the job is still going after them if it
+/// needs more).
+fn some_windows(app: &mut TemporalApp<'static>, share: u64, max: u32) -> Vec<TemporalReport> {
+    let mut clock = Ticking {
+        now: 0,
+        per_reading: 10,
+    };
+    let mut warm = [0u8; 0];
+    let mut memories = Memories {
+        warm: &mut warm,
+        nv: None,
+        security: None,
+    };
+    let mut out = Vec::new();
+    for _ in 0..max {
+        if app.planning_pending() {
+            let until = clock.now + share;
+            let mut sink = |m: TargetToHost| out.push(m);
+            let mut w = PluginWindow {
+                memories: &mut memories,
+                fetch: None,
+                clock: &mut clock,
+                downlink: &mut sink,
+                until: Some(until),
+                hard_until: Some(until + share / 4),
+            };
+            app.window(&mut w);
+        }
+        let mut sink = |m: TargetToHost| out.push(m);
+        app.report(4, &mut sink);
+    }
+    reports(out)
+}
+
+fn steps_of(reports: &[TemporalReport]) -> Vec<PlannedAction> {
+    reports
+        .iter()
+        .filter_map(|r| match *r {
+            TemporalReport::Step {
+                action,
+                start,
+                duration,
+                start_lb,
+                start_ub,
+                ..
+            } => Some(PlannedAction {
+                action,
+                start,
+                duration,
+                start_lb,
+                start_ub,
+            }),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn a_job_interrupted_by_a_warm_reset_is_resumed_and_gives_the_plan_of_one_go() {
+    let task = compiled("rovers", 2);
+    let config = TemporalConfig::DEFAULT;
+    let (plan, makespan, _) = reference(&task, &config);
+    let memory = KeptMemory::new();
+    let mut app = memory.start();
+    assert!(!app.resume(), "nothing to resume in zeroed memory");
+    let r = handle_all(&mut app, &signed(3, 1, &task, config));
+    assert!(matches!(
+        r.as_slice(),
+        [TemporalReport::Accepted { job: 3, .. }]
+    ));
+    // A few windows of search, then the reset: the application and its search are gone.
+    let before = some_windows(&mut app, 20, 6);
+    assert!(app.planning_pending(), "still searching: {before:?}");
+    gone(app);
+
+    let mut app = memory.start();
+    assert!(app.resume());
+    assert_eq!(app.job(), Some(3));
+    // The stored task is checked again a piece at a time (small shares: several windows),
+    // then the search restarts from the beginning.
+    let after = some_windows(&mut app, 40, 100_000);
+    assert!(
+        matches!(after.first(), Some(TemporalReport::Resumed { job: 3, task_bytes, .. }) if *task_bytes as usize == task.len()),
+        "{:?}",
+        after.first()
+    );
+    assert_eq!(
+        steps_of(&after),
+        plan,
+        "the plan of an uninterrupted search"
+    );
+    assert!(
+        matches!(after.last(), Some(TemporalReport::Done { job: 3, outcome: TemporalOutcome::Solved, makespan: m, .. }) if *m == makespan),
+        "{:?}",
+        after.last()
+    );
+    assert_eq!((app.resumed, app.finished), (1, 1));
+    // The job is over: its record is cleared, and the next start resumes nothing.
+    gone(app);
+    let mut app = memory.start();
+    assert!(!app.resume());
+
+    // A job accepted and not yet searched is resumed as well; a Begin meanwhile is refused
+    // (busy) and changes nothing.
+    handle_all(&mut app, &signed(4, 2, &task, config));
+    let r = handle_all(&mut app, &signed(5, 3, &task, config)[..1]);
+    assert!(matches!(
+        r.as_slice(),
+        [TemporalReport::Refused {
+            reason: TemporalRefusal::Busy { job: 4 },
+            ..
+        }]
+    ));
+    gone(app);
+    let mut app = memory.start();
+    assert!(app.resume());
+    assert_eq!(app.job(), Some(4));
+}
+
+#[test]
+fn memory_a_cold_boot_left_resumes_nothing_and_a_damaged_task_is_refused_not_planned() {
+    let task = compiled("satellite", 1);
+    let config = TemporalConfig::DEFAULT;
+    let memory = KeptMemory::new();
+    for seed in 1..=2_000 {
+        memory.garble(seed);
+        let mut app = memory.start();
+        assert!(!app.resume(), "seed {seed}: garbage resumed");
+        assert!(!app.planning_pending() && app.job().is_none());
+    }
+    // A whole record with the magic but one word changed: its CRC fails.
+    let mut app = memory.start();
+    handle_all(&mut app, &signed(6, 1, &task, config));
+    gone(app);
+    // SAFETY: no application alive.
+    let whole = unsafe { *memory.record };
+    for word in 0..whole.len() {
+        let mut changed = whole;
+        changed[word] ^= 0x0100;
+        unsafe { *memory.record = changed };
+        assert!(!memory.start().resume(), "word {word} changed");
+    }
+    // The record whole, the task under it damaged: resumed, checked, refused, not planned.
+    unsafe {
+        *memory.record = whole;
+        (*memory.task)[sdls::uplink::HEADER_LEN + 77] ^= 0x40;
+    }
+    let mut app = memory.start();
+    assert!(app.resume());
+    let r = some_windows(&mut app, 1_000, 50);
+    assert!(
+        matches!(
+            r.as_slice(),
+            [TemporalReport::Refused {
+                job: 6,
+                reason: TemporalRefusal::BadCrc { .. }
+            }]
+        ),
+        "{r:?}"
+    );
+    assert!(app.job().is_none() && !app.planning_pending());
+    gone(app);
+    assert!(
+        !memory.start().resume(),
+        "the refused job's record is cleared"
+    );
+}

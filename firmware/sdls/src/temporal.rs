@@ -61,6 +61,35 @@ pub fn config_bytes(config: &TemporalConfig) -> [u8; CONFIG_BYTES] {
     out
 }
 
+/// The configuration [`config_bytes`] gives those bytes for, if they are such bytes (the
+/// planner partition keeps an accepted job's configuration this way, for a resume after a
+/// warm reset).
+pub fn config_from_bytes(b: &[u8; CONFIG_BYTES]) -> Option<TemporalConfig> {
+    let flag = |x: u8| match x {
+        0 => Some(false),
+        1 => Some(true),
+        _ => None,
+    };
+    let mut goals = [0u8; 8];
+    goals.copy_from_slice(&b[7..15]);
+    Some(TemporalConfig {
+        max_steps: u16::from_be_bytes([b[0], b[1]]),
+        compression: flag(b[2])?,
+        preferred_operators: flag(b[3])?,
+        shed_when_full: flag(b[4])?,
+        duplicates: match b[5] {
+            0 => TemporalDuplicates::Keep,
+            1 => TemporalDuplicates::PruneQuiescent,
+            2 => TemporalDuplicates::PruneAll,
+            _ => return None,
+        },
+        duration_costs: flag(b[6])?,
+        dropped_goals: u64::from_be_bytes(goals),
+        max_expansions: u32::from_be_bytes([b[15], b[16], b[17], b[18]]),
+        max_windows: u32::from_be_bytes([b[19], b[20], b[21], b[22]]),
+    })
+}
+
 /// The MAC of a secured temporal task being received: keyed and primed with the service, the
 /// job and the configuration at `TemporalBegin`, fed the covered bytes chunk by chunk.
 #[derive(Clone)]
@@ -362,6 +391,36 @@ mod tests {
             receive(&again, 1, &config, &as_uplink, 128),
             Err(SecurityRefusal::BadMac)
         );
+    }
+
+    #[test]
+    fn configuration_bytes_round_trip_and_bad_ones_are_none() {
+        let configs = [
+            TemporalConfig::DEFAULT,
+            TemporalConfig {
+                max_steps: 7,
+                compression: false,
+                preferred_operators: false,
+                shed_when_full: false,
+                duplicates: TemporalDuplicates::Keep,
+                duration_costs: true,
+                dropped_goals: 0x0102_0304_0506_0708,
+                max_expansions: 99,
+                max_windows: 12,
+            },
+            TemporalConfig {
+                duplicates: TemporalDuplicates::PruneAll,
+                ..TemporalConfig::DEFAULT
+            },
+        ];
+        for c in configs {
+            assert_eq!(config_from_bytes(&config_bytes(&c)), Some(c));
+        }
+        for (at, bad) in [(2, 2), (3, 9), (4, 0xff), (5, 3), (6, 2)] {
+            let mut b = config_bytes(&TemporalConfig::DEFAULT);
+            b[at] = bad;
+            assert_eq!(config_from_bytes(&b), None, "byte {at} = {bad}");
+        }
     }
 
     #[test]

@@ -18,7 +18,7 @@ use core::ptr::addr_of_mut;
 
 use flight_app::{
     PlannerPlugin, PluginWindow, TemporalApp, TemporalStorage, MAX_TEMPORAL_PLAN_ACTIONS,
-    MAX_TEMPORAL_TASK_BYTES, TEMPORAL_ARENA_BYTES,
+    MAX_TEMPORAL_TASK_BYTES, TEMPORAL_ARENA_BYTES, TEMPORAL_RESUME_RECORD_WORDS,
 };
 use flight_app::{SecurityStore, StoreError};
 use fsw_bridge::HostToTarget;
@@ -39,6 +39,12 @@ static mut TASK: MaybeUninit<[u8; MAX_TEMPORAL_TASK_BYTES]> = MaybeUninit::unini
 
 #[link_section = ".bss.noinit.planner"]
 static mut ARENA: MaybeUninit<[u32; ARENA_WORDS]> = MaybeUninit::uninit();
+
+/// The record of the accepted job, beside its task: what a warm reset keeps of the job
+/// (`flight_app::TemporalApp::resume` checks it; after a cold boot it holds whatever the RAM
+/// holds, which fails its magic or its CRC).
+#[link_section = ".bss.noinit.planner"]
+static mut RECORD: MaybeUninit<[u32; TEMPORAL_RESUME_RECORD_WORDS]> = MaybeUninit::uninit();
 
 #[link_section = ".bss.part.planner"]
 static mut PLAN: MaybeUninit<[PlannedAction; MAX_TEMPORAL_PLAN_ACTIONS]> = MaybeUninit::uninit();
@@ -74,7 +80,9 @@ impl SecurityStore for PlannerSecurityStore {
 #[link_section = ".bss.part.planner"]
 static mut STORE: PlannerSecurityStore = PlannerSecurityStore;
 
-/// The plug-in, made at the partition's (re)start (a job in progress is lost with it).
+/// The plug-in, made at the partition's (re)start. A job accepted before a warm reset (or a
+/// restart of the partition) is taken up again: its record and its task are in memory the
+/// reset keeps; the task is checked again in the next windows and planned from the start.
 /// `has_security_area`: the partition's slice of non-volatile memory holds the security
 /// area (without it every temporal uplink is refused with `NoKey`).
 pub fn start(has_security_area: bool) -> &'static mut TemporalApp<'static> {
@@ -88,6 +96,18 @@ pub fn start(has_security_area: bool) -> &'static mut TemporalApp<'static> {
         let store = &mut *addr_of_mut!(STORE);
         app.secure(has_security_area.then_some(store as &mut dyn SecurityStore));
         app.set_receive_clock(|| sys::cpu_time().0);
+        // SAFETY: RECORD is this partition's static in `.bss.noinit.planner`, referred to by
+        // nothing else; every bit pattern is a valid array of u32 (the RAM holds defined
+        // bytes, and the record is checked before it is believed).
+        let record = &mut *(addr_of_mut!(RECORD) as *mut [u32; TEMPORAL_RESUME_RECORD_WORDS]);
+        app.keep_jobs_in(record);
+        give_storage(app);
+        if app.resume() {
+            defmt::info!(
+                "temporal: job {=u16} resumed after a restart; its task is checked again",
+                app.job().unwrap_or(0)
+            );
+        }
         app
     }
 }

@@ -436,6 +436,13 @@ pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
                     }
                 }
             ),
+        (u16s(), u32s(), u32s()).prop_map(|(job, task_bytes, verify_ticks)| {
+            TemporalReport::Resumed {
+                job,
+                task_bytes,
+                verify_ticks,
+            }
+        }),
     ]
     .prop_map(TargetToHost::Temporal)
 }
