@@ -190,6 +190,9 @@ pub enum TemporalReport {
         windows: u32,
         /// The costliest expansion's CPU (with a clock reading), timebase ticks (0 natively).
         worst_expansion_ticks: u32,
+        /// The costliest piece of the search's set-up (`temporal::Planner::set_up_step`,
+        /// with a clock reading), timebase ticks (0 natively).
+        worst_set_up_ticks: u32,
     },
     /// After a warm reset (or a restart of the planner partition) the job accepted before it
     /// was found in memory the reset keeps, its task checked again (CRC-32 and validation)

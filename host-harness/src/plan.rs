@@ -295,12 +295,20 @@ pub fn summary(report: &PlanReport) -> String {
     ));
     if let Some(e) = &report.emulated {
         s.push_str(&format!(
-            "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) planning, in {} planner windows (costliest expansion {} ticks); {} frames granted ({} ms of mission time)\n",
-            e.guest_instructions, e.planning_ticks, e.planner_windows, e.worst_expansion_ticks, e.frames, e.frames as u64 * crate::plan_emulated::FRAME_US / 1000
+            "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) planning, in {} planner windows (costliest expansion {} ticks, costliest set-up piece {} ticks); {} frames granted ({} ms of mission time)\n",
+            e.guest_instructions, e.planning_ticks, e.planner_windows, e.worst_expansion_ticks, e.worst_set_up_ticks, e.frames, e.frames as u64 * crate::plan_emulated::FRAME_US / 1000
         ));
         s.push_str(&format!(
             "            receiving and checking the task: {} guest instructions ({} ticks), authentication {} of them ({} ticks)\n",
             e.receive_instructions, e.receive_ticks, e.auth_instructions, e.auth_ticks
+        ));
+        s.push_str(&format!(
+            "            kernel health events during the job: {}\n",
+            if e.health_events.is_empty() {
+                "none".to_string()
+            } else {
+                e.health_events.join("; ")
+            }
         ));
         if e.resets > 0 || e.resumed {
             s.push_str(&format!(

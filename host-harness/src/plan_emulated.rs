@@ -47,6 +47,8 @@ pub struct EmulatedCosts {
     /// The costliest expansion, timebase ticks (a planner window is 33,200; its planning
     /// share 24,900).
     pub worst_expansion_ticks: u32,
+    /// The costliest piece of the search's set-up, timebase ticks.
+    pub worst_set_up_ticks: u32,
     /// Frames granted from the task's acceptance to the plan's end (mission time:
     /// `frames` x 10 ms).
     pub frames: u32,
@@ -62,6 +64,9 @@ pub struct EmulatedCosts {
     pub auth_ticks: u32,
     /// The same in guest instructions.
     pub auth_instructions: u64,
+    /// The kernel's health-monitor events during the job, uplink included (an overrun of the
+    /// planner partition's window is "partition 2: error kind 8, action 0").
+    pub health_events: Vec<String>,
     /// Warm resets injected during the search ([`MidSearchReset`]).
     pub resets: u32,
     /// The planner partition said it resumed the job after a reset.
@@ -445,6 +450,7 @@ impl EmulatedPlanner {
     ) -> Result<PlanReport, EmulatedError> {
         let rounds_before = self.link.summary().rounds;
         let resets_before = self.resets;
+        let health_before = self.health_events.len();
         let (receive_ticks, auth_ticks) = self.uplink_costs(job, msgs)?;
         let (got, frames) = self.plan_frames(job, max_frames, reset)?;
         let mut report = crate::plan::empty_report(compiled);
@@ -457,6 +463,7 @@ impl EmulatedPlanner {
             planning_ticks,
             windows,
             worst_expansion_ticks,
+            worst_set_up_ticks,
             ..
         }) = got.done
         else {
@@ -529,12 +536,14 @@ impl EmulatedPlanner {
             guest_instructions: (planning_ticks as f64 * INSTRUCTIONS_PER_TICK).round() as u64,
             planner_windows: windows,
             worst_expansion_ticks,
+            worst_set_up_ticks,
             frames,
             link_rounds: self.link.summary().rounds - rounds_before,
             receive_ticks,
             receive_instructions: (f64::from(receive_ticks) * INSTRUCTIONS_PER_TICK).round() as u64,
             auth_ticks,
             auth_instructions: (f64::from(auth_ticks) * INSTRUCTIONS_PER_TICK).round() as u64,
+            health_events: self.health_events[health_before..].to_vec(),
             resets: self.resets - resets_before,
             resumed: got.resumed.is_some(),
             verify_ticks: got.resumed.unwrap_or(0),

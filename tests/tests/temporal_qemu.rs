@@ -108,7 +108,7 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
             compiled.task.len()
         );
         println!(
-            "{tag}: makespan {:?}, {} expanded, {} guest instructions, {} planner windows, {} frames, peak arena {} bytes, costliest expansion {} ticks, health events so far {:?}",
+            "{tag}: makespan {:?}, {} expanded, {} guest instructions, {} planner windows, {} frames, peak arena {} bytes, costliest expansion {} ticks, costliest set-up piece {} ticks, health events so far {:?}",
             emulated.makespan,
             emulated.expanded,
             costs.guest_instructions,
@@ -116,19 +116,15 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
             costs.frames,
             emulated.peak_arena_bytes,
             costs.worst_expansion_ticks,
+            costs.worst_set_up_ticks,
             target.health_events
         );
     }
-    // The search stays within its windows; what may overrun is a job's set-up (building the
-    // tables and the root's heuristic is not anytime: satellite 2's takes more than a
-    // window). The kernel preempts it, logs it, and it goes on in the next window: at most
-    // one overrun per job, all of them the planner partition's (2), logged only (action 0).
+    // The search and its set-up stay within their windows: the set-up comes in pieces
+    // (satellite 2's whole set-up, about 54,000 ticks, is more than a 33,200-tick window), so
+    // the health monitor logs no overrun of the planner partition, uplinks included.
     assert!(
-        target.health_events.len() <= INSTANCES.len()
-            && target
-                .health_events
-                .iter()
-                .all(|e| e == "partition 2: error kind 8, action 0"),
+        target.health_events.is_empty(),
         "{:?}",
         target.health_events
     );

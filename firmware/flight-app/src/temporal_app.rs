@@ -139,6 +139,8 @@ struct Job {
     most_step_ticks: u64,
     /// The last window ran no expansion (the costliest did not fit it).
     stalled: bool,
+    /// The CPU of the costliest piece of the search's set-up so far, timebase ticks.
+    most_set_up_ticks: u64,
     outcome: Option<TemporalOutcome>,
     /// Actions of the plan (in `TemporalApp::plan`) and its makespan.
     plan_len: usize,
@@ -412,6 +414,7 @@ impl<'a> TemporalApp<'a> {
             windows: 0,
             most_step_ticks: 0,
             stalled: false,
+            most_set_up_ticks: 0,
             outcome: None,
             plan_len: 0,
             makespan: 0,
@@ -555,7 +558,8 @@ impl<'a> TemporalApp<'a> {
         }
     }
 
-    /// Sets the search up for the accepted job (its first window).
+    /// Lays the search out for the accepted job (its first window); the set-up follows in
+    /// pieces ([`Self::set_up_pieces`]).
     fn set_up(&mut self) -> Result<(), Region> {
         let (Some(job), Some(storage)) = (self.job.as_ref(), self.storage.take()) else {
             return Err(Region::Tables);
@@ -567,7 +571,7 @@ impl<'a> TemporalApp<'a> {
         // Validated on arrival; a failure here would be a bug, reported as bad tables.
         let parsed = Task::parse(bytes).map_err(|_| Region::Tables)?;
         let config = planner_config(&job.config, self.plan.len());
-        self.planner = Some(Planner::new(parsed, arena, config)?);
+        self.planner = Some(Planner::new_deferred(parsed, arena, config)?);
         Ok(())
     }
 
@@ -662,14 +666,30 @@ impl<'a> TemporalApp<'a> {
         let mut outcome = None;
         let mut most = job.most_step_ticks;
         let mut ran = 0u32;
-        // Setting the search up (tables, the root's heuristic) is a window's work of its own:
-        // it is not anytime, and costs more than an expansion (satellite 2: about 54,000
-        // ticks, more than a window, which then overruns).
-        let set_up = self.planner.is_none();
-        if set_up {
+        // Setting the search up (the layout, the duplicate table, the relaxation's indexes,
+        // the compression marks, the root) comes in pieces, in windows of their own: the whole
+        // costs more than a window (satellite 2: about 54,000 ticks), so it is divided (see
+        // `set_up_pieces`), and the search starts in the window after the last piece.
+        if self.planner.is_none() {
             if let Err(r) = self.set_up() {
                 outcome = Some(TemporalOutcome::OutOfMemory(region(r)));
             }
+        }
+        let mut most_set_up = job.most_set_up_ticks;
+        let set_up = self.planner.as_ref().is_some_and(|p| p.setting_up());
+        if let (None, Some(planner), true) = (outcome, self.planner.as_mut(), set_up) {
+            let (done, most_piece) = set_up_pieces(planner, clock, until, most_set_up);
+            most_set_up = most_piece;
+            ran = 1;
+            if done {
+                outcome = match planner.status() {
+                    Status::Searching => None,
+                    Status::Solved => Some(TemporalOutcome::Solved),
+                    Status::Unsolvable => Some(TemporalOutcome::Unsolvable),
+                    Status::OutOfMemory(r) => Some(TemporalOutcome::OutOfMemory(region(r))),
+                };
+            }
+        } else if self.planner.is_none() {
             ran = 1;
         }
         let mut ran_none = true;
@@ -717,6 +737,7 @@ impl<'a> TemporalApp<'a> {
         };
         job.spent_ticks = job.spent_ticks.wrapping_add(spent);
         job.most_step_ticks = most;
+        job.most_set_up_ticks = most_set_up;
         job.stalled = ran_none && ran == 0;
         job.windows = job.windows.saturating_add(1);
         if outcome.is_none() && job.config.max_windows > 0 && job.windows >= job.config.max_windows
@@ -860,9 +881,44 @@ impl PlannerPlugin for TemporalApp<'_> {
                 planning_ticks: job.spent_ticks,
                 windows: job.windows,
                 worst_expansion_ticks: sat(job.most_step_ticks),
+                worst_set_up_ticks: sat(job.most_set_up_ticks),
             }));
             self.finished = self.finished.saturating_add(1);
             self.end_job();
+        }
+    }
+}
+
+/// A window's pieces of the search's set-up (`temporal::Planner::set_up_step`), within `until`
+/// on `clock` (None: every piece at once); `most` is the costliest piece so far. The first
+/// piece of a window always runs;
+/// a piece that empties buckets (a small, fixed amount of work) follows while the costliest
+/// piece so far still fits the share; any other piece (the indexes, the compression marks, the
+/// root: each up to about an expansion's work) runs only as the window's first, so no window
+/// takes two of them. Returns whether the set-up is done and the costliest piece.
+fn set_up_pieces(
+    planner: &mut Planner<'_, '_>,
+    clock: &mut dyn CpuClock,
+    until: Option<u64>,
+    mut most: u64,
+) -> (bool, u64) {
+    let mut now = clock.ticks();
+    let mut pieces = 0u32;
+    loop {
+        if pieces > 0
+            && until.is_some_and(|u| {
+                !planner.next_set_up_piece_is_small() || now.saturating_add(most) > u
+            })
+        {
+            return (false, most);
+        }
+        let more = planner.set_up_step();
+        pieces += 1;
+        let after = clock.ticks();
+        most = most.max(after.wrapping_sub(now));
+        now = after;
+        if !more {
+            return (true, most);
         }
     }
 }
@@ -928,6 +984,7 @@ fn decode_record(words: &[u32; TEMPORAL_RESUME_RECORD_WORDS]) -> Option<Job> {
         windows: 0,
         most_step_ticks: 0,
         stalled: false,
+        most_set_up_ticks: 0,
         outcome: None,
         plan_len: 0,
         makespan: 0,

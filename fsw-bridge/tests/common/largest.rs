@@ -238,6 +238,7 @@ pub fn largest_temporal_report(i: usize) -> TemporalReport {
             planning_ticks: u64::MAX,
             windows: m,
             worst_expansion_ticks: m,
+            worst_set_up_ticks: m,
         },
         5 => TemporalReport::Resumed {
             job,

@@ -433,6 +433,7 @@ pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
                         planning_ticks,
                         windows,
                         worst_expansion_ticks: worst,
+                        worst_set_up_ticks: worst,
                     }
                 }
             ),
