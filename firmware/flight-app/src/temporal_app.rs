@@ -678,9 +678,15 @@ impl<'a> TemporalApp<'a> {
         let mut most_set_up = job.most_set_up_ticks;
         let set_up = self.planner.as_ref().is_some_and(|p| p.setting_up());
         if let (None, Some(planner), true) = (outcome, self.planner.as_mut(), set_up) {
-            let (done, most_piece) = set_up_pieces(planner, clock, until, most_set_up);
+            let (done, most_piece, pieces) = set_up_pieces(
+                planner,
+                clock,
+                (until, hard_until),
+                most_set_up,
+                job.stalled,
+            );
             most_set_up = most_piece;
-            ran = 1;
+            ran = pieces;
             if done {
                 outcome = match planner.status() {
                     Status::Searching => None,
@@ -890,27 +896,33 @@ impl PlannerPlugin for TemporalApp<'_> {
 }
 
 /// A window's pieces of the search's set-up (`temporal::Planner::set_up_step`), within `until`
-/// on `clock` (None: every piece at once); `most` is the costliest piece so far. The first
-/// piece of a window always runs;
-/// a piece that empties buckets (a small, fixed amount of work) follows while the costliest
-/// piece so far still fits the share; any other piece (the indexes, the compression marks, the
-/// root: each up to about an expansion's work) runs only as the window's first, so no window
-/// takes two of them. Returns whether the set-up is done and the costliest piece.
+/// on `clock` (None: every piece at once), as expansions are: the window's first piece runs if
+/// the costliest piece so far (`most`) fits before `hard_until`, or whatever it costs after a
+/// window that ran none (`stalled`: progress); a piece that empties buckets (a small, fixed
+/// amount of work) follows while the costliest piece still fits the share; any other piece
+/// (the indexes, the compression marks, the root: each up to about an expansion's work) runs
+/// only as the window's first, so no window takes two of them. Returns whether the set-up is
+/// done, the costliest piece, and the pieces run.
 fn set_up_pieces(
     planner: &mut Planner<'_, '_>,
     clock: &mut dyn CpuClock,
-    until: Option<u64>,
+    (until, hard_until): (Option<u64>, Option<u64>),
     mut most: u64,
-) -> (bool, u64) {
+    stalled: bool,
+) -> (bool, u64, u32) {
     let mut now = clock.ticks();
     let mut pieces = 0u32;
     loop {
-        if pieces > 0
-            && until.is_some_and(|u| {
-                !planner.next_set_up_piece_is_small() || now.saturating_add(most) > u
-            })
-        {
-            return (false, most);
+        if let Some(u) = until {
+            let end = now.saturating_add(most);
+            let fits = if pieces == 0 {
+                now < u && (end <= hard_until.unwrap_or(u) || stalled)
+            } else {
+                planner.next_set_up_piece_is_small() && end <= u
+            };
+            if !fits {
+                return (false, most, pieces);
+            }
         }
         let more = planner.set_up_step();
         pieces += 1;
@@ -918,7 +930,7 @@ fn set_up_pieces(
         most = most.max(after.wrapping_sub(now));
         now = after;
         if !more {
-            return (true, most);
+            return (true, most, pieces);
         }
     }
 }
