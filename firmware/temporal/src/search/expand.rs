@@ -12,7 +12,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.child_state = cs;
         let h = {
             let cs = &*self.child_state;
-            self.relax.evaluate(&task, &|f| Self::fact(cs, f), &[])
+            self.relax.evaluate(&task, &cs[..self.fact_words], &[])
         };
         self.stats.evaluated += 1;
         if h == DEAD_END {
@@ -37,68 +37,70 @@ impl<'t, 'm> Planner<'t, 'm> {
 
     /// Push every applicable snap of the state in `child_state` (stored as `node`) into the
     /// open lists with key `h`; those in the relaxed plan also into the preferred list.
+    ///
+    /// The candidates are the relaxed actions the heuristic found ready in this state (all
+    /// their relaxed preconditions true: [`Relaxation::is_ready`]), a superset of the
+    /// applicable snaps (a start's relaxed preconditions are its conditions and the invariants
+    /// it does not add, which must hold before it; an end's are its conditions and its
+    /// action running). So the heuristic must have evaluated `child_state` last. Candidates
+    /// are taken in action order, as a scan of every action would.
     pub(super) fn push_successors(&mut self, node: u32, h: u32) -> Result<(), Region> {
-        let task = self.task;
         let running_n = self.child_state[self.running_at()] as usize;
         let mut running = [0u32; MAX_RUNNING];
         running[..running_n].copy_from_slice(self.running(self.child_state));
         self.load_protection(&running[..running_n], true);
         let sw = self.probe_state.len();
         let mut result = Ok(());
-        for a in 0..task.action_count() {
-            let is_running = running[..running_n].binary_search(&(a as u32)).is_ok();
-            let snap = if is_running {
-                (a as u32) << 2 | END
-            } else if self.config.compression && self.compression_safe(a) {
-                (a as u32) << 2 | COMPRESSED
-            } else {
-                (a as u32) << 2 | START
-            };
-            // Cheap precondition test before the full application.
-            let act = task.action(a);
-            let pre = if is_running {
-                FactList::PreEnd
-            } else {
-                FactList::PreStart
-            };
-            if !act
-                .facts(pre)
-                .iter()
-                .all(|f| Self::fact(self.child_state, f))
-            {
-                continue;
-            }
-            let (probe, child) = (&mut *self.probe_state, &*self.child_state);
-            probe[..sw].copy_from_slice(&child[..sw]);
-            let probe = core::mem::take(&mut self.probe_state);
-            let ok = self.apply(probe, snap);
-            self.probe_state = probe;
-            if !ok {
-                continue;
-            }
-            let key = h.min(0xfff) << 20 | (self.seq & 0xf_ffff);
-            self.seq = self.seq.wrapping_add(1);
-            if !self.regular.push(key, node, snap) {
-                if self.config.shed_when_full && self.regular.len > 1 {
-                    self.stats.shed += self.regular.shed_worse_half() as u64;
+        let words = self.relax.ready.len();
+        'words: for w in 0..words {
+            let mut bits = self.relax.ready[w];
+            while bits != 0 {
+                let r = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let a = r / 2;
+                let is_end = r % 2 == 1;
+                let is_running = running[..running_n].binary_search(&(a as u32)).is_ok();
+                if is_end != is_running {
+                    continue;
                 }
+                let snap = if is_running {
+                    (a as u32) << 2 | END
+                } else if self.config.compression && self.compression_safe(a) {
+                    (a as u32) << 2 | COMPRESSED
+                } else {
+                    (a as u32) << 2 | START
+                };
+                let (probe, child) = (&mut *self.probe_state, &*self.child_state);
+                probe[..sw].copy_from_slice(&child[..sw]);
+                let probe = core::mem::take(&mut self.probe_state);
+                let ok = self.apply(probe, snap);
+                self.probe_state = probe;
+                if !ok {
+                    continue;
+                }
+                let key = h.min(0xfff) << 20 | (self.seq & 0xf_ffff);
+                self.seq = self.seq.wrapping_add(1);
                 if !self.regular.push(key, node, snap) {
-                    result = Err(Region::RegularOpen);
-                    break;
+                    if self.config.shed_when_full && self.regular.len > 1 {
+                        self.stats.shed += self.regular.shed_worse_half() as u64;
+                    }
+                    if !self.regular.push(key, node, snap) {
+                        result = Err(Region::RegularOpen);
+                        break 'words;
+                    }
                 }
-            }
-            self.stats.generated += 1;
-            let r = 2 * a + usize::from(is_running);
-            if self.config.preferred_operators
-                && self.relax.in_relaxed_plan(r)
-                && !self.preferred.push(key, node, snap)
-            {
-                if self.config.shed_when_full && self.preferred.len > 1 {
-                    self.stats.shed += self.preferred.shed_worse_half() as u64;
-                }
-                if !self.preferred.push(key, node, snap) {
-                    result = Err(Region::PreferredOpen);
-                    break;
+                self.stats.generated += 1;
+                if self.config.preferred_operators
+                    && self.relax.in_relaxed_plan(r)
+                    && !self.preferred.push(key, node, snap)
+                {
+                    if self.config.shed_when_full && self.preferred.len > 1 {
+                        self.stats.shed += self.preferred.shed_worse_half() as u64;
+                    }
+                    if !self.preferred.push(key, node, snap) {
+                        result = Err(Region::PreferredOpen);
+                        break 'words;
+                    }
                 }
             }
         }
@@ -111,6 +113,12 @@ impl<'t, 'm> Planner<'t, 'm> {
         for _ in 0..budget {
             if self.status != Status::Searching {
                 break;
+            }
+            if self.boost_amount == BOOST_FIRST
+                && self.stats.expanded - self.last_progress > RESTART_AFTER
+            {
+                self.restart();
+                continue;
             }
             let entry = if (self.turn || self.boost > 0) && self.preferred.len > 0 {
                 self.boost = self.boost.saturating_sub(1);
@@ -138,6 +146,27 @@ impl<'t, 'm> Planner<'t, 'm> {
         let s = self.stats();
         self.stats.peak_words = s.peak_words;
         self.status
+    }
+
+    /// Abandon the first search and start again from the root with [`BOOST_SECOND`]: the
+    /// nodes, the duplicate table and the open lists are emptied (the arena's high-water mark
+    /// and the statistics carry on).
+    fn restart(&mut self) {
+        let s = self.stats();
+        self.stats.peak_words = s.peak_words;
+        self.stats.restarts += 1;
+        self.boost_amount = BOOST_SECOND;
+        self.boost = 0;
+        self.turn = false;
+        self.seq = 0;
+        self.nodes_used = 0;
+        self.loaded_node = NONE;
+        self.buckets.iter_mut().for_each(|b| *b = NONE);
+        self.regular.len = 0;
+        self.preferred.len = 0;
+        self.stats.best_h = u32::MAX;
+        self.last_progress = self.stats.expanded;
+        self.start();
     }
 
     pub(super) fn expand(&mut self, parent: u32, snap: u32) -> Result<(), Region> {
@@ -181,7 +210,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             0
         };
         self.step_constraints(j, a, kind == END, start_step, &mut cons, &mut n)?;
-        self.path_snap[j] = (a as u32) << 1 | u32::from(kind == END);
+        self.set_step(j, (a as u32) << 1 | u32::from(kind == END));
         if kind == COMPRESSED {
             // The end straight after: the start is a step of the path now.
             let mut saved = [(0usize, 0u32); 64];
@@ -195,7 +224,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             for &(id, _) in &saved[..n_saved] {
                 self.last_writer[id] = j as u32;
             }
-            self.path_snap[j + 1] = (a as u32) << 1 | 1;
+            self.set_step(j + 1, (a as u32) << 1 | 1);
             let r = self.step_constraints(j + 1, a, true, j, &mut cons, &mut n);
             for &(id, w) in saved[..n_saved].iter().rev() {
                 self.last_writer[id] = w;
@@ -217,8 +246,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.path_constraints[base + 3 * i + 1] = c.lb;
             self.path_constraints[base + 3 * i + 2] = c.ub;
         }
-        let snaps = &self.path_snap;
-        let window = |k: usize| step_window(&task, snaps[k]);
+        let wins = &self.path_window;
+        let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
         let consistent = earliest_words(
             last,
             &self.path_constraints[..base + 3 * n],
@@ -257,7 +286,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             let rn = cs[at] as usize;
             self.stats.evaluated += 1;
             self.relax
-                .evaluate(&task, &|f| Self::fact(cs, f), &cs[at + 1..at + 1 + rn])
+                .evaluate(&task, &cs[..self.fact_words], &cs[at + 1..at + 1 + rn])
         };
         if h == DEAD_END {
             self.stats.dead_ends += 1;
@@ -265,7 +294,8 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         if h < self.stats.best_h {
             self.stats.best_h = h;
-            self.boost += BOOST;
+            self.boost += self.boost_amount;
+            self.last_progress = self.stats.expanded;
         }
         // Store.
         let mut at = 0usize;
