@@ -114,10 +114,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             if self.status != Status::Searching {
                 break;
             }
-            if self.boost_amount == BOOST_FIRST
-                && self.stats.expanded - self.last_progress > RESTART_AFTER
-            {
-                self.restart();
+            if self.phase == 0 && self.stats.expanded - self.last_progress > self.restart_after {
+                self.restart(1);
                 continue;
             }
             let entry = if (self.turn || self.boost > 0) && self.preferred.len > 0 {
@@ -128,8 +126,14 @@ impl<'t, 'm> Planner<'t, 'm> {
             };
             self.turn = !self.turn;
             let Some((_, parent, snap)) = entry else {
+                // The second search prunes more than asked: its end proves nothing, and the
+                // third (as asked) decides.
+                if self.pruning_more() {
+                    self.restart(2);
+                    continue;
+                }
                 // With entries shed, an empty open list proves nothing.
-                self.status = if self.stats.shed > 0 {
+                self.status = if self.stats.shed > self.shed_base {
                     Status::OutOfMemory(Region::RegularOpen)
                 } else {
                     Status::Unsolvable
@@ -140,6 +144,7 @@ impl<'t, 'm> Planner<'t, 'm> {
                 Ok(()) => {}
                 // A path too long to extend is a branch dropped, not the search's end.
                 Err(Region::PlanLength) => self.stats.too_long += 1,
+                Err(_) if self.pruning_more() => self.restart(2),
                 Err(r) => self.status = Status::OutOfMemory(r),
             }
         }
@@ -148,14 +153,26 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.status
     }
 
-    /// Abandon the first search and start again from the root with [`BOOST_SECOND`]: the
-    /// nodes, the duplicate table and the open lists are emptied (the arena's high-water mark
-    /// and the statistics carry on).
-    fn restart(&mut self) {
+    /// Whether the search under way prunes more repeated states than the configuration asks
+    /// (the second search of [`RESTART_AFTER`]).
+    fn pruning_more(&self) -> bool {
+        self.phase == 1 && self.duplicates != self.config.duplicates
+    }
+
+    /// Abandon the search under way and start again from the root as search `phase` (1: the
+    /// second, 2: the third; see [`RESTART_AFTER`]): the nodes, the duplicate table and the
+    /// open lists are emptied (the arena's high-water mark and the statistics carry on).
+    pub(super) fn restart(&mut self, phase: u8) {
         let s = self.stats();
         self.stats.peak_words = s.peak_words;
         self.stats.restarts += 1;
+        self.phase = phase;
         self.boost_amount = BOOST_SECOND;
+        self.duplicates = match (phase, self.config.duplicates) {
+            (1, Duplicates::PruneQuiescent) => Duplicates::PruneAll,
+            (_, asked) => asked,
+        };
+        self.shed_base = self.stats.shed;
         self.boost = 0;
         self.turn = false;
         self.seq = 0;
@@ -166,6 +183,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.preferred.len = 0;
         self.stats.best_h = u32::MAX;
         self.last_progress = self.stats.expanded;
+        self.status = Status::Searching;
         self.start();
     }
 
@@ -262,7 +280,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         // Duplicates.
         let hash = self.state_hash(self.child_state);
         let quiescent = self.child_state[self.running_at()] == 0;
-        let prune = match self.config.duplicates {
+        let prune = match self.duplicates {
             Duplicates::Keep => false,
             Duplicates::PruneQuiescent => quiescent,
             Duplicates::PruneAll => true,
@@ -271,7 +289,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.stats.duplicates += 1;
             return Ok(());
         }
-        if self.config.duplicates == Duplicates::PruneQuiescent
+        if self.duplicates == Duplicates::PruneQuiescent
             && !quiescent
             && kind != START
             && self.repeats_ancestor(&running[..running_n], (kind == END).then_some(a))

@@ -50,12 +50,17 @@ const NODE_HEADER: usize = 5;
 /// preferred one, and each new best h then cost the whole boost in preferred pops that lead
 /// nowhere (driverlog 4: 23,057 expansions with 1000, 631 with 25).
 const BOOST_FIRST: u32 = 25;
-/// The boost of the second search, after a restart (satellite 20 is solved with 1000 and not
-/// with small boosts).
+/// The boost of the searches after a restart (satellite 20 is solved with 1000 and not with
+/// small boosts).
 const BOOST_SECOND: u32 = 1000;
 /// Expansions without a new best h after which the first search is abandoned and the search
-/// restarts from the root with [`BOOST_SECOND`] (a small portfolio of two configurations, run
-/// one after the other in the same arena).
+/// restarts from the root with [`BOOST_SECOND`], pruning every repeated state if the
+/// configuration asks for [`Duplicates::PruneQuiescent`] (driverlog 12 and 13 are solved that
+/// way and not otherwise in 8 MiB). That second search may lose plans that need concurrency,
+/// so if it ends without one (its open lists empty, or the arena full), a third starts from
+/// the root as configured: only the first and the third can answer "unsolvable". A small
+/// portfolio of configurations, one after the other in the same arena, the same on every
+/// target.
 pub const RESTART_AFTER: u64 = 3000;
 
 /// How the planner searches.
@@ -300,6 +305,13 @@ pub struct Planner<'t, 'm> {
     boost_amount: u32,
     /// Expansions when the best h last improved.
     last_progress: u64,
+    /// Which search of the portfolio runs (0, 1 or 2; see [`RESTART_AFTER`]), the repeated
+    /// states it prunes, and the shed count when it started.
+    phase: u8,
+    duplicates: Duplicates,
+    shed_base: u64,
+    /// [`RESTART_AFTER`] unless set otherwise ([`Planner::set_restart_after`]).
+    restart_after: u64,
     turn: bool,
     goal_node: u32,
     status: Status,
@@ -398,6 +410,10 @@ impl<'t, 'm> Planner<'t, 'm> {
             seq: 0,
             boost: 0,
             last_progress: 0,
+            phase: 0,
+            duplicates: config.duplicates,
+            shed_base: 0,
+            restart_after: RESTART_AFTER,
             boost_amount: BOOST_FIRST,
             turn: false,
             goal_node: NONE,
@@ -427,6 +443,11 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.fixed_words + self.nodes_used + 3 * self.regular.peak + 3 * self.preferred.peak;
         s.peak_words = s.peak_words.max(used as u64);
         s
+    }
+    /// Restart the first search after `expansions` without a new best h instead of
+    /// [`RESTART_AFTER`] (for tests of the portfolio on small tasks).
+    pub fn set_restart_after(&mut self, expansions: u64) {
+        self.restart_after = expansions;
     }
     /// Whether the end of `action` may be applied straight after its start without losing plans.
     pub fn compression_safe(&self, action: usize) -> bool {
