@@ -66,12 +66,22 @@ struct BudgetFile {
 /// Where a measurement comes from.
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Source {
-    Mission { scenario: String, metric: String },
-    Kernel { metric: String },
-    Elf { section_prefix: String },
+    Mission {
+        scenario: String,
+        metric: String,
+    },
+    Kernel {
+        metric: String,
+    },
+    Elf {
+        section_prefix: String,
+    },
     /// The guest instructions the temporal planner takes on a PDDL task in the emulated
     /// target's planner partition (`hil plan --emulated`).
-    Plan { domain: String, problem: String },
+    Plan {
+        domain: String,
+        problem: String,
+    },
 }
 
 impl Source {
@@ -477,7 +487,9 @@ pub fn measure(
     }
     for b in budgets {
         if let Source::Plan { domain, problem } = &b.source {
-            progress(&format!("measuring: hil plan --emulated {domain} {problem}"));
+            progress(&format!(
+                "measuring: hil plan --emulated {domain} {problem}"
+            ));
             match plan_instructions(domain, problem, firmware) {
                 Ok(v) => {
                     measured.insert(b.source.clone(), v);

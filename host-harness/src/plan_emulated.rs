@@ -84,8 +84,12 @@ impl Collected {
         match msg {
             TargetToHost::Temporal(r) if r.job() == job => match r {
                 TemporalReport::Accepted { .. } => self.accepted = true,
+                // The first refusal says why: after a refused `TemporalBegin` (a task too
+                // large, say) every chunk is refused as out of sequence too.
                 TemporalReport::Refused { reason, .. } => {
-                    self.refused = Some(format!("{reason:?}"))
+                    if self.refused.is_none() {
+                        self.refused = Some(format!("{reason:?}"));
+                    }
                 }
                 TemporalReport::Step { .. } => self.steps.push(r.clone()),
                 TemporalReport::Stats { .. } => self.stats = Some(r.clone()),
