@@ -13,9 +13,10 @@ instructions do not.
     scripts/bench-temporal.py --firmware target/firmware/powerpc-unknown-linux-gnu/release/rad750-firmware \\
         --out temporal-bench.md
 
-`--max-frames` bounds each emulated job (10 ms frames; about 375,000 guest instructions of
-planning each): the default, 1,500, is about 560 million instructions, past the goal of 500
-million, so an instance over the goal shows as "over" without running for long.
+`--max-frames` bounds each emulated job (10 ms frames; at least about 375,000 guest
+instructions of planning each, more when an expansion overruns its window): the default,
+1,500, is at least about 560 million instructions, past the goal of 500 million, so an instance
+over the goal shows as not answered without running for long.
 """
 import argparse
 import json
