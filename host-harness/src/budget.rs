@@ -9,7 +9,9 @@
 //! - `kernel:<metric>`: the kernel benchmark (`hil bench kernel`): partition switch, syscall
 //!   round trip, frame processing, footprints;
 //! - `elf:<section-prefix>[+<prefix>...]`: bytes of the firmware ELF's sections whose names
-//!   start with the prefixes (static memory).
+//!   start with the prefixes (static memory);
+//! - `plan:<domain.pddl>:<problem.pddl>`: the guest instructions the temporal planner takes on
+//!   that task in the emulated target's planner partition (`hil plan --emulated`).
 //!
 //! A budget is raised only by editing `budgets.toml`, so every raise shows in review. The last
 //! accepted measurements live in `budgets-baseline.toml` (`hil bench --save-baseline`), so the
@@ -64,9 +66,22 @@ struct BudgetFile {
 /// Where a measurement comes from.
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Source {
-    Mission { scenario: String, metric: String },
-    Kernel { metric: String },
-    Elf { section_prefix: String },
+    Mission {
+        scenario: String,
+        metric: String,
+    },
+    Kernel {
+        metric: String,
+    },
+    Elf {
+        section_prefix: String,
+    },
+    /// The guest instructions the temporal planner takes on a PDDL task in the emulated
+    /// target's planner partition (`hil plan --emulated`).
+    Plan {
+        domain: String,
+        problem: String,
+    },
 }
 
 impl Source {
@@ -85,8 +100,16 @@ impl Source {
             (Some("elf"), Some(prefix), None) if !prefix.is_empty() => Ok(Source::Elf {
                 section_prefix: prefix.into(),
             }),
+            (Some("plan"), Some(domain), Some(problem))
+                if !domain.is_empty() && !problem.is_empty() =>
+            {
+                Ok(Source::Plan {
+                    domain: domain.into(),
+                    problem: problem.into(),
+                })
+            }
             _ => Err(format!(
-                "source {text:?}: expected mission:<scenario>:<metric>, kernel:<metric> or elf:<section-prefix>"
+                "source {text:?}: expected mission:<scenario>:<metric>, kernel:<metric>, elf:<section-prefix> or plan:<domain.pddl>:<problem.pddl>"
             )),
         }
     }
@@ -329,6 +352,14 @@ mod tests {
             }
         );
         assert!(Source::parse("kernel:").is_err());
+        assert_eq!(
+            Source::parse("plan:d/domain.pddl:d/instance-2.pddl").unwrap(),
+            Source::Plan {
+                domain: "d/domain.pddl".into(),
+                problem: "d/instance-2.pddl".into()
+            }
+        );
+        assert!(Source::parse("plan:d/domain.pddl").is_err());
         assert!(Source::parse("wall:clock")
             .unwrap_err()
             .contains("expected"));
@@ -455,6 +486,21 @@ pub fn measure(
         }
     }
     for b in budgets {
+        if let Source::Plan { domain, problem } = &b.source {
+            progress(&format!(
+                "measuring: hil plan --emulated {domain} {problem}"
+            ));
+            match plan_instructions(domain, problem, firmware) {
+                Ok(v) => {
+                    measured.insert(b.source.clone(), v);
+                }
+                Err(e) => {
+                    missing.insert(b.source.clone(), e);
+                }
+            }
+        }
+    }
+    for b in budgets {
         if let Source::Elf { section_prefix } = &b.source {
             match elf_section_bytes(&firmware.elf, section_prefix) {
                 Ok(v) => {
@@ -490,6 +536,36 @@ fn run_mission_metrics(
         ));
     }
     Ok(report.metrics)
+}
+
+/// The guest instructions the emulated target's planner partition takes to plan `problem`
+/// (paths relative to the repository) with `hil plan`'s default search; an unsolved task is
+/// an error (its cost is not representative).
+fn plan_instructions(
+    domain: &str,
+    problem: &str,
+    firmware: &crate::firmware::FirmwareImage,
+) -> Result<u64, String> {
+    let root = crate::repo_root();
+    let options = crate::plan::PlanOptions::default();
+    let (_, _, compiled, _) = crate::plan::compile_files(
+        &root.join(domain),
+        &root.join(problem),
+        &pddl::ModuleRegistry::new(),
+        &options,
+    )
+    .map_err(|e| e.render())?;
+    let mut target = crate::plan_emulated::EmulatedPlanner::boot(firmware)?;
+    let report = target
+        .plan(&compiled, &options, 20_000)
+        .map_err(|e| e.to_string())?;
+    if !report.solved {
+        return Err(format!("{problem}: not solved ({})", report.outcome));
+    }
+    report
+        .emulated
+        .map(|e| e.guest_instructions)
+        .ok_or_else(|| "no guest costs in the report".into())
 }
 
 /// The kernel benchmark's metrics by name. Provided by the kernel benchmark module when the

@@ -140,8 +140,12 @@ impl Collected {
                     self.receive_ticks = *receive_ticks;
                     self.auth_ticks = *auth_ticks;
                 }
+                // The first refusal says why: after a refused `TemporalBegin` (a task too
+                // large, say) every chunk is refused as out of sequence too.
                 TemporalReport::Refused { reason, .. } => {
-                    self.refused = Some(format!("{reason:?}"))
+                    if self.refused.is_none() {
+                        self.refused = Some(format!("{reason:?}"));
+                    }
                 }
                 TemporalReport::Step { .. } => self.steps.push(r.clone()),
                 TemporalReport::Stats { .. } => self.stats = Some(r.clone()),

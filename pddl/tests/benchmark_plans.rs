@@ -334,13 +334,14 @@ fn a_step_limit_drops_long_branches_and_the_search_goes_on() {
 }
 
 /// In fixed memory a full open list sheds its worse half and the search goes on: driverlog 2
-/// in 600,000 words fills its open list long before a plan without shedding, and finds a
-/// valid one with it.
+/// in 90,000 words fills its open list before a plan without shedding, and finds a valid one
+/// with it (the arena is small: since the search's boost was lowered, driverlog 2 takes
+/// hundreds of expansions, not tens of thousands).
 #[test]
 fn a_full_open_list_sheds_its_worse_half_and_the_search_goes_on() {
     let (d, p) = files("driverlog", 2);
     let compiled = common::compile(&d, &p).expect("compiles");
-    let words = 600_000;
+    let words = 90_000;
     let strict = PlannerConfig {
         shed_when_full: false,
         ..PlannerConfig::default()

@@ -41,14 +41,28 @@ pub struct Relaxation<'m> {
     pub pre_index: &'m mut [u32],
     /// Precondition count of each relaxed action.
     pub pre_count: &'m mut [u32],
+    /// For relaxed action r, its relaxed preconditions (each once):
+    /// `pre_list[pre_list_offsets[r]..pre_list_offsets[r + 1]]` (the relaxed plan's extraction
+    /// reads these instead of decoding action records).
+    pub pre_list_offsets: &'m mut [u32],
+    pub pre_list: &'m mut [u32],
+    /// Relaxed actions without preconditions (they fire at once in every state).
+    pub free: &'m mut [u32],
     /// Per relaxed fact: cost (u32::MAX unreached) and best supporter (u32::MAX none).
     pub cost: &'m mut [u32],
     pub supporter: &'m mut [u32],
     /// Per relaxed action: preconditions not yet reached, and the sum of their costs.
     pub waiting: &'m mut [u32],
     pub action_cost: &'m mut [u32],
-    /// A binary heap of (cost, fact) pairs, two words each.
+    /// The priority queue's storage: a binary heap of (cost, fact) pairs, two words each, from
+    /// the front, for costs of [`BUCKETS`] or more; (fact, next) entries of the bucket lists,
+    /// two words each, from the back. Every push is one entry of one or the other, and an
+    /// evaluation pushes at most once per fact plus once per effect of a relaxed action.
     pub heap: &'m mut [u32],
+    /// Heads of the bucket lists of facts by cost (u32::MAX: empty), costs below [`BUCKETS`]:
+    /// with unit costs nearly every push lands here, at a constant cost instead of a heap's
+    /// logarithmic one (the heap's sifting was most of an evaluation).
+    pub buckets: &'m mut [u32],
     /// Relaxed-plan membership of relaxed actions (bitset) and the extraction stack.
     pub marked: &'m mut [u32],
     pub stack: &'m mut [u32],
@@ -59,6 +73,34 @@ pub struct Relaxation<'m> {
     pub add_offsets: &'m mut [u32],
     pub add_index: &'m mut [u32],
     pub own_cost: &'m mut [u32],
+    /// Bit per relaxed action: all its relaxed preconditions hold in the state last evaluated
+    /// (it fired at cost zero). Every applicable snap action's relaxed counterpart is set here,
+    /// so the search generates successors from these bits instead of testing every action.
+    pub ready: &'m mut [u32],
+}
+
+/// Costs with a bucket of their own in the heuristic's queue (larger ones go to a heap).
+pub const BUCKETS: usize = 1024;
+
+/// The state of the heuristic's queue during one evaluation: Dial's buckets for small costs,
+/// a binary heap above them. Pops come in nondecreasing cost (every relaxed action costs at
+/// least one), so the buckets are taken in order from `cur`.
+struct Queue {
+    heap_len: usize,
+    entries: usize,
+    cur: usize,
+    max_bucket: usize,
+}
+
+/// Take `n` words off the front of `rest`, counting them in `used`.
+pub fn carve<'m>(rest: &mut &'m mut [u32], n: usize, used: &mut usize) -> Option<&'m mut [u32]> {
+    if n > rest.len() {
+        return None;
+    }
+    let (head, tail) = core::mem::take(rest).split_at_mut(n);
+    *rest = tail;
+    *used += n;
+    Some(head)
 }
 
 /// Words of arena the effect table needs: (offsets, entries).
@@ -97,11 +139,14 @@ fn for_each_pre(task: &Task<'_>, r: usize, f: &mut dyn FnMut(usize)) {
     if r.is_multiple_of(2) {
         let pre = act.facts(FactList::PreStart);
         let add = act.facts(FactList::AddStart);
-        for p in pre.iter() {
-            f(p);
+        let inv = act.facts(FactList::Invariant);
+        for (i, p) in pre.iter().enumerate() {
+            if !(0..i).any(|j| pre.get(j) as usize == p) {
+                f(p);
+            }
         }
-        for p in act.facts(FactList::Invariant).iter() {
-            if !add.contains(p) && !pre.contains(p) {
+        for (i, p) in inv.iter().enumerate() {
+            if !add.contains(p) && !pre.contains(p) && !(0..i).any(|j| inv.get(j) as usize == p) {
                 f(p);
             }
         }
@@ -116,21 +161,95 @@ fn for_each_pre(task: &Task<'_>, r: usize, f: &mut dyn FnMut(usize)) {
     }
 }
 
+/// Relaxed actions without relaxed preconditions (starts with no conditions at all).
+pub fn free_words(task: &Task<'_>) -> usize {
+    (0..2 * task.action_count())
+        .filter(|&r| {
+            let mut n = 0;
+            for_each_pre(task, r, &mut |_| n += 1);
+            n == 0
+        })
+        .count()
+}
+
 impl<'m> Relaxation<'m> {
+    /// Carve the heuristic's tables and scratch for `task` off the front of `rest` (counting
+    /// the words in `used`) and fill the indexes: once per task. None if `rest` is too small.
+    pub fn new(
+        task: &Task<'_>,
+        rest: &mut &'m mut [u32],
+        used: &mut usize,
+        costs: RelaxedCost,
+        dropped_goals: u64,
+    ) -> Option<Self> {
+        let mut relax = Self::carve_tables(task, rest, used)?;
+        relax.build_index(task, costs, dropped_goals);
+        Some(relax)
+    }
+
+    /// [`Self::new`] without filling the indexes: the search's set-up fills them as a piece of
+    /// its own ([`Self::build_index`]), so that a planner partition can spread it over windows.
+    pub(crate) fn carve_tables(
+        task: &Task<'_>,
+        rest: &mut &'m mut [u32],
+        used: &mut usize,
+    ) -> Option<Self> {
+        let facts = task.fact_count();
+        let all = facts + task.action_count();
+        let relaxed = 2 * task.action_count();
+        let (offsets_n, entries_n, _) = index_words(task);
+        let (add_offsets_n, add_entries_n) = add_words(task);
+        let free_n = free_words(task);
+        let mut take = |n: usize| carve(rest, n, used);
+        let relax = Relaxation {
+            pre_offsets: take(offsets_n)?,
+            pre_index: take(entries_n)?,
+            pre_count: take(relaxed)?,
+            pre_list_offsets: take(relaxed + 1)?,
+            pre_list: take(entries_n)?,
+            free: take(free_n)?,
+            cost: take(all.max(offsets_n))?,
+            supporter: take(all)?,
+            waiting: take(relaxed)?,
+            action_cost: take(relaxed)?,
+            heap: take(2 * (all + add_entries_n + 1))?,
+            buckets: take(BUCKETS)?,
+            marked: take(relaxed.div_ceil(32))?,
+            stack: take(entries_n + task.goal_facts().len() + 1)?,
+            goal: take(facts.div_ceil(32))?,
+            add_offsets: take(add_offsets_n)?,
+            add_index: take(add_entries_n)?,
+            own_cost: take(relaxed)?,
+            ready: take(relaxed.div_ceil(32))?,
+        };
+        relax.buckets.iter_mut().for_each(|b| *b = u32::MAX);
+        Some(relax)
+    }
+
     /// Fill the precondition index and the effect table (once, when the planner starts).
     /// `dropped_goals`: bit i set leaves the task's i-th goal fact out of the goal (see
     /// [`crate::PlannerConfig::dropped_goals`]).
-    pub fn build_index(&mut self, task: &Task<'_>, costs: RelaxedCost, dropped_goals: u64) {
+    pub(crate) fn build_index(&mut self, task: &Task<'_>, costs: RelaxedCost, dropped_goals: u64) {
         let facts = task.fact_count() + task.action_count();
         self.pre_offsets.iter_mut().for_each(|x| *x = 0);
+        let mut at = 0usize;
+        let mut free = 0usize;
         for r in 0..2 * task.action_count() {
             let mut n = 0;
+            self.pre_list_offsets[r] = at as u32;
             for_each_pre(task, r, &mut |p| {
                 self.pre_offsets[p + 1] += 1;
+                self.pre_list[at] = p as u32;
+                at += 1;
                 n += 1;
             });
             self.pre_count[r] = n;
+            if n == 0 {
+                self.free[free] = r as u32;
+                free += 1;
+            }
         }
+        self.pre_list_offsets[2 * task.action_count()] = at as u32;
         for f in 0..facts {
             self.pre_offsets[f + 1] += self.pre_offsets[f];
         }
@@ -171,12 +290,58 @@ impl<'m> Relaxation<'m> {
             self.cost[f] = self.pre_offsets[f];
         }
         for r in 0..2 * task.action_count() {
-            for_each_pre(task, r, &mut |p| {
+            let (lo, hi) = (
+                self.pre_list_offsets[r] as usize,
+                self.pre_list_offsets[r + 1] as usize,
+            );
+            for i in lo..hi {
+                let p = self.pre_list[i] as usize;
                 let at = self.cost[p] as usize;
                 self.pre_index[at] = r as u32;
                 self.cost[p] += 1;
-            });
+            }
         }
+    }
+
+    /// The relaxed preconditions of relaxed action `r`, each once.
+    pub fn preconditions(&self, r: usize) -> &[u32] {
+        let (lo, hi) = (
+            self.pre_list_offsets[r] as usize,
+            self.pre_list_offsets[r + 1] as usize,
+        );
+        &self.pre_list[lo..hi]
+    }
+
+    /// Whether relaxed action `r`'s relaxed preconditions all held in the state last evaluated.
+    pub fn is_ready(&self, r: usize) -> bool {
+        self.ready[r / 32] & (1 << (r % 32)) != 0
+    }
+
+    fn push(&mut self, q: &mut Queue, cost: u32, fact: u32) {
+        let c = cost as usize;
+        if c < BUCKETS {
+            q.entries += 1;
+            let at = self.heap.len() - 2 * q.entries;
+            self.heap[at] = fact;
+            self.heap[at + 1] = self.buckets[c];
+            self.buckets[c] = at as u32;
+            q.max_bucket = q.max_bucket.max(c);
+        } else {
+            self.heap_push(&mut q.heap_len, cost, fact);
+        }
+    }
+
+    fn pop(&mut self, q: &mut Queue) -> Option<(u32, u32)> {
+        while q.cur < BUCKETS {
+            let head = self.buckets[q.cur];
+            if head != u32::MAX {
+                let at = head as usize;
+                self.buckets[q.cur] = self.heap[at + 1];
+                return Some((q.cur as u32, self.heap[at]));
+            }
+            q.cur += 1;
+        }
+        self.heap_pop(&mut q.heap_len)
     }
 
     fn heap_push(&mut self, len: &mut usize, cost: u32, fact: u32) {
@@ -229,14 +394,17 @@ impl<'m> Relaxation<'m> {
         self.marked[r / 32] & (1 << (r % 32)) != 0
     }
 
-    /// h for the state whose true facts are `fact_true` and running actions `running`; marks
-    /// the relaxed plan (see [`Self::in_relaxed_plan`]). [`DEAD_END`] if the goal is unreachable.
-    pub fn evaluate(
-        &mut self,
-        task: &Task<'_>,
-        fact_true: &dyn Fn(usize) -> bool,
-        running: &[u32],
-    ) -> u32 {
+    /// h for the state whose true facts are the bitset `fact_bits` (fact f is bit f % 32 of
+    /// word f / 32) and running actions `running`; marks the relaxed plan (see
+    /// [`Self::in_relaxed_plan`]) and the relaxed actions ready in the state (see
+    /// [`Self::is_ready`]). [`DEAD_END`] if the goal is unreachable.
+    ///
+    /// Costs are propagated Dijkstra-style with a counter per relaxed action (its
+    /// preconditions not yet reached): an action fires when its counter reaches zero, so the
+    /// work is the precondition-index entries of the facts reached, never a scan of every
+    /// action. A fact's best supporter is its cheapest achiever, the lowest-numbered among
+    /// equals (the same in every evaluation order).
+    pub fn evaluate(&mut self, task: &Task<'_>, fact_bits: &[u32], running: &[u32]) -> u32 {
         let facts = task.fact_count();
         let all = facts + task.action_count();
         let relaxed = 2 * task.action_count();
@@ -245,38 +413,57 @@ impl<'m> Relaxation<'m> {
         self.waiting[..relaxed].copy_from_slice(&self.pre_count[..relaxed]);
         self.action_cost[..relaxed].iter_mut().for_each(|x| *x = 0);
         self.marked.iter_mut().for_each(|x| *x = 0);
-        let mut len = 0usize;
-        for f in 0..facts {
-            if fact_true(f) {
-                self.cost[f] = 0;
-                self.heap_push(&mut len, 0, f as u32);
+        self.ready.iter_mut().for_each(|x| *x = 0);
+        let mut q = Queue {
+            heap_len: 0,
+            entries: 0,
+            cur: 0,
+            max_bucket: 0,
+        };
+        for (w, &bits) in fact_bits.iter().enumerate().take(facts.div_ceil(32)) {
+            let mut bits = bits;
+            while bits != 0 {
+                let f = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if f < facts {
+                    self.cost[f] = 0;
+                    self.push(&mut q, 0, f as u32);
+                }
             }
         }
         for &a in running {
             let f = facts + a as usize;
             self.cost[f] = 0;
-            self.heap_push(&mut len, 0, f as u32);
+            self.push(&mut q, 0, f as u32);
         }
         // Relaxed actions without preconditions fire at once.
-        for r in 0..relaxed {
-            if self.waiting[r] == 0 {
-                self.fire(r, &mut len);
-            }
+        for i in 0..self.free.len() {
+            let r = self.free[i] as usize;
+            self.ready[r / 32] |= 1 << (r % 32);
+            self.fire(r, &mut q);
         }
         let goals = task.goal_facts();
+        let is_goal = |goal: &[u32], g: usize| goal[g / 32] & (1 << (g % 32)) != 0;
         // Distinct goal facts not yet true.
         let mut goals_left = 0;
-        for f in 0..facts {
-            if self.goal[f / 32] & (1 << (f % 32)) != 0 && self.cost[f] != 0 {
-                goals_left += 1;
+        for (w, &bits) in self.goal.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                let f = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if self.cost[f] != 0 {
+                    goals_left += 1;
+                }
             }
         }
-        while let Some((c, f)) = self.heap_pop(&mut len) {
+        while let Some((c, f)) = self.pop(&mut q) {
             let f = f as usize;
             if c > self.cost[f] {
                 continue;
             }
-            if f < facts && c > 0 && self.goal[f / 32] & (1 << (f % 32)) != 0 {
+            // Every fact of cost zero is taken before any other (every relaxed action costs
+            // at least one), so stopping at the last goal never cuts the ready set short.
+            if f < facts && c > 0 && is_goal(self.goal, f) {
                 goals_left -= 1;
                 if goals_left == 0 {
                     break;
@@ -291,11 +478,16 @@ impl<'m> Relaxation<'m> {
                 self.waiting[r] -= 1;
                 self.action_cost[r] = self.action_cost[r].saturating_add(c);
                 if self.waiting[r] == 0 {
-                    self.fire(r, &mut len);
+                    if self.action_cost[r] == 0 {
+                        self.ready[r / 32] |= 1 << (r % 32);
+                    }
+                    self.fire(r, &mut q);
                 }
             }
         }
-        let is_goal = |goal: &[u32], g: usize| goal[g / 32] & (1 << (g % 32)) != 0;
+        // Empty the buckets the early stop left filled (all of them start empty).
+        let used = (q.max_bucket + 1).min(BUCKETS);
+        self.buckets[..used].iter_mut().for_each(|b| *b = u32::MAX);
         if goals
             .iter()
             .any(|g| is_goal(self.goal, g) && self.cost[g] == u32::MAX)
@@ -324,32 +516,36 @@ impl<'m> Relaxation<'m> {
             }
             self.marked[r / 32] |= 1 << (r % 32);
             h += 1;
-            let stack = &mut *self.stack;
-            for_each_pre(task, r, &mut |p| {
-                if top < stack.len() {
-                    stack[top] = p as u32;
+            let (lo, hi) = (
+                self.pre_list_offsets[r] as usize,
+                self.pre_list_offsets[r + 1] as usize,
+            );
+            for i in lo..hi {
+                if top < self.stack.len() {
+                    self.stack[top] = self.pre_list[i];
                     top += 1;
                 }
-            });
-        }
-        // Ends of started-in-the-relaxed-plan or running actions that the plan lacks.
-        for a in 0..task.action_count() {
-            let started = self.in_relaxed_plan(2 * a);
-            if started && !self.in_relaxed_plan(2 * a + 1) {
-                h += 1;
             }
         }
+        // Ends of started-in-the-relaxed-plan actions that the plan lacks (the starts are the
+        // even bits of the marked set).
+        for &bits in self.marked.iter() {
+            let starts = bits & 0x5555_5555;
+            let ends = (bits >> 1) & 0x5555_5555;
+            h += (starts & !ends).count_ones();
+        }
+        // ... and of running actions.
         for &a in running {
-            if !self.in_relaxed_plan(2 * a as usize + 1) {
+            let r = 2 * a as usize + 1;
+            if !self.in_relaxed_plan(r) {
                 h += 1;
-                let r = 2 * a as usize + 1;
                 self.marked[r / 32] |= 1 << (r % 32);
             }
         }
         h
     }
 
-    fn fire(&mut self, r: usize, len: &mut usize) {
+    fn fire(&mut self, r: usize, q: &mut Queue) {
         let c = self.action_cost[r].saturating_add(self.own_cost[r]);
         let (lo, hi) = (
             self.add_offsets[r] as usize,
@@ -357,10 +553,16 @@ impl<'m> Relaxation<'m> {
         );
         for i in lo..hi {
             let f = self.add_index[i] as usize;
-            if c < self.cost[f] {
+            // The cheapest achiever, the lowest-numbered among equals: the same supporter
+            // whatever order the heap takes equal costs in.
+            if c < self.cost[f]
+                || (c == self.cost[f] && c != u32::MAX && (r as u32) < self.supporter[f])
+            {
+                if c < self.cost[f] {
+                    self.push(q, c, f as u32);
+                }
                 self.cost[f] = c;
                 self.supporter[f] = r as u32;
-                self.heap_push(len, c, f as u32);
             }
         }
     }

@@ -15,7 +15,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.child_state = cs;
         let h = {
             let cs = &*self.child_state;
-            self.relax.evaluate(&task, &|f| Self::fact(cs, f), &[])
+            self.relax.evaluate(&task, &cs[..self.fact_words], &[])
         };
         self.stats.evaluated += 1;
         if h == DEAD_END {
@@ -36,70 +36,82 @@ impl<'t, 'm> Planner<'t, 'm> {
         Some((root, h))
     }
 
+    /// The root and its successors at once (a restart of the search: the set-up does the two
+    /// as pieces of their own).
+    pub(super) fn start(&mut self) {
+        if let Some((root, h)) = self.start_root() {
+            if let Err(r) = self.push_successors(root, h) {
+                self.status = Status::OutOfMemory(r);
+            }
+        }
+    }
+
     /// Push every applicable snap of the state in `child_state` (stored as `node`) into the
     /// open lists with key `h`; those in the relaxed plan also into the preferred list.
+    ///
+    /// The candidates are the relaxed actions the heuristic found ready in this state (all
+    /// their relaxed preconditions true: [`Relaxation::is_ready`]), a superset of the
+    /// applicable snaps (a start's relaxed preconditions are its conditions and the invariants
+    /// it does not add, which must hold before it; an end's are its conditions and its
+    /// action running). So the heuristic must have evaluated `child_state` last. Candidates
+    /// are taken in action order, as a scan of every action would.
     pub(super) fn push_successors(&mut self, node: u32, h: u32) -> Result<(), Region> {
-        let task = self.task;
         let running_n = self.child_state[self.running_at()] as usize;
         let mut running = [0u32; MAX_RUNNING];
         running[..running_n].copy_from_slice(self.running(self.child_state));
         self.load_protection(&running[..running_n], true);
         let sw = self.probe_state.len();
         let mut result = Ok(());
-        for a in 0..task.action_count() {
-            let is_running = running[..running_n].binary_search(&(a as u32)).is_ok();
-            let snap = if is_running {
-                (a as u32) << 2 | END
-            } else if self.config.compression && self.compression_safe(a) {
-                (a as u32) << 2 | COMPRESSED
-            } else {
-                (a as u32) << 2 | START
-            };
-            // Cheap precondition test before the full application.
-            let act = task.action(a);
-            let pre = if is_running {
-                FactList::PreEnd
-            } else {
-                FactList::PreStart
-            };
-            if !act
-                .facts(pre)
-                .iter()
-                .all(|f| Self::fact(self.child_state, f))
-            {
-                continue;
-            }
-            let (probe, child) = (&mut *self.probe_state, &*self.child_state);
-            probe[..sw].copy_from_slice(&child[..sw]);
-            let probe = core::mem::take(&mut self.probe_state);
-            let ok = self.apply(probe, snap);
-            self.probe_state = probe;
-            if !ok {
-                continue;
-            }
-            let key = h.min(0xfff) << 20 | (self.seq & 0xf_ffff);
-            self.seq = self.seq.wrapping_add(1);
-            if !self.regular.push(key, node, snap) {
-                if self.config.shed_when_full && self.regular.len > 1 {
-                    self.stats.shed += self.regular.shed_worse_half() as u64;
+        let words = self.relax.ready.len();
+        'words: for w in 0..words {
+            let mut bits = self.relax.ready[w];
+            while bits != 0 {
+                let r = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let a = r / 2;
+                let is_end = r % 2 == 1;
+                let is_running = running[..running_n].binary_search(&(a as u32)).is_ok();
+                if is_end != is_running {
+                    continue;
                 }
+                let snap = if is_running {
+                    (a as u32) << 2 | END
+                } else if self.config.compression && self.compression_safe(a) {
+                    (a as u32) << 2 | COMPRESSED
+                } else {
+                    (a as u32) << 2 | START
+                };
+                let (probe, child) = (&mut *self.probe_state, &*self.child_state);
+                probe[..sw].copy_from_slice(&child[..sw]);
+                let probe = core::mem::take(&mut self.probe_state);
+                let ok = self.apply(probe, snap);
+                self.probe_state = probe;
+                if !ok {
+                    continue;
+                }
+                let key = h.min(0xfff) << 20 | (self.seq & 0xf_ffff);
+                self.seq = self.seq.wrapping_add(1);
                 if !self.regular.push(key, node, snap) {
-                    result = Err(Region::RegularOpen);
-                    break;
+                    if self.config.shed_when_full && self.regular.len > 1 {
+                        self.stats.shed += self.regular.shed_worse_half() as u64;
+                    }
+                    if !self.regular.push(key, node, snap) {
+                        result = Err(Region::RegularOpen);
+                        break 'words;
+                    }
                 }
-            }
-            self.stats.generated += 1;
-            let r = 2 * a + usize::from(is_running);
-            if self.config.preferred_operators
-                && self.relax.in_relaxed_plan(r)
-                && !self.preferred.push(key, node, snap)
-            {
-                if self.config.shed_when_full && self.preferred.len > 1 {
-                    self.stats.shed += self.preferred.shed_worse_half() as u64;
-                }
-                if !self.preferred.push(key, node, snap) {
-                    result = Err(Region::PreferredOpen);
-                    break;
+                self.stats.generated += 1;
+                if self.config.preferred_operators
+                    && self.relax.in_relaxed_plan(r)
+                    && !self.preferred.push(key, node, snap)
+                {
+                    if self.config.shed_when_full && self.preferred.len > 1 {
+                        self.stats.shed += self.preferred.shed_worse_half() as u64;
+                    }
+                    if !self.preferred.push(key, node, snap) {
+                        result = Err(Region::PreferredOpen);
+                        break 'words;
+                    }
                 }
             }
         }
@@ -115,6 +127,10 @@ impl<'t, 'm> Planner<'t, 'm> {
             if self.status != Status::Searching {
                 break;
             }
+            if self.phase == 0 && self.stats.expanded - self.last_progress > self.restart_after {
+                self.restart(1);
+                continue;
+            }
             let entry = if (self.turn || self.boost > 0) && self.preferred.len > 0 {
                 self.boost = self.boost.saturating_sub(1);
                 self.preferred.pop()
@@ -123,8 +139,14 @@ impl<'t, 'm> Planner<'t, 'm> {
             };
             self.turn = !self.turn;
             let Some((_, parent, snap)) = entry else {
+                // The second search prunes more than asked: its end proves nothing, and the
+                // third (as asked) decides.
+                if self.pruning_more() {
+                    self.restart(2);
+                    continue;
+                }
                 // With entries shed, an empty open list proves nothing.
-                self.status = if self.stats.shed > 0 {
+                self.status = if self.stats.shed > self.shed_base {
                     Status::OutOfMemory(Region::RegularOpen)
                 } else {
                     Status::Unsolvable
@@ -135,12 +157,47 @@ impl<'t, 'm> Planner<'t, 'm> {
                 Ok(()) => {}
                 // A path too long to extend is a branch dropped, not the search's end.
                 Err(Region::PlanLength) => self.stats.too_long += 1,
+                Err(_) if self.pruning_more() => self.restart(2),
                 Err(r) => self.status = Status::OutOfMemory(r),
             }
         }
         let s = self.stats();
         self.stats.peak_words = s.peak_words;
         self.status
+    }
+
+    /// Whether the search under way prunes more repeated states than the configuration asks
+    /// (the second search of [`RESTART_AFTER`]).
+    fn pruning_more(&self) -> bool {
+        self.phase == 1 && self.duplicates != self.config.duplicates
+    }
+
+    /// Abandon the search under way and start again from the root as search `phase` (1: the
+    /// second, 2: the third; see [`RESTART_AFTER`]): the nodes, the duplicate table and the
+    /// open lists are emptied (the arena's high-water mark and the statistics carry on).
+    pub(super) fn restart(&mut self, phase: u8) {
+        let s = self.stats();
+        self.stats.peak_words = s.peak_words;
+        self.stats.restarts += 1;
+        self.phase = phase;
+        self.boost_amount = BOOST_SECOND;
+        self.duplicates = match (phase, self.config.duplicates) {
+            (1, Duplicates::PruneQuiescent) => Duplicates::PruneAll,
+            (_, asked) => asked,
+        };
+        self.shed_base = self.stats.shed;
+        self.boost = 0;
+        self.turn = false;
+        self.seq = 0;
+        self.nodes_used = 0;
+        self.loaded_node = NONE;
+        self.buckets.iter_mut().for_each(|b| *b = NONE);
+        self.regular.len = 0;
+        self.preferred.len = 0;
+        self.stats.best_h = u32::MAX;
+        self.last_progress = self.stats.expanded;
+        self.status = Status::Searching;
+        self.start();
     }
 
     pub(super) fn expand(&mut self, parent: u32, snap: u32) -> Result<(), Region> {
@@ -184,7 +241,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             0
         };
         self.step_constraints(j, a, kind == END, start_step, &mut cons, &mut n)?;
-        self.path_snap[j] = (a as u32) << 1 | u32::from(kind == END);
+        self.set_step(j, (a as u32) << 1 | u32::from(kind == END));
         if kind == COMPRESSED {
             // The end straight after: the start is a step of the path now.
             let mut saved = [(0usize, 0u32); 64];
@@ -198,7 +255,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             for &(id, _) in &saved[..n_saved] {
                 self.last_writer[id] = j as u32;
             }
-            self.path_snap[j + 1] = (a as u32) << 1 | 1;
+            self.set_step(j + 1, (a as u32) << 1 | 1);
             let r = self.step_constraints(j + 1, a, true, j, &mut cons, &mut n);
             for &(id, w) in saved[..n_saved].iter().rev() {
                 self.last_writer[id] = w;
@@ -220,8 +277,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.path_constraints[base + 3 * i + 1] = c.lb;
             self.path_constraints[base + 3 * i + 2] = c.ub;
         }
-        let snaps = &self.path_snap;
-        let window = |k: usize| step_window(&task, snaps[k]);
+        let wins = &self.path_window;
+        let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
         let consistent = earliest_words(
             last,
             &self.path_constraints[..base + 3 * n],
@@ -236,7 +293,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         // Duplicates.
         let hash = self.state_hash(self.child_state);
         let quiescent = self.child_state[self.running_at()] == 0;
-        let prune = match self.config.duplicates {
+        let prune = match self.duplicates {
             Duplicates::Keep => false,
             Duplicates::PruneQuiescent => quiescent,
             Duplicates::PruneAll => true,
@@ -245,7 +302,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.stats.duplicates += 1;
             return Ok(());
         }
-        if self.config.duplicates == Duplicates::PruneQuiescent
+        if self.duplicates == Duplicates::PruneQuiescent
             && !quiescent
             && kind != START
             && self.repeats_ancestor(&running[..running_n], (kind == END).then_some(a))
@@ -260,7 +317,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             let rn = cs[at] as usize;
             self.stats.evaluated += 1;
             self.relax
-                .evaluate(&task, &|f| Self::fact(cs, f), &cs[at + 1..at + 1 + rn])
+                .evaluate(&task, &cs[..self.fact_words], &cs[at + 1..at + 1 + rn])
         };
         if h == DEAD_END {
             self.stats.dead_ends += 1;
@@ -268,7 +325,8 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         if h < self.stats.best_h {
             self.stats.best_h = h;
-            self.boost += BOOST;
+            self.boost += self.boost_amount;
+            self.last_progress = self.stats.expanded;
         }
         // Store.
         let mut at = 0usize;

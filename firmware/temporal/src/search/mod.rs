@@ -21,7 +21,7 @@
 //! [`Planner::step`] runs a bounded number of expansions and returns; the search state stays in
 //! the arena, so the next call resumes where this one stopped (anytime across windows).
 use crate::constraints::{self, Constraint, MAX_STEPS};
-use crate::heuristic::{self, Relaxation, RelaxedCost, DEAD_END};
+use crate::heuristic::{self, carve, Relaxation, RelaxedCost, DEAD_END};
 use crate::stn;
 use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
@@ -49,8 +49,23 @@ pub const MAX_RUNNING: usize = 64;
 pub const MAX_NODE_CONSTRAINT_BYTES: usize = 2048;
 /// Words of a node record before its state.
 const NODE_HEADER: usize = 5;
-/// Most preferred-queue pops granted after progress (a new best h), as in Fast Downward.
-const BOOST: u32 = 1000;
+/// Preferred-queue pops granted after progress (a new best h) in the first search. Fast
+/// Downward grants 1000; on driverlog the successor that makes progress is often not a
+/// preferred one, and each new best h then cost the whole boost in preferred pops that lead
+/// nowhere (driverlog 4: 23,057 expansions with 1000, 631 with 25).
+const BOOST_FIRST: u32 = 25;
+/// The boost of the searches after a restart (satellite 20 is solved with 1000 and not with
+/// small boosts).
+const BOOST_SECOND: u32 = 1000;
+/// Expansions without a new best h after which the first search is abandoned and the search
+/// restarts from the root with [`BOOST_SECOND`], pruning every repeated state if the
+/// configuration asks for [`Duplicates::PruneQuiescent`] (driverlog 12 and 13 are solved that
+/// way and not otherwise in 8 MiB). That second search may lose plans that need concurrency,
+/// so if it ends without one (its open lists empty, or the arena full), a third starts from
+/// the root as configured: only the first and the third can answer "unsolvable". A small
+/// portfolio of configurations, one after the other in the same arena, the same on every
+/// target.
+pub const RESTART_AFTER: u64 = 3000;
 
 /// How the planner searches.
 #[derive(Clone, Copy, Debug)]
@@ -155,8 +170,11 @@ pub struct Stats {
     pub too_long: u64,
     /// Open-list entries dropped because a list was full (see [`PlannerConfig::shed_when_full`]).
     pub shed: u64,
-    /// The best h seen.
+    /// The best h seen (in the search under way: a restart begins again).
     pub best_h: u32,
+    /// Times the search restarted from the root with its second configuration (see
+    /// [`RESTART_AFTER`]).
+    pub restarts: u64,
     /// Arena words in use at most: tables, scratch, nodes, buckets and open lists.
     pub peak_words: u64,
     /// Arena words handed in.
@@ -243,17 +261,6 @@ impl<'m> Heap<'m> {
     }
 }
 
-/// Take `n` words off the front of `rest`.
-fn carve<'m>(rest: &mut &'m mut [u32], n: usize, used: &mut usize) -> Option<&'m mut [u32]> {
-    if n > rest.len() {
-        return None;
-    }
-    let (head, tail) = core::mem::take(rest).split_at_mut(n);
-    *rest = tail;
-    *used += n;
-    Some(head)
-}
-
 /// The planner: a task, its arena, and the search in progress.
 pub struct Planner<'t, 'm> {
     task: Task<'t>,
@@ -267,6 +274,9 @@ pub struct Planner<'t, 'm> {
     last_writer: &'m mut [u32],
     /// The loaded path: per step its snap (`action << 1 | is_end`), node ids root..parent.
     path_snap: &'m mut [u32],
+    /// The loaded path's step windows (lo, hi per step, two words), set with its snaps
+    /// ([`Planner::set_step`]): the STN reads each step's window on every check.
+    path_window: &'m mut [u32],
     path_nodes: &'m mut [u32],
     /// Earliest times of the loaded path and of a candidate child.
     est_parent: &'m mut [u32],
@@ -295,6 +305,17 @@ pub struct Planner<'t, 'm> {
     fixed_words: usize,
     seq: u32,
     boost: u32,
+    /// The boost of the search under way ([`BOOST_FIRST`], then [`BOOST_SECOND`]).
+    boost_amount: u32,
+    /// Expansions when the best h last improved.
+    last_progress: u64,
+    /// Which search of the portfolio runs (0, 1 or 2; see [`RESTART_AFTER`]), the repeated
+    /// states it prunes, and the shed count when it started.
+    phase: u8,
+    duplicates: Duplicates,
+    shed_base: u64,
+    /// [`RESTART_AFTER`] unless set otherwise ([`Planner::set_restart_after`]).
+    restart_after: u64,
     turn: bool,
     goal_node: u32,
     status: Status,
@@ -333,41 +354,19 @@ impl<'t, 'm> Planner<'t, 'm> {
         let facts = task.fact_count();
         let actions = task.action_count();
         let ids = facts + task.numeric_count();
-        let all = facts + actions;
-        let relaxed = 2 * actions;
-        let (offsets_n, entries_n, _) = heuristic::index_words(&task);
-        let (add_offsets_n, add_entries_n) = heuristic::add_words(&task);
-        let mut adds = 0;
-        for a in 0..actions {
-            let act = task.action(a);
-            adds += act.facts(FactList::AddStart).len() + act.facts(FactList::AddEnd).len() + 1;
-        }
         let steps = config.max_steps + 3;
         let max_constraints = 8 * steps;
         let sw = state_words(&task);
         let mut rest: &'m mut [u32] = arena;
         let mut used = 0usize;
+        // The indexes are filled by the set-up ([`SetUp::Index`]).
+        let relax = Relaxation::carve_tables(&task, &mut rest, &mut used).ok_or(Region::Tables)?;
         let mut take = |n: usize| carve(&mut rest, n, &mut used).ok_or(Region::Tables);
-        let relax = Relaxation {
-            pre_offsets: take(offsets_n)?,
-            pre_index: take(entries_n)?,
-            pre_count: take(relaxed)?,
-            cost: take(all.max(offsets_n))?,
-            supporter: take(all)?,
-            waiting: take(relaxed)?,
-            action_cost: take(relaxed)?,
-            heap: take(2 * (all + adds + 1))?,
-            marked: take(relaxed.div_ceil(32))?,
-            stack: take(entries_n + task.goal_facts().len() + 1)?,
-            goal: take(facts.div_ceil(32))?,
-            add_offsets: take(add_offsets_n)?,
-            add_index: take(add_entries_n)?,
-            own_cost: take(relaxed)?,
-        };
         let safe = take(actions.div_ceil(32))?;
         let protect = take(facts)?;
         let last_writer = take(ids)?;
         let path_snap = take(steps)?;
+        let path_window = take(2 * steps)?;
         let path_nodes = take(steps)?;
         let est_parent = take(steps)?;
         let est_child = take(steps)?;
@@ -391,6 +390,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             protect,
             last_writer,
             path_snap,
+            path_window,
             path_nodes,
             est_parent,
             est_child,
@@ -420,6 +420,12 @@ impl<'t, 'm> Planner<'t, 'm> {
             fixed_words: fixed + bucket_count,
             seq: 0,
             boost: 0,
+            last_progress: 0,
+            phase: 0,
+            duplicates: config.duplicates,
+            shed_base: 0,
+            restart_after: RESTART_AFTER,
+            boost_amount: BOOST_FIRST,
             turn: false,
             goal_node: NONE,
             status: Status::Searching,
@@ -446,6 +452,11 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.fixed_words + self.nodes_used + 3 * self.regular.peak + 3 * self.preferred.peak;
         s.peak_words = s.peak_words.max(used as u64);
         s
+    }
+    /// Restart the first search after `expansions` without a new best h instead of
+    /// [`RESTART_AFTER`] (for tests of the portfolio on small tasks).
+    pub fn set_restart_after(&mut self, expansions: u64) {
+        self.restart_after = expansions;
     }
     /// Whether the end of `action` may be applied straight after its start without losing plans.
     pub fn compression_safe(&self, action: usize) -> bool {
@@ -493,9 +504,8 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.load_path(self.goal_node).ok()?;
         let steps = self.loaded_steps;
         let makespan = self.est_parent[..=steps].iter().copied().max().unwrap_or(0);
-        let task = self.task;
-        let snaps = &self.path_snap;
-        let window = |k: usize| step_window(&task, snaps[k]);
+        let wins = &self.path_window;
+        let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
         latest_words(
             steps,
             &self.path_constraints[..3 * self.loaded_constraints],

@@ -126,7 +126,7 @@ impl<'t, 'm> Planner<'t, 'm> {
                     if steps + 2 >= self.path_snap.len() {
                         return Err(Region::PlanLength);
                     }
-                    self.path_snap[steps] = a << 1 | k;
+                    self.set_step(steps, a << 1 | k);
                     self.record_writes(steps, a as usize, k == 1);
                 }
             }
@@ -170,9 +170,8 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         // Earliest times of the path (consistent: it was checked when the node was stored).
         self.est_parent[..=steps].iter_mut().for_each(|x| *x = 0);
-        let task = self.task;
-        let snaps = &self.path_snap;
-        let window = |k: usize| step_window(&task, snaps[k]);
+        let wins = &self.path_window;
+        let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
         earliest_words(
             steps,
             &self.path_constraints[..3 * constraints],
@@ -182,6 +181,15 @@ impl<'t, 'm> Planner<'t, 'm> {
         .map_err(|_| Region::PlanLength)?;
         self.loaded_node = node;
         Ok(())
+    }
+
+    /// Make step `k` of the loaded path the snap `snap` (`action << 1 | is_end`), with its
+    /// window.
+    pub(super) fn set_step(&mut self, k: usize, snap: u32) {
+        self.path_snap[k] = snap;
+        let (lo, hi) = step_window(&self.task, snap);
+        self.path_window[2 * k] = lo;
+        self.path_window[2 * k + 1] = hi;
     }
 
     pub(super) fn record_writes(&mut self, step: usize, a: usize, end: bool) {

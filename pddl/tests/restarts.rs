@@ -1,0 +1,87 @@
+//! The search's small portfolio (`temporal::search::RESTART_AFTER`): a first search that makes
+//! no progress restarts from the root pruning every repeated state; if that second search ends
+//! without a plan, a third runs as configured. On a task whose only plans need two actions
+//! running in a state seen before (pruning every repeat loses them), restarting at once must
+//! still find a valid plan, through the third search, and report the restarts.
+mod common;
+
+use common::Validator;
+use temporal::PlannerConfig;
+
+const DOMAIN: &str =
+    "(define (domain r) (:requirements :durative-actions) (:predicates (p0) (p1) (p2) (p3) (p4))
+  (:durative-action a0 :parameters () :duration (= ?duration 2)
+    :condition (and (at end (p4)))
+    :effect (and (at start (p2)) (at start (not (p3))) (at end (not (p0)))))
+  (:durative-action a1 :parameters () :duration (= ?duration 3)
+    :condition (and (over all (p2)))
+    :effect (and (at start (p0)) (at start (not (p0))) (at end (p3))))
+  (:durative-action a2 :parameters () :duration (= ?duration 3)
+    :condition (and)
+    :effect (and (at start (not (p3))) (at end (p4)))))";
+const PROBLEM: &str = "(define (problem q) (:domain r) (:init (p1)) (:goal (and (p0) (p4))))";
+
+fn run(
+    config: PlannerConfig,
+    restart_after: Option<u64>,
+) -> (temporal::Status, temporal::Stats, Vec<common::Step>) {
+    let compiled = common::compile(DOMAIN, PROBLEM).expect("compiles");
+    let task = temporal::Task::parse(&compiled.task).expect("valid");
+    let tpu = f64::from(task.ticks_per_unit());
+    let mut arena = vec![0u32; 1 << 16];
+    let mut planner = temporal::Planner::new(task, &mut arena, config).expect("fits");
+    if let Some(n) = restart_after {
+        planner.set_restart_after(n);
+    }
+    let status = planner.step(100_000);
+    let mut plan = Vec::new();
+    if status == temporal::Status::Solved {
+        let mut out = vec![temporal::PlannedAction::default(); 64];
+        let (n, _) = planner.plan(&mut out).expect("a plan");
+        plan = out[..n]
+            .iter()
+            .map(|s| common::Step {
+                start: f64::from(s.start) / tpu,
+                action: compiled.action_names[s.action as usize].clone(),
+                duration: f64::from(s.duration) / tpu,
+            })
+            .collect();
+    }
+    (status, planner.stats(), plan)
+}
+
+#[test]
+fn a_second_search_that_prunes_too_much_hands_over_to_a_third_that_finds_the_plan() {
+    // The front end's default epsilon (`pddl::Options::default()`), in PDDL time units.
+    let validator = Validator::new(DOMAIN, PROBLEM, 0.01);
+    // Pruning every repeated state loses this task's plans (see compression_brute_force.rs).
+    let (all, _, _) = run(
+        PlannerConfig {
+            duplicates: temporal::Duplicates::PruneAll,
+            ..PlannerConfig::default()
+        },
+        None,
+    );
+    assert_eq!(all, temporal::Status::Unsolvable);
+    // Without restarts the default finds a plan, in its first search.
+    let (first, stats, plan) = run(PlannerConfig::default(), None);
+    assert_eq!(first, temporal::Status::Solved);
+    assert_eq!(stats.restarts, 0);
+    validator.validate(&plan).expect("valid");
+    // Restarting at once: the second search (every repeat pruned) empties its open lists, and
+    // the third, as configured, finds a valid plan; neither answers "unsolvable".
+    let (status, stats, plan) = run(PlannerConfig::default(), Some(0));
+    assert_eq!(status, temporal::Status::Solved, "{stats:?}");
+    assert_eq!(stats.restarts, 2, "{stats:?}");
+    validator.validate(&plan).expect("valid");
+    // Asked to prune every repeat, the searches after a restart prune as asked: the answer
+    // stays "unsolvable" (there is no third search to hand over to).
+    let (status, stats, _) = run(
+        PlannerConfig {
+            duplicates: temporal::Duplicates::PruneAll,
+            ..PlannerConfig::default()
+        },
+        Some(0),
+    );
+    assert_eq!(status, temporal::Status::Unsolvable, "{stats:?}");
+}
