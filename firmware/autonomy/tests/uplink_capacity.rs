@@ -61,6 +61,7 @@ struct WideNetwork {
     conditions: Wide<WideCondition>,
     tasks: Wide<WideTask>,
     temporal: Wide<TemporalConstraint>,
+    timed: Wide<TimedValue>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -70,6 +71,9 @@ struct WideTimeline {
     state_key: Option<StateKey>,
     after_reset: Option<i64>,
     stale_after_us: Option<u64>,
+    background_rate: i64,
+    external: bool,
+    thresholds: Wide<i64>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -133,6 +137,9 @@ impl From<&NetworkSpec> for WideNetwork {
                     state_key: t.state_key,
                     after_reset: t.after_reset,
                     stale_after_us: t.stale_after_us,
+                    background_rate: t.background_rate,
+                    external: t.external,
+                    thresholds: wide(&t.thresholds),
                 })
                 .collect(),
             conditions: n
@@ -174,6 +181,7 @@ impl From<&NetworkSpec> for WideNetwork {
                 })
                 .collect(),
             temporal: wide(&n.temporal),
+            timed: wide(&n.timed),
         }
     }
 }
@@ -377,6 +385,25 @@ fn network_lists_over_capacity_are_refused_at_the_first_element_that_does_not_fi
             n.temporal = wide(&[tc; MAX_TEMPORAL_CONSTRAINTS + 1]);
         }),
         (TooManyTemporalConstraints, ErrorSite::Temporal(16))
+    );
+    assert_eq!(
+        refused(|n| {
+            n.timelines[0].external = true;
+            let tv = TimedValue {
+                timeline: 0,
+                at: MissionTimeUs(0),
+                value: 0,
+            };
+            n.timed = wide(&[tv; MAX_TIMED_VALUES + 1]);
+        }),
+        (
+            TooManyTimedValues,
+            ErrorSite::TimedValue(MAX_TIMED_VALUES as u8)
+        )
+    );
+    assert_eq!(
+        refused(|n| n.timelines[0].thresholds = wide(&[1; MAX_THRESHOLDS + 1])),
+        (TooManyThresholds, ErrorSite::TimelineThresholds(0))
     );
 }
 

@@ -236,6 +236,11 @@ impl<'a> Reader<'a> {
         let state_key = self.take(site)?;
         let after_reset = self.take(ErrorSite::TimelineAfterReset(u8_index(index)))?;
         let stale_after_us = self.take(ErrorSite::TimelineStaleAfter(u8_index(index)))?;
+        let background_rate = self.take(site)?;
+        let external = self.take(site)?;
+        let thresholds = self.list(ValidationCode::TooManyThresholds, |_| {
+            ErrorSite::TimelineThresholds(u8_index(index))
+        })?;
         timelines
             .push(TimelineSpec {
                 name,
@@ -243,6 +248,9 @@ impl<'a> Reader<'a> {
                 state_key,
                 after_reset,
                 stale_after_us,
+                background_rate,
+                external,
+                thresholds,
             })
             .map_err(|_| ValidationError::new(ValidationCode::TooManyTimelines, site))
     }
