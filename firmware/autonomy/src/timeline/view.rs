@@ -73,10 +73,13 @@ impl<'a> PlanView<'a> {
     /// no impacts, so their tie-break key, their index, never meets an instance's).
     pub fn for_each_event(&self, timeline: u8, mut f: impl FnMut(Event)) {
         self.for_each_impact_event(timeline, &mut f);
-        if self
-            .network
-            .timeline(timeline)
-            .is_some_and(|spec| spec.external)
+        // (The placement search asks this thousands of times: a network without timed values,
+        // the flyby's, pays one length check.)
+        if !self.network.timed().is_empty()
+            && self
+                .network
+                .timeline(timeline)
+                .is_some_and(|spec| spec.external)
         {
             for (i, tv) in self.network.timed().iter().enumerate() {
                 if tv.timeline == timeline {
