@@ -116,7 +116,11 @@ pub fn validate_timeline(
         let TimelineKind::State { value_count, .. } = timeline.kind else {
             return err(BadThresholds, s);
         };
-        let increasing = timeline.thresholds.windows(2).all(|w| w[0] < w[1]);
+        let increasing = timeline
+            .thresholds
+            .iter()
+            .zip(timeline.thresholds.iter().skip(1))
+            .all(|(a, b)| a < b);
         if timeline.state_key.is_none()
             || !increasing
             || !timeline.thresholds.iter().all(|&t| check_magnitude(t))
