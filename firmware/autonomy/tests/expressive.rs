@@ -495,3 +495,20 @@ fn too_many_timed_values_and_thresholds_are_refused_never_a_panic() {
         }
     }
 }
+
+#[test]
+fn a_checkpoint_with_the_new_fields_round_trips() {
+    let mut t = task(1, 0, 1000, 100);
+    t.constraints.push(pre(TL_VIEW, IN_VIEW)).unwrap();
+    t.constraints.push(pre(TL_THERMAL, WARM)).unwrap();
+    let n = uplinked(network(&[t]));
+    let (_, a) = dispatch_times(n.clone(), 150, &[(0, StateValue::Int(300))]);
+    let mut buf = vec![0u8; 1 << 20];
+    let len = a.encode_state(&mut buf).unwrap();
+    let mut b = Box::new(Autonomy::new());
+    b.decode_state(&buf[..len]).unwrap();
+    assert_eq!(b.network(), &n);
+    let mut again = vec![0u8; 1 << 20];
+    let len2 = b.encode_state(&mut again).unwrap();
+    assert_eq!(&buf[..len], &again[..len2]);
+}
