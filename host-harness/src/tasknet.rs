@@ -53,6 +53,28 @@
 //! values = ["OFF", "ON"]
 //! after_reset = "OFF"               # ... and a reset turns it off
 //!
+//! [[timeline]]
+//! name = "StationInView"            # an external availability timeline: set by its
+//! kind = "state"                    # schedule (and measurements), never by a task
+//! values = ["NO", "YES"]
+//! external = true
+//! schedule = [ { at = "10:20", value = "YES" }, { at = "10:50", value = "NO" } ]
+//!
+//! [[timeline]]
+//! name = "Battery"
+//! kind = "cumulative"
+//! initial = 2000000
+//! min = 0
+//! max = 2000000
+//! background_rate = -20             # per second from mission time 0 (a hotel load)
+//!
+//! [[timeline]]
+//! name = "TransmitterTemp"          # derived: measured as an integer, COLD below 2630,
+//! kind = "state"                    # WARM from 2630 (one threshold fewer than values)
+//! values = ["COLD", "WARM"]
+//! state_key = 21
+//! thresholds = [2630]
+//!
 //! [[condition]]
 //! name = "attitude_known"
 //! expr = { not = { timeline = "GncAttitude", op = "==", value = "UNKNOWN" } }
@@ -175,7 +197,8 @@ pub struct TimelineSymbol {
 pub enum TimelineKindName {
     /// Enumerated values: measured as `StateValue::Enum`.
     State,
-    /// Integer quantity: measured as `StateValue::Int`.
+    /// Integer quantity: measured as `StateValue::Int` (also a state timeline derived from an
+    /// integer measurement by `thresholds`).
     Cumulative,
     /// Claims only; never measured.
     Claimable,
@@ -306,6 +329,22 @@ struct RawTimeline {
     state_key: Option<u16>,
     after_reset: Option<Spanned<RawNumOrText>>,
     stale_after: Option<Spanned<RawNumOrText>>,
+    /// Cumulative: change per second from mission time 0 (a hotel load).
+    background_rate: Option<Spanned<i64>>,
+    /// External availability timeline, set by `schedule` (and measurements), never by tasks.
+    external: Option<bool>,
+    /// The timed values of an external timeline.
+    #[serde(default)]
+    schedule: Vec<Spanned<RawTimedValue>>,
+    /// Measured state: the value is the number of thresholds at or below the measured integer.
+    thresholds: Option<Spanned<Vec<i64>>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTimedValue {
+    at: Spanned<RawNumOrText>,
+    value: Spanned<RawNumOrText>,
 }
 
 #[derive(Deserialize)]
@@ -454,6 +493,10 @@ struct Sites {
     conditions: Vec<Range<usize>>,
     tasks: Vec<BTreeMap<String, Range<usize>>>,
     temporal: Vec<Range<usize>>,
+    /// Each timeline's `thresholds` field, where given.
+    timeline_thresholds: Vec<Option<Range<usize>>>,
+    /// Each timed value and its path (`timeline[i].schedule[k]`).
+    timed: Vec<(Range<usize>, String)>,
 }
 
 struct Compiler<'a> {
@@ -567,6 +610,22 @@ impl<'a> Compiler<'a> {
                     .unwrap_or(0..0),
                 format!("condition[{condition}].expr (node {node})"),
             ),
+            ErrorSite::TimelineThresholds(i) => (
+                self.sites
+                    .timeline_thresholds
+                    .get(usize::from(i))
+                    .cloned()
+                    .flatten()
+                    .or_else(|| self.sites.timelines.get(usize::from(i)).cloned())
+                    .unwrap_or(0..0),
+                format!("timeline[{i}].thresholds"),
+            ),
+            ErrorSite::TimedValue(i) => self
+                .sites
+                .timed
+                .get(usize::from(i))
+                .cloned()
+                .unwrap_or((0..0, format!("timed value {i}"))),
             ErrorSite::Temporal(i) => (
                 self.sites
                     .temporal
@@ -919,12 +978,72 @@ impl<'a> Compiler<'a> {
                 ),
                 (None, _) => (None, None),
             };
+            let mut thresholds: heapless::Vec<i64, { autonomy::MAX_THRESHOLDS }> =
+                heapless::Vec::new();
+            if let Some(th) = &t.thresholds {
+                for &v in th.get_ref() {
+                    if thresholds.push(v).is_err() {
+                        return Err(self.capacity(
+                            th.span(),
+                            &path("thresholds"),
+                            "thresholds",
+                            autonomy::MAX_THRESHOLDS,
+                        ));
+                    }
+                }
+            }
+            let external = t.external.unwrap_or(false);
+            if !t.schedule.is_empty() && !external {
+                return Err(self.error(
+                    span.clone(),
+                    &path("schedule"),
+                    "a schedule is for an external timeline (external = true)".into(),
+                ));
+            }
+            let timeline_index = spec.timelines.len() as u8;
+            for (k, tv) in t.schedule.iter().enumerate() {
+                let field = format!("{}[{k}]", path("schedule"));
+                let at = self.time(&tv.get_ref().at, epoch, &format!("{field}.at"))?;
+                let value = match (kind, tv.get_ref().value.get_ref()) {
+                    (TimelineKind::State { .. }, v) => i64::from(self.state_value(
+                        t.values.as_deref().unwrap_or(&[]),
+                        v,
+                        tv.get_ref().value.span(),
+                        &format!("{field}.value"),
+                    )?),
+                    (_, RawNumOrText::Int(i)) => *i,
+                    (_, RawNumOrText::Text(_)) => {
+                        return Err(self.error(
+                            tv.get_ref().value.span(),
+                            &format!("{field}.value"),
+                            "an integer value".into(),
+                        ))
+                    }
+                };
+                let timed = autonomy::TimedValue {
+                    timeline: timeline_index,
+                    at,
+                    value,
+                };
+                if spec.timed.push(timed).is_err() {
+                    return Err(self.capacity(
+                        tv.span(),
+                        &field,
+                        "timed values",
+                        autonomy::MAX_TIMED_VALUES,
+                    ));
+                }
+                self.sites.timed.push((tv.span(), field));
+            }
             let timeline = TimelineSpec {
                 name: self.name(&t.name, &path("name"))?,
                 kind,
                 state_key: t.state_key.map(StateKey),
                 after_reset,
                 stale_after_us,
+                background_rate: t.background_rate.as_ref().map_or(0, |r| *r.get_ref()),
+                external,
+                thresholds,
             };
             if spec.timelines.push(timeline).is_err() {
                 return Err(self.capacity(span, &path(""), "timelines", autonomy::MAX_TIMELINES));
@@ -934,10 +1053,17 @@ impl<'a> Compiler<'a> {
                 .timeline_after_reset
                 .push(t.after_reset.as_ref().map(|v| v.span()));
             self.sites.timeline_stale_after.push(stale_after_site);
+            self.sites
+                .timeline_thresholds
+                .push(t.thresholds.as_ref().map(|v| v.span()));
             value_names.push(t.values.clone().unwrap_or_default());
             symbols.timelines.push(TimelineSymbol {
                 name: t.name.get_ref().clone(),
                 kind: match kind {
+                    // Derived by thresholds: measured as an integer.
+                    TimelineKind::State { .. } if t.thresholds.is_some() => {
+                        TimelineKindName::Cumulative
+                    }
                     TimelineKind::State { .. } => TimelineKindName::State,
                     TimelineKind::Claimable => TimelineKindName::Claimable,
                     _ => TimelineKindName::Cumulative,
@@ -1648,7 +1774,9 @@ fn describe(e: ValidationError) -> &'static str {
         | TooManyContingencies
         | TooManyPermissions
         | TooManyTemporalConstraints
-        | TooManyCommandArgs => "over the target's capacity",
+        | TooManyCommandArgs
+        | TooManyTimedValues
+        | TooManyThresholds => "over the target's capacity",
         TooManyStateValues => "a state timeline needs 1 to 32 values",
         NameTooLong => "name too long",
         DuplicateTaskId => "another task has this id",
@@ -1695,6 +1823,16 @@ fn describe(e: ValidationError) -> &'static str {
         BadStaleBound => "a staleness bound must be positive and at most 30 days",
         StaleNotMeasured => {
             "stale_after is for timelines with a state_key (only measured values age)"
+        }
+        BadBackgroundRate => "only cumulative timelines take a background_rate (|rate| <= 2^48)",
+        ExternalTimeline => {
+            "an external timeline is state or cumulative and set only by its schedule and \
+             measurements, never by a task's impact"
+        }
+        BadTimedValue => "schedule times must be in range and in order",
+        BadThresholds => {
+            "thresholds are for a measured state timeline: strictly increasing, one fewer \
+             than its values"
         }
     }
 }
@@ -1799,6 +1937,69 @@ mod tests {
 
     fn error_of(src: &str) -> TaskNetError {
         compile_str(src, "t.toml").unwrap_err()
+    }
+
+    const ORBITER: &str = include_str!("../../scenarios/tasknets/orbiter-downlink.toml");
+
+    #[test]
+    fn orbiter_pass_compiles_its_schedule_background_rate_and_thresholds_into_the_uplink() {
+        let net = compile_str(ORBITER, "orbiter-downlink.toml").unwrap();
+        let n = &net.network;
+        let view = &n.timelines()[0];
+        assert!(view.external);
+        let hour = 3_600_000_000u64;
+        let at = |h: u64, m: u64| MissionTimeUs(h * hour + m * 60_000_000);
+        let timed: Vec<(u8, MissionTimeUs, i64)> = n
+            .timed()
+            .iter()
+            .map(|t| (t.timeline, t.at, t.value))
+            .collect();
+        assert_eq!(
+            timed,
+            vec![
+                (0, at(10, 20), 1),
+                (0, at(10, 50), 0),
+                (0, at(12, 0), 1),
+                (0, at(12, 25), 0)
+            ]
+        );
+        assert_eq!(n.timelines()[1].background_rate, -20);
+        assert_eq!(n.timelines()[2].thresholds.as_slice(), &[2630]);
+        // A derived state is measured as an integer: the symbol says so to the simulation.
+        assert_eq!(net.symbols.timelines[2].kind, TimelineKindName::Cumulative);
+        // Five constraints on a downlink (more than the 4 the format once held).
+        assert_eq!(n.tasks()[1].constraints.len(), 5);
+        let mut again = TaskNetwork::EMPTY;
+        autonomy::uplink::decode_into(&mut again, &net.uplink).unwrap();
+        assert_eq!(&again, n);
+    }
+
+    #[test]
+    fn misused_schedule_thresholds_and_external_impacts_are_reported_where_written() {
+        let ext = "[network]\nid = 1\n\n[[timeline]]\nname = \"View\"\nkind = \"state\"\nvalues = [\"NO\", \"YES\"]\n";
+        let e = error_of(&format!(
+            "{ext}schedule = [ {{ at = \"10:00\", value = \"YES\" }} ]\n"
+        ));
+        assert_eq!(e.field, "timeline[0].schedule", "{e}");
+        let e = error_of(&format!(
+            "{ext}external = true\nschedule = [ {{ at = \"10:00\", value = \"MAYBE\" }} ]\n"
+        ));
+        assert_eq!(e.field, "timeline[0].schedule[0].value", "{e}");
+        let e = error_of(&format!(
+            "{ext}external = true\nschedule = [ {{ at = \"10:00\", value = \"YES\" }}, {{ at = \"09:00\", value = \"NO\" }} ]\n"
+        ));
+        assert_eq!(e.field, "timeline[0].schedule[1]", "{e}");
+        assert!(e.message.contains("in order"), "{e}");
+        let e = error_of(&format!(
+            "{ext}external = true\n\n[[task]]\nid = 1\nname = \"t\"\nduration = \"1m\"\nearliest_start = \"10:00\"\nimpacts = [ {{ when = \"post\", timeline = \"View\", assign = \"YES\" }} ]\n"
+        ));
+        assert_eq!(e.field, "task[0].impacts[0]", "{e}");
+        assert!(e.message.contains("external"), "{e}");
+        let e = error_of(&format!("{ext}thresholds = [10]\n"));
+        assert_eq!(e.field, "timeline[0].thresholds", "{e}");
+        let e = error_of(&format!("{ext}background_rate = -3\n"));
+        assert_eq!(e.field, "timeline[0]", "{e}");
+        assert!(e.message.contains("background_rate"), "{e}");
     }
 
     const HEAD: &str = "[network]\nid = 1\n\n[[timeline]]\nname = \"Att\"\nkind = \"state\"\nvalues = [\"A\", \"B\"]\nstate_key = 1\n";

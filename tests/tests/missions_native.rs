@@ -36,6 +36,23 @@ fn every_shipped_flyby_scenario_passes_natively() {
     }
 }
 
+/// Issue 11 item 8: the passes start when the station's timed values open its windows (10:20,
+/// 12:00), the transmitter's integer temperature reads WARM through its threshold, and the
+/// battery drains by the hotel load's background rate between measurements.
+#[test]
+fn the_orbiter_downlink_pass_flies_its_station_windows() {
+    let report = assert_passes("orbiter-downlink.toml");
+    let started = |name: &str| {
+        report
+            .tasks
+            .iter()
+            .find(|t| t.name == name)
+            .and_then(|t| t.start.clone())
+    };
+    assert_eq!(started("Downlink Pass 1").as_deref(), Some("10:20:00"));
+    assert_eq!(started("Downlink Pass 2").as_deref(), Some("12:00:00"));
+}
+
 #[test]
 fn early_reset_reproduces_seed_003_figure_7() {
     let r = assert_passes("flyby-early-reset.toml");

@@ -17,7 +17,10 @@ fn run_native(path: &Path) -> MissionReport {
 
 /// Every shipped flyby scenario runs on the emulated target (the power cycle restarts QEMU; the
 /// plan comes back from the emulated non-volatile memory, a file that outlives the process).
-const EMULATED: [&str; 10] = [
+/// The orbiter's downlink pass (issue 11 item 8) flies its external timeline, background rate
+/// and derived state on the target too.
+const EMULATED: [&str; 11] = [
+    "orbiter-downlink.toml",
     "flyby-nominal.toml",
     "flyby-authentication.toml",
     "flyby-early-reset.toml",

@@ -53,6 +53,12 @@ pub const MAX_CONDITION_TERMS: usize = 8;
 pub const MAX_CONDITION_DEPTH: usize = 4;
 /// Temporal constraints between requested tasks in one task network.
 pub const MAX_TEMPORAL_CONSTRAINTS: usize = 16;
+/// Timed values of external timelines (Earth in view, ground-station passes) in one task
+/// network: 32 window edges a sol over two sols of an 84-hour Europa cycle, or a day of
+/// ground-station passes.
+pub const MAX_TIMED_VALUES: usize = 64;
+/// Thresholds of one derived state timeline (so up to 8 derived values).
+pub const MAX_THRESHOLDS: usize = 7;
 /// Bytes of a task or timeline name.
 pub const MAX_NAME_LEN: usize = 32;
 /// Task instances the planner holds at once (requested, added, restarted; finished ones are

@@ -182,7 +182,7 @@ pub fn measured_value(network: &TaskNetwork, timeline: u8, states: &StateTable) 
     let expected = spec.measured_value_type()?;
     Some(match states.get(key) {
         Some(e) if e.stale => VALUE_UNKNOWN,
-        Some(e) if expected.accepts(e.value) => state_value_to_i64(e.value),
+        Some(e) if expected.accepts(e.value) => spec.derived_value(state_value_to_i64(e.value)),
         Some(_) => VALUE_UNKNOWN,
         None => match spec.kind {
             TimelineKind::State { initial, .. } => i64::from(initial),

@@ -246,5 +246,5 @@ impl ControlLoop {
 pub(crate) fn fitted_value(spec: &TimelineSpec, value: StateValue) -> Option<i64> {
     spec.measured_value_type()
         .is_none_or(|expected| expected.accepts(value))
-        .then(|| state_value_to_i64(value))
+        .then(|| spec.derived_value(state_value_to_i64(value)))
 }

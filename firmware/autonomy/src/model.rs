@@ -24,8 +24,10 @@ pub const VALUE_UNKNOWN: i64 = i64::MIN;
 
 /// Version of the binary task-network format; the decoder refuses any other. Version 2 added
 /// the response bounds ([`ResponsePolicy`], [`ControlSpec::max_retries`] and the fields after
-/// it) and [`TimelineSpec::after_reset`]; version 3 [`TimelineSpec::stale_after_us`].
-pub const UPLINK_FORMAT_VERSION: u16 = 3;
+/// it) and [`TimelineSpec::after_reset`]; version 3 [`TimelineSpec::stale_after_us`];
+/// version 4 [`TimelineSpec::background_rate`], [`TimelineSpec::external`],
+/// [`TimelineSpec::thresholds`] and the timed values ([`NetworkSpec::timed`]).
+pub const UPLINK_FORMAT_VERSION: u16 = 4;
 
 /// The windows of the planner cycle (seed 000 IV.A.3), all durations in µs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -234,20 +236,71 @@ pub struct TimelineSpec {
     /// `None`: a measurement never goes stale. Only for timelines with a state key; positive
     /// and at most [`MAX_STALE_AFTER_US`].
     pub stale_after_us: Option<u64>,
+    /// Background rate of a cumulative timeline, in value units per second, from mission time
+    /// 0 (a hotel load draining the battery while no task runs): the timeline's initial
+    /// anchor carries it, tasks' `Rate` impacts add to it, and a measurement restarts the
+    /// integration from the measured value. 0 on other kinds; magnitude at most
+    /// [`MAX_MAGNITUDE`].
+    pub background_rate: i64,
+    /// An external availability timeline (Earth in view, a ground-station pass): its values
+    /// come from the network's timed values ([`NetworkSpec::timed`]) and, if it has a state
+    /// key, from measurements; no task may impact it. State and cumulative kinds only.
+    pub external: bool,
+    /// Thresholds that derive a state timeline's value from an integer measurement: the
+    /// value is the number of thresholds at or below the measured integer (with thresholds
+    /// `[10]`, a measured 9 is value 0, COLD, and 10 is value 1, WARM). Empty: the state
+    /// buffer gives the value itself. Non-empty only on a measured state timeline, strictly
+    /// increasing, exactly `value_count - 1` of them, at most [`MAX_THRESHOLDS`].
+    pub thresholds: Vec<i64, MAX_THRESHOLDS>,
 }
 
 impl TimelineSpec {
+    /// A timeline with no state key, no revert, no staleness bound, no background rate, not
+    /// external, no thresholds.
+    pub fn internal(name: Name, kind: TimelineKind) -> Self {
+        Self {
+            name,
+            kind,
+            state_key: None,
+            after_reset: None,
+            stale_after_us: None,
+            background_rate: 0,
+            external: false,
+            thresholds: Vec::new(),
+        }
+    }
+
     /// The type of state-buffer value this timeline takes, or None when no state key
     /// measures it. The host can check what it will publish against this before boot.
     pub fn measured_value_type(&self) -> Option<MeasuredValueType> {
         self.state_key?;
         Some(match self.kind {
+            TimelineKind::State { .. } if !self.thresholds.is_empty() => MeasuredValueType::Int,
             TimelineKind::State { value_count, .. } => MeasuredValueType::Enum {
                 values: value_count,
             },
             TimelineKind::Claimable | TimelineKind::Cumulative { .. } => MeasuredValueType::Int,
         })
     }
+
+    /// A state-buffer value as this timeline's integer value: through the thresholds when it
+    /// has some, else as is. [`VALUE_UNKNOWN`] stays unknown.
+    pub fn derived_value(&self, measured: i64) -> i64 {
+        if self.thresholds.is_empty() || measured == VALUE_UNKNOWN {
+            return measured;
+        }
+        self.thresholds.iter().filter(|&&t| t <= measured).count() as i64
+    }
+}
+
+/// One timed value of an external timeline: from `at` on (until the next one), `timeline`
+/// holds `value` (a state index or a cumulative value), as an assignment the plan cannot
+/// change.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct TimedValue {
+    pub timeline: u8,
+    pub at: MissionTimeUs,
+    pub value: i64,
 }
 
 /// When a constraint must hold.
@@ -548,6 +601,8 @@ pub struct NetworkSpec {
     pub conditions: Vec<ConditionSpec, MAX_CONDITIONS>,
     pub tasks: Vec<TaskSpec, MAX_TASKS>,
     pub temporal: Vec<TemporalConstraint, MAX_TEMPORAL_CONSTRAINTS>,
+    /// Timed values of the external timelines, in time order per timeline.
+    pub timed: Vec<TimedValue, MAX_TIMED_VALUES>,
 }
 
 impl NetworkSpec {
@@ -564,6 +619,7 @@ impl NetworkSpec {
             conditions: Vec::new(),
             tasks: Vec::new(),
             temporal: Vec::new(),
+            timed: Vec::new(),
         }
     }
 }
@@ -596,6 +652,7 @@ impl TaskNetwork {
         self.spec.conditions.clear();
         self.spec.tasks.clear();
         self.spec.temporal.clear();
+        self.spec.timed.clear();
     }
 
     /// The validated contents.
@@ -633,6 +690,11 @@ impl TaskNetwork {
 
     pub fn temporal(&self) -> &[TemporalConstraint] {
         &self.spec.temporal
+    }
+
+    /// The timed values of the external timelines.
+    pub fn timed(&self) -> &[TimedValue] {
+        &self.spec.timed
     }
 
     /// Index of the task definition with ground id `id`.

@@ -173,6 +173,9 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             state_key: Some(ATTITUDE_KEY),
             after_reset: None,
             stale_after_us: None,
+            background_rate: 0,
+            external: false,
+            thresholds: heapless::Vec::new(),
         })
         .map_err(|_| CapacityExceeded)?;
     n.timelines
@@ -186,6 +189,9 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             state_key: None,
             after_reset: None,
             stale_after_us: None,
+            background_rate: 0,
+            external: false,
+            thresholds: heapless::Vec::new(),
         })
         .map_err(|_| CapacityExceeded)?;
     n.timelines
@@ -195,6 +201,9 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             state_key: None,
             after_reset: None,
             stale_after_us: None,
+            background_rate: 0,
+            external: false,
+            thresholds: heapless::Vec::new(),
         })
         .map_err(|_| CapacityExceeded)?;
     n.timelines
@@ -204,6 +213,9 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
             state_key: None,
             after_reset: None,
             stale_after_us: None,
+            background_rate: 0,
+            external: false,
+            thresholds: heapless::Vec::new(),
         })
         .map_err(|_| CapacityExceeded)?;
 
@@ -479,6 +491,9 @@ pub fn synthetic_into(
         state_key: None,
         after_reset: None,
         stale_after_us: None,
+        background_rate: 0,
+        external: false,
+        thresholds: heapless::Vec::new(),
     };
     for r in 0..SYNTHETIC_RESOURCES {
         spec.timelines

@@ -21,6 +21,9 @@ fn base(tasks: &[TaskSpec]) -> NetworkSpec {
             state_key: Some(MODE_KEY),
             after_reset: None,
             stale_after_us: None,
+            background_rate: 0,
+            external: false,
+            thresholds: heapless::Vec::new(),
         })
         .unwrap();
     n.timelines
@@ -34,6 +37,9 @@ fn base(tasks: &[TaskSpec]) -> NetworkSpec {
             state_key: None,
             after_reset: None,
             stale_after_us: None,
+            background_rate: 0,
+            external: false,
+            thresholds: heapless::Vec::new(),
         })
         .unwrap();
     for t in tasks {

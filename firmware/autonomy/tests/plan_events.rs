@@ -48,6 +48,9 @@ fn network() -> TaskNetwork {
                 state_key: None,
                 after_reset: None,
                 stale_after_us: None,
+                background_rate: 0,
+                external: false,
+                thresholds: heapless::Vec::new(),
             })
             .unwrap();
     }

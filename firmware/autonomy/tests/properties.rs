@@ -74,6 +74,9 @@ fn network(tasks: &[RandomTask]) -> Option<TaskNetwork> {
                 state_key: None,
                 after_reset: None,
                 stale_after_us: None,
+                background_rate: 0,
+                external: false,
+                thresholds: heapless::Vec::new(),
             })
             .unwrap();
     }

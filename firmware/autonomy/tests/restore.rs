@@ -31,6 +31,9 @@ fn network(tasks: &[TaskSpec], heater_reset: Option<i64>) -> TaskNetwork {
                 state_key,
                 after_reset,
                 stale_after_us: None,
+                background_rate: 0,
+                external: false,
+                thresholds: heapless::Vec::new(),
             })
             .unwrap();
     }

@@ -45,6 +45,9 @@ fn network(stale_after_us: Option<u64>, tasks: &[TaskSpec]) -> TaskNetwork {
             state_key: Some(MODE_KEY),
             after_reset: None,
             stale_after_us,
+            background_rate: 0,
+            external: false,
+            thresholds: heapless::Vec::new(),
         })
         .unwrap();
     for c in mode_on_conditions() {

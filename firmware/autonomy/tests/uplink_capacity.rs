@@ -61,6 +61,7 @@ struct WideNetwork {
     conditions: Wide<WideCondition>,
     tasks: Wide<WideTask>,
     temporal: Wide<TemporalConstraint>,
+    timed: Wide<TimedValue>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -70,6 +71,9 @@ struct WideTimeline {
     state_key: Option<StateKey>,
     after_reset: Option<i64>,
     stale_after_us: Option<u64>,
+    background_rate: i64,
+    external: bool,
+    thresholds: Wide<i64>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -133,6 +137,9 @@ impl From<&NetworkSpec> for WideNetwork {
                     state_key: t.state_key,
                     after_reset: t.after_reset,
                     stale_after_us: t.stale_after_us,
+                    background_rate: t.background_rate,
+                    external: t.external,
+                    thresholds: wide(&t.thresholds),
                 })
                 .collect(),
             conditions: n
@@ -174,6 +181,7 @@ impl From<&NetworkSpec> for WideNetwork {
                 })
                 .collect(),
             temporal: wide(&n.temporal),
+            timed: wide(&n.timed),
         }
     }
 }
@@ -378,6 +386,29 @@ fn network_lists_over_capacity_are_refused_at_the_first_element_that_does_not_fi
         }),
         (TooManyTemporalConstraints, ErrorSite::Temporal(16))
     );
+    assert_eq!(
+        refused(|n| {
+            let mut view = n.timelines[0].clone();
+            view.name = wide_name("View");
+            view.state_key = None;
+            view.external = true;
+            n.timelines.push(view);
+            let tv = TimedValue {
+                timeline: (n.timelines.len() - 1) as u8,
+                at: MissionTimeUs(0),
+                value: 0,
+            };
+            n.timed = wide(&[tv; MAX_TIMED_VALUES + 1]);
+        }),
+        (
+            TooManyTimedValues,
+            ErrorSite::TimedValue(MAX_TIMED_VALUES as u8)
+        )
+    );
+    assert_eq!(
+        refused(|n| n.timelines[0].thresholds = wide(&[1; MAX_THRESHOLDS + 1])),
+        (TooManyThresholds, ErrorSite::TimelineThresholds(0))
+    );
 }
 
 #[test]
@@ -390,14 +421,14 @@ fn bytes_that_do_not_decode_are_named_with_the_field_they_are_in() {
     prefix.tasks.truncate(t);
     let mut whole_task = n.clone();
     whole_task.tasks.truncate(t + 1);
-    let before_task = encode_wide(&prefix).len() - 1; // minus the temporal count
+    let before_task = encode_wide(&prefix).len() - 2; // minus the temporal and timed counts
     let task_bytes = &encode_wide(&whole_task)[before_task..];
     let (task_back, rest) = take_task(task_bytes, t).unwrap();
     assert_eq!(task_back, flyby_spec().tasks[t]);
-    assert_eq!(rest, &[0u8]); // the temporal count of `whole_task`
-                              // The task's bytes cut at every length: each cut is Decode at the field it falls in.
+    assert_eq!(rest, &[0u8, 0]); // the temporal and timed counts of `whole_task`
+                                 // The task's bytes cut at every length: each cut is Decode at the field it falls in.
     let mut sites = std::collections::BTreeSet::new();
-    for cut in 0..task_bytes.len() - 1 {
+    for cut in 0..task_bytes.len() - 2 {
         let e = take_task(&task_bytes[..cut], t).unwrap_err();
         assert_eq!(e.code, Decode, "cut at {cut}");
         sites.insert(format!("{:?}", e.site));

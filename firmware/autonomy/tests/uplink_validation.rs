@@ -191,7 +191,7 @@ fn byte_level_defects_are_refused() {
     spec.tasks.clear();
     spec.temporal.clear();
     let mut short = encode(&spec);
-    short.truncate(short.len() - 2); // drop "0 tasks, 0 temporal"
+    short.truncate(short.len() - 3); // drop "0 tasks, 0 temporal, 0 timed values"
     let mut count = [0u8; 3];
     let count = postcard::to_slice(&((MAX_TASKS + 1) as u16), &mut count).unwrap();
     short.extend_from_slice(count);
@@ -444,9 +444,15 @@ fn new_validation_codes_have_their_numbers() {
     assert_eq!(ValidationCode::RevertNotState.code(), 74);
     assert_eq!(ValidationCode::BadStaleBound.code(), 75);
     assert_eq!(ValidationCode::StaleNotMeasured.code(), 76);
+    assert_eq!(ValidationCode::TooManyTimedValues.code(), 22);
+    assert_eq!(ValidationCode::TooManyThresholds.code(), 23);
+    assert_eq!(ValidationCode::BadBackgroundRate.code(), 80);
+    assert_eq!(ValidationCode::ExternalTimeline.code(), 81);
+    assert_eq!(ValidationCode::BadTimedValue.code(), 82);
+    assert_eq!(ValidationCode::BadThresholds.code(), 83);
     // And an uplink of a previous format is refused as such.
-    assert_eq!(UPLINK_FORMAT_VERSION, 3);
-    for previous in [1, 2] {
+    assert_eq!(UPLINK_FORMAT_VERSION, 4);
+    for previous in [1, 2, 3] {
         let mut bytes = encode(&flyby_spec());
         bytes[0] = previous;
         assert_eq!(

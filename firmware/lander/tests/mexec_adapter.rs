@@ -48,6 +48,9 @@ fn network(primitives: &[Primitive], battery_mj: u64) -> TaskNetwork {
             state_key: None,
             after_reset: None,
             stale_after_us: None,
+            background_rate: 0,
+            external: false,
+            thresholds: heapless::Vec::new(),
         })
         .expect("room");
     let battery = i64::try_from(battery_mj).expect("fits i64");
@@ -62,6 +65,9 @@ fn network(primitives: &[Primitive], battery_mj: u64) -> TaskNetwork {
             state_key: None,
             after_reset: None,
             stale_after_us: None,
+            background_rate: 0,
+            external: false,
+            thresholds: heapless::Vec::new(),
         })
         .expect("room");
     for (i, p) in primitives.iter().enumerate() {

@@ -59,7 +59,10 @@ impl TimelineAnchor {
         };
         Self {
             value,
-            rate: 0,
+            rate: match spec.kind {
+                TimelineKind::Cumulative { .. } => spec.background_rate,
+                _ => 0,
+            },
             at: MissionTimeUs::ZERO,
             measured: None,
         }

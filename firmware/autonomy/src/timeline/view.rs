@@ -68,7 +68,9 @@ impl<'a> PlanView<'a> {
         self
     }
 
-    /// Calls `f` for every event on `timeline`, in no particular order.
+    /// Calls `f` for every event on `timeline`, in no particular order: the placed
+    /// instances' impacts, then the network's timed values on it (an external timeline has
+    /// no impacts, so their tie-break key, their index, never meets an instance's).
     pub fn for_each_event(&self, timeline: u8, mut f: impl FnMut(Event)) {
         if let Some(events) = self
             .events
@@ -102,6 +104,24 @@ impl<'a> PlanView<'a> {
                     if let Some(spec) = self.network.task(x.def) {
                         impact_events(spec, x.instance, x.contribution(), timeline, &mut f);
                     }
+                }
+            }
+        }
+        // (The placement search asks this thousands of times: a network without timed values,
+        // the flyby's, pays one length check.)
+        if !self.network.timed().is_empty()
+            && self
+                .network
+                .timeline(timeline)
+                .is_some_and(|spec| spec.external)
+        {
+            for (i, tv) in self.network.timed().iter().enumerate() {
+                if tv.timeline == timeline {
+                    f(Event {
+                        at: tv.at,
+                        seq: i as u32,
+                        kind: EventKind::Assign(tv.value),
+                    });
                 }
             }
         }

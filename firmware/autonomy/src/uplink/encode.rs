@@ -36,5 +36,6 @@ pub fn encode_spec(spec: &NetworkSpec, buf: &mut [u8]) -> Result<usize, BufferTo
     w.list(&spec.conditions)?;
     w.list(&spec.tasks)?;
     w.list(&spec.temporal)?;
+    w.list(&spec.timed)?;
     Ok(w.len)
 }

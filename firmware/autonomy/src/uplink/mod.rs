@@ -3,7 +3,7 @@
 //!
 //! Format (postcard throughout, [`crate::UPLINK_FORMAT_VERSION`]):
 //! `NetworkHeader, u16 n, n x TimelineSpec, u16 n, n x ConditionSpec, u16 n, n x TaskSpec,
-//! u16 n, n x TemporalConstraint`, and nothing after.
+//! u16 n, n x TemporalConstraint, u16 n, n x TimedValue`, and nothing after.
 //!
 //! [`validate_uplink`] walks the bytes one element at a time (no temporary larger than one
 //! [`TaskSpec`]), so a rejected uplink never touches the running network; only then does
@@ -31,7 +31,7 @@ pub use reader::{take_condition, take_task, take_timeline};
 use validate::push_id;
 pub use validate::{
     stale_bound_in_range, validate_condition, validate_header, validate_spec, validate_task,
-    validate_temporal, validate_timeline, TaskContext,
+    validate_temporal, validate_timed_value, validate_timeline, TaskContext,
 };
 
 /// Why an uplink was refused. `code as u16` is what reaches the host.
@@ -72,6 +72,10 @@ pub enum ValidationCode {
     /// A command (a task's, or its `on_failure_command`) with more than
     /// [`fsw_bridge::MAX_COMMAND_ARGS`] arguments.
     TooManyCommandArgs = 21,
+    /// More than [`MAX_TIMED_VALUES`] timed values.
+    TooManyTimedValues = 22,
+    /// More than [`MAX_THRESHOLDS`] thresholds on a timeline.
+    TooManyThresholds = 23,
     /// Two tasks share an id.
     DuplicateTaskId = 30,
     /// A ground task id at or above [`FIRST_INSTANCE_ID`].
@@ -145,6 +149,17 @@ pub enum ValidationCode {
     BadStaleBound = 75,
     /// `stale_after_us` on a timeline no state key measures (only measurements age).
     StaleNotMeasured = 76,
+    /// A background rate on a timeline that is not cumulative, or over [`MAX_MAGNITUDE`].
+    BadBackgroundRate = 80,
+    /// An external timeline that is claimable, or a task impact on an external timeline
+    /// (only its timed values and measurements set it).
+    ExternalTimeline = 81,
+    /// A timed value on a timeline that is not external, at a time over
+    /// [`MAX_MISSION_TIME_US`], or earlier than the one before it on the same timeline.
+    BadTimedValue = 82,
+    /// Thresholds on a timeline that is not a measured state timeline, not strictly
+    /// increasing, over [`MAX_MAGNITUDE`], or not exactly one fewer than its values.
+    BadThresholds = 83,
 }
 
 impl ValidationCode {
@@ -201,6 +216,9 @@ pub enum ErrorSite {
         field: TaskField,
     },
     Temporal(u8),
+    /// The thresholds of a timeline.
+    TimelineThresholds(u8),
+    TimedValue(u8),
 }
 
 /// A rejected uplink: what and where.
@@ -309,6 +327,16 @@ pub fn validate_uplink(bytes: &[u8]) -> VResult {
         let tc: TemporalConstraint = r.take(ErrorSite::Temporal(u8_index(i)))?;
         validate_temporal(i, &tc, &ids)?;
     }
+    let timed_count = r.count(
+        MAX_TIMED_VALUES,
+        TooManyTimedValues,
+        ErrorSite::TimedValue(u8_index(MAX_TIMED_VALUES)),
+    )?;
+    let mut last_at = [MissionTimeUs::ZERO; MAX_TIMELINES];
+    for i in 0..timed_count {
+        let tv: TimedValue = r.take(ErrorSite::TimedValue(u8_index(i)))?;
+        validate_timed_value(i, &tv, &timelines, &mut last_at)?;
+    }
     if !r.rest.is_empty() {
         return err(TrailingBytes, ErrorSite::Network);
     }
@@ -331,6 +359,11 @@ pub fn decode_into(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
         &mut spec.temporal,
         TooManyTemporalConstraints,
         |r: &mut Reader<'_>, i| r.take(ErrorSite::Temporal(u8_index(i))),
+    )?;
+    r.refill(
+        &mut spec.timed,
+        TooManyTimedValues,
+        |r: &mut Reader<'_>, i| r.take(ErrorSite::TimedValue(u8_index(i))),
     )?;
     Ok(())
 }
@@ -398,6 +431,18 @@ pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult 
         let tc = r.take(ErrorSite::Temporal(u8_index(i)))?;
         spec.temporal.push(tc).map_err(|_| {
             ValidationError::new(TooManyTemporalConstraints, ErrorSite::Temporal(u8_index(i)))
+        })?;
+    }
+    spec.timed.clear();
+    let timed_count = r.count(
+        MAX_TIMED_VALUES,
+        TooManyTimedValues,
+        ErrorSite::TimedValue(u8_index(MAX_TIMED_VALUES)),
+    )?;
+    for i in 0..timed_count {
+        let tv = r.take(ErrorSite::TimedValue(u8_index(i)))?;
+        spec.timed.push(tv).map_err(|_| {
+            ValidationError::new(TooManyTimedValues, ErrorSite::TimedValue(u8_index(i)))
         })?;
     }
     if !r.rest.is_empty() {

@@ -99,6 +99,23 @@ impl<'a> Reader<'a> {
         Err(error)
     }
 
+    /// An `i64` as postcard writes it (zigzag, then a varint), read with [`Reader::u64`].
+    pub(super) fn i64(&mut self, site: ErrorSite) -> Result<i64, ValidationError> {
+        let z = self.u64(site)?;
+        Ok(((z >> 1) as i64) ^ -((z & 1) as i64))
+    }
+
+    /// A `bool` as postcard writes it (one byte, 0 or 1; anything else does not decode).
+    pub(super) fn bool(&mut self, site: ErrorSite) -> Result<bool, ValidationError> {
+        match self.rest.split_first() {
+            Some((&b, rest)) if b <= 1 => {
+                self.rest = rest;
+                Ok(b == 1)
+            }
+            _ => Err(ValidationError::new(ValidationCode::Decode, site)),
+        }
+    }
+
     /// A mission time (a `u64` newtype: postcard writes the number alone).
     pub(super) fn time(&mut self, site: ErrorSite) -> Result<MissionTimeUs, ValidationError> {
         self.u64(site).map(MissionTimeUs)
@@ -236,6 +253,11 @@ impl<'a> Reader<'a> {
         let state_key = self.take(site)?;
         let after_reset = self.take(ErrorSite::TimelineAfterReset(u8_index(index)))?;
         let stale_after_us = self.take(ErrorSite::TimelineStaleAfter(u8_index(index)))?;
+        let background_rate = self.i64(site)?;
+        let external = self.bool(site)?;
+        let thresholds = self.list(ValidationCode::TooManyThresholds, |_| {
+            ErrorSite::TimelineThresholds(u8_index(index))
+        })?;
         timelines
             .push(TimelineSpec {
                 name,
@@ -243,6 +265,9 @@ impl<'a> Reader<'a> {
                 state_key,
                 after_reset,
                 stale_after_us,
+                background_rate,
+                external,
+                thresholds,
             })
             .map_err(|_| ValidationError::new(ValidationCode::TooManyTimelines, site))
     }
@@ -413,6 +438,35 @@ mod tests {
     fn ours(bytes: &[u8]) -> Option<(u64, usize)> {
         let mut r = Reader { rest: bytes };
         r.u64(ErrorSite::Network).ok().map(|v| (v, r.rest.len()))
+    }
+
+    #[test]
+    fn i64_and_bool_read_what_postcard_reads() {
+        for v in [
+            0i64,
+            1,
+            -1,
+            63,
+            -64,
+            64,
+            -65,
+            1 << 40,
+            -(1 << 48),
+            i64::MAX,
+            i64::MIN,
+        ] {
+            let mut buf = [0u8; 16];
+            let read = postcard::to_slice(&v, &mut buf).ok().map(|bytes| {
+                let mut r = Reader { rest: bytes };
+                (r.i64(ErrorSite::Network).ok(), r.rest.len())
+            });
+            assert_eq!(read, Some((Some(v), 0)));
+        }
+        for b in 0u8..=255 {
+            let ours = Reader { rest: &[b] }.bool(ErrorSite::Network).ok();
+            let theirs = postcard::from_bytes::<bool>(&[b]).ok();
+            assert_eq!(ours, theirs, "byte {b}");
+        }
     }
 
     /// What postcard reads off `bytes` as a `u64`.

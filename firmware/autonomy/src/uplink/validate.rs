@@ -102,6 +102,33 @@ pub fn validate_timeline(
             return err(BadStaleBound, s);
         }
     }
+    if timeline.background_rate != 0
+        && (!matches!(timeline.kind, TimelineKind::Cumulative { .. })
+            || !check_magnitude(timeline.background_rate))
+    {
+        return err(BadBackgroundRate, site);
+    }
+    if timeline.external && matches!(timeline.kind, TimelineKind::Claimable) {
+        return err(ExternalTimeline, site);
+    }
+    if !timeline.thresholds.is_empty() {
+        let s = ErrorSite::TimelineThresholds(u8_index(index));
+        let TimelineKind::State { value_count, .. } = timeline.kind else {
+            return err(BadThresholds, s);
+        };
+        let increasing = timeline
+            .thresholds
+            .iter()
+            .zip(timeline.thresholds.iter().skip(1))
+            .all(|(a, b)| a < b);
+        if timeline.state_key.is_none()
+            || !increasing
+            || !timeline.thresholds.iter().all(|&t| check_magnitude(t))
+            || timeline.thresholds.len() + 1 != usize::from(value_count)
+        {
+            return err(BadThresholds, s);
+        }
+    }
     match timeline.kind {
         TimelineKind::State {
             value_count,
@@ -301,6 +328,9 @@ pub fn validate_task(index: usize, task: &TaskSpec, ctx: &TaskContext<'_>) -> VR
         let Some(timeline) = ctx.timelines.get(usize::from(impact.timeline)) else {
             return err(DanglingTimeline, s);
         };
+        if timeline.external {
+            return err(ExternalTimeline, s);
+        }
         if !check_offset(impact.start_offset_us) || !check_offset(impact.end_offset_us) {
             return err(BadOffset, s);
         }
@@ -445,6 +475,45 @@ pub fn validate_spec(spec: &NetworkSpec) -> VResult {
     }
     for (i, tc) in spec.temporal.iter().enumerate() {
         validate_temporal(i, tc, &ids)?;
+    }
+    let mut last_at = [MissionTimeUs::ZERO; MAX_TIMELINES];
+    for (i, tv) in spec.timed.iter().enumerate() {
+        validate_timed_value(i, tv, &spec.timelines, &mut last_at)?;
+    }
+    Ok(())
+}
+
+/// Checks timed value `index`: on an external timeline, in time, a value that fits the
+/// timeline, and not earlier than the previous one on the same timeline (`last_at`: per
+/// timeline, the time of the last timed value checked, updated here).
+pub fn validate_timed_value(
+    index: usize,
+    tv: &TimedValue,
+    timelines: &[TimelineSpec],
+    last_at: &mut [MissionTimeUs; MAX_TIMELINES],
+) -> VResult {
+    use ValidationCode::*;
+    let site = ErrorSite::TimedValue(u8_index(index));
+    let Some(timeline) = timelines.get(usize::from(tv.timeline)) else {
+        return err(DanglingTimeline, site);
+    };
+    if !timeline.external || !check_time(tv.at.0) {
+        return err(BadTimedValue, site);
+    }
+    let Some(last) = last_at.get_mut(usize::from(tv.timeline)) else {
+        return err(DanglingTimeline, site);
+    };
+    if tv.at < *last {
+        return err(BadTimedValue, site);
+    }
+    *last = tv.at;
+    let fits = match timeline.kind {
+        TimelineKind::State { value_count, .. } => (0..i64::from(value_count)).contains(&tv.value),
+        TimelineKind::Cumulative { min, max, .. } => (min..=max).contains(&tv.value),
+        TimelineKind::Claimable => false,
+    };
+    if !fits {
+        return err(ValueOutOfRange, site);
     }
     Ok(())
 }
