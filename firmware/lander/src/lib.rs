@@ -44,4 +44,6 @@ pub mod mexec;
 pub mod placement;
 pub mod rsm1;
 pub mod search;
+pub mod setup;
 pub mod utility;
+pub mod wire;

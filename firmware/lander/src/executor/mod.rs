@@ -64,6 +64,7 @@ use crate::placement::{TimelinePlacement, ViewTimeline};
 use crate::search::{PlacedChain, Search, SearchConfig, SearchStats};
 use crate::utility::RankedUtility;
 
+mod in_place;
 mod plan;
 mod types;
 

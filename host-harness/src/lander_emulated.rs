@@ -1,0 +1,586 @@
+//! `hil lander run FILE --emulated`: the lander simulation with the executor's decisions made
+//! on the emulated RAD750, in the planner partition (`flight_app::LanderApp`, issues 11 and
+//! 12).
+//!
+//! The simulation (`lander_sim::sim::run_watched`) keeps a native shadow executor for its own
+//! queries (the pending primitive, the counters) and tells [`EmulatedLander`] of every
+//! executor it builds and every step. Each build is uplinked to the target as a setup (chunks,
+//! CRC-32; the target decodes, validates and builds its executor), each step goes up as a
+//! `LanderStep`, and the host grants frames in lockstep until the target's answer: the
+//! decisions logged since the last answer, then the directive. Both are compared with the
+//! shadow's at every step; the first difference ends the run with a verdict naming the step
+//! (and a target that does not answer within [`MAX_FRAMES_PER_STEP`] frames ends it too:
+//! never a hang). So a run that ends is one whose every decision was made, identically, by the
+//! target.
+//!
+//! Costs are guest CPU (the planner partition's timebase ticks, and the guest instructions
+//! they are under `-icount shift=2`), never host time; the run's wall time is reported beside
+//! them for the speed-up over mission time.
+use std::time::{Duration, Instant};
+
+use ::lander::executor::{Decision, Directive, ExecConfig, Observation};
+use ::lander::htn::{FlatNetwork, HtnModel};
+use ::lander::placement::TimelinePlacement;
+use ::lander::setup::LanderSetup;
+use ::lander::wire::{decision_from_wire, directive_from_wire, observation_to_wire};
+use fsw_bridge::lander::{LanderRefusal, LanderReport, LANDER_CHUNK_MAX};
+use fsw_bridge::{HostToTarget, MissionTimeUs, TargetToHost};
+use lander_sim::scenario::Scenario;
+use lander_sim::sim::{self, Autonomy, RunConfig, RunResult, StepWatch};
+
+use crate::firmware::FirmwareImage;
+use crate::mission::link::{Exchanged, LinkSession};
+use crate::mission::plan::LinkFaults;
+use crate::mission::target::{hello_message, EmulatedTarget, MissionTarget};
+use crate::plan_emulated::{FRAME_US, INSTRUCTIONS_PER_TICK};
+use crate::qemu::QemuProfile;
+
+/// Frames a step may take before the run ends with no answer (a full RSM-1 replan takes a few
+/// hundred planner windows).
+pub const MAX_FRAMES_PER_STEP: u32 = 20_000;
+/// Chunks sent before the link is given a chance to settle (as a temporal task's).
+const CHUNKS_PER_BATCH: usize = 32;
+/// The host's buffer for an encoded setup (the target takes at most
+/// `flight_app::MAX_LANDER_SETUP_BYTES`; a larger one is sent and refused).
+const SETUP_BUFFER_BYTES: usize = 1 << 20;
+
+/// Every decision of a run, per executor built (the native run's, or the target's).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Transcript {
+    /// One log per executor (the start, then each model uplink).
+    pub logs: Vec<Vec<Decision>>,
+    /// Every step's directive, in order.
+    pub directives: Vec<Directive>,
+}
+
+/// A watch that keeps the native executor's decisions and directives.
+#[derive(Debug, Default)]
+pub struct Recorder {
+    pub transcript: Transcript,
+    seen: usize,
+}
+
+impl StepWatch for Recorder {
+    fn built(
+        &mut self,
+        _: ExecConfig,
+        _: &HtnModel,
+        _: &FlatNetwork,
+        _: &TimelinePlacement,
+        _: &::lander::assessor::ScienceContext,
+    ) -> Result<(), String> {
+        self.transcript.logs.push(Vec::new());
+        self.seen = 0;
+        Ok(())
+    }
+
+    fn stepped(
+        &mut self,
+        _: &Observation,
+        directive: &Directive,
+        exec: &Autonomy,
+    ) -> Result<(), String> {
+        let new = exec.log().get(self.seen..).unwrap_or(&[]);
+        if let Some(log) = self.transcript.logs.last_mut() {
+            log.extend_from_slice(new);
+        }
+        self.seen = exec.log().len();
+        self.transcript.directives.push(*directive);
+        Ok(())
+    }
+}
+
+/// One step's cost on the target.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct StepCost {
+    /// The step's number over the run.
+    pub step: u64,
+    pub at_us: u64,
+    /// The planner partition's CPU for the step, timebase ticks.
+    pub ticks: u32,
+    pub guest_instructions: u64,
+    /// Planner windows it ran in, and frames granted until its answer.
+    pub windows: u16,
+    pub frames: u32,
+    /// The shadow's search explorations in the step (0: it did not plan).
+    pub explored: u32,
+    /// The step made a plan (a replan, or the first plan), and why.
+    pub planned: Option<String>,
+}
+
+/// What the emulated target added to a run.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct EmulatedCosts {
+    pub steps: u64,
+    pub setups: u32,
+    /// Setup sizes in bytes, and the target's CPU to decode, validate and build (ticks).
+    pub setup_bytes: Vec<u32>,
+    pub build_ticks: Vec<u32>,
+    /// Every step that planned, with its cost.
+    pub plans: Vec<StepCost>,
+    /// Planner CPU of every step (ticks), summed, and per sol of mission time.
+    pub total_ticks: u64,
+    pub ticks_per_sol: Vec<u64>,
+    pub frames: u64,
+    /// The most planner windows and frames a step took.
+    pub worst_windows: u16,
+    pub worst_frames: u32,
+    /// Host wall time of the run (booting QEMU excluded).
+    #[serde(skip)]
+    pub wall: Duration,
+}
+
+/// The emulated target running the lander's executor, compared with the shadow at each step.
+pub struct EmulatedLander {
+    target: EmulatedTarget,
+    link: LinkSession,
+    frame: u32,
+    now: MissionTimeUs,
+    setup: u16,
+    seq: u32,
+    step_no: u64,
+    /// Decisions of the shadow's log compared so far.
+    seen: usize,
+    /// The target's decisions and directives.
+    pub transcript: Transcript,
+    pub costs: EmulatedCosts,
+    /// Health-monitor events seen.
+    pub health_events: Vec<String>,
+}
+
+/// What the planner partition said about a setup or a step.
+#[derive(Debug, Default)]
+struct Collected {
+    accepted: Option<LanderReport>,
+    refused: Option<LanderRefusal>,
+    decisions: Vec<(u16, Decision)>,
+    answer: Option<LanderReport>,
+    health: Vec<String>,
+    errors: Vec<String>,
+}
+
+impl Collected {
+    fn take(&mut self, setup: u16, msg: &TargetToHost) {
+        match msg {
+            TargetToHost::Lander(r) if r.setup() == setup => match *r {
+                LanderReport::Accepted { .. } => self.accepted = Some(*r),
+                LanderReport::Refused { reason, .. } => self.refused = Some(reason),
+                LanderReport::Decision {
+                    index, decision, ..
+                } => self.decisions.push((index, decision_from_wire(&decision))),
+                LanderReport::Answer { .. } => self.answer = Some(*r),
+            },
+            TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::HealthMonitor {
+                partition,
+                kind,
+                action,
+                ..
+            }) => self.health.push(format!(
+                "partition {partition}: error kind {kind}, action {action}"
+            )),
+            TargetToHost::Panic { file, line } => self.errors.push(format!(
+                "the target panicked at {}:{line}",
+                String::from_utf8_lossy(file)
+            )),
+            _ => {}
+        }
+    }
+}
+
+impl EmulatedLander {
+    /// Boot `firmware` under QEMU (the shipped `rad750-proxy` profile). QEMU is ended by its
+    /// PID when this is dropped.
+    pub fn boot(firmware: &FirmwareImage) -> Result<Self, String> {
+        let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
+        let mut target = EmulatedTarget::with_temporary_nv(profile, firmware.clone(), false, false)
+            .map_err(|e| format!("cannot create the non-volatile memory file: {e}"))?;
+        let hello = target.boot().map_err(|e| e.to_string())?;
+        let mut link = LinkSession::new(0, &LinkFaults::default());
+        link.hello(&hello_message(&hello));
+        Ok(Self {
+            target,
+            link,
+            frame: 0,
+            now: MissionTimeUs::ZERO,
+            setup: 0,
+            seq: 0,
+            step_no: 0,
+            seen: 0,
+            transcript: Transcript::default(),
+            costs: EmulatedCosts::default(),
+            health_events: Vec::new(),
+        })
+    }
+
+    fn exchange(
+        &mut self,
+        got: &mut Collected,
+        until: Option<&mut dyn FnMut(&TargetToHost) -> bool>,
+    ) -> Result<(), String> {
+        let (end, delivered) = self
+            .link
+            .exchange(&mut self.target, until)
+            .map_err(|e| format!("the link: {e}"))?;
+        for msg in &delivered {
+            self.target.observe(msg);
+            got.take(self.setup, msg);
+        }
+        if let Some(e) = got.errors.first() {
+            return Err(e.clone());
+        }
+        match end {
+            Exchanged::Settled => Ok(()),
+            Exchanged::TargetReset(hello) => Err(format!("the target reset ({hello:?})")),
+        }
+    }
+
+    /// One frame granted, until its FrameDone.
+    fn grant(&mut self, got: &mut Collected) -> Result<(), String> {
+        let frame = self.frame;
+        let until = self.now.saturating_add(FRAME_US);
+        self.link
+            .send(HostToTarget::TimeGrant {
+                frame,
+                now: self.now,
+                until,
+            })
+            .map_err(|e| e.to_string())?;
+        let mut done =
+            |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
+        self.exchange(got, Some(&mut done))?;
+        self.frame = self.frame.wrapping_add(1);
+        self.now = until;
+        Ok(())
+    }
+
+    /// The messages that uplink `bytes` as setup `setup`.
+    pub fn setup_messages(setup: u16, bytes: &[u8]) -> Vec<HostToTarget> {
+        let mut msgs = vec![HostToTarget::LanderBegin {
+            setup,
+            len: bytes.len() as u32,
+            crc32: flight_app::lander_crc32(bytes),
+        }];
+        for (i, chunk) in bytes.chunks(LANDER_CHUNK_MAX).enumerate() {
+            msgs.push(HostToTarget::LanderChunk {
+                setup,
+                offset: (i * LANDER_CHUNK_MAX) as u32,
+                bytes: heapless::Vec::from_slice(chunk).expect("a chunk fits its message"),
+            });
+        }
+        msgs
+    }
+
+    /// Encodes `setup`.
+    pub fn encode(setup: &LanderSetup) -> Result<Vec<u8>, String> {
+        let mut buf = vec![0u8; SETUP_BUFFER_BYTES];
+        let n = ::lander::setup::encode(setup, &mut buf)
+            .map_err(|e| format!("the setup does not encode: {e:?}"))?;
+        buf.truncate(n);
+        Ok(buf)
+    }
+
+    /// Sends raw setup messages (tests send damaged ones) as setup `setup` and waits for its
+    /// acceptance (Ok) or refusal (Err, the reason).
+    pub fn uplink(
+        &mut self,
+        setup: u16,
+        msgs: Vec<HostToTarget>,
+    ) -> Result<Result<LanderReport, LanderRefusal>, String> {
+        self.setup = setup;
+        let mut got = Collected::default();
+        for batch in msgs.chunks(CHUNKS_PER_BATCH) {
+            for m in batch {
+                self.link.send(m.clone()).map_err(|e| e.to_string())?;
+            }
+            self.exchange(&mut got, None)?;
+        }
+        let mut frames = 0;
+        while got.accepted.is_none() && got.refused.is_none() {
+            if frames >= MAX_FRAMES_PER_STEP {
+                return Err(format!("setup {setup}: no answer after {frames} frames"));
+            }
+            self.grant(&mut got)?;
+            frames += 1;
+        }
+        self.health_events.append(&mut got.health);
+        Ok(match (got.refused, got.accepted) {
+            (Some(r), _) => Err(r),
+            (None, Some(a)) => Ok(a),
+            (None, None) => unreachable!("the loop waits for one"),
+        })
+    }
+
+    /// Uplinks `setup` as the next setup; its acceptance.
+    pub fn load(&mut self, setup: &LanderSetup) -> Result<LanderReport, String> {
+        let bytes = Self::encode(setup)?;
+        let id = self.setup.wrapping_add(1).max(1);
+        let accepted = self
+            .uplink(id, Self::setup_messages(id, &bytes))?
+            .map_err(|r| format!("the target refused setup {id}: {r:?}"))?;
+        self.seq = 0;
+        self.seen = 0;
+        self.transcript.logs.push(Vec::new());
+        self.costs.setups += 1;
+        self.costs.setup_bytes.push(bytes.len() as u32);
+        if let LanderReport::Accepted { build_ticks, .. } = accepted {
+            self.costs.build_ticks.push(build_ticks);
+        }
+        Ok(accepted)
+    }
+
+    /// Sends step `seq` of the current setup and grants frames until its answer (or a
+    /// refusal): the target's decisions, its directive, and the answer.
+    pub fn step_raw(
+        &mut self,
+        seq: u32,
+        observation: &Observation,
+    ) -> Result<Result<(Vec<Decision>, Directive, LanderReport, u32), LanderRefusal>, String> {
+        self.link
+            .send(HostToTarget::LanderStep {
+                setup: self.setup,
+                seq,
+                observation: observation_to_wire(observation),
+            })
+            .map_err(|e| e.to_string())?;
+        let mut got = Collected::default();
+        let mut frames = 0u32;
+        while got.answer.is_none() && got.refused.is_none() {
+            if frames >= MAX_FRAMES_PER_STEP {
+                return Err(format!("no answer from the target after {frames} frames"));
+            }
+            self.grant(&mut got)?;
+            frames += 1;
+        }
+        self.health_events.append(&mut got.health);
+        if let Some(r) = got.refused {
+            return Ok(Err(r));
+        }
+        let answer = got.answer.expect("the loop waits for it");
+        let LanderReport::Answer { directive, .. } = answer else {
+            unreachable!("an answer")
+        };
+        let directive = directive_from_wire(&directive)
+            .map_err(|k| format!("the target answered an unknown primitive kind {}", k.0))?;
+        let decisions = got.decisions.into_iter().map(|(_, d)| d).collect();
+        Ok(Ok((decisions, directive, answer, frames)))
+    }
+}
+
+impl StepWatch for EmulatedLander {
+    fn built(
+        &mut self,
+        config: ExecConfig,
+        model: &HtnModel,
+        network: &FlatNetwork,
+        timeline: &TimelinePlacement,
+        context: &::lander::assessor::ScienceContext,
+    ) -> Result<(), String> {
+        let setup = LanderSetup {
+            config,
+            primitives: model.primitives.clone(),
+            network: network.clone(),
+            timeline: timeline.clone(),
+            context: context.clone(),
+        };
+        self.load(&setup).map(|_| ())
+    }
+
+    fn stepped(
+        &mut self,
+        observation: &Observation,
+        directive: &Directive,
+        exec: &Autonomy,
+    ) -> Result<(), String> {
+        let step = self.step_no;
+        self.step_no += 1;
+        let at = observation.now.0;
+        let (setup, seq_now) = (self.setup, self.seq);
+        let diverged = move |what: String| {
+            format!(
+                "DIVERGED at step {step} (setup {setup}, step {seq_now} of it, mission time {:.3} h): {what}",
+                at as f64 / 3.6e9
+            )
+        };
+        let seq = self.seq;
+        let (decisions, got, answer, frames) = match self.step_raw(seq, observation) {
+            Ok(Ok(a)) => a,
+            Ok(Err(r)) => return Err(diverged(format!("the target refused the step: {r:?}"))),
+            Err(e) => return Err(diverged(e)),
+        };
+        self.seq += 1;
+        let shadow = exec.log().get(self.seen..).unwrap_or(&[]);
+        if let Some(log) = self.transcript.logs.last_mut() {
+            log.extend_from_slice(&decisions);
+        }
+        self.transcript.directives.push(got);
+        if decisions != shadow {
+            return Err(diverged(format!(
+                "decisions: target {decisions:?}, native {shadow:?}"
+            )));
+        }
+        if got != *directive {
+            return Err(diverged(format!(
+                "directive: target {got:?}, native {directive:?}"
+            )));
+        }
+        let LanderReport::Answer {
+            log_len,
+            ticks,
+            windows,
+            ..
+        } = answer
+        else {
+            unreachable!("an answer")
+        };
+        if usize::from(log_len) != exec.log().len() {
+            return Err(diverged(format!(
+                "log length: target {log_len}, native {}",
+                exec.log().len()
+            )));
+        }
+        self.seen = exec.log().len();
+        // Costs.
+        let c = &mut self.costs;
+        c.steps += 1;
+        c.frames += u64::from(frames);
+        c.total_ticks += u64::from(ticks);
+        c.worst_windows = c.worst_windows.max(windows);
+        c.worst_frames = c.worst_frames.max(frames);
+        let sol = (at / sim::SOL_US) as usize;
+        if c.ticks_per_sol.len() <= sol {
+            c.ticks_per_sol.resize(sol + 1, 0);
+        }
+        c.ticks_per_sol[sol] += u64::from(ticks);
+        let planned = decisions.iter().find_map(|d| match d.kind {
+            ::lander::executor::DecisionKind::ReplanStarted(r) => Some(format!("{r:?}")),
+            _ => None,
+        });
+        if planned.is_some() {
+            c.plans.push(StepCost {
+                step,
+                at_us: at,
+                ticks,
+                guest_instructions: (f64::from(ticks) * INSTRUCTIONS_PER_TICK).round() as u64,
+                windows,
+                frames,
+                explored: exec.last_search().explored,
+                planned,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// An emulated run: the simulation's result, and what the target cost.
+#[derive(Debug)]
+pub struct EmulatedRun {
+    pub result: RunResult,
+    pub costs: EmulatedCosts,
+    pub transcript: Transcript,
+    pub health_events: Vec<String>,
+}
+
+/// Runs `s` under `config` with the executor on the emulated target `firmware`. A divergence
+/// from the native shadow, or a target that stops answering, is an error naming the step.
+pub fn run_emulated(
+    s: &Scenario,
+    config: &RunConfig,
+    firmware: &FirmwareImage,
+) -> Result<EmulatedRun, String> {
+    let mut target = EmulatedLander::boot(firmware)?;
+    let started = Instant::now();
+    let result = sim::run_watched(s, config, &mut target)?;
+    target.costs.wall = started.elapsed();
+    Ok(EmulatedRun {
+        result,
+        costs: target.costs,
+        transcript: target.transcript,
+        health_events: target.health_events,
+    })
+}
+
+/// `hil lander run FILE --emulated`: the checked run (Ok(Ok)), a run that diverged or whose
+/// target stopped answering (Ok(Err(verdict))), or bad input (Err).
+pub fn cli_run(
+    s: &Scenario,
+    args: &crate::lander::LanderRunArgs,
+) -> Result<Result<crate::lander::LanderOutcome, String>, String> {
+    let fw = match &args.firmware {
+        Some(elf) => {
+            if !elf.exists() {
+                return Err(format!(
+                    "--firmware {}: no such file (give the firmware ELF, or leave --firmware out to build it)",
+                    elf.display()
+                ));
+            }
+            FirmwareImage::open(elf).map_err(|e| e.to_string())?
+        }
+        None => {
+            eprintln!("building firmware (cargo, powerpc-unknown-linux-gnu) ...");
+            crate::firmware::build().map_err(|e| e.to_string())?
+        }
+    };
+    let seed = args.seed.unwrap_or(s.run.seed);
+    let strategy = args.strategy.unwrap_or(s.run.strategy);
+    let run = match run_emulated(s, &RunConfig::new(strategy.strategy(), seed), &fw) {
+        Ok(r) => r,
+        Err(verdict) => return Ok(Err(verdict)),
+    };
+    let verdicts = lander_sim::expect::check_all(s, &run.result);
+    print!("{}", costs_summary(&run));
+    Ok(Ok(crate::lander::LanderOutcome {
+        scenario: s.name.clone(),
+        seed,
+        strategy,
+        result: run.result,
+        verdicts,
+        wall: run.costs.wall,
+    }))
+}
+
+/// The emulated costs, readable.
+pub fn costs_summary(run: &EmulatedRun) -> String {
+    let c = &run.costs;
+    let mission_s = run.result.end_us as f64 / 1e6;
+    let wall_s = c.wall.as_secs_f64();
+    let mut out = format!(
+        "  emulated: every decision identical to the native shadow ({} steps, {} setup(s) of {:?} bytes, built in {:?} ticks); {} frames granted\n",
+        c.steps, c.setups, c.setup_bytes, c.build_ticks, c.frames
+    );
+    out += &format!(
+        "  emulated wall time {wall_s:.1} s for {:.2} sols of mission time: {:.0}x real time\n",
+        mission_s / (sim::SOL_US as f64 / 1e6),
+        mission_s / wall_s.max(1e-9)
+    );
+    out += &format!(
+        "  planner CPU: {} ticks in all ({} guest instructions); per sol: {:?} ticks (of {} ticks of planner windows a sol)\n",
+        c.total_ticks,
+        (c.total_ticks as f64 * INSTRUCTIONS_PER_TICK).round() as u64,
+        c.ticks_per_sol,
+        windows_ticks_per_sol()
+    );
+    for p in &c.plans {
+        out += &format!(
+            "  plan at step {} ({:.2} h, {}): {} explorations, {} guest instructions, {} planner windows, latency {:.0} ms of target time ({} frames)\n",
+            p.step,
+            p.at_us as f64 / 3.6e9,
+            p.planned.as_deref().unwrap_or("?"),
+            p.explored,
+            p.guest_instructions,
+            p.windows,
+            p.frames as f64 * FRAME_US as f64 / 1e3,
+            p.frames
+        );
+    }
+    if !run.health_events.is_empty() {
+        out += &format!("  health events: {:?}\n", run.health_events);
+    }
+    out
+}
+
+/// The planner partition's window ticks in one sol of target time (its CPU capacity: the
+/// window of every 10 ms major frame).
+pub fn windows_ticks_per_sol() -> u64 {
+    let frames_per_sol = sim::SOL_US / FRAME_US;
+    frames_per_sol * u64::from(kernel_config::system::PLANNER_WINDOW_TICKS)
+}
