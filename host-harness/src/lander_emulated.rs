@@ -480,23 +480,40 @@ pub struct EmulatedRun {
     pub health_events: Vec<String>,
 }
 
-/// Runs `s` under `config` with the executor on the emulated target `firmware`. A divergence
-/// from the native shadow, or a target that stops answering, is an error naming the step.
+impl EmulatedLander {
+    /// Runs `s` under `config` with the executor on this target (a new setup at the start:
+    /// runs can follow each other on one booted target). A divergence from the native shadow,
+    /// or a target that stops answering, is an error naming the step.
+    pub fn run(&mut self, s: &Scenario, config: &RunConfig) -> Result<EmulatedRun, String> {
+        self.transcript = Transcript::default();
+        self.costs = EmulatedCosts::default();
+        self.health_events.clear();
+        self.step_no = 0;
+        let started = Instant::now();
+        let result = sim::run_watched(s, config, self)?;
+        self.costs.wall = started.elapsed();
+        Ok(EmulatedRun {
+            result,
+            costs: std::mem::take(&mut self.costs),
+            transcript: std::mem::take(&mut self.transcript),
+            health_events: std::mem::take(&mut self.health_events),
+        })
+    }
+
+    /// The setup in force and the number its next step must have (tests send raw steps).
+    pub fn position(&self) -> (u16, u32) {
+        (self.setup, self.seq)
+    }
+}
+
+/// Runs `s` under `config` with the executor on the emulated target `firmware` (booted for the
+/// run, QEMU ended by its PID after it).
 pub fn run_emulated(
     s: &Scenario,
     config: &RunConfig,
     firmware: &FirmwareImage,
 ) -> Result<EmulatedRun, String> {
-    let mut target = EmulatedLander::boot(firmware)?;
-    let started = Instant::now();
-    let result = sim::run_watched(s, config, &mut target)?;
-    target.costs.wall = started.elapsed();
-    Ok(EmulatedRun {
-        result,
-        costs: target.costs,
-        transcript: target.transcript,
-        health_events: target.health_events,
-    })
+    EmulatedLander::boot(firmware)?.run(s, config)
 }
 
 /// `hil lander run FILE --emulated`: the checked run (Ok(Ok)), a run that diverged or whose

@@ -1,0 +1,164 @@
+//! The Europa Lander's executor on the emulated RAD750 (issues 11 and 12, the emulated side):
+//! `hil lander run --emulated` makes every decision in the planner partition
+//! (`flight_app::LanderApp`), and BSM-1, RSM-1 and four ELAP scenarios (one of them a ground
+//! model change, which uplinks a new setup mid-mission) decide on the target exactly as
+//! natively: the same decision logs (times included), the same directives, the same run and
+//! the same `[[expect]]` verdicts. A corrupted or malformed setup, a step out of order and a
+//! step for no setup are refused with their reason, and the target goes on as before.
+//!
+//! The missions are the shipped files at their seeds, full length (12 sols; a run is a few
+//! seconds of QEMU: the target answers a step in one or two 10 ms frames, a replan in a few).
+use fsw_bridge::lander::{LanderRefusal, LanderReport, LanderSetupError};
+use fsw_bridge::MissionTimeUs;
+use hil::lander_emulated::{EmulatedLander, Recorder};
+use hil::study::load_scenario;
+use hil_tests::firmware;
+use lander::executor::{Directive, Observation};
+use lander_sim::expect::check_all;
+use lander_sim::sim::{autonomy_inputs, run_watched, RunConfig};
+
+const MISSIONS: [&str; 6] = [
+    "bsm-1.toml",
+    "rsm-1.toml",
+    "elap/02-all-samples-negative.toml",
+    "elap/05-first-sample-negative.toml",
+    "elap/06-ground-changes-mission-model.toml",
+    "elap/08-sudden-low-battery.toml",
+];
+
+#[test]
+fn lander_missions_decide_on_the_target_as_natively_and_bad_setups_are_refused() {
+    let _one = hil_tests::exclusive_qemu();
+    let mut target = EmulatedLander::boot(firmware()).unwrap_or_else(|e| panic!("{e}"));
+    for file in MISSIONS {
+        let path = hil::repo_root().join("scenarios/lander").join(file);
+        let s = load_scenario(&path).unwrap_or_else(|d| panic!("{}", d.render()));
+        let config = RunConfig::new(s.run.strategy.strategy(), s.run.seed);
+        let mut native = Recorder::default();
+        let want = run_watched(&s, &config, &mut native).unwrap();
+        let got = target
+            .run(&s, &config)
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(got.transcript, native.transcript, "{file}: the decisions");
+        assert_eq!(got.result, want, "{file}: the run");
+        let verdicts = check_all(&s, &got.result);
+        assert_eq!(verdicts, check_all(&s, &want), "{file}: the verdicts");
+        assert!(
+            verdicts.iter().all(|v| v.passed),
+            "{file}: the shipped mission meets its expectations: {verdicts:?}"
+        );
+        let decisions: usize = got.transcript.logs.iter().map(Vec::len).sum();
+        let c = &got.costs;
+        assert!(decisions > 20 && c.steps > 20, "{file}: {decisions} decisions");
+        assert!(!c.plans.is_empty() && c.total_ticks > 0, "{file}");
+        assert_eq!(c.setups as usize, got.transcript.logs.len());
+        println!(
+            "{file}: {:.1} sols, {} steps, {decisions} decisions, {} setup(s) {:?} bytes, {} plans (worst {} guest instructions), planner {} ticks, {} frames, wall {:.2} s, health {:?}",
+            got.result.end_us as f64 / lander::rsm1::SOL_US as f64,
+            c.steps,
+            c.setups,
+            c.setup_bytes,
+            c.plans.len(),
+            c.plans.iter().map(|p| p.guest_instructions).max().unwrap_or(0),
+            c.total_ticks,
+            c.frames,
+            c.wall.as_secs_f64(),
+            got.health_events
+        );
+    }
+
+    // Bad setups and steps, each refused with its reason; the target stays up.
+    let s = load_scenario(&hil::repo_root().join("scenarios/lander/bsm-1.toml")).unwrap();
+    let (model, network, timeline, context) = autonomy_inputs(&s, false).unwrap();
+    let setup = lander::setup::LanderSetup {
+        config: lander::executor::ExecConfig::new(s.run.strategy.strategy()),
+        primitives: model.primitives.clone(),
+        network,
+        timeline,
+        context,
+    };
+    let bytes = EmulatedLander::encode(&setup).unwrap();
+    // Corrupted on the way: a flipped bit under the announced CRC.
+    let mut msgs = EmulatedLander::setup_messages(100, &bytes);
+    if let fsw_bridge::HostToTarget::LanderChunk { bytes, .. } = &mut msgs[2] {
+        bytes[5] ^= 0x08;
+    }
+    let r = target.uplink(100, msgs).unwrap();
+    assert!(
+        matches!(r, Err(LanderRefusal::BadCrc { .. })),
+        "corrupted: {r:?}"
+    );
+    // Malformed under a matching CRC: another format version, then cut short.
+    let mut bad = bytes.clone();
+    bad[0] = 0x7f;
+    let r = target
+        .uplink(101, EmulatedLander::setup_messages(101, &bad))
+        .unwrap();
+    assert_eq!(
+        r,
+        Err(LanderRefusal::BadSetup(LanderSetupError::Version { got: 0x7f }))
+    );
+    let cut = &bytes[..bytes.len() - 3];
+    let r = target
+        .uplink(102, EmulatedLander::setup_messages(102, cut))
+        .unwrap();
+    assert!(
+        matches!(
+            r,
+            Err(LanderRefusal::BadSetup(LanderSetupError::Malformed { part: 2, .. }))
+        ),
+        "cut short: {r:?}"
+    );
+    // A chain naming a primitive the model does not have.
+    let mut wrong = setup.clone();
+    wrong.network.chains[1].primitives[0] = 200;
+    let r = target
+        .uplink(
+            103,
+            EmulatedLander::setup_messages(103, &EmulatedLander::encode(&wrong).unwrap()),
+        )
+        .unwrap();
+    assert_eq!(
+        r,
+        Err(LanderRefusal::BadSetup(LanderSetupError::BadChain {
+            chain: 1
+        }))
+    );
+    // A step for the refused setup: there is no executor.
+    let observation = Observation {
+        now: MissionTimeUs::ZERO,
+        battery_mj: setup.timeline.battery_mj,
+        preconditions_met: true,
+        event: None,
+    };
+    assert_eq!(
+        target.step_raw(0, &observation).unwrap().err(),
+        Some(LanderRefusal::NoSetup)
+    );
+    // The good setup is accepted, and a step out of order refused.
+    let accepted = target.load(&setup).unwrap();
+    assert!(matches!(accepted, LanderReport::Accepted { .. }), "{accepted:?}");
+    assert_eq!(
+        target.step_raw(5, &observation).unwrap().err(),
+        Some(LanderRefusal::OutOfOrder { expected: 0 })
+    );
+    // And the target goes on: step 0 plans and answers as the native executor does.
+    let (decisions, directive, _, _) = target.step_raw(0, &observation).unwrap().unwrap();
+    let mut exec = lander::executor::Executor::<
+        { lander::capacity::MAX_SEARCH_NODES },
+        { lander::capacity::MAX_EXPLORE_QUEUE },
+    >::new(
+        setup.config,
+        &model,
+        &setup.network,
+        &setup.timeline,
+        &setup.context,
+        None,
+    )
+    .map(Box::new)
+    .unwrap();
+    let want = lander_sim::sim::step_to_answer(&mut exec, &observation, 1_000_000);
+    assert_eq!(directive, want);
+    assert!(!matches!(directive, Directive::Planning { .. }));
+    assert_eq!(decisions, exec.log());
+}
