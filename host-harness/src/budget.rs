@@ -18,7 +18,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::diag::{Diagnostic, SourceFile};
-use object::{Object, ObjectSection};
+use object::{Object, ObjectSection, ObjectSymbol};
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
@@ -50,6 +50,10 @@ pub struct BudgetSpec {
     pub unit: Unit,
     pub max: u64,
     pub source: String,
+    /// The goal for the quantity, where it has one and it differs from the budget (a
+    /// goal not reached is reported with the measured number; it is never lowered).
+    #[serde(default)]
+    pub goal: Option<u64>,
     #[serde(default)]
     pub description: String,
 }
@@ -67,10 +71,22 @@ pub enum Source {
     Mission { scenario: String, metric: String },
     Kernel { metric: String },
     Elf { section_prefix: String },
+    /// A lander mission with its executor on the emulated target
+    /// ([`crate::lander_emulated::lander_metrics`]).
+    Lander { scenario: String, metric: String },
+    /// Bytes of the firmware ELF's symbols whose (demangled) paths start with one of the
+    /// `+`-separated prefixes.
+    Symbols { prefix: String },
 }
 
 impl Source {
     pub fn parse(text: &str) -> Result<Self, String> {
+        // A symbol path has colons of its own.
+        if let Some(prefix) = text.strip_prefix("sym:").filter(|p| !p.is_empty()) {
+            return Ok(Source::Symbols {
+                prefix: prefix.into(),
+            });
+        }
         let mut parts = text.splitn(3, ':');
         match (parts.next(), parts.next(), parts.next()) {
             (Some("mission"), Some(scenario), Some(metric)) if !scenario.is_empty() && !metric.is_empty() => {
@@ -85,8 +101,16 @@ impl Source {
             (Some("elf"), Some(prefix), None) if !prefix.is_empty() => Ok(Source::Elf {
                 section_prefix: prefix.into(),
             }),
+            (Some("lander"), Some(scenario), Some(metric))
+                if !scenario.is_empty() && !metric.is_empty() =>
+            {
+                Ok(Source::Lander {
+                    scenario: scenario.into(),
+                    metric: metric.into(),
+                })
+            }
             _ => Err(format!(
-                "source {text:?}: expected mission:<scenario>:<metric>, kernel:<metric> or elf:<section-prefix>"
+                "source {text:?}: expected mission:<scenario>:<metric>, kernel:<metric>, elf:<section-prefix>, lander:<scenario>:<metric> or sym:<path-prefix>"
             )),
         }
     }
@@ -284,6 +308,54 @@ pub fn save_baseline(path: &Path, rows: &[Row]) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
+/// Static memory from the firmware ELF: bytes of the symbols whose demangled paths start with
+/// one of the `+`-separated prefixes (e.g. `task_planner::lander::`). Every prefix must match a
+/// symbol.
+pub fn elf_symbol_bytes(elf: &Path, prefixes: &str) -> Result<u64, String> {
+    let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*bytes).map_err(|e| e.to_string())?;
+    let mut total = 0;
+    for prefix in prefixes.split('+') {
+        let mut any = false;
+        for s in file.symbols() {
+            if s.name().is_ok_and(|n| demangle_legacy(n).starts_with(prefix)) {
+                total += s.size();
+                any = true;
+            }
+        }
+        if !any {
+            return Err(format!("no symbol starts with {prefix:?}"));
+        }
+    }
+    Ok(total)
+}
+
+/// A legacy-mangled Rust symbol (`_ZN` length-prefixed segments `E`) as its path without the
+/// hash (`task_planner::lander::EXECUTOR`); other names as they are.
+pub fn demangle_legacy(name: &str) -> String {
+    let Some(mut rest) = name.strip_prefix("_ZN") else {
+        return name.to_string();
+    };
+    let mut parts = Vec::new();
+    while let Some(len_end) = rest.find(|c: char| !c.is_ascii_digit()) {
+        let Ok(len) = rest[..len_end].parse::<usize>() else {
+            break;
+        };
+        let Some(seg) = rest.get(len_end..len_end + len) else {
+            break;
+        };
+        parts.push(seg);
+        rest = &rest[len_end + len..];
+    }
+    if parts
+        .last()
+        .is_some_and(|h| h.len() == 17 && h.starts_with('h'))
+    {
+        parts.pop();
+    }
+    parts.join("::")
+}
+
 /// Static memory from the firmware ELF: bytes of the sections whose names start with one of
 /// the `+`-separated prefixes (e.g. `.kdata+.bss`). Every prefix must match a section.
 pub fn elf_section_bytes(elf: &Path, prefixes: &str) -> Result<u64, String> {
@@ -454,7 +526,58 @@ pub fn measure(
             }
         }
     }
+    let mut landers: Vec<&str> = budgets
+        .iter()
+        .filter_map(|b| match &b.source {
+            Source::Lander { scenario, .. } => Some(scenario.as_str()),
+            _ => None,
+        })
+        .collect();
+    landers.sort();
+    landers.dedup();
+    for scenario in landers {
+        progress(&format!(
+            "measuring: lander {scenario} with its executor on the emulated target"
+        ));
+        let metrics = crate::lander_emulated::lander_metrics(scenario, firmware);
+        for b in budgets {
+            let Source::Lander {
+                scenario: sc,
+                metric,
+            } = &b.source
+            else {
+                continue;
+            };
+            if sc != scenario {
+                continue;
+            }
+            match metrics.as_ref().map(|m| m.get(metric)) {
+                Ok(Some(v)) => {
+                    measured.insert(b.source.clone(), *v);
+                }
+                Ok(None) => {
+                    missing.insert(
+                        b.source.clone(),
+                        format!("{scenario} reported no lander metric {metric:?}"),
+                    );
+                }
+                Err(e) => {
+                    missing.insert(b.source.clone(), format!("{scenario}: {e}"));
+                }
+            }
+        }
+    }
     for b in budgets {
+        if let Source::Symbols { prefix } = &b.source {
+            match elf_symbol_bytes(&firmware.elf, prefix) {
+                Ok(v) => {
+                    measured.insert(b.source.clone(), v);
+                }
+                Err(e) => {
+                    missing.insert(b.source.clone(), e);
+                }
+            }
+        }
         if let Source::Elf { section_prefix } = &b.source {
             match elf_section_bytes(&firmware.elf, section_prefix) {
                 Ok(v) => {

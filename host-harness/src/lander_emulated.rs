@@ -601,3 +601,44 @@ pub fn windows_ticks_per_sol() -> u64 {
     let frames_per_sol = sim::SOL_US / FRAME_US;
     frames_per_sol * u64::from(kernel_config::system::PLANNER_WINDOW_TICKS)
 }
+
+/// The metrics of a lander mission (`scenario`, relative to the repository) with its executor
+/// on the emulated target, for `budgets.toml`'s `lander:` sources: guest instructions of the
+/// first plan (`first_plan_instructions`: at the mission's start, the full plan) and of the
+/// costliest plan or replan (`worst_plan_instructions`), the most frames a step took to be
+/// answered (`worst_step_frames`: the planning latency, 10 ms of target time each), the
+/// planner CPU of the busiest sol (`worst_sol_planner_ticks`), and the CPU to decode, validate
+/// and build the first setup (`setup_build_ticks`). The run must decide as natively.
+pub fn lander_metrics(
+    scenario: &str,
+    firmware: &FirmwareImage,
+) -> Result<std::collections::BTreeMap<String, u64>, String> {
+    let path = crate::repo_root().join(scenario);
+    let s = crate::study::load_scenario(&path).map_err(|d| d.render())?;
+    let run = run_emulated(
+        &s,
+        &RunConfig::new(s.run.strategy.strategy(), s.run.seed),
+        firmware,
+    )?;
+    let c = &run.costs;
+    let mut m = std::collections::BTreeMap::new();
+    let plan = |p: &StepCost| p.guest_instructions;
+    m.insert(
+        "first_plan_instructions".into(),
+        c.plans.first().map_or(0, plan),
+    );
+    m.insert(
+        "worst_plan_instructions".into(),
+        c.plans.iter().map(plan).max().unwrap_or(0),
+    );
+    m.insert("worst_step_frames".into(), u64::from(c.worst_frames));
+    m.insert(
+        "worst_sol_planner_ticks".into(),
+        c.ticks_per_sol.iter().copied().max().unwrap_or(0),
+    );
+    m.insert(
+        "setup_build_ticks".into(),
+        c.build_ticks.first().copied().map_or(0, u64::from),
+    );
+    Ok(m)
+}
