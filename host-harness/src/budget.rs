@@ -68,15 +68,27 @@ struct BudgetFile {
 /// Where a measurement comes from.
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Source {
-    Mission { scenario: String, metric: String },
-    Kernel { metric: String },
-    Elf { section_prefix: String },
+    Mission {
+        scenario: String,
+        metric: String,
+    },
+    Kernel {
+        metric: String,
+    },
+    Elf {
+        section_prefix: String,
+    },
     /// A lander mission with its executor on the emulated target
     /// ([`crate::lander_emulated::lander_metrics`]).
-    Lander { scenario: String, metric: String },
+    Lander {
+        scenario: String,
+        metric: String,
+    },
     /// Bytes of the firmware ELF's symbols whose (demangled) paths start with one of the
     /// `+`-separated prefixes.
-    Symbols { prefix: String },
+    Symbols {
+        prefix: String,
+    },
 }
 
 impl Source {
@@ -318,7 +330,9 @@ pub fn elf_symbol_bytes(elf: &Path, prefixes: &str) -> Result<u64, String> {
     for prefix in prefixes.split('+') {
         let mut any = false;
         for s in file.symbols() {
-            if s.name().is_ok_and(|n| demangle_legacy(n).starts_with(prefix)) {
+            if s.name()
+                .is_ok_and(|n| demangle_legacy(n).starts_with(prefix))
+            {
                 total += s.size();
                 any = true;
             }

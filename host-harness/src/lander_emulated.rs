@@ -334,7 +334,7 @@ impl EmulatedLander {
         &mut self,
         seq: u32,
         observation: &Observation,
-    ) -> Result<Result<(Vec<Decision>, Directive, LanderReport, u32), LanderRefusal>, String> {
+    ) -> Result<Result<StepAnswer, LanderRefusal>, String> {
         self.link
             .send(HostToTarget::LanderStep {
                 setup: self.setup,
@@ -470,6 +470,10 @@ impl StepWatch for EmulatedLander {
         Ok(())
     }
 }
+
+/// A step's answer: the decisions logged since the last answer, the directive, the answer as
+/// it came, and the frames granted until it came.
+pub type StepAnswer = (Vec<Decision>, Directive, LanderReport, u32);
 
 /// An emulated run: the simulation's result, and what the target cost.
 #[derive(Debug)]

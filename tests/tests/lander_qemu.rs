@@ -49,7 +49,10 @@ fn lander_missions_decide_on_the_target_as_natively_and_bad_setups_are_refused()
         );
         let decisions: usize = got.transcript.logs.iter().map(Vec::len).sum();
         let c = &got.costs;
-        assert!(decisions > 20 && c.steps > 20, "{file}: {decisions} decisions");
+        assert!(
+            decisions > 20 && c.steps > 20,
+            "{file}: {decisions} decisions"
+        );
         assert!(!c.plans.is_empty() && c.total_ticks > 0, "{file}");
         assert_eq!(c.setups as usize, got.transcript.logs.len());
         println!(
@@ -96,7 +99,9 @@ fn lander_missions_decide_on_the_target_as_natively_and_bad_setups_are_refused()
         .unwrap();
     assert_eq!(
         r,
-        Err(LanderRefusal::BadSetup(LanderSetupError::Version { got: 0x7f }))
+        Err(LanderRefusal::BadSetup(LanderSetupError::Version {
+            got: 0x7f
+        }))
     );
     let cut = &bytes[..bytes.len() - 3];
     let r = target
@@ -105,7 +110,10 @@ fn lander_missions_decide_on_the_target_as_natively_and_bad_setups_are_refused()
     assert!(
         matches!(
             r,
-            Err(LanderRefusal::BadSetup(LanderSetupError::Malformed { part: 2, .. }))
+            Err(LanderRefusal::BadSetup(LanderSetupError::Malformed {
+                part: 2,
+                ..
+            }))
         ),
         "cut short: {r:?}"
     );
@@ -137,7 +145,10 @@ fn lander_missions_decide_on_the_target_as_natively_and_bad_setups_are_refused()
     );
     // The good setup is accepted, and a step out of order refused.
     let accepted = target.load(&setup).unwrap();
-    assert!(matches!(accepted, LanderReport::Accepted { .. }), "{accepted:?}");
+    assert!(
+        matches!(accepted, LanderReport::Accepted { .. }),
+        "{accepted:?}"
+    );
     assert_eq!(
         target.step_raw(5, &observation).unwrap().err(),
         Some(LanderRefusal::OutOfOrder { expected: 0 })

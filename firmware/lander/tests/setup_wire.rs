@@ -88,7 +88,10 @@ fn bad_setups_are_refused_with_their_reason() {
     // Cut short anywhere: malformed (or, cut inside the header, malformed at the header).
     for cut in [1, 10, bytes.len() / 2, bytes.len() - 1] {
         let e = decode_into(&bytes[..cut], &mut out).unwrap_err();
-        assert!(matches!(e, LanderSetupError::Malformed { .. }), "{cut}: {e:?}");
+        assert!(
+            matches!(e, LanderSetupError::Malformed { .. }),
+            "{cut}: {e:?}"
+        );
     }
     // A byte more.
     let mut long = bytes.clone();
@@ -142,7 +145,10 @@ fn bad_setups_are_refused_with_their_reason() {
         let pos = find_list(&alt, &empty_list, &without);
         let list: heapless::Vec<(u64, u64), 2> =
             heapless::Vec::from_slice(&[(w1.start.0, w1.end.0), (w0.start.0, w0.end.0)]).unwrap();
-        alt.splice(pos..pos + empty_list.len(), postcard::to_allocvec(&list).unwrap());
+        alt.splice(
+            pos..pos + empty_list.len(),
+            postcard::to_allocvec(&list).unwrap(),
+        );
         alt
     };
     assert_eq!(
@@ -168,11 +174,7 @@ fn find_list(bytes: &[u8], empty_list: &[u8], s: &LanderSetup) -> usize {
     }])
     .unwrap();
     let other = encoded(&one);
-    let pos = bytes
-        .iter()
-        .zip(&other)
-        .position(|(a, b)| a != b)
-        .unwrap();
+    let pos = bytes.iter().zip(&other).position(|(a, b)| a != b).unwrap();
     assert_eq!(&bytes[pos..pos + empty_list.len()], empty_list);
     pos
 }
@@ -194,13 +196,7 @@ fn script(exec: &mut Executor, budget: u32) -> (Vec<Decision>, Vec<Directive>) {
         };
         let mut d = exec.step(&obs, budget);
         while let Directive::Planning { .. } = d {
-            d = exec.step(
-                &Observation {
-                    event: None,
-                    ..obs
-                },
-                budget,
-            );
+            d = exec.step(&Observation { event: None, ..obs }, budget);
         }
         directives.push(d);
         match d {
@@ -270,7 +266,8 @@ fn an_executor_built_in_place_decides_as_a_new_one() {
                 let a = script(&mut new, 1_000_000);
                 let b = script(&mut reset, 3);
                 assert!(
-                    a.0.iter().any(|d| d.kind == DecisionKind::ReplanStarted(Reason::Discovery))
+                    a.0.iter()
+                        .any(|d| d.kind == DecisionKind::ReplanStarted(Reason::Discovery))
                         || strategy != Strategy::Replan,
                     "{strategy:?}: the script replans after the negatives: {:?}",
                     a.0
@@ -295,8 +292,7 @@ fn values_cross_the_link_unchanged() {
         .stack_size(64 << 20)
         .spawn(move || {
             let mut exec = Box::new(
-                Executor::new(s.config, &model, &s.network, &s.timeline, &s.context, None)
-                    .unwrap(),
+                Executor::new(s.config, &model, &s.network, &s.timeline, &s.context, None).unwrap(),
             );
             let (log, directives) = script(&mut exec, 1_000);
             for d in &log {
