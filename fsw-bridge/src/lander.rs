@@ -135,7 +135,8 @@ pub struct LanderDecision {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum LanderSetupError {
     /// The bytes do not decode as a setup (cut short, a bad tag, a list over its capacity):
-    /// `part` 0 the header, 1 a primitive, 2 a chain; `offset` where reading stopped.
+    /// `part` 0 the header, 1 a primitive, 2 a chain, 3 a downlink problem; `offset` where
+    /// reading stopped.
     Malformed { part: u8, offset: u32 },
     /// The header's format version is not this target's.
     Version { got: u8 },
@@ -159,6 +160,8 @@ pub enum LanderSetupError {
     /// Chain `chain` names a primitive the model does not have, has none, or a task slot or
     /// batch over the search's capacity.
     BadChain { chain: u16 },
+    /// The downlink manager refused the problem (`lander::downlink::DownlinkError`'s index).
+    BadDownlinkProblem { error: u8 },
 }
 
 /// Why a setup or a step was refused.
@@ -206,6 +209,18 @@ pub enum LanderReport {
         index: u16,
         decision: LanderDecision,
     },
+    /// The downlink problem uplinked as `setup` (a blob tagged `lander::setup::
+    /// DOWNLINK_PROBLEM_TAG`) solved by the downlink manager (issue 11's measure of its cost):
+    /// the value downlinked, whether it is proven optimal, the knapsack's nodes, and the
+    /// planner partition's CPU to load and solve it in its windows.
+    DownlinkSolved {
+        setup: u16,
+        value: u64,
+        proven: bool,
+        nodes: u32,
+        ticks: u32,
+        windows: u16,
+    },
     /// Step `seq` answered: its directive; `log_len` decisions in the transcript so far.
     Answer {
         setup: u16,
@@ -227,7 +242,8 @@ impl LanderReport {
             LanderReport::Accepted { setup, .. }
             | LanderReport::Refused { setup, .. }
             | LanderReport::Decision { setup, .. }
-            | LanderReport::Answer { setup, .. } => setup,
+            | LanderReport::Answer { setup, .. }
+            | LanderReport::DownlinkSolved { setup, .. } => setup,
         }
     }
 }
@@ -281,6 +297,14 @@ mod tests {
                     primitive: u8::MAX,
                     kind: LanderDecisionKind::Planned { chains: u8::MAX },
                 },
+            },
+            LanderReport::DownlinkSolved {
+                setup: u16::MAX,
+                value: u64::MAX,
+                proven: true,
+                nodes: u32::MAX,
+                ticks: u32::MAX,
+                windows: u16::MAX,
             },
             LanderReport::Answer {
                 setup: u16::MAX,

@@ -169,6 +169,8 @@ impl Collected {
                     index, decision, ..
                 } => self.decisions.push((index, decision_from_wire(&decision))),
                 LanderReport::Answer { .. } => self.answer = Some(*r),
+                // Taken by `solve_downlink` itself.
+                LanderReport::DownlinkSolved { .. } => {}
             },
             TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::HealthMonitor {
                 partition,
@@ -612,18 +614,18 @@ pub fn windows_ticks_per_sol() -> u64 {
 /// costliest plan or replan (`worst_plan_instructions`), the most frames a step took to be
 /// answered (`worst_step_frames`: the planning latency, 10 ms of target time each), the
 /// planner CPU of the busiest sol (`worst_sol_planner_ticks`), and the CPU to decode, validate
-/// and build the first setup (`setup_build_ticks`). The run must decide as natively.
+/// and build the first setup (`setup_build_ticks`), and the guest instructions of the downlink
+/// manager's solve of the run's products over its downlinks (`downlink_solve_instructions`,
+/// [`mission_downlink_problem`]). The run must decide as natively.
 pub fn lander_metrics(
     scenario: &str,
     firmware: &FirmwareImage,
 ) -> Result<std::collections::BTreeMap<String, u64>, String> {
     let path = crate::repo_root().join(scenario);
     let s = crate::study::load_scenario(&path).map_err(|d| d.render())?;
-    let run = run_emulated(
-        &s,
-        &RunConfig::new(s.run.strategy.strategy(), s.run.seed),
-        firmware,
-    )?;
+    let mut target = EmulatedLander::boot(firmware)?;
+    let run = target.run(&s, &RunConfig::new(s.run.strategy.strategy(), s.run.seed))?;
+    let solve = target.solve_downlink(&mission_downlink_problem(&run.result, &s))?;
     let c = &run.costs;
     let mut m = std::collections::BTreeMap::new();
     let plan = |p: &StepCost| p.guest_instructions;
@@ -641,8 +643,154 @@ pub fn lander_metrics(
         c.ticks_per_sol.iter().copied().max().unwrap_or(0),
     );
     m.insert(
+        "downlink_solve_instructions".into(),
+        solve.guest_instructions,
+    );
+    m.insert(
         "setup_build_ticks".into(),
         c.build_ticks.first().copied().map_or(0, u64::from),
     );
     Ok(m)
+}
+
+/// A downlink problem solved on the target.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct DownlinkSolve {
+    pub value: u64,
+    pub proven: bool,
+    /// Knapsack nodes (the exact surrogate checks' included).
+    pub nodes: u32,
+    /// The planner partition's CPU to load and solve it, and the guest instructions that is.
+    pub ticks: u32,
+    pub guest_instructions: u64,
+    pub windows: u16,
+}
+
+impl EmulatedLander {
+    /// Uplinks `problem` (as a setup-like blob: it ends the executor in force) and grants
+    /// frames until the downlink manager's answer.
+    pub fn solve_downlink(
+        &mut self,
+        problem: &::lander::setup::DownlinkProblem,
+    ) -> Result<DownlinkSolve, String> {
+        let mut buf = vec![0u8; SETUP_BUFFER_BYTES];
+        let n = ::lander::setup::encode_downlink_problem(problem, &mut buf)
+            .map_err(|e| format!("the problem does not encode: {e:?}"))?;
+        buf.truncate(n);
+        let id = self.setup.wrapping_add(1).max(1);
+        self.setup = id;
+        let mut got = Collected::default();
+        for batch in Self::setup_messages(id, &buf).chunks(CHUNKS_PER_BATCH) {
+            for m in batch {
+                self.link.send(m.clone()).map_err(|e| e.to_string())?;
+            }
+            self.exchange(&mut got, None)?;
+        }
+        let mut solved = None;
+        let mut frames = 0;
+        while solved.is_none() {
+            if let Some(r) = got.refused {
+                return Err(format!("the target refused the downlink problem: {r:?}"));
+            }
+            if frames >= MAX_FRAMES_PER_STEP {
+                return Err(format!("no downlink answer after {frames} frames"));
+            }
+            let setup = self.setup;
+            let (end, delivered) = {
+                self.link
+                    .send(HostToTarget::TimeGrant {
+                        frame: self.frame,
+                        now: self.now,
+                        until: self.now.saturating_add(FRAME_US),
+                    })
+                    .map_err(|e| e.to_string())?;
+                let frame = self.frame;
+                let mut done = |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
+                self.link
+                    .exchange(&mut self.target, Some(&mut done))
+                    .map_err(|e| format!("the link: {e}"))?
+            };
+            self.frame = self.frame.wrapping_add(1);
+            self.now = self.now.saturating_add(FRAME_US);
+            frames += 1;
+            for msg in &delivered {
+                self.target.observe(msg);
+                got.take(setup, msg);
+                if let TargetToHost::Lander(LanderReport::DownlinkSolved {
+                    setup: s,
+                    value,
+                    proven,
+                    nodes,
+                    ticks,
+                    windows,
+                }) = *msg
+                {
+                    if s == setup {
+                        solved = Some(DownlinkSolve {
+                            value,
+                            proven,
+                            nodes,
+                            ticks,
+                            guest_instructions: (f64::from(ticks) * INSTRUCTIONS_PER_TICK).round()
+                                as u64,
+                            windows,
+                        });
+                    }
+                }
+            }
+            if let Exchanged::TargetReset(hello) = end {
+                return Err(format!("the target reset ({hello:?})"));
+            }
+        }
+        Ok(solved.expect("the loop waits for it"))
+    }
+}
+
+/// A downlink manager's problem at mission size: every data product a native run of `s` made
+/// (its sizes, values, tiers and creation times) over the downlinks that run made (each from its
+/// dispatch to its planned end, with the scenario's rate, radio power, overhead and thermal
+/// limit; at most 16), each Earth-in-view period's downlinks paying from its `per_sol_wh`
+/// allocation (the scenario's).
+pub fn mission_downlink_problem(
+    result: &RunResult,
+    s: &Scenario,
+) -> ::lander::setup::DownlinkProblem {
+    use ::lander::downlink::{DataProduct, DownlinkOpportunity, SolAllocation};
+    let mut p = ::lander::setup::DownlinkProblem::default();
+    for x in result
+        .products
+        .iter()
+        .take(::lander::capacity::MAX_DATA_PRODUCTS)
+    {
+        let _ = p.products.push(DataProduct {
+            size_bytes: x.bytes,
+            value: x.value_milli,
+            created_at: MissionTimeUs(x.created_us),
+            tier: x.tier,
+        });
+    }
+    let period = s.comms.period_h * sim::HOUR_US;
+    for d in result
+        .downlinks
+        .iter()
+        .take(::lander::capacity::MAX_DOWNLINKS)
+    {
+        let _ = p.opportunities.push(DownlinkOpportunity {
+            start: MissionTimeUs(d.dispatched_us),
+            end: MissionTimeUs(d.end_us.max(d.dispatched_us)),
+            overhead_us: s.comms.overhead_min * sim::MIN_US,
+            sol: (d.dispatched_us / period) as u16,
+            rate_bps: s.comms.rate_bps,
+            radio_power_mw: s.comms.radio_w * 1_000,
+            thermal_limit_us: s.comms.thermal_limit_h * sim::HOUR_US,
+        });
+    }
+    let periods = p.opportunities.last().map_or(0, |o| o.sol + 1);
+    for sol in 0..periods {
+        let _ = p.allocations.push(SolAllocation {
+            sol,
+            energy_mj: s.comms.per_sol_wh * sim::WH_MJ,
+        });
+    }
+    p
 }

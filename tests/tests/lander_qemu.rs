@@ -173,3 +173,65 @@ fn lander_missions_decide_on_the_target_as_natively_and_bad_setups_are_refused()
     assert!(!matches!(directive, Directive::Planning { .. }));
     assert_eq!(decisions, exec.log());
 }
+
+/// The downlink manager at mission size on the target (issue 11's measure): every product of
+/// RSM-1's native run over the downlinks it made, solved in the planner
+/// partition's windows to the same value, proof and node count as natively.
+#[test]
+fn the_downlink_manager_solves_a_mission_size_problem_on_the_target_as_natively() {
+    let _one = hil_tests::exclusive_qemu();
+    let mut target = EmulatedLander::boot(firmware()).unwrap_or_else(|e| panic!("{e}"));
+    for file in ["rsm-1.toml", "elap/01-all-samples-positive.toml"] {
+        let path = hil::repo_root().join("scenarios/lander").join(file);
+        let s = load_scenario(&path).unwrap_or_else(|d| panic!("{}", d.render()));
+        let config = RunConfig::new(s.run.strategy.strategy(), s.run.seed);
+        let run = lander_sim::sim::run(&s, &config).unwrap();
+        let problem = hil::lander_emulated::mission_downlink_problem(&run, &s);
+        assert!(problem.products.len() >= 20 && problem.opportunities.len() >= 8);
+        let mut native = lander::downlink::DownlinkManager::new();
+        native
+            .load(
+                &problem.products,
+                &problem.opportunities,
+                &problem.allocations,
+            )
+            .unwrap();
+        native.solve();
+        let k = native.knapsack();
+        let got = target.solve_downlink(&problem).unwrap();
+        assert_eq!(
+            (got.value, got.proven, u64::from(got.nodes)),
+            (
+                native.downlinked_value(),
+                k.proven_optimal(),
+                k.nodes() + k.bound_nodes()
+            ),
+            "{file}"
+        );
+        assert!(got.proven && got.ticks > 0, "{file}: {got:?}");
+        // RSM-1's comm allowances bind: the knapsack searches (ELAP 1's 11 downlinks carry
+        // everything, its bound proves the greedy assignment at the root).
+        assert!(got.nodes > 0 || file != "rsm-1.toml", "{file}: {got:?}");
+        println!(
+            "{file}: downlink manager, {} products x {} opportunities: value {}, proven, {} nodes, {} guest instructions, {} planner windows",
+            problem.products.len(),
+            problem.opportunities.len(),
+            got.value,
+            got.nodes,
+            got.guest_instructions,
+            got.windows
+        );
+    }
+    // A problem the manager refuses (a downlink before the one before it) is refused by name,
+    // and the target goes on: the executor is built from a setup after it.
+    let s = load_scenario(&hil::repo_root().join("scenarios/lander/bsm-1.toml")).unwrap();
+    let run = lander_sim::sim::run(&s, &RunConfig::new(s.run.strategy.strategy(), 1)).unwrap();
+    let mut problem = hil::lander_emulated::mission_downlink_problem(&run, &s);
+    problem.opportunities.swap(0, 1);
+    let e = target.solve_downlink(&problem).unwrap_err();
+    assert!(e.contains("BadDownlinkProblem { error: 4 }"), "{e}");
+    let got = target
+        .run(&s, &RunConfig::new(s.run.strategy.strategy(), 1))
+        .unwrap();
+    assert!(got.costs.steps > 20);
+}

@@ -15,8 +15,9 @@
 //! region that are not zeroed at its start. Nothing here allocates, and nothing from outside
 //! can make it panic: bad bytes and out-of-order steps are a [`LanderRefusal`].
 use fsw_bridge::lander::{LanderObservation, LanderRefusal, LanderReport, LanderSetupError};
+use lander::downlink::{DownlinkError, DownlinkManager};
 use lander::executor::{Directive, Executor, Observation};
-use lander::setup::{decode_into, LanderSetup};
+use lander::setup::{decode_downlink_problem, decode_into, LanderSetup, DOWNLINK_PROBLEM_TAG};
 use lander::wire::{decision_to_wire, directive_to_wire, observation_from_wire};
 
 use super::*;
@@ -35,6 +36,34 @@ pub struct LanderStorage<'a> {
     /// The decoded setup.
     pub setup: &'a mut LanderSetup,
     pub executor: &'a mut Executor,
+    /// The downlink manager a downlink problem is solved in (the measure of its cost).
+    pub downlink: &'a mut DownlinkManager,
+}
+
+/// Knapsack nodes per downlink manager call while a downlink problem is solved.
+pub const DOWNLINK_NODES_PER_CALL: u32 = 64;
+
+/// A downlink problem being solved.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Solve {
+    setup: u16,
+    ticks: u64,
+    windows: u16,
+    most_call_ticks: u64,
+    /// The last window ran no call: the next runs one anyway.
+    stalled: bool,
+    done: bool,
+}
+
+fn downlink_error_code(e: DownlinkError) -> u8 {
+    match e {
+        DownlinkError::TooManyProducts => 0,
+        DownlinkError::TooManyOpportunities => 1,
+        DownlinkError::TooManySols => 2,
+        DownlinkError::ProductOutOfRange { .. } => 3,
+        DownlinkError::OpportunityOutOfOrder { .. } => 4,
+        DownlinkError::NoAllocation { .. } => 5,
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -56,6 +85,8 @@ struct Pending {
     windows: u16,
     /// The costliest executor call so far, timebase ticks.
     most_call_ticks: u64,
+    /// The last window ran no call (the costliest did not fit it): the next runs one anyway.
+    stalled: bool,
     answer: Option<Directive>,
 }
 
@@ -69,6 +100,7 @@ pub struct LanderApp<'a> {
     pending: Option<Pending>,
     /// Decisions of the executor's log reported so far.
     reported: usize,
+    solve: Option<Solve>,
     /// Setups accepted and refused, steps answered and refused, since the start.
     pub accepted: u32,
     pub refused: u32,
@@ -101,6 +133,7 @@ impl<'a> LanderApp<'a> {
             next_seq: 0,
             pending: None,
             reported: 0,
+            solve: None,
             accepted: 0,
             refused: 0,
             answered: 0,
@@ -145,6 +178,7 @@ impl<'a> LanderApp<'a> {
         self.active = None;
         self.pending = None;
         self.upload = None;
+        self.solve = None;
         let capacity = self
             .storage
             .as_ref()
@@ -204,6 +238,30 @@ impl<'a> LanderApp<'a> {
             self.refuse(setup, None, LanderRefusal::BadCrc { computed }, downlink);
             return;
         }
+        if all.first() == Some(&DOWNLINK_PROBLEM_TAG) {
+            let loaded = decode_downlink_problem(all).and_then(|p| {
+                storage
+                    .downlink
+                    .load(&p.products, &p.opportunities, &p.allocations)
+                    .map_err(|e| LanderSetupError::BadDownlinkProblem {
+                        error: downlink_error_code(e),
+                    })
+            });
+            match loaded {
+                Err(e) => self.refuse(setup, None, LanderRefusal::BadSetup(e), downlink),
+                Ok(()) => {
+                    self.solve = Some(Solve {
+                        setup,
+                        ticks: clock.ticks().wrapping_sub(t0),
+                        windows: 0,
+                        most_call_ticks: 0,
+                        stalled: false,
+                        done: false,
+                    })
+                }
+            }
+            return;
+        }
         if let Err(e) = decode_into(all, storage.setup) {
             self.refuse(setup, None, LanderRefusal::BadSetup(e), downlink);
             return;
@@ -261,6 +319,7 @@ impl<'a> LanderApp<'a> {
             ticks: 0,
             windows: 0,
             most_call_ticks: 0,
+            stalled: false,
             answer: None,
         });
     }
@@ -293,9 +352,11 @@ impl<'a> LanderApp<'a> {
     }
 
     /// Runs the pending step within `until` on `clock` (None: to its answer). The first call
-    /// of a window runs whatever it costs when it fits before `hard_until`, or when the last
-    /// window ran none (progress).
+    /// of a window runs when it fits before `hard_until` (going by the costliest call so far),
+    /// or whatever it costs when the last window ran none (progress: a call that fits no window
+    /// overruns one, and the kernel's health monitor reports it).
     pub fn run(&mut self, clock: &mut dyn CpuClock, until: Option<u64>, hard_until: Option<u64>) {
+        self.run_solve(clock, until, hard_until);
         let (Some(p), Some(storage)) = (self.pending.as_mut(), self.storage.as_mut()) else {
             return;
         };
@@ -305,12 +366,11 @@ impl<'a> LanderApp<'a> {
         let t0 = clock.ticks();
         let mut now = t0;
         let mut calls = 0u32;
-        let stalled = p.windows > 0 && p.ticks == 0;
         loop {
             if let Some(u) = until {
                 let end = now.saturating_add(p.most_call_ticks);
                 let fits = if calls == 0 {
-                    now < u && (end <= hard_until.unwrap_or(u) || stalled)
+                    now < u && (end <= hard_until.unwrap_or(u) || p.stalled)
                 } else {
                     end <= u
                 };
@@ -332,12 +392,66 @@ impl<'a> LanderApp<'a> {
                 break;
             }
         }
+        p.stalled = calls == 0;
         p.ticks = p.ticks.wrapping_add(now.wrapping_sub(t0));
         p.windows = p.windows.saturating_add(1);
     }
 
+    /// The downlink problem's knapsack within `until`, as a step's search.
+    fn run_solve(&mut self, clock: &mut dyn CpuClock, until: Option<u64>, hard_until: Option<u64>) {
+        let (Some(sv), Some(storage)) = (self.solve.as_mut(), self.storage.as_mut()) else {
+            return;
+        };
+        if sv.done {
+            return;
+        }
+        let t0 = clock.ticks();
+        let mut now = t0;
+        let mut calls = 0u32;
+        loop {
+            if let Some(u) = until {
+                let end = now.saturating_add(sv.most_call_ticks);
+                let fits = if calls == 0 {
+                    now < u && (end <= hard_until.unwrap_or(u) || sv.stalled)
+                } else {
+                    end <= u
+                };
+                if !fits {
+                    break;
+                }
+            }
+            let step = storage.downlink.step(DOWNLINK_NODES_PER_CALL);
+            calls += 1;
+            let after = clock.ticks();
+            sv.most_call_ticks = sv.most_call_ticks.max(after.wrapping_sub(now));
+            now = after;
+            if step.done {
+                sv.done = true;
+                break;
+            }
+        }
+        sv.stalled = calls == 0;
+        sv.ticks = sv.ticks.wrapping_add(now.wrapping_sub(t0));
+        sv.windows = sv.windows.saturating_add(1);
+    }
+
     /// Hands out the answered step's decisions and answer, at most `room` messages.
     pub fn report_to(&mut self, mut room: usize, downlink: &mut dyn Downlink) {
+        if let (Some(sv), Some(storage), true) = (self.solve, self.storage.as_ref(), room > 0) {
+            if sv.done {
+                let k = storage.downlink.knapsack();
+                downlink.send(TargetToHost::Lander(LanderReport::DownlinkSolved {
+                    setup: sv.setup,
+                    value: storage.downlink.downlinked_value(),
+                    proven: k.proven_optimal(),
+                    nodes: sat32(k.nodes().saturating_add(k.bound_nodes())),
+                    ticks: sat32(sv.ticks),
+                    windows: sv.windows,
+                }));
+                self.solve = None;
+                room -= 1;
+            }
+        }
         let (Some(p), Some(setup), Some(storage)) =
             (self.pending, self.active, self.storage.as_ref())
         else {
@@ -385,11 +499,11 @@ impl PlannerPlugin for LanderApp<'_> {
     }
 
     fn planning_pending(&self) -> bool {
-        self.pending.is_some_and(|p| p.answer.is_none())
+        self.pending.is_some_and(|p| p.answer.is_none()) || self.solve.is_some_and(|s| !s.done)
     }
 
     fn busy(&self) -> bool {
-        self.pending.is_some_and(|p| p.answer.is_some())
+        self.pending.is_some_and(|p| p.answer.is_some()) || self.solve.is_some_and(|s| s.done)
     }
 
     fn window(&mut self, w: &mut PluginWindow<'_, '_>) {

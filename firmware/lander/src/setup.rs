@@ -331,3 +331,47 @@ pub fn validate(setup: &LanderSetup) -> Result<(), LanderSetupError> {
     }
     Ok(())
 }
+
+/// The first byte of an uplinked downlink-manager problem ([`DownlinkProblem`]), where a setup
+/// has its format version: the planner partition solves it (the downlink manager's cost on the
+/// target, issue 11's measure) instead of building an executor.
+pub const DOWNLINK_PROBLEM_TAG: u8 = 0xd1;
+
+/// A downlink manager's problem (Appendix A): what [`DownlinkManager::load`] takes.
+///
+/// [`DownlinkManager::load`]: crate::downlink::DownlinkManager::load
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DownlinkProblem {
+    pub products: Vec<crate::downlink::DataProduct, MAX_DATA_PRODUCTS>,
+    pub opportunities: Vec<crate::downlink::DownlinkOpportunity, MAX_DOWNLINKS>,
+    pub allocations: Vec<crate::downlink::SolAllocation, MAX_SOLS>,
+}
+
+/// Writes `problem` into `out` after [`DOWNLINK_PROBLEM_TAG`]; the bytes written.
+pub fn encode_downlink_problem(
+    problem: &DownlinkProblem,
+    out: &mut [u8],
+) -> Result<usize, EncodeError> {
+    let (tag, rest) = out.split_first_mut().ok_or(EncodeError::BufferFull)?;
+    *tag = DOWNLINK_PROBLEM_TAG;
+    let n = postcard::to_slice(problem, rest)
+        .map_err(|_| EncodeError::BufferFull)?
+        .len();
+    Ok(n + 1)
+}
+
+/// Decodes a downlink problem (after its tag); the manager's own `load` checks the rest.
+pub fn decode_downlink_problem(bytes: &[u8]) -> Result<DownlinkProblem, LanderSetupError> {
+    let body = match bytes.split_first() {
+        Some((&DOWNLINK_PROBLEM_TAG, body)) => body,
+        _ => return Err(LanderSetupError::Malformed { part: 3, offset: 0 }),
+    };
+    let (p, rest) = postcard::take_from_bytes::<DownlinkProblem>(body)
+        .map_err(|_| LanderSetupError::Malformed { part: 3, offset: 1 })?;
+    if !rest.is_empty() {
+        return Err(LanderSetupError::TrailingBytes {
+            offset: offset_of(bytes, rest),
+        });
+    }
+    Ok(p)
+}

@@ -1,7 +1,8 @@
 //! The Europa Lander's executor in the planner partition (issues 11 and 12): the memory of its
 //! plug-in (`flight_app::LanderApp`) and the calls the partition's loop makes.
 //!
-//! The setup's bytes (64 KiB), the decoded setup and the executor are statics in
+//! The setup's bytes (64 KiB), the decoded setup, the executor and a downlink manager (for
+//! the measure of its cost on a problem uplinked the same way) are statics in
 //! `.bss.noinit.planner`, like the temporal planner's arena: in the partition's region, after
 //! its zeroed statics, never zeroed by the partition's start, so they cost no boot or recovery
 //! time. The plug-in zeroes the setup and the executor once, when the first lander message
@@ -13,6 +14,7 @@ use core::ptr::addr_of_mut;
 use flight_app::{LanderApp, LanderStorage, PlannerPlugin, PluginWindow, MAX_LANDER_SETUP_BYTES};
 use fsw_bridge::HostToTarget;
 use kernel_config::system::PLANNER_WINDOW_TICKS;
+use lander::downlink::DownlinkManager;
 use lander::executor::Executor;
 use lander::setup::LanderSetup;
 
@@ -31,6 +33,9 @@ static mut SETUP: MaybeUninit<LanderSetup> = MaybeUninit::uninit();
 
 #[link_section = ".bss.noinit.planner"]
 static mut EXECUTOR: MaybeUninit<Executor> = MaybeUninit::uninit();
+
+#[link_section = ".bss.noinit.planner"]
+static mut DOWNLINK: MaybeUninit<DownlinkManager> = MaybeUninit::uninit();
 
 #[link_section = ".bss.part.planner"]
 static mut APP: MaybeUninit<LanderApp<'static>> = MaybeUninit::uninit();
@@ -55,18 +60,22 @@ fn give_storage(app: &mut LanderApp<'static>) {
     // of these, an enum with a data-carrying variant that has no niche (tagged: tag 0 is its
     // first, dataless variant: the executor's mode Ready, the search's stage Idle), or a
     // heapless Vec (a length and MaybeUninit storage: empty when zero); no reference, NonZero
-    // or function pointer. So all-zero bytes are a valid LanderSetup and Executor, which the
-    // plug-in overwrites (`decode_into`, `Executor::reset`) before using them. The bytes'
+    // or function pointer. So all-zero bytes are a valid LanderSetup, Executor and
+    // DownlinkManager, which the plug-in overwrites (`decode_into`, `Executor::reset`,
+    // `DownlinkManager::load`) before using them. The bytes'
     // buffer holds whatever the RAM held (defined bytes); only bytes received are read.
     let storage = unsafe {
         let setup = addr_of_mut!(SETUP) as *mut LanderSetup;
         let executor = addr_of_mut!(EXECUTOR) as *mut Executor;
         core::ptr::write_bytes(setup, 0, 1);
         core::ptr::write_bytes(executor, 0, 1);
+        let manager = addr_of_mut!(DOWNLINK) as *mut DownlinkManager;
+        core::ptr::write_bytes(manager, 0, 1);
         LanderStorage {
             bytes: &mut *(addr_of_mut!(SETUP_BYTES) as *mut [u8; MAX_LANDER_SETUP_BYTES]),
             setup: &mut *setup,
             executor: &mut *executor,
+            downlink: &mut *manager,
         }
     };
     app.give_storage(storage);
