@@ -528,21 +528,7 @@ pub fn cli_run(
     s: &Scenario,
     args: &crate::lander::LanderRunArgs,
 ) -> Result<Result<crate::lander::LanderOutcome, String>, String> {
-    let fw = match &args.firmware {
-        Some(elf) => {
-            if !elf.exists() {
-                return Err(format!(
-                    "--firmware {}: no such file (give the firmware ELF, or leave --firmware out to build it)",
-                    elf.display()
-                ));
-            }
-            FirmwareImage::open(elf).map_err(|e| e.to_string())?
-        }
-        None => {
-            eprintln!("building firmware (cargo, powerpc-unknown-linux-gnu) ...");
-            crate::firmware::build().map_err(|e| e.to_string())?
-        }
-    };
+    let fw = firmware_for(args.firmware.as_deref())?;
     let seed = args.seed.unwrap_or(s.run.seed);
     let strategy = args.strategy.unwrap_or(s.run.strategy);
     let run = match run_emulated(s, &RunConfig::new(strategy.strategy(), seed), &fw) {
@@ -559,6 +545,25 @@ pub fn cli_run(
         verdicts,
         wall: run.costs.wall,
     }))
+}
+
+/// The firmware `--firmware` names, or the one built now.
+pub fn firmware_for(elf: Option<&std::path::Path>) -> Result<FirmwareImage, String> {
+    match elf {
+        Some(elf) => {
+            if !elf.exists() {
+                return Err(format!(
+                    "--firmware {}: no such file (give the firmware ELF, or leave --firmware out to build it)",
+                    elf.display()
+                ));
+            }
+            FirmwareImage::open(elf).map_err(|e| e.to_string())
+        }
+        None => {
+            eprintln!("building firmware (cargo, powerpc-unknown-linux-gnu) ...");
+            crate::firmware::build().map_err(|e| e.to_string())
+        }
+    }
 }
 
 /// The emulated costs, readable.

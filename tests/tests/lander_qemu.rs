@@ -235,3 +235,24 @@ fn the_downlink_manager_solves_a_mission_size_problem_on_the_target_as_natively(
         .unwrap();
     assert!(got.costs.steps > 20);
 }
+
+/// `hil study --emulated` (issue 12's emulated subset): the strategy study with every run's
+/// decisions made on the target (one run per cell here, 12 runs of BSM-1; the README's has 5)
+/// is the native study, run for run.
+#[test]
+fn the_strategy_study_on_the_target_is_the_native_study() {
+    use lander_sim::study::{run_study, run_study_with, StudyConfig};
+    let path = hil::repo_root().join("scenarios/lander/bsm-1.toml");
+    let s = load_scenario(&path).unwrap_or_else(|d| panic!("{}", d.render()));
+    let config = StudyConfig::new(s, 1, 1);
+    let native = run_study(&config, None, &mut |_| {}).unwrap();
+    let _one = hil_tests::exclusive_qemu();
+    let mut target = EmulatedLander::boot(firmware()).unwrap_or_else(|e| panic!("{e}"));
+    let mut runs = 0;
+    let emulated = run_study_with(&config, None, &mut |_| runs += 1, &mut |s, c| {
+        target.run(s, c).map(|r| r.result)
+    })
+    .unwrap();
+    assert_eq!(runs, 12);
+    assert_eq!(emulated, native);
+}
