@@ -146,6 +146,9 @@ pub struct EmulatedLander {
     pub costs: EmulatedCosts,
     /// Health-monitor events seen.
     pub health_events: Vec<String>,
+    /// Applied to every setup before it goes up (tests make the target decide differently
+    /// from the shadow with it; None in use).
+    pub perturb_setup: Option<fn(&mut LanderSetup)>,
 }
 
 /// What the planner partition said about a setup or a step.
@@ -211,6 +214,7 @@ impl EmulatedLander {
             transcript: Transcript::default(),
             costs: EmulatedCosts::default(),
             health_events: Vec::new(),
+            perturb_setup: None,
         })
     }
 
@@ -377,13 +381,16 @@ impl StepWatch for EmulatedLander {
         timeline: &TimelinePlacement,
         context: &::lander::assessor::ScienceContext,
     ) -> Result<(), String> {
-        let setup = LanderSetup {
+        let mut setup = LanderSetup {
             config,
             primitives: model.primitives.clone(),
             network: network.clone(),
             timeline: timeline.clone(),
             context: context.clone(),
         };
+        if let Some(perturb) = self.perturb_setup {
+            perturb(&mut setup);
+        }
         self.load(&setup).map(|_| ())
     }
 
@@ -798,4 +805,18 @@ pub fn mission_downlink_problem(
         });
     }
     p
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_missing_firmware_is_a_clear_error() {
+        let e = super::firmware_for(Some(std::path::Path::new("/nonexistent/rad750-firmware")))
+            .err()
+            .expect("no firmware");
+        assert!(
+            e.contains("--firmware /nonexistent/rad750-firmware: no such file"),
+            "{e}"
+        );
+    }
 }

@@ -70,6 +70,20 @@ fn lander_missions_decide_on_the_target_as_natively_and_bad_setups_are_refused()
         );
     }
 
+    // A target that decides differently from the shadow (its setup's exploration bound
+    // changed on the way up) ends the run at the first different step, named, and stays up.
+    let path = hil::repo_root().join("scenarios/lander/bsm-1.toml");
+    let s = load_scenario(&path).unwrap();
+    let config = RunConfig::new(s.run.strategy.strategy(), s.run.seed);
+    target.perturb_setup = Some(|setup| setup.config.exploration_bound = Some(2));
+    let e = target.run(&s, &config).expect_err("diverges");
+    assert!(
+        e.starts_with("DIVERGED at step 0 (setup") && e.contains("decisions: target"),
+        "{e}"
+    );
+    target.perturb_setup = None;
+    assert!(target.run(&s, &config).is_ok());
+
     // Bad setups and steps, each refused with its reason; the target stays up.
     let s = load_scenario(&hil::repo_root().join("scenarios/lander/bsm-1.toml")).unwrap();
     let (model, network, timeline, context) = autonomy_inputs(&s, false).unwrap();
