@@ -811,9 +811,11 @@ pub fn mission_downlink_problem(
 mod tests {
     #[test]
     fn a_missing_firmware_is_a_clear_error() {
-        let e = super::firmware_for(Some(std::path::Path::new("/nonexistent/rad750-firmware")))
-            .err()
-            .expect("no firmware");
+        let Err(e) =
+            super::firmware_for(Some(std::path::Path::new("/nonexistent/rad750-firmware")))
+        else {
+            panic!("no firmware, yet an image");
+        };
         assert!(
             e.contains("--firmware /nonexistent/rad750-firmware: no such file"),
             "{e}"
