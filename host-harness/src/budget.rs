@@ -189,6 +189,8 @@ pub struct Row {
     /// (measured - baseline) / baseline, in percent.
     pub change_percent: Option<f64>,
     pub over_budget: bool,
+    /// The goal beside the budget, where it has one.
+    pub goal: Option<u64>,
     pub description: String,
     /// Why it could not be measured.
     pub missing: Option<String>,
@@ -219,6 +221,7 @@ pub fn evaluate(
                     _ => None,
                 },
                 over_budget: value.is_some_and(|v| v > b.spec.max),
+                goal: b.spec.goal,
                 description: b.spec.description.clone(),
                 missing: if value.is_none() {
                     Some(
@@ -273,6 +276,19 @@ pub fn table(rows: &[Row]) -> String {
                 String::new()
             }
         ));
+    }
+    // The issues' goals where a budget has one beside it: reached or not.
+    for r in rows {
+        if let (Some(goal), Some(v)) = (r.goal, r.measured) {
+            out.push_str(&format!(
+                "goal {}: {} of {} {}: {}\n",
+                r.quantity,
+                group(v),
+                group(goal),
+                r.unit.name(),
+                if v <= goal { "met" } else { "NOT MET" }
+            ));
+        }
     }
     out
 }
@@ -453,6 +469,44 @@ mod tests {
         assert!(off[0].starts_with("slow: 120 ticks measured, budget 100"));
         assert!(off[1].starts_with("gone: not measured"));
         assert!(table(&rows).contains("OVER BUDGET"));
+    }
+
+    #[test]
+    fn goals_lander_and_symbol_sources_parse_and_a_goal_is_reported_met_or_not() {
+        let b = budgets("[[budget]]\nquantity = \"plan\"\nunit = \"instructions\"\nmax = 100\ngoal = 50\nsource = \"lander:scenarios/lander/rsm-1.toml:first_plan_instructions\"\n[[budget]]\nquantity = \"ram\"\nunit = \"bytes\"\nmax = 100\ngoal = 90\nsource = \"sym:task_planner::lander::EXECUTOR+task_planner::lander::APP\"\n").unwrap();
+        assert_eq!(
+            b[0].source,
+            Source::Lander {
+                scenario: "scenarios/lander/rsm-1.toml".into(),
+                metric: "first_plan_instructions".into()
+            }
+        );
+        assert_eq!(
+            b[1].source,
+            Source::Symbols {
+                prefix: "task_planner::lander::EXECUTOR+task_planner::lander::APP".into()
+            }
+        );
+        let mut m = Measurements::new();
+        m.insert(b[0].source.clone(), 70);
+        m.insert(b[1].source.clone(), 80);
+        let t = table(&evaluate(&b, &m, &BTreeMap::new(), &BTreeMap::new()));
+        assert!(
+            t.contains("goal plan: 70 of 50 instructions: NOT MET"),
+            "{t}"
+        );
+        assert!(t.contains("goal ram: 80 of 90 bytes: met"), "{t}");
+        assert!(Source::parse("sym:").is_err());
+        assert!(Source::parse("lander:x.toml").is_err());
+    }
+
+    #[test]
+    fn legacy_symbols_demangle_to_their_paths() {
+        assert_eq!(
+            demangle_legacy("_ZN12task_planner6lander8EXECUTOR17h0123456789abcdefE"),
+            "task_planner::lander::EXECUTOR"
+        );
+        assert_eq!(demangle_legacy("memcpy"), "memcpy");
     }
 }
 
