@@ -7,7 +7,7 @@
 //! step for no setup are refused with their reason, and the target goes on as before.
 //!
 //! The missions are the shipped files at their seeds, full length (12 sols; a run is a few
-//! seconds of QEMU: the target answers a step in one or two 10 ms frames, a replan in a few).
+//! seconds of QEMU: the target answers a step in one 10 ms frame, a replan in one to a few hundred).
 use fsw_bridge::lander::{LanderRefusal, LanderReport, LanderSetupError};
 use fsw_bridge::MissionTimeUs;
 use hil::lander_emulated::{EmulatedLander, Recorder};
