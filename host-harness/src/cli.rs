@@ -103,6 +103,11 @@ enum Command {
     /// Plan a temporal PDDL problem with the onboard temporal planner (seed 001): print the
     /// plan, its makespan, the search statistics and the planner's peak arena bytes.
     Plan(hil::plan::PlanArgs),
+    /// The planetary rover mission (seed 001): `hil rover run FILE [--emulated] [--json]` plans,
+    /// dispatches with start windows, replans on overruns and opportunistic goals, and checks
+    /// the file's expectations; exit 0 all met, 1 one failed, 2 bad input.
+    #[command(subcommand)]
+    Rover(hil::rover::RoverCommand),
     /// The target's non-volatile memory image: provision the key that authenticates uplinks and
     /// ground commands, or show what it holds.
     Nv {
@@ -409,6 +414,7 @@ fn execute(command: Command) -> Result<ExitCode, String> {
         Command::Study(args) => hil::study::cli(args),
         Command::Lander(command) => hil::lander::cli(command),
         Command::Plan(args) => hil::plan::cli(args),
+        Command::Rover(command) => hil::rover::cli(command),
         Command::Bench {
             what: Some(BenchWhat::Kernel { frames, json }),
             ..

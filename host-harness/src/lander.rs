@@ -7,7 +7,9 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use lander_sim::expect::{self, Verdict};
+use lander_sim::report::{self, LanderReport};
 use lander_sim::scenario::{Scenario, StrategyName};
+use lander_sim::sim::trace::{Recording, Trace};
 use lander_sim::sim::{self, RunConfig, RunResult};
 
 use crate::study::load_scenario;
@@ -16,12 +18,17 @@ use crate::study::load_scenario;
 #[derive(Clone, Debug, clap::Subcommand)]
 pub enum LanderCommand {
     /// Run one lander scenario natively and check its expectations (PASS/FAIL each).
+    ///
+    /// `--report DIR` writes the long-mission report: HTML with a Gantt chart over sols,
+    /// battery, data-on-board and utility timelines and the downlinks per tier, with its data
+    /// as JSON and CSV. A progress bar (mission hours) shows on stderr when it is a terminal,
+    /// never in piped output or the JSON.
     Run(LanderRunArgs),
 }
 
 #[derive(Clone, Debug, clap::Args)]
 pub struct LanderRunArgs {
-    /// Lander scenario (TOML), e.g. scenarios/lander/elap/sudden-low-battery.toml
+    /// Lander scenario (TOML), e.g. scenarios/lander/elap/08-sudden-low-battery.toml
     pub scenario: PathBuf,
     /// Seed (default: the scenario's `run.seed`).
     #[arg(long)]
@@ -29,6 +36,14 @@ pub struct LanderRunArgs {
     /// Strategy: static, ground, fe or replan (default: the scenario's `run.strategy`).
     #[arg(long, value_parser = parse_strategy)]
     pub strategy: Option<StrategyName>,
+    /// Write the mission report into this directory: report.html (self-contained, inline SVG:
+    /// a Gantt chart over sols of every dispatched primitive by kind and site, with failures,
+    /// retries, replans and ground halts marked over Earth-in-view bands; the battery's charge
+    /// and the data on board over time; the utility realised, which rises only when a
+    /// downlink's data reaches Earth; each downlink's products and volume per tier), plus
+    /// report.json, primitives.csv, timeline.csv, utility.csv and downlinks.csv.
+    #[arg(long, value_name = "DIR")]
+    pub report: Option<PathBuf>,
     /// Write the run's result and verdicts (JSON) here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -169,6 +184,8 @@ pub fn summary(o: &LanderOutcome) -> String {
 
 fn run_file(path: &Path, args: &LanderRunArgs) -> Result<ExitCode, String> {
     let scenario = load_scenario(path).map_err(|d| d.render())?;
+    // The run is recorded (the report, the progress bar) however it is made.
+    let recording = start_recording(&scenario);
     println!("hil lander run {} — {}", path.display(), scenario.name);
     let outcome = if args.emulated {
         match crate::lander_emulated::cli_run(&scenario, args)? {
@@ -183,16 +200,38 @@ fn run_file(path: &Path, args: &LanderRunArgs) -> Result<ExitCode, String> {
         run_checked(&scenario, args.seed, args.strategy)?
     };
     print!("{}", summary(&outcome));
+    let trace = recording.finish();
     if let Some(p) = &args.json {
         let text = serde_json::to_string_pretty(&outcome).map_err(|e| e.to_string())?;
         std::fs::write(p, text + "\n").map_err(|e| format!("cannot write {}: {e}", p.display()))?;
         println!("  result: {}", p.display());
+    }
+    if let Some(dir) = &args.report {
+        let strategy = format!("{:?}", outcome.strategy);
+        let report = LanderReport::new(&scenario, &strategy, outcome.result.clone(), trace);
+        report::write_dir(&report, dir)?;
+        println!("  report: {}", dir.join("report.html").display());
     }
     Ok(if outcome.passed() {
         ExitCode::SUCCESS
     } else {
         ExitCode::from(1)
     })
+}
+
+/// A recording of the run about to be made on this thread, with a progress bar in mission
+/// hours on stderr when it is a terminal (cleared when the run ends).
+fn start_recording(s: &Scenario) -> Recording {
+    let bar = crate::progress::bar(
+        sim::horizon_us(s) / sim::HOUR_US,
+        "  {bar:40} {pos}/{len} mission hours",
+    );
+    let mut trace = Trace::new(s);
+    trace.on_progress(move |now| match now {
+        Some(t) => bar.set_position(t / sim::HOUR_US),
+        None => bar.finish_and_clear(),
+    });
+    Recording::start(trace)
 }
 
 /// The `hil lander` command.

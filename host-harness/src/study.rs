@@ -137,11 +137,8 @@ pub fn cli(args: StudyArgs) -> Result<ExitCode, String> {
                 shard.map_or(String::new(), |s| format!(", shard {s}")),
                 jobs
             );
-            let bar = indicatif::ProgressBar::new(jobs);
-            bar.set_style(
-                indicatif::ProgressStyle::with_template("  {bar:40} {pos}/{len} runs")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-            );
+            // On stderr, only when it is a terminal.
+            let bar = crate::progress::bar(jobs, "  {bar:40} {pos}/{len} runs");
             let started = Instant::now();
             let shard = shard.map(|s| (s.k, s.n));
             let report = if args.emulated {

@@ -489,3 +489,22 @@ fn a_qemu_that_dies_mid_mission_ends_the_run_with_an_error_naming_it() {
     drop(target);
     assert!(hil::cleanup::started_processes().is_empty());
 }
+
+/// `hil ... | head`: a reader that goes away early ends `hil` quietly with 141 (128 + SIGPIPE),
+/// as a Unix tool does, instead of a panic message (the read end is closed before `hil` starts,
+/// so its first line already meets the broken pipe).
+#[test]
+fn a_closed_stdout_ends_hil_quietly() {
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_hil"))
+        .args(["rover", "run", "scenarios/rover/sahara-day.toml"])
+        .current_dir(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(".."))
+        .stdout(writer)
+        .stderr(std::process::Stdio::piped())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(141), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+}

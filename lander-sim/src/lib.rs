@@ -5,9 +5,12 @@
 //!   `lander::executor` through its `Observation`/`Directive` step.
 //! - [`study`]: BSM-1 under the four strategies and three energy variants, the statistics, the
 //!   analytical model of equations 2-5, the JSON report, shard merging, and the SVG plot.
+//! - [`report`]: the long-mission report (Gantt over sols, battery, data and utility
+//!   timelines, downlinks per tier) from a run and its [`sim::trace`].
 //! - [`expect`]: a scenario's success criteria (`[[expect]]`), checked against a run.
 //! - [`rng`]: the seeded streams.
 pub mod expect;
+pub mod report;
 pub mod rng;
 pub mod scenario;
 pub mod sim;

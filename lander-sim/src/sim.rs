@@ -55,6 +55,8 @@ use crate::scenario::{milli, ppm, Scenario};
 
 pub const MIN_US: u64 = 60_000_000;
 
+pub mod trace;
+
 /// How a run is configured beyond its scenario.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RunConfig {
@@ -1234,6 +1236,7 @@ pub fn run_watched(
     };
     let mut end = EndReason::MissionEnd;
     for _ in 0..1_000_000 {
+        trace::with(|t| t.loop_top(&world));
         if world.dead {
             end = EndReason::BatteryExhausted;
             break;
@@ -1321,6 +1324,7 @@ pub fn run_watched(
                 break;
             }
         }
+        trace::with(|t| t.step(&world, &directive, exec.stats()));
         match directive {
             Directive::Dispatch {
                 chain, primitive, ..
@@ -1341,6 +1345,9 @@ pub fn run_watched(
                 dispatched += 1;
                 let start = world.now;
                 let (outcome, class) = world.execute(chain, primitive, &spec);
+                trace::with(|t| {
+                    t.dispatched(&world, chain, primitive, &spec, start, &outcome, class)
+                });
                 if let Some(f) = failures.get_mut(usize::from(class)) {
                     *f += 1;
                 }
@@ -1445,6 +1452,7 @@ pub fn run_watched(
             }
         }
     }
+    trace::with(|t| t.end(&world));
     if world.dead {
         end = EndReason::BatteryExhausted;
     }

@@ -11,7 +11,7 @@
 //! The parts: [`task`] (the binary task), [`constraints`] (the compact serialised encoding of
 //! temporal constraints), [`stn`] (temporal consistency), [`dispatch`] (flexible
 //! dispatch of a plan, section 5.2), [`opportunistic`] (dropping an opportunistic goal that makes planning
-//! fail, section 5.3), [`heuristic`] (FF on the temporal
+//! fail, section 5.3), [`replan`] (replanning from the middle of a plan, sections 5.1-5.3), [`heuristic`] (FF on the temporal
 //! relaxation, with running-action facts and preferred operators), [`search`] (the planner).
 #![no_std]
 #![forbid(unsafe_code)]
@@ -21,6 +21,7 @@ pub mod constraints;
 pub mod dispatch;
 pub mod heuristic;
 pub mod opportunistic;
+pub mod replan;
 pub mod search;
 pub mod stn;
 pub mod task;

@@ -523,6 +523,17 @@ impl<'a> Task<'a> {
         let at = read_u32(self.bytes, self.offsets_at + 4 * a) as usize;
         read_action(self.bytes, at)
     }
+    /// The bytes of action `a`'s record (`a < action_count()`), for tasks written from this
+    /// one (a replan, [`crate::replan`]).
+    pub fn action_record(&self, a: usize) -> &'a [u8] {
+        let at = read_u32(self.bytes, self.offsets_at + 4 * a) as usize;
+        let act = read_action(self.bytes, at);
+        let (mut end, n) = act.numeric_list(4);
+        for _ in 0..n {
+            end = linear_at(self.bytes, end, true).1;
+        }
+        self.bytes.get(at..end).unwrap_or(&[])
+    }
     /// The action's name, as the front end wrote it (`(navigate rover0 waypoint1 waypoint2)`).
     pub fn action_name(&self, a: usize) -> &'a str {
         let mut at = self.names_at;
