@@ -209,18 +209,6 @@ pub enum LanderReport {
         index: u16,
         decision: LanderDecision,
     },
-    /// The downlink problem uplinked as `setup` (a blob tagged `lander::setup::
-    /// DOWNLINK_PROBLEM_TAG`) solved by the downlink manager (issue 11's measure of its cost):
-    /// the value downlinked, whether it is proven optimal, the knapsack's nodes, and the
-    /// planner partition's CPU to load and solve it in its windows.
-    DownlinkSolved {
-        setup: u16,
-        value: u64,
-        proven: bool,
-        nodes: u32,
-        ticks: u32,
-        windows: u16,
-    },
     /// Step `seq` answered: its directive; `log_len` decisions in the transcript so far.
     Answer {
         setup: u16,
@@ -231,6 +219,19 @@ pub enum LanderReport {
         /// (saturated; 0 natively).
         ticks: u32,
         /// Planner windows the step ran in.
+        windows: u16,
+    },
+    /// The downlink problem uplinked as `setup` (a blob tagged
+    /// `lander::setup::DOWNLINK_PROBLEM_TAG`) solved by the downlink manager (issue 11's
+    /// measure of its cost): the value downlinked, whether it is proven optimal, the knapsack's
+    /// nodes, and the planner partition's CPU to load and solve it in its windows. (After
+    /// Answer: variants are only ever appended, so recorded messages keep decoding.)
+    DownlinkSolved {
+        setup: u16,
+        value: u64,
+        proven: bool,
+        nodes: u32,
+        ticks: u32,
         windows: u16,
     },
 }
