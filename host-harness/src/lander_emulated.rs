@@ -404,17 +404,19 @@ impl StepWatch for EmulatedLander {
         self.step_no += 1;
         let at = observation.now.0;
         let (setup, seq_now) = (self.setup, self.seq);
-        let diverged = move |what: String| {
+        let verdict = move |what: &str, why: String| {
             format!(
-                "DIVERGED at step {step} (setup {setup}, step {seq_now} of it, mission time {:.3} h): {what}",
+                "{what} at step {step} (setup {setup}, step {seq_now} of it, mission time {:.3} h): {why}",
                 at as f64 / 3.6e9
             )
         };
+        let diverged = move |why: String| verdict("DIVERGED", why);
         let seq = self.seq;
         let (decisions, got, answer, frames) = match self.step_raw(seq, observation) {
             Ok(Ok(a)) => a,
             Ok(Err(r)) => return Err(diverged(format!("the target refused the step: {r:?}"))),
-            Err(e) => return Err(diverged(e)),
+            // The link or the target failed: no answer to compare.
+            Err(e) => return Err(verdict("NO ANSWER", e)),
         };
         self.seq += 1;
         let shadow = exec.log().get(self.seen..).unwrap_or(&[]);
