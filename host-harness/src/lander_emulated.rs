@@ -9,8 +9,9 @@
 //! `LanderStep`, and the host grants frames in lockstep until the target's answer: the
 //! decisions logged since the last answer, then the directive. Both are compared with the
 //! shadow's at every step; the first difference ends the run with a verdict naming the step
-//! (and a target that does not answer within [`MAX_FRAMES_PER_STEP`] frames ends it too:
-//! never a hang). So a run that ends is one whose every decision was made, identically, by the
+//! (`DIVERGED at step N ...`), and a target that does not answer (within
+//! [`MAX_FRAMES_PER_STEP`] frames, or a lost link) ends it too (`NO ANSWER at step N ...`):
+//! never a hang. So a run that ends is one whose every decision was made, identically, by the
 //! target.
 //!
 //! Costs are guest CPU (the planner partition's timebase ticks, and the guest instructions
