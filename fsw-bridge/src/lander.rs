@@ -68,6 +68,8 @@ pub enum LanderReason {
     Discovery,
     Overrun,
     ReplanFailed,
+    /// Appended (elap-downlink): a task's data could not be downlinked.
+    DataVolume,
 }
 
 /// One step's output (`lander::executor::Directive`); `kind` is the primitive kind's index in

@@ -95,8 +95,8 @@ pub enum HostToTarget {
         mac: Vec<u8, MAC_LEN>,
     },
     /// A temporal planning job for the planner partition ([`crate::temporal`]): `len` bytes of
-    /// compiled task with CRC-32 `crc32` follow in TemporalChunks. A new Begin abandons the
-    /// job before it.
+    /// secured task (`sdls::temporal`) with CRC-32 `crc32` follow in TemporalChunks. A new
+    /// Begin abandons a job still being received; one while a job plans is refused (`Busy`).
     TemporalBegin {
         job: u16,
         len: u32,

@@ -11,6 +11,11 @@
 //! arrived, matched its CRC and validated (or `Refused`, naming why), then after the search
 //! one `Step` per planned action, `Stats` and `Done`.
 //!
+//! The bytes the chunks carry are a secured task (`sdls::temporal`: a security header, the
+//! compiled task, an HMAC-SHA-256 trailer that also covers the job and its configuration);
+//! `len` and `crc32` are the secured string's. The planner partition authenticates it with the
+//! key and the anti-replay counter of its own security area before it validates it.
+//!
 //! Times are integers with their unit in the name: a plan's times are in the task's ticks
 //! (`ticks_per_unit` of them make one PDDL time unit), the planning's CPU cost in timebase
 //! ticks. Every report fits the planner partition's outbound port (64 bytes, checked by this
@@ -95,6 +100,15 @@ pub enum TemporalRefusal {
     /// The task does not validate (`temporal::TaskError`): `kind` is the index of its
     /// `TaskErrorKind`, `offset` the byte where reading stopped.
     BadTask { kind: u8, offset: u32 },
+    /// The secured task failed the security checks (`sdls::temporal`: no key, truncated, bad
+    /// length, unknown key, bad MAC, replayed sequence number, or the counter could not be
+    /// stored): nothing was planned and no counter moved (but for `CounterNotStored`, none
+    /// moved either). Appended: the variants before it keep their index.
+    Security(crate::security::SecurityRefusal),
+    /// A Begin while job `job` is planning or reporting: that job goes on (a Begin abandons
+    /// only a job still being received, so that no message from outside, authentic or not,
+    /// can end an accepted job before it is authenticated). Appended.
+    Busy { job: u16 },
 }
 
 /// How a search ended.
@@ -122,6 +136,14 @@ pub enum TemporalReport {
         actions: u32,
         task_bytes: u32,
         ticks_per_unit: u32,
+        /// The planner partition's CPU spent receiving and checking the job (copying the
+        /// chunks, absorbing them into the MAC, the CRC-32, the security checks and the
+        /// counter write, the task's validation), timebase ticks (0 without a clock).
+        receive_ticks: u32,
+        /// The part of `receive_ticks` spent authenticating it (the security association
+        /// read at the first job, the MAC absorbed chunk by chunk, the checks, the counter
+        /// written to non-volatile memory).
+        auth_ticks: u32,
     },
     /// The job was refused; nothing is planned for it.
     Refused { job: u16, reason: TemporalRefusal },
@@ -168,6 +190,20 @@ pub enum TemporalReport {
         windows: u32,
         /// The costliest expansion's CPU (with a clock reading), timebase ticks (0 natively).
         worst_expansion_ticks: u32,
+        /// The costliest piece of the search's set-up (`temporal::Planner::set_up_step`,
+        /// with a clock reading), timebase ticks (0 natively).
+        worst_set_up_ticks: u32,
+    },
+    /// After a warm reset (or a restart of the planner partition) the job accepted before it
+    /// was found in memory the reset keeps, its task checked again (CRC-32 and validation)
+    /// and its search restarted from the beginning: the same search, so the same plan. Steps,
+    /// statistics or Done of the job sent before the reset are void; they come again.
+    /// Appended.
+    Resumed {
+        job: u16,
+        task_bytes: u32,
+        /// The planner partition's CPU spent checking the stored task again, timebase ticks.
+        verify_ticks: u32,
     },
 }
 
@@ -179,7 +215,8 @@ impl TemporalReport {
             | TemporalReport::Refused { job, .. }
             | TemporalReport::Step { job, .. }
             | TemporalReport::Stats { job, .. }
-            | TemporalReport::Done { job, .. } => job,
+            | TemporalReport::Done { job, .. }
+            | TemporalReport::Resumed { job, .. } => job,
         }
     }
 }

@@ -295,9 +295,29 @@ pub fn summary(report: &PlanReport) -> String {
     ));
     if let Some(e) = &report.emulated {
         s.push_str(&format!(
-            "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) planning, in {} planner windows (costliest expansion {} ticks); {} frames granted ({} ms of mission time)\n",
-            e.guest_instructions, e.planning_ticks, e.planner_windows, e.worst_expansion_ticks, e.frames, e.frames as u64 * crate::plan_emulated::FRAME_US / 1000
+            "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) planning, in {} planner windows (costliest expansion {} ticks, costliest set-up piece {} ticks); {} frames granted ({} ms of mission time)\n",
+            e.guest_instructions, e.planning_ticks, e.planner_windows, e.worst_expansion_ticks, e.worst_set_up_ticks, e.frames, e.frames as u64 * crate::plan_emulated::FRAME_US / 1000
         ));
+        s.push_str(&format!(
+            "            receiving and checking the task: {} guest instructions ({} ticks), authentication {} of them ({} ticks)\n",
+            e.receive_instructions, e.receive_ticks, e.auth_instructions, e.auth_ticks
+        ));
+        s.push_str(&format!(
+            "            kernel health events during the job: {}\n",
+            if e.health_events.is_empty() {
+                "none".to_string()
+            } else {
+                e.health_events.join("; ")
+            }
+        ));
+        if e.resets > 0 || e.resumed {
+            s.push_str(&format!(
+                "            {} warm reset(s) during the search; job resumed: {} (stored task checked again in {} ticks, then searched from the start)\n",
+                e.resets,
+                if e.resumed { "yes" } else { "no" },
+                e.verify_ticks
+            ));
+        }
     }
     s
 }
@@ -322,6 +342,15 @@ pub struct PlanArgs {
     /// With --emulated: give up after this many granted frames (10 ms of mission time each).
     #[arg(long, default_value_t = 200_000)]
     pub max_frames: u32,
+    /// With --emulated: warm-reset the target in the middle of the search, in the N-th frame
+    /// granted after the task's acceptance (from 0), once the planner partition has run
+    /// `--reset-ticks` ticks of CPU in it; the target resumes the job (the same plan).
+    #[arg(long, requires = "emulated")]
+    pub warm_reset_after_frames: Option<u32>,
+    /// With --warm-reset-after-frames: the planner partition's CPU in that frame before the
+    /// reset lands, timebase ticks.
+    #[arg(long, default_value_t = 10_000, requires = "warm_reset_after_frames")]
+    pub reset_ticks: u32,
     /// Print JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -436,8 +465,14 @@ fn plan_emulated_files(args: &PlanArgs, options: &PlanOptions) -> Result<PlanRep
         }
     };
     let mut target = crate::plan_emulated::EmulatedPlanner::boot(&fw)?;
+    let reset =
+        args.warm_reset_after_frames
+            .map(|after_frames| crate::plan_emulated::MidSearchReset {
+                after_frames,
+                planner_ticks: args.reset_ticks,
+            });
     let mut report = target
-        .plan(&compiled, options, args.max_frames)
+        .plan_with_reset(&compiled, options, args.max_frames, reset)
         .map_err(|e| e.to_string())?;
     report.domain = d.name.clone();
     report.problem = p.name.clone();
@@ -520,6 +555,8 @@ mod tests {
             emulated: true,
             firmware: Some("/nonexistent/rad750-firmware".into()),
             max_frames: 10,
+            warm_reset_after_frames: None,
+            reset_ticks: 10_000,
             json: false,
             plan_only: false,
             arena_kib: 1024,

@@ -5,15 +5,21 @@
 //! comes back: the planner searches in each granted frame's window, within its CPU share, and
 //! resumes in the next (anytime across windows).
 //!
+//! Uplinks are authenticated (`sdls::temporal`): `hil` provisions its built-in test key
+//! ([`crate::mission::auth::TEST_KEY`]) into the target's non-volatile memory before boot (the
+//! executive's security area and the planner's), and signs every job with the next sequence
+//! number of its own counter ([`EmulatedPlanner::signed_job_messages`]).
+//!
 //! Costs are guest CPU: the planner partition's timebase ticks spent setting up and searching
 //! (its decrementer-counted CPU time, the same run to run), and the guest instructions that
 //! makes under `-icount shift=2` (4 ns each, 15.06 per 16.6 MHz tick). Never host time.
 use fsw_bridge::temporal::{
     TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalReport, TEMPORAL_CHUNK_MAX,
 };
-use fsw_bridge::{HostToTarget, MissionTimeUs, TargetToHost};
+use fsw_bridge::{HostToTarget, MissionTimeUs, ResetKind, TargetToHost};
 
 use crate::firmware::FirmwareImage;
+use crate::mission::auth::{Signer, TEST_KEY};
 use crate::mission::link::{Exchanged, LinkSession};
 use crate::mission::plan::LinkFaults;
 use crate::mission::target::{hello_message, EmulatedTarget, MissionTarget};
@@ -41,11 +47,44 @@ pub struct EmulatedCosts {
     /// The costliest expansion, timebase ticks (a planner window is 33,200; its planning
     /// share 24,900).
     pub worst_expansion_ticks: u32,
+    /// The costliest piece of the search's set-up, timebase ticks.
+    pub worst_set_up_ticks: u32,
     /// Frames granted from the task's acceptance to the plan's end (mission time:
     /// `frames` x 10 ms).
     pub frames: u32,
     /// Lockstep rounds of the link for the whole job (uplink included).
     pub link_rounds: u64,
+    /// The planner partition's CPU spent receiving and checking the task (chunks copied and
+    /// absorbed into the MAC, CRC-32, security checks and counter write, validation),
+    /// timebase ticks; not part of `planning_ticks`.
+    pub receive_ticks: u32,
+    /// The same in guest instructions.
+    pub receive_instructions: u64,
+    /// The part of `receive_ticks` spent authenticating the task, timebase ticks.
+    pub auth_ticks: u32,
+    /// The same in guest instructions.
+    pub auth_instructions: u64,
+    /// The kernel's health-monitor events during the job, uplink included (an overrun of the
+    /// planner partition's window is "partition 2: error kind 8, action 0").
+    pub health_events: Vec<String>,
+    /// Warm resets injected during the search ([`MidSearchReset`]).
+    pub resets: u32,
+    /// The planner partition said it resumed the job after a reset.
+    pub resumed: bool,
+    /// The CPU it spent checking the stored task again before the search restarted, timebase
+    /// ticks (part of `planning_ticks`).
+    pub verify_ticks: u32,
+}
+
+/// A warm reset injected in the middle of the search (`hil plan --emulated
+/// --warm-reset-after-frames N`): before granted frame `after_frames` (counted from the job's
+/// acceptance, from 0) the host arms a reset that lands once the planner partition has run
+/// `planner_ticks` ticks of CPU in that frame (`ResetKind::PlannerAfterTicks`, as `hil run`'s
+/// mid-frame resets), then goes on granting frames; the target resumes the job.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MidSearchReset {
+    pub after_frames: u32,
+    pub planner_ticks: u32,
 }
 
 /// The job's configuration on the wire, from `hil plan`'s options.
@@ -72,6 +111,12 @@ pub fn wire_config(options: &PlanOptions) -> Result<TemporalConfig, String> {
 #[derive(Debug, Default)]
 struct Collected {
     accepted: bool,
+    receive_ticks: u32,
+    auth_ticks: u32,
+    /// The Resumed report's verify ticks.
+    resumed: Option<u32>,
+    /// Every temporal report, of any job.
+    all: Vec<TemporalReport>,
     refused: Option<String>,
     steps: Vec<TemporalReport>,
     stats: Option<TemporalReport>,
@@ -81,15 +126,33 @@ struct Collected {
 
 impl Collected {
     fn take(&mut self, job: u16, msg: &TargetToHost) {
+        if let TargetToHost::Temporal(r) = msg {
+            self.all.push(r.clone());
+        }
         match msg {
             TargetToHost::Temporal(r) if r.job() == job => match r {
-                TemporalReport::Accepted { .. } => self.accepted = true,
+                TemporalReport::Accepted {
+                    receive_ticks,
+                    auth_ticks,
+                    ..
+                } => {
+                    self.accepted = true;
+                    self.receive_ticks = *receive_ticks;
+                    self.auth_ticks = *auth_ticks;
+                }
                 TemporalReport::Refused { reason, .. } => {
                     self.refused = Some(format!("{reason:?}"))
                 }
                 TemporalReport::Step { .. } => self.steps.push(r.clone()),
                 TemporalReport::Stats { .. } => self.stats = Some(r.clone()),
                 TemporalReport::Done { .. } => self.done = Some(r.clone()),
+                TemporalReport::Resumed { verify_ticks, .. } => {
+                    // What came of the job before the reset is void: it comes again.
+                    self.resumed = Some(*verify_ticks);
+                    self.steps.clear();
+                    self.stats = None;
+                    self.done = None;
+                }
             },
             TargetToHost::Telemetry(fsw_bridge::TelemetryEvent::HealthMonitor {
                 partition,
@@ -124,6 +187,12 @@ pub struct EmulatedPlanner {
     frame: u32,
     now: MissionTimeUs,
     next_job: u16,
+    /// The host's key and anti-replay counter for temporal uplinks.
+    signer: Signer,
+    /// A mid-frame warm reset is armed: the next Hello is its landing, not a failure.
+    armed_reset: bool,
+    /// Warm resets that landed.
+    resets: u32,
     /// Health-monitor events seen (for tests: a planner that overran its window).
     pub health_events: Vec<String>,
 }
@@ -134,6 +203,9 @@ impl EmulatedPlanner {
         let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
         let mut target = EmulatedTarget::with_temporary_nv(profile, firmware.clone(), false, false)
             .map_err(|e| format!("cannot create the non-volatile memory file: {e}"))?;
+        target
+            .provision_key(&TEST_KEY)
+            .map_err(|e| format!("cannot provision the key: {e}"))?;
         let hello = target.boot().map_err(|e| e.to_string())?;
         let mut link = LinkSession::new(0, &LinkFaults::default());
         link.hello(&hello_message(&hello));
@@ -143,6 +215,9 @@ impl EmulatedPlanner {
             frame: 0,
             now: MissionTimeUs::ZERO,
             next_job: 1,
+            signer: Signer::new(TEST_KEY),
+            armed_reset: false,
+            resets: 0,
             health_events: Vec::new(),
         })
     }
@@ -162,14 +237,94 @@ impl EmulatedPlanner {
             got.take(job, msg);
         }
         match end {
+            Exchanged::Settled if self.armed_reset => Err(EmulatedError::Target(
+                "the armed warm reset did not land in its frame".into(),
+            )),
             Exchanged::Settled => Ok(()),
+            Exchanged::TargetReset(hello) if self.armed_reset => {
+                self.armed_reset = false;
+                self.resets += 1;
+                self.link.reset();
+                self.link.hello(&hello);
+                Ok(())
+            }
             Exchanged::TargetReset(hello) => Err(EmulatedError::Reset(format!("{hello:?}"))),
         }
+    }
+
+    /// Power the target off and on (QEMU ends and starts again: RAM gone, the non-volatile
+    /// memory kept) and take its Hello.
+    pub fn power_cycle(&mut self) -> Result<(), EmulatedError> {
+        self.target
+            .power_cycle()
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        let hello = self
+            .target
+            .boot()
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        self.link.reset();
+        self.link.hello(&hello_message(&hello));
+        Ok(())
+    }
+
+    /// Grant `n` frames and return the temporal reports that came, of any job (tests: after a
+    /// cold boot, nothing of a job accepted before it).
+    pub fn grant_frames(&mut self, n: u32) -> Result<Vec<TemporalReport>, EmulatedError> {
+        let mut reports = Vec::new();
+        for _ in 0..n {
+            let mut got = Collected::default();
+            self.grant_one(0, &mut got, None)?;
+            reports.append(&mut got.all);
+            self.health_events.append(&mut got.health);
+        }
+        Ok(reports)
+    }
+
+    /// Grant one frame (after arming `reset` if any) and exchange until its FrameDone, or the
+    /// armed reset's Hello.
+    fn grant_one(
+        &mut self,
+        job: u16,
+        got: &mut Collected,
+        reset: Option<u32>,
+    ) -> Result<(), EmulatedError> {
+        if let Some(ticks) = reset {
+            self.target
+                .arm_mid_frame_reset_exactly(ResetKind::PlannerAfterTicks { ticks });
+            self.target
+                .warm_reset(self.now)
+                .map_err(|e| EmulatedError::Target(e.to_string()))?;
+            self.armed_reset = true;
+        }
+        let frame = self.frame;
+        let until = self.now.saturating_add(FRAME_US);
+        self.link
+            .send(HostToTarget::TimeGrant {
+                frame,
+                now: self.now,
+                until,
+            })
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        let mut done =
+            |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
+        self.exchange(job, got, Some(&mut done))?;
+        self.frame = self.frame.wrapping_add(1);
+        self.now = until;
+        Ok(())
     }
 
     /// Send raw job messages (tests send damaged ones) and wait for the acceptance or the
     /// refusal of `job`.
     pub fn uplink(&mut self, job: u16, msgs: Vec<HostToTarget>) -> Result<(), EmulatedError> {
+        self.uplink_costs(job, msgs).map(|_| ())
+    }
+
+    /// [`Self::uplink`], and the receive and authentication ticks the acceptance reported.
+    fn uplink_costs(
+        &mut self,
+        job: u16,
+        msgs: Vec<HostToTarget>,
+    ) -> Result<(u32, u32), EmulatedError> {
         let mut got = Collected::default();
         for batch in msgs.chunks(CHUNKS_PER_BATCH) {
             for m in batch {
@@ -183,21 +338,40 @@ impl EmulatedPlanner {
             let mut answered = |m: &TargetToHost| matches!(m, TargetToHost::Temporal(TemporalReport::Accepted { job: j, .. } | TemporalReport::Refused { job: j, .. }) if *j == job);
             self.exchange(job, &mut got, Some(&mut answered))?;
         }
+        self.health_events.append(&mut got.health);
         match got.refused {
             Some(reason) => Err(EmulatedError::Refused(reason)),
-            None => Ok(()),
+            None => Ok((got.receive_ticks, got.auth_ticks)),
         }
     }
 
-    /// The messages that uplink `task` as job `job`.
-    pub fn job_messages(job: u16, task: &[u8], config: TemporalConfig) -> Vec<HostToTarget> {
+    /// The messages that uplink `task` as job `job`, signed with the host's key and its next
+    /// sequence number.
+    pub fn signed_job_messages(
+        &mut self,
+        job: u16,
+        task: &[u8],
+        config: TemporalConfig,
+    ) -> Vec<HostToTarget> {
+        let (_, secured) = self.signer.sign_temporal(job, &config, task);
+        Self::job_messages(job, &secured, config)
+    }
+
+    /// The host's signer (tests sign with it, or burn a sequence number).
+    pub fn signer(&mut self) -> &mut Signer {
+        &mut self.signer
+    }
+
+    /// The messages that uplink `bytes` (a secured task, or whatever a test sends) as job
+    /// `job`, with `bytes`' length and CRC-32 in the Begin.
+    pub fn job_messages(job: u16, bytes: &[u8], config: TemporalConfig) -> Vec<HostToTarget> {
         let mut msgs = vec![HostToTarget::TemporalBegin {
             job,
-            len: task.len() as u32,
-            crc32: flight_app::temporal_crc32(task),
+            len: bytes.len() as u32,
+            crc32: flight_app::temporal_crc32(bytes),
             config,
         }];
-        for (i, chunk) in task.chunks(TEMPORAL_CHUNK_MAX).enumerate() {
+        for (i, chunk) in bytes.chunks(TEMPORAL_CHUNK_MAX).enumerate() {
             msgs.push(HostToTarget::TemporalChunk {
                 job,
                 offset: (i * TEMPORAL_CHUNK_MAX) as u32,
@@ -219,6 +393,7 @@ impl EmulatedPlanner {
         &mut self,
         job: u16,
         max_frames: u32,
+        reset: Option<MidSearchReset>,
     ) -> Result<(Collected, u32), EmulatedError> {
         let mut got = Collected::default();
         let mut frames = 0;
@@ -226,19 +401,10 @@ impl EmulatedPlanner {
             if frames >= max_frames {
                 return Err(EmulatedError::NoAnswer(frames));
             }
-            let frame = self.frame;
-            let until = self.now.saturating_add(FRAME_US);
-            self.link
-                .send(HostToTarget::TimeGrant {
-                    frame,
-                    now: self.now,
-                    until,
-                })
-                .map_err(|e| EmulatedError::Target(e.to_string()))?;
-            let mut done = |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
-            self.exchange(job, &mut got, Some(&mut done))?;
-            self.frame = self.frame.wrapping_add(1);
-            self.now = until;
+            let arm = reset
+                .filter(|r| r.after_frames == frames)
+                .map(|r| r.planner_ticks);
+            self.grant_one(job, &mut got, arm)?;
             frames += 1;
         }
         self.health_events.append(&mut got.health);
@@ -254,9 +420,39 @@ impl EmulatedPlanner {
     ) -> Result<PlanReport, EmulatedError> {
         let job = self.new_job();
         let config = wire_config(options).map_err(EmulatedError::Target)?;
+        let msgs = self.signed_job_messages(job, &compiled.task, config);
+        self.plan_job(job, msgs, compiled, max_frames, None)
+    }
+
+    /// [`Self::plan`] with a warm reset injected in the middle of the search.
+    pub fn plan_with_reset(
+        &mut self,
+        compiled: &pddl::Compiled,
+        options: &PlanOptions,
+        max_frames: u32,
+        reset: Option<MidSearchReset>,
+    ) -> Result<PlanReport, EmulatedError> {
+        let job = self.new_job();
+        let config = wire_config(options).map_err(EmulatedError::Target)?;
+        let msgs = self.signed_job_messages(job, &compiled.task, config);
+        self.plan_job(job, msgs, compiled, max_frames, reset)
+    }
+
+    /// Plan job `job` uplinked by `msgs` (a signed job of `compiled`'s task: tests keep the
+    /// messages to send them again): uplink, frames until the plan, the report.
+    pub fn plan_job(
+        &mut self,
+        job: u16,
+        msgs: Vec<HostToTarget>,
+        compiled: &pddl::Compiled,
+        max_frames: u32,
+        reset: Option<MidSearchReset>,
+    ) -> Result<PlanReport, EmulatedError> {
         let rounds_before = self.link.summary().rounds;
-        self.uplink(job, Self::job_messages(job, &compiled.task, config))?;
-        let (got, frames) = self.plan_frames(job, max_frames)?;
+        let resets_before = self.resets;
+        let health_before = self.health_events.len();
+        let (receive_ticks, auth_ticks) = self.uplink_costs(job, msgs)?;
+        let (got, frames) = self.plan_frames(job, max_frames, reset)?;
         let mut report = crate::plan::empty_report(compiled);
         let Some(TemporalReport::Done {
             outcome,
@@ -267,6 +463,7 @@ impl EmulatedPlanner {
             planning_ticks,
             windows,
             worst_expansion_ticks,
+            worst_set_up_ticks,
             ..
         }) = got.done
         else {
@@ -339,8 +536,17 @@ impl EmulatedPlanner {
             guest_instructions: (planning_ticks as f64 * INSTRUCTIONS_PER_TICK).round() as u64,
             planner_windows: windows,
             worst_expansion_ticks,
+            worst_set_up_ticks,
             frames,
             link_rounds: self.link.summary().rounds - rounds_before,
+            receive_ticks,
+            receive_instructions: (f64::from(receive_ticks) * INSTRUCTIONS_PER_TICK).round() as u64,
+            auth_ticks,
+            auth_instructions: (f64::from(auth_ticks) * INSTRUCTIONS_PER_TICK).round() as u64,
+            health_events: self.health_events[health_before..].to_vec(),
+            resets: self.resets - resets_before,
+            resumed: got.resumed.is_some(),
+            verify_ticks: got.resumed.unwrap_or(0),
         });
         Ok(report)
     }

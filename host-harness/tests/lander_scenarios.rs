@@ -28,7 +28,10 @@ fn shipped() -> Vec<PathBuf> {
 #[test]
 fn every_shipped_lander_mission_meets_its_expectations() {
     let files = shipped();
-    assert!(files.len() >= 2, "no ELAP scenarios found");
+    assert!(
+        files.len() >= 13,
+        "the twelve ELAP scenarios of V.B.1 are not all in scenarios/lander/elap/: {files:?}"
+    );
     let mut failed = Vec::new();
     for path in &files {
         let s = load_scenario(path).unwrap_or_else(|e| panic!("{}", e.render()));
@@ -180,8 +183,12 @@ fn hil_lander_run_exits_0_1_2() {
 fn pending_elap_scenarios_are_valid_and_still_fail() {
     // The ELAP scenarios the autonomy does not meet yet: valid files, each with a failing
     // expectation (when one passes, it belongs in scenarios/lander/elap/).
+    // (None pending since data volume reached the planning: the directory may be absent.)
     let dir = repo().join("scenarios/lander/elap-pending");
-    for entry in std::fs::read_dir(dir).unwrap() {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries {
         let path = entry.unwrap().path();
         if path.extension().is_none_or(|x| x != "toml") {
             continue;

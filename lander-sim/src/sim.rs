@@ -28,7 +28,12 @@
 //!   is not in view (an overrun pushed it out) waits for Earth rise; it transmits at the DSN rate after its
 //!   overhead, until its planned end, Earth set or the thermal limit, within the per-downlink and
 //!   per-sol energy allowances, the stored products by tier (Critical first) and age. Utility is
-//!   realised when a product reaches Earth (transmission end plus the light time).
+//!   realised when a product reaches Earth (transmission end plus the light time). The
+//!   autonomy is told the link ([`World::comms_model`], again when the ground changes the rate
+//!   or an allowance) and the products onboard ([`World::onboard_products`]) before each step;
+//!   a downlink lasts as long as the autonomy commands and sends the products it assigned first
+//!   ([`lander::executor::Executor::downlink_payload`]); a product larger than any one downlink
+//!   can carry goes down in parts over several.
 //! - **Ground.** A halt is seen at the next Earth-in-view plus the light time; the answer is
 //!   ready `response_h` later and goes up at the next uplink window; it arrives a light time later
 //!   ([`Event::GroundResume`]) and clears what blocked the primitive.
@@ -176,6 +181,14 @@ pub struct Product {
     pub site: Option<u8>,
     #[serde(default)]
     pub target: Option<u8>,
+    /// Bytes already sent in earlier downlinks (a product larger than any one downlink goes
+    /// down over several; it reaches Earth with its last part).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub sent_bytes: u64,
+}
+
+fn is_zero(x: &u64) -> bool {
+    *x == 0
 }
 
 /// How a run ended.
@@ -369,6 +382,9 @@ pub struct World {
     rng_energy: Rng,
     rng_sampling: Rng,
     downlinks: Vec<DownlinkRecord>,
+    /// The downlink being dispatched: its commanded duration and the products the autonomy
+    /// assigned to it (sent first).
+    commanded: Option<(u64, Vec<lander::downlink::DataProduct>)>,
 }
 
 fn mul_ppm(x: u64, ppm: u64) -> u64 {
@@ -418,7 +434,8 @@ pub fn autonomy_inputs(
     String,
 > {
     let options = rsm1_options(s);
-    let mut model = rsm1::model(options).map_err(|_| "the model exceeds the capacities")?;
+    let mut model = rsm1::model_with_drains(options, s.mission.uplinks)
+        .map_err(|_| "the model exceeds the capacities")?;
     if prescient {
         let f = (1_000 + milli(s.energy.bias)).max(0) as u64;
         for p in model.primitives.iter_mut() {
@@ -611,7 +628,39 @@ impl World {
             rng_energy: Rng::stream(seed, Stream::Energy),
             rng_sampling: Rng::stream(seed, Stream::Sampling),
             downlinks: Vec::new(),
+            commanded: None,
         }
+    }
+
+    /// The link as the autonomy is told it (rate, overhead, thermal limit, radio, allowances).
+    pub fn comms_model(&self) -> lander::comms::CommsModel {
+        lander::comms::CommsModel {
+            rate_bps: self.rate_bps.max(1),
+            overhead_us: self.overhead_us,
+            thermal_limit_us: self.thermal_limit_us,
+            radio_power_mw: self.radio_mw,
+            per_downlink_mj: self.per_downlink_mj,
+            per_sol_mj: self.per_sol_mj,
+            sol_us: SOL_US,
+        }
+    }
+
+    /// The products onboard as the autonomy measures them (most urgent and oldest first, at
+    /// most the downlink manager's capacity).
+    pub fn onboard_products(&self) -> Vec<lander::downlink::DataProduct> {
+        let mut out: Vec<_> = self
+            .stored
+            .iter()
+            .map(|p| lander::downlink::DataProduct {
+                size_bytes: p.bytes - p.sent_bytes,
+                value: p.value_milli / 1_000,
+                created_at: MissionTimeUs(p.created_us),
+                tier: p.tier,
+            })
+            .collect();
+        out.sort_by_key(|p| (tier_index(p.tier), p.created_at));
+        out.truncate(lander::capacity::MAX_DATA_PRODUCTS);
+        out
     }
 
     /// A product's volume in this world.
@@ -720,6 +769,7 @@ impl World {
                         received_us: None,
                         site: None,
                         target: None,
+                        sent_bytes: 0,
                     });
                 }
             }
@@ -830,6 +880,7 @@ impl World {
             received_us: None,
             site,
             target,
+            sent_bytes: 0,
         });
     }
 
@@ -848,7 +899,12 @@ impl World {
 
     /// A downlink: waits for Earth if it must, transmits, realises the products' value.
     /// Returns the time it took and false if the battery ran out.
-    fn downlink(&mut self, planned_us: u64, energy_mj: u64) -> (u64, bool) {
+    fn downlink(
+        &mut self,
+        planned_us: u64,
+        energy_mj: u64,
+        payload: &[lander::downlink::DataProduct],
+    ) -> (u64, bool) {
         let dispatched = self.now;
         if !self.advance(self.earth.next_in_view(self.now)) {
             return (self.now - dispatched, false);
@@ -885,11 +941,20 @@ impl World {
                 received_us: None,
                 site: None,
                 target: None,
+                sent_bytes: 0,
             });
         }
         let mut capacity = (u128::from(self.rate_bps) * u128::from(tx_us) / 8_000_000) as u64;
+        // The autonomy's assignment first, then the rest by tier and age.
+        let assigned = |p: &Product| {
+            payload.iter().any(|a| {
+                a.created_at.0 == p.created_us
+                    && a.tier == p.tier
+                    && a.size_bytes == p.bytes - p.sent_bytes
+            })
+        };
         self.stored
-            .sort_by_key(|p| (tier_index(p.tier), p.created_us));
+            .sort_by_key(|p| (!assigned(p), tier_index(p.tier), p.created_us));
         let mut record = DownlinkRecord {
             dispatched_us: dispatched,
             start_us: tx_start,
@@ -899,10 +964,19 @@ impl World {
             value_milli: 0,
         };
         let mut kept = Vec::new();
+        // A product larger than any one downlink can carry goes down over several.
+        let largest = self.comms_model();
+        let largest = largest.capacity_of(largest.max_duration_us());
         for mut p in std::mem::take(&mut self.stored) {
-            if p.bytes <= capacity {
-                capacity -= p.bytes;
-                record.bytes += p.bytes;
+            let left = p.bytes - p.sent_bytes;
+            if left > largest && left > capacity && capacity > 0 {
+                p.sent_bytes += capacity;
+                record.bytes += capacity;
+                capacity = 0;
+                kept.push(p);
+            } else if left <= capacity {
+                capacity -= left;
+                record.bytes += left;
                 record.per_tier[tier_index(p.tier)] += 1;
                 record.value_milli += p.value_milli;
                 p.received_us = Some(tx_end + self.light_us);
@@ -920,6 +994,7 @@ impl World {
     /// Carries out one dispatch of `spec` (chain, primitive) predicted at `expected_us`.
     fn execute(&mut self, chain: u16, primitive: u8, spec: &PrimitiveSpec) -> (Outcome, u8) {
         let start = self.now;
+        let commanded = self.commanded.take();
         let factor = self.energy_factor();
         let heat = if is_heated(spec.kind) {
             self.heat_milli
@@ -958,7 +1033,12 @@ impl World {
                 TaskResult::Failed
             }
         } else if is_downlink(spec.kind) {
-            let _ = self.downlink(duration, energy);
+            // The commanded duration (sized by the autonomy to its data); energy scales.
+            let (commanded, payload) = commanded.unwrap_or((duration, Vec::new()));
+            energy =
+                (u128::from(energy) * u128::from(commanded) / u128::from(duration.max(1))) as u64;
+            duration = commanded;
+            let _ = self.downlink(duration, energy, &payload);
             TaskResult::Succeeded
         } else {
             let mut result = TaskResult::Succeeded;
@@ -1053,7 +1133,8 @@ fn rebuild(
     preamble_done: bool,
     watch: &mut dyn StepWatch,
 ) -> Result<(HtnModel, Box<Autonomy>), String> {
-    let model = rsm1::model(options).map_err(|_| "the new model exceeds the capacities")?;
+    let model = rsm1::model_with_drains(options, s.mission.uplinks)
+        .map_err(|_| "the new model exceeds the capacities")?;
     let mut net = flatten(
         &model,
         FlattenOptions {
@@ -1187,6 +1268,7 @@ pub fn run_watched(
     )?;
     // The world's truth: the model's priors (prescient: bias-scaled, as the planner's).
     let mut world = World::new(s, &model, config.seed, config.prescient);
+    let _ = exec.set_comms(Some(world.comms_model()));
     let battery_start = world.battery_mj;
     let horizon = horizon_us(s);
     let replan_us = s.replan.duration_min * MIN_US;
@@ -1266,6 +1348,7 @@ pub fn run_watched(
                 if let Some(w) = change.per_sol_wh {
                     world.per_sol_mj = w * WH_MJ;
                 }
+                let _ = exec.set_comms(Some(world.comms_model()));
                 if change.changes_model() {
                     let mut context = exec.context().clone();
                     for (site, &v) in context.sites.iter_mut().zip(&change.site_values) {
@@ -1295,6 +1378,7 @@ pub fn run_watched(
                     )?;
                     model = m;
                     exec = e;
+                    let _ = exec.set_comms(Some(world.comms_model()));
                     replans_charged = 0;
                     last_dispatch = None;
                 }
@@ -1308,6 +1392,7 @@ pub fn run_watched(
         }
         let preconditions_met =
             spec_of(&exec, &model).is_none_or(|spec| world.preconditions(&spec));
+        let _ = exec.set_onboard_data(&world.onboard_products());
         let observation = Observation {
             now: MissionTimeUs(world.now),
             battery_mj: world.battery_mj,
@@ -1327,7 +1412,10 @@ pub fn run_watched(
         trace::with(|t| t.step(&world, &directive, exec.stats()));
         match directive {
             Directive::Dispatch {
-                chain, primitive, ..
+                chain,
+                primitive,
+                expected_end,
+                ..
             } => {
                 let Some(spec) = model.primitives.get(usize::from(primitive)).cloned() else {
                     return Err(format!(
@@ -1344,6 +1432,10 @@ pub fn run_watched(
                 ));
                 dispatched += 1;
                 let start = world.now;
+                if is_downlink(spec.kind) {
+                    let payload = exec.downlink_payload().to_vec();
+                    world.commanded = Some((expected_end.0.saturating_sub(start), payload));
+                }
                 let (outcome, class) = world.execute(chain, primitive, &spec);
                 trace::with(|t| {
                     t.dispatched(&world, chain, primitive, &spec, start, &outcome, class)

@@ -11,13 +11,62 @@
 //! again ([`TemporalApp::needs_storage`]). Nothing here allocates, and nothing from outside
 //! can make it panic: bad bytes are a [`TemporalRefusal`].
 //!
-//! Not authenticated: a temporal task does not go through the executive's SDLS-checked uplink
-//! path (the key and the anti-replay counter are the executive partition's); its integrity
-//! check is the CRC-32 and the task's own validation.
+//! # A job kept across a warm reset
+//!
+//! The task buffer and the arena are in memory a warm reset does not clear (on the target,
+//! `.bss.noinit.planner`), and so is a small record of the accepted job
+//! ([`TemporalApp::keep_jobs_in`]: magic, version, job, lengths, CRC-32, where the task is,
+//! its configuration, and the record's own CRC-32). It is written when a job is accepted and
+//! cleared when the job ends or a Begin abandons it. After a (re)start,
+//! [`TemporalApp::resume`] takes the job up again if the record is whole; memory that a cold
+//! boot leaves holding anything (zeros under QEMU, garbage on a board) fails the magic or the
+//! record's CRC and resumes nothing. A resumed job's task is then checked again in the
+//! partition's windows, a piece at a time (its CRC-32 within the window's share, then
+//! `Task::parse`): memory that kept a whole record but not the task is refused (`BadCrc` or
+//! `BadTask`) and nothing is planned. It is not authenticated again: the record is only ever
+//! written by this partition after the job passed the security checks (and its sequence
+//! number is spent), and no other partition can write this memory. Then the search restarts
+//! from the beginning: it is deterministic, so the plan is the one an uninterrupted search
+//! finds. The host is told with [`TemporalReport::Resumed`]; what it received of the job
+//! before the reset is void.
+//!
+//! # Authentication
+//!
+//! The chunks carry a secured task ([`sdls::temporal`]: security header, compiled task,
+//! HMAC-SHA-256 trailer over the service, the job, its configuration and the task). Once the
+//! whole string has arrived and matched its CRC-32 (a line error is `BadCrc`, as before), the
+//! plug-in checks it with its [`SecurityAssociation`] (`NoKey`, `Truncated`, `BadLength`,
+//! `UnknownKey`, `BadMac`, `Replay`, in that order), writes the new anti-replay counter to
+//! non-volatile memory (`CounterNotStored` if it cannot), and only then validates the task and
+//! accepts it. A refusal is [`TemporalRefusal::Security`], counted per reason
+//! ([`TemporalApp::security_refused`]); the refused job plans nothing, no counter moves, and
+//! the plug-in takes the next job as before.
+//!
+//! **Where it is verified: here, in the planner partition**, with a security association of its
+//! own: the same key (provisioned by `hil` into the planner's slice of non-volatile memory as
+//! well as the executive's) and its own A/B anti-replay counter records, written before the
+//! task takes effect, so a replay stays refused after a warm reset and a power cycle, as the
+//! executive's do. Why not the executive, which verifies task networks and commands:
+//! - the planner partition is where the bytes are (it reassembles them in its 1 MiB task
+//!   buffer); routing up to 1 MiB through the executive, or a digest and a verdict between
+//!   the two partitions, would need new traffic on the autonomy core's checkpointed channel
+//!   (`autonomy::partitioned`), which the MEXEC planner's protocol owns, and would make the
+//!   executive's windows, whose costs are budgeted, pay for the planner's jobs;
+//! - each partition's slice of non-volatile memory has one owner (kernel-checked): the
+//!   executive's counter records are written by the executive only, the planner's by the
+//!   planner only, so no two partitions ever race on one A/B record pair;
+//! - the MAC is absorbed chunk by chunk as the task arrives ([`sdls::temporal::TemporalMac`]),
+//!   in the planner's own CPU time, so no window pays for hashing the whole task at once.
+//!
+//! The cost of two associations: the key is held in two places, and the two counters are
+//! separate (each service's sequence numbers are checked against its own counter; a temporal
+//! task's tag has its own service byte, so it can never pass for a task network's or a
+//! command's). The host keeps one sequence counter per association.
 use fsw_bridge::temporal::{
     TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalRefusal, TemporalRegion,
     TemporalReport,
 };
+use sdls::temporal::TemporalMac;
 use temporal::{PlannedAction, Planner, Region, Status, Task, TaskErrorKind};
 
 use super::*;
@@ -30,6 +79,19 @@ pub const MAX_TEMPORAL_TASK_BYTES: usize = 1 << 20;
 /// Most actions of a plan the target reports: plans of up to 2,048 snap actions
 /// (`temporal::PlannerConfig`'s default `max_steps`; a job asking for more is held to it).
 pub const MAX_TEMPORAL_PLAN_ACTIONS: usize = 1024;
+/// Words of the record of the accepted job kept in memory a warm reset does not clear
+/// ([`TemporalApp::keep_jobs_in`]).
+pub const TEMPORAL_RESUME_RECORD_WORDS: usize = 16;
+/// "TJOB": a record of an accepted job.
+const RESUME_MAGIC: u32 = u32::from_be_bytes(*b"TJOB");
+const RESUME_VERSION: u32 = 1;
+/// Bytes of a resumed job's task CRC-checked between two readings of the clock: 4 KiB, about
+/// 2,000 ticks.
+const VERIFY_PIECE_BYTES: usize = 4096;
+/// The CRC of a resumed job's task, checked a piece at a time (a static, so that its digest
+/// can be kept between windows).
+static TASK_CRC: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
+
 /// Expansions between two readings of the CPU clock: one, since one expansion costs a good
 /// part of a window (satellite 2: about 270,000 guest instructions, 18,000 ticks, of the
 /// planner window's 33,200).
@@ -48,6 +110,8 @@ pub struct TemporalStorage<'a> {
 enum Phase {
     /// Chunks arriving: `received` bytes so far.
     Receiving { received: u32 },
+    /// Resumed after a reset: the stored task is being checked again, `checked` bytes so far.
+    Verifying { checked: u32 },
     /// Accepted: searching in granted windows (the search is set up in the first).
     Planning,
     /// The search ended: reporting the plan's action `next`, then the statistics, then Done.
@@ -57,8 +121,13 @@ enum Phase {
 #[derive(Clone, Copy, Debug)]
 struct Job {
     id: u16,
+    /// Bytes of the secured task (header, task, trailer).
     len: u32,
     crc32: u32,
+    /// Where the compiled task is in the task buffer (after the security header), and its
+    /// length; set when the job is accepted.
+    task_at: u32,
+    task_len: u32,
     config: TemporalConfig,
     phase: Phase,
     ticks_per_unit: u32,
@@ -70,6 +139,8 @@ struct Job {
     most_step_ticks: u64,
     /// The last window ran no expansion (the costliest did not fit it).
     stalled: bool,
+    /// The CPU of the costliest piece of the search's set-up so far, timebase ticks.
+    most_set_up_ticks: u64,
     outcome: Option<TemporalOutcome>,
     /// Actions of the plan (in `TemporalApp::plan`) and its makespan.
     plan_len: usize,
@@ -90,6 +161,29 @@ pub struct TemporalApp<'a> {
     /// Jobs refused and jobs planned since the start (for logs and tests).
     pub refused: u32,
     pub finished: u32,
+    /// Jobs refused by the security checks, per reason (`SecurityRefusal::index`); included
+    /// in `refused`.
+    pub security_refused: [u32; SecurityRefusal::COUNT],
+    /// The key and the anti-replay counter (read from `store` at the first job).
+    security: SecurityAssociation,
+    security_loaded: bool,
+    /// The planner partition's security area in non-volatile memory.
+    store: Option<&'a mut dyn SecurityStore>,
+    /// The MAC of the job being received (None: no key).
+    mac: Option<TemporalMac>,
+    /// The partition's CPU clock for the cost of receiving a job (None: not counted).
+    receive_clock: Option<fn() -> u64>,
+    /// CPU spent so far receiving the job in progress, timebase ticks.
+    receive_ticks: u64,
+    /// The record of the accepted job, in memory a warm reset keeps (None: not kept).
+    record: Option<&'a mut [u32; TEMPORAL_RESUME_RECORD_WORDS]>,
+    /// The CRC of a resumed job's task, so far.
+    verify_digest: Option<crc::Digest<'static, u32>>,
+    /// Jobs resumed after a reset (their task checked again) since the start.
+    pub resumed: u32,
+    /// The part of it spent on authentication (loading the association, the MAC, the
+    /// checks, the counter write).
+    auth_ticks: u64,
 }
 
 /// `temporal::PlannerConfig` for a job's configuration (`max_steps` held to what the plan
@@ -167,7 +261,69 @@ impl<'a> TemporalApp<'a> {
             task_capacity: 0,
             refused: 0,
             finished: 0,
+            security_refused: [0; SecurityRefusal::COUNT],
+            security: SecurityAssociation::none(),
+            security_loaded: false,
+            store: None,
+            mac: None,
+            receive_clock: None,
+            receive_ticks: 0,
+            auth_ticks: 0,
+            record: None,
+            verify_digest: None,
+            resumed: 0,
         }
+    }
+
+    /// Keep the record of the accepted job in `record`: memory a warm reset does not clear,
+    /// as the task buffer and the arena. Call [`Self::resume`] after the storage is given.
+    pub fn keep_jobs_in(&mut self, record: &'a mut [u32; TEMPORAL_RESUME_RECORD_WORDS]) {
+        self.record = Some(record);
+    }
+
+    /// After a (re)start, with the storage given: take up the job the record describes, if
+    /// the record is whole (its magic, version, CRC-32 and fields hold) and no job is in
+    /// progress. Its task is checked again in the next windows, then planned from the start.
+    /// False if there is nothing to resume.
+    pub fn resume(&mut self) -> bool {
+        if self.job.is_some() || self.storage.is_none() {
+            return false;
+        }
+        let Some(found) = self.record.as_deref().and_then(decode_record) else {
+            return false;
+        };
+        if found.len > self.task_capacity {
+            return false;
+        }
+        self.job = Some(Job {
+            phase: Phase::Verifying { checked: 0 },
+            ..found
+        });
+        self.verify_digest = Some(TASK_CRC.digest());
+        true
+    }
+
+    /// The clock that counts what receiving a job costs (`Accepted`'s `receive_ticks`).
+    pub fn set_receive_clock(&mut self, clock: fn() -> u64) {
+        self.receive_clock = Some(clock);
+    }
+
+    fn receive_clock(&self) -> u64 {
+        self.receive_clock.map_or(0, |c| c())
+    }
+
+    /// Where the key and the anti-replay counter of temporal uplinks are: the planner
+    /// partition's security area (None: no key, every job is refused with `NoKey`). Read at
+    /// the first job's Begin, not here, so that a (re)start costs nothing for it.
+    pub fn secure(&mut self, store: Option<&'a mut dyn SecurityStore>) {
+        self.store = store;
+        self.security_loaded = false;
+        self.security = SecurityAssociation::none();
+    }
+
+    /// The security association in use (the last sequence number accepted, for tests).
+    pub fn security(&self) -> &SecurityAssociation {
+        &self.security
     }
 
     /// No job holds the task bytes and the arena, and none were given since: hand them in
@@ -190,6 +346,11 @@ impl<'a> TemporalApp<'a> {
 
     fn refuse(&mut self, job: u16, reason: TemporalRefusal, downlink: &mut dyn Downlink) {
         self.refused = self.refused.saturating_add(1);
+        if let TemporalRefusal::Security(r) = reason {
+            if let Some(n) = self.security_refused.get_mut(r.index()) {
+                *n = n.saturating_add(1);
+            }
+        }
         downlink.send(TargetToHost::Temporal(TemporalReport::Refused {
             job,
             reason,
@@ -200,6 +361,11 @@ impl<'a> TemporalApp<'a> {
     fn end_job(&mut self) {
         self.planner = None;
         self.job = None;
+        self.mac = None;
+        self.verify_digest = None;
+        if let Some(record) = self.record.as_deref_mut() {
+            record[0] = 0;
+        }
     }
 
     fn begin(
@@ -210,16 +376,37 @@ impl<'a> TemporalApp<'a> {
         config: TemporalConfig,
         downlink: &mut dyn Downlink,
     ) {
+        // An accepted job is never ended from outside before the new one is authenticated
+        // (which needs the task buffer the search is reading): the Begin is refused instead.
+        if let Some(j) = self.job {
+            if !matches!(j.phase, Phase::Receiving { .. }) {
+                self.refuse(id, TemporalRefusal::Busy { job: j.id }, downlink);
+                return;
+            }
+        }
         self.end_job();
+        self.receive_ticks = 0;
+        self.auth_ticks = 0;
         let capacity = self.task_capacity;
         if len == 0 || len > capacity {
             self.refuse(id, TemporalRefusal::TooLarge { capacity }, downlink);
             return;
         }
+        let t0 = self.receive_clock();
+        if !self.security_loaded {
+            self.security = SecurityAssociation::load(self.store.as_deref_mut());
+            self.security_loaded = true;
+        }
+        // No key: the job is received all the same and refused with `NoKey` at its end, in
+        // the order of the checks (a refusal now would make every chunk a stray).
+        self.mac = self.security.begin_temporal(id, &config, len).ok();
+        self.auth_ticks = self.receive_clock().wrapping_sub(t0);
         self.job = Some(Job {
             id,
             len,
             crc32,
+            task_at: 0,
+            task_len: 0,
             config,
             phase: Phase::Receiving { received: 0 },
             ticks_per_unit: 0,
@@ -227,6 +414,7 @@ impl<'a> TemporalApp<'a> {
             windows: 0,
             most_step_ticks: 0,
             stalled: false,
+            most_set_up_ticks: 0,
             outcome: None,
             plan_len: 0,
             makespan: 0,
@@ -234,7 +422,14 @@ impl<'a> TemporalApp<'a> {
         });
     }
 
-    fn chunk(&mut self, id: u16, offset: u32, bytes: &[u8], downlink: &mut dyn Downlink) {
+    fn chunk(
+        &mut self,
+        id: u16,
+        offset: u32,
+        bytes: &[u8],
+        started: u64,
+        downlink: &mut dyn Downlink,
+    ) {
         let (Some(job), Some(storage)) = (self.job.as_mut(), self.storage.as_mut()) else {
             self.refuse(
                 id,
@@ -272,6 +467,13 @@ impl<'a> TemporalApp<'a> {
             return;
         };
         dest.copy_from_slice(bytes);
+        let clock = self.receive_clock;
+        let now = || clock.map_or(0, |c| c());
+        let t0 = now();
+        if let Some(mac) = self.mac.as_mut() {
+            mac.absorb(offset, bytes);
+        }
+        self.auth_ticks = self.auth_ticks.wrapping_add(now().wrapping_sub(t0));
         let received = end as u32;
         job.phase = Phase::Receiving { received };
         if received < job.len {
@@ -285,7 +487,35 @@ impl<'a> TemporalApp<'a> {
             self.refuse(id, TemporalRefusal::BadCrc { computed }, downlink);
             return;
         }
-        match Task::parse(task_bytes) {
+        // Authentic and fresh, with the counter stored, before anything else happens.
+        let t0 = now();
+        let checked = match self.mac.take() {
+            None => Err(SecurityRefusal::NoKey),
+            Some(mac) => self.security.check_temporal(mac, task_bytes),
+        };
+        let (header, image) = match checked {
+            Ok(ok) => ok,
+            Err(r) => {
+                self.end_job();
+                self.refuse(id, TemporalRefusal::Security(r), downlink);
+                return;
+            }
+        };
+        // The task follows the security header (`sdls::temporal`'s layout).
+        let task_at = sdls::uplink::HEADER_LEN as u32;
+        let task_len = sat(image.len() as u64);
+        let holds = self.security.holds();
+        if let Err(r) = self
+            .security
+            .accept(header.sequence, holds, self.store.as_deref_mut())
+        {
+            self.end_job();
+            self.refuse(id, TemporalRefusal::Security(r), downlink);
+            return;
+        }
+        self.auth_ticks = self.auth_ticks.wrapping_add(now().wrapping_sub(t0));
+        // Authentic, so its sequence number is spent whether or not the task validates.
+        match Task::parse(image) {
             Err(e) => {
                 self.end_job();
                 self.refuse(
@@ -298,32 +528,130 @@ impl<'a> TemporalApp<'a> {
                 );
             }
             Ok(task) => {
+                let facts = sat(task.fact_count() as u64);
+                let actions = sat(task.action_count() as u64);
+                let ticks_per_unit = task.ticks_per_unit();
+                let Some(job) = self.job.as_mut() else {
+                    return;
+                };
                 job.phase = Phase::Planning;
-                job.ticks_per_unit = task.ticks_per_unit();
+                job.ticks_per_unit = ticks_per_unit;
+                job.task_at = task_at;
+                job.task_len = task_len;
+                let kept = *job;
+                if let Some(record) = self.record.as_deref_mut() {
+                    *record = encode_record(&kept);
+                }
+                let receive_ticks = sat(self
+                    .receive_ticks
+                    .wrapping_add(self.receive_clock().wrapping_sub(started)));
                 downlink.send(TargetToHost::Temporal(TemporalReport::Accepted {
                     job: id,
-                    facts: sat(task.fact_count() as u64),
-                    actions: sat(task.action_count() as u64),
-                    task_bytes: job.len,
-                    ticks_per_unit: task.ticks_per_unit(),
+                    facts,
+                    actions,
+                    task_bytes: task_len,
+                    ticks_per_unit,
+                    receive_ticks,
+                    auth_ticks: sat(self.auth_ticks),
                 }));
             }
         }
     }
 
-    /// Sets the search up for the accepted job (its first window).
+    /// Lays the search out for the accepted job (its first window); the set-up follows in
+    /// pieces ([`Self::set_up_pieces`]).
     fn set_up(&mut self) -> Result<(), Region> {
         let (Some(job), Some(storage)) = (self.job.as_ref(), self.storage.take()) else {
             return Err(Region::Tables);
         };
         let TemporalStorage { task, arena } = storage;
         let task: &'a [u8] = task;
-        let bytes = task.get(..job.len as usize).unwrap_or_default();
+        let (at, len) = (job.task_at as usize, job.task_len as usize);
+        let bytes = task.get(at..at.saturating_add(len)).unwrap_or_default();
         // Validated on arrival; a failure here would be a bug, reported as bad tables.
         let parsed = Task::parse(bytes).map_err(|_| Region::Tables)?;
         let config = planner_config(&job.config, self.plan.len());
-        self.planner = Some(Planner::new(parsed, arena, config)?);
+        self.planner = Some(Planner::new_deferred(parsed, arena, config)?);
         Ok(())
+    }
+
+    /// A window's share of checking a resumed job's task again: its CRC-32 a piece at a time,
+    /// then its validation; then it plans (the search is set up in the next window).
+    fn verify(
+        &mut self,
+        clock: &mut dyn CpuClock,
+        until: Option<u64>,
+        downlink: &mut dyn Downlink,
+    ) {
+        let t0 = clock.ticks();
+        let (Some(job), Some(storage), Some(digest)) = (
+            self.job.as_mut(),
+            self.storage.as_ref(),
+            self.verify_digest.as_mut(),
+        ) else {
+            return;
+        };
+        let Phase::Verifying { mut checked } = job.phase else {
+            return;
+        };
+        let len = job.len as usize;
+        loop {
+            let from = checked as usize;
+            let end = from.saturating_add(VERIFY_PIECE_BYTES).min(len);
+            let Some(piece) = storage.task.get(from..end) else {
+                break;
+            };
+            digest.update(piece);
+            checked = end as u32;
+            if end >= len || until.is_some_and(|u| clock.ticks() >= u) {
+                break;
+            }
+        }
+        job.phase = Phase::Verifying { checked };
+        job.windows = job.windows.saturating_add(1);
+        let (id, crc32) = (job.id, job.crc32);
+        if (checked as usize) < len {
+            job.spent_ticks = job.spent_ticks.wrapping_add(clock.ticks().wrapping_sub(t0));
+            return;
+        }
+        let computed = self.verify_digest.take().map_or(0, |d| d.finalize());
+        if computed != crc32 {
+            self.end_job();
+            self.refuse(id, TemporalRefusal::BadCrc { computed }, downlink);
+            return;
+        }
+        let (at, task_len) = (job.task_at as usize, job.task_len as usize);
+        let image = storage
+            .task
+            .get(at..at.saturating_add(task_len))
+            .unwrap_or_default();
+        match Task::parse(image) {
+            Err(e) => {
+                self.end_job();
+                self.refuse(
+                    id,
+                    TemporalRefusal::BadTask {
+                        kind: task_error_code(e.kind),
+                        offset: sat(e.offset as u64),
+                    },
+                    downlink,
+                );
+            }
+            Ok(_) => {
+                let spent = clock.ticks().wrapping_sub(t0);
+                let Some(job) = self.job.as_mut() else {
+                    return;
+                };
+                job.spent_ticks = job.spent_ticks.wrapping_add(spent);
+                job.phase = Phase::Planning;
+                self.resumed = self.resumed.saturating_add(1);
+                downlink.send(TargetToHost::Temporal(TemporalReport::Resumed {
+                    job: id,
+                    task_bytes: task_len as u32,
+                    verify_ticks: sat(job.spent_ticks),
+                }));
+            }
+        }
     }
 
     /// One window of search within `until` on `clock` (None: to the end).
@@ -338,14 +666,36 @@ impl<'a> TemporalApp<'a> {
         let mut outcome = None;
         let mut most = job.most_step_ticks;
         let mut ran = 0u32;
-        // Setting the search up (tables, the root's heuristic) is a window's work of its own:
-        // it is not anytime, and costs more than an expansion (satellite 2: about 54,000
-        // ticks, more than a window, which then overruns).
-        let set_up = self.planner.is_none();
-        if set_up {
+        // Setting the search up (the layout, the duplicate table, the relaxation's indexes,
+        // the compression marks, the root) comes in pieces, in windows of their own: the whole
+        // costs more than a window (satellite 2: about 54,000 ticks), so it is divided (see
+        // `set_up_pieces`), and the search starts in the window after the last piece.
+        if self.planner.is_none() {
             if let Err(r) = self.set_up() {
                 outcome = Some(TemporalOutcome::OutOfMemory(region(r)));
             }
+        }
+        let mut most_set_up = job.most_set_up_ticks;
+        let set_up = self.planner.as_ref().is_some_and(|p| p.setting_up());
+        if let (None, Some(planner), true) = (outcome, self.planner.as_mut(), set_up) {
+            let (done, most_piece, pieces) = set_up_pieces(
+                planner,
+                clock,
+                (until, hard_until),
+                most_set_up,
+                job.stalled,
+            );
+            most_set_up = most_piece;
+            ran = pieces;
+            if done {
+                outcome = match planner.status() {
+                    Status::Searching => None,
+                    Status::Solved => Some(TemporalOutcome::Solved),
+                    Status::Unsolvable => Some(TemporalOutcome::Unsolvable),
+                    Status::OutOfMemory(r) => Some(TemporalOutcome::OutOfMemory(region(r))),
+                };
+            }
+        } else if self.planner.is_none() {
             ran = 1;
         }
         let mut ran_none = true;
@@ -393,6 +743,7 @@ impl<'a> TemporalApp<'a> {
         };
         job.spent_ticks = job.spent_ticks.wrapping_add(spent);
         job.most_step_ticks = most;
+        job.most_set_up_ticks = most_set_up;
         job.stalled = ran_none && ran == 0;
         job.windows = job.windows.saturating_add(1);
         if outcome.is_none() && job.config.max_windows > 0 && job.windows >= job.config.max_windows
@@ -432,6 +783,7 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn handle(&mut self, msg: &HostToTarget, downlink: &mut dyn Downlink) -> bool {
+        let started = self.receive_clock();
         match msg {
             HostToTarget::TemporalBegin {
                 job,
@@ -440,15 +792,24 @@ impl PlannerPlugin for TemporalApp<'_> {
                 config,
             } => self.begin(*job, *len, *crc32, *config, downlink),
             HostToTarget::TemporalChunk { job, offset, bytes } => {
-                self.chunk(*job, *offset, bytes, downlink)
+                self.chunk(*job, *offset, bytes, started, downlink)
             }
             _ => return false,
+        }
+        if self
+            .job
+            .is_some_and(|j| matches!(j.phase, Phase::Receiving { .. }))
+        {
+            self.receive_ticks = self
+                .receive_ticks
+                .wrapping_add(self.receive_clock().wrapping_sub(started));
         }
         true
     }
 
     fn planning_pending(&self) -> bool {
-        self.job.is_some_and(|j| j.phase == Phase::Planning)
+        self.job
+            .is_some_and(|j| matches!(j.phase, Phase::Planning | Phase::Verifying { .. }))
     }
 
     fn busy(&self) -> bool {
@@ -457,6 +818,13 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn window(&mut self, w: &mut PluginWindow<'_, '_>) {
+        if self
+            .job
+            .is_some_and(|j| matches!(j.phase, Phase::Verifying { .. }))
+        {
+            self.verify(w.clock, w.until, w.downlink);
+            return;
+        }
         self.search(w.clock, w.until, w.hard_until);
     }
 
@@ -519,9 +887,119 @@ impl PlannerPlugin for TemporalApp<'_> {
                 planning_ticks: job.spent_ticks,
                 windows: job.windows,
                 worst_expansion_ticks: sat(job.most_step_ticks),
+                worst_set_up_ticks: sat(job.most_set_up_ticks),
             }));
             self.finished = self.finished.saturating_add(1);
             self.end_job();
         }
     }
+}
+
+/// A window's pieces of the search's set-up (`temporal::Planner::set_up_step`), within `until`
+/// on `clock` (None: every piece at once), as expansions are: the window's first piece runs if
+/// the costliest piece so far (`most`) fits before `hard_until`, or whatever it costs after a
+/// window that ran none (`stalled`: progress); a piece that empties buckets (a small, fixed
+/// amount of work) follows while the costliest piece still fits the share; any other piece
+/// (the indexes, the compression marks, the root: each up to about an expansion's work) runs
+/// only as the window's first, so no window takes two of them. Returns whether the set-up is
+/// done, the costliest piece, and the pieces run.
+fn set_up_pieces(
+    planner: &mut Planner<'_, '_>,
+    clock: &mut dyn CpuClock,
+    (until, hard_until): (Option<u64>, Option<u64>),
+    mut most: u64,
+    stalled: bool,
+) -> (bool, u64, u32) {
+    let mut now = clock.ticks();
+    let mut pieces = 0u32;
+    loop {
+        if let Some(u) = until {
+            let end = now.saturating_add(most);
+            let fits = if pieces == 0 {
+                now < u && (end <= hard_until.unwrap_or(u) || stalled)
+            } else {
+                planner.next_set_up_piece_is_small() && end <= u
+            };
+            if !fits {
+                return (false, most, pieces);
+            }
+        }
+        let more = planner.set_up_step();
+        pieces += 1;
+        let after = clock.ticks();
+        most = most.max(after.wrapping_sub(now));
+        now = after;
+        if !more {
+            return (true, most, pieces);
+        }
+    }
+}
+
+fn record_crc(words: &[u32]) -> u32 {
+    let mut digest = TASK_CRC.digest();
+    for w in words {
+        digest.update(&w.to_be_bytes());
+    }
+    digest.finalize()
+}
+
+/// The record of an accepted job (see "A job kept across a warm reset" above).
+fn encode_record(job: &Job) -> [u32; TEMPORAL_RESUME_RECORD_WORDS] {
+    let mut words = [0u32; TEMPORAL_RESUME_RECORD_WORDS];
+    words[0] = RESUME_MAGIC;
+    words[1] = RESUME_VERSION;
+    words[2] = u32::from(job.id);
+    words[3] = job.len;
+    words[4] = job.crc32;
+    words[5] = job.task_at;
+    words[6] = job.task_len;
+    words[7] = job.ticks_per_unit;
+    let mut config = [0u8; 24];
+    config[..sdls::temporal::CONFIG_BYTES]
+        .copy_from_slice(&sdls::temporal::config_bytes(&job.config));
+    for (w, b) in words[8..14].iter_mut().zip(config.chunks_exact(4)) {
+        *w = u32::from_be_bytes([b[0], b[1], b[2], b[3]]);
+    }
+    words[15] = record_crc(&words[..15]);
+    words
+}
+
+/// The job a record describes, if it is a whole record (phase and costs are the caller's).
+fn decode_record(words: &[u32; TEMPORAL_RESUME_RECORD_WORDS]) -> Option<Job> {
+    if words[0] != RESUME_MAGIC
+        || words[1] != RESUME_VERSION
+        || words[14] != 0
+        || words[15] != record_crc(&words[..15])
+    {
+        return None;
+    }
+    let mut config = [0u8; sdls::temporal::CONFIG_BYTES];
+    let mut bytes = [0u8; 24];
+    for (b, w) in bytes.chunks_exact_mut(4).zip(&words[8..14]) {
+        b.copy_from_slice(&w.to_be_bytes());
+    }
+    config.copy_from_slice(&bytes[..sdls::temporal::CONFIG_BYTES]);
+    let (len, task_at, task_len) = (words[3], words[5], words[6]);
+    if task_at.checked_add(task_len)? > len || bytes[23] != 0 {
+        return None;
+    }
+    Some(Job {
+        id: u16::try_from(words[2]).ok()?,
+        len,
+        crc32: words[4],
+        task_at,
+        task_len,
+        config: sdls::temporal::config_from_bytes(&config)?,
+        phase: Phase::Verifying { checked: 0 },
+        ticks_per_unit: words[7],
+        spent_ticks: 0,
+        windows: 0,
+        most_step_ticks: 0,
+        stalled: false,
+        most_set_up_ticks: 0,
+        outcome: None,
+        plan_len: 0,
+        makespan: 0,
+        stats: temporal::Stats::default(),
+    })
 }

@@ -88,11 +88,17 @@ pub const EXECUTIVE_NV: Slice = Slice {
     offset: 0,
     len: 0x2_0000,
 };
-/// The planner's slice of non-volatile memory, after the executive's.
+/// The planner's slice of non-volatile memory, after the executive's: its checkpoint records
+/// (as long as its warm slice), then its security area (the key and the anti-replay counter
+/// of temporal uplinks, `sdls::nv`'s layout) at [`PLANNER_NV_SECURITY_OFFSET`].
 pub const PLANNER_NV: Slice = Slice {
     offset: EXECUTIVE_NV.len,
-    len: PLANNER_WARM.len,
+    len: PLANNER_WARM.len + PLANNER_NV_SECURITY_BYTES,
 };
+/// Offset of the planner's security area in its slice of non-volatile memory.
+pub const PLANNER_NV_SECURITY_OFFSET: u32 = PLANNER_WARM.len;
+/// Bytes kept for it (`sdls::nv::SECURITY_AREA_BYTES` is 128; room to spare).
+pub const PLANNER_NV_SECURITY_BYTES: u32 = 0x100;
 
 const PARTITIONS_PRODUCT: [Partition; 3] = [
     Partition {

@@ -18,6 +18,9 @@
 //!   value-out step with a search budget.
 //! - [`downlink`]: the downlink manager (Appendix A): Critical and Decisional products placed
 //!   first, the rest by an exact, anytime multiple-knapsack branch and bound.
+//! - [`comms`]: data volume and downlink capacity in the planning: the link and the products
+//!   onboard as executor inputs, measured product volumes, downlinks sized to their data, and
+//!   the downlink manager's check on every chain ([`comms::DataPlacement`]).
 //!
 //! `no_std`, heap-free, integer time in µs and energy in mJ, capacities in [`capacity`]; no
 //! floating point, so host and target decide bit for bit the same. The executor runs in the
@@ -37,6 +40,7 @@ extern crate std;
 
 pub mod assessor;
 pub mod capacity;
+pub mod comms;
 pub mod downlink;
 pub mod executor;
 pub mod gate;

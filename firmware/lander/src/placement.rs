@@ -23,6 +23,8 @@
 //! chain's end: in-view time before the horizon end not taken by a placed chain. So a
 //! candidate whose data cannot be downlinked before the mission ends is not added. Without
 //! windows ([`EarthView::default`]) Earth is not modelled (always in view), as before.
+//! How much data a downlink can carry is not checked here: [`crate::comms::DataPlacement`]
+//! wraps this placement with the downlink manager.
 use heapless::Vec;
 
 use fsw_bridge::MissionTimeUs;

@@ -136,6 +136,16 @@ fn decomposition(
 
 /// The reference model.
 pub fn model(options: Rsm1Options) -> Result<HtnModel, CapacityExceeded> {
+    model_with_drains(options, 0)
+}
+
+/// The reference model with `drains` backlog downlinks: top-level tasks of their own batch (4,
+/// after the panoramas) that only prepare the antenna and downlink (the raw downlink, 3 h),
+/// creating no data. They carry data already onboard or planned that the plan's own
+/// downlinks cannot (a product larger than one downlink after the rate fell, or a backlog);
+/// the downlink manager's placement ([`crate::comms::DataPlacement`]) admits one only when it
+/// downlinks required data that would otherwise stay onboard, and values it by that.
+pub fn model_with_drains(options: Rsm1Options, drains: u8) -> Result<HtnModel, CapacityExceeded> {
     use PrimitiveKind as K;
     let mut b = Builder {
         model: HtnModel::default(),
@@ -405,6 +415,22 @@ pub fn model(options: Rsm1Options) -> Result<HtnModel, CapacityExceeded> {
                     Step::Primitive(prep_hga),
                     Step::Primitive(downlink_compressed),
                 ],
+                surface,
+                ModeUse::Always,
+                false,
+            )?],
+        )?;
+    }
+    // Backlog downlinks.
+    for k in 0..drains {
+        b.parent(
+            300 + u16::from(k),
+            "downlink backlog",
+            true,
+            4,
+            None,
+            &[decomposition(
+                &[Step::Primitive(prep_hga), Step::Primitive(downlink_raw)],
                 surface,
                 ModeUse::Always,
                 false,

@@ -25,6 +25,7 @@ pub fn reason_to_wire(r: Reason) -> LanderReason {
         Reason::Discovery => LanderReason::Discovery,
         Reason::Overrun => LanderReason::Overrun,
         Reason::ReplanFailed => LanderReason::ReplanFailed,
+        Reason::DataVolume => LanderReason::DataVolume,
     }
 }
 
@@ -37,6 +38,7 @@ pub fn reason_from_wire(r: LanderReason) -> Reason {
         LanderReason::Discovery => Reason::Discovery,
         LanderReason::Overrun => Reason::Overrun,
         LanderReason::ReplanFailed => Reason::ReplanFailed,
+        LanderReason::DataVolume => Reason::DataVolume,
     }
 }
 

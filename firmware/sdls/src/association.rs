@@ -117,7 +117,12 @@ impl SecurityAssociation {
         self.holds
     }
 
-    fn key_for(&self, spi: u16) -> Result<&Key, SecurityRefusal> {
+    /// The provisioned key, whatever its SPI (`NoKey` without one).
+    pub(crate) fn key_for_any(&self) -> Result<&Key, SecurityRefusal> {
+        self.key.as_ref().ok_or(SecurityRefusal::NoKey)
+    }
+
+    pub(crate) fn key_for(&self, spi: u16) -> Result<&Key, SecurityRefusal> {
         match &self.key {
             None => Err(SecurityRefusal::NoKey),
             Some(key) if key.spi != spi => Err(SecurityRefusal::UnknownKey),
@@ -125,7 +130,7 @@ impl SecurityAssociation {
         }
     }
 
-    fn fresh(&self, sequence: u32) -> Result<(), SecurityRefusal> {
+    pub(crate) fn fresh(&self, sequence: u32) -> Result<(), SecurityRefusal> {
         if sequence > self.last_sequence {
             Ok(())
         } else {

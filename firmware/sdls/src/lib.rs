@@ -51,6 +51,7 @@
 pub mod association;
 pub mod mac;
 pub mod nv;
+pub mod temporal;
 pub mod uplink;
 
 pub use association::{SecurityAssociation, SecurityStore, StoreError};

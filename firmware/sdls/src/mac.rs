@@ -7,6 +7,8 @@
 //! |---------------|------------------------------------------------------------------------|
 //! | uplink        | `0x01`, the image's security header (SPI, sequence, length), the image |
 //! | ground command| `0x02`, SPI, sequence, [`command_bytes`]                                |
+//! | temporal task | `0x03`, job, [`crate::temporal::config_bytes`], the secured task's header |
+//! |               | (SPI, sequence, length), the compiled task ([`crate::temporal`])         |
 use fsw_bridge::security::MAC_LEN;
 use fsw_bridge::{GroundCommand, SecurityHeader};
 use hmac::{Hmac, Mac};
@@ -21,11 +23,13 @@ use crate::Key;
 pub enum Service {
     Uplink = 1,
     GroundCommand = 2,
+    /// A temporal planning task for the planner partition ([`crate::temporal`]).
+    Temporal = 3,
 }
 
-type HmacSha256 = Hmac<Sha256>;
+pub(crate) type HmacSha256 = Hmac<Sha256>;
 
-fn keyed(key: &[u8]) -> Option<HmacSha256> {
+pub(crate) fn keyed(key: &[u8]) -> Option<HmacSha256> {
     // HMAC takes keys of any length, so this never fails; it is not unwrapped all the same.
     <HmacSha256 as Mac>::new_from_slice(key).ok()
 }

@@ -89,12 +89,16 @@ pub extern "C" fn partition_planner_main() -> ! {
     let app: &'static mut PlannerApp = unsafe { zeroed_state(addr_of_mut!(APP)) };
     app.reset();
     app.set_cpu_budget(Some(PLANNING_TICKS_PER_WINDOW));
-    state.copies.has_nv =
-        matches!(sys::nv_read(0, &mut []), Ok(size) if size as usize >= NV_CHECKPOINT_BYTES);
+    let nv_size = sys::nv_read(0, &mut []).map_or(0, |size| size as usize);
+    state.copies.has_nv = nv_size >= NV_CHECKPOINT_BYTES;
     if sys::identity().1 == 0 {
         metric(state, metric::BOOT_PLANNER_START_TICKS, entered);
     }
-    let temporal = temporal::start();
+    let temporal = temporal::start(
+        nv_size
+            >= kernel_config::system::PLANNER_NV_SECURITY_OFFSET as usize
+                + sdls::nv::SECURITY_AREA_BYTES,
+    );
     let lander = lander::start();
     app.boot_fetching(
         &mut state.copies.memories(None),

@@ -7,19 +7,26 @@
 //! they cost no boot time. The planner writes every arena word it reads; the task buffer is
 //! read only up to the bytes a job received. The plan buffer is small and zeroed with the
 //! partition's other statics.
+//!
+//! Temporal uplinks are authenticated here (see `flight_app::TemporalApp`'s documentation for
+//! why here and not in the executive): the key and the anti-replay counter are in the
+//! partition's own security area, at `PLANNER_NV_SECURITY_OFFSET` of its slice of non-volatile
+//! memory (`hil` provisions the same key there as in the executive's), read and written through
+//! the kernel ([`PlannerSecurityStore`]).
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use flight_app::{
     PlannerPlugin, PluginWindow, TemporalApp, TemporalStorage, MAX_TEMPORAL_PLAN_ACTIONS,
-    MAX_TEMPORAL_TASK_BYTES, TEMPORAL_ARENA_BYTES,
+    MAX_TEMPORAL_TASK_BYTES, TEMPORAL_ARENA_BYTES, TEMPORAL_RESUME_RECORD_WORDS,
 };
+use flight_app::{SecurityStore, StoreError};
 use fsw_bridge::HostToTarget;
 use temporal::PlannedAction;
 
-use kernel_config::system::PLANNER_WINDOW_TICKS;
+use kernel_config::system::{PLANNER_NV_SECURITY_OFFSET, PLANNER_WINDOW_TICKS};
 
-use userlib::{HostOutbox, PartitionClock};
+use userlib::{sys, HostOutbox, PartitionClock};
 
 const ARENA_WORDS: usize = TEMPORAL_ARENA_BYTES / 4;
 /// Ticks of the planner window kept for what follows the plug-ins (the messages for the
@@ -33,6 +40,12 @@ static mut TASK: MaybeUninit<[u8; MAX_TEMPORAL_TASK_BYTES]> = MaybeUninit::unini
 #[link_section = ".bss.noinit.planner"]
 static mut ARENA: MaybeUninit<[u32; ARENA_WORDS]> = MaybeUninit::uninit();
 
+/// The record of the accepted job, beside its task: what a warm reset keeps of the job
+/// (`flight_app::TemporalApp::resume` checks it; after a cold boot it holds whatever the RAM
+/// holds, which fails its magic or its CRC).
+#[link_section = ".bss.noinit.planner"]
+static mut RECORD: MaybeUninit<[u32; TEMPORAL_RESUME_RECORD_WORDS]> = MaybeUninit::uninit();
+
 #[link_section = ".bss.part.planner"]
 static mut PLAN: MaybeUninit<[PlannedAction; MAX_TEMPORAL_PLAN_ACTIONS]> = MaybeUninit::uninit();
 
@@ -43,14 +56,59 @@ static mut APP: MaybeUninit<TemporalApp<'static>> = MaybeUninit::uninit();
 /// messages: the MEXEC planner's metrics).
 const OUTBOX_RESERVE: usize = 8;
 
-/// The plug-in, made at the partition's (re)start (a job in progress is lost with it).
-pub fn start() -> &'static mut TemporalApp<'static> {
+/// The security area of temporal uplinks in the planner's slice of non-volatile memory,
+/// through the kernel (this partition owns the slice).
+pub struct PlannerSecurityStore;
+
+impl SecurityStore for PlannerSecurityStore {
+    fn read(&mut self, area: &mut [u8; sdls::nv::SECURITY_AREA_BYTES]) -> Result<(), StoreError> {
+        sys::nv_read(PLANNER_NV_SECURITY_OFFSET, area)
+            .map(|_| ())
+            .map_err(|_| StoreError)
+    }
+
+    /// Returns once the kernel has copied the bytes into the device.
+    fn write(&mut self, offset: usize, bytes: &[u8]) -> Result<(), StoreError> {
+        let at = (PLANNER_NV_SECURITY_OFFSET as usize)
+            .checked_add(offset)
+            .and_then(|at| u32::try_from(at).ok())
+            .ok_or(StoreError)?;
+        sys::nv_write(at, bytes).map_err(|_| StoreError)
+    }
+}
+
+#[link_section = ".bss.part.planner"]
+static mut STORE: PlannerSecurityStore = PlannerSecurityStore;
+
+/// The plug-in, made at the partition's (re)start. A job accepted before a warm reset (or a
+/// restart of the partition) is taken up again: its record and its task are in memory the
+/// reset keeps; the task is checked again in the next windows and planned from the start.
+/// `has_security_area`: the partition's slice of non-volatile memory holds the security
+/// area (without it every temporal uplink is refused with `NoKey`).
+pub fn start(has_security_area: bool) -> &'static mut TemporalApp<'static> {
     // SAFETY: PLAN is this partition's static, zeroed by the partition start, and all-zero
-    // bytes are a valid array of PlannedAction (integers). APP is this partition's static.
-    // The entry runs once per (re)start, so nothing else refers to either.
+    // bytes are a valid array of PlannedAction (integers). APP and STORE (a unit struct) are
+    // this partition's statics. The entry runs once per (re)start, so nothing else refers to
+    // any of them.
     unsafe {
         let plan = &mut *(addr_of_mut!(PLAN) as *mut [PlannedAction; MAX_TEMPORAL_PLAN_ACTIONS]);
-        (*addr_of_mut!(APP)).write(TemporalApp::new(plan))
+        let app = (*addr_of_mut!(APP)).write(TemporalApp::new(plan));
+        let store = &mut *addr_of_mut!(STORE);
+        app.secure(has_security_area.then_some(store as &mut dyn SecurityStore));
+        app.set_receive_clock(|| sys::cpu_time().0);
+        // SAFETY: RECORD is this partition's static in `.bss.noinit.planner`, referred to by
+        // nothing else; every bit pattern is a valid array of u32 (the RAM holds defined
+        // bytes, and the record is checked before it is believed).
+        let record = &mut *(addr_of_mut!(RECORD) as *mut [u32; TEMPORAL_RESUME_RECORD_WORDS]);
+        app.keep_jobs_in(record);
+        give_storage(app);
+        if app.resume() {
+            defmt::info!(
+                "temporal: job {=u16} resumed after a restart; its task is checked again",
+                app.job().unwrap_or(0)
+            );
+        }
+        app
     }
 }
 

@@ -232,7 +232,7 @@ pub fn largest_temporal_config() -> TemporalConfig {
 }
 
 /// Kinds of temporal report.
-pub const TEMPORAL_REPORT_KINDS: usize = 5;
+pub const TEMPORAL_REPORT_KINDS: usize = 6;
 
 /// The largest temporal report of kind `i` (Accepted, Refused, Step, Stats, Done).
 pub fn largest_temporal_report(i: usize) -> TemporalReport {
@@ -245,6 +245,8 @@ pub fn largest_temporal_report(i: usize) -> TemporalReport {
             actions: m,
             task_bytes: m,
             ticks_per_unit: m,
+            receive_ticks: m,
+            auth_ticks: m,
         },
         1 => TemporalReport::Refused {
             job,
@@ -286,6 +288,12 @@ pub fn largest_temporal_report(i: usize) -> TemporalReport {
             planning_ticks: u64::MAX,
             windows: m,
             worst_expansion_ticks: m,
+            worst_set_up_ticks: m,
+        },
+        5 => TemporalReport::Resumed {
+            job,
+            task_bytes: m,
+            verify_ticks: m,
         },
         _ => panic!("TemporalReport has no kind {i}"),
     }

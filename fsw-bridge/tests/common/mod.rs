@@ -366,6 +366,9 @@ pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
         u32s().prop_map(|capacity| TemporalRefusal::TooLarge { capacity }),
         u32s().prop_map(|computed| TemporalRefusal::BadCrc { computed }),
         (any::<u8>(), u32s()).prop_map(|(kind, offset)| TemporalRefusal::BadTask { kind, offset }),
+        (0..fsw_bridge::SecurityRefusal::COUNT)
+            .prop_map(|i| TemporalRefusal::Security(fsw_bridge::SecurityRefusal::ALL[i])),
+        u16s().prop_map(|job| TemporalRefusal::Busy { job }),
     ];
     prop_oneof![
         (u16s(), [u32s(), u32s(), u32s(), u32s()]).prop_map(|(job, [f, a, b, t])| {
@@ -375,6 +378,8 @@ pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
                 actions: a,
                 task_bytes: b,
                 ticks_per_unit: t,
+                receive_ticks: t,
+                auth_ticks: a,
             }
         }),
         (u16s(), refusal).prop_map(|(job, reason)| TemporalReport::Refused { job, reason }),
@@ -428,9 +433,17 @@ pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
                         planning_ticks,
                         windows,
                         worst_expansion_ticks: worst,
+                        worst_set_up_ticks: worst,
                     }
                 }
             ),
+        (u16s(), u32s(), u32s()).prop_map(|(job, task_bytes, verify_ticks)| {
+            TemporalReport::Resumed {
+                job,
+                task_bytes,
+                verify_ticks,
+            }
+        }),
     ]
     .prop_map(TargetToHost::Temporal)
 }

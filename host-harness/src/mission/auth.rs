@@ -26,6 +26,14 @@ pub const NV_SECURITY_OFFSET: usize =
     (kernel_config::WARM_AREA_SIZE - kernel_config::WARM_BOOT_RECORD_SIZE) as usize;
 /// Bytes of the security area.
 pub const NV_SECURITY_BYTES: usize = sdls::nv::SECURITY_AREA_BYTES;
+/// Offset of the planner partition's security area (temporal uplinks, issue 13) in
+/// non-volatile memory: at the end of its slice, after its checkpoint records. Provisioning
+/// writes the same key into both areas; each has its own anti-replay counter.
+pub const NV_PLANNER_SECURITY_OFFSET: usize = (kernel_config::system::PLANNER_NV.offset
+    + kernel_config::system::PLANNER_NV_SECURITY_OFFSET)
+    as usize;
+/// Both security areas: the executive's, the planner's.
+const AREAS: [usize; 2] = [NV_SECURITY_OFFSET, NV_PLANNER_SECURITY_OFFSET];
 
 /// A key from 64 hexadecimal digits (whitespace and a leading `0x` ignored).
 pub fn parse_key_hex(text: &str) -> Result<[u8; sdls::KEY_LEN], String> {
@@ -74,18 +82,20 @@ pub fn read_key_file(path: &Path) -> Result<[u8; sdls::KEY_LEN], String> {
     parse_key_hex(text).map_err(|e| format!("key file {}: {e}", path.display()))
 }
 
-/// Write `key`'s slot into a whole non-volatile memory image (the counter records stay: a new
-/// key starts its own counter at 0, the same key keeps its counter).
+/// Write `key`'s slot into a whole non-volatile memory image, in the executive's security
+/// area and the planner's (the counter records stay: a new key starts its own counters at 0,
+/// the same key keeps its counters).
 pub fn provision_nv_image(nv: &mut [u8], key: &Key) -> Result<(), String> {
     let len = nv.len();
-    let area = nv
-        .get_mut(NV_SECURITY_OFFSET..NV_SECURITY_OFFSET + NV_SECURITY_BYTES)
-        .ok_or_else(|| {
+    for at in AREAS {
+        let area = nv.get_mut(at..at + NV_SECURITY_BYTES).ok_or_else(|| {
             format!(
-                "a non-volatile memory of {len} bytes has no room for the security area at {NV_SECURITY_OFFSET:#x}"
+                "a non-volatile memory of {len} bytes has no room for the security area at {at:#x}"
             )
         })?;
-    sdls::nv::provision(area, key).map_err(|_| "security area too small".to_string())
+        sdls::nv::provision(area, key).map_err(|_| "security area too small".to_string())?;
+    }
+    Ok(())
 }
 
 /// Provision `key` into the non-volatile memory file at `path` (QEMU's `ivshmem-plain`
@@ -104,10 +114,10 @@ pub fn provision_nv_file(path: &Path, key: &Key, size: u64) -> Result<(), String
         .metadata()
         .map_err(|e| format!("{}: {e}", path.display()))?
         .len();
-    let needed = (NV_SECURITY_OFFSET + NV_SECURITY_BYTES) as u64;
+    let needed = (NV_PLANNER_SECURITY_OFFSET.max(NV_SECURITY_OFFSET) + NV_SECURITY_BYTES) as u64;
     if size.max(len) < needed {
         return Err(format!(
-            "{}: {} bytes have no room for the security area at {NV_SECURITY_OFFSET:#x}",
+            "{}: {} bytes have no room for the security areas at {NV_SECURITY_OFFSET:#x} and {NV_PLANNER_SECURITY_OFFSET:#x}",
             path.display(),
             size.max(len)
         ));
@@ -116,9 +126,12 @@ pub fn provision_nv_file(path: &Path, key: &Key, size: u64) -> Result<(), String
         file.set_len(size)
             .map_err(|e| format!("cannot extend {}: {e}", path.display()))?;
     }
-    file.seek(SeekFrom::Start(NV_SECURITY_OFFSET as u64))
-        .and_then(|_| file.write_all(&sdls::nv::key_slot(key)))
-        .and_then(|_| file.sync_all())
+    for at in AREAS {
+        file.seek(SeekFrom::Start(at as u64))
+            .and_then(|_| file.write_all(&sdls::nv::key_slot(key)))
+            .map_err(|e| format!("cannot write the key slot into {}: {e}", path.display()))?;
+    }
+    file.sync_all()
         .map_err(|e| format!("cannot write the key slot into {}: {e}", path.display()))
 }
 
@@ -134,10 +147,25 @@ pub fn describe_nv_file(path: &Path) -> Result<String, String> {
         ));
     };
     let sa = sdls::SecurityAssociation::from_area(area);
+    let planner = bytes
+        .get(NV_PLANNER_SECURITY_OFFSET..NV_PLANNER_SECURITY_OFFSET + NV_SECURITY_BYTES)
+        .map(|area| {
+            let sa = sdls::SecurityAssociation::from_area(area);
+            match sdls::nv::read_key_slot(area) {
+                None => "; planner (temporal uplinks): no key provisioned".to_string(),
+                Some(key) => format!(
+                    "; planner (temporal uplinks): key SPI {} (check {:08x}), last accepted sequence {}",
+                    key.spi,
+                    key.check(),
+                    sa.last_sequence()
+                ),
+            }
+        })
+        .unwrap_or_default();
     Ok(match sdls::nv::read_key_slot(area) {
         None => format!("{}: no key provisioned", path.display()),
         Some(key) => format!(
-            "{}: key SPI {} (check {:08x}), last accepted sequence {}, ground holds {:#010x}",
+            "{}: key SPI {} (check {:08x}), last accepted sequence {}, ground holds {:#010x}{planner}",
             path.display(),
             key.spi,
             key.check(),
@@ -185,6 +213,21 @@ impl Signer {
         (sequence, secure_uplink(&self.key, sequence, image))
     }
 
+    /// A temporal planning task secured (header, task, MAC over the job and `config` too:
+    /// `sdls::temporal`) with the next sequence number.
+    pub fn sign_temporal(
+        &mut self,
+        job: u16,
+        config: &fsw_bridge::temporal::TemporalConfig,
+        task: &[u8],
+    ) -> (u32, Vec<u8>) {
+        let sequence = self.take_sequence();
+        (
+            sequence,
+            secure_temporal(&self.key, sequence, job, config, task),
+        )
+    }
+
     /// `command` authenticated with the next sequence number.
     pub fn sign_command(&mut self, command: GroundCommand) -> (u32, HostToTarget) {
         let sequence = self.take_sequence();
@@ -193,6 +236,21 @@ impl Signer {
             authenticated_command(&self.key, sequence, command),
         )
     }
+}
+
+/// A temporal task secured with `key` and `sequence` for `job` and `config`.
+pub fn secure_temporal(
+    key: &Key,
+    sequence: u32,
+    job: u16,
+    config: &fsw_bridge::temporal::TemporalConfig,
+    task: &[u8],
+) -> Vec<u8> {
+    let mut out = vec![0u8; task.len() + sdls::uplink::OVERHEAD];
+    let n = sdls::temporal::sign_into(key, sequence, job, config, task, &mut out)
+        .expect("the buffer is sized for the secured task");
+    out.truncate(n);
+    out
 }
 
 /// `image` secured with `key` and `sequence`.
@@ -383,7 +441,14 @@ mod tests {
         assert_eq!(bytes[..16], [0x5a; 16], "bytes before the area are kept");
         let area = &bytes[NV_SECURITY_OFFSET..NV_SECURITY_OFFSET + NV_SECURITY_BYTES];
         assert_eq!(sdls::nv::read_key_slot(area), Some(TEST_KEY));
-        assert!(describe_nv_file(&path).unwrap().contains("key SPI 1"));
+        let planner =
+            &bytes[NV_PLANNER_SECURITY_OFFSET..NV_PLANNER_SECURITY_OFFSET + NV_SECURITY_BYTES];
+        assert_eq!(sdls::nv::read_key_slot(planner), Some(TEST_KEY));
+        let shown = describe_nv_file(&path).unwrap();
+        assert!(
+            shown.contains("key SPI 1") && shown.contains("planner (temporal uplinks): key SPI 1"),
+            "{shown}"
+        );
         // The offset is the executive's: right after the warm area's checkpoint part.
         assert_eq!(NV_SECURITY_OFFSET, 0x1_0000 - 64);
     }

@@ -138,13 +138,11 @@ impl std::fmt::Debug for Trace {
     }
 }
 
-/// The part of a product on board already downlinked. The world on this branch sends whole
-/// products only: 0. Where a product larger than one downlink goes down in parts (the world
-/// keeping what it sent, e.g. a `sent_bytes` field), return that here: a downlink's per-tier
-/// volume then counts the parts (`host-harness/tests/lander_report.rs` fails until it does).
+/// The part of a product on board already downlinked: a product larger than one downlink goes
+/// down in parts (`Product::sent_bytes`), and a downlink's per-tier volume counts the parts
+/// (`host-harness/tests/lander_report.rs` checks the sums).
 fn sent_part(p: &super::Product) -> u64 {
-    let _ = p;
-    0
+    p.sent_bytes
 }
 
 /// What identifies a product on board: kind, tier, creation time, site and target.

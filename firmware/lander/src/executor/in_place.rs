@@ -48,6 +48,15 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         self.initial_battery_mj = timeline.battery_mj;
         self.now = timeline.horizon_start;
         self.battery_mj = timeline.battery_mj;
+        // elap-downlink's link and data state, as `new` leaves it (no link modelled, nothing
+        // onboard): `set_comms` and `set_onboard_data` give them after the reset.
+        self.comms = None;
+        self.onboard.clear();
+        self.volumes = VolumeFactors::default();
+        self.downlink_sizes.clear();
+        self.payload.clear();
+        self.comm_spent = (0, 0);
+        self.data_stats = DataStats::default();
         self.begin_planning(Reason::Initial);
     }
 }

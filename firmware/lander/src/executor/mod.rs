@@ -38,6 +38,14 @@
 //!   next chain boundary, after a negative biosignature (utility discovery: the subway map
 //!   moves on) and when measured overruns leave the remaining plan more energy than the charge.
 //!
+//! - **Data volume** ([`crate::comms`]): with a link model ([`Executor::set_comms`]) and the
+//!   products onboard ([`Executor::set_onboard_data`]) as inputs, each plan sizes the chains'
+//!   downlinks to their data at the measured volumes and checks every chain with the downlink
+//!   manager; a dispatched downlink carries the manager's assignment
+//!   ([`Executor::downlink_payload`]) and lasts long enough for it. Under Replan a new link or a
+//!   product measured larger or smaller than modelled replans at the next chain boundary
+//!   ([`Reason::DataVolume`]).
+//!
 //! States in a replan: targets collected, biosignatures and excavated sites are in the
 //! Assessor's context; an excavation of a site already excavated costs nothing and is not
 //! dispatched ([`already_done`]).
@@ -59,6 +67,8 @@ use fsw_bridge::MissionTimeUs;
 use crate::assessor::ScienceContext;
 use crate::assessor::{chain_science, Assessor, ChainScience};
 use crate::capacity::*;
+use crate::comms::{CommsError, CommsModel, DataStats, DownlinkSizes, VolumeFactors};
+use crate::downlink::DataProduct;
 use crate::htn::{FlatNetwork, HtnModel, PrimitiveKind, PrimitiveSpec};
 use crate::placement::{TimelinePlacement, ViewTimeline};
 use crate::search::{PlacedChain, Search, SearchConfig, SearchStats};
@@ -119,6 +129,19 @@ pub struct Executor<const NODES: usize = MAX_SEARCH_NODES, const QUEUE: usize = 
     initial_battery_mj: u64,
     now: MissionTimeUs,
     battery_mj: u64,
+    /// The link, when data volume is modelled ([`Executor::set_comms`]).
+    comms: Option<CommsModel>,
+    /// The products onboard, as last reported ([`Executor::set_onboard_data`]).
+    onboard: Vec<DataProduct, MAX_DATA_PRODUCTS>,
+    /// Measured product volumes against the model's.
+    volumes: VolumeFactors,
+    /// Per chain, its downlink sized at the last plan (duration, energy).
+    downlink_sizes: DownlinkSizes,
+    /// What the downlink being dispatched carries ([`Executor::downlink_payload`]).
+    payload: Vec<DataProduct, MAX_DATA_PRODUCTS>,
+    /// Radio energy the dispatched downlinks planned to spend: (sol, mJ) for the latest sol.
+    comm_spent: (u16, u64),
+    data_stats: DataStats,
 }
 
 impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
@@ -159,6 +182,13 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             initial_battery_mj: timeline.battery_mj,
             now: timeline.horizon_start,
             battery_mj: timeline.battery_mj,
+            comms: None,
+            onboard: Vec::new(),
+            volumes: VolumeFactors::default(),
+            downlink_sizes: DownlinkSizes::new(),
+            payload: Vec::new(),
+            comm_spent: (0, 0),
+            data_stats: DataStats::default(),
         };
         match plan {
             Some(plan) => e.install(plan)?,
@@ -173,6 +203,66 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
     /// `timeline.earth.downlinks` given to [`Executor::new`] need not be filled.
     pub fn set_view_windows(&mut self, windows: &ViewTimeline) {
         self.timeline.earth.windows = windows.clone();
+    }
+
+    /// Sets the link the planning sizes downlinks and checks data volume with (`None`, the
+    /// default: data volume is not modelled, downlinks keep their model durations). A model
+    /// that differs from the one in force (e.g. the ground lowered the rate) applies from the
+    /// next plan; under Replan it makes one at the next chain boundary, and a search under way
+    /// starts again with it. A zero rate or sol length is refused and changes nothing.
+    pub fn set_comms(&mut self, comms: Option<CommsModel>) -> Result<(), CommsError> {
+        if let Some(c) = &comms {
+            c.validate()?;
+        }
+        if comms == self.comms {
+            return Ok(());
+        }
+        self.comms = comms;
+        match self.mode {
+            Mode::Planning { reason } => self.restart_planning(reason),
+            Mode::Done => {}
+            _ if self.config.strategy == Strategy::Replan && !self.remaining().is_empty() => {
+                self.replan_pending.get_or_insert(Reason::DataVolume);
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// The link in force.
+    pub fn comms(&self) -> Option<&CommsModel> {
+        self.comms.as_ref()
+    }
+
+    /// Reports the data products onboard (their measured sizes), for the planning and the
+    /// downlinks: call it before a step whenever they changed. More than
+    /// [`MAX_DATA_PRODUCTS`], or a product out of range, is refused and keeps the last list.
+    pub fn set_onboard_data(&mut self, products: &[DataProduct]) -> Result<(), CommsError> {
+        if products
+            .iter()
+            .any(|p| p.size_bytes > MAX_BYTES || p.value > MAX_PRODUCT_VALUE)
+        {
+            return Err(CommsError::ProductOutOfRange);
+        }
+        self.onboard = Vec::from_slice(products).map_err(|_| CommsError::TooManyProducts)?;
+        Ok(())
+    }
+
+    /// The measured product volumes in force.
+    pub fn volumes(&self) -> &VolumeFactors {
+        &self.volumes
+    }
+
+    /// What the downlink just dispatched should carry, in order: the onboard products the
+    /// downlink manager assigns to it (empty when data volume is not modelled, or the last
+    /// dispatch was not a downlink).
+    pub fn downlink_payload(&self) -> &[DataProduct] {
+        &self.payload
+    }
+
+    /// The downlink manager's counters over every plan made (placement checks).
+    pub fn data_stats(&self) -> &DataStats {
+        &self.data_stats
     }
 
     /// The Earth-in-view windows the placement allows downlinks in (empty: not modelled).
@@ -387,6 +477,9 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         };
         step.start = now;
         let step = *step;
+        self.payload.clear();
+        self.size_dispatched_downlink();
+        let step = self.steps.get(self.cursor).copied().unwrap_or(step);
         self.reshift();
         self.mode = Mode::Running;
         self.stats.dispatched += 1;
@@ -435,6 +528,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                 self.reshift();
                 if let Some(spec) = &spec {
                     self.learn(spec, outcome);
+                    self.learn_volume(spec);
                     self.note_science(spec, &step, outcome);
                 }
                 self.cursor += 1;
@@ -451,6 +545,9 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                 }
                 if step.last_in_chain {
                     self.close_chain(step.chain, true);
+                    if self.replan_pending.is_none() && self.stranded_new_data() {
+                        self.replan_pending = Some(Reason::DataVolume);
+                    }
                     if let Some(reason) = self.replan_pending.take() {
                         self.begin_planning(reason);
                     }

@@ -7,7 +7,9 @@ use fsw_bridge::MissionTimeUs;
 
 use super::*;
 use crate::assessor::{assess_chains, AssessedPlacement, Biosignature, SampleRef};
-use crate::placement::downlink_spans;
+use crate::comms::{next_downlink, size_downlinks, DataPlacement, DataView};
+use crate::downlink::Tier;
+use crate::placement::{downlink_spans, is_downlink};
 
 impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
     /// Model parameter update (IV.C.3).
@@ -117,6 +119,11 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         if reason != Reason::Initial {
             self.stats.replans += 1;
         }
+        self.restart_planning(reason);
+    }
+
+    /// Sets up the search from the current state (new inputs while planning start it again).
+    pub(super) fn restart_planning(&mut self, reason: Reason) {
         reparameterize(
             &self.primitives,
             &self.params,
@@ -129,16 +136,38 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             &self.science,
             &mut self.network,
         );
-        // The chains' downlink offsets under the same predictions the plan installs with.
         let (primitives, params, context) = (&self.primitives, &self.params, &self.context);
-        self.timeline.earth.downlinks = downlink_spans(primitives, &self.network, |p| {
-            let (d, _) = predicted(primitives, params, p)?;
+        let prior = |p: u8| {
+            let (d, e) = predicted(primitives, params, p)?;
             Some(if already_done(primitives, context, p) {
-                0
+                (0, 0)
             } else {
-                d
+                (d, e)
             })
-        });
+        };
+        // The chains' downlink offsets under the same predictions the plan installs with.
+        self.timeline.earth.downlinks =
+            downlink_spans(primitives, &self.network, |p| prior(p).map(|(d, _)| d));
+        self.downlink_sizes.clear();
+        if let Some(comms) = &self.comms {
+            // Products at their measured volumes, downlinks sized to carry them.
+            let before: Vec<u64, MAX_CHAINS> =
+                self.network.chains.iter().map(|c| c.duration_us).collect();
+            self.downlink_sizes =
+                size_downlinks(primitives, &mut self.network, comms, &self.volumes, prior);
+            for ((span, chain), was) in self
+                .timeline
+                .earth
+                .downlinks
+                .iter_mut()
+                .zip(self.network.chains.iter())
+                .zip(before.iter())
+            {
+                if let Some((_, to)) = span {
+                    *to = to.saturating_add(chain.duration_us.saturating_sub(*was));
+                }
+            }
+        }
         self.planning_from = (self.now, self.battery_mj);
         let config = SearchConfig {
             battery_mj: self.battery_mj,
@@ -156,21 +185,194 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         }
     }
 
+    /// A finished primitive's product, measured onboard (the product of its tier created when
+    /// it ended): its size against the model's updates the volume factor of its kind; under
+    /// Replan a change makes a replan at the next chain boundary. Only with data volume
+    /// modelled ([`Executor::set_comms`]).
+    pub(super) fn learn_volume(&mut self, spec: &PrimitiveSpec) {
+        let (Some(_), Some(prior)) = (self.comms, spec.product) else {
+            return;
+        };
+        let now = self.now;
+        let Some(measured) = self
+            .onboard
+            .iter()
+            .find(|p| p.created_at == now && p.tier == prior.tier)
+            .map(|p| p.size_bytes)
+        else {
+            return;
+        };
+        if self.volumes.learn(spec.kind, prior.size_bytes, measured) {
+            self.stats.parameter_updates += 1;
+            self.record_step(DecisionKind::ParameterUpdated);
+            if self.config.strategy == Strategy::Replan {
+                self.replan_pending.get_or_insert(Reason::DataVolume);
+            }
+        }
+    }
+
+    /// Under Replan with data volume modelled: whether data onboard that must go down
+    /// (Critical, Decisional, Mandatory) appeared since the last plan started and the rest of
+    /// the plan has no downlink left to carry it (e.g. a quake record after the plan's last
+    /// downlink), and the model has a backlog downlink not yet used: a replan then adds one for
+    /// it.
+    pub(super) fn stranded_new_data(&self) -> bool {
+        if self.comms.is_none() || self.config.strategy != Strategy::Replan {
+            return false;
+        }
+        let since = self.planning_from.0;
+        let new = self
+            .onboard
+            .iter()
+            .any(|p| p.tier != Tier::Residual && p.created_at > since);
+        let downlink_left = self.remaining().iter().skip(1).any(|s| {
+            self.primitives
+                .get(usize::from(s.primitive))
+                .is_some_and(|p| is_downlink(p.kind))
+        });
+        // Only a model with backlog downlinks (no data of their own) still to use can help.
+        let drain_left = self.network.chains.iter().any(|c| {
+            c.products.is_empty()
+                && !self.closed_tasks.contains(&c.task_slot)
+                && c.primitives.iter().any(|&p| {
+                    self.primitives
+                        .get(usize::from(p))
+                        .is_some_and(|s| is_downlink(s.kind))
+                })
+        });
+        new && !downlink_left && drain_left
+    }
+
+    /// The downlink about to be dispatched: what it carries (the downlink manager's assignment
+    /// over the onboard products and those the rest of the plan creates, against it and the
+    /// plan's later downlinks) and a duration that carries it (at least the planned one).
+    pub(super) fn size_dispatched_downlink(&mut self) {
+        let Some(comms) = self.comms else {
+            return;
+        };
+        let Some(step) = self.steps.get(self.cursor).copied() else {
+            return;
+        };
+        let is_dl = |p: u8| {
+            self.primitives
+                .get(usize::from(p))
+                .is_some_and(|s| is_downlink(s.kind))
+        };
+        if !is_dl(step.primitive) {
+            return;
+        }
+        let mut later: Vec<DataProduct, MAX_DATA_PRODUCTS> = Vec::new();
+        let mut downlinks: Vec<(u64, u64), MAX_DOWNLINKS> = Vec::new();
+        for s in self.steps.iter().skip(self.cursor + 1) {
+            let end = s.start.0.saturating_add(s.duration_us);
+            if is_dl(s.primitive) {
+                let _ = downlinks.push((s.start.0, end));
+            }
+            if let Some(spec) = self.primitives.get(usize::from(s.primitive)) {
+                if let Some(p) = spec.product {
+                    let _ = later.push(DataProduct {
+                        size_bytes: self.volumes.scale(spec.kind, p.size_bytes),
+                        value: p.value,
+                        created_at: MissionTimeUs(end),
+                        tier: p.tier,
+                    });
+                }
+            }
+        }
+        let now = self.now.0;
+        let window_end = self
+            .timeline
+            .earth
+            .windows
+            .windows()
+            .iter()
+            .find(|w| w.start.0 <= now && now < w.end.0)
+            .map_or(u64::MAX, |w| w.end.0);
+        let sol = comms.sol_of(now);
+        let spent = if self.comm_spent.0 == sol {
+            self.comm_spent
+        } else {
+            (sol, 0)
+        };
+        let duration = next_downlink(
+            &comms,
+            &self.onboard,
+            &later,
+            now,
+            step.duration_us,
+            window_end,
+            &downlinks,
+            spent,
+            &mut self.payload,
+        );
+        if let Some(s) = self.steps.get_mut(self.cursor) {
+            if duration != s.duration_us && s.duration_us > 0 {
+                s.energy_mj = u64::try_from(
+                    u128::from(s.energy_mj) * u128::from(duration) / u128::from(s.duration_us),
+                )
+                .unwrap_or(MAX_ENERGY_MJ)
+                .min(MAX_ENERGY_MJ);
+                s.duration_us = duration;
+            }
+        }
+        let tx = duration
+            .saturating_sub(comms.overhead_us)
+            .min(comms.max_transmit_us());
+        let mj = u64::try_from(u128::from(tx) * u128::from(comms.radio_power_mw) / 1_000_000)
+            .unwrap_or(u64::MAX);
+        self.comm_spent = (sol, spent.1.saturating_add(mj));
+    }
+
     /// Runs the search within `budget`; true when the plan is installed (or planning failed).
     pub(super) fn continue_planning(&mut self, budget: u32) -> bool {
         let mut timeline = self.timeline.clone();
         timeline.horizon_start = self.planning_from.0;
         timeline.battery_mj = self.planning_from.1;
-        let mut placement = AssessedPlacement {
-            inner: timeline,
-            assessor: self.assessor,
-            context: &self.context,
-            science: &self.science,
-            refused: 0,
+        let step = match &self.comms {
+            Some(comms) => {
+                let sol = comms.sol_of(self.planning_from.0 .0);
+                let view = DataView {
+                    comms,
+                    onboard: &self.onboard,
+                    spans: &self.timeline.earth.downlinks,
+                    spent: if self.comm_spent.0 == sol {
+                        self.comm_spent
+                    } else {
+                        (sol, 0)
+                    },
+                };
+                let mut placement = AssessedPlacement {
+                    inner: DataPlacement::new(timeline, view),
+                    assessor: self.assessor,
+                    context: &self.context,
+                    science: &self.science,
+                    refused: 0,
+                };
+                let step = self
+                    .search
+                    .step(&self.network, &mut placement, budget.max(1));
+                let d = placement.inner.stats;
+                let t = &mut self.data_stats;
+                t.checks = t.checks.saturating_add(d.checks);
+                t.vetoes = t.vetoes.saturating_add(d.vetoes);
+                t.capacity_vetoes = t.capacity_vetoes.saturating_add(d.capacity_vetoes);
+                t.knapsack_nodes = t.knapsack_nodes.saturating_add(d.knapsack_nodes);
+                t.max_knapsack_nodes = t.max_knapsack_nodes.max(d.max_knapsack_nodes);
+                t.unproven = t.unproven.saturating_add(d.unproven);
+                step
+            }
+            None => {
+                let mut placement = AssessedPlacement {
+                    inner: timeline,
+                    assessor: self.assessor,
+                    context: &self.context,
+                    science: &self.science,
+                    refused: 0,
+                };
+                self.search
+                    .step(&self.network, &mut placement, budget.max(1))
+            }
         };
-        let step = self
-            .search
-            .step(&self.network, &mut placement, budget.max(1));
         if !step.done {
             return false;
         }
@@ -203,9 +405,22 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                 .ok_or(ExecError::UnknownChain)?;
             let mut at = p.start.0;
             let first = self.steps.len();
+            let sized = self
+                .downlink_sizes
+                .get(usize::from(p.chain))
+                .copied()
+                .flatten();
             for &primitive in chain.primitives.iter() {
-                let (duration_us, energy_mj) = predicted(&self.primitives, &self.params, primitive)
-                    .ok_or(ExecError::UnknownChain)?;
+                let (mut duration_us, mut energy_mj) =
+                    predicted(&self.primitives, &self.params, primitive)
+                        .ok_or(ExecError::UnknownChain)?;
+                let downlink = self
+                    .primitives
+                    .get(usize::from(primitive))
+                    .is_some_and(|s| is_downlink(s.kind));
+                if let (true, Some((d, e))) = (downlink, sized) {
+                    (duration_us, energy_mj) = (d, e);
+                }
                 if already_done(&self.primitives, &self.context, primitive) {
                     continue;
                 }

@@ -123,6 +123,9 @@ pub enum Reason {
     Overrun,
     /// The search could not start.
     ReplanFailed,
+    /// Data volume or the link changed: a product measured larger or smaller than modelled,
+    /// or a new rate or allowance ([`Executor::set_comms`](super::Executor::set_comms)).
+    DataVolume,
 }
 
 /// The output of one step.

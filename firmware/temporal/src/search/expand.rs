@@ -5,7 +5,10 @@ use super::*;
 impl<'t, 'm> Planner<'t, 'm> {
     // ----- search -------------------------------------------------------------------------------
 
-    pub(super) fn start(&mut self) {
+    /// The root: its state (left in `child_state`), its heuristic value, the node stored. The
+    /// root and its h if its successors are to be pushed next ([`Self::push_successors`]);
+    /// None if the search already ended (a dead end, no memory, or the goal holds).
+    pub(super) fn start_root(&mut self) -> Option<(u32, u32)> {
         let task = self.task;
         let cs = core::mem::take(&mut self.child_state);
         self.initial_state(cs);
@@ -17,22 +20,20 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.stats.evaluated += 1;
         if h == DEAD_END {
             self.status = Status::Unsolvable;
-            return;
+            return None;
         }
         self.stats.best_h = h;
         let hash = self.state_hash(self.child_state);
         let Some(root) = self.store_node(NONE, NONE, h, 0, hash) else {
             self.status = Status::OutOfMemory(Region::Nodes);
-            return;
+            return None;
         };
         if self.is_goal(self.child_state) {
             self.goal_node = root;
             self.status = Status::Solved;
-            return;
+            return None;
         }
-        if let Err(r) = self.push_successors(root, h) {
-            self.status = Status::OutOfMemory(r);
-        }
+        Some((root, h))
     }
 
     /// Push every applicable snap of the state in `child_state` (stored as `node`) into the
@@ -108,6 +109,8 @@ impl<'t, 'm> Planner<'t, 'm> {
 
     /// Run at most `budget` expansions.
     pub fn step(&mut self, budget: u32) -> Status {
+        // A planner made with `new_deferred` finishes its set-up first.
+        while self.set_up_step() {}
         for _ in 0..budget {
             if self.status != Status::Searching {
                 break;

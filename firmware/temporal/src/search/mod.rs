@@ -27,7 +27,11 @@ use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod expand;
 mod path;
+mod setup;
 mod state;
+
+use setup::SetUp;
+pub use setup::BUCKET_WORDS_PER_PIECE;
 
 use crate::dispatch::{NetworkError, PlanNetwork, PlanStep};
 use path::{earliest_words, for_each_write, latest_words, step_window, unpack};
@@ -296,6 +300,8 @@ pub struct Planner<'t, 'm> {
     status: Status,
     stats: Stats,
     fact_words: usize,
+    /// The next piece of the set-up ([`setup`]).
+    set_up: SetUp,
 }
 
 /// Words of a packed state: facts, numeric values (two words each), running count and ids.
@@ -307,6 +313,17 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// Set up a search for `task` in `arena`. Errors if the arena cannot hold the task's
     /// tables, the scratch for `config.max_steps` steps and a root node.
     pub fn new(
+        task: Task<'t>,
+        arena: &'m mut [u32],
+        config: PlannerConfig,
+    ) -> Result<Self, Region> {
+        let mut planner = Self::lay_out(task, arena, config)?;
+        while planner.set_up_step() {}
+        Ok(planner)
+    }
+
+    /// The arena laid out for `task`, nothing set up ([`Self::new_deferred`]).
+    fn lay_out(
         task: Task<'t>,
         arena: &'m mut [u32],
         mut config: PlannerConfig,
@@ -366,7 +383,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         let regular = carve(&mut rest, remaining / 4 / 3 * 3, &mut used).ok_or(Region::Tables)?;
         let preferred = carve(&mut rest, remaining / 8 / 3 * 3, &mut used).ok_or(Region::Tables)?;
         let nodes = rest;
-        let mut planner = Self {
+        let planner = Self {
             task,
             config,
             relax,
@@ -412,13 +429,8 @@ impl<'t, 'm> Planner<'t, 'm> {
                 ..Stats::default()
             },
             fact_words: facts.div_ceil(32),
+            set_up: SetUp::Buckets(0),
         };
-        planner.buckets.iter_mut().for_each(|b| *b = NONE);
-        planner
-            .relax
-            .build_index(&planner.task, config.relaxed_cost, config.dropped_goals);
-        planner.mark_compression_safe();
-        planner.start();
         Ok(planner)
     }
 

@@ -584,6 +584,8 @@ impl MissionTarget for EmulatedTarget {
 
     fn power_cycle(&mut self) -> Result<(), TargetError> {
         self.awaiting_restore = false;
+        // A Hello kept from a reset before this one is stale: the next boot waits for QEMU's.
+        self.pending_hello = None;
         self.drain_logs();
         // Dropping the session ends QEMU (RAM gone); the NV file stays for the next process.
         self.session = None;
