@@ -40,7 +40,7 @@ pub trait WireMessage: Serialize + DeserializeOwned {
 }
 
 impl WireMessage for HostToTarget {
-    const VARIANT_COUNT: u8 = 12;
+    const VARIANT_COUNT: u8 = 13;
 }
 
 impl WireMessage for TargetToHost {

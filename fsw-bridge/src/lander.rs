@@ -49,6 +49,47 @@ pub enum LanderEvent {
     GroundResume,
 }
 
+/// The link to Earth as the executor knows it (`lander::comms::CommsModel`), integers with
+/// their unit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct LanderComms {
+    pub rate_bps: u64,
+    pub overhead_us: u64,
+    pub thermal_limit_us: u64,
+    pub radio_power_mw: u64,
+    pub per_downlink_mj: u64,
+    pub per_sol_mj: u64,
+    pub sol_us: u64,
+}
+
+/// A data product onboard (`lander::downlink::DataProduct`); `tier` is the tier's index
+/// (Critical 0, Decisional 1, Mandatory 2, Residual 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct LanderProduct {
+    pub size_bytes: u64,
+    pub value: u64,
+    pub created_at: MissionTimeUs,
+    pub tier: u8,
+}
+
+/// Products carried by one [`LanderInput::Products`] (the largest fits the routed port).
+pub const LANDER_PRODUCTS_PER_MESSAGE: usize = 4;
+
+/// The executor's link and data inputs (elap-downlink's `Executor::set_comms` and
+/// `Executor::set_onboard_data`), sent before the step that sees them.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LanderInput {
+    /// The link model in force (None: data volume not modelled).
+    Comms(Option<LanderComms>),
+    /// Products `first..first + products.len()` of the `total` onboard; the list is applied
+    /// when its last part arrives (parts in order, from 0).
+    Products {
+        first: u8,
+        total: u8,
+        products: heapless::Vec<LanderProduct, LANDER_PRODUCTS_PER_MESSAGE>,
+    },
+}
+
 /// One step's input (`lander::executor::Observation`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct LanderObservation {
@@ -183,6 +224,10 @@ pub enum LanderRefusal {
     OutOfOrder { expected: u32 },
     /// A step while the previous one is still being answered.
     Busy,
+    /// (Appended.) A link model or product list the executor refused
+    /// (`lander::comms::CommsError`'s index: 0 invalid, 1 too many products, 2 a product out
+    /// of range), or a product part out of order (3) or with an unknown tier (4).
+    BadInput { error: u8 },
 }
 
 /// What the planner partition says about the lander's executor.
@@ -338,6 +383,35 @@ mod tests {
             },
         };
         assert!(size(&step) <= 160);
+        let comms = HostToTarget::LanderInput {
+            setup: u16::MAX,
+            input: LanderInput::Comms(Some(LanderComms {
+                rate_bps: u64::MAX,
+                overhead_us: u64::MAX,
+                thermal_limit_us: u64::MAX,
+                radio_power_mw: u64::MAX,
+                per_downlink_mj: u64::MAX,
+                per_sol_mj: u64::MAX,
+                sol_us: u64::MAX,
+            })),
+        };
+        assert!(size(&comms) <= 160, "{}", size(&comms));
+        let product = LanderProduct {
+            size_bytes: u64::MAX,
+            value: u64::MAX,
+            created_at: t,
+            tier: u8::MAX,
+        };
+        let products = HostToTarget::LanderInput {
+            setup: u16::MAX,
+            input: LanderInput::Products {
+                first: u8::MAX,
+                total: u8::MAX,
+                products: heapless::Vec::from_slice(&[product; LANDER_PRODUCTS_PER_MESSAGE])
+                    .unwrap(),
+            },
+        };
+        assert!(size(&products) <= 160, "{}", size(&products));
         let chunk = HostToTarget::LanderChunk {
             setup: u16::MAX,
             offset: u32::MAX,

@@ -7,7 +7,7 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
-use crate::lander::{LanderChunkBytes, LanderObservation, LanderReport};
+use crate::lander::{LanderChunkBytes, LanderInput, LanderObservation, LanderReport};
 use crate::security::{CommandRefusal, GroundCommand, SecurityHeader, MAC_LEN};
 use crate::temporal::{TemporalChunkBytes, TemporalConfig, TemporalReport};
 use crate::types::{
@@ -124,6 +124,9 @@ pub enum HostToTarget {
         seq: u32,
         observation: LanderObservation,
     },
+    /// (Appended.) A link or data input of the lander's executor for setup `setup`, applied
+    /// before the next step.
+    LanderInput { setup: u16, input: LanderInput },
 }
 
 /// Messages the target sends to the host (in protocol v2 inside the reliable link's frames,

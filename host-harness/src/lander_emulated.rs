@@ -19,12 +19,18 @@
 //! them for the speed-up over mission time.
 use std::time::{Duration, Instant};
 
+use ::lander::comms::CommsModel;
+use ::lander::downlink::DataProduct;
 use ::lander::executor::{Decision, Directive, ExecConfig, Observation};
 use ::lander::htn::{FlatNetwork, HtnModel};
 use ::lander::placement::TimelinePlacement;
 use ::lander::setup::LanderSetup;
-use ::lander::wire::{decision_from_wire, directive_from_wire, observation_to_wire};
-use fsw_bridge::lander::{LanderRefusal, LanderReport, LANDER_CHUNK_MAX};
+use ::lander::wire::{
+    comms_to_wire, decision_from_wire, directive_from_wire, observation_to_wire, product_to_wire,
+};
+use fsw_bridge::lander::{
+    LanderInput, LanderRefusal, LanderReport, LANDER_CHUNK_MAX, LANDER_PRODUCTS_PER_MESSAGE,
+};
 use fsw_bridge::{HostToTarget, MissionTimeUs, TargetToHost};
 use lander_sim::scenario::Scenario;
 use lander_sim::sim::{self, Autonomy, RunConfig, RunResult, StepWatch};
@@ -142,6 +148,11 @@ pub struct EmulatedLander {
     step_no: u64,
     /// Decisions of the shadow's log compared so far.
     seen: usize,
+    /// The link model and product list the target's executor has (as a new one: none).
+    sent_comms: Option<CommsModel>,
+    sent_onboard: Vec<DataProduct>,
+    /// Input messages sent (link model changes and product list parts).
+    pub inputs_sent: u64,
     /// The target's decisions and directives.
     pub transcript: Transcript,
     pub costs: EmulatedCosts,
@@ -212,6 +223,9 @@ impl EmulatedLander {
             seq: 0,
             step_no: 0,
             seen: 0,
+            sent_comms: None,
+            sent_onboard: Vec::new(),
+            inputs_sent: 0,
             transcript: Transcript::default(),
             costs: EmulatedCosts::default(),
             health_events: Vec::new(),
@@ -326,6 +340,8 @@ impl EmulatedLander {
             .map_err(|r| format!("the target refused setup {id}: {r:?}"))?;
         self.seq = 0;
         self.seen = 0;
+        self.sent_comms = None;
+        self.sent_onboard.clear();
         self.transcript.logs.push(Vec::new());
         self.costs.setups += 1;
         self.costs.setup_bytes.push(bytes.len() as u32);
@@ -333,6 +349,74 @@ impl EmulatedLander {
             self.costs.build_ticks.push(build_ticks);
         }
         Ok(accepted)
+    }
+
+    /// The messages that carry a product list (parts of at most
+    /// [`LANDER_PRODUCTS_PER_MESSAGE`], in order; an empty list is one empty part).
+    pub fn product_messages(setup: u16, products: &[DataProduct]) -> Vec<HostToTarget> {
+        let total = products.len().min(usize::from(u8::MAX)) as u8;
+        let mut out = Vec::new();
+        let mut first = 0usize;
+        loop {
+            let part = products
+                .get(first..(first + LANDER_PRODUCTS_PER_MESSAGE).min(products.len()))
+                .unwrap_or(&[]);
+            out.push(HostToTarget::LanderInput {
+                setup,
+                input: LanderInput::Products {
+                    first: first.min(usize::from(u8::MAX)) as u8,
+                    total,
+                    products: part.iter().map(product_to_wire).collect(),
+                },
+            });
+            first += LANDER_PRODUCTS_PER_MESSAGE;
+            if first >= products.len() {
+                return out;
+            }
+        }
+    }
+
+    /// Sends the shadow's link model and product list where the target's differ (before the
+    /// step that sees them; a refusal ends that step's exchange).
+    fn send_inputs(&mut self, exec: &Autonomy) -> Result<(), String> {
+        let comms = exec.comms().copied();
+        let mut msgs = Vec::new();
+        if comms != self.sent_comms {
+            msgs.push(HostToTarget::LanderInput {
+                setup: self.setup,
+                input: LanderInput::Comms(comms.as_ref().map(comms_to_wire)),
+            });
+            self.sent_comms = comms;
+        }
+        if exec.onboard() != self.sent_onboard.as_slice() {
+            msgs.extend(Self::product_messages(self.setup, exec.onboard()));
+            self.sent_onboard = exec.onboard().to_vec();
+        }
+        for m in msgs {
+            self.inputs_sent += 1;
+            self.link.send(m).map_err(|e| e.to_string())?;
+        }
+        Ok(())
+    }
+
+    /// Sends `msgs` (link or data inputs) and grants `frames` frames: the target's refusal,
+    /// if it made one (an accepted input is not answered).
+    pub fn input_raw(
+        &mut self,
+        msgs: Vec<HostToTarget>,
+        frames: u32,
+    ) -> Result<Option<LanderRefusal>, String> {
+        for m in msgs {
+            self.link.send(m).map_err(|e| e.to_string())?;
+        }
+        let mut got = Collected::default();
+        for _ in 0..frames {
+            self.grant(&mut got)?;
+            if got.refused.is_some() {
+                break;
+            }
+        }
+        Ok(got.refused)
     }
 
     /// Sends step `seq` of the current setup and grants frames until its answer (or a
@@ -413,9 +497,16 @@ impl StepWatch for EmulatedLander {
         };
         let diverged = move |why: String| verdict("DIVERGED", why);
         let seq = self.seq;
+        if let Err(e) = self.send_inputs(exec) {
+            return Err(verdict("NO ANSWER", e));
+        }
         let (decisions, got, answer, frames) = match self.step_raw(seq, observation) {
             Ok(Ok(a)) => a,
-            Ok(Err(r)) => return Err(diverged(format!("the target refused the step: {r:?}"))),
+            Ok(Err(r)) => {
+                return Err(diverged(format!(
+                    "the target refused the step or its inputs: {r:?}"
+                )))
+            }
             // The link or the target failed: no answer to compare.
             Err(e) => return Err(verdict("NO ANSWER", e)),
         };

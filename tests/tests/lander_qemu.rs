@@ -17,13 +17,18 @@ use lander::executor::{Directive, Observation};
 use lander_sim::expect::check_all;
 use lander_sim::sim::{autonomy_inputs, run_watched, RunConfig};
 
-const MISSIONS: [&str; 6] = [
+const MISSIONS: [&str; 9] = [
     "bsm-1.toml",
     "rsm-1.toml",
     "elap/02-all-samples-negative.toml",
     "elap/05-first-sample-negative.toml",
     "elap/06-ground-changes-mission-model.toml",
+    // The data-volume scenarios: the link model, its changes and the products onboard go up
+    // to the target (LanderInput) before the step that sees them.
+    "elap/07-increased-decisional-volume.toml",
     "elap/08-sudden-low-battery.toml",
+    "elap/11-sudden-downlink-slowdown.toml",
+    "elap/12-increased-mandatory-volume.toml",
 ];
 
 #[test]
@@ -166,6 +171,63 @@ fn lander_missions_decide_on_the_target_as_natively_and_bad_setups_are_refused()
     assert_eq!(
         target.step_raw(5, &observation).unwrap().err(),
         Some(LanderRefusal::OutOfOrder { expected: 0 })
+    );
+    // Bad link and data inputs, each refused with its reason; the executor keeps what it had
+    // (step 0 below decides as a native executor given none).
+    let id = target.position().0;
+    let comms = |rate_bps| fsw_bridge::HostToTarget::LanderInput {
+        setup: id,
+        input: fsw_bridge::lander::LanderInput::Comms(Some(fsw_bridge::lander::LanderComms {
+            rate_bps,
+            overhead_us: 600_000_000,
+            thermal_limit_us: 3_600_000_000,
+            radio_power_mw: 50_000,
+            per_downlink_mj: 100_000_000,
+            per_sol_mj: 200_000_000,
+            sol_us: lander::rsm1::SOL_US,
+        })),
+    };
+    let product = |tier| lander::downlink::DataProduct {
+        size_bytes: 1_000,
+        value: 10,
+        created_at: MissionTimeUs::ZERO,
+        tier,
+    };
+    assert_eq!(
+        target.input_raw(vec![comms(0)], 20).unwrap(),
+        Some(LanderRefusal::BadInput { error: 0 }),
+        "a zero rate"
+    );
+    let mut unknown_tier =
+        EmulatedLander::product_messages(id, &[product(lander::htn::Tier::Mandatory)]);
+    if let fsw_bridge::HostToTarget::LanderInput {
+        input: fsw_bridge::lander::LanderInput::Products { products, .. },
+        ..
+    } = &mut unknown_tier[0]
+    {
+        products[0].tier = 9;
+    }
+    assert_eq!(
+        target.input_raw(unknown_tier, 20).unwrap(),
+        Some(LanderRefusal::BadInput { error: 4 }),
+        "an unknown tier"
+    );
+    // The second part of a six-product list without its first.
+    let six = [product(lander::htn::Tier::Residual); 6];
+    let parts = EmulatedLander::product_messages(id, &six);
+    assert_eq!(parts.len(), 2);
+    assert_eq!(
+        target.input_raw(parts[1..].to_vec(), 20).unwrap(),
+        Some(LanderRefusal::BadInput { error: 3 }),
+        "a part out of order"
+    );
+    // More products than the target holds (refused at the first part, which alone is sent).
+    let many = vec![product(lander::htn::Tier::Residual); lander::capacity::MAX_DATA_PRODUCTS + 1];
+    let first_part = EmulatedLander::product_messages(id, &many)[..1].to_vec();
+    assert_eq!(
+        target.input_raw(first_part, 20).unwrap(),
+        Some(LanderRefusal::BadInput { error: 1 }),
+        "too many products"
     );
     // And the target goes on: step 0 plans and answers as the native executor does.
     let (decisions, directive, _, _) = target.step_raw(0, &observation).unwrap().unwrap();

@@ -14,11 +14,17 @@
 //! partition ([`LanderStorage`]); on the target they are statics of the planner partition's
 //! region that are not zeroed at its start. Nothing here allocates, and nothing from outside
 //! can make it panic: bad bytes and out-of-order steps are a [`LanderRefusal`].
-use fsw_bridge::lander::{LanderObservation, LanderRefusal, LanderReport, LanderSetupError};
-use lander::downlink::{DownlinkError, DownlinkManager};
+use fsw_bridge::lander::{
+    LanderInput, LanderObservation, LanderRefusal, LanderReport, LanderSetupError,
+};
+use lander::capacity::MAX_DATA_PRODUCTS;
+use lander::comms::CommsError;
+use lander::downlink::{DataProduct, DownlinkError, DownlinkManager};
 use lander::executor::{Directive, Executor, Observation};
 use lander::setup::{decode_downlink_problem, decode_into, LanderSetup, DOWNLINK_PROBLEM_TAG};
-use lander::wire::{decision_to_wire, directive_to_wire, observation_from_wire};
+use lander::wire::{
+    comms_from_wire, decision_to_wire, directive_to_wire, observation_from_wire, product_from_wire,
+};
 
 use super::*;
 
@@ -101,6 +107,8 @@ pub struct LanderApp<'a> {
     /// Decisions of the executor's log reported so far.
     reported: usize,
     solve: Option<Solve>,
+    /// The product list being received ([`LanderInput::Products`] parts), applied whole.
+    products: heapless::Vec<DataProduct, MAX_DATA_PRODUCTS>,
     /// Setups accepted and refused, steps answered and refused, since the start.
     pub accepted: u32,
     pub refused: u32,
@@ -134,6 +142,7 @@ impl<'a> LanderApp<'a> {
             pending: None,
             reported: 0,
             solve: None,
+            products: heapless::Vec::new(),
             accepted: 0,
             refused: 0,
             answered: 0,
@@ -324,6 +333,78 @@ impl<'a> LanderApp<'a> {
         });
     }
 
+    /// A link or data input for the executor of `setup`: given to it at once (the next step
+    /// sees it); a product list when its last part arrives. Refused with the reason
+    /// ([`LanderRefusal::BadInput`]) when the executor refuses it, a part is out of order or a
+    /// tier unknown; the executor keeps what it had.
+    fn input(&mut self, setup: u16, input: &LanderInput, downlink: &mut dyn Downlink) {
+        const OUT_OF_ORDER: u8 = 3;
+        const UNKNOWN_TIER: u8 = 4;
+        let code = |e: CommsError| match e {
+            CommsError::Invalid => 0,
+            CommsError::TooManyProducts => 1,
+            CommsError::ProductOutOfRange => 2,
+        };
+        if self.active != Some(setup) || self.storage.is_none() {
+            self.refuse(setup, None, LanderRefusal::NoSetup, downlink);
+            return;
+        }
+        if self.pending.is_some() {
+            self.refuse(setup, None, LanderRefusal::Busy, downlink);
+            return;
+        }
+        let error = match input {
+            LanderInput::Comms(c) => {
+                let comms = c.as_ref().map(comms_from_wire);
+                match self.storage.as_mut() {
+                    Some(s) => s.executor.set_comms(comms).err().map(code),
+                    None => None,
+                }
+            }
+            LanderInput::Products {
+                first,
+                total,
+                products,
+            } => {
+                if *first == 0 {
+                    self.products.clear();
+                }
+                let mut error = None;
+                if usize::from(*first) != self.products.len() {
+                    error = Some(OUT_OF_ORDER);
+                } else if usize::from(*total) > MAX_DATA_PRODUCTS {
+                    error = Some(code(CommsError::TooManyProducts));
+                } else {
+                    for p in products.iter() {
+                        match product_from_wire(p) {
+                            Ok(p) if self.products.push(p).is_ok() => {}
+                            Ok(_) => error = Some(code(CommsError::TooManyProducts)),
+                            Err(_) => error = Some(UNKNOWN_TIER),
+                        }
+                        if error.is_some() {
+                            break;
+                        }
+                    }
+                }
+                if error.is_none() && self.products.len() > usize::from(*total) {
+                    error = Some(OUT_OF_ORDER);
+                }
+                if error.is_none() && self.products.len() == usize::from(*total) {
+                    if let Some(s) = self.storage.as_mut() {
+                        error = s.executor.set_onboard_data(&self.products).err().map(code);
+                    }
+                }
+                if error.is_some() {
+                    self.products.clear();
+                }
+                error
+            }
+        };
+        if let Some(error) = error {
+            self.refuse(setup, None, LanderRefusal::BadInput { error }, downlink);
+        }
+    }
+
     /// Takes a host message routed to the planner partition: true if it was the plug-in's.
     /// `clock` counts the setup's decoding and the executor's building.
     pub fn handle_with_clock(
@@ -346,6 +427,7 @@ impl<'a> LanderApp<'a> {
                 seq,
                 observation,
             } => self.step(*setup, *seq, observation, downlink),
+            HostToTarget::LanderInput { setup, input } => self.input(*setup, input, downlink),
             _ => return false,
         }
         true

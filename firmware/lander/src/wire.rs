@@ -1,9 +1,13 @@
 //! The executor's values on the link ([`fsw_bridge::lander`]): observations, directives and
 //! decisions, converted both ways, exactly (the tests round-trip every kind).
 use fsw_bridge::lander::{
-    LanderDecision, LanderDecisionKind, LanderDirective, LanderEvent, LanderObservation,
-    LanderReason, LanderTaskResult,
+    LanderComms, LanderDecision, LanderDecisionKind, LanderDirective, LanderEvent,
+    LanderObservation, LanderProduct, LanderReason, LanderTaskResult,
 };
+
+use crate::comms::CommsModel;
+use crate::downlink::DataProduct;
+use crate::htn::Tier;
 
 use crate::assessor::Biosignature;
 use crate::executor::{
@@ -224,4 +228,55 @@ pub fn decision_from_wire(d: &LanderDecision) -> Decision {
             LanderDecisionKind::Finished => DecisionKind::Finished,
         },
     }
+}
+
+pub fn comms_to_wire(c: &CommsModel) -> LanderComms {
+    LanderComms {
+        rate_bps: c.rate_bps,
+        overhead_us: c.overhead_us,
+        thermal_limit_us: c.thermal_limit_us,
+        radio_power_mw: c.radio_power_mw,
+        per_downlink_mj: c.per_downlink_mj,
+        per_sol_mj: c.per_sol_mj,
+        sol_us: c.sol_us,
+    }
+}
+
+pub fn comms_from_wire(c: &LanderComms) -> CommsModel {
+    CommsModel {
+        rate_bps: c.rate_bps,
+        overhead_us: c.overhead_us,
+        thermal_limit_us: c.thermal_limit_us,
+        radio_power_mw: c.radio_power_mw,
+        per_downlink_mj: c.per_downlink_mj,
+        per_sol_mj: c.per_sol_mj,
+        sol_us: c.sol_us,
+    }
+}
+
+const TIERS: [Tier; 4] = [
+    Tier::Critical,
+    Tier::Decisional,
+    Tier::Mandatory,
+    Tier::Residual,
+];
+
+pub fn product_to_wire(p: &DataProduct) -> LanderProduct {
+    LanderProduct {
+        size_bytes: p.size_bytes,
+        value: p.value,
+        created_at: p.created_at,
+        tier: TIERS.iter().position(|&t| t == p.tier).unwrap_or(0) as u8,
+    }
+}
+
+/// A product from the wire; an unknown tier index is refused (the index).
+pub fn product_from_wire(p: &LanderProduct) -> Result<DataProduct, UnknownKind> {
+    let tier = *TIERS.get(usize::from(p.tier)).ok_or(UnknownKind(p.tier))?;
+    Ok(DataProduct {
+        size_bytes: p.size_bytes,
+        value: p.value,
+        created_at: p.created_at,
+        tier,
+    })
 }

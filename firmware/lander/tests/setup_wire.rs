@@ -324,3 +324,45 @@ fn values_cross_the_link_unchanged() {
         .join()
         .unwrap();
 }
+
+/// The link model and the products onboard (elap-downlink's inputs, `LanderInput`) cross
+/// the link unchanged, every tier; a tier index the target does not have is refused.
+#[test]
+fn link_and_data_inputs_cross_the_link_unchanged() {
+    use lander::comms::CommsModel;
+    use lander::downlink::DataProduct;
+    use lander::htn::Tier;
+    use lander::wire::{comms_from_wire, comms_to_wire, product_from_wire, product_to_wire};
+    let c = CommsModel {
+        rate_bps: 50_000,
+        overhead_us: 1,
+        thermal_limit_us: 2,
+        radio_power_mw: 3,
+        per_downlink_mj: 4,
+        per_sol_mj: 5,
+        sol_us: 6,
+    };
+    assert_eq!(comms_from_wire(&comms_to_wire(&c)), c);
+    for tier in [
+        Tier::Critical,
+        Tier::Decisional,
+        Tier::Mandatory,
+        Tier::Residual,
+    ] {
+        let p = DataProduct {
+            size_bytes: u64::MAX,
+            value: 7,
+            created_at: MissionTimeUs(8),
+            tier,
+        };
+        assert_eq!(product_from_wire(&product_to_wire(&p)), Ok(p));
+    }
+    let mut w = product_to_wire(&DataProduct {
+        size_bytes: 1,
+        value: 1,
+        created_at: MissionTimeUs(0),
+        tier: Tier::Residual,
+    });
+    w.tier = 4;
+    assert_eq!(product_from_wire(&w), Err(lander::wire::UnknownKind(4)));
+}

@@ -526,7 +526,8 @@ fn handle(
         | HostToTarget::TemporalChunk { .. }
         | HostToTarget::LanderBegin { .. }
         | HostToTarget::LanderChunk { .. }
-        | HostToTarget::LanderStep { .. } => Routing::to(msg, ports::IO_TO_PLANNER),
+        | HostToTarget::LanderStep { .. }
+        | HostToTarget::LanderInput { .. } => Routing::to(msg, ports::IO_TO_PLANNER),
     };
     Some(routing)
 }

@@ -92,6 +92,7 @@ pub fn handle<const N: usize>(
         HostToTarget::LanderBegin { .. }
             | HostToTarget::LanderChunk { .. }
             | HostToTarget::LanderStep { .. }
+            | HostToTarget::LanderInput { .. }
     ) {
         return false;
     }

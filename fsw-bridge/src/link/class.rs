@@ -124,7 +124,9 @@ impl LinkMessage for HostToTarget {
             HostToTarget::LanderBegin { .. } | HostToTarget::LanderChunk { .. } => {
                 MessageClass::UplinkChunk
             }
-            HostToTarget::LanderStep { .. } => MessageClass::StateUpdate,
+            HostToTarget::LanderStep { .. } | HostToTarget::LanderInput { .. } => {
+                MessageClass::StateUpdate
+            }
         }
     }
 }
@@ -188,7 +190,8 @@ pub fn uplink_service(msg: &HostToTarget) -> Service {
         | HostToTarget::TemporalChunk { .. }
         | HostToTarget::LanderBegin { .. }
         | HostToTarget::LanderChunk { .. }
-        | HostToTarget::LanderStep { .. } => Service::Sequenced(VirtualChannel::Mission),
+        | HostToTarget::LanderStep { .. }
+        | HostToTarget::LanderInput { .. } => Service::Sequenced(VirtualChannel::Mission),
     }
 }
 

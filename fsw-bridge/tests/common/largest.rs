@@ -1,8 +1,8 @@
 //! Variant indices and the largest instance of every message variant (every varint at its
 //! longest, every Vec full, every Option Some), shared by the codec and link encoding tests.
 use fsw_bridge::lander::{
-    LanderDirective, LanderEvent, LanderObservation, LanderReport, LanderTaskResult,
-    LANDER_CHUNK_MAX,
+    LanderDirective, LanderEvent, LanderInput, LanderObservation, LanderProduct, LanderReport,
+    LanderTaskResult, LANDER_CHUNK_MAX, LANDER_PRODUCTS_PER_MESSAGE,
 };
 use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
 use fsw_bridge::security::{SecurityRefusal, MAC_LEN};
@@ -17,7 +17,7 @@ use fsw_bridge::{
 };
 
 /// Variants of each message set.
-pub const H2T_VARIANTS: usize = 12;
+pub const H2T_VARIANTS: usize = 13;
 pub const T2H_VARIANTS: usize = 13;
 
 /// Declaration index of each variant. Exhaustive on purpose: adding a variant breaks the build
@@ -36,6 +36,7 @@ pub fn h2t_index(m: &HostToTarget) -> usize {
         HostToTarget::LanderBegin { .. } => 9,
         HostToTarget::LanderChunk { .. } => 10,
         HostToTarget::LanderStep { .. } => 11,
+        HostToTarget::LanderInput { .. } => 12,
     }
 }
 
@@ -131,6 +132,23 @@ pub fn largest_h2t(i: usize) -> HostToTarget {
                     energy_mj: u64::MAX,
                     positive: Some(false),
                 }),
+            },
+        },
+        // The larger of the two inputs: a full part of the product list.
+        12 => HostToTarget::LanderInput {
+            setup: u16::MAX,
+            input: LanderInput::Products {
+                first: u8::MAX,
+                total: u8::MAX,
+                products: heapless::Vec::from_slice(
+                    &[LanderProduct {
+                        size_bytes: u64::MAX,
+                        value: u64::MAX,
+                        created_at: MissionTimeUs::MAX,
+                        tier: u8::MAX,
+                    }; LANDER_PRODUCTS_PER_MESSAGE],
+                )
+                .unwrap(),
             },
         },
         _ => panic!("HostToTarget has no variant {i}"),

@@ -243,6 +243,28 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
                 }),
             },
         },
+        HostToTarget::LanderInput {
+            setup: 1,
+            input: fsw_bridge::lander::LanderInput::Products {
+                first: 0,
+                total: 2,
+                products: heapless::Vec::from_slice(&[
+                    fsw_bridge::lander::LanderProduct {
+                        size_bytes: 2_400_000,
+                        value: 80,
+                        created_at: now,
+                        tier: 1,
+                    },
+                    fsw_bridge::lander::LanderProduct {
+                        size_bytes: 640_000,
+                        value: 20,
+                        created_at: now,
+                        tier: 3,
+                    },
+                ])
+                .unwrap(),
+            },
+        },
     ];
     let to_host = [
         TargetToHost::Hello {

@@ -798,7 +798,8 @@ impl Harness {
             | HostToTarget::TemporalChunk { .. }
             | HostToTarget::LanderBegin { .. }
             | HostToTarget::LanderChunk { .. }
-            | HostToTarget::LanderStep { .. } => {
+            | HostToTarget::LanderStep { .. }
+            | HostToTarget::LanderInput { .. } => {
                 assert!(
                     !handled && out.is_empty(),
                     "{msg:?} is the planner partition's"

@@ -248,6 +248,11 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         Ok(())
     }
 
+    /// The products onboard as last reported ([`Executor::set_onboard_data`]).
+    pub fn onboard(&self) -> &[DataProduct] {
+        &self.onboard
+    }
+
     /// The measured product volumes in force.
     pub fn volumes(&self) -> &VolumeFactors {
         &self.volumes
