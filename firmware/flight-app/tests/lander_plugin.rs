@@ -241,3 +241,139 @@ fn a_step_planned_over_many_windows_answers_as_one_native_call() {
         .join()
         .unwrap();
 }
+
+/// The executor's link and data inputs (`LanderInput`): a valid link model and product list
+/// reach the executor (it holds exactly what was sent, the list applied when its last part
+/// arrives); a zero rate, an unknown tier, a part out of order, too many products, or an input
+/// for no setup are refused with their reason and the executor keeps what it had.
+#[test]
+fn link_and_data_inputs_reach_the_executor_and_bad_ones_are_refused() {
+    use fsw_bridge::lander::{LanderComms, LanderInput, LanderProduct};
+    std::thread::Builder::new()
+        .stack_size(64 << 20)
+        .spawn(|| {
+            let (model, s) = setup();
+            let mut buf = vec![0u8; 1 << 20];
+            let n = encode(&s, &mut buf).unwrap();
+            let bytes = &buf[..n];
+            let mut store = vec![0u8; MAX_LANDER_SETUP_BYTES];
+            let mut decoded = Box::new(s.clone());
+            let mut exec: Box<Executor> = Box::new(
+                Executor::new(s.config, &model, &s.network, &s.timeline, &s.context, None).unwrap(),
+            );
+            let mut manager = Box::new(DownlinkManager::new());
+            let mut app = LanderApp::new();
+            app.give_storage(LanderStorage {
+                bytes: &mut store,
+                setup: &mut decoded,
+                executor: &mut exec,
+                downlink: &mut manager,
+            });
+            let mut clock = Clock {
+                now: 0,
+                per_read: 1_000,
+            };
+            let mut out = Vec::new();
+            let comms = |rate_bps| LanderComms {
+                rate_bps,
+                overhead_us: 600_000_000,
+                thermal_limit_us: 3_600_000_000,
+                radio_power_mw: 50_000,
+                per_downlink_mj: 100_000_000,
+                per_sol_mj: 200_000_000,
+                sol_us: rsm1::SOL_US,
+            };
+            let input = |setup, input| HostToTarget::LanderInput { setup, input };
+            // No setup yet.
+            assert!(app.handle_with_clock(
+                &input(7, LanderInput::Comms(Some(comms(50_000)))),
+                &mut clock,
+                &mut |x| out.push(x)
+            ));
+            let refused = |out: &[TargetToHost]| match out {
+                [TargetToHost::Lander(LanderReport::Refused {
+                    reason, seq: None, ..
+                })] => Some(*reason),
+                _ => None,
+            };
+            assert_eq!(refused(&out), Some(LanderRefusal::NoSetup));
+            out.clear();
+            for m in messages(7, bytes) {
+                assert!(app.handle_with_clock(&m, &mut clock, &mut |x| out.push(x)));
+            }
+            out.clear();
+            let mut send = |app: &mut LanderApp, msg: HostToTarget| {
+                let mut out = Vec::new();
+                assert!(app.handle_with_clock(&msg, &mut clock, &mut |x| out.push(x)));
+                match refused(&out) {
+                    Some(r) => Some(r),
+                    None if out.is_empty() => None,
+                    None => panic!("{out:?}"),
+                }
+            };
+            // A valid link model is applied, silently.
+            assert_eq!(
+                send(&mut app, input(7, LanderInput::Comms(Some(comms(50_000))))),
+                None
+            );
+            assert_eq!(
+                app.executor().unwrap().comms().map(|c| c.rate_bps),
+                Some(50_000)
+            );
+            // A zero rate is refused; the model in force stays.
+            assert_eq!(
+                send(&mut app, input(7, LanderInput::Comms(Some(comms(0))))),
+                Some(LanderRefusal::BadInput { error: 0 })
+            );
+            assert_eq!(
+                app.executor().unwrap().comms().map(|c| c.rate_bps),
+                Some(50_000)
+            );
+            // Six products in two parts: applied when the second arrives.
+            let p = |tier, i: u64| LanderProduct {
+                size_bytes: 1_000 + i,
+                value: 5,
+                created_at: MissionTimeUs(i),
+                tier,
+            };
+            let part = |first: u8, total: u8, ps: &[LanderProduct]| {
+                input(
+                    7,
+                    LanderInput::Products {
+                        first,
+                        total,
+                        products: heapless::Vec::from_slice(ps).unwrap(),
+                    },
+                )
+            };
+            let six: Vec<_> = (0..6).map(|i| p(i as u8 % 4, i)).collect();
+            assert_eq!(send(&mut app, part(0, 6, &six[..4])), None);
+            assert!(app.executor().unwrap().onboard().is_empty());
+            assert_eq!(send(&mut app, part(4, 6, &six[4..])), None);
+            let onboard = app.executor().unwrap().onboard();
+            assert_eq!(onboard.len(), 6);
+            assert_eq!(onboard[5].size_bytes, 1_005);
+            // Bad lists, each refused; the six stay.
+            assert_eq!(
+                send(&mut app, part(0, 1, &[p(9, 0)])),
+                Some(LanderRefusal::BadInput { error: 4 })
+            );
+            assert_eq!(
+                send(&mut app, part(4, 6, &six[4..])),
+                Some(LanderRefusal::BadInput { error: 3 })
+            );
+            assert_eq!(
+                send(&mut app, part(0, 65, &six[..4])),
+                Some(LanderRefusal::BadInput { error: 1 })
+            );
+            assert_eq!(app.executor().unwrap().onboard().len(), 6);
+            // Another setup's input.
+            assert_eq!(
+                send(&mut app, input(8, LanderInput::Comms(None))),
+                Some(LanderRefusal::NoSetup)
+            );
+        })
+        .unwrap()
+        .join()
+        .unwrap();
+}
