@@ -40,11 +40,11 @@ pub trait WireMessage: Serialize + DeserializeOwned {
 }
 
 impl WireMessage for HostToTarget {
-    const VARIANT_COUNT: u8 = 9;
+    const VARIANT_COUNT: u8 = 13;
 }
 
 impl WireMessage for TargetToHost {
-    const VARIANT_COUNT: u8 = 12;
+    const VARIANT_COUNT: u8 = 13;
 }
 
 /// Why a message could not be put in a frame.

@@ -17,6 +17,7 @@ extern crate std;
 
 pub mod codec;
 pub mod dictionary;
+pub mod lander;
 pub mod link;
 pub mod messages;
 pub mod security;

@@ -7,6 +7,7 @@
 use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
+use crate::lander::{LanderChunkBytes, LanderInput, LanderObservation, LanderReport};
 use crate::security::{CommandRefusal, GroundCommand, SecurityHeader, MAC_LEN};
 use crate::temporal::{TemporalChunkBytes, TemporalConfig, TemporalReport};
 use crate::types::{
@@ -108,6 +109,24 @@ pub enum HostToTarget {
         offset: u32,
         bytes: TemporalChunkBytes,
     },
+    /// A setup of the lander's executor for the planner partition ([`crate::lander`]): `len`
+    /// bytes with CRC-32 `crc32` follow in LanderChunks. A new Begin ends the executor in force.
+    LanderBegin { setup: u16, len: u32, crc32: u32 },
+    /// The setup's bytes at `offset` (chunks in order, each at the end of the one before).
+    LanderChunk {
+        setup: u16,
+        offset: u32,
+        bytes: LanderChunkBytes,
+    },
+    /// Step `seq` (from 0 per setup) of the lander's executor.
+    LanderStep {
+        setup: u16,
+        seq: u32,
+        observation: LanderObservation,
+    },
+    /// (Appended.) A link or data input of the lander's executor for setup `setup`, applied
+    /// before the next step.
+    LanderInput { setup: u16, input: LanderInput },
 }
 
 /// Messages the target sends to the host (in protocol v2 inside the reliable link's frames,
@@ -168,6 +187,8 @@ pub enum TargetToHost {
     },
     /// What the planner partition says about a temporal planning job.
     Temporal(TemporalReport),
+    /// What the planner partition says about the lander's executor.
+    Lander(LanderReport),
 }
 
 /// Events reported as telemetry. New kinds are appended at the end (postcard encodes the

@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 use crate::diag::{Diagnostic, SourceFile};
-use object::{Object, ObjectSection};
+use object::{Object, ObjectSection, ObjectSymbol};
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
@@ -52,6 +52,10 @@ pub struct BudgetSpec {
     pub unit: Unit,
     pub max: u64,
     pub source: String,
+    /// The goal for the quantity, where it has one and it differs from the budget (a
+    /// goal not reached is reported with the measured number; it is never lowered).
+    #[serde(default)]
+    pub goal: Option<u64>,
     #[serde(default)]
     pub description: String,
 }
@@ -76,16 +80,34 @@ pub enum Source {
     Elf {
         section_prefix: String,
     },
+
     /// The guest instructions the temporal planner takes on a PDDL task in the emulated
     /// target's planner partition (`hil plan --emulated`).
     Plan {
         domain: String,
         problem: String,
     },
+    /// A lander mission with its executor on the emulated target
+    /// ([`crate::lander_emulated::lander_metrics`]).
+    Lander {
+        scenario: String,
+        metric: String,
+    },
+    /// Bytes of the firmware ELF's symbols whose (demangled) paths start with one of the
+    /// `+`-separated prefixes.
+    Symbols {
+        prefix: String,
+    },
 }
 
 impl Source {
     pub fn parse(text: &str) -> Result<Self, String> {
+        // A symbol path has colons of its own.
+        if let Some(prefix) = text.strip_prefix("sym:").filter(|p| !p.is_empty()) {
+            return Ok(Source::Symbols {
+                prefix: prefix.into(),
+            });
+        }
         let mut parts = text.splitn(3, ':');
         match (parts.next(), parts.next(), parts.next()) {
             (Some("mission"), Some(scenario), Some(metric)) if !scenario.is_empty() && !metric.is_empty() => {
@@ -100,6 +122,7 @@ impl Source {
             (Some("elf"), Some(prefix), None) if !prefix.is_empty() => Ok(Source::Elf {
                 section_prefix: prefix.into(),
             }),
+
             (Some("plan"), Some(domain), Some(problem))
                 if !domain.is_empty() && !problem.is_empty() =>
             {
@@ -108,8 +131,16 @@ impl Source {
                     problem: problem.into(),
                 })
             }
+            (Some("lander"), Some(scenario), Some(metric))
+                if !scenario.is_empty() && !metric.is_empty() =>
+            {
+                Ok(Source::Lander {
+                    scenario: scenario.into(),
+                    metric: metric.into(),
+                })
+            }
             _ => Err(format!(
-                "source {text:?}: expected mission:<scenario>:<metric>, kernel:<metric>, elf:<section-prefix> or plan:<domain.pddl>:<problem.pddl>"
+                "source {text:?}: expected mission:<scenario>:<metric>, kernel:<metric>, elf:<section-prefix>, plan:<domain.pddl>:<problem.pddl>, lander:<scenario>:<metric> or sym:<path-prefix>"
             )),
         }
     }
@@ -176,6 +207,8 @@ pub struct Row {
     /// (measured - baseline) / baseline, in percent.
     pub change_percent: Option<f64>,
     pub over_budget: bool,
+    /// The goal beside the budget, where it has one.
+    pub goal: Option<u64>,
     pub description: String,
     /// Why it could not be measured.
     pub missing: Option<String>,
@@ -206,6 +239,7 @@ pub fn evaluate(
                     _ => None,
                 },
                 over_budget: value.is_some_and(|v| v > b.spec.max),
+                goal: b.spec.goal,
                 description: b.spec.description.clone(),
                 missing: if value.is_none() {
                     Some(
@@ -261,6 +295,19 @@ pub fn table(rows: &[Row]) -> String {
             }
         ));
     }
+    // The issues' goals where a budget has one beside it: reached or not.
+    for r in rows {
+        if let (Some(goal), Some(v)) = (r.goal, r.measured) {
+            out.push_str(&format!(
+                "goal {}: {} of {} {}: {}\n",
+                r.quantity,
+                group(v),
+                group(goal),
+                r.unit.name(),
+                if v <= goal { "met" } else { "NOT MET" }
+            ));
+        }
+    }
     out
 }
 
@@ -305,6 +352,56 @@ pub fn save_baseline(path: &Path, rows: &[Row]) -> Result<(), String> {
         }
     }
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Static memory from the firmware ELF: bytes of the symbols whose demangled paths start with
+/// one of the `+`-separated prefixes (e.g. `task_planner::lander::`). Every prefix must match a
+/// symbol.
+pub fn elf_symbol_bytes(elf: &Path, prefixes: &str) -> Result<u64, String> {
+    let bytes = std::fs::read(elf).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let file = object::File::parse(&*bytes).map_err(|e| e.to_string())?;
+    let mut total = 0;
+    for prefix in prefixes.split('+') {
+        let mut any = false;
+        for s in file.symbols() {
+            if s.name()
+                .is_ok_and(|n| demangle_legacy(n).starts_with(prefix))
+            {
+                total += s.size();
+                any = true;
+            }
+        }
+        if !any {
+            return Err(format!("no symbol starts with {prefix:?}"));
+        }
+    }
+    Ok(total)
+}
+
+/// A legacy-mangled Rust symbol (`_ZN` length-prefixed segments `E`) as its path without the
+/// hash (`task_planner::lander::EXECUTOR`); other names as they are.
+pub fn demangle_legacy(name: &str) -> String {
+    let Some(mut rest) = name.strip_prefix("_ZN") else {
+        return name.to_string();
+    };
+    let mut parts = Vec::new();
+    while let Some(len_end) = rest.find(|c: char| !c.is_ascii_digit()) {
+        let Ok(len) = rest[..len_end].parse::<usize>() else {
+            break;
+        };
+        let Some(seg) = rest.get(len_end..len_end + len) else {
+            break;
+        };
+        parts.push(seg);
+        rest = &rest[len_end + len..];
+    }
+    if parts
+        .last()
+        .is_some_and(|h| h.len() == 17 && h.starts_with('h'))
+    {
+        parts.pop();
+    }
+    parts.join("::")
 }
 
 /// Static memory from the firmware ELF: bytes of the sections whose names start with one of
@@ -399,6 +496,44 @@ mod tests {
         assert!(off[1].starts_with("gone: not measured"));
         assert!(table(&rows).contains("OVER BUDGET"));
     }
+
+    #[test]
+    fn goals_lander_and_symbol_sources_parse_and_a_goal_is_reported_met_or_not() {
+        let b = budgets("[[budget]]\nquantity = \"plan\"\nunit = \"instructions\"\nmax = 100\ngoal = 50\nsource = \"lander:scenarios/lander/rsm-1.toml:first_plan_instructions\"\n[[budget]]\nquantity = \"ram\"\nunit = \"bytes\"\nmax = 100\ngoal = 90\nsource = \"sym:task_planner::lander::EXECUTOR+task_planner::lander::APP\"\n").unwrap();
+        assert_eq!(
+            b[0].source,
+            Source::Lander {
+                scenario: "scenarios/lander/rsm-1.toml".into(),
+                metric: "first_plan_instructions".into()
+            }
+        );
+        assert_eq!(
+            b[1].source,
+            Source::Symbols {
+                prefix: "task_planner::lander::EXECUTOR+task_planner::lander::APP".into()
+            }
+        );
+        let mut m = Measurements::new();
+        m.insert(b[0].source.clone(), 70);
+        m.insert(b[1].source.clone(), 80);
+        let t = table(&evaluate(&b, &m, &BTreeMap::new(), &BTreeMap::new()));
+        assert!(
+            t.contains("goal plan: 70 of 50 instructions: NOT MET"),
+            "{t}"
+        );
+        assert!(t.contains("goal ram: 80 of 90 bytes: met"), "{t}");
+        assert!(Source::parse("sym:").is_err());
+        assert!(Source::parse("lander:x.toml").is_err());
+    }
+
+    #[test]
+    fn legacy_symbols_demangle_to_their_paths() {
+        assert_eq!(
+            demangle_legacy("_ZN12task_planner6lander8EXECUTOR17h0123456789abcdefE"),
+            "task_planner::lander::EXECUTOR"
+        );
+        assert_eq!(demangle_legacy("memcpy"), "memcpy");
+    }
 }
 
 /// Run whatever the budgets need and collect the measurements: each mission scenario once on
@@ -485,6 +620,47 @@ pub fn measure(
             }
         }
     }
+    let mut landers: Vec<&str> = budgets
+        .iter()
+        .filter_map(|b| match &b.source {
+            Source::Lander { scenario, .. } => Some(scenario.as_str()),
+            _ => None,
+        })
+        .collect();
+    landers.sort();
+    landers.dedup();
+    for scenario in landers {
+        progress(&format!(
+            "measuring: lander {scenario} with its executor on the emulated target"
+        ));
+        let metrics = crate::lander_emulated::lander_metrics(scenario, firmware);
+        for b in budgets {
+            let Source::Lander {
+                scenario: sc,
+                metric,
+            } = &b.source
+            else {
+                continue;
+            };
+            if sc != scenario {
+                continue;
+            }
+            match metrics.as_ref().map(|m| m.get(metric)) {
+                Ok(Some(v)) => {
+                    measured.insert(b.source.clone(), *v);
+                }
+                Ok(None) => {
+                    missing.insert(
+                        b.source.clone(),
+                        format!("{scenario} reported no lander metric {metric:?}"),
+                    );
+                }
+                Err(e) => {
+                    missing.insert(b.source.clone(), format!("{scenario}: {e}"));
+                }
+            }
+        }
+    }
     for b in budgets {
         if let Source::Plan { domain, problem } = &b.source {
             progress(&format!(
@@ -501,6 +677,16 @@ pub fn measure(
         }
     }
     for b in budgets {
+        if let Source::Symbols { prefix } = &b.source {
+            match elf_symbol_bytes(&firmware.elf, prefix) {
+                Ok(v) => {
+                    measured.insert(b.source.clone(), v);
+                }
+                Err(e) => {
+                    missing.insert(b.source.clone(), e);
+                }
+            }
+        }
         if let Source::Elf { section_prefix } = &b.source {
             match elf_section_bytes(&firmware.elf, section_prefix) {
                 Ok(v) => {

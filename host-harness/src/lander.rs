@@ -47,6 +47,13 @@ pub struct LanderRunArgs {
     /// Write the run's result and verdicts (JSON) here.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+    /// Make the executor's decisions on the emulated RAD750, in the planner partition (QEMU),
+    /// compared with a native shadow at every step (`crate::lander_emulated`).
+    #[arg(long)]
+    pub emulated: bool,
+    /// With --emulated: the firmware ELF to boot (default: build it).
+    #[arg(long, requires = "emulated")]
+    pub firmware: Option<PathBuf>,
 }
 
 fn parse_strategy(s: &str) -> Result<StrategyName, String> {
@@ -180,7 +187,18 @@ fn run_file(path: &Path, args: &LanderRunArgs) -> Result<ExitCode, String> {
     // The run is recorded (the report, the progress bar) however it is made.
     let recording = start_recording(&scenario);
     println!("hil lander run {} — {}", path.display(), scenario.name);
-    let outcome = run_checked(&scenario, args.seed, args.strategy)?;
+    let outcome = if args.emulated {
+        match crate::lander_emulated::cli_run(&scenario, args)? {
+            Ok(o) => o,
+            // A divergence or a target that stopped answering: the verdict names the step.
+            Err(verdict) => {
+                println!("  FAIL emulated: {verdict}");
+                return Ok(ExitCode::from(1));
+            }
+        }
+    } else {
+        run_checked(&scenario, args.seed, args.strategy)?
+    };
     print!("{}", summary(&outcome));
     let trace = recording.finish();
     if let Some(p) = &args.json {

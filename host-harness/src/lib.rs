@@ -21,6 +21,7 @@ pub mod defmt_log;
 pub mod diag;
 pub mod firmware;
 pub mod lander;
+pub mod lander_emulated;
 pub mod link;
 pub mod mission;
 pub mod options;

@@ -51,6 +51,13 @@ pub struct StudyArgs {
     /// Kubernetes' JOB_COMPLETION_INDEX/JOB_COMPLETIONS, else the whole study.
     #[arg(long, value_name = "k/n")]
     pub shard: Option<String>,
+    /// Make every run's decisions on the emulated RAD750 (one QEMU for the study), compared
+    /// with the native executor at every step (`crate::lander_emulated`).
+    #[arg(long)]
+    pub emulated: bool,
+    /// With --emulated: the firmware ELF to boot (default: build it).
+    #[arg(long, requires = "emulated")]
+    pub firmware: Option<PathBuf>,
     #[command(flatten)]
     pub out: StudyOutputs,
 }
@@ -133,7 +140,19 @@ pub fn cli(args: StudyArgs) -> Result<ExitCode, String> {
             // On stderr, only when it is a terminal.
             let bar = crate::progress::bar(jobs, "  {bar:40} {pos}/{len} runs");
             let started = Instant::now();
-            let report = study::run_study(&config, shard.map(|s| (s.k, s.n)), &mut |_| bar.inc(1))?;
+            let shard = shard.map(|s| (s.k, s.n));
+            let report = if args.emulated {
+                let fw = crate::lander_emulated::firmware_for(args.firmware.as_deref())?;
+                let mut target = crate::lander_emulated::EmulatedLander::boot(&fw)?;
+                study::run_study_with(&config, shard, &mut |_| bar.inc(1), &mut |s, c| {
+                    target
+                        .run(s, c)
+                        .map(|r| r.result)
+                        .map_err(|e| format!("{:?} seed {}: {e}", c.strategy, c.seed))
+                })?
+            } else {
+                study::run_study(&config, shard, &mut |_| bar.inc(1))?
+            };
             bar.finish_and_clear();
             println!("  wall time {:.2} s", started.elapsed().as_secs_f64());
             (report, args.out)

@@ -70,7 +70,7 @@ pub struct RunConfig {
     /// Prescient (V.A's u_avg): no failures and no noise, and the priors are the true
     /// (bias-scaled) costs, so execution matches the planner's predictions.
     pub prescient: bool,
-    /// Search explorations per executor step.
+    /// Search explorations per executor call ([`step_to_answer`] calls again while it plans).
     pub budget: u32,
 }
 
@@ -1131,6 +1131,7 @@ fn rebuild(
     charge_mj: u64,
     strategy: Strategy,
     preamble_done: bool,
+    watch: &mut dyn StepWatch,
 ) -> Result<(HtnModel, Box<Autonomy>), String> {
     let model = rsm1::model_with_drains(options, s.mission.uplinks)
         .map_err(|_| "the new model exceeds the capacities")?;
@@ -1161,6 +1162,7 @@ fn rebuild(
         )
         .map_err(|e| format!("the executor refused the new model: {e:?}"))?,
     );
+    watch.built(ExecConfig::new(strategy), &model, &net, &timeline, context)?;
     Ok((model, exec))
 }
 
@@ -1184,8 +1186,67 @@ fn next_arrival(pending: &[PendingChange]) -> Option<u64> {
         .min()
 }
 
+/// What watches the executor the simulation drives (the emulated target, which runs the same
+/// executor and must decide the same; tests that keep the decisions). An error ends the run
+/// with it.
+pub trait StepWatch {
+    /// An executor was built (at the start, and at each model uplink) from these inputs, as
+    /// [`Executor::new`] takes them without a plan.
+    fn built(
+        &mut self,
+        config: ExecConfig,
+        model: &HtnModel,
+        network: &lander::htn::FlatNetwork,
+        timeline: &lander::placement::TimelinePlacement,
+        context: &lander::assessor::ScienceContext,
+    ) -> Result<(), String> {
+        let _ = (config, model, network, timeline, context);
+        Ok(())
+    }
+
+    /// The executor answered `observation` with `directive` ([`step_to_answer`]); `exec` is
+    /// the executor after the step (its log holds the step's decisions at its end).
+    fn stepped(
+        &mut self,
+        observation: &Observation,
+        directive: &Directive,
+        exec: &Autonomy,
+    ) -> Result<(), String> {
+        let _ = (observation, directive, exec);
+        Ok(())
+    }
+}
+
+/// No watch.
+impl StepWatch for () {}
+
+/// One step as the planner partition answers it: the search runs `budget` explorations a
+/// call, and the executor is called again (with the same observation, its event already
+/// taken) while it answers [`Directive::Planning`], so the simulation sees only the step's
+/// final directive and its mission time does not depend on how the search was split.
+pub fn step_to_answer(exec: &mut Autonomy, observation: &Observation, budget: u32) -> Directive {
+    let mut directive = exec.step(observation, budget);
+    let again = Observation {
+        event: None,
+        ..*observation
+    };
+    while let Directive::Planning { .. } = directive {
+        directive = exec.step(&again, budget);
+    }
+    directive
+}
+
 /// Runs one mission of scenario `s` under `config`.
 pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
+    run_watched(s, config, &mut ())
+}
+
+/// [`run`], with `watch` told of every executor built and every step.
+pub fn run_watched(
+    s: &Scenario,
+    config: &RunConfig,
+    watch: &mut dyn StepWatch,
+) -> Result<RunResult, String> {
     let (mut model, net, timeline, context) = autonomy_inputs(s, config.prescient)?;
     let mut exec: Box<Autonomy> = Box::new(
         Executor::new(
@@ -1198,6 +1259,13 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
         )
         .map_err(|e| format!("the executor refused the plan: {e:?}"))?,
     );
+    watch.built(
+        ExecConfig::new(config.strategy),
+        &model,
+        &net,
+        &timeline,
+        &context,
+    )?;
     // The world's truth: the model's priors (prescient: bias-scaled, as the planner's).
     let mut world = World::new(s, &model, config.seed, config.prescient);
     let _ = exec.set_comms(Some(world.comms_model()));
@@ -1306,6 +1374,7 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
                         world.battery_mj,
                         config.strategy,
                         preamble_done,
+                        watch,
                     )?;
                     model = m;
                     exec = e;
@@ -1330,7 +1399,8 @@ pub fn run(s: &Scenario, config: &RunConfig) -> Result<RunResult, String> {
             preconditions_met,
             event: event.take(),
         };
-        let directive = exec.step(&observation, config.budget);
+        let directive = step_to_answer(&mut exec, &observation, config.budget);
+        watch.stepped(&observation, &directive, &exec)?;
         let replans = exec.stats().replans;
         while replans_charged < replans {
             replans_charged += 1;

@@ -238,6 +238,17 @@ pub fn run_study(
     shard: Option<(u32, u32)>,
     progress: &mut dyn FnMut(&RunRecord),
 ) -> Result<StudyReport, String> {
+    run_study_with(config, shard, progress, &mut |s, c| sim::run(s, c))
+}
+
+/// [`run_study`] with each run made by `run` (the emulated target's, `hil study --emulated`);
+/// the analytical model's prescient runs stay native.
+pub fn run_study_with(
+    config: &StudyConfig,
+    shard: Option<(u32, u32)>,
+    progress: &mut dyn FnMut(&RunRecord),
+    run: &mut dyn FnMut(&Scenario, &RunConfig) -> Result<sim::RunResult, String>,
+) -> Result<StudyReport, String> {
     if let Some((k, n)) = shard {
         if k == 0 || n == 0 || k > n {
             return Err(format!("bad shard {k}/{n}: expected 1 <= k <= n"));
@@ -254,7 +265,7 @@ pub fn run_study(
                     continue;
                 }
                 let seed = config.seed.wrapping_add(u64::from(r));
-                let result = sim::run(&scenario, &RunConfig::new(*strategy, seed))?;
+                let result = run(&scenario, &RunConfig::new(*strategy, seed))?;
                 let record = RunRecord {
                     job,
                     variant: variant.name.clone(),

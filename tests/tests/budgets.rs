@@ -4,7 +4,7 @@ use hil::budget;
 use hil_tests::firmware;
 
 /// What issue 6 asks `budgets.toml` to hold, at least.
-const REQUIRED: [&str; 11] = [
+const REQUIRED: [&str; 14] = [
     "boot_to_ready",
     "reset_recovery",
     "planner_cycle_worst",
@@ -16,6 +16,10 @@ const REQUIRED: [&str; 11] = [
     "checkpoint_restore",
     "static_ram_executive",
     "static_ram_planner",
+    // Issues 11 and 12: the lander's executor and downlink manager on the target.
+    "lander_rsm1_full_plan",
+    "lander_downlink_solve",
+    "lander_planner_ram",
 ];
 
 #[test]
@@ -88,7 +92,7 @@ fn a_budget_lowered_below_its_measurement_fails_naming_it() {
     let root = hil::repo_root();
     let text = std::fs::read_to_string(root.join("budgets.toml")).unwrap();
     // reset_recovery measures a few hundred thousand instructions: 1000 is far too little.
-    let lowered = text.replacen("max = 440_000", "max = 1_000", 1);
+    let lowered = text.replacen("max = 460_000", "max = 1_000", 1);
     assert_ne!(
         lowered, text,
         "budgets.toml no longer has the reset_recovery budget"

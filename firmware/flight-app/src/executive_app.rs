@@ -238,7 +238,12 @@ impl ExecutiveApp {
             HostToTarget::Ping { .. }
             | HostToTarget::ResetRequest { .. }
             | HostToTarget::TemporalBegin { .. }
-            | HostToTarget::TemporalChunk { .. } => return false,
+            | HostToTarget::TemporalChunk { .. }
+            // So are the lander executor's setups and steps (`LanderApp`).
+            | HostToTarget::LanderBegin { .. }
+            | HostToTarget::LanderChunk { .. }
+            | HostToTarget::LanderStep { .. }
+            | HostToTarget::LanderInput { .. } => return false,
         }
         if let (Some(t0), Some(spent)) = (t0, self.recovering.as_mut()) {
             *spent = spent.wrapping_add(clock.ticks().wrapping_sub(t0));

@@ -145,6 +145,7 @@ fn metric_event(id: u16, value: u64) -> TargetToHost {
 
 mod combined;
 mod executive_app;
+mod lander_app;
 mod memories;
 pub mod persistence;
 mod planner_app;
@@ -155,6 +156,7 @@ mod tests;
 
 pub use combined::*;
 pub use executive_app::*;
+pub use lander_app::*;
 pub use memories::*;
 pub use persistence::*;
 pub use planner_app::*;

@@ -23,8 +23,9 @@
 //!   the downlink manager's check on every chain ([`comms::DataPlacement`]).
 //!
 //! `no_std`, heap-free, integer time in µs and energy in mJ, capacities in [`capacity`]; no
-//! floating point, so host and target decide bit for bit the same. Nothing here is wired into
-//! the planner partition yet (issue 14 moves the planner there); it is tested on the host.
+//! floating point, so host and target decide bit for bit the same. The executor runs in the
+//! planner partition behind `flight_app::LanderApp`, built from a [`setup`] uplinked by the
+//! host, its values on the link converted by [`wire`].
 #![no_std]
 #![forbid(unsafe_code)]
 #![deny(
@@ -48,4 +49,6 @@ pub mod mexec;
 pub mod placement;
 pub mod rsm1;
 pub mod search;
+pub mod setup;
 pub mod utility;
+pub mod wire;

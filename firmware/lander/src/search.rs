@@ -259,6 +259,24 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         }
     }
 
+    /// [`Self::new`] in place: the same search as `*self = Search::new(config)`, without a
+    /// temporary of the whole search (tens of KiB of nodes and queue) on the stack, which the
+    /// planner partition's stack cannot hold.
+    pub fn reconfigure(&mut self, config: SearchConfig) {
+        self.config = config;
+        self.stage = Stage::Idle;
+        self.fixed.clear();
+        self.order.clear();
+        self.nodes.clear();
+        self.queue.clear();
+        self.next_seq = 0;
+        self.best = 0;
+        self.stats = SearchStats::default();
+        self.scratch.clear();
+        self.excluded = TaskSet::default();
+        self.fixed_value = (RankedUtility::ZERO, 0);
+    }
+
     pub fn config(&self) -> &SearchConfig {
         &self.config
     }

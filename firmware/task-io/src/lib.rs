@@ -521,10 +521,13 @@ fn handle(
         HostToTarget::CommandResponse { .. }
         | HostToTarget::UplinkChunk { .. }
         | HostToTarget::GroundCommand { .. } => Routing::to(msg, ports::IO_TO_EXECUTIVE),
-        // Temporal planning jobs are the planner partition's.
-        HostToTarget::TemporalBegin { .. } | HostToTarget::TemporalChunk { .. } => {
-            Routing::to(msg, ports::IO_TO_PLANNER)
-        }
+        // Temporal planning jobs and the lander executor are the planner partition's.
+        HostToTarget::TemporalBegin { .. }
+        | HostToTarget::TemporalChunk { .. }
+        | HostToTarget::LanderBegin { .. }
+        | HostToTarget::LanderChunk { .. }
+        | HostToTarget::LanderStep { .. }
+        | HostToTarget::LanderInput { .. } => Routing::to(msg, ports::IO_TO_PLANNER),
     };
     Some(routing)
 }

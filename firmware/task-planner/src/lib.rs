@@ -20,6 +20,7 @@
 // The autonomy core's lints (no panicking path) come from the firmware workspace's
 // `[workspace.lints]` (firmware/image/Cargo.toml).
 
+mod lander;
 mod temporal;
 
 use core::mem::MaybeUninit;
@@ -98,6 +99,7 @@ pub extern "C" fn partition_planner_main() -> ! {
             >= kernel_config::system::PLANNER_NV_SECURITY_OFFSET as usize
                 + sdls::nv::SECURITY_AREA_BYTES,
     );
+    let lander = lander::start();
     app.boot_fetching(
         &mut state.copies.memories(None),
         Some(&mut KernelMemories),
@@ -106,7 +108,9 @@ pub extern "C" fn partition_planner_main() -> ! {
     );
     loop {
         while let Some((msg, _generation)) = receive_routed(ports::IO_TO_PLANNER) {
-            if !temporal::handle(temporal, &msg, &mut state.outbox) {
+            if !temporal::handle(temporal, &msg, &mut state.outbox)
+                && !lander::handle(lander, &msg, &mut state.outbox)
+            {
                 handle(state, app, msg);
             }
         }
@@ -132,11 +136,20 @@ pub extern "C" fn partition_planner_main() -> ! {
                 &mut state.copies.memories(None),
                 &mut state.outbox,
             );
+            // The lander executor's: what is left after the temporal planner's.
+            lander::window(
+                lander,
+                app.window_started(),
+                PLANNING_TICKS_PER_WINDOW,
+                &mut state.copies.memories(None),
+                &mut state.outbox,
+            );
         }
         temporal::report(temporal, &mut state.outbox);
+        lander::report(lander, &mut state.outbox);
         app.transmit(&mut |wire| send_wire(ports::PLANNER_TO_EXECUTIVE, &wire));
         state.outbox.flush(ports::PLANNER_TO_IO);
-        if app.unsent() > 0 || !state.outbox.queue.is_empty() || temporal.busy() {
+        if app.unsent() > 0 || !state.outbox.queue.is_empty() || temporal.busy() || lander.busy() {
             sys::wait_next_window();
         } else {
             // Nothing to plan until the executive sends a frame: the module may stop its

@@ -119,6 +119,14 @@ impl LinkMessage for HostToTarget {
             HostToTarget::TemporalBegin { .. } | HostToTarget::TemporalChunk { .. } => {
                 MessageClass::UplinkChunk
             }
+            // The lander executor's setup is an uplink too; its steps are the host's
+            // observations, counted with the state updates.
+            HostToTarget::LanderBegin { .. } | HostToTarget::LanderChunk { .. } => {
+                MessageClass::UplinkChunk
+            }
+            HostToTarget::LanderStep { .. } | HostToTarget::LanderInput { .. } => {
+                MessageClass::StateUpdate
+            }
         }
     }
 }
@@ -149,6 +157,8 @@ impl LinkMessage for TargetToHost {
             }
             // The answers to a temporal uplink, its plan included.
             TargetToHost::Temporal(_) => MessageClass::UplinkReply,
+            // The lander executor's answers (its setup's acceptance, its decisions).
+            TargetToHost::Lander(_) => MessageClass::UplinkReply,
         }
     }
 }
@@ -177,7 +187,11 @@ pub fn uplink_service(msg: &HostToTarget) -> Service {
         | HostToTarget::ResetRequest { .. }
         | HostToTarget::GroundCommand { .. }
         | HostToTarget::TemporalBegin { .. }
-        | HostToTarget::TemporalChunk { .. } => Service::Sequenced(VirtualChannel::Mission),
+        | HostToTarget::TemporalChunk { .. }
+        | HostToTarget::LanderBegin { .. }
+        | HostToTarget::LanderChunk { .. }
+        | HostToTarget::LanderStep { .. }
+        | HostToTarget::LanderInput { .. } => Service::Sequenced(VirtualChannel::Mission),
     }
 }
 
@@ -204,6 +218,7 @@ pub fn downlink_service(msg: &TargetToHost) -> Service {
         | TargetToHost::UplinkNak { .. }
         | TargetToHost::GroundCommandAck { .. }
         | TargetToHost::GroundCommandNak { .. }
-        | TargetToHost::Temporal(_) => Service::Sequenced(Mission),
+        | TargetToHost::Temporal(_)
+        | TargetToHost::Lander(_) => Service::Sequenced(Mission),
     }
 }

@@ -1,5 +1,9 @@
 //! Variant indices and the largest instance of every message variant (every varint at its
 //! longest, every Vec full, every Option Some), shared by the codec and link encoding tests.
+use fsw_bridge::lander::{
+    LanderDirective, LanderEvent, LanderInput, LanderObservation, LanderProduct, LanderReport,
+    LanderTaskResult, LANDER_CHUNK_MAX, LANDER_PRODUCTS_PER_MESSAGE,
+};
 use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
 use fsw_bridge::security::{SecurityRefusal, MAC_LEN};
 use fsw_bridge::temporal::{
@@ -13,8 +17,8 @@ use fsw_bridge::{
 };
 
 /// Variants of each message set.
-pub const H2T_VARIANTS: usize = 9;
-pub const T2H_VARIANTS: usize = 12;
+pub const H2T_VARIANTS: usize = 13;
+pub const T2H_VARIANTS: usize = 13;
 
 /// Declaration index of each variant. Exhaustive on purpose: adding a variant breaks the build
 /// here, which is the reminder to bump VARIANT_COUNT and extend these tests.
@@ -29,6 +33,10 @@ pub fn h2t_index(m: &HostToTarget) -> usize {
         HostToTarget::GroundCommand { .. } => 6,
         HostToTarget::TemporalBegin { .. } => 7,
         HostToTarget::TemporalChunk { .. } => 8,
+        HostToTarget::LanderBegin { .. } => 9,
+        HostToTarget::LanderChunk { .. } => 10,
+        HostToTarget::LanderStep { .. } => 11,
+        HostToTarget::LanderInput { .. } => 12,
     }
 }
 
@@ -46,6 +54,7 @@ pub fn t2h_index(m: &TargetToHost) -> usize {
         TargetToHost::GroundCommandAck { .. } => 9,
         TargetToHost::GroundCommandNak { .. } => 10,
         TargetToHost::Temporal(_) => 11,
+        TargetToHost::Lander(_) => 12,
     }
 }
 
@@ -99,6 +108,48 @@ pub fn largest_h2t(i: usize) -> HostToTarget {
             job: u16::MAX,
             offset: u32::MAX,
             bytes: full::<TEMPORAL_CHUNK_MAX>(0xff),
+        },
+        9 => HostToTarget::LanderBegin {
+            setup: u16::MAX,
+            len: u32::MAX,
+            crc32: u32::MAX,
+        },
+        10 => HostToTarget::LanderChunk {
+            setup: u16::MAX,
+            offset: u32::MAX,
+            bytes: full::<LANDER_CHUNK_MAX>(0xff),
+        },
+        11 => HostToTarget::LanderStep {
+            setup: u16::MAX,
+            seq: u32::MAX,
+            observation: LanderObservation {
+                now: MissionTimeUs::MAX,
+                battery_mj: u64::MAX,
+                preconditions_met: true,
+                event: Some(LanderEvent::Finished {
+                    result: LanderTaskResult::Faulted,
+                    duration_us: u64::MAX,
+                    energy_mj: u64::MAX,
+                    positive: Some(false),
+                }),
+            },
+        },
+        // The larger of the two inputs: a full part of the product list.
+        12 => HostToTarget::LanderInput {
+            setup: u16::MAX,
+            input: LanderInput::Products {
+                first: u8::MAX,
+                total: u8::MAX,
+                products: heapless::Vec::from_slice(
+                    &[LanderProduct {
+                        size_bytes: u64::MAX,
+                        value: u64::MAX,
+                        created_at: MissionTimeUs::MAX,
+                        tier: u8::MAX,
+                    }; LANDER_PRODUCTS_PER_MESSAGE],
+                )
+                .unwrap(),
+            },
         },
         _ => panic!("HostToTarget has no variant {i}"),
     }
@@ -162,6 +213,23 @@ pub fn largest_t2h(i: usize) -> TargetToHost {
         },
         // The longest temporal report: the statistics.
         11 => TargetToHost::Temporal(largest_temporal_report(3)),
+        // The longest lander report: a step's answer with a dispatch.
+        12 => TargetToHost::Lander(LanderReport::Answer {
+            setup: u16::MAX,
+            seq: u32::MAX,
+            directive: LanderDirective::Dispatch {
+                chain: u16::MAX,
+                primitive: u8::MAX,
+                kind: u8::MAX,
+                site: Some(u8::MAX),
+                target: Some(u8::MAX),
+                expected_end: MissionTimeUs::MAX,
+                expected_energy_mj: u64::MAX,
+            },
+            log_len: u16::MAX,
+            ticks: u32::MAX,
+            windows: u16::MAX,
+        }),
         _ => panic!("TargetToHost has no variant {i}"),
     }
 }

@@ -217,6 +217,54 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
             bytes: heapless::Vec::from_slice(&[0x53; fsw_bridge::temporal::TEMPORAL_CHUNK_MAX])
                 .unwrap(),
         },
+        HostToTarget::LanderBegin {
+            setup: 1,
+            len: 2_680,
+            crc32: 0x8765_4321,
+        },
+        HostToTarget::LanderChunk {
+            setup: 1,
+            offset: 256,
+            bytes: heapless::Vec::from_slice(&[0x4c; fsw_bridge::lander::LANDER_CHUNK_MAX])
+                .unwrap(),
+        },
+        HostToTarget::LanderStep {
+            setup: 1,
+            seq: 12,
+            observation: fsw_bridge::lander::LanderObservation {
+                now,
+                battery_mj: 72_000_000,
+                preconditions_met: true,
+                event: Some(fsw_bridge::lander::LanderEvent::Finished {
+                    result: fsw_bridge::lander::LanderTaskResult::Succeeded,
+                    duration_us: 3_600_000_000,
+                    energy_mj: 180_000,
+                    positive: Some(true),
+                }),
+            },
+        },
+        HostToTarget::LanderInput {
+            setup: 1,
+            input: fsw_bridge::lander::LanderInput::Products {
+                first: 0,
+                total: 2,
+                products: heapless::Vec::from_slice(&[
+                    fsw_bridge::lander::LanderProduct {
+                        size_bytes: 2_400_000,
+                        value: 80,
+                        created_at: now,
+                        tier: 1,
+                    },
+                    fsw_bridge::lander::LanderProduct {
+                        size_bytes: 640_000,
+                        value: 20,
+                        created_at: now,
+                        tier: 3,
+                    },
+                ])
+                .unwrap(),
+            },
+        },
     ];
     let to_host = [
         TargetToHost::Hello {
@@ -289,6 +337,22 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
             duration: 5_000,
             start_lb: 0,
             start_ub: 1_000,
+        }),
+        TargetToHost::Lander(fsw_bridge::lander::LanderReport::Answer {
+            setup: 1,
+            seq: 12,
+            directive: fsw_bridge::lander::LanderDirective::Dispatch {
+                chain: 6,
+                primitive: 2,
+                kind: 3,
+                site: Some(0),
+                target: Some(1),
+                expected_end: now.saturating_add(3_600_000_000),
+                expected_energy_mj: 180_000,
+            },
+            log_len: 40,
+            ticks: 5_000,
+            windows: 1,
         }),
     ];
     let mut seeds = Vec::new();

@@ -794,7 +794,12 @@ impl Harness {
             HostToTarget::Ping { .. } | HostToTarget::ResetRequest { .. } => {
                 assert!(!handled && out.is_empty(), "{msg:?} is the I/O layer's");
             }
-            HostToTarget::TemporalBegin { .. } | HostToTarget::TemporalChunk { .. } => {
+            HostToTarget::TemporalBegin { .. }
+            | HostToTarget::TemporalChunk { .. }
+            | HostToTarget::LanderBegin { .. }
+            | HostToTarget::LanderChunk { .. }
+            | HostToTarget::LanderStep { .. }
+            | HostToTarget::LanderInput { .. } => {
                 assert!(
                     !handled && out.is_empty(),
                     "{msg:?} is the planner partition's"

@@ -74,6 +74,7 @@ use crate::placement::{TimelinePlacement, ViewTimeline};
 use crate::search::{PlacedChain, Search, SearchConfig, SearchStats};
 use crate::utility::RankedUtility;
 
+mod in_place;
 mod plan;
 mod types;
 
@@ -245,6 +246,11 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         }
         self.onboard = Vec::from_slice(products).map_err(|_| CommsError::TooManyProducts)?;
         Ok(())
+    }
+
+    /// The products onboard as last reported ([`Executor::set_onboard_data`]).
+    pub fn onboard(&self) -> &[DataProduct] {
+        &self.onboard
     }
 
     /// The measured product volumes in force.

@@ -175,7 +175,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             exploration_bound: self.config.exploration_bound,
             energy_pruning: true,
         };
-        self.search = Search::new(config);
+        self.search.reconfigure(config);
         match self
             .search
             .start_excluding(&self.network, &[], &self.closed_tasks)
