@@ -51,11 +51,14 @@ pub const BAT_MIN_BLOCK: u32 = 0x2_0000;
 pub const BAT_MAX_BLOCK: u32 = 0x1000_0000;
 
 /// Kernel text, rodata and the read-only shared page: mapped read/execute-only into every
-/// partition (libcore, postcard and the partitions' own code live here).
+/// partition (libcore, postcard and the partitions' own code live here). 1 MiB since the
+/// lander's executor joined the temporal planner in the planner partition (the RAM image
+/// passed 512 KiB: 527,344 bytes); it was 512 KiB with the kernel data right after it.
 pub const SHARED_CODE_BASE: u32 = 0x0000_0000;
-pub const SHARED_CODE_SIZE: u32 = 0x0008_0000;
-/// Kernel data, bss and stack: never mapped for partitions.
-pub const KERNEL_DATA_BASE: u32 = 0x0008_0000;
+pub const SHARED_CODE_SIZE: u32 = 0x0010_0000;
+/// Kernel data, bss and stack: never mapped for partitions. After the warm-restart area and
+/// the hashed page table, below the first partition region.
+pub const KERNEL_DATA_BASE: u32 = 0x0018_0000;
 pub const KERNEL_DATA_SIZE: u32 = 0x0008_0000;
 /// Warm-restart area (survives a warm reset); reached by partitions only through system calls.
 pub const WARM_AREA_BASE: u32 = 0x0010_0000;

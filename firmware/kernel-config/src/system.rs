@@ -5,10 +5,10 @@
 //!
 //! | range                   | what                                   | partitions see         |
 //! |-------------------------|----------------------------------------|------------------------|
-//! | 0x00000000-0x0007ffff   | vectors, kernel+partition code, rodata | read/execute only      |
-//! | 0x00080000-0x000fffff   | kernel data, bss, stack, port buffers  | nothing                |
+//! | 0x00000000-0x000fffff   | vectors, kernel+partition code, rodata | read/execute only      |
 //! | 0x00100000-0x0010ffff   | warm-restart area                      | via system calls only  |
 //! | 0x00110000-0x0011ffff   | hashed page table (all invalid)        | nothing                |
+//! | 0x00180000-0x001fffff   | kernel data, bss, stack, port buffers  | nothing                |
 //! | 0x00200000-0x0027ffff   | I/O partition (512 KiB)                | I/O: read/write        |
 //! | 0x00400000-0x005fffff   | executive (2 MiB)                      | executive: read/write  |
 //! | 0x00c00000-0x00c1ffff   | rogue (128 KiB, test image only)       | rogue: read/write      |

@@ -229,8 +229,8 @@ fn kernel_memory_cannot_be_given_to_a_partition() {
         part(
             "executive",
             &[Region {
-                base: 0x0008_0000,
-                size: 0x0008_0000,
+                base: crate::KERNEL_DATA_BASE,
+                size: crate::KERNEL_DATA_SIZE,
                 access: Access::ReadWrite,
             }],
         ),
