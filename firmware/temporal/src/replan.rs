@@ -39,7 +39,7 @@
 
 use crate::constraints::Constraint;
 use crate::dispatch::{NetworkError, PlanNetwork, PlanStep, MAX_DISPATCH_STEPS};
-use crate::search::PlannedAction;
+use crate::search::{for_each_read, for_each_write, snap_reads, PlannedAction};
 use crate::task::{
     FactList, Linear, NumericList, Task, HEADER_BYTES, MAGIC, MAX_IDS, UNBOUNDED, VERSION,
 };
@@ -603,83 +603,8 @@ pub fn remaining(task: &Task<'_>, action: usize, elapsed: u32) -> Option<Carried
 
 // ----- a plan back into a network ----------------------------------------------------------------
 
-/// Every fact or variable (`facts + v`) the start or end of `a` reads (the search's rule).
-fn for_each_read(task: &Task<'_>, a: usize, end: bool, f: &mut dyn FnMut(usize)) {
-    let act = task.action(a);
-    let facts = task.fact_count();
-    let lists: &[FactList] = if end {
-        &[FactList::PreEnd]
-    } else {
-        &[FactList::PreStart, FactList::Invariant]
-    };
-    for &l in lists {
-        for p in act.facts(l).iter() {
-            f(p);
-        }
-    }
-    let numeric: &[NumericList] = if end {
-        &[
-            NumericList::CondEnd,
-            NumericList::CondInvariant,
-            NumericList::EffEnd,
-        ]
-    } else {
-        &[
-            NumericList::CondStart,
-            NumericList::CondInvariant,
-            NumericList::EffStart,
-        ]
-    };
-    for &l in numeric {
-        for c in act.numeric(l) {
-            for v in c.term_vars() {
-                f(facts + v);
-            }
-        }
-    }
-}
-
-/// Every fact or variable the start or end of `a` writes, with whether it is a delete.
-fn for_each_write(task: &Task<'_>, a: usize, end: bool, f: &mut dyn FnMut(usize, bool)) {
-    let act = task.action(a);
-    let facts = task.fact_count();
-    let (add, del, effs) = if end {
-        (FactList::AddEnd, FactList::DelEnd, NumericList::EffEnd)
-    } else {
-        (
-            FactList::AddStart,
-            FactList::DelStart,
-            NumericList::EffStart,
-        )
-    };
-    for p in act.facts(add).iter() {
-        f(p, false);
-    }
-    for p in act.facts(del).iter() {
-        f(p, true);
-    }
-    for e in act.numeric(effs) {
-        f(facts + e.target, false);
-    }
-}
-
-/// Whether the start or end of `a` reads `id`; an end's invariants count for deletes only.
-fn snap_reads(task: &Task<'_>, a: usize, end: bool, id: usize, for_delete: bool) -> bool {
-    let act = task.action(a);
-    if id < task.fact_count() {
-        if end {
-            act.facts(FactList::PreEnd).contains(id)
-                || (for_delete && act.facts(FactList::Invariant).contains(id))
-        } else {
-            act.facts(FactList::PreStart).contains(id)
-                || act.facts(FactList::Invariant).contains(id)
-        }
-    } else {
-        let mut found = false;
-        for_each_read(task, a, end, &mut |x| found |= x == id);
-        found
-    }
-}
+// The search's own rules for what a snap reads and writes ([`crate::search`]'s ordering), so
+// a plan from the target and a plan from the search recreate the same constraints.
 
 /// The network of `plan` (actions of `task` with their start times and durations, ticks):
 /// its steps in time order (a start before its own end), the constraints recreated between
@@ -785,7 +710,7 @@ pub fn network_from_plan(
                 if let Some(step) = steps_so_far.step(s) {
                     if snap_reads(
                         task,
-                        usize::from(step.action),
+                        u32::from(step.action),
                         step.end,
                         id,
                         is_delete || id >= facts,

@@ -27,6 +27,7 @@ use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod expand;
 mod path;
+pub(crate) use path::{for_each_read, for_each_write, snap_reads};
 mod setup;
 mod state;
 
@@ -34,7 +35,7 @@ use setup::SetUp;
 pub use setup::BUCKET_WORDS_PER_PIECE;
 
 use crate::dispatch::{NetworkError, PlanNetwork, PlanStep};
-use path::{earliest_words, for_each_write, latest_words, step_window, unpack};
+use path::{earliest_words, latest_words, step_window, unpack};
 
 /// Snap kinds in a snap id (`action << 2 | kind`).
 const START: u32 = 0;

@@ -341,7 +341,7 @@ pub(super) fn latest_words(
 }
 
 /// Every fact or variable (`facts + v`) the start or end of `a` reads, for ordering.
-pub(super) fn for_each_read(task: &Task<'_>, a: usize, end: bool, f: &mut dyn FnMut(usize)) {
+pub(crate) fn for_each_read(task: &Task<'_>, a: usize, end: bool, f: &mut dyn FnMut(usize)) {
     let act = task.action(a);
     let facts = task.fact_count();
     let lists: &[FactList] = if end {
@@ -377,7 +377,7 @@ pub(super) fn for_each_read(task: &Task<'_>, a: usize, end: bool, f: &mut dyn Fn
 }
 
 /// Every fact or variable the start or end of `a` writes, with whether it is a delete.
-pub(super) fn for_each_write(task: &Task<'_>, a: usize, end: bool, f: &mut dyn FnMut(usize, bool)) {
+pub(crate) fn for_each_write(task: &Task<'_>, a: usize, end: bool, f: &mut dyn FnMut(usize, bool)) {
     let act = task.action(a);
     let facts = task.fact_count();
     let (add, del, effs) = if end {
@@ -402,7 +402,7 @@ pub(super) fn for_each_write(task: &Task<'_>, a: usize, end: bool, f: &mut dyn F
 
 /// Whether the start or end of `a` reads `id`; an end's invariants count for deletes only
 /// (and numeric invariants always).
-pub(super) fn snap_reads(task: &Task<'_>, a: u32, end: bool, id: usize, for_delete: bool) -> bool {
+pub(crate) fn snap_reads(task: &Task<'_>, a: u32, end: bool, id: usize, for_delete: bool) -> bool {
     let act = task.action(a as usize);
     let facts = task.fact_count();
     if id < facts {
