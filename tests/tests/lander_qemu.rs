@@ -17,16 +17,23 @@ use lander::executor::{Directive, Observation};
 use lander_sim::expect::check_all;
 use lander_sim::sim::{autonomy_inputs, run_watched, RunConfig};
 
-const MISSIONS: [&str; 9] = [
+/// BSM-1, RSM-1 and every shipped ELAP scenario of V.B.1 (issue 12 item 3: each passes natively
+/// and on the emulated target with identical decisions).
+const MISSIONS: [&str; 14] = [
     "bsm-1.toml",
     "rsm-1.toml",
+    "elap/01-all-samples-positive.toml",
     "elap/02-all-samples-negative.toml",
+    "elap/03-low-start-soc.toml",
+    "elap/04-ground-changes-excavation-order.toml",
     "elap/05-first-sample-negative.toml",
     "elap/06-ground-changes-mission-model.toml",
     // The data-volume scenarios: the link model, its changes and the products onboard go up
     // to the target (LanderInput) before the step that sees them.
     "elap/07-increased-decisional-volume.toml",
     "elap/08-sudden-low-battery.toml",
+    "elap/09-higher-comm-allocation.toml",
+    "elap/10-slower-heating.toml",
     "elap/11-sudden-downlink-slowdown.toml",
     "elap/12-increased-mandatory-volume.toml",
 ];
