@@ -37,10 +37,8 @@ use lander_sim::sim::{self, Autonomy, RunConfig, RunResult, StepWatch};
 
 use crate::firmware::FirmwareImage;
 use crate::mission::link::{Exchanged, LinkSession};
-use crate::mission::plan::LinkFaults;
-use crate::mission::target::{hello_message, EmulatedTarget, MissionTarget};
-use crate::plan_emulated::{FRAME_US, INSTRUCTIONS_PER_TICK};
-use crate::qemu::QemuProfile;
+use crate::mission::target::{EmulatedTarget, MissionTarget};
+use crate::plan_emulated::{boot_linked, frame_grant, FRAME_US, INSTRUCTIONS_PER_TICK};
 
 /// Frames a step may take before the run ends with no answer (a full RSM-1 replan takes a few
 /// hundred planner windows).
@@ -208,12 +206,7 @@ impl EmulatedLander {
     /// Boot `firmware` under QEMU (the shipped `rad750-proxy` profile). QEMU is ended by its
     /// PID when this is dropped.
     pub fn boot(firmware: &FirmwareImage) -> Result<Self, String> {
-        let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
-        let mut target = EmulatedTarget::with_temporary_nv(profile, firmware.clone(), false, false)
-            .map_err(|e| format!("cannot create the non-volatile memory file: {e}"))?;
-        let hello = target.boot().map_err(|e| e.to_string())?;
-        let mut link = LinkSession::new(0, &LinkFaults::default());
-        link.hello(&hello_message(&hello));
+        let (target, link) = boot_linked(firmware, None)?;
         Ok(Self {
             target,
             link,
@@ -257,17 +250,8 @@ impl EmulatedLander {
 
     /// One frame granted, until its FrameDone.
     fn grant(&mut self, got: &mut Collected) -> Result<(), String> {
-        let frame = self.frame;
-        let until = self.now.saturating_add(FRAME_US);
-        self.link
-            .send(HostToTarget::TimeGrant {
-                frame,
-                now: self.now,
-                until,
-            })
-            .map_err(|e| e.to_string())?;
-        let mut done =
-            |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
+        let (grant, until, mut done) = frame_grant(self.frame, self.now);
+        self.link.send(grant).map_err(|e| e.to_string())?;
         self.exchange(got, Some(&mut done))?;
         self.frame = self.frame.wrapping_add(1);
         self.now = until;

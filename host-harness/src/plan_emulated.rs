@@ -25,6 +25,7 @@ use crate::mission::plan::LinkFaults;
 use crate::mission::target::{hello_message, EmulatedTarget, MissionTarget};
 use crate::plan::{PlanOptions, PlanReport, PlanStep};
 use crate::qemu::QemuProfile;
+use sdls::Key;
 
 /// One major frame of mission time per grant while planning is pending.
 pub const FRAME_US: u64 = autonomy::partitioned::MAJOR_FRAME_US;
@@ -201,18 +202,50 @@ pub struct EmulatedPlanner {
     pub health_events: Vec<String>,
 }
 
+/// Boot `firmware` under QEMU (the shipped `rad750-proxy` profile), with `key` provisioned in
+/// its non-volatile memory first if given, and open the link session on its Hello. QEMU is
+/// ended by its PID when the target is dropped. Shared by the temporal planner's and the
+/// lander's emulated drivers.
+pub(crate) fn boot_linked(
+    firmware: &FirmwareImage,
+    key: Option<&Key>,
+) -> Result<(EmulatedTarget, LinkSession), String> {
+    let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
+    let mut target = EmulatedTarget::with_temporary_nv(profile, firmware.clone(), false, false)
+        .map_err(|e| format!("cannot create the non-volatile memory file: {e}"))?;
+    if let Some(key) = key {
+        target
+            .provision_key(key)
+            .map_err(|e| format!("cannot provision the key: {e}"))?;
+    }
+    let hello = target.boot().map_err(|e| e.to_string())?;
+    let mut link = LinkSession::new(0, &LinkFaults::default());
+    link.hello(&hello_message(&hello));
+    Ok((target, link))
+}
+
+/// The time grant of one frame (`frame` from `now`), the end of the frame, and the test that
+/// the frame is done (its `FrameDone`).
+pub(crate) fn frame_grant(
+    frame: u32,
+    now: MissionTimeUs,
+) -> (
+    HostToTarget,
+    MissionTimeUs,
+    impl FnMut(&TargetToHost) -> bool,
+) {
+    let until = now.saturating_add(FRAME_US);
+    (
+        HostToTarget::TimeGrant { frame, now, until },
+        until,
+        move |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame),
+    )
+}
+
 impl EmulatedPlanner {
     /// Boot `firmware` under QEMU (the shipped `rad750-proxy` profile).
     pub fn boot(firmware: &FirmwareImage) -> Result<Self, String> {
-        let profile = QemuProfile::load("rad750-proxy").map_err(|e| e.to_string())?;
-        let mut target = EmulatedTarget::with_temporary_nv(profile, firmware.clone(), false, false)
-            .map_err(|e| format!("cannot create the non-volatile memory file: {e}"))?;
-        target
-            .provision_key(&TEST_KEY)
-            .map_err(|e| format!("cannot provision the key: {e}"))?;
-        let hello = target.boot().map_err(|e| e.to_string())?;
-        let mut link = LinkSession::new(0, &LinkFaults::default());
-        link.hello(&hello_message(&hello));
+        let (target, link) = boot_linked(firmware, Some(&TEST_KEY))?;
         Ok(Self {
             target,
             link,
@@ -300,17 +333,10 @@ impl EmulatedPlanner {
                 .map_err(|e| EmulatedError::Target(e.to_string()))?;
             self.armed_reset = true;
         }
-        let frame = self.frame;
-        let until = self.now.saturating_add(FRAME_US);
+        let (grant, until, mut done) = frame_grant(self.frame, self.now);
         self.link
-            .send(HostToTarget::TimeGrant {
-                frame,
-                now: self.now,
-                until,
-            })
+            .send(grant)
             .map_err(|e| EmulatedError::Target(e.to_string()))?;
-        let mut done =
-            |m: &TargetToHost| matches!(m, TargetToHost::FrameDone { frame: f, .. } if *f == frame);
         self.exchange(job, got, Some(&mut done))?;
         self.frame = self.frame.wrapping_add(1);
         self.now = until;
