@@ -11,19 +11,13 @@
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
-use flight_app::{LanderApp, LanderStorage, PlannerPlugin, PluginWindow, MAX_LANDER_SETUP_BYTES};
+use flight_app::{LanderApp, LanderStorage, PlannerPlugin, MAX_LANDER_SETUP_BYTES};
 use fsw_bridge::HostToTarget;
-use kernel_config::system::PLANNER_WINDOW_TICKS;
 use lander::downlink::DownlinkManager;
 use lander::executor::Executor;
 use lander::setup::LanderSetup;
 
 use userlib::{HostOutbox, PartitionClock};
-
-/// Ticks of the planner window kept for what follows the plug-ins (as the temporal planner).
-const WINDOW_RESERVE_TICKS: u64 = 2_000;
-/// Messages for the host the plug-in leaves free in the partition's queue.
-const OUTBOX_RESERVE: usize = 8;
 
 #[link_section = ".bss.noinit.planner"]
 static mut SETUP_BYTES: MaybeUninit<[u8; MAX_LANDER_SETUP_BYTES]> = MaybeUninit::uninit();
@@ -112,26 +106,10 @@ pub fn window<const N: usize>(
     if !app.planning_pending() {
         return;
     }
-    let mut clock = PartitionClock;
-    let mut w =
-        PluginWindow {
-            memories,
-            fetch: None,
-            clock: &mut clock,
-            downlink: outbox,
-            until: Some(window_started.saturating_add(share_ticks)),
-            hard_until: Some(window_started.saturating_add(
-                u64::from(PLANNER_WINDOW_TICKS).saturating_sub(WINDOW_RESERVE_TICKS),
-            )),
-        };
-    app.window(&mut w);
+    crate::plugin_glue::window(app, window_started, share_ticks, memories, outbox);
 }
 
 /// What the plug-in has ready for the host, as far as the queue has room.
 pub fn report<const N: usize>(app: &mut LanderApp<'static>, outbox: &mut HostOutbox<N>) {
-    if !app.busy() {
-        return;
-    }
-    let room = N.saturating_sub(outbox.queue.len() + OUTBOX_RESERVE);
-    app.report(room, outbox);
+    crate::plugin_glue::report(app, outbox);
 }

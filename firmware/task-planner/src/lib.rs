@@ -21,6 +21,7 @@
 // `[workspace.lints]` (firmware/image/Cargo.toml).
 
 mod lander;
+mod plugin_glue;
 mod temporal;
 
 use core::mem::MaybeUninit;

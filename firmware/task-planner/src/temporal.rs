@@ -17,23 +17,18 @@ use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
 use flight_app::{
-    PlannerPlugin, PluginWindow, TemporalApp, TemporalStorage, MAX_TEMPORAL_PLAN_ACTIONS,
+    PlannerPlugin, TemporalApp, TemporalStorage, MAX_TEMPORAL_PLAN_ACTIONS,
     MAX_TEMPORAL_TASK_BYTES, TEMPORAL_ARENA_BYTES, TEMPORAL_RESUME_RECORD_WORDS,
 };
 use flight_app::{SecurityStore, StoreError};
 use fsw_bridge::HostToTarget;
 use temporal::PlannedAction;
 
-use kernel_config::system::{PLANNER_NV_SECURITY_OFFSET, PLANNER_WINDOW_TICKS};
+use kernel_config::system::PLANNER_NV_SECURITY_OFFSET;
 
-use userlib::{sys, HostOutbox, PartitionClock};
+use userlib::{sys, HostOutbox};
 
 const ARENA_WORDS: usize = TEMPORAL_ARENA_BYTES / 4;
-/// Ticks of the planner window kept for what follows the plug-ins (the messages for the
-/// executive and the host) and for what preceded the MEXEC window's clock reading (the
-/// messages taken in).
-const WINDOW_RESERVE_TICKS: u64 = 2_000;
-
 #[link_section = ".bss.noinit.planner"]
 static mut TASK: MaybeUninit<[u8; MAX_TEMPORAL_TASK_BYTES]> = MaybeUninit::uninit();
 
@@ -51,10 +46,6 @@ static mut PLAN: MaybeUninit<[PlannedAction; MAX_TEMPORAL_PLAN_ACTIONS]> = Maybe
 
 #[link_section = ".bss.part.planner"]
 static mut APP: MaybeUninit<TemporalApp<'static>> = MaybeUninit::uninit();
-
-/// Messages for the host the plug-in leaves free in the partition's queue (its other
-/// messages: the MEXEC planner's metrics).
-const OUTBOX_RESERVE: usize = 8;
 
 /// The security area of temporal uplinks in the planner's slice of non-volatile memory,
 /// through the kernel (this partition owns the slice).
@@ -159,26 +150,10 @@ pub fn window<const N: usize>(
         return;
     }
     give_storage(app);
-    let mut clock = PartitionClock;
-    let mut w =
-        PluginWindow {
-            memories,
-            fetch: None,
-            clock: &mut clock,
-            downlink: outbox,
-            until: Some(window_started.saturating_add(share_ticks)),
-            hard_until: Some(window_started.saturating_add(
-                u64::from(PLANNER_WINDOW_TICKS).saturating_sub(WINDOW_RESERVE_TICKS),
-            )),
-        };
-    app.window(&mut w);
+    crate::plugin_glue::window(app, window_started, share_ticks, memories, outbox);
 }
 
 /// What the plug-in has ready for the host, as far as the queue has room.
 pub fn report<const N: usize>(app: &mut TemporalApp<'static>, outbox: &mut HostOutbox<N>) {
-    if !app.busy() {
-        return;
-    }
-    let room = N.saturating_sub(outbox.queue.len() + OUTBOX_RESERVE);
-    app.report(room, outbox);
+    crate::plugin_glue::report(app, outbox);
 }
