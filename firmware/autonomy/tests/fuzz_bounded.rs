@@ -90,3 +90,43 @@ fn checkpoint_seeds_restore_with_plans_in_flight() {
     }
     assert!(with_plans >= 10, "{with_plans} seeds with tasks in flight");
 }
+
+#[test]
+fn executive_checkpoint_holds_over_its_seeds_and_300_mutations() {
+    let seeds = seeds("executive_checkpoint");
+    let ran = bounded::run(&seeds, 300, 0xec4e, 64 * 1024, fuzz_logic::executive_checkpoint);
+    assert_eq!(ran, seeds.len() + 300);
+}
+
+#[test]
+fn planner_checkpoint_holds_over_its_seeds_and_300_mutations() {
+    let seeds = seeds("planner_checkpoint");
+    let ran = bounded::run(&seeds, 300, 0x91c4, 64 * 1024, fuzz_logic::planner_checkpoint);
+    assert_eq!(ran, seeds.len() + 300);
+}
+
+/// The partition sides' seeds are what the flight application wrote: every one restores (a
+/// corpus of refused payloads would only exercise the first decode step).
+#[test]
+fn partition_checkpoint_seeds_restore() {
+    type Restores = fn(&[u8]) -> bool;
+    let targets: [(&str, Restores); 2] = [
+        (
+            "executive_checkpoint",
+            fuzz_logic::executive_checkpoint_restores,
+        ),
+        ("planner_checkpoint", fuzz_logic::planner_checkpoint_restores),
+    ];
+    for (target, restores) in targets {
+        let seeds = seeds(target);
+        let mut restored = 0;
+        for (name, payload) in &seeds {
+            if name.starts_with("regression") {
+                continue;
+            }
+            assert!(restores(payload), "{target} seed {name} does not restore; {REGENERATE}");
+            restored += 1;
+        }
+        assert!(restored >= 10, "{restored} {target} seeds");
+    }
+}

@@ -9,9 +9,12 @@
 //! * `firmware/autonomy/fuzz/seeds/uplink`: the shipped task networks compiled by
 //!   `hil::tasknet`, the flyby of `autonomy::scenarios`, and variants refused for each
 //!   capacity (five constraints, a name of 33 bytes, 33 tasks, ...);
-//! * `firmware/autonomy/fuzz/seeds/checkpoint`: checkpoints of the shipped missions flown on
-//!   the native target (resets, power cycles, failing commands, link faults), one every few
-//!   frames;
+//! * `firmware/autonomy/fuzz/seeds/checkpoint`: checkpoints of the single-core autonomy core
+//!   (its own format), each shipped network flown natively with every command answered, one
+//!   every few steps;
+//! * `firmware/autonomy/fuzz/seeds/{executive,planner}_checkpoint`: the two partitions'
+//!   checkpoints of the shipped missions flown on the native target (resets, power cycles,
+//!   failing commands, link faults), one every few frames;
 //! * `firmware/flight-app/fuzz/seeds/messages`: the host messages, resets and power cycles of
 //!   each shipped mission, as the flight application received them from the link (`hil`
 //!   signs its uplinks and commands with the key the harness provisions), a few variants
@@ -90,7 +93,16 @@ fn generate() {
 
     write(
         &root.join("firmware/autonomy/fuzz/seeds/checkpoint"),
-        &checkpoint_seeds(&missions),
+        &core_checkpoint_seeds(&networks),
+    );
+    let (executive, planner) = partition_checkpoint_seeds(&missions);
+    write(
+        &root.join("firmware/autonomy/fuzz/seeds/executive_checkpoint"),
+        &executive,
+    );
+    write(
+        &root.join("firmware/autonomy/fuzz/seeds/planner_checkpoint"),
+        &planner,
     );
     let mut messages = message_seeds(&missions);
     messages.extend(security_seeds(&networks));
@@ -973,10 +985,12 @@ fn message_seeds(missions: &[(String, Vec<Op>)]) -> Vec<(String, Vec<u8>)> {
     out
 }
 
-/// Checkpoints of the recorded missions: the warm-restart area's newest record after every
-/// fourth grant (the flight application's own checkpoints, restored by the harness).
-fn checkpoint_seeds(missions: &[(String, Vec<Op>)]) -> Vec<(String, Vec<u8>)> {
-    let mut out = Vec::new();
+/// Checkpoints of the recorded missions: each partition's newest record in the warm-restart
+/// area after every eighth grant (the flight application's own checkpoints, restored by the
+/// harness), the executive's and the planner's.
+type Seeds = Vec<(String, Vec<u8>)>;
+fn partition_checkpoint_seeds(missions: &[(String, Vec<Op>)]) -> (Seeds, Seeds) {
+    let (mut executive, mut planner) = (Vec::new(), Vec::new());
     for (name, ops) in missions {
         let mut harness = Harness::new();
         let mut grants = 0;
@@ -985,10 +999,89 @@ fn checkpoint_seeds(missions: &[(String, Vec<Op>)]) -> Vec<(String, Vec<u8>)> {
             if matches!(op, Op::Message(HostToTarget::TimeGrant { .. })) {
                 grants += 1;
                 if grants % 8 == 3 {
-                    let payload = harness.warm_checkpoint().expect("a frame checkpoints");
-                    out.push((format!("{name}-frame{grants:03}"), payload.to_vec()));
+                    let seed = format!("{name}-frame{grants:03}");
+                    if let Some(payload) = harness.warm_checkpoint() {
+                        executive.push((seed.clone(), payload.to_vec()));
+                    }
+                    if let Some(payload) = harness.planner_checkpoint() {
+                        planner.push((seed, payload.to_vec()));
+                    }
                 }
             }
+        }
+    }
+    (executive, planner)
+}
+
+/// Records what the single-core autonomy core dispatches.
+#[derive(Default)]
+struct Dispatched(Vec<u32>);
+
+impl autonomy::Outputs for Dispatched {
+    fn dispatch(&mut self, id: u32, _: autonomy::Opcode, _: &autonomy::CommandArgs) {
+        self.0.push(id);
+    }
+    fn telemetry(&mut self, _: autonomy::TelemetryEvent) {}
+}
+
+/// Checkpoints of the single-core autonomy core (its own format, which the `checkpoint` target
+/// restores): each shipped network loaded and flown natively for 24 steps, every measured
+/// timeline published (the first value of its type), every command answered (every fifth one
+/// failed), a checkpoint after every third step.
+fn core_checkpoint_seeds(networks: &[(String, Vec<u8>)]) -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut buf = vec![0u8; 1 << 20];
+    for (name, image) in networks {
+        let mut network = autonomy::TaskNetwork::EMPTY;
+        if autonomy::uplink::decode_into(&mut network, image).is_err() {
+            continue;
+        }
+        let mut core = Box::new(autonomy::Autonomy::new());
+        let mut now = network
+            .tasks()
+            .iter()
+            .map(|t| t.earliest_start)
+            .min()
+            .unwrap_or(autonomy::MissionTimeUs::ZERO);
+        core.load_network(network).expect("a new core loads a valid network");
+        let mut pending: Vec<u32> = Vec::new();
+        let mut answered = 0usize;
+        let stem = name.trim_end_matches(".uplink");
+        for step in 0..24 {
+            let measured: Vec<_> = core.network().measured_timelines().collect();
+            for (_, key, kind) in measured {
+                let value = match kind {
+                    autonomy::MeasuredValueType::Enum { .. } => autonomy::StateValue::Enum(0),
+                    autonomy::MeasuredValueType::Int => autonomy::StateValue::Int(0),
+                };
+                core.on_state_update(key, value, now);
+            }
+            for id in pending.drain(..) {
+                answered += 1;
+                let status = if answered % 5 == 0 {
+                    autonomy::CommandStatus::Failed(7)
+                } else {
+                    autonomy::CommandStatus::Ok
+                };
+                core.on_command_response(id, status);
+            }
+            let mut dispatched = Dispatched::default();
+            core.step(
+                now,
+                autonomy::StepBudget {
+                    planner_checks: 2_000,
+                },
+                &mut dispatched,
+            );
+            pending = dispatched.0;
+            if step % 3 == 2 {
+                let len = core.encode_state(&mut buf).expect("a checkpoint fits 1 MiB");
+                out.push((format!("{stem}-step{step:02}"), buf[..len].to_vec()));
+            }
+            let next = core
+                .next_wakeup()
+                .unwrap_or(now.saturating_add(60_000_000));
+            now = next.max(now.saturating_add(1));
         }
     }
     out

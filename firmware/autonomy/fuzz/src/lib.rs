@@ -10,11 +10,21 @@
 //!   payload that restores again, and that can be flown for a few frames with every checkpoint
 //!   restoring (what the restore validation accepts, the core can run on; what the core
 //!   writes, the validation accepts).
+//! * [`executive_checkpoint`], [`planner_checkpoint`]: any bytes as the payload of a whole
+//!   checkpoint record of the executive partition's or the planner partition's side (the
+//!   checkpoints the flight software writes since the planner has its own partition). The
+//!   restore either refuses it and leaves the side as a new one, or restores a side whose
+//!   checkpoint a new side accepts and encodes back to the same bytes.
 //!
 //! Seeds are in `seeds/<target>/`: the shipped task networks and variants over capacity, and
 //! checkpoints of flyby runs with resets and misbehaving subsystems (regenerate them with
 //! `cargo run --manifest-path host-harness/fuzz/Cargo.toml --example seeds`).
+use std::sync::Mutex;
+
 use autonomy::checkpoint::{WarmRestartArea, RECORD_HEADER_LEN};
+use autonomy::partitioned::{
+    ExecutivePartition, PartitionSide, PlannerPartition, SideRestoreError,
+};
 use autonomy::uplink::{self, take_condition, take_task, take_timeline};
 use autonomy::{
     Autonomy, CommandArgs, CommandStatus, ConditionSpec, MeasuredValueType, MissionTimeUs, Opcode,
@@ -25,7 +35,12 @@ use autonomy::{
 pub mod bounded;
 
 /// The targets of this crate, by name.
-pub const TARGETS: &[bounded::Target] = &[("uplink", uplink), ("checkpoint", checkpoint)];
+pub const TARGETS: &[bounded::Target] = &[
+    ("uplink", uplink),
+    ("checkpoint", checkpoint),
+    ("executive_checkpoint", executive_checkpoint),
+    ("planner_checkpoint", planner_checkpoint),
+];
 
 /// Planner work per frame when flying a fuzzed network: enough for the shipped networks,
 /// small enough that a pathological one cannot make one input take seconds.
@@ -259,4 +274,102 @@ fn fly(core: &mut Autonomy, checker: &mut Checker, start: MissionTimeUs, seed: u
         let next = core.next_wakeup().unwrap_or(now.saturating_add(60_000_000));
         now = next.max(now.saturating_add(1));
     }
+}
+
+/// Bytes for a partition side's checkpoint payload: the executive's carries the network image
+/// besides its tables, far below this.
+const SIDE_CHECKPOINT_BUF: usize = 4 << 20;
+
+/// A side to restore into and a second one to check its checkpoint, kept from input to input
+/// (both are hundreds of KB: built once, at compile time, and reset in place).
+struct SidePair<S> {
+    side: S,
+    again: S,
+}
+
+static EXECUTIVE_SIDES: Mutex<SidePair<ExecutivePartition>> = Mutex::new(SidePair {
+    side: ExecutivePartition::new(),
+    again: ExecutivePartition::new(),
+});
+
+static PLANNER_SIDES: Mutex<SidePair<PlannerPartition>> = Mutex::new(SidePair {
+    side: PlannerPartition::new(),
+    again: PlannerPartition::new(),
+});
+
+thread_local! {
+    /// Three payload buffers: a new side's encoding, a restored side's, and the check's.
+    static SIDE_BUFS: std::cell::RefCell<[Vec<u8>; 3]> =
+        std::cell::RefCell::new(std::array::from_fn(|_| vec![0; SIDE_CHECKPOINT_BUF]));
+}
+
+/// Any bytes as the payload of a whole checkpoint record of the executive partition.
+pub fn executive_checkpoint(data: &[u8]) {
+    executive_checkpoint_restores(data);
+}
+
+/// [`executive_checkpoint`], telling whether the payload was restored.
+pub fn executive_checkpoint_restores(data: &[u8]) -> bool {
+    side_checkpoint(&EXECUTIVE_SIDES, data)
+}
+
+/// Any bytes as the payload of a whole checkpoint record of the planner partition.
+pub fn planner_checkpoint(data: &[u8]) {
+    planner_checkpoint_restores(data);
+}
+
+/// [`planner_checkpoint`], telling whether the payload was restored.
+pub fn planner_checkpoint_restores(data: &[u8]) -> bool {
+    side_checkpoint(&PLANNER_SIDES, data)
+}
+
+/// Restores one side from a whole record holding `data`: refused, the side is a new one
+/// again (it encodes as one); accepted, its checkpoint is accepted by a new side, which
+/// encodes it back unchanged (what the restore accepts, the side can checkpoint; what it
+/// writes, the restore accepts). True when it was restored.
+fn side_checkpoint<S: PartitionSide>(pair: &Mutex<SidePair<S>>, data: &[u8]) -> bool {
+    // A panic under the lock (a finding) must not hide the next input's result.
+    let mut pair = pair.lock().unwrap_or_else(|e| e.into_inner());
+    let SidePair { side, again } = &mut *pair;
+    SIDE_BUFS.with(|bufs| {
+        let [new_bytes, restored_bytes, again_bytes] = &mut *bufs.borrow_mut();
+        side.reset();
+        let new_len = side.encode_state(new_bytes).expect("a new side encodes");
+        let mut bytes = vec![0u8; 2 * (RECORD_HEADER_LEN + data.len())];
+        let mut area = WarmRestartArea::new(&mut bytes);
+        area.write(|buf| {
+            buf.get_mut(..data.len())?.copy_from_slice(data);
+            Some(data.len())
+        })
+        .expect("the area holds the payload");
+        match side.restore_from(&area) {
+            Err(SideRestoreError::NoRecord) => panic!("the record written is not found"),
+            Err(SideRestoreError::BadPayload) => {
+                let len = side.encode_state(restored_bytes).expect("a reset side encodes");
+                assert_eq!(
+                    &restored_bytes[..len],
+                    &new_bytes[..new_len],
+                    "a refused restore left state behind"
+                );
+                false
+            }
+            Ok(sequence) => {
+                assert_eq!(sequence, 1);
+                let len = side
+                    .encode_state(restored_bytes)
+                    .expect("a restored side checkpoints");
+                again.reset();
+                again
+                    .decode_state(&restored_bytes[..len])
+                    .expect("a restored side's checkpoint restores");
+                let again_len = again.encode_state(again_bytes).expect("fits as before");
+                assert_eq!(
+                    &again_bytes[..again_len],
+                    &restored_bytes[..len],
+                    "a side's checkpoint encoding is not a fixed point"
+                );
+                true
+            }
+        }
+    })
 }
