@@ -151,6 +151,8 @@ impl Collected {
                 TemporalReport::Step { .. } => self.steps.push(r.clone()),
                 TemporalReport::Stats { .. } => self.stats = Some(r.clone()),
                 TemporalReport::Done { .. } => self.done = Some(r.clone()),
+                // The rover mission's reports are taken by `rover_frames` from `all`.
+                TemporalReport::Rover { .. } => {}
                 TemporalReport::Resumed { verify_ticks, .. } => {
                     // What came of the job before the reset is void: it comes again.
                     self.resumed = Some(*verify_ticks);
@@ -439,6 +441,64 @@ impl EmulatedPlanner {
         }
         self.health_events.append(&mut got.health);
         Ok((got, frames))
+    }
+
+    /// The onboard rover mission (`flight_app::rover_mission`): `start` for a new job, then
+    /// `task` uplinked (signed) as that job, then frames until the mission is ready (or refused).
+    pub fn rover_start(
+        &mut self,
+        task: &[u8],
+        start: fsw_bridge::temporal::RoverEvent,
+        max_frames: u32,
+    ) -> Result<(u16, Vec<fsw_bridge::temporal::RoverReport>), EmulatedError> {
+        let job = self.new_job();
+        self.link
+            .send(HostToTarget::Rover { job, event: start })
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        let msgs = self.signed_job_messages(job, task, TemporalConfig::DEFAULT);
+        self.uplink_costs(job, msgs)?;
+        Ok((job, self.rover_frames(job, max_frames)?))
+    }
+
+    /// One event of the rover mission flying job `job`, and frames until its last answer.
+    pub fn rover_event(
+        &mut self,
+        job: u16,
+        event: fsw_bridge::temporal::RoverEvent,
+        max_frames: u32,
+    ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        self.link
+            .send(HostToTarget::Rover { job, event })
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        self.rover_frames(job, max_frames)
+    }
+
+    /// The rover mission's reports, frame after frame, up to the last answer to an event.
+    fn rover_frames(
+        &mut self,
+        job: u16,
+        max_frames: u32,
+    ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        let mut out = Vec::new();
+        let mut frames = 0;
+        while !out
+            .last()
+            .is_some_and(fsw_bridge::temporal::RoverReport::is_last)
+        {
+            if frames >= max_frames {
+                return Err(EmulatedError::NoAnswer(frames));
+            }
+            let mut got = Collected::default();
+            self.grant_one(job, &mut got, None)?;
+            self.health_events.append(&mut got.health);
+            for r in got.all {
+                if let TemporalReport::Rover { report, .. } = r {
+                    out.push(report);
+                }
+            }
+            frames += 1;
+        }
+        Ok(out)
     }
 
     /// Plan `compiled` on the target: uplink, frames until the plan, the report.
