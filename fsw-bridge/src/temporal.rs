@@ -291,7 +291,9 @@ pub enum RoverStartKind {
 pub enum RoverReplanWhy {
     Initial,
     /// An opportunistic goal arrived.
-    Goal { fact: u16 },
+    Goal {
+        fact: u16,
+    },
     /// Step `step` (the start or the end of `action`) is not executed and past its ub.
     PastUb {
         step: u16,
@@ -300,7 +302,11 @@ pub enum RoverReplanWhy {
         ub_ms: u32,
     },
     /// Step `step` was executed, but what follows it no longer fits the plan's windows.
-    NoLongerFits { step: u16, action: u16, end: bool },
+    NoLongerFits {
+        step: u16,
+        action: u16,
+        end: bool,
+    },
 }
 
 /// Why the onboard mission refused an event (nothing changed).
@@ -326,14 +332,26 @@ pub enum RoverRefusal {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum RoverReport {
     /// The mission's task was accepted: the mission waits for events.
-    Ready { facts: u32, actions: u32 },
-    Refused { reason: RoverRefusal },
+    Ready {
+        facts: u32,
+        actions: u32,
+    },
+    Refused {
+        reason: RoverRefusal,
+    },
     /// An opportunistic goal known before the first plan: it is in the first plan's goals.
-    Optional { fact: u16 },
+    Optional {
+        fact: u16,
+    },
     /// Planning starts at `at_ms`: nothing new is dispatched until `PlanningTakes`.
-    Replan { at_ms: u32, why: RoverReplanWhy },
+    Replan {
+        at_ms: u32,
+        why: RoverReplanWhy,
+    },
     /// A running pausable action went back to its inactive state (not done).
-    Paused { action: u16 },
+    Paused {
+        action: u16,
+    },
     /// A running action carried into the new plan as a completion.
     Carried {
         action: u16,
@@ -341,7 +359,9 @@ pub enum RoverReport {
         left_ms: u32,
     },
     /// An opportunistic goal in the next attempt (one per goal, before its `Attempt`).
-    AttemptGoal { fact: u16 },
+    AttemptGoal {
+        fact: u16,
+    },
     /// A planning attempt ended. `build_ticks`: the CPU building its replan task (the replay's
     /// state, the pauses, `write_replan_task`), `planning_ticks` its search's, timebase ticks.
     Attempt {
@@ -355,7 +375,9 @@ pub enum RoverReport {
         planning_ticks: u64,
     },
     /// The newest opportunistic goal still in is dropped; the next attempt is without it.
-    Dropped { fact: u16 },
+    Dropped {
+        fact: u16,
+    },
     /// No plan (no opportunistic goal left to drop): the mission stops.
     NoPlan,
     /// The plan and its dispatch network: `network_ticks` the CPU of `network_from_plan` and
@@ -375,7 +397,10 @@ pub enum RoverReport {
         ub_ms: u32,
     },
     /// Planning took `expansions` expansions: nothing new is dispatched until `until_ms`.
-    PlanningTakes { expansions: u32, until_ms: u32 },
+    PlanningTakes {
+        expansions: u32,
+        until_ms: u32,
+    },
     /// Start action `action` (step `step`) now, at `at_ms`; its window as planned.
     Dispatch {
         step: u16,
@@ -396,15 +421,25 @@ pub enum RoverReport {
     /// Every step of the plan is executed.
     Finished,
     /// The end was taken (its effects applied, its step executed).
-    EndTaken { action: u16 },
+    EndTaken {
+        action: u16,
+    },
     /// An `Inactive` was taken.
-    InactiveTaken { fact: u16 },
+    InactiveTaken {
+        fact: u16,
+    },
     /// An `Expected` was taken.
-    ExpectedTaken { action: u16 },
+    ExpectedTaken {
+        action: u16,
+    },
     /// A goal (of the task, or opportunistic) holds at the end.
-    Achieved { fact: u16 },
+    Achieved {
+        fact: u16,
+    },
     /// An opportunistic goal kept to the end.
-    Kept { fact: u16 },
+    Kept {
+        fact: u16,
+    },
     /// The answer to Close is complete.
     Closed,
 }

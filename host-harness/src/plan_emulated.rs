@@ -202,6 +202,9 @@ pub struct EmulatedPlanner {
     resets: u32,
     /// Health-monitor events seen (for tests: a planner that overran its window).
     pub health_events: Vec<String>,
+    /// The rover mission's reports delivered and not yet taken (any exchange may bring them:
+    /// the mission's Ready comes with its task's acceptance).
+    rover_reports: Vec<fsw_bridge::temporal::RoverReport>,
 }
 
 /// Boot `firmware` under QEMU (the shipped `rad750-proxy` profile), with `key` provisioned in
@@ -258,6 +261,7 @@ impl EmulatedPlanner {
             armed_reset: false,
             resets: 0,
             health_events: Vec::new(),
+            rover_reports: Vec::new(),
         })
     }
 
@@ -274,6 +278,9 @@ impl EmulatedPlanner {
         for msg in &delivered {
             self.target.observe(msg);
             got.take(job, msg);
+            if let TargetToHost::Temporal(TemporalReport::Rover { report, .. }) = msg {
+                self.rover_reports.push(*report);
+            }
         }
         match end {
             Exchanged::Settled if self.armed_reset => Err(EmulatedError::Target(
@@ -457,7 +464,10 @@ impl EmulatedPlanner {
             .map_err(|e| EmulatedError::Target(e.to_string()))?;
         let msgs = self.signed_job_messages(job, task, TemporalConfig::DEFAULT);
         self.uplink_costs(job, msgs)?;
-        Ok((job, self.rover_frames(job, max_frames)?))
+        let ready = self
+            .rover_frames(job, max_frames)
+            .map_err(|e| EmulatedError::Target(format!("the mission's task: {e}")))?;
+        Ok((job, ready))
     }
 
     /// One event of the rover mission flying job `job`, and frames until its last answer.
@@ -479,26 +489,26 @@ impl EmulatedPlanner {
         job: u16,
         max_frames: u32,
     ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
-        let mut out = Vec::new();
         let mut frames = 0;
-        while !out
-            .last()
-            .is_some_and(fsw_bridge::temporal::RoverReport::is_last)
-        {
+        loop {
+            if let Some(last) = self
+                .rover_reports
+                .iter()
+                .position(fsw_bridge::temporal::RoverReport::is_last)
+            {
+                return Ok(self.rover_reports.drain(..=last).collect());
+            }
             if frames >= max_frames {
-                return Err(EmulatedError::NoAnswer(frames));
+                return Err(EmulatedError::Target(format!(
+                    "no answer from the rover mission after {frames} frames (reports so far: {:?})",
+                    self.rover_reports
+                )));
             }
             let mut got = Collected::default();
             self.grant_one(job, &mut got, None)?;
             self.health_events.append(&mut got.health);
-            for r in got.all {
-                if let TemporalReport::Rover { report, .. } = r {
-                    out.push(report);
-                }
-            }
             frames += 1;
         }
-        Ok(out)
     }
 
     /// Plan `compiled` on the target: uplink, frames until the plan, the report.

@@ -335,7 +335,11 @@ impl RoverMission {
             return Self::refuse(out, RoverRefusal::BadTask);
         };
         let f = usize::from(fact);
-        let Some(w) = self.inactive.get_mut(f / 32).filter(|_| f < task.fact_count()) else {
+        let Some(w) = self
+            .inactive
+            .get_mut(f / 32)
+            .filter(|_| f < task.fact_count())
+        else {
             return Self::refuse(out, RoverRefusal::UnknownGoal { fact });
         };
         *w |= 1 << (f % 32);
@@ -362,12 +366,7 @@ impl RoverMission {
             return Self::refuse(out, RoverRefusal::NotRunning { action });
         };
         if ends < r.started {
-            return Self::refuse(
-                out,
-                RoverRefusal::OutOfOrder {
-                    last_ms: r.started,
-                },
-            );
+            return Self::refuse(out, RoverRefusal::OutOfOrder { last_ms: r.started });
         }
         r.ends = ends;
         out(RoverReport::ExpectedTaken { action });
@@ -464,7 +463,8 @@ impl RoverMission {
         let rel = now.saturating_sub(epoch);
         let (facts, values) = (&self.facts, &self.values);
         let ready = |a: u16| {
-            usize::from(a) >= base_actions || replan::start_holds(&task, usize::from(a), facts, values)
+            usize::from(a) >= base_actions
+                || replan::start_holds(&task, usize::from(a), facts, values)
         };
         match self.dispatcher.poll(rel, &ready) {
             Decision::Start { step, action } => {
@@ -687,12 +687,7 @@ impl RoverMission {
         let t0 = ctx.clock.ticks();
         let mut extra = [0u16; MAX_ROVER_GOALS];
         let mut extras = 0usize;
-        for (g, k) in self
-            .arrived
-            .iter()
-            .zip(&self.kept)
-            .take(self.arrived_len)
-        {
+        for (g, k) in self.arrived.iter().zip(&self.kept).take(self.arrived_len) {
             if *k {
                 if let Some(e) = extra.get_mut(extras) {
                     *e = *g;
@@ -701,7 +696,9 @@ impl RoverMission {
             }
         }
         let extra = extra.get(..extras).unwrap_or_default();
-        let (base, rest) = ctx.task_buffer.split_at_mut(ROVER_REPLAN_AT.min(ctx.task_buffer.len()));
+        let (base, rest) = ctx
+            .task_buffer
+            .split_at_mut(ROVER_REPLAN_AT.min(ctx.task_buffer.len()));
         let Some(task) = base
             .get(self.task_at..self.task_at.saturating_add(self.task_len))
             .and_then(|b| Task::parse(b).ok())

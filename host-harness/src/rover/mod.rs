@@ -391,7 +391,11 @@ impl World<'_> {
             if action == flight_app::rover_mission::NO_ACTION {
                 String::new()
             } else {
-                format!("{} of {}", if end { "end" } else { "start" }, w.name(action))
+                format!(
+                    "{} of {}",
+                    if end { "end" } else { "start" },
+                    w.name(action)
+                )
             }
         };
         let reason = match why {
@@ -444,7 +448,10 @@ impl World<'_> {
             match r {
                 RoverReport::Paused { action } => {
                     let n = self.name(action);
-                    self.say(t, format!("  pause {n}: back to its inactive state, not done"));
+                    self.say(
+                        t,
+                        format!("  pause {n}: back to its inactive state, not done"),
+                    );
                     planning.paused.push(n);
                     self.run.paused += 1;
                     // The rover stops it: it will not end.
@@ -676,7 +683,6 @@ pub fn compile(scenario: &RoverScenario, dir: &Path) -> Result<pddl::Compiled, S
 
 /// Run the scenario with `backend`.
 
-
 /// Run the scenario with `backend`: the host plays the rover, the world and the time; the
 /// onboard mission (in the planner partition with `--emulated`) decides.
 pub fn run(
@@ -884,7 +890,10 @@ pub fn run(
                 t += planned.unwrap_or(0);
                 w.end_actions(t)?;
             }
-            Some(RoverReport::Wait { wake_ms, poll_ticks }) => {
+            Some(RoverReport::Wait {
+                wake_ms,
+                poll_ticks,
+            }) => {
                 if w.backend.emulated() {
                     let c = &mut w.run.onboard;
                     OnboardCosts::add(
@@ -1062,6 +1071,24 @@ pub fn render(run: &RoverRun, verdicts: &[Verdict]) -> String {
             p.attempts.len(),
             p.reason
         ));
+    }
+    let c = &run.onboard;
+    if c.polls > 0 {
+        s.push_str(&format!(
+            "  onboard (planner partition, guest instructions): {} dispatcher polls, at most {}, {} in all; {} replan tasks built, at most {}, {} in all; {} networks, at most {}, {} in all\n",
+            c.polls,
+            c.poll_instructions_max,
+            c.poll_instructions_total,
+            c.builds,
+            c.build_instructions_max,
+            c.build_instructions_total,
+            c.networks,
+            c.network_instructions_max,
+            c.network_instructions_total
+        ));
+    }
+    for h in &run.health_events {
+        s.push_str(&format!("  health monitor: {h}\n"));
     }
     s.push_str("  expectations:\n");
     for v in verdicts {

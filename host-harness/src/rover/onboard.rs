@@ -104,9 +104,8 @@ fn native_mission() -> &'static mut RoverMission {
 
 impl NativeOnboard {
     fn new() -> Self {
-        let plan = Box::leak(
-            vec![PlannedAction::default(); MAX_TEMPORAL_PLAN_ACTIONS].into_boxed_slice(),
-        );
+        let plan =
+            Box::leak(vec![PlannedAction::default(); MAX_TEMPORAL_PLAN_ACTIONS].into_boxed_slice());
         let mut app = TemporalApp::new(plan);
         let mut area = [0u8; sdls::nv::SECURITY_AREA_BYTES];
         sdls::nv::provision(&mut area, &TEST_KEY).expect("the area holds a key");
@@ -199,7 +198,9 @@ impl NativeOnboard {
     fn start(&mut self, task: &[u8], start: RoverEvent) -> Result<(u16, Vec<RoverReport>), String> {
         let job = self.next_job;
         self.next_job = self.next_job.wrapping_add(1).max(1);
-        let (_, secured) = self.signer.sign_temporal(job, &TemporalConfig::DEFAULT, task);
+        let (_, secured) = self
+            .signer
+            .sign_temporal(job, &TemporalConfig::DEFAULT, task);
         let mut msgs = vec![HostToTarget::Rover { job, event: start }];
         msgs.extend(crate::plan_emulated::EmulatedPlanner::job_messages(
             job,
