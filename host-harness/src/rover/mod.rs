@@ -6,25 +6,30 @@
 //! seeded simulation of the rover, and opportunistic science goals that arrive during the run.
 //! The run:
 //!
-//! - plans (natively, or in the planner partition of the emulated RAD750 with `--emulated`:
-//!   one QEMU for the whole run, each plan and replan a job on it);
-//! - turns the plan into a dispatch network ([`temporal::replan::network_from_plan`]) and
-//!   executes it with [`temporal::Dispatcher`] (start at lb if ready early, at once within
-//!   (lb, ub], replan past ub), against the simulated rover, which takes longer than the
-//!   estimate on some traverses (seeded, and on the traverses the file names as obstacles);
-//! - wakes at the earliest ub of a step not yet executed, so an overrun is noticed when it
-//!   happens, not when the late action ends;
-//! - replans when a step is past its ub or an opportunistic goal arrives: nothing new is
-//!   dispatched, pausable running actions go to their inactive state (the `inactive-`
-//!   convention, [`temporal::replan`]), the others are carried; the task from now is built by
-//!   [`temporal::replan::write_replan_task`] and planned; a plan that fails drops the newest
-//!   opportunistic goal and tries again (5.3);
-//! - prints a transcript and checks the file's expectations.
+//! - the onboard side of the mission decides: `flight_app::rover_mission` inside the temporal
+//!   plug-in, in the planner partition of the emulated RAD750 with `--emulated` (one QEMU for
+//!   the whole run; [`onboard::Backend::Emulated`]), or the same plug-in code in this process
+//!   natively ([`onboard::Backend::Native`]). It plans (every plan and replan a search of the
+//!   plug-in, across windows), turns each plan into a dispatch network
+//!   ([`temporal::replan::network_from_plan`]) and executes it with [`temporal::Dispatcher`]
+//!   (start at lb if ready early, at once within (lb, ub], replan past ub; it names its next
+//!   wake, just past the earliest ub of a step not yet executed, so an overrun is noticed
+//!   when it happens); replans when a step is past its ub or an opportunistic goal arrives
+//!   (nothing new dispatched, pausable running actions back to their inactive state, the
+//!   others carried, the replan task built from the state now by
+//!   [`temporal::replan::write_replan_task`]); drops the newest opportunistic goal when an
+//!   attempt fails and tries again (5.3);
+//! - the host plays the rover and the world ([`sim`]: how long each started action really
+//!   takes, obstacles, when opportunistic goals arrive) and keeps the time: it sends events
+//!   (`RoverEvent`: goal arrived, action ended, the rover's estimate of an end, poll at time
+//!   t) and renders the mission's answers (`RoverReport`) as the transcript; it decides
+//!   nothing, and has no dispatcher;
+//! - prints the transcript and checks the file's expectations.
 //!
-//! Mission time does not advance while the planner runs (its cost is counted in expansions,
-//! and on the emulated target in guest instructions), so the native and the emulated run make
-//! the same decisions, which the transcript's decision lines (and their hash) show. The
-//! dispatcher and the simulation run on the host; only planning runs on the target.
+//! Mission time does not advance while the planner runs (its cost is modelled from its
+//! expansions, and measured on the emulated target in guest instructions), so the native and
+//! the emulated run make the same decisions, which the transcript's decision lines (and their
+//! hash) show.
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -680,8 +685,6 @@ pub fn compile(scenario: &RoverScenario, dir: &Path) -> Result<pddl::Compiled, S
     .map_err(|e| e.render())?;
     Ok(compiled)
 }
-
-/// Run the scenario with `backend`.
 
 /// Run the scenario with `backend`: the host plays the rover, the world and the time; the
 /// onboard mission (in the planner partition with `--emulated`) decides.
