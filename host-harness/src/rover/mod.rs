@@ -968,6 +968,33 @@ pub fn run(
     Ok(w.run)
 }
 
+/// One onboard cost of `scenario` (relative to the repository) flown by the emulated target
+/// booted from `firmware`, guest instructions (`budgets.toml`'s `rover:` sources): the most
+/// costly dispatcher poll (`max_poll_instructions`), replan task built
+/// (`max_build_instructions`) or network built (`max_network_instructions`). A run whose
+/// expectations fail is an error (its costs are not representative).
+pub fn onboard_metric(
+    scenario: &str,
+    metric: &str,
+    firmware: &crate::firmware::FirmwareImage,
+) -> Result<u64, String> {
+    let target = crate::plan_emulated::EmulatedPlanner::boot(firmware)?;
+    let mut backend = Backend::Emulated(Box::new(target));
+    let (run, verdicts) = run_file(&crate::repo_root().join(scenario), None, &mut backend)?;
+    if let Some(v) = verdicts.iter().find(|v| !v.ok) {
+        return Err(format!("{scenario}: {}: {}", v.what, v.got));
+    }
+    let c = &run.onboard;
+    match metric {
+        "max_poll_instructions" => Ok(c.poll_instructions_max),
+        "max_build_instructions" => Ok(c.build_instructions_max),
+        "max_network_instructions" => Ok(c.network_instructions_max),
+        _ => Err(format!(
+            "no rover metric {metric:?} (max_poll_instructions, max_build_instructions, max_network_instructions)"
+        )),
+    }
+}
+
 /// The file's expectations against the run.
 pub fn check(scenario: &RoverScenario, run: &RoverRun) -> Vec<Verdict> {
     let e = &scenario.expect;
