@@ -6,7 +6,7 @@
 //! time. Each run makes exactly the native run's decisions; every decision in the transcript is
 //! one the target sent, each with its cost in guest instructions (which only the target
 //! measures); no window of the planner partition overran; and the target refuses bad events
-//! with their reason.
+//! with their reason (and another job while the mission flies).
 use fsw_bridge::temporal::{RoverEvent, RoverRefusal, RoverReport};
 use hil::plan_emulated::EmulatedPlanner;
 use hil::rover::{compile, run_file, Backend, RoverScenario};
@@ -145,6 +145,15 @@ fn bad_events_are_refused(backend: &mut Backend) {
         backend.event(job, end).unwrap().last(),
         Some(&RoverReport::EndTaken { action })
     );
+    // While the mission flies, another job would overwrite its task: refused as busy.
+    if let Backend::Emulated(target) = backend {
+        let other = target.plan(&compiled, &hil::plan::PlanOptions::default(), 100);
+        let refusal = other.expect_err("refused").to_string();
+        assert!(
+            refusal.contains(&format!("Busy {{ job: {job} }}")),
+            "{refusal}"
+        );
+    }
     let close = RoverEvent::Close {
         now_ms: until_ms + 500,
     };

@@ -477,7 +477,7 @@ impl RoverMission {
                 }
                 let end_step = self.dispatcher.network().end_of(step).unwrap_or(0);
                 let waited = if self.held && self.held_until == now {
-                    self.held_until - self.held_from
+                    self.held_until.saturating_sub(self.held_from)
                 } else {
                     0
                 };

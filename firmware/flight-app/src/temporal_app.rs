@@ -30,6 +30,15 @@
 //! finds. The host is told with [`TemporalReport::Resumed`]; what it received of the job
 //! before the reset is void.
 //!
+//! # The onboard rover mission
+//!
+//! A job that a `RoverEvent::Start` named before its Begin is not planned as a job but flown
+//! ([`crate::rover_mission`]): its task stays in the task buffer, each planning attempt is
+//! written after it and searched here across windows as any job (its plan not reported but
+//! taken by the mission), and the host's events (`HostToTarget::Rover`) are taken one per window.
+//! While a mission flies, a Begin for another job is refused (`Busy`): it would overwrite the
+//! mission's task.
+//!
 //! # Authentication
 //!
 //! The chunks carry a secured task ([`sdls::temporal`]: security header, compiled task,
@@ -569,6 +578,14 @@ impl<'a> TemporalApp<'a> {
         if let Some(j) = self.job {
             if !matches!(j.phase, Phase::Receiving { .. }) {
                 self.refuse(id, TemporalRefusal::Busy { job: j.id }, downlink);
+                return;
+            }
+        }
+        // A rover mission flying keeps its task in the task buffer: another job would
+        // overwrite it (the mission's own task comes as the job its Start named).
+        if let Some(m) = self.rover.as_deref() {
+            if let (Some(flying), None) = (m.job(), m.armed_for().filter(|&j| j == id)) {
+                self.refuse(id, TemporalRefusal::Busy { job: flying }, downlink);
                 return;
             }
         }
