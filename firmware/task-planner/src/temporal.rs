@@ -16,11 +16,11 @@
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
+use flight_app::rover_mission::RoverMission;
 use flight_app::{
     PlannerPlugin, TemporalApp, TemporalStorage, MAX_TEMPORAL_PLAN_ACTIONS,
     MAX_TEMPORAL_TASK_BYTES, TEMPORAL_ARENA_BYTES, TEMPORAL_RESUME_RECORD_WORDS,
 };
-use flight_app::rover_mission::RoverMission;
 use flight_app::{SecurityStore, StoreError};
 use fsw_bridge::HostToTarget;
 use temporal::PlannedAction;
