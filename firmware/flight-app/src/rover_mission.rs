@@ -13,7 +13,7 @@
 //! [`Dispatcher`] against the STN windows), when a step is past its ub, the pauses and carries,
 //! the attempts and the goals dropped, the new network.
 //!
-//! Memory: a [`RoverMission`] is about 60 KB of fixed arrays (the dispatcher, the state, the
+//! Memory: a [`RoverMission`] is about 51 KB of fixed arrays (the dispatcher, the state, the
 //! scratch of `network_from_plan`), zero-filled in place at the first `Start` (every field is an
 //! integer, a bool or an array of them, so all-zero bytes are a valid, idle mission): a
 //! partition (re)start costs nothing for it. Capacities are the named constants below; an

@@ -48,7 +48,7 @@ static mut PLAN: MaybeUninit<[PlannedAction; MAX_TEMPORAL_PLAN_ACTIONS]> = Maybe
 #[link_section = ".bss.part.planner"]
 static mut APP: MaybeUninit<TemporalApp<'static>> = MaybeUninit::uninit();
 
-/// The onboard rover mission's memory (`flight_app::rover_mission`, about 60 KB): not zeroed at
+/// The onboard rover mission's memory (`flight_app::rover_mission`, about 51 KB): not zeroed at
 /// a partition start, zero-filled at the mission's first `Start` ([`rover_memory`]).
 #[link_section = ".bss.noinit.planner"]
 static mut MISSION: MaybeUninit<RoverMission> = MaybeUninit::uninit();
