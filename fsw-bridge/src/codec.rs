@@ -40,7 +40,7 @@ pub trait WireMessage: Serialize + DeserializeOwned {
 }
 
 impl WireMessage for HostToTarget {
-    const VARIANT_COUNT: u8 = 13;
+    const VARIANT_COUNT: u8 = 14;
 }
 
 impl WireMessage for TargetToHost {

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::lander::{LanderChunkBytes, LanderInput, LanderObservation, LanderReport};
 use crate::security::{CommandRefusal, GroundCommand, SecurityHeader, MAC_LEN};
-use crate::temporal::{TemporalChunkBytes, TemporalConfig, TemporalReport};
+use crate::temporal::{RoverEvent, TemporalChunkBytes, TemporalConfig, TemporalReport};
 use crate::types::{
     CommandArgs, CommandStatus, KernelFault, MissionTimeUs, Opcode, ResetCause, ResetKind,
     StateKey, StateValue,
@@ -127,6 +127,9 @@ pub enum HostToTarget {
     /// (Appended.) A link or data input of the lander's executor for setup `setup`, applied
     /// before the next step.
     LanderInput { setup: u16, input: LanderInput },
+    /// (Appended.) An event of the onboard rover mission flying temporal job `job`'s task
+    /// ([`crate::temporal::RoverEvent`]); `Start` names the job before it is uplinked.
+    Rover { job: u16, event: RoverEvent },
 }
 
 /// Messages the target sends to the host (in protocol v2 inside the reliable link's frames,

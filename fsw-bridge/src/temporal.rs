@@ -205,6 +205,9 @@ pub enum TemporalReport {
         /// The planner partition's CPU spent checking the stored task again, timebase ticks.
         verify_ticks: u32,
     },
+    /// What the onboard rover mission decided (job `job` is the mission's task; see
+    /// [`RoverReport`]). Appended.
+    Rover { job: u16, report: RoverReport },
 }
 
 impl TemporalReport {
@@ -216,10 +219,249 @@ impl TemporalReport {
             | TemporalReport::Step { job, .. }
             | TemporalReport::Stats { job, .. }
             | TemporalReport::Done { job, .. }
-            | TemporalReport::Resumed { job, .. } => job,
+            | TemporalReport::Resumed { job, .. }
+            | TemporalReport::Rover { job, .. } => job,
         }
     }
 }
 
 /// The bytes of a TemporalChunk.
 pub type TemporalChunkBytes = Vec<u8, TEMPORAL_CHUNK_MAX>;
+
+// ----- the onboard rover mission (issue 13 item 3) ------------------------------------------------
+//
+// The host plays the rover and the world and keeps the time; the planner partition decides.
+// Before uplinking the mission's task as an ordinary (signed) job, the host sends
+// `RoverEvent::Start` naming the job: once accepted, that task is not planned as a job but
+// flown: every plan and replan is made from it on the target. Then, in lockstep, the host sends
+// one event and grants frames until the event's last answer: `Poll` (time is now: decide)
+// answers one `Dispatch`, one `Wait`, `Finished`, or a replan (`Replan`, its pauses and carries,
+// its attempts, `NewPlan` and its `PlanStep`s, and `PlanningTakes`, or `NoPlan`); `Goal` (an
+// opportunistic goal arrived) answers `Optional` before the first plan and a replan after;
+// `Ended` (an action the rover was told to start ended) answers `EndTaken`; `Close` answers
+// the goals `Achieved`, the opportunistic goals `Kept`, and `Closed`. An event the mission
+// cannot take is answered `Refused` with the reason, and changes nothing. Times are mission
+// milliseconds (the rover task's ticks), absolute.
+
+/// An event of the onboard rover mission, host to target
+/// ([`HostToTarget::Rover`](crate::HostToTarget::Rover)).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RoverEvent {
+    /// Fly the task the job this event names will carry (sent before its `TemporalBegin`):
+    /// any step at most
+    /// `horizon_slack_ms` after the plan's makespan; each attempt at most `max_expansions`
+    /// expansions; planning takes `us_per_expansion` microseconds of mission time per
+    /// expansion (a model, the same natively and on the target).
+    Start {
+        horizon_slack_ms: u32,
+        max_expansions: u32,
+        us_per_expansion: u32,
+    },
+    /// An opportunistic goal (a fact of the task) arrived.
+    Goal { fact: u16, at_ms: u32 },
+    /// The rover says an action it was told to start ended.
+    Ended { action: u16, at_ms: u32 },
+    /// The time is `now_ms`: decide.
+    Poll { now_ms: u32 },
+    /// The run is over: report the goals.
+    Close { now_ms: u32 },
+    /// Fact `fact` is a component's inactive state (seed 001 5.1: metadata outside the PDDL;
+    /// the `inactive-` convention of `temporal::replan`), sent before the first plan.
+    Inactive { fact: u16 },
+    /// The rover's own estimate of when running action `action` ends (its navigation's, once it
+    /// met an obstacle): what a replan carries of it.
+    Expected { action: u16, ends_ms: u32 },
+}
+
+/// How a dispatched start stands against its window as planned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RoverStartKind {
+    /// Before its planned lb (what it follows ended early), by `by_ms`.
+    Early { by_ms: u32 },
+    /// At lb.
+    AtLb,
+    /// At lb, ready `waited_ms` (over a second) before it: held to lb.
+    HeldToLb { waited_ms: u32 },
+    /// `by_ms` after lb, within (lb, ub].
+    Late { by_ms: u32 },
+}
+
+/// Why the onboard mission (re)plans.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RoverReplanWhy {
+    Initial,
+    /// An opportunistic goal arrived.
+    Goal {
+        fact: u16,
+    },
+    /// Step `step` (the start or the end of `action`) is not executed and past its ub.
+    PastUb {
+        step: u16,
+        action: u16,
+        end: bool,
+        ub_ms: u32,
+    },
+    /// Step `step` was executed, but what follows it no longer fits the plan's windows.
+    NoLongerFits {
+        step: u16,
+        action: u16,
+        end: bool,
+    },
+}
+
+/// Why the onboard mission refused an event (nothing changed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RoverRefusal {
+    /// No mission is flying (no Start, its task not accepted yet, or it ended).
+    NoMission,
+    /// The mission is planning, or still answering the last event.
+    Busy,
+    /// The event's time is before the last event's (`last_ms`).
+    OutOfOrder { last_ms: u32 },
+    /// An end of an action the mission did not start (or that ended already).
+    NotRunning { action: u16 },
+    /// A goal that is no fact of the task, already a goal, or arrived already.
+    UnknownGoal { fact: u16 },
+    /// More than the mission holds (opportunistic goals, running actions, the task's size).
+    Capacity,
+    /// The task cannot be flown (its state or a replan task could not be built).
+    BadTask,
+}
+
+/// What the onboard rover mission says, target to host (inside [`TemporalReport::Rover`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RoverReport {
+    /// The mission's task was accepted: the mission waits for events.
+    Ready {
+        facts: u32,
+        actions: u32,
+    },
+    Refused {
+        reason: RoverRefusal,
+    },
+    /// An opportunistic goal known before the first plan: it is in the first plan's goals.
+    Optional {
+        fact: u16,
+    },
+    /// Planning starts at `at_ms`: nothing new is dispatched until `PlanningTakes`.
+    Replan {
+        at_ms: u32,
+        why: RoverReplanWhy,
+    },
+    /// A running pausable action went back to its inactive state (not done).
+    Paused {
+        action: u16,
+    },
+    /// A running action carried into the new plan as a completion.
+    Carried {
+        action: u16,
+        since_ms: u32,
+        left_ms: u32,
+    },
+    /// An opportunistic goal in the next attempt (one per goal, before its `Attempt`).
+    AttemptGoal {
+        fact: u16,
+    },
+    /// A planning attempt ended. `build_ticks`: the CPU building its replan task (the replay's
+    /// state, the pauses, `write_replan_task`), `planning_ticks` its search's, timebase ticks.
+    Attempt {
+        index: u16,
+        hard_goals: u16,
+        outcome: TemporalOutcome,
+        actions: u16,
+        expanded: u32,
+        peak_arena_bytes: u32,
+        build_ticks: u32,
+        planning_ticks: u64,
+    },
+    /// The newest opportunistic goal still in is dropped; the next attempt is without it.
+    Dropped {
+        fact: u16,
+    },
+    /// No plan (no opportunistic goal left to drop): the mission stops.
+    NoPlan,
+    /// The plan and its dispatch network: `network_ticks` the CPU of `network_from_plan` and
+    /// the dispatcher's first windows.
+    NewPlan {
+        actions: u16,
+        makespan_ms: u32,
+        network_ticks: u32,
+    },
+    /// The plan's action `index` (completions of carried actions after the task's actions).
+    PlanStep {
+        index: u16,
+        action: u16,
+        start_ms: u32,
+        duration_ms: u32,
+        lb_ms: u32,
+        ub_ms: u32,
+    },
+    /// Planning took `expansions` expansions: nothing new is dispatched until `until_ms`.
+    PlanningTakes {
+        expansions: u32,
+        until_ms: u32,
+    },
+    /// Start action `action` (step `step`) now, at `at_ms`; its window as planned.
+    Dispatch {
+        step: u16,
+        action: u16,
+        at_ms: u32,
+        lb_ms: u32,
+        ub_ms: u32,
+        kind: RoverStartKind,
+        /// The CPU of this decision (the dispatcher's poll), timebase ticks.
+        poll_ticks: u32,
+    },
+    /// Nothing to start now: ask again at `wake_ms` (a ready step's lb, or just past the
+    /// earliest ub of a step not executed) or when something happens.
+    Wait {
+        wake_ms: Option<u32>,
+        poll_ticks: u32,
+    },
+    /// Every step of the plan is executed.
+    Finished,
+    /// The end was taken (its effects applied, its step executed).
+    EndTaken {
+        action: u16,
+    },
+    /// An `Inactive` was taken.
+    InactiveTaken {
+        fact: u16,
+    },
+    /// An `Expected` was taken.
+    ExpectedTaken {
+        action: u16,
+    },
+    /// A goal (of the task, or opportunistic) holds at the end.
+    Achieved {
+        fact: u16,
+    },
+    /// An opportunistic goal kept to the end.
+    Kept {
+        fact: u16,
+    },
+    /// The answer to Close is complete.
+    Closed,
+}
+
+impl RoverReport {
+    /// Whether the report is the last answer to an event (or to the acceptance of the
+    /// mission's task).
+    pub fn is_last(&self) -> bool {
+        matches!(
+            self,
+            RoverReport::Ready { .. }
+                | RoverReport::Refused { .. }
+                | RoverReport::Optional { .. }
+                | RoverReport::NoPlan
+                | RoverReport::PlanningTakes { .. }
+                | RoverReport::Dispatch { .. }
+                | RoverReport::Wait { .. }
+                | RoverReport::Finished
+                | RoverReport::EndTaken { .. }
+                | RoverReport::InactiveTaken { .. }
+                | RoverReport::ExpectedTaken { .. }
+                | RoverReport::Closed
+        )
+    }
+}

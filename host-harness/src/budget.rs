@@ -11,7 +11,10 @@
 //! - `elf:<section-prefix>[+<prefix>...]`: bytes of the firmware ELF's sections whose names
 //!   start with the prefixes (static memory);
 //! - `plan:<domain.pddl>:<problem.pddl>`: the guest instructions the temporal planner takes on
-//!   that task in the emulated target's planner partition (`hil plan --emulated`).
+//!   that task in the emulated target's planner partition (`hil plan --emulated`);
+//! - `rover:<scenario>:<metric>`: a rover mission flown by the emulated target (`hil rover run
+//!   --emulated`), one of its onboard costs in guest instructions ([`crate::rover::OnboardCosts`]:
+//!   `max_poll_instructions`, `max_build_instructions`, `max_network_instructions`).
 //!
 //! A budget is raised only by editing `budgets.toml`, so every raise shows in review. The last
 //! accepted measurements live in `budgets-baseline.toml` (`hil bench --save-baseline`), so the
@@ -93,6 +96,11 @@ pub enum Source {
         scenario: String,
         metric: String,
     },
+    /// A rover mission decided by the emulated target ([`crate::rover::onboard_metric`]).
+    Rover {
+        scenario: String,
+        metric: String,
+    },
     /// Bytes of the firmware ELF's symbols whose (demangled) paths start with one of the
     /// `+`-separated prefixes.
     Symbols {
@@ -139,8 +147,16 @@ impl Source {
                     metric: metric.into(),
                 })
             }
+            (Some("rover"), Some(scenario), Some(metric))
+                if !scenario.is_empty() && !metric.is_empty() =>
+            {
+                Ok(Source::Rover {
+                    scenario: scenario.into(),
+                    metric: metric.into(),
+                })
+            }
             _ => Err(format!(
-                "source {text:?}: expected mission:<scenario>:<metric>, kernel:<metric>, elf:<section-prefix>, plan:<domain.pddl>:<problem.pddl>, lander:<scenario>:<metric> or sym:<path-prefix>"
+                "source {text:?}: expected mission:<scenario>:<metric>, kernel:<metric>, elf:<section-prefix>, plan:<domain.pddl>:<problem.pddl>, lander:<scenario>:<metric>, rover:<scenario>:<metric> or sym:<path-prefix>"
             )),
         }
     }
@@ -457,6 +473,13 @@ mod tests {
             }
         );
         assert!(Source::parse("plan:d/domain.pddl").is_err());
+        assert_eq!(
+            Source::parse("rover:scenarios/rover/sahara-day.toml:max_build_instructions").unwrap(),
+            Source::Rover {
+                scenario: "scenarios/rover/sahara-day.toml".into(),
+                metric: "max_build_instructions".into()
+            }
+        );
         assert!(Source::parse("wall:clock")
             .unwrap_err()
             .contains("expected"));
@@ -667,6 +690,19 @@ pub fn measure(
                 "measuring: hil plan --emulated {domain} {problem}"
             ));
             match plan_instructions(domain, problem, firmware) {
+                Ok(v) => {
+                    measured.insert(b.source.clone(), v);
+                }
+                Err(e) => {
+                    missing.insert(b.source.clone(), e);
+                }
+            }
+        }
+    }
+    for b in budgets {
+        if let Source::Rover { scenario, metric } = &b.source {
+            progress(&format!("measuring: hil rover run {scenario} --emulated"));
+            match crate::rover::onboard_metric(scenario, metric, firmware) {
                 Ok(v) => {
                     measured.insert(b.source.clone(), v);
                 }

@@ -151,6 +151,8 @@ impl Collected {
                 TemporalReport::Step { .. } => self.steps.push(r.clone()),
                 TemporalReport::Stats { .. } => self.stats = Some(r.clone()),
                 TemporalReport::Done { .. } => self.done = Some(r.clone()),
+                // The rover mission's reports are taken by `rover_frames` from `all`.
+                TemporalReport::Rover { .. } => {}
                 TemporalReport::Resumed { verify_ticks, .. } => {
                     // What came of the job before the reset is void: it comes again.
                     self.resumed = Some(*verify_ticks);
@@ -200,6 +202,9 @@ pub struct EmulatedPlanner {
     resets: u32,
     /// Health-monitor events seen (for tests: a planner that overran its window).
     pub health_events: Vec<String>,
+    /// The rover mission's reports delivered and not yet taken (any exchange may bring them:
+    /// the mission's Ready comes with its task's acceptance).
+    rover_reports: Vec<fsw_bridge::temporal::RoverReport>,
 }
 
 /// Boot `firmware` under QEMU (the shipped `rad750-proxy` profile), with `key` provisioned in
@@ -256,6 +261,7 @@ impl EmulatedPlanner {
             armed_reset: false,
             resets: 0,
             health_events: Vec::new(),
+            rover_reports: Vec::new(),
         })
     }
 
@@ -272,6 +278,9 @@ impl EmulatedPlanner {
         for msg in &delivered {
             self.target.observe(msg);
             got.take(job, msg);
+            if let TargetToHost::Temporal(TemporalReport::Rover { report, .. }) = msg {
+                self.rover_reports.push(*report);
+            }
         }
         match end {
             Exchanged::Settled if self.armed_reset => Err(EmulatedError::Target(
@@ -439,6 +448,67 @@ impl EmulatedPlanner {
         }
         self.health_events.append(&mut got.health);
         Ok((got, frames))
+    }
+
+    /// The onboard rover mission (`flight_app::rover_mission`): `start` for a new job, then
+    /// `task` uplinked (signed) as that job, then frames until the mission is ready (or refused).
+    pub fn rover_start(
+        &mut self,
+        task: &[u8],
+        start: fsw_bridge::temporal::RoverEvent,
+        max_frames: u32,
+    ) -> Result<(u16, Vec<fsw_bridge::temporal::RoverReport>), EmulatedError> {
+        let job = self.new_job();
+        self.link
+            .send(HostToTarget::Rover { job, event: start })
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        let msgs = self.signed_job_messages(job, task, TemporalConfig::DEFAULT);
+        self.uplink_costs(job, msgs)?;
+        let ready = self
+            .rover_frames(job, max_frames)
+            .map_err(|e| EmulatedError::Target(format!("the mission's task: {e}")))?;
+        Ok((job, ready))
+    }
+
+    /// One event of the rover mission flying job `job`, and frames until its last answer.
+    pub fn rover_event(
+        &mut self,
+        job: u16,
+        event: fsw_bridge::temporal::RoverEvent,
+        max_frames: u32,
+    ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        self.link
+            .send(HostToTarget::Rover { job, event })
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        self.rover_frames(job, max_frames)
+    }
+
+    /// The rover mission's reports, frame after frame, up to the last answer to an event.
+    fn rover_frames(
+        &mut self,
+        job: u16,
+        max_frames: u32,
+    ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        let mut frames = 0;
+        loop {
+            if let Some(last) = self
+                .rover_reports
+                .iter()
+                .position(fsw_bridge::temporal::RoverReport::is_last)
+            {
+                return Ok(self.rover_reports.drain(..=last).collect());
+            }
+            if frames >= max_frames {
+                return Err(EmulatedError::Target(format!(
+                    "no answer from the rover mission after {frames} frames (reports so far: {:?})",
+                    self.rover_reports
+                )));
+            }
+            let mut got = Collected::default();
+            self.grant_one(job, &mut got, None)?;
+            self.health_events.append(&mut got.health);
+            frames += 1;
+        }
     }
 
     /// Plan `compiled` on the target: uplink, frames until the plan, the report.

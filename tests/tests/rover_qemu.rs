@@ -1,35 +1,71 @@
-//! The rover missions with their planning on the emulated RAD750 (issue 13 items 3 to 5): every
-//! plan and replan of `hil rover run scenarios/rover/{sahara-day,field-trial}.toml --emulated`
-//! is a job in the planner partition of one QEMU, and each run makes exactly the native run's
-//! decisions
-//! (the dispatcher and the simulated rover stay on the host). Each planning's cost is counted
-//! in guest instructions.
+//! The rover missions flown by the emulated RAD750 (issue 13 items 3 to 5): with `hil rover run
+//! scenarios/rover/{sahara-day,field-trial}.toml --emulated` the planner partition of one QEMU
+//! decides (the dispatcher against the STN windows, the overruns, the replay into the mid-plan
+//! state, the replan tasks, the pauses and carries, the goals dropped, each plan and its
+//! network: `flight_app::rover_mission`) and the host only plays the rover, the world and the
+//! time. Each run makes exactly the native run's decisions; every decision in the transcript is
+//! one the target sent, each with its cost in guest instructions (which only the target
+//! measures); no window of the planner partition overran; and the target refuses bad events
+//! with their reason (and another job while the mission flies).
+use fsw_bridge::temporal::{RoverEvent, RoverRefusal, RoverReport};
 use hil::plan_emulated::EmulatedPlanner;
-use hil::rover::{run_file, Backend};
+use hil::rover::{compile, run_file, Backend, RoverScenario};
 
 #[test]
-fn the_emulated_rover_missions_make_the_native_decisions() {
+fn the_emulated_rover_missions_are_decided_onboard_as_natively() {
     let _one = hil_tests::exclusive_qemu();
-    // One QEMU for both runs: each plan is a job of its own.
+    // One QEMU for both runs and the refusals: each mission is a job of its own.
     let target = EmulatedPlanner::boot(hil_tests::firmware()).expect("boots");
     let mut backend = Backend::Emulated(Box::new(target));
-    for name in ["sahara-day", "field-trial"] {
-        same_decisions(name, &mut backend);
+    for (name, sha) in [
+        ("sahara-day", "a0cba0ac89c4f039"),
+        ("field-trial", "529b646a3f3b62be"),
+    ] {
+        same_decisions(name, sha, &mut backend);
     }
+    bad_events_are_refused(&mut backend);
     // The target ends with the QEMU it booted (dropped here, ended by its PID).
     drop(backend);
 }
 
-fn same_decisions(name: &str, backend: &mut Backend) {
+fn same_decisions(name: &str, sha: &str, backend: &mut Backend) {
     let scenario = hil::repo_root().join(format!("scenarios/rover/{name}.toml"));
     let (native, _) = run_file(&scenario, None, &mut Backend::native()).expect("native run");
     let (emulated, verdicts) = run_file(&scenario, None, backend).expect("emulated run");
     assert_eq!(emulated.target, "emulated");
     assert_eq!(native.decisions, emulated.decisions);
-    assert_eq!(native.decisions_sha256, emulated.decisions_sha256);
+    assert_eq!(emulated.decisions_sha256, sha);
     for v in &verdicts {
         assert!(v.ok, "{}: {}", v.what, v.got);
     }
+    // Every dispatch line is a start the target decided and sent, with the cost of its
+    // decision measured on the target (natively there is no guest clock: 0).
+    let dispatches = emulated
+        .decisions
+        .iter()
+        .filter(|l| l.contains("  dispatch ("))
+        .count();
+    assert!(dispatches > 0);
+    assert_eq!(emulated.dispatches_received, dispatches);
+    let c = &emulated.onboard;
+    assert!(c.polls as usize >= dispatches, "{c:?}");
+    assert!(
+        c.poll_instructions_max > 0 && c.poll_instructions_total >= c.polls,
+        "{c:?}"
+    );
+    assert_eq!(native.onboard.polls, 0);
+    // Every attempt's replan task was built on the target, every plan's network too.
+    let attempts: usize = emulated.plannings.iter().map(|p| p.attempts.len()).sum();
+    let solved = emulated.plannings.iter().filter(|p| p.solved).count();
+    assert_eq!(c.builds as usize, attempts, "{c:?}");
+    assert_eq!(c.networks as usize, solved, "{c:?}");
+    assert!(c.build_instructions_max > 0 && c.network_instructions_max > 0);
+    // Within the planner partition's windows: no overrun logged.
+    assert!(
+        emulated.health_events.is_empty(),
+        "{:?}",
+        emulated.health_events
+    );
     assert_eq!(native.plannings.len(), emulated.plannings.len());
     for (n, e) in native.plannings.iter().zip(&emulated.plannings) {
         assert_eq!(n.attempts.len(), e.attempts.len());
@@ -40,4 +76,89 @@ fn same_decisions(name: &str, backend: &mut Backend) {
             assert!(na.guest_instructions.is_none());
         }
     }
+}
+
+fn refused(reports: &[RoverReport]) -> RoverRefusal {
+    match reports.last() {
+        Some(RoverReport::Refused { reason }) => *reason,
+        other => panic!("not refused: {other:?}"),
+    }
+}
+
+/// On the target: an unknown goal, an end of an action never started, events out of time
+/// order are refused with their reason; the mission goes on.
+fn bad_events_are_refused(backend: &mut Backend) {
+    let path = hil::repo_root().join("scenarios/rover/sahara-day.toml");
+    let scenario = RoverScenario::load(&path).unwrap();
+    let compiled = compile(&scenario, path.parent().unwrap()).unwrap();
+    let task = temporal::Task::parse(&compiled.task).unwrap();
+    let start = RoverEvent::Start {
+        horizon_slack_ms: 30_000,
+        max_expansions: 1_500,
+        us_per_expansion: 500,
+    };
+    let (job, ready) = backend.start(&compiled.task, start).unwrap();
+    assert!(
+        matches!(ready.last(), Some(RoverReport::Ready { .. })),
+        "{ready:?}"
+    );
+    let beyond = task.fact_count() as u16 + 1;
+    let goal = RoverEvent::Goal {
+        fact: beyond,
+        at_ms: 0,
+    };
+    assert_eq!(
+        refused(&backend.event(job, goal).unwrap()),
+        RoverRefusal::UnknownGoal { fact: beyond }
+    );
+    let plan = backend.event(job, RoverEvent::Poll { now_ms: 0 }).unwrap();
+    let Some(RoverReport::PlanningTakes { until_ms, .. }) = plan.last().copied() else {
+        panic!("{plan:?}");
+    };
+    let first = backend
+        .event(job, RoverEvent::Poll { now_ms: until_ms })
+        .unwrap();
+    let Some(RoverReport::Dispatch { action, .. }) = first.last().copied() else {
+        panic!("{first:?}");
+    };
+    let other = if action == 0 { 1 } else { 0 };
+    let end = RoverEvent::Ended {
+        action: other,
+        at_ms: until_ms + 1,
+    };
+    assert_eq!(
+        refused(&backend.event(job, end).unwrap()),
+        RoverRefusal::NotRunning { action: other }
+    );
+    let early = RoverEvent::Poll {
+        now_ms: until_ms - 1,
+    };
+    assert_eq!(
+        refused(&backend.event(job, early).unwrap()),
+        RoverRefusal::OutOfOrder { last_ms: until_ms }
+    );
+    let end = RoverEvent::Ended {
+        action,
+        at_ms: until_ms + 500,
+    };
+    assert_eq!(
+        backend.event(job, end).unwrap().last(),
+        Some(&RoverReport::EndTaken { action })
+    );
+    // While the mission flies, another job would overwrite its task: refused as busy.
+    if let Backend::Emulated(target) = backend {
+        let other = target.plan(&compiled, &hil::plan::PlanOptions::default(), 100);
+        let refusal = other.expect_err("refused").to_string();
+        assert!(
+            refusal.contains(&format!("Busy {{ job: {job} }}")),
+            "{refusal}"
+        );
+    }
+    let close = RoverEvent::Close {
+        now_ms: until_ms + 500,
+    };
+    assert_eq!(
+        backend.event(job, close).unwrap().last(),
+        Some(&RoverReport::Closed)
+    );
 }

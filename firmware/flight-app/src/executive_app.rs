@@ -243,7 +243,9 @@ impl ExecutiveApp {
             | HostToTarget::LanderBegin { .. }
             | HostToTarget::LanderChunk { .. }
             | HostToTarget::LanderStep { .. }
-            | HostToTarget::LanderInput { .. } => return false,
+            | HostToTarget::LanderInput { .. }
+            // And the onboard rover mission's events (`TemporalApp`).
+            | HostToTarget::Rover { .. } => return false,
         }
         if let (Some(t0), Some(spent)) = (t0, self.recovering.as_mut()) {
             *spent = spent.wrapping_add(clock.ticks().wrapping_sub(t0));

@@ -30,6 +30,15 @@
 //! finds. The host is told with [`TemporalReport::Resumed`]; what it received of the job
 //! before the reset is void.
 //!
+//! # The onboard rover mission
+//!
+//! A job that a `RoverEvent::Start` named before its Begin is not planned as a job but flown
+//! ([`crate::rover_mission`]): its task stays in the task buffer, each planning attempt is
+//! written after it and searched here across windows as any job (its plan not reported but
+//! taken by the mission), and the host's events (`HostToTarget::Rover`) are taken one per window.
+//! While a mission flies, a Begin for another job is refused (`Busy`): it would overwrite the
+//! mission's task.
+//!
 //! # Authentication
 //!
 //! The chunks carry a secured task ([`sdls::temporal`]: security header, compiled task,
@@ -63,13 +72,18 @@
 //! task's tag has its own service byte, so it can never pass for a task network's or a
 //! command's). The host keeps one sequence counter per association.
 use fsw_bridge::temporal::{
-    TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalRefusal, TemporalRegion,
-    TemporalReport,
+    RoverEvent, RoverRefusal, RoverReport, TemporalConfig, TemporalDuplicates, TemporalOutcome,
+    TemporalRefusal, TemporalRegion, TemporalReport,
 };
 use sdls::temporal::TemporalMac;
 use temporal::{PlannedAction, Planner, Region, Status, Task, TaskErrorKind};
 
 use super::*;
+use crate::rover_mission::{RoverCtx, RoverMission, RoverNext, ROVER_REPLAN_AT};
+
+/// Reports of the onboard rover mission waiting for room in the outbound queue (a replan with
+/// a plan of 128 actions, the most a dispatch network holds, makes about 150).
+pub const MAX_ROVER_REPORTS: usize = 200;
 
 /// Bytes of the search arena on the target: 8 MiB. The benchmark instances 1-3 of satellite,
 /// rovers and driverlog peak at 0.5 to 2.2 MiB (`hil plan --native`).
@@ -148,6 +162,30 @@ struct Job {
     stats: temporal::Stats,
 }
 
+impl Job {
+    fn new(id: u16, len: u32, crc32: u32, config: TemporalConfig) -> Self {
+        Self {
+            id,
+            len,
+            crc32,
+            task_at: 0,
+            task_len: 0,
+            config,
+            phase: Phase::Receiving { received: 0 },
+            ticks_per_unit: 0,
+            spent_ticks: 0,
+            windows: 0,
+            most_step_ticks: 0,
+            stalled: false,
+            most_set_up_ticks: 0,
+            outcome: None,
+            plan_len: 0,
+            makespan: 0,
+            stats: temporal::Stats::default(),
+        }
+    }
+}
+
 /// The temporal planner plug-in.
 pub struct TemporalApp<'a> {
     storage: Option<TemporalStorage<'a>>,
@@ -184,6 +222,17 @@ pub struct TemporalApp<'a> {
     /// The part of it spent on authentication (loading the association, the MAC, the
     /// checks, the counter write).
     auth_ticks: u64,
+    /// Memory for the onboard rover mission (zero-filled at its first `Start`), and the
+    /// mission once it is.
+    rover_memory: Option<fn() -> &'a mut RoverMission>,
+    rover: Option<&'a mut RoverMission>,
+    /// The mission's event waiting for the next window, and its reports waiting for room.
+    rover_event: Option<RoverEvent>,
+    rover_reports: heapless::Deque<RoverReport, MAX_ROVER_REPORTS>,
+    /// Reports lost to a full queue (cannot happen within the capacities).
+    pub rover_reports_lost: u32,
+    /// The job in progress is an attempt of the rover mission (planned, not reported).
+    rover_attempt: bool,
 }
 
 /// `temporal::PlannerConfig` for a job's configuration (`max_steps` held to what the plan
@@ -272,7 +321,154 @@ impl<'a> TemporalApp<'a> {
             record: None,
             verify_digest: None,
             resumed: 0,
+            rover_memory: None,
+            rover: None,
+            rover_event: None,
+            rover_reports: heapless::Deque::new(),
+            rover_reports_lost: 0,
+            rover_attempt: false,
         }
+    }
+
+    /// Memory for the onboard rover mission ([`crate::rover_mission`]): `memory` returns it
+    /// zero-filled (all-zero bytes are an idle mission) or as [`RoverMission::new`] made it,
+    /// and is called once, at the first `Start` (so a partition start costs nothing for it).
+    /// Without it a rover `Start` is refused (`Capacity`).
+    pub fn fly_rover_in(&mut self, memory: fn() -> &'a mut RoverMission) {
+        self.rover_memory = Some(memory);
+    }
+
+    fn rover_say(&mut self, report: RoverReport) {
+        if self.rover_reports.push_back(report).is_err() {
+            self.rover_reports_lost = self.rover_reports_lost.saturating_add(1);
+        }
+    }
+
+    /// A rover mission event from the host: `Start` arms the mission for job `job`; any other
+    /// waits for the next window (one at a time).
+    fn rover_event(&mut self, job: u16, event: RoverEvent) {
+        if let RoverEvent::Start {
+            horizon_slack_ms,
+            max_expansions,
+            us_per_expansion,
+        } = event
+        {
+            if self.job.is_some() || self.rover_event.is_some() {
+                self.rover_say(RoverReport::Refused {
+                    reason: RoverRefusal::Busy,
+                });
+                return;
+            }
+            if self.rover.is_none() {
+                self.rover = self.rover_memory.take().map(|zeroed| zeroed());
+            }
+            let Some(m) = self.rover.as_deref_mut() else {
+                self.rover_say(RoverReport::Refused {
+                    reason: RoverRefusal::Capacity,
+                });
+                return;
+            };
+            m.arm(job, horizon_slack_ms, max_expansions, us_per_expansion);
+            return;
+        }
+        let flying = self
+            .rover
+            .as_deref()
+            .and_then(|m| m.job())
+            .is_some_and(|j| j == job);
+        if !flying {
+            self.rover_say(RoverReport::Refused {
+                reason: RoverRefusal::NoMission,
+            });
+            return;
+        }
+        if self.rover_event.is_some() || self.rover.as_deref().is_some_and(|m| m.planning()) {
+            self.rover_say(RoverReport::Refused {
+                reason: RoverRefusal::Busy,
+            });
+            return;
+        }
+        self.rover_event = Some(event);
+    }
+
+    /// A window's work of the rover mission: an attempt's end, or the event waiting. True if
+    /// there was some.
+    fn rover_window(&mut self, clock: &mut dyn CpuClock) -> bool {
+        let attempt_over = self.rover_attempt
+            && self
+                .job
+                .is_some_and(|j| matches!(j.phase, Phase::Reporting { .. }));
+        if !attempt_over && self.rover_event.is_none() {
+            return false;
+        }
+        let (Some(m), Some(storage)) = (self.rover.as_deref_mut(), self.storage.as_mut()) else {
+            return false;
+        };
+        let reports = &mut self.rover_reports;
+        let lost = &mut self.rover_reports_lost;
+        let mut out = |r: RoverReport| {
+            if reports.push_back(r).is_err() {
+                *lost = lost.saturating_add(1);
+            }
+        };
+        let mut ctx = RoverCtx {
+            task_buffer: &mut *storage.task,
+            clock,
+        };
+        let next = if attempt_over {
+            let Some(job) = self.job else {
+                return false;
+            };
+            let plan = self.plan.get(..job.plan_len).unwrap_or_default();
+            let outcome = job.outcome.unwrap_or(TemporalOutcome::Unsolvable);
+            let next = m.attempt_ended(
+                &mut ctx,
+                outcome,
+                &job.stats,
+                job.spent_ticks,
+                plan,
+                job.makespan,
+                &mut out,
+            );
+            self.planner = None;
+            self.job = None;
+            self.rover_attempt = false;
+            next
+        } else {
+            match self.rover_event.take() {
+                Some(RoverEvent::Goal { fact, at_ms }) => m.goal(&mut ctx, fact, at_ms, &mut out),
+                Some(RoverEvent::Ended { action, at_ms }) => {
+                    m.ended(&mut ctx, action, at_ms, &mut out)
+                }
+                Some(RoverEvent::Poll { now_ms }) => m.poll(&mut ctx, now_ms, &mut out),
+                Some(RoverEvent::Close { now_ms }) => m.close(&mut ctx, now_ms, &mut out),
+                Some(RoverEvent::Inactive { fact }) => m.inactive(&mut ctx, fact, &mut out),
+                Some(RoverEvent::Expected { action, ends_ms }) => {
+                    m.expected(action, ends_ms, &mut out)
+                }
+                Some(RoverEvent::Start { .. }) | None => RoverNext::Answered,
+            }
+        };
+        if let RoverNext::Plan {
+            len,
+            max_expansions,
+        } = next
+        {
+            let config = TemporalConfig {
+                duration_costs: true,
+                max_expansions,
+                ..TemporalConfig::DEFAULT
+            };
+            let id = m.job().unwrap_or(0);
+            self.job = Some(Job {
+                task_at: ROVER_REPLAN_AT as u32,
+                task_len: sat(len as u64),
+                phase: Phase::Planning,
+                ..Job::new(id, sat(len as u64), 0, config)
+            });
+            self.rover_attempt = true;
+        }
+        true
     }
 
     /// Keep the record of the accepted job in `record`: memory a warm reset does not clear,
@@ -361,6 +557,7 @@ impl<'a> TemporalApp<'a> {
     fn end_job(&mut self) {
         self.planner = None;
         self.job = None;
+        self.rover_attempt = false;
         self.mac = None;
         self.verify_digest = None;
         if let Some(record) = self.record.as_deref_mut() {
@@ -381,6 +578,14 @@ impl<'a> TemporalApp<'a> {
         if let Some(j) = self.job {
             if !matches!(j.phase, Phase::Receiving { .. }) {
                 self.refuse(id, TemporalRefusal::Busy { job: j.id }, downlink);
+                return;
+            }
+        }
+        // A rover mission flying keeps its task in the task buffer: another job would
+        // overwrite it (the mission's own task comes as the job its Start named).
+        if let Some(m) = self.rover.as_deref() {
+            if let (Some(flying), None) = (m.job(), m.armed_for().filter(|&j| j == id)) {
+                self.refuse(id, TemporalRefusal::Busy { job: flying }, downlink);
                 return;
             }
         }
@@ -554,6 +759,16 @@ impl<'a> TemporalApp<'a> {
                     receive_ticks,
                     auth_ticks: sat(self.auth_ticks),
                 }));
+                // The rover mission's task is flown, not planned as a job: it stays in the
+                // task buffer for the mission, which plans from it.
+                let armed = self.rover.as_deref().and_then(|m| m.armed_for()) == Some(id);
+                if let (true, Some(m), Some(storage)) =
+                    (armed, self.rover.as_deref_mut(), self.storage.as_ref())
+                {
+                    let report = m.accepted(storage.task, task_at as usize, task_len as usize);
+                    self.end_job();
+                    self.rover_say(report);
+                }
             }
         }
     }
@@ -774,6 +989,11 @@ impl<'a> TemporalApp<'a> {
                 }
             }
         }
+        // A rover mission's attempt gives its storage back: the mission reads the task buffer
+        // in the next window.
+        if self.rover_attempt {
+            self.planner = None;
+        }
     }
 }
 
@@ -794,6 +1014,10 @@ impl PlannerPlugin for TemporalApp<'_> {
             HostToTarget::TemporalChunk { job, offset, bytes } => {
                 self.chunk(*job, *offset, bytes, started, downlink)
             }
+            HostToTarget::Rover { job, event } => {
+                self.rover_event(*job, *event);
+                return true;
+            }
             _ => return false,
         }
         if self
@@ -808,16 +1032,25 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn planning_pending(&self) -> bool {
-        self.job
-            .is_some_and(|j| matches!(j.phase, Phase::Planning | Phase::Verifying { .. }))
+        self.rover_event.is_some()
+            || self.job.is_some_and(|j| {
+                matches!(j.phase, Phase::Planning | Phase::Verifying { .. })
+                    || (self.rover_attempt && matches!(j.phase, Phase::Reporting { .. }))
+            })
     }
 
     fn busy(&self) -> bool {
-        self.job
-            .is_some_and(|j| matches!(j.phase, Phase::Reporting { .. }))
+        !self.rover_reports.is_empty()
+            || (!self.rover_attempt
+                && self
+                    .job
+                    .is_some_and(|j| matches!(j.phase, Phase::Reporting { .. })))
     }
 
     fn window(&mut self, w: &mut PluginWindow<'_, '_>) {
+        if self.rover_window(w.clock) {
+            return;
+        }
         if self
             .job
             .is_some_and(|j| matches!(j.phase, Phase::Verifying { .. }))
@@ -829,6 +1062,20 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn report(&mut self, mut room: usize, downlink: &mut dyn Downlink) {
+        let rover_job = self.rover.as_deref().and_then(|m| m.job()).unwrap_or(0);
+        while room > 0 {
+            let Some(report) = self.rover_reports.pop_front() else {
+                break;
+            };
+            downlink.send(TargetToHost::Temporal(TemporalReport::Rover {
+                job: rover_job,
+                report,
+            }));
+            room -= 1;
+        }
+        if self.rover_attempt {
+            return;
+        }
         let Some(job) = self.job.as_mut() else {
             return;
         };

@@ -527,7 +527,8 @@ fn handle(
         | HostToTarget::LanderBegin { .. }
         | HostToTarget::LanderChunk { .. }
         | HostToTarget::LanderStep { .. }
-        | HostToTarget::LanderInput { .. } => Routing::to(msg, ports::IO_TO_PLANNER),
+        | HostToTarget::LanderInput { .. }
+        | HostToTarget::Rover { .. } => Routing::to(msg, ports::IO_TO_PLANNER),
     };
     Some(routing)
 }

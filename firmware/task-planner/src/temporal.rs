@@ -16,6 +16,7 @@
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
+use flight_app::rover_mission::RoverMission;
 use flight_app::{
     PlannerPlugin, TemporalApp, TemporalStorage, MAX_TEMPORAL_PLAN_ACTIONS,
     MAX_TEMPORAL_TASK_BYTES, TEMPORAL_ARENA_BYTES, TEMPORAL_RESUME_RECORD_WORDS,
@@ -46,6 +47,25 @@ static mut PLAN: MaybeUninit<[PlannedAction; MAX_TEMPORAL_PLAN_ACTIONS]> = Maybe
 
 #[link_section = ".bss.part.planner"]
 static mut APP: MaybeUninit<TemporalApp<'static>> = MaybeUninit::uninit();
+
+/// The onboard rover mission's memory (`flight_app::rover_mission`, about 51 KB): not zeroed at
+/// a partition start, zero-filled at the mission's first `Start` ([`rover_memory`]).
+#[link_section = ".bss.noinit.planner"]
+static mut MISSION: MaybeUninit<RoverMission> = MaybeUninit::uninit();
+
+/// The rover mission's memory, zero-filled: called once per partition (re)start, by the
+/// plug-in, at the first rover `Start`.
+fn rover_memory() -> &'static mut RoverMission {
+    // SAFETY: MISSION is this partition's static, referred to by nothing else (the plug-in
+    // calls this once per (re)start and keeps the one reference). Every field of a
+    // RoverMission is an integer, a bool, or an array or plain struct of them (its dispatcher
+    // too), so all-zero bytes, written over the whole value here, are a valid idle mission.
+    unsafe {
+        let p = addr_of_mut!(MISSION) as *mut RoverMission;
+        core::ptr::write_bytes(p, 0, 1);
+        &mut *p
+    }
+}
 
 /// The security area of temporal uplinks in the planner's slice of non-volatile memory,
 /// through the kernel (this partition owns the slice).
@@ -87,6 +107,7 @@ pub fn start(has_security_area: bool) -> &'static mut TemporalApp<'static> {
         let store = &mut *addr_of_mut!(STORE);
         app.secure(has_security_area.then_some(store as &mut dyn SecurityStore));
         app.set_receive_clock(|| sys::cpu_time().0);
+        app.fly_rover_in(rover_memory);
         // SAFETY: RECORD is this partition's static in `.bss.noinit.planner`, referred to by
         // nothing else; every bit pattern is a valid array of u32 (the RAM holds defined
         // bytes, and the record is checked before it is believed).
@@ -129,7 +150,9 @@ pub fn handle<const N: usize>(
 ) -> bool {
     if !matches!(
         msg,
-        HostToTarget::TemporalBegin { .. } | HostToTarget::TemporalChunk { .. }
+        HostToTarget::TemporalBegin { .. }
+            | HostToTarget::TemporalChunk { .. }
+            | HostToTarget::Rover { .. }
     ) {
         return false;
     }

@@ -197,6 +197,27 @@ impl Dispatcher {
         &self.net
     }
 
+    /// The network, to rebuild in place (then [`Self::restart`]): a dispatcher is about 30 KB,
+    /// too large to move on a partition's stack. Every field of a dispatcher is an integer or a
+    /// bool, so all-zero bytes are a valid (empty) one: the planner partition zero-fills one in
+    /// place and builds each plan's network into it.
+    pub fn network_mut(&mut self) -> &mut PlanNetwork {
+        &mut self.net
+    }
+
+    /// Starts dispatching the network anew (nothing executed, the epoch at 0), every step by
+    /// `horizon`: [`Self::new`] in place. Fails if the network has no such schedule.
+    pub fn restart(&mut self, horizon: u32) -> Result<(), NetworkError> {
+        self.done.iter_mut().for_each(|d| *d = UNBOUNDED);
+        self.est.iter_mut().for_each(|e| *e = 0);
+        self.lst.iter_mut().for_each(|l| *l = 0);
+        self.horizon = horizon;
+        if let Some(epoch) = self.done.get_mut(0) {
+            *epoch = 0;
+        }
+        self.propagate(0).map_err(|_| NetworkError::Inconsistent)
+    }
+
     /// Step `k`'s window as last worked out: (lb, ub).
     pub fn window(&self, k: usize) -> Option<(u32, u32)> {
         Some((*self.est.get(k)?, *self.lst.get(k)?))

@@ -645,7 +645,16 @@ pub fn network_from_plan(
         }
     }
     let order = order.get_mut(..n).unwrap_or(&mut []);
-    order.sort_unstable();
+    // An insertion sort (at most 256 entries, all distinct, so the order is the one any sort
+    // gives): the standard library's sort monomorphised for these tuples would put about 13 KB
+    // more code in the target's image, which the warm boot checks word by word.
+    for k in 1..order.len() {
+        let mut j = k;
+        while j > 0 && order.get(j - 1) > order.get(j) {
+            order.swap(j - 1, j);
+            j -= 1;
+        }
+    }
     net.clear();
     net.makespan = order.iter().map(|s| s.0).max().unwrap_or(0);
     let mut start_step = [0u16; MAX_DISPATCH_STEPS];

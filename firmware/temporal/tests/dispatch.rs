@@ -151,3 +151,29 @@ fn a_whole_plan_executed_as_dispatched_finishes() {
     assert_eq!(started, vec![(0, 0), (2, 8), (1, 11)]);
     assert!(d.executed(1, 0).is_err(), "a step is executed once");
 }
+
+/// A dispatcher rebuilt in place (`network_mut`, then `restart`: how the planner partition
+/// reuses one without moving 30 KB on its stack) is a new one: nothing executed, the same
+/// windows, the same decisions; a network with no schedule by the horizon is refused.
+#[test]
+fn a_dispatcher_restarted_in_place_is_a_new_one() {
+    let mut d = Dispatcher::new(PlanNetwork::new(), 0).unwrap();
+    // Used a first time on another network, with a step executed.
+    *d.network_mut() = network();
+    d.restart(30).unwrap();
+    assert!(matches!(d.poll(0, ALL), Decision::Start { step: 1, .. }));
+    d.executed(1, 0).unwrap();
+    // Rebuilt: the same as a fresh dispatcher of that network.
+    d.network_mut().clear();
+    *d.network_mut() = network();
+    d.restart(20).unwrap();
+    let fresh = Dispatcher::new(network(), 20).unwrap();
+    for k in 0..=6 {
+        assert_eq!(d.window(k), fresh.window(k), "step {k}");
+        assert_eq!(d.executed_at(k), fresh.executed_at(k), "step {k}");
+    }
+    assert_eq!(d.executed_at(1), None);
+    let mut fresh = fresh;
+    assert_eq!(d.poll(0, ALL), fresh.poll(0, ALL));
+    assert_eq!(d.restart(15), Err(NetworkError::Inconsistent));
+}

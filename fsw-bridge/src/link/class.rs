@@ -127,6 +127,8 @@ impl LinkMessage for HostToTarget {
             HostToTarget::LanderStep { .. } | HostToTarget::LanderInput { .. } => {
                 MessageClass::StateUpdate
             }
+            // The rover mission's events are the host's observations too.
+            HostToTarget::Rover { .. } => MessageClass::StateUpdate,
         }
     }
 }
@@ -191,7 +193,8 @@ pub fn uplink_service(msg: &HostToTarget) -> Service {
         | HostToTarget::LanderBegin { .. }
         | HostToTarget::LanderChunk { .. }
         | HostToTarget::LanderStep { .. }
-        | HostToTarget::LanderInput { .. } => Service::Sequenced(VirtualChannel::Mission),
+        | HostToTarget::LanderInput { .. }
+        | HostToTarget::Rover { .. } => Service::Sequenced(VirtualChannel::Mission),
     }
 }
 

@@ -7,8 +7,8 @@ use fsw_bridge::lander::{
 use fsw_bridge::messages::{LOG_CHUNK_MAX, PANIC_FILE_MAX, UPLINK_CHUNK_MAX};
 use fsw_bridge::security::{SecurityRefusal, MAC_LEN};
 use fsw_bridge::temporal::{
-    TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalRefusal, TemporalRegion,
-    TemporalReport, TEMPORAL_CHUNK_MAX,
+    RoverEvent, RoverReport, TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalRefusal,
+    TemporalRegion, TemporalReport, TEMPORAL_CHUNK_MAX,
 };
 use fsw_bridge::{
     CommandRefusal, CommandStatus, GroundCommand, HostToTarget, LinkCounters, MissionTimeUs,
@@ -17,7 +17,7 @@ use fsw_bridge::{
 };
 
 /// Variants of each message set.
-pub const H2T_VARIANTS: usize = 13;
+pub const H2T_VARIANTS: usize = 14;
 pub const T2H_VARIANTS: usize = 13;
 
 /// Declaration index of each variant. Exhaustive on purpose: adding a variant breaks the build
@@ -37,6 +37,7 @@ pub fn h2t_index(m: &HostToTarget) -> usize {
         HostToTarget::LanderChunk { .. } => 10,
         HostToTarget::LanderStep { .. } => 11,
         HostToTarget::LanderInput { .. } => 12,
+        HostToTarget::Rover { .. } => 13,
     }
 }
 
@@ -151,6 +152,15 @@ pub fn largest_h2t(i: usize) -> HostToTarget {
                 .unwrap(),
             },
         },
+        // The largest rover event: the mission's start.
+        13 => HostToTarget::Rover {
+            job: u16::MAX,
+            event: RoverEvent::Start {
+                horizon_slack_ms: u32::MAX,
+                max_expansions: u32::MAX,
+                us_per_expansion: u32::MAX,
+            },
+        },
         _ => panic!("HostToTarget has no variant {i}"),
     }
 }
@@ -250,7 +260,7 @@ pub fn largest_temporal_config() -> TemporalConfig {
 }
 
 /// Kinds of temporal report.
-pub const TEMPORAL_REPORT_KINDS: usize = 6;
+pub const TEMPORAL_REPORT_KINDS: usize = 7;
 
 /// The largest temporal report of kind `i` (Accepted, Refused, Step, Stats, Done).
 pub fn largest_temporal_report(i: usize) -> TemporalReport {
@@ -312,6 +322,20 @@ pub fn largest_temporal_report(i: usize) -> TemporalReport {
             job,
             task_bytes: m,
             verify_ticks: m,
+        },
+        // The largest of the rover mission's reports: an attempt.
+        6 => TemporalReport::Rover {
+            job,
+            report: RoverReport::Attempt {
+                index: u16::MAX,
+                hard_goals: u16::MAX,
+                outcome: TemporalOutcome::OutOfMemory(TemporalRegion::PreferredOpen),
+                actions: u16::MAX,
+                expanded: m,
+                peak_arena_bytes: m,
+                build_ticks: m,
+                planning_ticks: u64::MAX,
+            },
         },
         _ => panic!("TemporalReport has no kind {i}"),
     }

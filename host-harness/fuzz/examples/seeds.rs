@@ -277,6 +277,13 @@ fn frame_decoder_seeds() -> Vec<(String, Vec<u8>)> {
                 .unwrap(),
             },
         },
+        HostToTarget::Rover {
+            job: 2,
+            event: fsw_bridge::temporal::RoverEvent::Ended {
+                action: 17,
+                at_ms: 656_512,
+            },
+        },
     ];
     let to_host = [
         TargetToHost::Hello {

@@ -799,7 +799,8 @@ impl Harness {
             | HostToTarget::LanderBegin { .. }
             | HostToTarget::LanderChunk { .. }
             | HostToTarget::LanderStep { .. }
-            | HostToTarget::LanderInput { .. } => {
+            | HostToTarget::LanderInput { .. }
+            | HostToTarget::Rover { .. } => {
                 assert!(
                     !handled && out.is_empty(),
                     "{msg:?} is the planner partition's"
