@@ -31,8 +31,9 @@ pub use types::*;
 /// Version of the message set. Both sides refuse a peer that speaks another version.
 /// v3: Hello carries the recorded kernel fault, and ResetCause has KernelFault.
 /// v4: the temporal planner's messages (`TemporalBegin`, `TemporalChunk` up, `Temporal`
-/// reports down) and the lander's (`LanderBegin`, `LanderChunk`, `LanderStep`, `LanderInput`
-/// up, `Lander` reports down) appended: a peer of v3 would take them for garbage, so a `hil`
+/// reports down), the lander's (`LanderBegin`, `LanderChunk`, `LanderStep`, `LanderInput`
+/// up, `Lander` reports down) and the onboard rover mission's (`Rover` events up, `TemporalReport::Rover`
+/// reports down) appended: a peer of v3 would take them for garbage, so a `hil`
 /// and a firmware a message set apart now refuse each other at the Hello by name instead of
 /// looking like a lost link.
 pub const PROTOCOL_VERSION: u16 = 4;

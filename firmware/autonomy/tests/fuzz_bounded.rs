@@ -94,14 +94,26 @@ fn checkpoint_seeds_restore_with_plans_in_flight() {
 #[test]
 fn executive_checkpoint_holds_over_its_seeds_and_300_mutations() {
     let seeds = seeds("executive_checkpoint");
-    let ran = bounded::run(&seeds, 300, 0xec4e, 64 * 1024, fuzz_logic::executive_checkpoint);
+    let ran = bounded::run(
+        &seeds,
+        300,
+        0xec4e,
+        64 * 1024,
+        fuzz_logic::executive_checkpoint,
+    );
     assert_eq!(ran, seeds.len() + 300);
 }
 
 #[test]
 fn planner_checkpoint_holds_over_its_seeds_and_300_mutations() {
     let seeds = seeds("planner_checkpoint");
-    let ran = bounded::run(&seeds, 300, 0x91c4, 64 * 1024, fuzz_logic::planner_checkpoint);
+    let ran = bounded::run(
+        &seeds,
+        300,
+        0x91c4,
+        64 * 1024,
+        fuzz_logic::planner_checkpoint,
+    );
     assert_eq!(ran, seeds.len() + 300);
 }
 
@@ -115,7 +127,10 @@ fn partition_checkpoint_seeds_restore() {
             "executive_checkpoint",
             fuzz_logic::executive_checkpoint_restores,
         ),
-        ("planner_checkpoint", fuzz_logic::planner_checkpoint_restores),
+        (
+            "planner_checkpoint",
+            fuzz_logic::planner_checkpoint_restores,
+        ),
     ];
     for (target, restores) in targets {
         let seeds = seeds(target);
@@ -124,7 +139,10 @@ fn partition_checkpoint_seeds_restore() {
             if name.starts_with("regression") {
                 continue;
             }
-            assert!(restores(payload), "{target} seed {name} does not restore; {REGENERATE}");
+            assert!(
+                restores(payload),
+                "{target} seed {name} does not restore; {REGENERATE}"
+            );
             restored += 1;
         }
         assert!(restored >= 10, "{restored} {target} seeds");

@@ -345,7 +345,9 @@ fn side_checkpoint<S: PartitionSide>(pair: &Mutex<SidePair<S>>, data: &[u8]) -> 
         match side.restore_from(&area) {
             Err(SideRestoreError::NoRecord) => panic!("the record written is not found"),
             Err(SideRestoreError::BadPayload) => {
-                let len = side.encode_state(restored_bytes).expect("a reset side encodes");
+                let len = side
+                    .encode_state(restored_bytes)
+                    .expect("a reset side encodes");
                 assert_eq!(
                     &restored_bytes[..len],
                     &new_bytes[..new_len],
