@@ -94,9 +94,24 @@ impl Bat {
     }
 }
 
-/// The shared code, read/execute-only for every partition (IBAT0 and DBAT0).
+/// The shared code, read-only for every partition (DBAT0).
 pub const SHARED_CODE_BAT: Bat =
     Bat::user(kc::SHARED_CODE_BASE, kc::SHARED_CODE_SIZE, Access::ReadOnly);
+/// The shared code below the deferred code, executable by every partition (IBAT0).
+pub const BOOT_CODE_IBAT: Bat = Bat::user(
+    kc::SHARED_CODE_BASE,
+    kc::DEFERRED_CODE_BASE - kc::SHARED_CODE_BASE,
+    Access::ReadOnly,
+);
+/// The deferred code, executable once the kernel has checked it (IBAT1; `kernel::deferred`).
+pub const DEFERRED_CODE_IBAT: Bat =
+    Bat::user(kc::DEFERRED_CODE_BASE, kc::DEFERRED_CODE_SIZE, Access::ReadOnly);
+const _: () = assert!(
+    kc::DEFERRED_CODE_BASE + kc::DEFERRED_CODE_SIZE == kc::SHARED_CODE_BASE + kc::SHARED_CODE_SIZE
+        && (kc::DEFERRED_CODE_BASE - kc::SHARED_CODE_BASE).is_power_of_two()
+        && kc::DEFERRED_CODE_SIZE.is_power_of_two()
+        && kc::DEFERRED_CODE_BASE % kc::DEFERRED_CODE_SIZE == 0
+);
 
 /// DBAT1..3 of each partition.
 #[allow(clippy::indexing_slicing)] // Compile time (see LINK_OWNER).

@@ -19,6 +19,7 @@
 //! While the schedule runs the interrupt is held back and the I/O partition's reads drain the
 //! UART, so no partition's CPU time includes a handler and no window start is delayed by one.
 pub mod armed_reset;
+pub mod deferred;
 pub mod health;
 pub mod klog;
 pub mod link;
@@ -229,6 +230,7 @@ pub fn start(
 ) -> ! {
     boot::enable_doze();
     mmu::init();
+    deferred::boot(stub.image);
     // SAFETY: boot, interrupts off, nothing else holds the kernel state.
     let k = unsafe { kernel() };
     if let Some(device) = link_device {
@@ -380,6 +382,20 @@ pub extern "C" fn kernel_trap(
                 0x500 => {
                     k.on_link_interrupt();
                     Next::Partition(p)
+                }
+                0x400 if at(&k.contexts, p).srr0 >= kernel_config::DEFERRED_CODE_BASE => {
+                    let srr0 = at(&k.contexts, p).srr0;
+                    match deferred::on_fetch_fault(srr0) {
+                        // Checked and mapped: the partition fetches the instruction again.
+                        deferred::FetchFault::Checked => Next::Partition(p),
+                        deferred::FetchFault::Damaged => k.deferred_code_damaged(p, srr0),
+                        deferred::FetchFault::Fault => k.partition_fault(
+                            p,
+                            kernel_config::ErrorKind::InstructionStorage,
+                            srr0,
+                            entry,
+                        ),
+                    }
                 }
                 _ => {
                     let srr0 = at(&k.contexts, p).srr0;
