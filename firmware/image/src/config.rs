@@ -104,8 +104,11 @@ pub const BOOT_CODE_IBAT: Bat = Bat::user(
     Access::ReadOnly,
 );
 /// The deferred code, executable once the kernel has checked it (IBAT1; `kernel::deferred`).
-pub const DEFERRED_CODE_IBAT: Bat =
-    Bat::user(kc::DEFERRED_CODE_BASE, kc::DEFERRED_CODE_SIZE, Access::ReadOnly);
+pub const DEFERRED_CODE_IBAT: Bat = Bat::user(
+    kc::DEFERRED_CODE_BASE,
+    kc::DEFERRED_CODE_SIZE,
+    Access::ReadOnly,
+);
 const _: () = assert!(
     kc::DEFERRED_CODE_BASE + kc::DEFERRED_CODE_SIZE == kc::SHARED_CODE_BASE + kc::SHARED_CODE_SIZE
         && (kc::DEFERRED_CODE_BASE - kc::SHARED_CODE_BASE).is_power_of_two()

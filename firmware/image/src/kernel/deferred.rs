@@ -76,7 +76,11 @@ pub fn on_fetch_fault(address: u32) -> FetchFault {
     defmt::info!(
         "kernel: deferred code checked before its first run: {=usize} words, {=str}",
         words.len(),
-        if sums == recorded { "intact" } else { "damaged" }
+        if sums == recorded {
+            "intact"
+        } else {
+            "damaged"
+        }
     );
     if sums != recorded {
         return FetchFault::Damaged;
