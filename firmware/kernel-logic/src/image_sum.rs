@@ -16,22 +16,25 @@ pub const TAIL_BLOCK_WORDS: usize = 8;
 
 /// The chain's end and the sum of the chain after each block, over `words`.
 pub fn image_sums(words: &[u32]) -> (u32, u32) {
-    let full = words.len() / BLOCK_WORDS * BLOCK_WORDS;
-    let (head, tail) = words.split_at(full);
-    let mut chain = 0u32;
-    let mut blocks = 0u32;
-    for block in head
-        .chunks_exact(BLOCK_WORDS)
-        .chain(tail.chunks_exact(TAIL_BLOCK_WORDS))
-    {
-        for pair in block.chunks_exact(2) {
-            if let [even, odd] = pair {
-                chain = chain.wrapping_add(*even) ^ *odd;
-            }
-        }
-        blocks = blocks.wrapping_add(chain);
+    let (head, tail) = words.as_chunks::<BLOCK_WORDS>();
+    let mut sums = (0u32, 0u32);
+    for block in head {
+        sums = block_sums(sums, block);
     }
-    (chain, blocks)
+    for block in tail.as_chunks::<TAIL_BLOCK_WORDS>().0 {
+        sums = block_sums(sums, block);
+    }
+    sums
+}
+
+/// One block: the chain through its words (a fixed number of them, so the loop unrolls to a
+/// load and one add or XOR per word), then the chain added to the second sum.
+#[inline(always)]
+fn block_sums<const N: usize>((mut chain, blocks): (u32, u32), block: &[u32; N]) -> (u32, u32) {
+    for [even, odd] in block.as_chunks::<2>().0 {
+        chain = chain.wrapping_add(*even) ^ *odd;
+    }
+    (chain, blocks.wrapping_add(chain))
 }
 
 #[cfg(test)]

@@ -22,6 +22,7 @@ use kernel_config as kc;
 use kernel_logic::image_sum::image_sums;
 
 use super::mmu;
+use crate::board::timebase;
 use crate::boot::{ImageCheck, IMAGE_RECORD_DEFERRED_WORD};
 use crate::warm;
 
@@ -58,6 +59,7 @@ pub fn on_fetch_fault(address: u32) -> FetchFault {
     if !inside || CHECKED.load(Ordering::Relaxed) {
         return FetchFault::Fault;
     }
+    let started = timebase::now().0;
     // SAFETY: the linker symbols bound the deferred code, a word-aligned part of the shared
     // code in RAM (its start is the block's base, checked by the linker script); the kernel
     // runs with translation off, so these are the physical addresses, and nothing writes the
@@ -74,8 +76,9 @@ pub fn on_fetch_fault(address: u32) -> FetchFault {
         warm::image_record_word(IMAGE_RECORD_DEFERRED_WORD + 1),
     );
     defmt::info!(
-        "kernel: deferred code checked before its first run: {=usize} words, {=str}",
+        "kernel: deferred code checked before its first run: {=usize} words in {=u64} ticks, {=str}",
         words.len(),
+        timebase::now().0.wrapping_sub(started),
         if sums == recorded {
             "intact"
         } else {
