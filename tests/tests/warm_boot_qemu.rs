@@ -241,6 +241,11 @@ fn the_deferred_code_is_checked_before_it_first_runs_and_copied_from_rom_when_da
     assert_eq!(target.warm_reset(), boot_image::VERIFIED);
     target.lander_step();
     target.wait_for_log("deferred code checked before its first run");
+    for line in &target.session.logs {
+        if line.message.contains("checked before its first run") {
+            println!("{}", line.message);
+        }
+    }
     assert!(
         target
             .session
