@@ -113,7 +113,7 @@ const _: () = assert!(
     kc::DEFERRED_CODE_BASE + kc::DEFERRED_CODE_SIZE == kc::SHARED_CODE_BASE + kc::SHARED_CODE_SIZE
         && (kc::DEFERRED_CODE_BASE - kc::SHARED_CODE_BASE).is_power_of_two()
         && kc::DEFERRED_CODE_SIZE.is_power_of_two()
-        && kc::DEFERRED_CODE_BASE % kc::DEFERRED_CODE_SIZE == 0
+        && kc::DEFERRED_CODE_BASE.is_multiple_of(kc::DEFERRED_CODE_SIZE)
 );
 
 /// DBAT1..3 of each partition.
