@@ -7,11 +7,15 @@
 //! image (vectors, text, rodata: everything the partitions map as shared code) good:
 //! - after a warm reset RAM still holds it, so it is checked rather than copied again: the
 //!   image record in the warm-restart area (after the boot record; [`IMAGE_RECORD_OFFSET`])
-//!   names the ROM it was copied from (its build id), its length and its checksum, and the
-//!   stub sums the RAM copy and compares;
+//!   names the ROM it was copied from (its build id) and the checksums of the image's two
+//!   parts, and the stub sums the RAM copy of the part below the deferred code and compares.
+//!   The deferred code (the temporal planner's and the lander's, at `DEFERRED_CODE_BASE`) is
+//!   left to the kernel, which checks it against the record's second pair of sums before any
+//!   of it runs (`kernel::deferred`);
 //! - without a valid record for this ROM (power-on, new firmware, a damaged record), or when
-//!   the sums differ (a damaged image), it copies the image from ROM, summing as it copies,
-//!   and writes the record.
+//!   the sums differ (a damaged image, or the kernel found the deferred code damaged and said
+//!   so in the record), it copies both parts from ROM, summing as it copies, and writes the
+//!   record.
 //!
 //! The checksum is two 32-bit words (routine 40 in the stub): a chain that takes the image's
 //! words in turn, adding one and XORing the next (both steps are bijections, so any damage
