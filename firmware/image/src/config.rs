@@ -40,19 +40,18 @@ pub const LINK_OWNER: usize = {
 /// Where the linker put a partition (generated from the configuration by build.rs).
 #[derive(Clone, Copy)]
 pub struct PartitionImage {
-    /// First byte of the partition's memory: the stack bottom (32-byte aligned), so a stack
-    /// overflow runs off the region into unmapped memory (a DSI) rather than into statics.
-    pub zero_start: u32,
-    /// Stack top; the run-time header follows it, then the statics.
+    /// Stack top (32-byte aligned); the run-time header follows it, then the statics. The
+    /// stack's bottom is the first byte of the partition's memory, so a stack overflow runs
+    /// off the region into unmapped memory (a DSI) rather than into statics.
     pub stack_top: u32,
-    /// End of the statics (32-byte aligned): `[zero_start, zero_end)` is zeroed at every start.
+    /// End of the statics (32-byte aligned): `[stack_top, zero_end)` is zeroed at every start
+    /// (the header and the statics; the stack is not).
     pub zero_end: u32,
     pub entry: u32,
 }
 
 impl PartitionImage {
     pub const NONE: PartitionImage = PartitionImage {
-        zero_start: 0,
         stack_top: 0,
         zero_end: 0,
         entry: 0,
