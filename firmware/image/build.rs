@@ -105,7 +105,7 @@ fn linker_fragment(config: &SystemConfig) -> String {
         let n = p.name;
         writeln!(
             s,
-            ".part.{n} 0x{base:08x} (NOLOAD) :\n{{\n    __part_{n}_start = .;\n    . += 0x{stack:x};\n    __part_{n}_stack_top = .;\n    . += {header};\n    *(.bss.part.{n} .bss.part.{n}.*)\n    . = ALIGN(32);\n    __part_{n}_end = .;\n}} :NONE\n.part.{n}.noinit (NOLOAD) : ALIGN(32)\n{{\n    *(.bss.noinit.{n} .bss.noinit.{n}.*)\n    . = ALIGN(32);\n    __part_{n}_noinit_end = .;\n}} :NONE\nASSERT(__part_{n}_noinit_end <= 0x{end:08x}, \"partition {n}: its statics that are not zeroed (.bss.noinit.{n}) do not fit in its region 0 after the zeroed ones: grow the region in kernel-config or shrink them\")\nASSERT(__part_{n}_end <= 0x{end:08x}, \"partition {n}: stack, header and statics do not fit in its region 0 (0x{base:08x}, 0x{size:x} bytes): grow the region in kernel-config or shrink the state\")",
+            ".part.{n} 0x{base:08x} (NOLOAD) :\n{{\n    __part_{n}_start = .;\n    . += 0x{stack:x};\n    __part_{n}_stack_top = .;\n    . += {header};\n    *(.bss.part.{n} .bss.part.{n}.*)\n    . = ALIGN(32);\n    __part_{n}_end = .;\n}} :NONE\n.part.{n}.noinit (NOLOAD) : ALIGN(32)\n{{\n    *(.bss.noinit.{n} .bss.noinit.{n}.*)\n    . = ALIGN(32);\n    __part_{n}_noinit_end = .;\n}} :NONE\nASSERT(__part_{n}_noinit_end <= 0x{end:08x}, \"partition {n}: its statics that are not zeroed (.bss.noinit.{n}) do not fit in its region 0 after the zeroed ones: grow the region in kernel-config or shrink them\")\nASSERT(__part_{n}_end <= 0x{end:08x}, \"partition {n}: stack, header and statics do not fit in its region 0 (0x{base:08x}, 0x{size:x} bytes): grow the region in kernel-config or shrink the state\")\nASSERT(__part_{n}_stack_top % 32 == 0, \"partition {n}: its stack size is not a multiple of 32 bytes (its start zeroes from the stack top in 32-byte blocks)\")",
             base = r.base,
             header = kc::PARTITION_HEADER_SIZE,
             stack = p.stack_size,
@@ -165,7 +165,7 @@ fn rust_table(config: &SystemConfig) -> String {
         let n = p.name;
         writeln!(
             s,
-            "            {i} => PartitionImage {{\n                zero_start: core::ptr::addr_of!(__part_{n}_start) as u32,\n                stack_top: core::ptr::addr_of!(__part_{n}_stack_top) as u32,\n                zero_end: core::ptr::addr_of!(__part_{n}_end) as u32,\n                entry: {entry} as *const () as u32,\n            }},",
+            "            {i} => PartitionImage {{\n                stack_top: core::ptr::addr_of!(__part_{n}_stack_top) as u32,\n                zero_end: core::ptr::addr_of!(__part_{n}_end) as u32,\n                entry: {entry} as *const () as u32,\n            }},",
             entry = p.entry
         )
         .unwrap();

@@ -192,6 +192,9 @@ pub fn footprint(elf: &Path) -> Result<Footprint, String> {
         kernel_ram_bytes,
         page_table_bytes: size(".htab"),
         kernel_rom_bytes,
-        image_rom_bytes: size(".reset") + size(".ram_image") + size(".kdata"),
+        image_rom_bytes: size(".reset")
+            + size(".ram_image")
+            + size(".deferred_code")
+            + size(".kdata"),
     })
 }

@@ -84,7 +84,13 @@ fn every_budget_holds_on_the_emulated_target() {
     };
     // Reset vector to repaired plan includes the warm boot to ready.
     assert!(measured("reset_recovery") > measured("boot_to_ready_warm") * 15);
-    assert!(measured("boot_to_ready_warm") > measured("boot_to_ready"));
+    // The warm boot includes its image check and its restore's decode. (It no longer costs more
+    // than the power-on boot: that copies the whole image, the warm boot checks the part below
+    // the deferred code, which the kernel checks before it first runs.)
+    assert!(
+        measured("boot_to_ready_warm")
+            > measured("warm_boot_image_check") + measured("warm_boot_decode")
+    );
     assert!(measured("executive_cycle_worst") <= measured("autonomy_step_worst"));
 }
 
@@ -94,7 +100,7 @@ fn a_budget_lowered_below_its_measurement_fails_naming_it() {
     let root = hil::repo_root();
     let text = std::fs::read_to_string(root.join("budgets.toml")).unwrap();
     // reset_recovery measures a few hundred thousand instructions: 1000 is far too little.
-    let lowered = text.replacen("max = 460_000", "max = 1_000", 1);
+    let lowered = text.replacen("max = 440_000", "max = 1_000", 1);
     assert_ne!(
         lowered, text,
         "budgets.toml no longer has the reset_recovery budget"

@@ -7,11 +7,15 @@
 //! image (vectors, text, rodata: everything the partitions map as shared code) good:
 //! - after a warm reset RAM still holds it, so it is checked rather than copied again: the
 //!   image record in the warm-restart area (after the boot record; [`IMAGE_RECORD_OFFSET`])
-//!   names the ROM it was copied from (its build id), its length and its checksum, and the
-//!   stub sums the RAM copy and compares;
+//!   names the ROM it was copied from (its build id) and the checksums of the image's two
+//!   parts, and the stub sums the RAM copy of the part below the deferred code and compares.
+//!   The deferred code (the temporal planner's and the lander's, at `DEFERRED_CODE_BASE`) is
+//!   left to the kernel, which checks it against the record's second pair of sums before any
+//!   of it runs (`kernel::deferred`);
 //! - without a valid record for this ROM (power-on, new firmware, a damaged record), or when
-//!   the sums differ (a damaged image), it copies the image from ROM, summing as it copies,
-//!   and writes the record.
+//!   the sums differ (a damaged image, or the kernel found the deferred code damaged and said
+//!   so in the record), it copies both parts from ROM, summing as it copies, and writes the
+//!   record.
 //!
 //! The checksum is two 32-bit words (routine 40 in the stub): a chain that takes the image's
 //! words in turn, adding one and XORing the next (both steps are bijections, so any damage
@@ -94,9 +98,17 @@ impl ImageCheck {
 pub const IMAGE_RECORD_MAGIC: u32 = 0x5241_4449;
 /// Byte offset of the image record in the warm-restart area.
 pub const IMAGE_RECORD_OFFSET: usize = kernel_config::WARM_IMAGE_RECORD_OFFSET as usize;
-/// Bytes of the image record: magic, ROM build id (2 words), checked words, the two sums, and
-/// a check word (the complement of the XOR of the six others).
-pub const IMAGE_RECORD_BYTES: usize = 28;
+/// Bytes of the image record: magic, ROM build id (2 words), the two sums of the part checked
+/// at boot, the two sums of the deferred code ([`IMAGE_RECORD_DEFERRED_WORD`]), and a check
+/// word (the complement of the XOR of the seven others). The build id fixes the layout (the
+/// parts' lengths are the linker's for that ROM).
+pub const IMAGE_RECORD_BYTES: usize = 32;
+/// Word index in the image record of the boot part's first sum.
+pub const IMAGE_RECORD_BOOT_WORD: usize = 3;
+/// Word index in the image record of the deferred code's first sum (then its second).
+pub const IMAGE_RECORD_DEFERRED_WORD: usize = 5;
+/// Word index in the image record of its check word.
+pub const IMAGE_RECORD_CHECK_WORD: usize = 7;
 
 global_asm!(
     r#"
@@ -128,14 +140,16 @@ __reset_body:
     lwz %r25, 16(%r20)
     lwz %r26, 20(%r20)
     lwz %r27, 24(%r20)
+    lwz %r28, 28(%r20)
     li %r17, 2
     xor %r0, %r21, %r22
     xor %r0, %r0, %r23
     xor %r0, %r0, %r24
     xor %r0, %r0, %r25
     xor %r0, %r0, %r26
+    xor %r0, %r0, %r27
     not %r0, %r0
-    cmpw %r0, %r27
+    cmpw %r0, %r28
     bne 50f
     lis %r0, ({magic} >> 16)
     ori %r0, %r0, ({magic} & 0xffff)
@@ -149,21 +163,22 @@ __reset_body:
     lwz %r0, 4(%r3)
     cmpw %r23, %r0
     bne 50f
-    lis %r5, __image_checked_words@ha
-    addi %r5, %r5, __image_checked_words@l
-    cmpw %r24, %r5
-    bne 50f
+    # The part checked at boot only (the deferred code's sums, words 5 and 6, are the
+    # kernel's to check before that code first runs).
     li %r17, 3
     lis %r3, __ram_image_start@ha
     addi %r3, %r3, __ram_image_start@l
+    lis %r5, __image_checked_words@ha
+    addi %r5, %r5, __image_checked_words@l
     bl 40f
-    cmpw %r8, %r25
+    cmpw %r8, %r24
     bne 50f
-    cmpw %r9, %r26
+    cmpw %r9, %r25
     bne 50f
     li %r17, 1
     b 60f
-    # Copy the image from ROM, summing what is written, and record it for the next warm reset.
+    # Copy the image from ROM, both parts, summing what is written, and record it for the
+    # next warm reset (the magic last).
 50: lis %r3, __ram_image_lma@ha
     addi %r3, %r3, __ram_image_lma@l
     lis %r4, __ram_image_start@ha
@@ -171,6 +186,17 @@ __reset_body:
     lis %r5, __image_checked_words@ha
     addi %r5, %r5, __image_checked_words@l
     bl 45f
+    stw %r8, 12(%r20)
+    stw %r9, 16(%r20)
+    lis %r3, __deferred_code_lma@ha
+    addi %r3, %r3, __deferred_code_lma@l
+    lis %r4, __deferred_code_start@ha
+    addi %r4, %r4, __deferred_code_start@l
+    lis %r5, __deferred_code_words@ha
+    addi %r5, %r5, __deferred_code_words@l
+    bl 45f
+    stw %r8, 20(%r20)
+    stw %r9, 24(%r20)
     lis %r3, __rom_build_id@ha
     addi %r3, %r3, __rom_build_id@l
     lwz %r22, 0(%r3)
@@ -179,16 +205,18 @@ __reset_body:
     ori %r21, %r21, ({magic} & 0xffff)
     xor %r0, %r21, %r22
     xor %r0, %r0, %r23
-    xor %r0, %r0, %r5
-    xor %r0, %r0, %r8
-    xor %r0, %r0, %r9
+    lwz %r6, 12(%r20)
+    xor %r0, %r0, %r6
+    lwz %r6, 16(%r20)
+    xor %r0, %r0, %r6
+    lwz %r6, 20(%r20)
+    xor %r0, %r0, %r6
+    lwz %r6, 24(%r20)
+    xor %r0, %r0, %r6
     not %r0, %r0
     stw %r22, 4(%r20)
     stw %r23, 8(%r20)
-    stw %r5, 12(%r20)
-    stw %r8, 16(%r20)
-    stw %r9, 20(%r20)
-    stw %r0, 24(%r20)
+    stw %r0, 28(%r20)
     stw %r21, 0(%r20)
     # Every boot: the words the kernel writes at run time (.kshared) and the kernel's
     # initialised data, from ROM; then the timebase after the image step in r18.
@@ -196,8 +224,8 @@ __reset_body:
     addi %r3, %r3, __kshared_lma@l
     lis %r4, __kshared_start@ha
     addi %r4, %r4, __kshared_start@l
-    lis %r5, __ram_image_end@ha
-    addi %r5, %r5, __ram_image_end@l
+    lis %r5, __kshared_end@ha
+    addi %r5, %r5, __kshared_end@l
     bl 10f
     lis %r3, __kdata_lma@ha
     addi %r3, %r3, __kdata_lma@l

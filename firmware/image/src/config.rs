@@ -40,19 +40,18 @@ pub const LINK_OWNER: usize = {
 /// Where the linker put a partition (generated from the configuration by build.rs).
 #[derive(Clone, Copy)]
 pub struct PartitionImage {
-    /// First byte of the partition's memory: the stack bottom (32-byte aligned), so a stack
-    /// overflow runs off the region into unmapped memory (a DSI) rather than into statics.
-    pub zero_start: u32,
-    /// Stack top; the run-time header follows it, then the statics.
+    /// Stack top (32-byte aligned); the run-time header follows it, then the statics. The
+    /// stack's bottom is the first byte of the partition's memory, so a stack overflow runs
+    /// off the region into unmapped memory (a DSI) rather than into statics.
     pub stack_top: u32,
-    /// End of the statics (32-byte aligned): `[zero_start, zero_end)` is zeroed at every start.
+    /// End of the statics (32-byte aligned): `[stack_top, zero_end)` is zeroed at every start
+    /// (the header and the statics; the stack is not).
     pub zero_end: u32,
     pub entry: u32,
 }
 
 impl PartitionImage {
     pub const NONE: PartitionImage = PartitionImage {
-        zero_start: 0,
         stack_top: 0,
         zero_end: 0,
         entry: 0,
@@ -94,9 +93,27 @@ impl Bat {
     }
 }
 
-/// The shared code, read/execute-only for every partition (IBAT0 and DBAT0).
+/// The shared code, read-only for every partition (DBAT0).
 pub const SHARED_CODE_BAT: Bat =
     Bat::user(kc::SHARED_CODE_BASE, kc::SHARED_CODE_SIZE, Access::ReadOnly);
+/// The shared code below the deferred code, executable by every partition (IBAT0).
+pub const BOOT_CODE_IBAT: Bat = Bat::user(
+    kc::SHARED_CODE_BASE,
+    kc::DEFERRED_CODE_BASE - kc::SHARED_CODE_BASE,
+    Access::ReadOnly,
+);
+/// The deferred code, executable once the kernel has checked it (IBAT1; `kernel::deferred`).
+pub const DEFERRED_CODE_IBAT: Bat = Bat::user(
+    kc::DEFERRED_CODE_BASE,
+    kc::DEFERRED_CODE_SIZE,
+    Access::ReadOnly,
+);
+const _: () = assert!(
+    kc::DEFERRED_CODE_BASE + kc::DEFERRED_CODE_SIZE == kc::SHARED_CODE_BASE + kc::SHARED_CODE_SIZE
+        && (kc::DEFERRED_CODE_BASE - kc::SHARED_CODE_BASE).is_power_of_two()
+        && kc::DEFERRED_CODE_SIZE.is_power_of_two()
+        && kc::DEFERRED_CODE_BASE.is_multiple_of(kc::DEFERRED_CODE_SIZE)
+);
 
 /// DBAT1..3 of each partition.
 #[allow(clippy::indexing_slicing)] // Compile time (see LINK_OWNER).

@@ -221,3 +221,30 @@ pub fn boot_kernel_fault() -> Option<KernelFault> {
 /// Bytes of the area available after the boot record (for A/B checkpoints).
 #[allow(dead_code)]
 pub const CHECKPOINT_REGION_SIZE: usize = WARM_AREA_SIZE - BOOT_RECORD_SIZE;
+
+/// Word `index` of the reset stub's image record (`boot::IMAGE_RECORD_*`).
+pub fn image_record_word(index: usize) -> u32 {
+    debug_assert!(index < crate::boot::IMAGE_RECORD_BYTES / 4);
+    // SAFETY: as in `read_record`; the image record lies inside the area's reserved first
+    // bytes (checked at compile time above), word-aligned.
+    unsafe { read_volatile(record_ptr().add(crate::boot::IMAGE_RECORD_OFFSET / 4 + index)) }
+}
+
+/// Make the image record say that the part checked at boot does not match (its first sum
+/// flipped, the check word with it, so the record stays valid for this ROM): the next boot's
+/// reset stub copies the whole image from ROM again and reports it repaired.
+pub fn image_record_fail() {
+    for index in [
+        crate::boot::IMAGE_RECORD_BOOT_WORD,
+        crate::boot::IMAGE_RECORD_CHECK_WORD,
+    ] {
+        let word = image_record_word(index) ^ 1;
+        // SAFETY: as in `image_record_word`.
+        unsafe {
+            write_volatile(
+                record_ptr().add(crate::boot::IMAGE_RECORD_OFFSET / 4 + index),
+                word,
+            )
+        }
+    }
+}

@@ -56,6 +56,13 @@ pub const BAT_MAX_BLOCK: u32 = 0x1000_0000;
 /// passed 512 KiB: 527,344 bytes); it was 512 KiB with the kernel data right after it.
 pub const SHARED_CODE_BASE: u32 = 0x0000_0000;
 pub const SHARED_CODE_SIZE: u32 = 0x0010_0000;
+/// The upper half of the shared code: the code checked before it first runs rather than at a
+/// warm boot (the temporal planner's and the lander's; `linker/g3beige.ld` puts it here). The
+/// partitions' instruction BAT maps only the lower half until the kernel has checked this block
+/// against the image record (IBAT1, on the first instruction fetch from it); reading it as data
+/// is allowed throughout (DBAT0 maps the whole shared code).
+pub const DEFERRED_CODE_BASE: u32 = 0x0008_0000;
+pub const DEFERRED_CODE_SIZE: u32 = 0x0008_0000;
 /// Kernel data, bss and stack: never mapped for partitions. After the warm-restart area and
 /// the hashed page table, below the first partition region.
 pub const KERNEL_DATA_BASE: u32 = 0x0018_0000;
@@ -66,8 +73,8 @@ pub const WARM_AREA_SIZE: u32 = 0x0001_0000;
 /// Bytes at the start of the warm area that hold the kernel's boot record and, after it, the
 /// reset stub's image record.
 pub const WARM_BOOT_RECORD_SIZE: u32 = 64;
-/// Offset in the warm area of the reset stub's image record (the ROM build id, length and
-/// checksum of the RAM image it last copied; see the firmware's `boot.rs`).
+/// Offset in the warm area of the reset stub's image record (the ROM build id and the checksums
+/// of the two parts of the RAM image it last copied; see the firmware's `boot.rs`).
 pub const WARM_IMAGE_RECORD_OFFSET: u32 = 32;
 /// Where the kernel maps the non-volatile memory device (QEMU `ivshmem-plain` backed by a file
 /// that outlives the process: a power cycle keeps it), when the board has one.

@@ -129,7 +129,10 @@ const PARTITIONS_PRODUCT: [Partition; 3] = [
         name: "planner",
         entry: "partition_planner_main",
         regions: &[PLANNER_REGION],
-        stack_size: 0x10000,
+        // 128 KiB: the plug-ins' work is in functions of its own (in the deferred code, checked
+        // before it first runs), whose frames (the lander's window about 20 KB) now add to the
+        // entry's (about 44 KB) instead of sharing it; at 64 KiB the lander's setup overflowed.
+        stack_size: 0x20000,
         capabilities: Capabilities {
             link_owner: false,
             warm_area: Some(PLANNER_WARM),

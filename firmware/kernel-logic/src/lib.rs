@@ -6,6 +6,8 @@
 //! - [`byte_ring`]: the fixed-capacity byte ring the kernel drains the link's UART into;
 //! - [`event`]: the kernel's event records (health-monitor events, metrics) as the I/O
 //!   partition drains them, and the message each stands for;
+//! - [`image_sum`]: the RAM image's checksum as the reset stub computes it (the kernel checks
+//!   the deferred code with it before that code first runs);
 //! - [`park`]: whether the module may stop its schedule and wait for the host
 //!   (`SYS_WAIT_FOR_INPUT`), and the check of that call's arguments;
 //! - [`port_queue`]: a queuing port's ring, and the rule that drops messages sent before
@@ -26,6 +28,7 @@
 
 pub mod byte_ring;
 pub mod event;
+pub mod image_sum;
 pub mod park;
 pub mod port_queue;
 pub mod shm_link;

@@ -24,6 +24,13 @@ mod lander;
 mod plugin_glue;
 mod temporal;
 
+// The plug-ins' work (a temporal or lander message taken in, a window of their planning) is in
+// functions named `deferred_*`, never inlined: `linker/g3beige.ld` puts them, with the temporal
+// planner's and the lander's crates, in the deferred code, which a warm boot does not check and
+// the kernel checks before it first runs (the image's `kernel::deferred`). What every start and
+// every loop runs of the plug-ins (their start, whether they have work, their reports) stays in
+// the code checked at boot.
+
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 

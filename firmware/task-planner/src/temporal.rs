@@ -156,6 +156,17 @@ pub fn handle<const N: usize>(
     ) {
         return false;
     }
+    deferred_handle(app, msg, outbox)
+}
+
+/// The plug-in's part of [`handle`], in the deferred code (see the crate's
+/// `mod` lines).
+#[inline(never)]
+fn deferred_handle<const N: usize>(
+    app: &mut TemporalApp<'static>,
+    msg: &HostToTarget,
+    outbox: &mut HostOutbox<N>,
+) -> bool {
     give_storage(app);
     app.handle(msg, outbox)
 }
@@ -172,6 +183,19 @@ pub fn window<const N: usize>(
     if !app.planning_pending() {
         return;
     }
+    deferred_window(app, window_started, share_ticks, memories, outbox);
+}
+
+/// The plug-in's part of [`window`], in the deferred code (see the crate's
+/// `mod` lines).
+#[inline(never)]
+fn deferred_window<const N: usize>(
+    app: &mut TemporalApp<'static>,
+    window_started: u64,
+    share_ticks: u64,
+    memories: &mut flight_app::Memories<'_>,
+    outbox: &mut HostOutbox<N>,
+) {
     give_storage(app);
     crate::plugin_glue::window(app, window_started, share_ticks, memories, outbox);
 }

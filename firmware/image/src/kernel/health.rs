@@ -90,6 +90,22 @@ impl Kernel {
         }
     }
 
+    /// The deferred code failed its check at its first fetch (`address`, in partition `p`):
+    /// reported as an instruction-storage event with a warm reset, whose reset stub copies the
+    /// whole image from ROM again (the image record made to say so), as for a damaged image
+    /// at boot. Nothing of the block has run.
+    pub fn deferred_code_damaged(&mut self, p: usize, address: u32) -> ! {
+        self.report(
+            p,
+            ErrorKind::InstructionStorage,
+            address,
+            HmAction::WarmReset,
+        );
+        defmt::warn!("kernel: the deferred code failed its checksum; the image is copied again from ROM at the reset");
+        warm::image_record_fail();
+        self.warm_reset(ResetCause::HealthMonitor)
+    }
+
     /// A system call from `p` failed with a fault code (already in its r3).
     pub fn syscall_fault(&mut self, p: usize, call: u32, now: u64) -> Next {
         let kind = ErrorKind::IllegalSyscall;

@@ -1,14 +1,16 @@
 //! Space partitioning with the 750's MMU: the kernel runs with translation off; partitions run
-//! with translation on and see only what the BATs map. IBAT0/DBAT0 map the shared code
-//! read/execute-only; DBAT1..3 map the running partition's regions (from the configuration);
-//! IBAT1..3 stay invalid, so partition data is never executable. The hashed page table is all
+//! with translation on and see only what the BATs map. DBAT0 maps the shared code read-only,
+//! IBAT0 its lower half (everything but the deferred code) executable, IBAT1 the deferred code
+//! once the kernel has checked it (`super::deferred`); DBAT1..3 map the running partition's
+//! regions (from the configuration); IBAT2..3 stay invalid, so partition data is never
+//! executable. The hashed page table is all
 //! invalid, so every access outside a BAT is a DSI/ISI for the health monitor.
 use core::arch::asm;
 
 use kernel_config as kc;
 
 use super::at;
-use crate::config::{Bat, PARTITION_DBATS, SHARED_CODE_BAT};
+use crate::config::{Bat, BOOT_CODE_IBAT, DEFERRED_CODE_IBAT, PARTITION_DBATS, SHARED_CODE_BAT};
 
 macro_rules! set_bat {
     ($upper:literal, $lower:literal, $bat:expr) => {{
@@ -50,7 +52,7 @@ pub fn init() {
         }
         asm!("isync", options(nostack, nomem));
     }
-    set_bat!("528", "529", SHARED_CODE_BAT);
+    set_bat!("528", "529", BOOT_CODE_IBAT);
     set_bat!("530", "531", Bat::INVALID);
     set_bat!("532", "533", Bat::INVALID);
     set_bat!("534", "535", Bat::INVALID);
@@ -66,4 +68,9 @@ pub fn map(p: usize) {
     set_bat!("538", "539", bats[0]);
     set_bat!("540", "541", bats[1]);
     set_bat!("542", "543", bats[2]);
+}
+
+/// Make the deferred code executable for the partitions (IBAT1), once checked.
+pub fn map_deferred_code() {
+    set_bat!("530", "531", DEFERRED_CODE_IBAT);
 }
