@@ -148,6 +148,7 @@ use autonomy::uplink::{ErrorSite, ResponseField, TaskField, ValidationError};
 use autonomy::{
     Backoff, CommandArgs, CommandSpec, CondNode, ConditionSpec, ConstraintSpec, ConstraintWhen,
     Contingency, ContingencyAction, ControlSpec, Effect, FailureKind, ImpactSpec, ImpactWhen,
+    InstanceArg,
     MissionTimeUs, Name, NetworkSpec, Opcode, Operand, PerCause, Permissions, PlannerConfig, RelOp,
     Requirement, ResponsePolicy, StateKey, TaskNetwork, TaskPoint, TaskRole, TaskSpec,
     TemporalConstraint, TimelineKind, TimelineSpec,
@@ -380,6 +381,8 @@ struct RawCommand {
     opcode: u16,
     #[serde(default)]
     args: Vec<i32>,
+    #[serde(default)]
+    from_instance: Vec<String>,
 }
 
 #[derive(Deserialize)]
@@ -1403,7 +1406,7 @@ impl<'a> Compiler<'a> {
                     opcode: Opcode(c.opcode),
                     args: CommandArgs::from_slice(&c.args).map_err(|_| {
                         self.error(
-                            s,
+                            s.clone(),
                             &path(f),
                             format!(
                                 "more than {} command arguments",
@@ -1411,6 +1414,32 @@ impl<'a> Compiler<'a> {
                             ),
                         )
                     })?,
+                    from_instance: {
+                        let mut v = heapless::Vec::new();
+                        for a in &c.from_instance {
+                            let arg = instance_arg(a).ok_or_else(|| {
+                                self.error(
+                                    s.clone(),
+                                    &path(f),
+                                    format!(
+                                        "unknown instance argument `{a}` (instance, end, \
+                                         duration, served_arg_0 .. served_arg_3)"
+                                    ),
+                                )
+                            })?;
+                            if v.push(arg).is_err() {
+                                return Err(self.error(
+                                    s.clone(),
+                                    &path(f),
+                                    format!(
+                                        "more than {} command arguments",
+                                        fsw_bridge::MAX_COMMAND_ARGS
+                                    ),
+                                ));
+                            }
+                        }
+                        v
+                    },
                 })
             };
         let timeline = |name: &str, s: Range<usize>, f: &str| -> Result<usize, TaskNetError> {
@@ -1688,6 +1717,19 @@ impl<'a> Compiler<'a> {
     }
 }
 
+/// An instance argument's TOML name: `instance`, `end`, `duration`, `served_arg_K`.
+fn instance_arg(name: &str) -> Option<InstanceArg> {
+    Some(match name {
+        "instance" => InstanceArg::Instance,
+        "end" => InstanceArg::EndS,
+        "duration" => InstanceArg::DurationS,
+        _ => {
+            let k: u8 = name.strip_prefix("served_arg_")?.parse().ok()?;
+            (usize::from(k) < fsw_bridge::MAX_COMMAND_ARGS).then_some(InstanceArg::Served(k))?
+        }
+    })
+}
+
 /// The temporal constraints (by index) on a cycle that no schedule can meet, if any: a negative
 /// cycle of the simple temporal network whose nodes are the start and end of each task, with
 /// `end - start` in `[min_duration, duration]` and each constraint's `[min, max]`.
@@ -1785,7 +1827,15 @@ fn describe(e: ValidationError) -> &'static str {
         DanglingTimeline => "no such timeline",
         DanglingCondition => "no such condition",
         DanglingTemplate => "not a template task",
-        DanglingTemporalTask => "temporal constraints relate two different requested tasks",
+        DanglingTemporalTask => "temporal constraints relate two different tasks",
+        TemporalTemplatePair => {
+            "a temporal constraint binds a template to a requested task, never two templates"
+        }
+        TemporalCycle => "these temporal constraints form a cycle that no schedule can meet",
+        BadInstanceArg => {
+            "fixed and instance arguments together are at most 4, and served_arg_K names \
+             argument 0 to 3"
+        }
         DuplicateStateKey => "another timeline is measured by this state key",
         TypeMismatch => "does not fit the timeline's kind",
         ValueOutOfRange => "value outside the timeline's values or bounds",

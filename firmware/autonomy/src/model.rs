@@ -26,8 +26,10 @@ pub const VALUE_UNKNOWN: i64 = i64::MIN;
 /// the response bounds ([`ResponsePolicy`], [`ControlSpec::max_retries`] and the fields after
 /// it) and [`TimelineSpec::after_reset`]; version 3 [`TimelineSpec::stale_after_us`];
 /// version 4 [`TimelineSpec::background_rate`], [`TimelineSpec::external`],
-/// [`TimelineSpec::thresholds`] and the timed values ([`NetworkSpec::timed`]).
-pub const UPLINK_FORMAT_VERSION: u16 = 4;
+/// [`TimelineSpec::thresholds`] and the timed values ([`NetworkSpec::timed`]); version 5
+/// [`CommandSpec::from_instance`] and temporal constraints that bind a template's instances
+/// to a requested task ([`TemporalConstraint`]).
+pub const UPLINK_FORMAT_VERSION: u16 = 5;
 
 /// The windows of the planner cycle (seed 000 IV.A.3), all durations in µs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -382,11 +384,43 @@ pub struct ImpactSpec {
     pub end_offset_us: i64,
 }
 
-/// The command a task dispatches.
+/// A command argument the executive takes from the instance it dispatches, at dispatch.
+/// Times are whole seconds of mission time (an `i32` argument holds 68 years of them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum InstanceArg {
+    /// The instance's id (the ground id of a requested task, a planner-given id otherwise).
+    Instance,
+    /// Its end as executed: the dispatch time plus its duration, which a restart shortens to
+    /// end by the task's `latest_end` (whole seconds, rounded down).
+    EndS,
+    /// Its duration as executed (whole seconds, rounded down).
+    DurationS,
+    /// Argument `k` (of the fixed `args`) of the command of the task this instance was added
+    /// for (a template instance that enables or repairs a task; a restarted instance: the
+    /// failed one): the site and target indices a helper takes from the task it serves. -1
+    /// when the instance serves no other task or that task's command has no argument `k`.
+    Served(u8),
+}
+
+/// The command a task dispatches: `args`, then one argument per [`CommandSpec::from_instance`]
+/// entry, taken from the instance at dispatch (at most [`fsw_bridge::MAX_COMMAND_ARGS`] in
+/// all).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CommandSpec {
     pub opcode: Opcode,
     pub args: CommandArgs,
+    pub from_instance: heapless::Vec<InstanceArg, { fsw_bridge::MAX_COMMAND_ARGS }>,
+}
+
+impl CommandSpec {
+    /// A command with fixed arguments only.
+    pub fn fixed(opcode: Opcode, args: CommandArgs) -> Self {
+        Self {
+            opcode,
+            args,
+            from_instance: heapless::Vec::new(),
+        }
+    }
 }
 
 /// Executive-side control of one task (seed 000 IV.A.4, seed 003 "controller").
@@ -570,8 +604,11 @@ pub enum TaskPoint {
 }
 
 /// `to_point(to) - from_point(from)` must lie in `[min_us, max_us]` (seed 003: "{start,end} of A
-/// must occur {before,after} the {start,end} of B by [min,max]"). Applies to the requested
-/// instances of the two tasks.
+/// must occur {before,after} the {start,end} of B by [min,max]"). Between two requested tasks
+/// it applies to their requested instances. Between a template and a requested task (format
+/// 5; never two templates) it binds every instance of the template the planner adds to the
+/// requested task's requested instance ("this instance starts at least 60 s after the end of
+/// task X"); it does not move the requested task, which is placed on its own terms.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TemporalConstraint {
     pub from_task: u16,

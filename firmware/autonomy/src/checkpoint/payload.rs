@@ -348,6 +348,15 @@ pub(crate) fn check_executive_restored(
         ];
         check(times.into_iter().all(time_ok), TimeOutOfRange, at)?;
         check(e.duration_us <= spec.duration_us, TimeOutOfRange, at)?;
+        check(
+            e.served == crate::interface::NO_SERVED || network.task(e.served).is_some(),
+            DanglingDefinition,
+            at,
+        )?;
+        let window_ok = e
+            .window
+            .is_none_or(|(lo, hi)| lo <= hi && time_ok(lo) && time_ok(hi));
+        check(window_ok, TimeOutOfRange, at)?;
         let has_command = spec.command.is_some();
         let state_ok = match e.state {
             TaskState::Committed | TaskState::WaitingPre => true,

@@ -656,14 +656,19 @@ impl Planner {
             let Some(i) = next else {
                 break;
             };
-            let Some(e) = self.entries.get_mut(i) else {
+            let Some(&planned) = self.entries.get(i) else {
                 break;
             };
             let commit = Commit {
-                instance: e.instance,
-                def: e.def,
-                start: e.start,
-                end: e.end,
+                instance: planned.instance,
+                def: planned.def,
+                start: planned.start,
+                end: planned.end,
+                served: self.served_def(&planned),
+                window: self.dispatch_window(ctx.network, &planned),
+            };
+            let Some(e) = self.entries.get_mut(i) else {
+                break;
             };
             // The executive is full (by the planner's count): try again at the next step.
             if in_executive >= MAX_COMMITTED {
@@ -680,6 +685,43 @@ impl Planner {
                 ctx.now,
             );
         }
+    }
+
+    /// The definition of the task `entry` serves (see [`Commit::served`]).
+    fn served_def(&self, entry: &PlanEntry) -> u8 {
+        let of = match entry.origin {
+            Origin::Requested => return crate::interface::NO_SERVED,
+            Origin::Added { for_instance } => for_instance,
+            Origin::Restarted { of_instance } => of_instance,
+        };
+        self.entries
+            .iter()
+            .find(|e| e.instance == of)
+            .map_or(crate::interface::NO_SERVED, |e| e.def)
+    }
+
+    /// The start times the temporal constraints allow `entry` now (see [`Commit::window`]):
+    /// for a requested instance or a template's instance whose definition a constraint
+    /// names; `None` for the others (and when the constraints cannot be met: the planner
+    /// placed it, so it is not held back).
+    fn dispatch_window(
+        &self,
+        network: &TaskNetwork,
+        entry: &PlanEntry,
+    ) -> Option<(MissionTimeUs, MissionTimeUs)> {
+        if network.temporal().is_empty() {
+            return None;
+        }
+        let spec = network.task(entry.def)?;
+        let bound = entry.origin == Origin::Requested || spec.role == TaskRole::Template;
+        let named = network
+            .temporal()
+            .iter()
+            .any(|t| t.from_task == spec.id || t.to_task == spec.id);
+        if !bound || !named {
+            return None;
+        }
+        temporal_window(network, &self.entries, entry)
     }
 
     /// The id the next instance the planner adds will get.

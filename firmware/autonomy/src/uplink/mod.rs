@@ -31,8 +31,10 @@ pub use reader::{take_condition, take_task, take_timeline};
 use validate::push_id;
 pub use validate::{
     stale_bound_in_range, validate_condition, validate_header, validate_spec, validate_task,
-    validate_temporal, validate_timed_value, validate_timeline, TaskContext,
+    validate_temporal, validate_temporal_cycles, validate_timed_value, validate_timeline,
+    TaskContext, TaskDurations,
 };
+use validate::note_durations;
 
 /// Why an uplink was refused. `code as u16` is what reaches the host.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -88,7 +90,7 @@ pub enum ValidationCode {
     DanglingCondition = 34,
     /// A template id that does not exist or is not a template.
     DanglingTemplate = 35,
-    /// A temporal constraint naming a task that does not exist or is a template.
+    /// A temporal constraint naming a task that does not exist, or the same task twice.
     DanglingTemporalTask = 36,
     /// Two timelines measured by the same state key.
     DuplicateStateKey = 37,
@@ -160,6 +162,17 @@ pub enum ValidationCode {
     /// Thresholds on a timeline that is not a measured state timeline, not strictly
     /// increasing, over [`MAX_MAGNITUDE`], or not exactly one fewer than its values.
     BadThresholds = 83,
+    /// A temporal constraint between two templates (a template's instances are bound only to
+    /// a requested task's requested instance).
+    TemporalTemplatePair = 84,
+    /// Temporal constraints that form a cycle no schedule can meet, with the tasks' durations
+    /// (a negative cycle of the simple temporal network; refused at the constraint that
+    /// closes it).
+    TemporalCycle = 85,
+    /// A command argument taken from the instance that names no argument
+    /// ([`InstanceArg::Served`] at or past [`fsw_bridge::MAX_COMMAND_ARGS`]), or a command
+    /// with more than [`fsw_bridge::MAX_COMMAND_ARGS`] fixed and instance arguments together.
+    BadInstanceArg = 86,
 }
 
 impl ValidationCode {
@@ -323,9 +336,24 @@ pub fn validate_uplink(bytes: &[u8]) -> VResult {
         TooManyTemporalConstraints,
         ErrorSite::Temporal(u8_index(MAX_TEMPORAL_CONSTRAINTS)),
     )?;
+    let mut temporal: Vec<TemporalConstraint, MAX_TEMPORAL_CONSTRAINTS> = Vec::new();
     for i in 0..temporal_count {
         let tc: TemporalConstraint = r.take(ErrorSite::Temporal(u8_index(i)))?;
         validate_temporal(i, &tc, &ids)?;
+        let _ = temporal.push(tc);
+    }
+    if !temporal.is_empty() {
+        // The durations of the tasks the constraints name, from a third walk over the tasks
+        // (only networks with temporal constraints pay for it).
+        let after_temporal = r.rest;
+        r.rest = tasks_start;
+        let mut durations: Vec<TaskDurations, { 2 * MAX_TEMPORAL_CONSTRAINTS }> = Vec::new();
+        for i in 0..task_count {
+            let t = r.task(i)?;
+            note_durations(&mut durations, &temporal, &t);
+        }
+        r.rest = after_temporal;
+        validate_temporal_cycles(&temporal, &durations)?;
     }
     let timed_count = r.count(
         MAX_TIMED_VALUES,
