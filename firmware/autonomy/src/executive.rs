@@ -343,7 +343,12 @@ impl Executive {
                 if now < e.planned_start || now < e.retry_at {
                     return;
                 }
-                if let Some((not_before, not_after)) = e.window {
+                if let Some((window_start, not_after)) = e.window {
+                    let (unreached, not_before) = self.temporal_hold(network, &e, now);
+                    let not_before = not_before.max(window_start);
+                    if let Some(x) = self.entries.get_mut(i) {
+                        x.window = Some((not_before, not_after));
+                    }
                     if now > not_after {
                         // Its temporal window closed while it waited (a push, a retry).
                         let started = e.command_id != 0;
@@ -351,7 +356,7 @@ impl Executive {
                         self.fail(network, i, kind, started, now, out, report);
                         return;
                     }
-                    if now < not_before || self.follows_unfinished(network, &e) {
+                    if now < not_before || unreached {
                         // Not yet in its window, or a task it must follow has not reached the
                         // point it follows (it ran late): wait, up to the window's end.
                         if e.state == TaskState::Committed {
@@ -460,34 +465,50 @@ impl Executive {
         }
     }
 
-    /// Whether a temporal constraint makes `e` start after a point (start or end) of a
-    /// requested task that this executive holds and that has not reached that point yet.
-    fn follows_unfinished(&self, network: &TaskNetwork, e: &ExecEntry) -> bool {
+    /// What the temporal constraints that make `e` start after a point (start or end) of a
+    /// requested task this executive holds say now: whether one of those points is not
+    /// reached yet (the task ran late: wait), and the earliest start the reached ones allow
+    /// (the start as dispatched, or now for an end reached in this step). A task no longer
+    /// held finished before this step; the planner's window at the commit covers it.
+    fn temporal_hold(
+        &self,
+        network: &TaskNetwork,
+        e: &ExecEntry,
+        now: MissionTimeUs,
+    ) -> (bool, MissionTimeUs) {
+        let mut unreached = false;
+        let mut not_before = MissionTimeUs::ZERO;
         let Some(me) = network.task(e.def).map(|t| t.id) else {
-            return false;
+            return (unreached, not_before);
         };
-        let reached = |id: u16, point: TaskPoint| {
-            self.entries
-                .iter()
-                .find(|x| x.instance == id)
-                .is_none_or(|x| match point {
-                    TaskPoint::Start => !matches!(
-                        x.state,
-                        TaskState::Committed | TaskState::WaitingPre
-                    ),
-                    TaskPoint::End => x.state.is_terminal(),
-                })
-        };
-        network.temporal().iter().any(|tc| {
-            let after_other = if tc.to_task == me && tc.to_point == TaskPoint::Start {
-                (tc.min_us >= 0).then_some((tc.from_task, tc.from_point))
+        for tc in network.temporal() {
+            // (the task followed, its point, the least delay after it).
+            let follows = if tc.to_task == me && tc.to_point == TaskPoint::Start {
+                (tc.min_us >= 0).then_some((tc.from_task, tc.from_point, tc.min_us))
             } else if tc.from_task == me && tc.from_point == TaskPoint::Start {
-                (tc.max_us <= 0).then_some((tc.to_task, tc.to_point))
+                (tc.max_us <= 0).then_some((tc.to_task, tc.to_point, tc.max_us.saturating_neg()))
             } else {
                 None
             };
-            after_other.is_some_and(|(id, point)| !reached(id, point))
-        })
+            let Some((id, point, delay)) = follows else {
+                continue;
+            };
+            let Some(x) = self.entries.iter().find(|x| x.instance == id) else {
+                continue;
+            };
+            let reached_at = match point {
+                TaskPoint::Start => {
+                    (!matches!(x.state, TaskState::Committed | TaskState::WaitingPre))
+                        .then_some(x.started_at)
+                }
+                TaskPoint::End => x.state.is_terminal().then_some(now),
+            };
+            match reached_at {
+                Some(at) => not_before = not_before.max(shift(at, delay)),
+                None => unreached = true,
+            }
+        }
+        (unreached, not_before)
     }
 
     /// The arguments of `command` dispatched for `e` at `now`: its fixed ones, then those it

@@ -85,6 +85,7 @@ struct WideCondition {
 struct WideCommand {
     opcode: Opcode,
     args: Few<i32>,
+    from_instance: Few<InstanceArg>,
 }
 
 /// `TaskSpec` flattened: postcard puts no framing around a nested struct.
@@ -121,6 +122,7 @@ fn wide_command(c: &CommandSpec) -> WideCommand {
     WideCommand {
         opcode: c.opcode,
         args: wide(&c.args),
+        from_instance: wide(&c.from_instance),
     }
 }
 
@@ -291,9 +293,17 @@ fn commands_with_too_many_arguments_are_named_with_their_field() {
             n.tasks[1].on_failure_command = Some(WideCommand {
                 opcode: Opcode(7),
                 args: args.clone(),
+                from_instance: wide(&[]),
             })
         }),
         (TooManyCommandArgs, task(1, TaskField::Control))
+    );
+    // Instance arguments over the list's capacity (uplink format 5).
+    let from_instance: Few<InstanceArg> =
+        wide(&[InstanceArg::Instance; fsw_bridge::MAX_COMMAND_ARGS + 1]);
+    assert_eq!(
+        refused(|n| n.tasks[0].command.as_mut().unwrap().from_instance = from_instance.clone()),
+        (TooManyCommandArgs, task(0, TaskField::Command))
     );
     assert_eq!(TooManyCommandArgs.code(), 21);
 }

@@ -450,9 +450,12 @@ fn new_validation_codes_have_their_numbers() {
     assert_eq!(ValidationCode::ExternalTimeline.code(), 81);
     assert_eq!(ValidationCode::BadTimedValue.code(), 82);
     assert_eq!(ValidationCode::BadThresholds.code(), 83);
+    assert_eq!(ValidationCode::TemporalTemplatePair.code(), 84);
+    assert_eq!(ValidationCode::TemporalCycle.code(), 85);
+    assert_eq!(ValidationCode::BadInstanceArg.code(), 86);
     // And an uplink of a previous format is refused as such.
-    assert_eq!(UPLINK_FORMAT_VERSION, 4);
-    for previous in [1, 2, 3] {
+    assert_eq!(UPLINK_FORMAT_VERSION, 5);
+    for previous in [1, 2, 3, 4] {
         let mut bytes = encode(&flyby_spec());
         bytes[0] = previous;
         assert_eq!(

@@ -692,7 +692,8 @@ impl Planner {
         let of = match entry.origin {
             Origin::Requested => return crate::interface::NO_SERVED,
             Origin::Added { for_instance } => for_instance,
-            Origin::Restarted { of_instance } => of_instance,
+            // The failed instance was of the same definition (and may have left the plan).
+            Origin::Restarted { .. } => return entry.def,
         };
         self.entries
             .iter()
