@@ -86,6 +86,11 @@
 //! role = "requested"                # requested (default) | template
 //! priority = 40
 //! command = { opcode = 0x0201, args = [] }   # omit for a no-op task
+//! # arguments taken from the instance at dispatch, after `args` (at most 4 in all):
+//! # command = { opcode = 0x0101, args = [1], from_instance = ["served_arg_0", "end"] }
+//! #   instance: the instance id; end, duration: as executed, in whole mission seconds (a
+//! #   restart's shortened end); served_arg_K: argument K of the task the instance serves
+//! #   (the one a template instance was added for; a restart's failed instance), else -1
 //! duration = "50m"
 //! min_duration = "5m"               # default: duration
 //! earliest_start = "10:15"
@@ -118,6 +123,9 @@
 //! may_add = ["GncAttain NADIR (template)", "Instrument Degraded Flyby"]
 //!
 //! [[temporal]]                      # to_point(to) - from_point(from) in [min, max]
+//!                                   # between two requested tasks, or a template and a
+//!                                   # requested task: then every instance of the template
+//!                                   # is bound to the requested task (never two templates)
 //! from = "GncAttain NADIR"
 //! from_point = "end"
 //! to = "Instrument Flyby"
@@ -148,7 +156,7 @@ use autonomy::uplink::{ErrorSite, ResponseField, TaskField, ValidationError};
 use autonomy::{
     Backoff, CommandArgs, CommandSpec, CondNode, ConditionSpec, ConstraintSpec, ConstraintWhen,
     Contingency, ContingencyAction, ControlSpec, Effect, FailureKind, ImpactSpec, ImpactWhen,
-    InstanceArg,
+    InstanceArg, ParamSpec, ParamUse,
     MissionTimeUs, Name, NetworkSpec, Opcode, Operand, PerCause, Permissions, PlannerConfig, RelOp,
     Requirement, ResponsePolicy, StateKey, TaskNetwork, TaskPoint, TaskRole, TaskSpec,
     TemporalConstraint, TimelineKind, TimelineSpec,
@@ -285,6 +293,30 @@ struct RawFile {
     task: Vec<Spanned<RawTask>>,
     #[serde(default)]
     temporal: Vec<Spanned<RawTemporal>>,
+    #[serde(default)]
+    parameter: Vec<Spanned<RawParam>>,
+}
+
+/// A model parameter (uplink format 5): `prior`, `min`, `max` are durations (`"25min"`) when
+/// it sets durations, else numbers.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawParam {
+    name: String,
+    prior: RawNumOrText,
+    min: RawNumOrText,
+    max: RawNumOrText,
+    measured_by: Option<String>,
+    uses: Vec<RawParamUse>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawParamUse {
+    task: String,
+    #[serde(default)]
+    duration: bool,
+    impact: Option<u8>,
 }
 
 #[derive(Deserialize, Clone)]
@@ -500,6 +532,7 @@ struct Sites {
     timeline_thresholds: Vec<Option<Range<usize>>>,
     /// Each timed value and its path (`timeline[i].schedule[k]`).
     timed: Vec<(Range<usize>, String)>,
+    parameters: Vec<Range<usize>>,
 }
 
 struct Compiler<'a> {
@@ -629,6 +662,14 @@ impl<'a> Compiler<'a> {
                 .get(usize::from(i))
                 .cloned()
                 .unwrap_or((0..0, format!("timed value {i}"))),
+            ErrorSite::Param(i) => (
+                self.sites
+                    .parameters
+                    .get(usize::from(i))
+                    .cloned()
+                    .unwrap_or(0..0),
+                format!("parameter[{i}]"),
+            ),
             ErrorSite::Temporal(i) => (
                 self.sites
                     .temporal
@@ -1212,7 +1253,103 @@ impl<'a> Compiler<'a> {
                 ),
             ));
         }
+        self.parameters(&raw, &mut spec, &timeline_index)?;
         Ok((spec, symbols))
+    }
+
+    /// The `[[parameter]]` entries: each use's number in the tasks becomes the prior.
+    fn parameters(
+        &mut self,
+        raw: &RawFile,
+        spec: &mut NetworkSpec,
+        timeline_index: &dyn Fn(&str) -> Option<usize>,
+    ) -> Result<(), TaskNetError> {
+        for (i, p) in raw.parameter.iter().enumerate() {
+            let span = p.span();
+            let p = p.get_ref();
+            let path = field_path("parameter", i, "");
+            let durations = p.uses.iter().any(|u| u.duration);
+            let number = |v: &RawNumOrText| -> Result<i64, TaskNetError> {
+                match (v, durations) {
+                    (RawNumOrText::Int(n), false) => Ok(*n),
+                    (_, true) => self.duration_value(v, span.clone(), &path),
+                    (RawNumOrText::Text(t), false) => Err(self.error(
+                        span.clone(),
+                        &path,
+                        format!("`{t}`: a parameter of impacts is a number"),
+                    )),
+                }
+            };
+            let (prior, min, max) = (number(&p.prior)?, number(&p.min)?, number(&p.max)?);
+            let measured_by = match &p.measured_by {
+                Some(name) => Some(
+                    timeline_index(name)
+                        .and_then(|t| u8::try_from(t).ok())
+                        .ok_or_else(|| {
+                            self.error(span.clone(), &path, format!("no timeline named `{name}`"))
+                        })?,
+                ),
+                None => None,
+            };
+            let mut uses = heapless::Vec::new();
+            for u in &p.uses {
+                let Some(task) = spec.tasks.iter_mut().find(|t| t.name.as_str() == u.task) else {
+                    return Err(self.error(
+                        span.clone(),
+                        &path,
+                        format!("no task named `{}`", u.task),
+                    ));
+                };
+                let one_use = match (u.duration, u.impact) {
+                    (true, None) => {
+                        task.duration_us = u64::try_from(prior).unwrap_or(0);
+                        ParamUse::Duration { task: task.id }
+                    }
+                    (false, Some(k)) => {
+                        if let Some(
+                            Effect::Add(v) | Effect::Rate(v) | Effect::Assign(v),
+                        ) = task.impacts.get_mut(usize::from(k)).map(|i| &mut i.effect)
+                        {
+                            *v = prior;
+                        }
+                        ParamUse::Impact {
+                            task: task.id,
+                            impact: k,
+                        }
+                    }
+                    _ => {
+                        return Err(self.error(
+                            span.clone(),
+                            &path,
+                            "each use sets either the task's duration (duration = true) or \
+                             one of its impacts (impact = index)"
+                                .into(),
+                        ))
+                    }
+                };
+                if uses.push(one_use).is_err() {
+                    return Err(self.capacity(
+                        span.clone(),
+                        &path,
+                        "uses of one parameter",
+                        autonomy::MAX_PARAM_USES,
+                    ));
+                }
+            }
+            let param = ParamSpec {
+                prior,
+                value: prior,
+                min,
+                max,
+                measured_by,
+                uses,
+            };
+            if spec.params.push(param).is_err() {
+                return Err(self.capacity(span, &path, "parameters", autonomy::MAX_PARAMS));
+            }
+            self.sites.parameters.push(span);
+        }
+        Ok(())
     }
 
     fn capacity(&self, span: Range<usize>, field: &str, what: &str, max: usize) -> TaskNetError {
@@ -1818,7 +1955,14 @@ fn describe(e: ValidationError) -> &'static str {
         | TooManyTemporalConstraints
         | TooManyCommandArgs
         | TooManyTimedValues
+        | TooManyParams
         | TooManyThresholds => "over the target's capacity",
+        BadParam => {
+            "a parameter's min and max must hold its prior; it is measured by a measured \
+             cumulative timeline; a duration it sets is at least the task's min_duration and \
+             at most 30 days; an impact it sets is an add, rate or assign on a cumulative \
+             timeline"
+        }
         TooManyStateValues => "a state timeline needs 1 to 32 values",
         NameTooLong => "name too long",
         DuplicateTaskId => "another task has this id",

@@ -509,6 +509,9 @@ impl Planner {
             match self.phase {
                 Phase::Idle => break,
                 Phase::Consolidate => {
+                    if !network.params().is_empty() {
+                        self.refresh_durations(network);
+                    }
                     consolidate(
                         network,
                         &mut self.entries,
@@ -684,6 +687,25 @@ impl Planner {
                 TaskState::Committed,
                 ctx.now,
             );
+        }
+    }
+
+    /// Scheduled (uncommitted) instances take their definitions' durations as the model
+    /// parameters now say (a measurement changed one): the next plan uses the new values, and
+    /// a placement the change made invalid is a conflict the repair phase handles.
+    fn refresh_durations(&mut self, network: &TaskNetwork) {
+        for i in 0..self.entries.len() {
+            let Some(e) = self.entries.get(i).copied() else {
+                continue;
+            };
+            if e.state != TaskState::Scheduled {
+                continue;
+            }
+            if let Some(end) = Self::end_for(network, &e, e.start) {
+                if let Some(x) = self.entries.get_mut(i) {
+                    x.end = end;
+                }
+            }
         }
     }
 

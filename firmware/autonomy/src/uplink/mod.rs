@@ -3,7 +3,8 @@
 //!
 //! Format (postcard throughout, [`crate::UPLINK_FORMAT_VERSION`]):
 //! `NetworkHeader, u16 n, n x TimelineSpec, u16 n, n x ConditionSpec, u16 n, n x TaskSpec,
-//! u16 n, n x TemporalConstraint, u16 n, n x TimedValue`, and nothing after.
+//! u16 n, n x TemporalConstraint, u16 n, n x TimedValue, u16 n, n x ParamSpec`, and nothing
+//! after.
 //!
 //! [`validate_uplink`] walks the bytes one element at a time (no temporary larger than one
 //! [`TaskSpec`]), so a rejected uplink never touches the running network; only then does
@@ -34,7 +35,7 @@ pub use validate::{
     validate_temporal, validate_temporal_cycles, validate_timed_value, validate_timeline,
     TaskContext, TaskDurations,
 };
-use validate::note_durations;
+use validate::{note_durations, validate_param, validate_param_uses, validate_params_found};
 
 /// Why an uplink was refused. `code as u16` is what reaches the host.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -78,6 +79,8 @@ pub enum ValidationCode {
     TooManyTimedValues = 22,
     /// More than [`MAX_THRESHOLDS`] thresholds on a timeline.
     TooManyThresholds = 23,
+    /// More than [`MAX_PARAMS`] model parameters.
+    TooManyParams = 24,
     /// Two tasks share an id.
     DuplicateTaskId = 30,
     /// A ground task id at or above [`FIRST_INSTANCE_ID`].
@@ -173,6 +176,12 @@ pub enum ValidationCode {
     /// ([`InstanceArg::Served`] at or past [`fsw_bridge::MAX_COMMAND_ARGS`]), or a command
     /// with more than [`fsw_bridge::MAX_COMMAND_ARGS`] fixed and instance arguments together.
     BadInstanceArg = 86,
+    /// A model parameter whose bounds do not hold its prior and value, that a timeline
+    /// measures which is not a measured cumulative one, or with a use that names no task, a
+    /// duration its bounds do not fit (at least the task's minimum duration, at most 30
+    /// days), an impact without a magnitude, a magnitude over [`MAX_MAGNITUDE`], or a number
+    /// that is not the parameter's value.
+    BadParam = 87,
 }
 
 impl ValidationCode {
@@ -232,6 +241,8 @@ pub enum ErrorSite {
     /// The thresholds of a timeline.
     TimelineThresholds(u8),
     TimedValue(u8),
+    /// A model parameter.
+    Param(u8),
 }
 
 /// A rejected uplink: what and where.
@@ -365,6 +376,31 @@ pub fn validate_uplink(bytes: &[u8]) -> VResult {
         let tv: TimedValue = r.take(ErrorSite::TimedValue(u8_index(i)))?;
         validate_timed_value(i, &tv, &timelines, &mut last_at)?;
     }
+    let param_count = r.count(
+        MAX_PARAMS,
+        TooManyParams,
+        ErrorSite::Param(u8_index(MAX_PARAMS)),
+    )?;
+    if param_count > 0 {
+        let mut params: Vec<ParamSpec, MAX_PARAMS> = Vec::new();
+        for i in 0..param_count {
+            let p: ParamSpec = r.take(ErrorSite::Param(u8_index(i)))?;
+            validate_param(i, &p, &timelines)?;
+            let _ = params.push(p);
+        }
+        // Each use against its task, from one more walk over the tasks (only networks with
+        // parameters pay for it).
+        let after_params = r.rest;
+        r.rest = tasks_start;
+        for i in 0..task_count {
+            let t = r.task(i)?;
+            validate_param_uses(&params, &t, &timelines)?;
+        }
+        r.rest = after_params;
+        for (i, p) in params.iter().enumerate() {
+            validate_params_found(i, p, &ids)?;
+        }
+    }
     if !r.rest.is_empty() {
         return err(TrailingBytes, ErrorSite::Network);
     }
@@ -393,6 +429,9 @@ pub fn decode_into(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
         TooManyTimedValues,
         |r: &mut Reader<'_>, i| r.take(ErrorSite::TimedValue(u8_index(i))),
     )?;
+    r.refill(&mut spec.params, TooManyParams, |r: &mut Reader<'_>, i| {
+        r.take(ErrorSite::Param(u8_index(i)))
+    })?;
     Ok(())
 }
 
@@ -471,6 +510,18 @@ pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult 
         let tv = r.take(ErrorSite::TimedValue(u8_index(i)))?;
         spec.timed.push(tv).map_err(|_| {
             ValidationError::new(TooManyTimedValues, ErrorSite::TimedValue(u8_index(i)))
+        })?;
+    }
+    spec.params.clear();
+    let param_count = r.count(
+        MAX_PARAMS,
+        TooManyParams,
+        ErrorSite::Param(u8_index(MAX_PARAMS)),
+    )?;
+    for i in 0..param_count {
+        let p = r.take(ErrorSite::Param(u8_index(i)))?;
+        spec.params.push(p).map_err(|_| {
+            ValidationError::new(TooManyParams, ErrorSite::Param(u8_index(i)))
         })?;
     }
     if !r.rest.is_empty() {

@@ -496,6 +496,84 @@ pub fn validate_spec(spec: &NetworkSpec) -> VResult {
     for (i, tv) in spec.timed.iter().enumerate() {
         validate_timed_value(i, tv, &spec.timelines, &mut last_at)?;
     }
+    for (i, p) in spec.params.iter().enumerate() {
+        validate_param(i, p, &spec.timelines)?;
+    }
+    if !spec.params.is_empty() {
+        for t in spec.tasks.iter() {
+            validate_param_uses(&spec.params, t, &spec.timelines)?;
+        }
+        for (i, p) in spec.params.iter().enumerate() {
+            validate_params_found(i, p, &ids)?;
+        }
+    }
+    Ok(())
+}
+
+/// Checks model parameter `index` on its own: its bounds hold its prior and value (within
+/// [`MAX_MAGNITUDE`]), and a timeline that measures it is a measured cumulative one.
+pub fn validate_param(index: usize, p: &ParamSpec, timelines: &[TimelineSpec]) -> VResult {
+    use ValidationCode::*;
+    let site = ErrorSite::Param(u8_index(index));
+    let bounded = p.min <= p.max
+        && check_magnitude(p.min)
+        && check_magnitude(p.max)
+        && (p.min..=p.max).contains(&p.prior)
+        && (p.min..=p.max).contains(&p.value);
+    if !bounded {
+        return err(BadParam, site);
+    }
+    if let Some(tl) = p.measured_by {
+        let Some(t) = timelines.get(usize::from(tl)) else {
+            return err(DanglingTimeline, site);
+        };
+        if t.state_key.is_none() || !matches!(t.kind, TimelineKind::Cumulative { .. }) {
+            return err(BadParam, site);
+        }
+    }
+    Ok(())
+}
+
+/// Checks every use of `params` that names `task`: a duration its parameter's bounds fit, an
+/// impact with a magnitude, and the number it holds is the parameter's value.
+pub fn validate_param_uses(
+    params: &[ParamSpec],
+    task: &TaskSpec,
+    timelines: &[TimelineSpec],
+) -> VResult {
+    for (i, p) in params.iter().enumerate() {
+        let site = ErrorSite::Param(u8_index(i));
+        for &u in p.uses.iter() {
+            let fits = match u {
+                ParamUse::Duration { task: id } if id == task.id => {
+                    i128::from(p.min) >= i128::from(task.min_duration_us.max(1))
+                        && i128::from(p.max) <= i128::from(MAX_DURATION_US)
+                }
+                ParamUse::Impact { task: id, impact } if id == task.id => task
+                    .impacts
+                    .get(usize::from(impact))
+                    .and_then(|i| timelines.get(usize::from(i.timeline)))
+                    .is_some_and(|t| matches!(t.kind, TimelineKind::Cumulative { .. })),
+                _ => continue,
+            };
+            let holds = use_value(core::slice::from_ref(task), u) == Some(p.value);
+            if !fits || !holds {
+                return err(ValidationCode::BadParam, site);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Checks that every use of parameter `index` names a task of the network.
+pub fn validate_params_found(index: usize, p: &ParamSpec, ids: &[(u16, TaskRole)]) -> VResult {
+    let named = |id: u16| ids.iter().any(|&(i, _)| i == id);
+    let all = p.uses.iter().all(|u| match *u {
+        ParamUse::Duration { task } | ParamUse::Impact { task, .. } => named(task),
+    });
+    if !all {
+        return err(ValidationCode::BadParam, ErrorSite::Param(u8_index(index)));
+    }
     Ok(())
 }
 
