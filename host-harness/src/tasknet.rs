@@ -132,6 +132,14 @@
 //! to_point = "start"
 //! min = "0s"
 //! max = "1h"
+//!
+//! [[parameter]]                     # a model parameter (format 5): the durations and impact
+//! name = "PassLength"               # magnitudes it names take its prior, and every
+//! prior = "25min"                   # measurement of `measured_by` within [min, max] replaces
+//! min = "15min"                     # it (durations: duration text; impacts: numbers)
+//! max = "30min"
+//! measured_by = "PassLengthReport"  # a measured cumulative timeline; omit: fixed
+//! uses = [ { task = "Downlink Pass 2", duration = true } ]   # or { task = ..., impact = 1 }
 //! ```
 //!
 //! Staleness (`stale_after`, a duration): a state-buffer value measured at `t` reads UNKNOWN to
@@ -156,10 +164,9 @@ use autonomy::uplink::{ErrorSite, ResponseField, TaskField, ValidationError};
 use autonomy::{
     Backoff, CommandArgs, CommandSpec, CondNode, ConditionSpec, ConstraintSpec, ConstraintWhen,
     Contingency, ContingencyAction, ControlSpec, Effect, FailureKind, ImpactSpec, ImpactWhen,
-    InstanceArg, ParamSpec, ParamUse,
-    MissionTimeUs, Name, NetworkSpec, Opcode, Operand, PerCause, Permissions, PlannerConfig, RelOp,
-    Requirement, ResponsePolicy, StateKey, TaskNetwork, TaskPoint, TaskRole, TaskSpec,
-    TemporalConstraint, TimelineKind, TimelineSpec,
+    InstanceArg, MissionTimeUs, Name, NetworkSpec, Opcode, Operand, ParamSpec, ParamUse, PerCause,
+    Permissions, PlannerConfig, RelOp, Requirement, ResponsePolicy, StateKey, TaskNetwork,
+    TaskPoint, TaskRole, TaskSpec, TemporalConstraint, TimelineKind, TimelineSpec,
 };
 use serde::Deserialize;
 use toml::Spanned;
@@ -1297,7 +1304,7 @@ impl<'a> Compiler<'a> {
                     return Err(self.error(
                         span.clone(),
                         &path,
-                        format!("no task named `{}`", u.task),
+                        format!("parameter `{}`: no task named `{}`", p.name, u.task),
                     ));
                 };
                 let one_use = match (u.duration, u.impact) {
@@ -1306,9 +1313,8 @@ impl<'a> Compiler<'a> {
                         ParamUse::Duration { task: task.id }
                     }
                     (false, Some(k)) => {
-                        if let Some(
-                            Effect::Add(v) | Effect::Rate(v) | Effect::Assign(v),
-                        ) = task.impacts.get_mut(usize::from(k)).map(|i| &mut i.effect)
+                        if let Some(Effect::Add(v) | Effect::Rate(v) | Effect::Assign(v)) =
+                            task.impacts.get_mut(usize::from(k)).map(|i| &mut i.effect)
                         {
                             *v = prior;
                         }

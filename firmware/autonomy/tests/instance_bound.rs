@@ -20,13 +20,23 @@ const HEAT: u16 = 1;
 const PASS: u16 = 2;
 const POINT: u16 = 10;
 
-fn task(id: u16, role: TaskRole, opcode: Opcode, args: &[i32], window: (u64, u64), duration: u64) -> TaskSpec {
+fn task(
+    id: u16,
+    role: TaskRole,
+    opcode: Opcode,
+    args: &[i32],
+    window: (u64, u64),
+    duration: u64,
+) -> TaskSpec {
     TaskSpec {
         id,
         name: Name::try_from(format!("t{id}").as_str()).unwrap(),
         priority: 0,
         role,
-        command: Some(CommandSpec::fixed(opcode, CommandArgs::from_slice(args).unwrap())),
+        command: Some(CommandSpec::fixed(
+            opcode,
+            CommandArgs::from_slice(args).unwrap(),
+        )),
         duration_us: duration * SEC,
         min_duration_us: duration * SEC,
         earliest_start: MissionTimeUs(window.0 * SEC),
@@ -91,7 +101,11 @@ fn network(temporal: &[TemporalConstraint]) -> NetworkSpec {
         })
         .unwrap();
     let command = point.command.as_mut().unwrap();
-    for a in [InstanceArg::Served(0), InstanceArg::Served(1), InstanceArg::EndS] {
+    for a in [
+        InstanceArg::Served(0),
+        InstanceArg::Served(1),
+        InstanceArg::EndS,
+    ] {
         command.from_instance.push(a).unwrap();
     }
     for t in [heat, pass, point] {
@@ -239,11 +253,19 @@ fn the_executive_holds_the_helper_until_60_s_after_a_late_end() {
 #[test]
 fn the_helper_command_carries_the_served_task_arguments_and_its_end() {
     let d = run(uplinked(network(&[AFTER_HEAT])), 400, &at_once);
-    let point: Vec<&Vec<i32>> = d.iter().filter(|x| x.1 == OP_POINT.0).map(|x| &x.2).collect();
+    let point: Vec<&Vec<i32>> = d
+        .iter()
+        .filter(|x| x.1 == OP_POINT.0)
+        .map(|x| &x.2)
+        .collect();
     // Its fixed 1, the Pass's site 7 and target 3, its end (170 + 50 s).
     assert_eq!(point, vec![&vec![1, 7, 3, 220]]);
     // The requested tasks' commands are as written.
-    let pass: Vec<&Vec<i32>> = d.iter().filter(|x| x.1 == OP_PASS.0).map(|x| &x.2).collect();
+    let pass: Vec<&Vec<i32>> = d
+        .iter()
+        .filter(|x| x.1 == OP_PASS.0)
+        .map(|x| &x.2)
+        .collect();
     assert_eq!(pass, vec![&vec![7, 3]]);
 }
 
@@ -265,7 +287,11 @@ fn a_restart_shortens_the_end_its_command_carries() {
         })
         .unwrap();
     let command = t.command.as_mut().unwrap();
-    for a in [InstanceArg::EndS, InstanceArg::DurationS, InstanceArg::Served(0)] {
+    for a in [
+        InstanceArg::EndS,
+        InstanceArg::DurationS,
+        InstanceArg::Served(0),
+    ] {
         command.from_instance.push(a).unwrap();
     }
     n.tasks.push(t).unwrap();
@@ -407,7 +433,10 @@ fn instance_arguments_that_cannot_exist_are_refused() {
     // On the failure command too.
     let mut n = network(&[]);
     let mut on_failure = CommandSpec::fixed(OP_POINT, CommandArgs::new());
-    on_failure.from_instance.push(InstanceArg::Served(7)).unwrap();
+    on_failure
+        .from_instance
+        .push(InstanceArg::Served(7))
+        .unwrap();
     n.tasks[0].control.on_failure_command = Some(on_failure);
     assert_eq!(
         rejected(&n),

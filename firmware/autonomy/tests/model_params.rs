@@ -160,7 +160,13 @@ fn tasks_take_the_prior_until_a_measurement_changes_it_and_the_next_plan_uses_th
     a.load_network(network).unwrap();
     let mut out = Recorder::default();
     // Pass 1 runs its prior, 100 s; at 200 s the subsystem reports 60 s for a pass.
-    fly(&mut a, 0, 700, &[(200, LENGTH_KEY, 60 * SEC as i64)], &mut out);
+    fly(
+        &mut a,
+        0,
+        700,
+        &[(200, LENGTH_KEY, 60 * SEC as i64)],
+        &mut out,
+    );
     assert_eq!(completions(&out, 1), vec![110]);
     // Pass 2 was planned with 100 s; the plan after the measurement gives it 60 s.
     assert_eq!(completions(&out, 2), vec![560]);
@@ -185,7 +191,13 @@ fn a_measurement_outside_the_bounds_is_not_taken() {
     a.load_network(uplinked(network())).unwrap();
     let mut out = Recorder::default();
     // 500 s is over the 200 s bound: pass 2 keeps its 100 s.
-    fly(&mut a, 0, 700, &[(200, LENGTH_KEY, 500 * SEC as i64)], &mut out);
+    fly(
+        &mut a,
+        0,
+        700,
+        &[(200, LENGTH_KEY, 500 * SEC as i64)],
+        &mut out,
+    );
     assert_eq!(completions(&out, 2), vec![600]);
     assert_eq!(a.network().params()[0].value, 100 * SEC as i64);
 }
@@ -207,7 +219,10 @@ fn an_energy_parameter_sets_the_drain_the_plan_projects() {
     fly(&mut a, 0, 5, &[], &mut out);
     let view = a.planner().view(a.network());
     // Pass 1 from 10 s: 10,000 - 7 * 50 at 60 s.
-    assert_eq!(view.value_at(TL_BATTERY, MissionTimeUs(60 * SEC)), 10_000 - 350);
+    assert_eq!(
+        view.value_at(TL_BATTERY, MissionTimeUs(60 * SEC)),
+        10_000 - 350
+    );
 }
 
 #[test]
@@ -215,7 +230,13 @@ fn an_updated_parameter_survives_a_warm_reset() {
     let mut a = Box::new(Autonomy::new());
     a.load_network(uplinked(network())).unwrap();
     let mut out = Recorder::default();
-    fly(&mut a, 0, 300, &[(200, LENGTH_KEY, 60 * SEC as i64)], &mut out);
+    fly(
+        &mut a,
+        0,
+        300,
+        &[(200, LENGTH_KEY, 60 * SEC as i64)],
+        &mut out,
+    );
     let mut bytes = vec![0u8; WARM_AREA_LEN];
     let mut area = WarmRestartArea::new(&mut bytes);
     a.checkpoint_record_to(&mut area).unwrap();
@@ -248,7 +269,10 @@ fn parameters_that_cannot_be_are_refused() {
         rejected(&n)
     };
     // The prior outside its bounds.
-    assert_eq!(refused(&|n| n.params[0].min = 150 * SEC as i64), (BadParam, at0));
+    assert_eq!(
+        refused(&|n| n.params[0].min = 150 * SEC as i64),
+        (BadParam, at0)
+    );
     // Measured by a timeline that is not measured, or not cumulative.
     assert_eq!(
         refused(&|n| n.timelines[0].state_key = None),
@@ -259,7 +283,10 @@ fn parameters_that_cannot_be_are_refused() {
         (DanglingTimeline, at0)
     );
     // A duration below the task's minimum duration is allowed by the bounds.
-    assert_eq!(refused(&|n| n.params[0].min = 10 * SEC as i64), (BadParam, at0));
+    assert_eq!(
+        refused(&|n| n.params[0].min = 10 * SEC as i64),
+        (BadParam, at0)
+    );
     // A task whose duration is not the parameter's value.
     assert_eq!(
         refused(&|n| n.tasks[1].duration_us = 90 * SEC),

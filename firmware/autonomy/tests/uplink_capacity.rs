@@ -62,6 +62,7 @@ struct WideNetwork {
     tasks: Wide<WideTask>,
     temporal: Wide<TemporalConstraint>,
     timed: Wide<TimedValue>,
+    params: Wide<ParamSpec>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -184,6 +185,7 @@ impl From<&NetworkSpec> for WideNetwork {
                 .collect(),
             temporal: wide(&n.temporal),
             timed: wide(&n.timed),
+            params: wide(&n.params),
         }
     }
 }
@@ -431,14 +433,14 @@ fn bytes_that_do_not_decode_are_named_with_the_field_they_are_in() {
     prefix.tasks.truncate(t);
     let mut whole_task = n.clone();
     whole_task.tasks.truncate(t + 1);
-    let before_task = encode_wide(&prefix).len() - 2; // minus the temporal and timed counts
+    let before_task = encode_wide(&prefix).len() - 3; // minus the temporal, timed, param counts
     let task_bytes = &encode_wide(&whole_task)[before_task..];
     let (task_back, rest) = take_task(task_bytes, t).unwrap();
     assert_eq!(task_back, flyby_spec().tasks[t]);
-    assert_eq!(rest, &[0u8, 0]); // the temporal and timed counts of `whole_task`
-                                 // The task's bytes cut at every length: each cut is Decode at the field it falls in.
+    assert_eq!(rest, &[0u8, 0, 0]); // the temporal, timed and param counts of `whole_task`
+                                    // The task's bytes cut at every length: each cut is Decode at the field it falls in.
     let mut sites = std::collections::BTreeSet::new();
-    for cut in 0..task_bytes.len() - 2 {
+    for cut in 0..task_bytes.len() - 3 {
         let e = take_task(&task_bytes[..cut], t).unwrap_err();
         assert_eq!(e.code, Decode, "cut at {cut}");
         sites.insert(format!("{:?}", e.site));

@@ -244,8 +244,8 @@ pub(crate) fn check_planner_restored(
         check(times.into_iter().all(time_ok), TimeOutOfRange, at)?;
         // Until it ends, an instance spans at most its definition's duration (a start report
         // keeps the span, so a longer one would push its end out of range).
-        let span_ok =
-            e.state.is_terminal() || (e.start <= e.end && e.end.0 - e.start.0 <= network.max_duration_us(e.def));
+        let span_ok = e.state.is_terminal()
+            || (e.start <= e.end && e.end.0 - e.start.0 <= network.max_duration_us(e.def));
         check(span_ok, TimeOutOfRange, at)?;
         let executive_state = matches!(e.state, TaskState::WaitingPre | TaskState::Dispatched);
         let unstarted = matches!(

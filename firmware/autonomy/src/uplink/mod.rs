@@ -30,12 +30,12 @@ pub use encode::{encode_spec, BufferTooSmall};
 use reader::Reader;
 pub use reader::{take_condition, take_task, take_timeline};
 use validate::push_id;
+use validate::{note_durations, validate_param, validate_param_uses, validate_params_found};
 pub use validate::{
     stale_bound_in_range, validate_condition, validate_header, validate_spec, validate_task,
     validate_temporal, validate_temporal_cycles, validate_timed_value, validate_timeline,
     TaskContext, TaskDurations,
 };
-use validate::{note_durations, validate_param, validate_param_uses, validate_params_found};
 
 /// Why an uplink was refused. `code as u16` is what reaches the host.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -520,9 +520,9 @@ pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult 
     )?;
     for i in 0..param_count {
         let p = r.take(ErrorSite::Param(u8_index(i)))?;
-        spec.params.push(p).map_err(|_| {
-            ValidationError::new(TooManyParams, ErrorSite::Param(u8_index(i)))
-        })?;
+        spec.params
+            .push(p)
+            .map_err(|_| ValidationError::new(TooManyParams, ErrorSite::Param(u8_index(i))))?;
     }
     if !r.rest.is_empty() {
         return err(TrailingBytes, ErrorSite::Network);
