@@ -131,8 +131,33 @@ pub fn temporal_window(
                 .task(def)
                 .is_some_and(|t| t.role == TaskRole::Requested)
     };
-    const NODES: usize = 1 + 2 * MAX_TASKS;
-    let node = |def: usize, point: TaskPoint| 1 + 2 * def + usize::from(point == TaskPoint::End);
+    // The nodes: the zero point, then the start and end of each task a counted constraint
+    // names (a task no constraint names cannot bound another). At most 33 tasks, so the
+    // distance arrays stay small on the partition's stack (a node per task definition made
+    // 8 KiB of them, allocated by every call).
+    const MAX_NAMED: usize = 2 * MAX_TEMPORAL_CONSTRAINTS + 1;
+    const NODES: usize = 1 + 2 * MAX_NAMED;
+    let mut named: Vec<u8, MAX_NAMED> = Vec::new();
+    let _ = named.push(entry.def);
+    for tc in network.temporal() {
+        let (Some(a), Some(b)) = (
+            network.def_of_id(tc.from_task),
+            network.def_of_id(tc.to_task),
+        ) else {
+            continue;
+        };
+        if counts(a) && counts(b) {
+            for d in [a, b] {
+                if !named.contains(&d) {
+                    let _ = named.push(d);
+                }
+            }
+        }
+    }
+    let slot = |def: usize| named.iter().position(|&d| usize::from(d) == def);
+    let node = |def: usize, point: TaskPoint| {
+        slot(def).map_or(NODES, |k| 1 + 2 * k + usize::from(point == TaskPoint::End))
+    };
     let tasks = network.tasks();
     // Calls f(from, to, weight) for every edge: to - from <= weight.
     let edges = |f: &mut dyn FnMut(usize, usize, i64)| {
@@ -160,7 +185,7 @@ pub fn temporal_window(
             f(e, s, (my_spec.min_duration_us as i64).saturating_neg());
         }
         for (d, t) in tasks.iter().enumerate() {
-            if t.role != TaskRole::Requested {
+            if t.role != TaskRole::Requested || slot(d).is_none() {
                 continue;
             }
             let (s, e) = (node(d, TaskPoint::Start), node(d, TaskPoint::End));
