@@ -2099,6 +2099,65 @@ mod tests {
         );
     }
 
+    const POINTING: &str = include_str!("../../scenarios/tasknets/orbiter-pointing.toml");
+
+    #[test]
+    fn format_5_fields_compile_into_the_spec_and_pass_the_target_validator() {
+        let net = compile_str(POINTING, "orbiter-pointing.toml").unwrap();
+        TaskNetwork::validate_uplink(&net.uplink).unwrap();
+        let spec = net.network.spec();
+        let point = spec.tasks.iter().find(|t| t.id == 10).unwrap();
+        assert_eq!(
+            point.command.as_ref().unwrap().from_instance.as_slice(),
+            &[
+                InstanceArg::Served(0),
+                InstanceArg::Served(1),
+                InstanceArg::EndS
+            ]
+        );
+        // A temporal constraint from a requested task to a template.
+        assert_eq!(spec.temporal.len(), 1);
+        assert_eq!(
+            (spec.temporal[0].from_task, spec.temporal[0].to_task),
+            (1, 10)
+        );
+        // The parameter: its prior is the pass's duration, measured by PassLengthReport.
+        let p = &spec.params[0];
+        assert_eq!(
+            (p.prior, p.min, p.max),
+            (1_500_000_000, 600_000_000, 1_800_000_000)
+        );
+        assert_eq!(
+            p.measured_by,
+            net.network.timeline_by_name("PassLengthReport")
+        );
+        assert_eq!(p.uses.as_slice(), &[ParamUse::Duration { task: 2 }]);
+        assert_eq!(spec.tasks[1].duration_us, 1_500_000_000);
+    }
+
+    #[test]
+    fn format_5_mistakes_are_reported_at_their_field() {
+        let bad_arg = POINTING.replace("\"served_arg_1\"", "\"served_arg_9\"");
+        let e = compile_str(&bad_arg, "p.toml").unwrap_err();
+        assert!(
+            e.message
+                .contains("unknown instance argument `served_arg_9`"),
+            "{e}"
+        );
+        // A template related to itself: refused at the entry.
+        let pair = POINTING.replace("from = \"Heat Transmitter\"", "from = \"Point At Earth\"");
+        let e = compile_str(&pair, "p.toml").unwrap_err();
+        assert!(e.field.starts_with("temporal[0]"), "{e}");
+        // A parameter whose minimum is below the pass's minimum duration.
+        let short = POINTING.replace("min_duration = \"10min\"", "min_duration = \"15min\"");
+        let e = compile_str(&short, "p.toml").unwrap_err();
+        assert_eq!(
+            (e.field.as_str(), e.code),
+            ("parameter[0]", Some(87)),
+            "{e}"
+        );
+    }
+
     #[test]
     fn temporal_constraints_no_schedule_can_meet_are_refused_naming_the_cycle() {
         let tasks = "\n[[task]]\nid = 1\nname = \"a\"\nduration = \"1m\"\n\n[[task]]\nid = 2\nname = \"b\"\nduration = \"1m\"\n";
