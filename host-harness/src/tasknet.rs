@@ -1260,7 +1260,7 @@ impl<'a> Compiler<'a> {
                 ),
             ));
         }
-        self.parameters(&raw, &mut spec, &timeline_index)?;
+        self.parameters(raw, &mut spec, &timeline_index)?;
         Ok((spec, symbols))
     }
 
