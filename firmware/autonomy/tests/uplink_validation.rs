@@ -177,7 +177,7 @@ fn byte_level_defects_are_refused() {
         ValidationCode::TrailingBytes
     );
     assert_eq!(
-        validate_uplink(&bytes[..bytes.len() - 3]).unwrap_err().code,
+        validate_uplink(&bytes[..bytes.len() - 4]).unwrap_err().code,
         ValidationCode::Decode
     );
     let mut version = bytes.clone();
@@ -191,7 +191,7 @@ fn byte_level_defects_are_refused() {
     spec.tasks.clear();
     spec.temporal.clear();
     let mut short = encode(&spec);
-    short.truncate(short.len() - 3); // drop "0 tasks, 0 temporal, 0 timed values"
+    short.truncate(short.len() - 4); // drop "0 tasks, 0 temporal, 0 timed values, 0 parameters"
     let mut count = [0u8; 3];
     let count = postcard::to_slice(&((MAX_TASKS + 1) as u16), &mut count).unwrap();
     short.extend_from_slice(count);
