@@ -86,6 +86,11 @@
 //! role = "requested"                # requested (default) | template
 //! priority = 40
 //! command = { opcode = 0x0201, args = [] }   # omit for a no-op task
+//! # arguments taken from the instance at dispatch, after `args` (at most 4 in all):
+//! # command = { opcode = 0x0101, args = [1], from_instance = ["served_arg_0", "end"] }
+//! #   instance: the instance id; end, duration: as executed, in whole mission seconds (a
+//! #   restart's shortened end); served_arg_K: argument K of the task the instance serves
+//! #   (the one a template instance was added for; a restart's failed instance), else -1
 //! duration = "50m"
 //! min_duration = "5m"               # default: duration
 //! earliest_start = "10:15"
@@ -118,12 +123,23 @@
 //! may_add = ["GncAttain NADIR (template)", "Instrument Degraded Flyby"]
 //!
 //! [[temporal]]                      # to_point(to) - from_point(from) in [min, max]
+//!                                   # between two requested tasks, or a template and a
+//!                                   # requested task: then every instance of the template
+//!                                   # is bound to the requested task (never two templates)
 //! from = "GncAttain NADIR"
 //! from_point = "end"
 //! to = "Instrument Flyby"
 //! to_point = "start"
 //! min = "0s"
 //! max = "1h"
+//!
+//! [[parameter]]                     # a model parameter (format 5): the durations and impact
+//! name = "PassLength"               # magnitudes it names take its prior, and every
+//! prior = "25min"                   # measurement of `measured_by` within [min, max] replaces
+//! min = "15min"                     # it (durations: duration text; impacts: numbers)
+//! max = "30min"
+//! measured_by = "PassLengthReport"  # a measured cumulative timeline; omit: fixed
+//! uses = [ { task = "Downlink Pass 2", duration = true } ]   # or { task = ..., impact = 1 }
 //! ```
 //!
 //! Staleness (`stale_after`, a duration): a state-buffer value measured at `t` reads UNKNOWN to
@@ -148,9 +164,9 @@ use autonomy::uplink::{ErrorSite, ResponseField, TaskField, ValidationError};
 use autonomy::{
     Backoff, CommandArgs, CommandSpec, CondNode, ConditionSpec, ConstraintSpec, ConstraintWhen,
     Contingency, ContingencyAction, ControlSpec, Effect, FailureKind, ImpactSpec, ImpactWhen,
-    MissionTimeUs, Name, NetworkSpec, Opcode, Operand, PerCause, Permissions, PlannerConfig, RelOp,
-    Requirement, ResponsePolicy, StateKey, TaskNetwork, TaskPoint, TaskRole, TaskSpec,
-    TemporalConstraint, TimelineKind, TimelineSpec,
+    InstanceArg, MissionTimeUs, Name, NetworkSpec, Opcode, Operand, ParamSpec, ParamUse, PerCause,
+    Permissions, PlannerConfig, RelOp, Requirement, ResponsePolicy, StateKey, TaskNetwork,
+    TaskPoint, TaskRole, TaskSpec, TemporalConstraint, TimelineKind, TimelineSpec,
 };
 use serde::Deserialize;
 use toml::Spanned;
@@ -284,6 +300,30 @@ struct RawFile {
     task: Vec<Spanned<RawTask>>,
     #[serde(default)]
     temporal: Vec<Spanned<RawTemporal>>,
+    #[serde(default)]
+    parameter: Vec<Spanned<RawParam>>,
+}
+
+/// A model parameter (uplink format 5): `prior`, `min`, `max` are durations (`"25min"`) when
+/// it sets durations, else numbers.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawParam {
+    name: String,
+    prior: RawNumOrText,
+    min: RawNumOrText,
+    max: RawNumOrText,
+    measured_by: Option<String>,
+    uses: Vec<RawParamUse>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawParamUse {
+    task: String,
+    #[serde(default)]
+    duration: bool,
+    impact: Option<u8>,
 }
 
 #[derive(Deserialize, Clone)]
@@ -380,6 +420,8 @@ struct RawCommand {
     opcode: u16,
     #[serde(default)]
     args: Vec<i32>,
+    #[serde(default)]
+    from_instance: Vec<String>,
 }
 
 #[derive(Deserialize)]
@@ -497,6 +539,7 @@ struct Sites {
     timeline_thresholds: Vec<Option<Range<usize>>>,
     /// Each timed value and its path (`timeline[i].schedule[k]`).
     timed: Vec<(Range<usize>, String)>,
+    parameters: Vec<Range<usize>>,
 }
 
 struct Compiler<'a> {
@@ -626,6 +669,14 @@ impl<'a> Compiler<'a> {
                 .get(usize::from(i))
                 .cloned()
                 .unwrap_or((0..0, format!("timed value {i}"))),
+            ErrorSite::Param(i) => (
+                self.sites
+                    .parameters
+                    .get(usize::from(i))
+                    .cloned()
+                    .unwrap_or(0..0),
+                format!("parameter[{i}]"),
+            ),
             ErrorSite::Temporal(i) => (
                 self.sites
                     .temporal
@@ -1209,7 +1260,102 @@ impl<'a> Compiler<'a> {
                 ),
             ));
         }
+        self.parameters(raw, &mut spec, &timeline_index)?;
         Ok((spec, symbols))
+    }
+
+    /// The `[[parameter]]` entries: each use's number in the tasks becomes the prior.
+    fn parameters(
+        &mut self,
+        raw: &RawFile,
+        spec: &mut NetworkSpec,
+        timeline_index: &dyn Fn(&str) -> Option<usize>,
+    ) -> Result<(), TaskNetError> {
+        for (i, p) in raw.parameter.iter().enumerate() {
+            let span = p.span();
+            let p = p.get_ref();
+            let path = field_path("parameter", i, "");
+            let durations = p.uses.iter().any(|u| u.duration);
+            let number = |v: &RawNumOrText| -> Result<i64, TaskNetError> {
+                match (v, durations) {
+                    (RawNumOrText::Int(n), false) => Ok(*n),
+                    (_, true) => self.duration_value(v, span.clone(), &path),
+                    (RawNumOrText::Text(t), false) => Err(self.error(
+                        span.clone(),
+                        &path,
+                        format!("`{t}`: a parameter of impacts is a number"),
+                    )),
+                }
+            };
+            let (prior, min, max) = (number(&p.prior)?, number(&p.min)?, number(&p.max)?);
+            let measured_by = match &p.measured_by {
+                Some(name) => Some(
+                    timeline_index(name)
+                        .and_then(|t| u8::try_from(t).ok())
+                        .ok_or_else(|| {
+                            self.error(span.clone(), &path, format!("no timeline named `{name}`"))
+                        })?,
+                ),
+                None => None,
+            };
+            let mut uses = heapless::Vec::new();
+            for u in &p.uses {
+                let Some(task) = spec.tasks.iter_mut().find(|t| t.name.as_str() == u.task) else {
+                    return Err(self.error(
+                        span.clone(),
+                        &path,
+                        format!("parameter `{}`: no task named `{}`", p.name, u.task),
+                    ));
+                };
+                let one_use = match (u.duration, u.impact) {
+                    (true, None) => {
+                        task.duration_us = u64::try_from(prior).unwrap_or(0);
+                        ParamUse::Duration { task: task.id }
+                    }
+                    (false, Some(k)) => {
+                        if let Some(Effect::Add(v) | Effect::Rate(v) | Effect::Assign(v)) =
+                            task.impacts.get_mut(usize::from(k)).map(|i| &mut i.effect)
+                        {
+                            *v = prior;
+                        }
+                        ParamUse::Impact {
+                            task: task.id,
+                            impact: k,
+                        }
+                    }
+                    _ => {
+                        return Err(self.error(
+                            span.clone(),
+                            &path,
+                            "each use sets either the task's duration (duration = true) or \
+                             one of its impacts (impact = index)"
+                                .into(),
+                        ))
+                    }
+                };
+                if uses.push(one_use).is_err() {
+                    return Err(self.capacity(
+                        span.clone(),
+                        &path,
+                        "uses of one parameter",
+                        autonomy::MAX_PARAM_USES,
+                    ));
+                }
+            }
+            let param = ParamSpec {
+                prior,
+                value: prior,
+                min,
+                max,
+                measured_by,
+                uses,
+            };
+            if spec.params.push(param).is_err() {
+                return Err(self.capacity(span, &path, "parameters", autonomy::MAX_PARAMS));
+            }
+            self.sites.parameters.push(span);
+        }
+        Ok(())
     }
 
     fn capacity(&self, span: Range<usize>, field: &str, what: &str, max: usize) -> TaskNetError {
@@ -1403,7 +1549,7 @@ impl<'a> Compiler<'a> {
                     opcode: Opcode(c.opcode),
                     args: CommandArgs::from_slice(&c.args).map_err(|_| {
                         self.error(
-                            s,
+                            s.clone(),
                             &path(f),
                             format!(
                                 "more than {} command arguments",
@@ -1411,6 +1557,32 @@ impl<'a> Compiler<'a> {
                             ),
                         )
                     })?,
+                    from_instance: {
+                        let mut v = heapless::Vec::new();
+                        for a in &c.from_instance {
+                            let arg = instance_arg(a).ok_or_else(|| {
+                                self.error(
+                                    s.clone(),
+                                    &path(f),
+                                    format!(
+                                        "unknown instance argument `{a}` (instance, end, \
+                                         duration, served_arg_0 .. served_arg_3)"
+                                    ),
+                                )
+                            })?;
+                            if v.push(arg).is_err() {
+                                return Err(self.error(
+                                    s.clone(),
+                                    &path(f),
+                                    format!(
+                                        "more than {} command arguments",
+                                        fsw_bridge::MAX_COMMAND_ARGS
+                                    ),
+                                ));
+                            }
+                        }
+                        v
+                    },
                 })
             };
         let timeline = |name: &str, s: Range<usize>, f: &str| -> Result<usize, TaskNetError> {
@@ -1688,6 +1860,19 @@ impl<'a> Compiler<'a> {
     }
 }
 
+/// An instance argument's TOML name: `instance`, `end`, `duration`, `served_arg_K`.
+fn instance_arg(name: &str) -> Option<InstanceArg> {
+    Some(match name {
+        "instance" => InstanceArg::Instance,
+        "end" => InstanceArg::EndS,
+        "duration" => InstanceArg::DurationS,
+        _ => {
+            let k: u8 = name.strip_prefix("served_arg_")?.parse().ok()?;
+            (usize::from(k) < fsw_bridge::MAX_COMMAND_ARGS).then_some(InstanceArg::Served(k))?
+        }
+    })
+}
+
 /// The temporal constraints (by index) on a cycle that no schedule can meet, if any: a negative
 /// cycle of the simple temporal network whose nodes are the start and end of each task, with
 /// `end - start` in `[min_duration, duration]` and each constraint's `[min, max]`.
@@ -1776,7 +1961,14 @@ fn describe(e: ValidationError) -> &'static str {
         | TooManyTemporalConstraints
         | TooManyCommandArgs
         | TooManyTimedValues
+        | TooManyParams
         | TooManyThresholds => "over the target's capacity",
+        BadParam => {
+            "a parameter's min and max must hold its prior; it is measured by a measured \
+             cumulative timeline; a duration it sets is at least the task's min_duration and \
+             at most 30 days; an impact it sets is an add, rate or assign on a cumulative \
+             timeline"
+        }
         TooManyStateValues => "a state timeline needs 1 to 32 values",
         NameTooLong => "name too long",
         DuplicateTaskId => "another task has this id",
@@ -1785,7 +1977,15 @@ fn describe(e: ValidationError) -> &'static str {
         DanglingTimeline => "no such timeline",
         DanglingCondition => "no such condition",
         DanglingTemplate => "not a template task",
-        DanglingTemporalTask => "temporal constraints relate two different requested tasks",
+        DanglingTemporalTask => "temporal constraints relate two different tasks",
+        TemporalTemplatePair => {
+            "a temporal constraint binds a template to a requested task, never two templates"
+        }
+        TemporalCycle => "these temporal constraints form a cycle that no schedule can meet",
+        BadInstanceArg => {
+            "fixed and instance arguments together are at most 4, and served_arg_K names \
+             argument 0 to 3"
+        }
         DuplicateStateKey => "another timeline is measured by this state key",
         TypeMismatch => "does not fit the timeline's kind",
         ValueOutOfRange => "value outside the timeline's values or bounds",
@@ -1895,6 +2095,65 @@ mod tests {
         );
         assert!(
             e.message.contains("task[0] has the name `t` already"),
+            "{e}"
+        );
+    }
+
+    const POINTING: &str = include_str!("../../scenarios/tasknets/orbiter-pointing.toml");
+
+    #[test]
+    fn format_5_fields_compile_into_the_spec_and_pass_the_target_validator() {
+        let net = compile_str(POINTING, "orbiter-pointing.toml").unwrap();
+        TaskNetwork::validate_uplink(&net.uplink).unwrap();
+        let spec = net.network.spec();
+        let point = spec.tasks.iter().find(|t| t.id == 10).unwrap();
+        assert_eq!(
+            point.command.as_ref().unwrap().from_instance.as_slice(),
+            &[
+                InstanceArg::Served(0),
+                InstanceArg::Served(1),
+                InstanceArg::EndS
+            ]
+        );
+        // A temporal constraint from a requested task to a template.
+        assert_eq!(spec.temporal.len(), 1);
+        assert_eq!(
+            (spec.temporal[0].from_task, spec.temporal[0].to_task),
+            (1, 10)
+        );
+        // The parameter: its prior is the pass's duration, measured by PassLengthReport.
+        let p = &spec.params[0];
+        assert_eq!(
+            (p.prior, p.min, p.max),
+            (1_500_000_000, 600_000_000, 1_800_000_000)
+        );
+        assert_eq!(
+            p.measured_by,
+            net.network.timeline_by_name("PassLengthReport")
+        );
+        assert_eq!(p.uses.as_slice(), &[ParamUse::Duration { task: 2 }]);
+        assert_eq!(spec.tasks[1].duration_us, 1_500_000_000);
+    }
+
+    #[test]
+    fn format_5_mistakes_are_reported_at_their_field() {
+        let bad_arg = POINTING.replace("\"served_arg_1\"", "\"served_arg_9\"");
+        let e = compile_str(&bad_arg, "p.toml").unwrap_err();
+        assert!(
+            e.message
+                .contains("unknown instance argument `served_arg_9`"),
+            "{e}"
+        );
+        // A template related to itself: refused at the entry.
+        let pair = POINTING.replace("from = \"Heat Transmitter\"", "from = \"Point At Earth\"");
+        let e = compile_str(&pair, "p.toml").unwrap_err();
+        assert!(e.field.starts_with("temporal[0]"), "{e}");
+        // A parameter whose minimum is below the pass's minimum duration.
+        let short = POINTING.replace("min_duration = \"10min\"", "min_duration = \"15min\"");
+        let e = compile_str(&short, "p.toml").unwrap_err();
+        assert_eq!(
+            (e.field.as_str(), e.code),
+            ("parameter[0]", Some(87)),
             "{e}"
         );
     }

@@ -53,6 +53,29 @@ fn the_orbiter_downlink_pass_flies_its_station_windows() {
     assert_eq!(started("Downlink Pass 2").as_deref(), Some("12:00:00"));
 }
 
+/// Issue 11 item 8 e, f, g: the helper waits 60 s after the heating ends (its temporal
+/// constraint with the requested task), its command carries the pass's station and target and
+/// its own end, and the pass runs the 20 minutes its length parameter was given at 10:00.
+#[test]
+fn the_orbiter_pointing_pass_binds_its_helper_and_takes_its_arguments_and_length() {
+    let report = assert_passes("orbiter-pointing.toml");
+    let span = |name: &str| {
+        report
+            .tasks
+            .iter()
+            .find(|t| t.name == name)
+            .map(|t| (t.start.clone(), t.end.clone()))
+    };
+    assert_eq!(
+        span("Point At Earth"),
+        Some((Some("10:16:00".into()), Some("10:18:00".into())))
+    );
+    assert_eq!(
+        span("Downlink Pass"),
+        Some((Some("10:20:00".into()), Some("10:40:00".into())))
+    );
+}
+
 #[test]
 fn early_reset_reproduces_seed_003_figure_7() {
     let r = assert_passes("flyby-early-reset.toml");

@@ -18,9 +18,11 @@ fn run_native(path: &Path) -> MissionReport {
 /// Every shipped flyby scenario runs on the emulated target (the power cycle restarts QEMU; the
 /// plan comes back from the emulated non-volatile memory, a file that outlives the process).
 /// The orbiter's downlink pass (issue 11 item 8) flies its external timeline, background rate
-/// and derived state on the target too.
-const EMULATED: [&str; 11] = [
+/// and derived state on the target too, and the orbiter's pointing pass its helper bound to a
+/// requested task, its command arguments from the instance and its length parameter.
+const EMULATED: [&str; 12] = [
     "orbiter-downlink.toml",
+    "orbiter-pointing.toml",
     "flyby-nominal.toml",
     "flyby-authentication.toml",
     "flyby-early-reset.toml",

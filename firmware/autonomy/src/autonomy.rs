@@ -246,6 +246,8 @@ impl Autonomy {
             control,
             ..
         } = self;
+        // A changed model parameter is in the network the planner plans with, and the
+        // measurement that changed it makes the planner run a cycle.
         control.on_state_update(network, key, value, at, &mut |m| planner.receive(m));
     }
 

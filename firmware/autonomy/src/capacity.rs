@@ -59,6 +59,10 @@ pub const MAX_TEMPORAL_CONSTRAINTS: usize = 16;
 pub const MAX_TIMED_VALUES: usize = 64;
 /// Thresholds of one derived state timeline (so up to 8 derived values).
 pub const MAX_THRESHOLDS: usize = 7;
+/// Model parameters of a network (uplink format 5).
+pub const MAX_PARAMS: usize = 8;
+/// Durations and impact magnitudes one model parameter sets.
+pub const MAX_PARAM_USES: usize = 8;
 /// Bytes of a task or timeline name.
 pub const MAX_NAME_LEN: usize = 32;
 /// Task instances the planner holds at once (requested, added, restarted; finished ones are

@@ -95,24 +95,33 @@ impl ControlLoop {
     }
 
     /// Records a state-buffer value measured at `at` (see [`crate::Autonomy::on_state_update`]).
+    /// A measurement of a timeline that measures model parameters updates them in `network`
+    /// (see [`TaskNetwork::measure_params`]); returns whether one changed.
     pub fn on_state_update(
         &mut self,
-        network: &TaskNetwork,
+        network: &mut TaskNetwork,
         key: StateKey,
         value: StateValue,
         at: MissionTimeUs,
         to_planner: &mut impl FnMut(ToPlanner),
-    ) {
+    ) -> bool {
         let outcome = self.states.update(key, value, at);
+        let mut params_changed = false;
         if let Some(t) = network.timeline_of_key(key) {
             let v = self.timeline_value(network, t, value);
+            if !network.params().is_empty()
+                && v != VALUE_UNKNOWN
+                && outcome == UpdateOutcome::Stored
+            {
+                params_changed = network.measure_params(t, v).0 > 0;
+            }
             let replaces = match outcome {
                 // The table has put it in order; it replaces even a stale mark made later
                 // than `at`.
                 UpdateOutcome::Stored => true,
                 // Not in the table: the planner orders its own copy by time.
                 UpdateOutcome::TableFull => false,
-                UpdateOutcome::Ignored => return,
+                UpdateOutcome::Ignored => return params_changed,
             };
             to_planner(ToPlanner::Measured {
                 timeline: t,
@@ -121,6 +130,7 @@ impl ControlLoop {
                 replaces,
             });
         }
+        params_changed
     }
 
     /// After a restore: the unmeasured timelines declared to revert after a reset (a heater is

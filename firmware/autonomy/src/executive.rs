@@ -48,6 +48,10 @@ pub struct ExecEntry {
     /// Restored from a checkpoint in which its command was dispatched (Dispatched or Running):
     /// a reset came in between, so the next step ends it.
     pub interrupted: bool,
+    /// [`Commit::served`]: whose command arguments [`InstanceArg::Served`] reads.
+    pub served: u8,
+    /// [`Commit::window`]: the start times its temporal constraints allow.
+    pub window: Option<(MissionTimeUs, MissionTimeUs)>,
 }
 
 /// Counters for reports.
@@ -156,6 +160,8 @@ impl Executive {
             retries: PerCause::ZERO,
             retry_at: MissionTimeUs::ZERO,
             interrupted: false,
+            served: commit.served,
+            window: commit.window,
         };
         if self.entries.push(entry).is_err() {
             self.stats.dropped_commits = self.stats.dropped_commits.saturating_add(1);
@@ -215,6 +221,10 @@ impl Executive {
                 TaskState::Committed => consider(e.planned_start),
                 TaskState::WaitingPre => {
                     consider(e.retry_at);
+                    if let Some((not_before, not_after)) = e.window {
+                        consider(not_before);
+                        consider(not_after.saturating_add(1));
+                    }
                     consider(wait_from(e).saturating_add(spec.control.pre_wait_timeout_us));
                 }
                 TaskState::Dispatched | TaskState::Running => {
@@ -333,6 +343,28 @@ impl Executive {
                 if now < e.planned_start || now < e.retry_at {
                     return;
                 }
+                if let Some((window_start, not_after)) = e.window {
+                    let (unreached, not_before) = self.temporal_hold(network, &e, now);
+                    let not_before = not_before.max(window_start);
+                    if let Some(x) = self.entries.get_mut(i) {
+                        x.window = Some((not_before, not_after));
+                    }
+                    if now > not_after {
+                        // Its temporal window closed while it waited (a push, a retry).
+                        let started = e.command_id != 0;
+                        let kind = FailureKind::PreTimeout;
+                        self.fail(network, i, kind, started, now, out, report);
+                        return;
+                    }
+                    if now < not_before || unreached {
+                        // Not yet in its window, or a task it must follow has not reached the
+                        // point it follows (it ran late): wait, up to the window's end.
+                        if e.state == TaskState::Committed {
+                            self.transition(i, TaskState::WaitingPre, now, out);
+                        }
+                        return;
+                    }
+                }
                 if e.state == TaskState::Committed {
                     let skip = spec
                         .control
@@ -433,6 +465,80 @@ impl Executive {
         }
     }
 
+    /// What the temporal constraints that make `e` start after a point (start or end) of a
+    /// requested task this executive holds say now: whether one of those points is not
+    /// reached yet (the task ran late: wait), and the earliest start the reached ones allow
+    /// (the start as dispatched, or now for an end reached in this step). A task no longer
+    /// held finished before this step; the planner's window at the commit covers it.
+    fn temporal_hold(
+        &self,
+        network: &TaskNetwork,
+        e: &ExecEntry,
+        now: MissionTimeUs,
+    ) -> (bool, MissionTimeUs) {
+        let mut unreached = false;
+        let mut not_before = MissionTimeUs::ZERO;
+        let Some(me) = network.task(e.def).map(|t| t.id) else {
+            return (unreached, not_before);
+        };
+        for tc in network.temporal() {
+            // (the task followed, its point, the least delay after it).
+            let follows = if tc.to_task == me && tc.to_point == TaskPoint::Start {
+                (tc.min_us >= 0).then_some((tc.from_task, tc.from_point, tc.min_us))
+            } else if tc.from_task == me && tc.from_point == TaskPoint::Start {
+                (tc.max_us <= 0).then_some((tc.to_task, tc.to_point, tc.max_us.saturating_neg()))
+            } else {
+                None
+            };
+            let Some((id, point, delay)) = follows else {
+                continue;
+            };
+            let Some(x) = self.entries.iter().find(|x| x.instance == id) else {
+                continue;
+            };
+            let reached_at = match point {
+                TaskPoint::Start => {
+                    (!matches!(x.state, TaskState::Committed | TaskState::WaitingPre))
+                        .then_some(x.started_at)
+                }
+                TaskPoint::End => x.state.is_terminal().then_some(now),
+            };
+            match reached_at {
+                Some(at) => not_before = not_before.max(shift(at, delay)),
+                None => unreached = true,
+            }
+        }
+        (unreached, not_before)
+    }
+
+    /// The arguments of `command` dispatched for `e` at `now`: its fixed ones, then those it
+    /// takes from the instance ([`InstanceArg`]).
+    fn command_args(
+        &self,
+        network: &TaskNetwork,
+        command: &CommandSpec,
+        e: &ExecEntry,
+        now: MissionTimeUs,
+    ) -> fsw_bridge::CommandArgs {
+        let mut args = command.args.clone();
+        let seconds = |us: u64| i32::try_from(us / 1_000_000).unwrap_or(i32::MAX);
+        for a in &command.from_instance {
+            let value = match *a {
+                InstanceArg::Instance => i32::from(e.instance),
+                InstanceArg::EndS => seconds(now.0.saturating_add(e.duration_us)),
+                InstanceArg::DurationS => seconds(e.duration_us),
+                InstanceArg::Served(k) => network
+                    .task(e.served)
+                    .and_then(|t| t.command.as_ref())
+                    .and_then(|c| c.args.get(usize::from(k)).copied())
+                    .unwrap_or(-1),
+            };
+            // Validation keeps fixed and instance arguments within one command.
+            let _ = args.push(value);
+        }
+        args
+    }
+
     /// Dispatches the command (or starts a no-op task).
     fn start(
         &mut self,
@@ -454,7 +560,8 @@ impl Executive {
                 let id = self.next_command_id;
                 self.next_command_id = self.next_command_id.wrapping_add(1).max(1);
                 self.stats.dispatches = self.stats.dispatches.saturating_add(1);
-                out.dispatch(id, command.opcode, &command.args);
+                let args = self.command_args(network, command, &e, now);
+                out.dispatch(id, command.opcode, &args);
                 id
             }
             None => 0,
@@ -541,7 +648,8 @@ impl Executive {
         {
             let id = self.next_command_id;
             self.next_command_id = self.next_command_id.wrapping_add(1).max(1);
-            out.dispatch(id, command.opcode, &command.args);
+            let args = self.command_args(network, command, &e, now);
+            out.dispatch(id, command.opcode, &args);
         }
         report(TaskReport {
             instance: e.instance,

@@ -34,7 +34,18 @@ pub struct Commit {
     pub def: u8,
     pub start: MissionTimeUs,
     pub end: MissionTimeUs,
+    /// The definition of the task this instance serves ([`crate::InstanceArg::Served`]: the
+    /// one a template instance was added for, the failed one a restart replaces), or
+    /// [`NO_SERVED`].
+    pub served: u8,
+    /// The start times the network's temporal constraints allow it, as the planner knew them
+    /// at the commit (`None`: it has none): the executive does not dispatch it before the
+    /// first, and fails it ([`crate::FailureKind::PreTimeout`]) once past the second.
+    pub window: Option<(MissionTimeUs, MissionTimeUs)>,
 }
+
+/// [`Commit::served`] of an instance that serves no other task.
+pub const NO_SERVED: u8 = u8::MAX;
 
 /// What happened to a committed task, sent from the executive to the planner.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -26,8 +26,11 @@ pub const VALUE_UNKNOWN: i64 = i64::MIN;
 /// the response bounds ([`ResponsePolicy`], [`ControlSpec::max_retries`] and the fields after
 /// it) and [`TimelineSpec::after_reset`]; version 3 [`TimelineSpec::stale_after_us`];
 /// version 4 [`TimelineSpec::background_rate`], [`TimelineSpec::external`],
-/// [`TimelineSpec::thresholds`] and the timed values ([`NetworkSpec::timed`]).
-pub const UPLINK_FORMAT_VERSION: u16 = 4;
+/// [`TimelineSpec::thresholds`] and the timed values ([`NetworkSpec::timed`]); version 5
+/// [`CommandSpec::from_instance`], temporal constraints that bind a template's instances
+/// to a requested task ([`TemporalConstraint`]) and the model parameters
+/// ([`NetworkSpec::params`]).
+pub const UPLINK_FORMAT_VERSION: u16 = 5;
 
 /// The windows of the planner cycle (seed 000 IV.A.3), all durations in µs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -382,11 +385,43 @@ pub struct ImpactSpec {
     pub end_offset_us: i64,
 }
 
-/// The command a task dispatches.
+/// A command argument the executive takes from the instance it dispatches, at dispatch.
+/// Times are whole seconds of mission time (an `i32` argument holds 68 years of them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum InstanceArg {
+    /// The instance's id (the ground id of a requested task, a planner-given id otherwise).
+    Instance,
+    /// Its end as executed: the dispatch time plus its duration, which a restart shortens to
+    /// end by the task's `latest_end` (whole seconds, rounded down).
+    EndS,
+    /// Its duration as executed (whole seconds, rounded down).
+    DurationS,
+    /// Argument `k` (of the fixed `args`) of the command of the task this instance was added
+    /// for (a template instance that enables or repairs a task; a restarted instance: the
+    /// failed one): the site and target indices a helper takes from the task it serves. -1
+    /// when the instance serves no other task or that task's command has no argument `k`.
+    Served(u8),
+}
+
+/// The command a task dispatches: `args`, then one argument per [`CommandSpec::from_instance`]
+/// entry, taken from the instance at dispatch (at most [`fsw_bridge::MAX_COMMAND_ARGS`] in
+/// all).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CommandSpec {
     pub opcode: Opcode,
     pub args: CommandArgs,
+    pub from_instance: heapless::Vec<InstanceArg, { fsw_bridge::MAX_COMMAND_ARGS }>,
+}
+
+impl CommandSpec {
+    /// A command with fixed arguments only.
+    pub fn fixed(opcode: Opcode, args: CommandArgs) -> Self {
+        Self {
+            opcode,
+            args,
+            from_instance: heapless::Vec::new(),
+        }
+    }
 }
 
 /// Executive-side control of one task (seed 000 IV.A.4, seed 003 "controller").
@@ -570,8 +605,11 @@ pub enum TaskPoint {
 }
 
 /// `to_point(to) - from_point(from)` must lie in `[min_us, max_us]` (seed 003: "{start,end} of A
-/// must occur {before,after} the {start,end} of B by [min,max]"). Applies to the requested
-/// instances of the two tasks.
+/// must occur {before,after} the {start,end} of B by [min,max]"). Between two requested tasks
+/// it applies to their requested instances. Between a template and a requested task (format
+/// 5; never two templates) it binds every instance of the template the planner adds to the
+/// requested task's requested instance ("this instance starts at least 60 s after the end of
+/// task X"); it does not move the requested task, which is placed on its own terms.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct TemporalConstraint {
     pub from_task: u16,
@@ -580,6 +618,36 @@ pub struct TemporalConstraint {
     pub to_point: TaskPoint,
     pub min_us: i64,
     pub max_us: i64,
+}
+
+/// What a model parameter sets.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ParamUse {
+    /// The duration (µs) of the task with this ground id.
+    Duration { task: u16 },
+    /// The magnitude of impact `impact` of the task with this ground id (an `Add`, `Rate` or
+    /// `Assign` on a cumulative timeline: an energy, a power).
+    Impact { task: u16, impact: u8 },
+}
+
+/// A model parameter (seed 000 IV.C.3): a value several task durations or impact magnitudes
+/// share, with its prior, that measurements update at run time. Every use holds `value`
+/// (the network's tasks carry it, so the planner and executive read it where they read any
+/// duration or magnitude, and a checkpoint of the network keeps it across a warm reset).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ParamSpec {
+    /// The value the ground uplinked.
+    pub prior: i64,
+    /// The value in force: the prior, or the last accepted measurement.
+    pub value: i64,
+    /// Measurements outside `[min, max]` are not taken (counted instead).
+    pub min: i64,
+    pub max: i64,
+    /// The measured cumulative timeline whose measurements set the parameter (a subsystem
+    /// reports the measured duration or energy of what it executed, or the ground uplinks a
+    /// new value as a state update); `None`: fixed at its prior.
+    pub measured_by: Option<u8>,
+    pub uses: Vec<ParamUse, MAX_PARAM_USES>,
 }
 
 /// The fixed part at the head of an uplink.
@@ -603,6 +671,8 @@ pub struct NetworkSpec {
     pub temporal: Vec<TemporalConstraint, MAX_TEMPORAL_CONSTRAINTS>,
     /// Timed values of the external timelines, in time order per timeline.
     pub timed: Vec<TimedValue, MAX_TIMED_VALUES>,
+    /// Model parameters (format 5).
+    pub params: Vec<ParamSpec, MAX_PARAMS>,
 }
 
 impl NetworkSpec {
@@ -620,6 +690,7 @@ impl NetworkSpec {
             tasks: Vec::new(),
             temporal: Vec::new(),
             timed: Vec::new(),
+            params: Vec::new(),
         }
     }
 }
@@ -653,6 +724,51 @@ impl TaskNetwork {
         self.spec.tasks.clear();
         self.spec.temporal.clear();
         self.spec.timed.clear();
+        self.spec.params.clear();
+    }
+
+    /// The longest duration an instance of `def` can have been planned with: its duration,
+    /// or the largest its duration parameter allows (a measurement may have shortened it
+    /// since).
+    pub fn max_duration_us(&self, def: u8) -> u64 {
+        let Some(t) = self.task(def) else {
+            return 0;
+        };
+        let mut longest = t.duration_us;
+        for p in &self.spec.params {
+            if p.uses.contains(&ParamUse::Duration { task: t.id }) {
+                longest = longest.max(u64::try_from(p.max).unwrap_or(0));
+            }
+        }
+        longest
+    }
+
+    /// The model parameters.
+    pub fn params(&self) -> &[ParamSpec] {
+        &self.spec.params
+    }
+
+    /// Takes a measurement of `timeline` for the parameters it measures: each whose value it
+    /// changes and that accepts it (within its `[min, max]`) takes it, in itself and in every
+    /// use. Returns (parameters changed, parameters that refused it). Costs nothing for a
+    /// network without parameters.
+    pub fn measure_params(&mut self, timeline: u8, value: i64) -> (u8, u8) {
+        let (mut changed, mut refused) = (0u8, 0u8);
+        for p in self.spec.params.iter_mut() {
+            if p.measured_by != Some(timeline) || p.value == value {
+                continue;
+            }
+            if value < p.min || value > p.max {
+                refused = refused.saturating_add(1);
+                continue;
+            }
+            p.value = value;
+            changed = changed.saturating_add(1);
+            for u in p.uses.iter() {
+                set_use(&mut self.spec.tasks, *u, value);
+            }
+        }
+        (changed, refused)
     }
 
     /// The validated contents.
@@ -785,5 +901,43 @@ impl TaskNetwork {
             .iter()
             .position(|t| t.name.as_str() == name)
             .and_then(|i| u8::try_from(i).ok())
+    }
+}
+
+/// The number a parameter use holds in `tasks` (`None` when it names nothing it can hold).
+pub fn use_value(tasks: &[TaskSpec], u: ParamUse) -> Option<i64> {
+    match u {
+        ParamUse::Duration { task } => {
+            let t = tasks.iter().find(|t| t.id == task)?;
+            i64::try_from(t.duration_us).ok()
+        }
+        ParamUse::Impact { task, impact } => {
+            let t = tasks.iter().find(|t| t.id == task)?;
+            match t.impacts.get(usize::from(impact))?.effect {
+                Effect::Add(v) | Effect::Rate(v) | Effect::Assign(v) => Some(v),
+                Effect::Claim => None,
+            }
+        }
+    }
+}
+
+/// Sets the number use `u` names in `tasks` to `value` (validated to fit it).
+fn set_use(tasks: &mut [TaskSpec], u: ParamUse, value: i64) {
+    match u {
+        ParamUse::Duration { task } => {
+            if let Some(t) = tasks.iter_mut().find(|t| t.id == task) {
+                t.duration_us = u64::try_from(value).unwrap_or(t.duration_us);
+            }
+        }
+        ParamUse::Impact { task, impact } => {
+            let effect = tasks
+                .iter_mut()
+                .find(|t| t.id == task)
+                .and_then(|t| t.impacts.get_mut(usize::from(impact)))
+                .map(|i| &mut i.effect);
+            if let Some(Effect::Add(v) | Effect::Rate(v) | Effect::Assign(v)) = effect {
+                *v = value;
+            }
+        }
     }
 }

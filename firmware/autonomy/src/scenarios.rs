@@ -118,6 +118,7 @@ fn gnc_attain(
         command: Some(CommandSpec {
             opcode: GNC_ATTAIN,
             args: args(&[i32::from(target)])?,
+            from_instance: heapless::Vec::new(),
         }),
         duration_us: 15 * MIN,
         min_duration_us: 15 * MIN,
@@ -266,6 +267,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
         command: Some(CommandSpec {
             opcode: INSTRUMENT_FLYBY,
             args: args(&[])?,
+            from_instance: heapless::Vec::new(),
         }),
         duration_us: 50 * MIN,
         min_duration_us: 5 * MIN,
@@ -340,6 +342,7 @@ pub fn flyby_spec() -> Result<NetworkSpec, CapacityExceeded> {
         command: Some(CommandSpec {
             opcode: INSTRUMENT_DEGRADED_FLYBY,
             args: args(&[])?,
+            from_instance: heapless::Vec::new(),
         }),
         duration_us: 50 * MIN,
         min_duration_us: MIN,
@@ -544,6 +547,7 @@ pub fn synthetic_into(
                 command: Some(CommandSpec {
                     opcode: SYNTHETIC_TASK,
                     args: args(&[i32::try_from(i).map_err(|_| CapacityExceeded)?])?,
+                    from_instance: heapless::Vec::new(),
                 }),
                 duration_us,
                 min_duration_us: duration_us,

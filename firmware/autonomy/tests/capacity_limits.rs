@@ -88,7 +88,7 @@ fn one_task_over_max_tasks_is_refused_with_too_many_tasks_at_its_site() {
     head.tasks.clear();
     head.temporal.clear();
     let mut bytes = encode(&head);
-    bytes.truncate(bytes.len() - 3); // "0 tasks, 0 temporal, 0 timed values"
+    bytes.truncate(bytes.len() - 4); // "0 tasks, 0 temporal, 0 timed values, 0 parameters"
     bytes.extend(postcard_bytes(&((MAX_TASKS + 1) as u16)));
     for t in &spec.tasks {
         bytes.extend(postcard_bytes(t));
@@ -96,6 +96,7 @@ fn one_task_over_max_tasks_is_refused_with_too_many_tasks_at_its_site() {
     let mut extra = spec.tasks[0].clone();
     extra.id = (MAX_TASKS + 1) as u16;
     bytes.extend(postcard_bytes(&extra));
+    bytes.extend(postcard_bytes(&0u16));
     bytes.extend(postcard_bytes(&0u16));
     bytes.extend(postcard_bytes(&0u16));
     let e = validate_uplink(&bytes).unwrap_err();

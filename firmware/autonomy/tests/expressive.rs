@@ -77,6 +77,7 @@ fn task(id: u16, earliest: u64, latest: u64, duration: u64) -> TaskSpec {
         command: Some(CommandSpec {
             opcode: OP,
             args: CommandArgs::new(),
+            from_instance: heapless::Vec::new(),
         }),
         duration_us: duration * SEC,
         min_duration_us: duration * SEC,

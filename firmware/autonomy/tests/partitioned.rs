@@ -608,6 +608,8 @@ fn a_commit_planned_for_another_network_is_dropped_and_counted() {
         def: 0,
         start: hm(10, 0),
         end: hm(10, 15),
+        served: autonomy::interface::NO_SERVED,
+        window: None,
     };
     executive.receive(Wire::Message {
         seq: 1,

@@ -57,6 +57,7 @@ fn task(id: u16, start: MissionTimeUs) -> TaskSpec {
         command: Some(CommandSpec {
             opcode: OP,
             args: CommandArgs::new(),
+            from_instance: heapless::Vec::new(),
         }),
         duration_us: 10 * SEC,
         min_duration_us: 10 * SEC,

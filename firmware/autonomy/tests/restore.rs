@@ -52,6 +52,7 @@ fn task(id: u16, start_s: u64, duration_s: u64) -> TaskSpec {
         command: Some(CommandSpec {
             opcode: OP,
             args: CommandArgs::new(),
+            from_instance: heapless::Vec::new(),
         }),
         duration_us: duration_s * SEC,
         min_duration_us: duration_s * SEC,

@@ -62,6 +62,7 @@ struct WideNetwork {
     tasks: Wide<WideTask>,
     temporal: Wide<TemporalConstraint>,
     timed: Wide<TimedValue>,
+    params: Wide<ParamSpec>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -85,6 +86,7 @@ struct WideCondition {
 struct WideCommand {
     opcode: Opcode,
     args: Few<i32>,
+    from_instance: Few<InstanceArg>,
 }
 
 /// `TaskSpec` flattened: postcard puts no framing around a nested struct.
@@ -121,6 +123,7 @@ fn wide_command(c: &CommandSpec) -> WideCommand {
     WideCommand {
         opcode: c.opcode,
         args: wide(&c.args),
+        from_instance: wide(&c.from_instance),
     }
 }
 
@@ -182,6 +185,7 @@ impl From<&NetworkSpec> for WideNetwork {
                 .collect(),
             temporal: wide(&n.temporal),
             timed: wide(&n.timed),
+            params: wide(&n.params),
         }
     }
 }
@@ -291,9 +295,17 @@ fn commands_with_too_many_arguments_are_named_with_their_field() {
             n.tasks[1].on_failure_command = Some(WideCommand {
                 opcode: Opcode(7),
                 args: args.clone(),
+                from_instance: wide(&[]),
             })
         }),
         (TooManyCommandArgs, task(1, TaskField::Control))
+    );
+    // Instance arguments over the list's capacity (uplink format 5).
+    let from_instance: Few<InstanceArg> =
+        wide(&[InstanceArg::Instance; fsw_bridge::MAX_COMMAND_ARGS + 1]);
+    assert_eq!(
+        refused(|n| n.tasks[0].command.as_mut().unwrap().from_instance = from_instance.clone()),
+        (TooManyCommandArgs, task(0, TaskField::Command))
     );
     assert_eq!(TooManyCommandArgs.code(), 21);
 }
@@ -421,14 +433,14 @@ fn bytes_that_do_not_decode_are_named_with_the_field_they_are_in() {
     prefix.tasks.truncate(t);
     let mut whole_task = n.clone();
     whole_task.tasks.truncate(t + 1);
-    let before_task = encode_wide(&prefix).len() - 2; // minus the temporal and timed counts
+    let before_task = encode_wide(&prefix).len() - 3; // minus the temporal, timed, param counts
     let task_bytes = &encode_wide(&whole_task)[before_task..];
     let (task_back, rest) = take_task(task_bytes, t).unwrap();
     assert_eq!(task_back, flyby_spec().tasks[t]);
-    assert_eq!(rest, &[0u8, 0]); // the temporal and timed counts of `whole_task`
-                                 // The task's bytes cut at every length: each cut is Decode at the field it falls in.
+    assert_eq!(rest, &[0u8, 0, 0]); // the temporal, timed and param counts of `whole_task`
+                                    // The task's bytes cut at every length: each cut is Decode at the field it falls in.
     let mut sites = std::collections::BTreeSet::new();
-    for cut in 0..task_bytes.len() - 2 {
+    for cut in 0..task_bytes.len() - 3 {
         let e = take_task(&task_bytes[..cut], t).unwrap_err();
         assert_eq!(e.code, Decode, "cut at {cut}");
         sites.insert(format!("{:?}", e.site));

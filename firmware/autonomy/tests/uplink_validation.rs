@@ -177,7 +177,7 @@ fn byte_level_defects_are_refused() {
         ValidationCode::TrailingBytes
     );
     assert_eq!(
-        validate_uplink(&bytes[..bytes.len() - 3]).unwrap_err().code,
+        validate_uplink(&bytes[..bytes.len() - 4]).unwrap_err().code,
         ValidationCode::Decode
     );
     let mut version = bytes.clone();
@@ -191,7 +191,7 @@ fn byte_level_defects_are_refused() {
     spec.tasks.clear();
     spec.temporal.clear();
     let mut short = encode(&spec);
-    short.truncate(short.len() - 3); // drop "0 tasks, 0 temporal, 0 timed values"
+    short.truncate(short.len() - 4); // drop "0 tasks, 0 temporal, 0 timed values, 0 parameters"
     let mut count = [0u8; 3];
     let count = postcard::to_slice(&((MAX_TASKS + 1) as u16), &mut count).unwrap();
     short.extend_from_slice(count);
@@ -450,9 +450,12 @@ fn new_validation_codes_have_their_numbers() {
     assert_eq!(ValidationCode::ExternalTimeline.code(), 81);
     assert_eq!(ValidationCode::BadTimedValue.code(), 82);
     assert_eq!(ValidationCode::BadThresholds.code(), 83);
+    assert_eq!(ValidationCode::TemporalTemplatePair.code(), 84);
+    assert_eq!(ValidationCode::TemporalCycle.code(), 85);
+    assert_eq!(ValidationCode::BadInstanceArg.code(), 86);
     // And an uplink of a previous format is refused as such.
-    assert_eq!(UPLINK_FORMAT_VERSION, 4);
-    for previous in [1, 2, 3] {
+    assert_eq!(UPLINK_FORMAT_VERSION, 5);
+    for previous in [1, 2, 3, 4] {
         let mut bytes = encode(&flyby_spec());
         bytes[0] = previous;
         assert_eq!(

@@ -705,7 +705,10 @@ fn task_bytes(
     contingencies: Vec<autonomy::Contingency>,
     may_add: Vec<u16>,
 ) -> Vec<u8> {
-    let command = t.command.as_ref().map(|c| (c.opcode, args));
+    let command = t
+        .command
+        .as_ref()
+        .map(|c| (c.opcode, args, c.from_instance.to_vec()));
     let mut out = bytes(&(t.id, name, t.priority, t.role, command));
     out.extend(bytes(&(
         t.duration_us,

@@ -91,6 +91,7 @@ pub fn evaluate(
             allow_downtime,
         } => check_coverage(rec, tasks, *from, *to, *exclusive, *allow_downtime),
         Expect::Metric { name, min, max } => check_metric(rec, name, *min, *max),
+        Expect::Command { opcode, at, args } => check_command(rec, *opcode, *at, args),
     };
     let passed = result.is_ok();
     Verdict {
@@ -104,6 +105,32 @@ pub fn evaluate(
 }
 
 type Judged = (String, Result<String, String>);
+
+fn check_command(rec: &MissionRecord, opcode: u16, at: MissionTimeUs, args: &[i32]) -> Judged {
+    use super::record::Decision;
+    let what = format!("command {opcode:#06x} at {} with {args:?}", fmt_time(at));
+    let sent: Vec<&Vec<i32>> = rec
+        .decisions
+        .iter()
+        .filter_map(|d| match d {
+            Decision::Dispatch {
+                at: t,
+                opcode: o,
+                args: a,
+                ..
+            } if *o == opcode && *t == at.0 => Some(a),
+            _ => None,
+        })
+        .collect();
+    let result = if sent.iter().any(|a| a.as_slice() == args) {
+        Ok(format!("sent with {args:?}"))
+    } else if sent.is_empty() {
+        Err(format!("no {opcode:#06x} command was sent then"))
+    } else {
+        Err(format!("sent with {sent:?}"))
+    };
+    (what, result)
+}
 
 fn instances_of<'r>(rec: &'r MissionRecord, name: &str) -> Vec<&'r Instance> {
     rec.instances.iter().filter(|i| i.name == name).collect()

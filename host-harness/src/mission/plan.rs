@@ -230,6 +230,12 @@ pub enum Expect {
         /// The flight software's downtime (reset to restart) is excused instead of a gap.
         allow_downtime: bool,
     },
+    /// A command with `opcode` dispatched at `at` carried `args`.
+    Command {
+        opcode: u16,
+        at: MissionTimeUs,
+        args: Vec<i32>,
+    },
     /// A metric of the run within bounds.
     Metric {
         name: String,
@@ -806,13 +812,14 @@ fn expectation(
         ("order", e.order.is_some()),
         ("covered_by", e.covered_by.is_some()),
         ("metric", e.metric.is_some()),
+        ("command", e.command.is_some()),
     ]
     .into_iter()
     .filter_map(|(k, present)| present.then_some(k))
     .collect();
     let kind = match kinds.as_slice() {
         [k] => *k,
-        [] => return Err(src.error_at(field, "an expectation checks exactly one of: task, added, timeline, order, covered_by, metric")),
+        [] => return Err(src.error_at(field, "an expectation checks exactly one of: task, added, timeline, order, covered_by, metric, command")),
         [_, second, ..] => {
             return Err(err(
                 second,
@@ -836,6 +843,7 @@ fn expectation(
         "timeline" => &["at", "value", "during"],
         "order" => &[],
         "covered_by" => &["from", "to", "exclusive", "allow_reset_gaps"],
+        "command" => &["at", "args"],
         _ => &["min", "max"],
     };
     for (name, present) in [
@@ -854,6 +862,7 @@ fn expectation(
         ("allow_reset_gaps", e.allow_reset_gaps.is_some()),
         ("min", e.min.is_some()),
         ("max", e.max.is_some()),
+        ("args", e.args.is_some()),
     ] {
         if present && !allowed.contains(&name) {
             return Err(err(
@@ -1024,6 +1033,16 @@ fn expectation(
                 to,
                 exclusive: e.exclusive == Some(true),
                 allow_downtime: e.allow_reset_gaps == Some(true),
+            }
+        }
+        "command" => {
+            let (Some(at), Some(args)) = (mission_time("at", &e.at)?, e.args.clone()) else {
+                return Err(err("command", "give at and args".into()));
+            };
+            Expect::Command {
+                opcode: e.command.unwrap_or_default(),
+                at,
+                args,
             }
         }
         _ => {

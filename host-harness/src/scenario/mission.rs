@@ -231,6 +231,10 @@ pub struct ExpectEntry {
     /// With `covered_by`: gaps while the flight software is down (from a reset to its
     /// restart) are not gaps.
     pub allow_reset_gaps: Option<bool>,
+    /// Opcode: a command with it was dispatched at `at` carrying exactly `args` (the
+    /// arguments the target took from the instance included).
+    pub command: Option<u16>,
+    pub args: Option<Vec<i32>>,
     /// A metric of the run (see the report) must be at most `max` / at least `min`.
     pub metric: Option<String>,
     pub max: Option<u64>,

@@ -30,8 +30,9 @@ const MAGIC: u32 = 0x4D58_4350; // "MXCP"
 /// Version of the checkpoint payload layout; a record of another version is ignored. Version 2:
 /// uplink format 2 inside, the executive's retry state, the planner's failure ledger. Version
 /// 3: uplink format 3 inside (staleness bounds), and each state-table entry's stale mark (its
-/// measurement time was there already).
-pub const CHECKPOINT_FORMAT: u16 = 3;
+/// measurement time was there already). Version 4: uplink format 5 inside, and each executive
+/// entry's served definition and temporal window.
+pub const CHECKPOINT_FORMAT: u16 = 4;
 /// Bytes of each record header.
 pub const RECORD_HEADER_LEN: usize = 20;
 

@@ -244,8 +244,8 @@ pub(crate) fn check_planner_restored(
         check(times.into_iter().all(time_ok), TimeOutOfRange, at)?;
         // Until it ends, an instance spans at most its definition's duration (a start report
         // keeps the span, so a longer one would push its end out of range).
-        let span_ok =
-            e.state.is_terminal() || (e.start <= e.end && e.end.0 - e.start.0 <= spec.duration_us);
+        let span_ok = e.state.is_terminal()
+            || (e.start <= e.end && e.end.0 - e.start.0 <= network.max_duration_us(e.def));
         check(span_ok, TimeOutOfRange, at)?;
         let executive_state = matches!(e.state, TaskState::WaitingPre | TaskState::Dispatched);
         let unstarted = matches!(
@@ -347,7 +347,20 @@ pub(crate) fn check_executive_restored(
             e.retry_at,
         ];
         check(times.into_iter().all(time_ok), TimeOutOfRange, at)?;
-        check(e.duration_us <= spec.duration_us, TimeOutOfRange, at)?;
+        check(
+            e.duration_us <= network.max_duration_us(e.def),
+            TimeOutOfRange,
+            at,
+        )?;
+        check(
+            e.served == crate::interface::NO_SERVED || network.task(e.served).is_some(),
+            DanglingDefinition,
+            at,
+        )?;
+        let window_ok = e
+            .window
+            .is_none_or(|(lo, hi)| lo <= hi && time_ok(lo) && time_ok(hi));
+        check(window_ok, TimeOutOfRange, at)?;
         let has_command = spec.command.is_some();
         let state_ok = match e.state {
             TaskState::Committed | TaskState::WaitingPre => true,

@@ -277,9 +277,13 @@ impl ExecutivePartition {
             to_planner,
             ..
         } = self;
-        control.on_state_update(network, key, value, at, &mut |m| {
+        let params_changed = control.on_state_update(network, key, value, at, &mut |m| {
             to_planner.push(PlannerInput::Core(m));
         });
+        if params_changed {
+            // The image streamed to a planner that starts over must hold the new values.
+            self.image_valid = false;
+        }
     }
 
     pub fn on_command_response(&mut self, id: u32, status: CommandStatus) {

@@ -147,10 +147,32 @@ impl PlannerPartition {
         }
     }
 
+    /// A measurement of a timeline that measures model parameters: the executive's copy took
+    /// it too. The image this side checkpoints is encoded again so that a restore keeps the
+    /// new values (only when a parameter changed). Not inlined: its encode stays off the
+    /// frame of the partition's main loop (the planner's stack is 64 KiB).
+    #[inline(never)]
+    fn measure_params(&mut self, timeline: u8, value: i64) {
+        if self.network.params().is_empty() || value == crate::model::VALUE_UNKNOWN {
+            return;
+        }
+        if self.network.measure_params(timeline, value).0 > 0 {
+            if let Ok(len) = self.network.encode(&mut self.image) {
+                self.image_len = len;
+            }
+        }
+    }
+
     fn apply(&mut self, message: PlannerInput) {
         match message {
             PlannerInput::Core(m) => {
                 if self.loaded {
+                    if let ToPlanner::Measured {
+                        timeline, value, ..
+                    } = m
+                    {
+                        self.measure_params(timeline, value);
+                    }
                     self.planner.receive(m);
                 }
             }

@@ -509,6 +509,9 @@ impl Planner {
             match self.phase {
                 Phase::Idle => break,
                 Phase::Consolidate => {
+                    if !network.params().is_empty() {
+                        self.refresh_durations(network);
+                    }
                     consolidate(
                         network,
                         &mut self.entries,
@@ -656,14 +659,19 @@ impl Planner {
             let Some(i) = next else {
                 break;
             };
-            let Some(e) = self.entries.get_mut(i) else {
+            let Some(&planned) = self.entries.get(i) else {
                 break;
             };
             let commit = Commit {
-                instance: e.instance,
-                def: e.def,
-                start: e.start,
-                end: e.end,
+                instance: planned.instance,
+                def: planned.def,
+                start: planned.start,
+                end: planned.end,
+                served: self.served_def(&planned),
+                window: self.dispatch_window(ctx.network, &planned),
+            };
+            let Some(e) = self.entries.get_mut(i) else {
+                break;
             };
             // The executive is full (by the planner's count): try again at the next step.
             if in_executive >= MAX_COMMITTED {
@@ -680,6 +688,63 @@ impl Planner {
                 ctx.now,
             );
         }
+    }
+
+    /// Scheduled (uncommitted) instances take their definitions' durations as the model
+    /// parameters now say (a measurement changed one): the next plan uses the new values, and
+    /// a placement the change made invalid is a conflict the repair phase handles.
+    fn refresh_durations(&mut self, network: &TaskNetwork) {
+        for i in 0..self.entries.len() {
+            let Some(e) = self.entries.get(i).copied() else {
+                continue;
+            };
+            if e.state != TaskState::Scheduled {
+                continue;
+            }
+            if let Some(end) = Self::end_for(network, &e, e.start) {
+                if let Some(x) = self.entries.get_mut(i) {
+                    x.end = end;
+                }
+            }
+        }
+    }
+
+    /// The definition of the task `entry` serves (see [`Commit::served`]).
+    fn served_def(&self, entry: &PlanEntry) -> u8 {
+        let of = match entry.origin {
+            Origin::Requested => return crate::interface::NO_SERVED,
+            Origin::Added { for_instance } => for_instance,
+            // The failed instance was of the same definition (and may have left the plan).
+            Origin::Restarted { .. } => return entry.def,
+        };
+        self.entries
+            .iter()
+            .find(|e| e.instance == of)
+            .map_or(crate::interface::NO_SERVED, |e| e.def)
+    }
+
+    /// The start times the temporal constraints allow `entry` now (see [`Commit::window`]):
+    /// for a requested instance or a template's instance whose definition a constraint
+    /// names; `None` for the others (and when the constraints cannot be met: the planner
+    /// placed it, so it is not held back).
+    fn dispatch_window(
+        &self,
+        network: &TaskNetwork,
+        entry: &PlanEntry,
+    ) -> Option<(MissionTimeUs, MissionTimeUs)> {
+        if network.temporal().is_empty() {
+            return None;
+        }
+        let spec = network.task(entry.def)?;
+        let bound = entry.origin == Origin::Requested || spec.role == TaskRole::Template;
+        let named = network
+            .temporal()
+            .iter()
+            .any(|t| t.from_task == spec.id || t.to_task == spec.id);
+        if !bound || !named {
+            return None;
+        }
+        temporal_window(network, &self.entries, entry)
     }
 
     /// The id the next instance the planner adds will get.

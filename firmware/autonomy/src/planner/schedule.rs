@@ -37,7 +37,8 @@ impl Planner {
     }
 
     /// The window of start times for `entry`: its own window, the plan horizon, and the
-    /// temporal constraints with other requested tasks.
+    /// temporal constraints with requested tasks (of a requested instance, or of a template's
+    /// instance).
     pub(super) fn start_window(
         &self,
         ctx: &Ctx<'_>,
@@ -53,7 +54,8 @@ impl Planner {
                 spec.latest_end.0.saturating_sub(spec.min_duration_us),
             ));
         }
-        let (lo, hi) = if entry.origin == Origin::Requested {
+        let bound = entry.origin == Origin::Requested || spec.role == TaskRole::Template;
+        let (lo, hi) = if bound {
             let (tlo, thi) = temporal_window(ctx.network, &self.entries, entry)?;
             (lo.max(tlo), hi.min(thi))
         } else {

@@ -103,16 +103,20 @@ pub fn placement_valid_with_events(
     true
 }
 
-/// Bounds on the start of requested instance `entry` implied by the temporal constraints and
-/// the placed requested instances: shortest paths (Bellman-Ford) on the temporal constraint
-/// graph whose nodes are a zero point and the start and end of each requested task. `None` when
+/// Bounds on the start of `entry` implied by the temporal constraints and the placed requested
+/// instances: shortest paths (Bellman-Ford) on the temporal constraint graph whose nodes are a
+/// zero point and the start and end of each requested task. For a requested instance only the
+/// constraints between requested tasks count; for an instance of a template, also the
+/// template's own constraints with requested tasks (its node is the instance). `None` when
 /// the constraints cannot be met.
 pub fn temporal_window(
     network: &TaskNetwork,
     entries: &[PlanEntry],
     entry: &PlanEntry,
 ) -> Option<(MissionTimeUs, MissionTimeUs)> {
-    let me = network.task(entry.def)?.id;
+    let my_spec = network.task(entry.def)?;
+    let me = my_spec.id;
+    let template = my_spec.role == TaskRole::Template;
     if !network
         .temporal()
         .iter()
@@ -120,8 +124,40 @@ pub fn temporal_window(
     {
         return Some((MissionTimeUs::ZERO, MissionTimeUs::MAX));
     }
-    const NODES: usize = 1 + 2 * MAX_TASKS;
-    let node = |def: usize, point: TaskPoint| 1 + 2 * def + usize::from(point == TaskPoint::End);
+    // Only the requested tasks' nodes and, for a template instance, its own take part.
+    let counts = |def: u8| {
+        def == entry.def
+            || network
+                .task(def)
+                .is_some_and(|t| t.role == TaskRole::Requested)
+    };
+    // The nodes: the zero point, then the start and end of each task a counted constraint
+    // names (a task no constraint names cannot bound another). At most 33 tasks, so the
+    // distance arrays stay small on the partition's stack (a node per task definition made
+    // 8 KiB of them, allocated by every call).
+    const MAX_NAMED: usize = 2 * MAX_TEMPORAL_CONSTRAINTS + 1;
+    const NODES: usize = 1 + 2 * MAX_NAMED;
+    let mut named: Vec<u8, MAX_NAMED> = Vec::new();
+    let _ = named.push(entry.def);
+    for tc in network.temporal() {
+        let (Some(a), Some(b)) = (
+            network.def_of_id(tc.from_task),
+            network.def_of_id(tc.to_task),
+        ) else {
+            continue;
+        };
+        if counts(a) && counts(b) {
+            for d in [a, b] {
+                if !named.contains(&d) {
+                    let _ = named.push(d);
+                }
+            }
+        }
+    }
+    let slot = |def: usize| named.iter().position(|&d| usize::from(d) == def);
+    let node = |def: usize, point: TaskPoint| {
+        slot(def).map_or(NODES, |k| 1 + 2 * k + usize::from(point == TaskPoint::End))
+    };
     let tasks = network.tasks();
     // Calls f(from, to, weight) for every edge: to - from <= weight.
     let edges = |f: &mut dyn FnMut(usize, usize, i64)| {
@@ -132,6 +168,9 @@ pub fn temporal_window(
             ) else {
                 continue;
             };
+            if !counts(a) || !counts(b) {
+                continue;
+            }
             let (u, v) = (
                 node(usize::from(a), tc.from_point),
                 node(usize::from(b), tc.to_point),
@@ -139,8 +178,14 @@ pub fn temporal_window(
             f(u, v, tc.max_us);
             f(v, u, tc.min_us.saturating_neg());
         }
+        if template {
+            let d = usize::from(entry.def);
+            let (s, e) = (node(d, TaskPoint::Start), node(d, TaskPoint::End));
+            f(s, e, my_spec.duration_us as i64);
+            f(e, s, (my_spec.min_duration_us as i64).saturating_neg());
+        }
         for (d, t) in tasks.iter().enumerate() {
-            if t.role != TaskRole::Requested {
+            if t.role != TaskRole::Requested || slot(d).is_none() {
                 continue;
             }
             let (s, e) = (node(d, TaskPoint::Start), node(d, TaskPoint::End));

@@ -37,5 +37,6 @@ pub fn encode_spec(spec: &NetworkSpec, buf: &mut [u8]) -> Result<usize, BufferTo
     w.list(&spec.tasks)?;
     w.list(&spec.temporal)?;
     w.list(&spec.timed)?;
+    w.list(&spec.params)?;
     Ok(w.len)
 }

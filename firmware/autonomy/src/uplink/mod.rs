@@ -3,7 +3,8 @@
 //!
 //! Format (postcard throughout, [`crate::UPLINK_FORMAT_VERSION`]):
 //! `NetworkHeader, u16 n, n x TimelineSpec, u16 n, n x ConditionSpec, u16 n, n x TaskSpec,
-//! u16 n, n x TemporalConstraint, u16 n, n x TimedValue`, and nothing after.
+//! u16 n, n x TemporalConstraint, u16 n, n x TimedValue, u16 n, n x ParamSpec`, and nothing
+//! after.
 //!
 //! [`validate_uplink`] walks the bytes one element at a time (no temporary larger than one
 //! [`TaskSpec`]), so a rejected uplink never touches the running network; only then does
@@ -29,9 +30,11 @@ pub use encode::{encode_spec, BufferTooSmall};
 use reader::Reader;
 pub use reader::{take_condition, take_task, take_timeline};
 use validate::push_id;
+use validate::{note_durations, validate_param, validate_param_uses, validate_params_found};
 pub use validate::{
     stale_bound_in_range, validate_condition, validate_header, validate_spec, validate_task,
-    validate_temporal, validate_timed_value, validate_timeline, TaskContext,
+    validate_temporal, validate_temporal_cycles, validate_timed_value, validate_timeline,
+    TaskContext, TaskDurations,
 };
 
 /// Why an uplink was refused. `code as u16` is what reaches the host.
@@ -76,6 +79,8 @@ pub enum ValidationCode {
     TooManyTimedValues = 22,
     /// More than [`MAX_THRESHOLDS`] thresholds on a timeline.
     TooManyThresholds = 23,
+    /// More than [`MAX_PARAMS`] model parameters.
+    TooManyParams = 24,
     /// Two tasks share an id.
     DuplicateTaskId = 30,
     /// A ground task id at or above [`FIRST_INSTANCE_ID`].
@@ -88,7 +93,7 @@ pub enum ValidationCode {
     DanglingCondition = 34,
     /// A template id that does not exist or is not a template.
     DanglingTemplate = 35,
-    /// A temporal constraint naming a task that does not exist or is a template.
+    /// A temporal constraint naming a task that does not exist, or the same task twice.
     DanglingTemporalTask = 36,
     /// Two timelines measured by the same state key.
     DuplicateStateKey = 37,
@@ -160,6 +165,23 @@ pub enum ValidationCode {
     /// Thresholds on a timeline that is not a measured state timeline, not strictly
     /// increasing, over [`MAX_MAGNITUDE`], or not exactly one fewer than its values.
     BadThresholds = 83,
+    /// A temporal constraint between two templates (a template's instances are bound only to
+    /// a requested task's requested instance).
+    TemporalTemplatePair = 84,
+    /// Temporal constraints that form a cycle no schedule can meet, with the tasks' durations
+    /// (a negative cycle of the simple temporal network; refused at the constraint that
+    /// closes it).
+    TemporalCycle = 85,
+    /// A command argument taken from the instance that names no argument
+    /// ([`InstanceArg::Served`] at or past [`fsw_bridge::MAX_COMMAND_ARGS`]), or a command
+    /// with more than [`fsw_bridge::MAX_COMMAND_ARGS`] fixed and instance arguments together.
+    BadInstanceArg = 86,
+    /// A model parameter whose bounds do not hold its prior and value, that a timeline
+    /// measures which is not a measured cumulative one, or with a use that names no task, a
+    /// duration its bounds do not fit (at least the task's minimum duration, at most 30
+    /// days), an impact without a magnitude, a magnitude over [`MAX_MAGNITUDE`], or a number
+    /// that is not the parameter's value.
+    BadParam = 87,
 }
 
 impl ValidationCode {
@@ -219,6 +241,8 @@ pub enum ErrorSite {
     /// The thresholds of a timeline.
     TimelineThresholds(u8),
     TimedValue(u8),
+    /// A model parameter.
+    Param(u8),
 }
 
 /// A rejected uplink: what and where.
@@ -323,9 +347,24 @@ pub fn validate_uplink(bytes: &[u8]) -> VResult {
         TooManyTemporalConstraints,
         ErrorSite::Temporal(u8_index(MAX_TEMPORAL_CONSTRAINTS)),
     )?;
+    let mut temporal: Vec<TemporalConstraint, MAX_TEMPORAL_CONSTRAINTS> = Vec::new();
     for i in 0..temporal_count {
         let tc: TemporalConstraint = r.take(ErrorSite::Temporal(u8_index(i)))?;
         validate_temporal(i, &tc, &ids)?;
+        let _ = temporal.push(tc);
+    }
+    if !temporal.is_empty() {
+        // The durations of the tasks the constraints name, from a third walk over the tasks
+        // (only networks with temporal constraints pay for it).
+        let after_temporal = r.rest;
+        r.rest = tasks_start;
+        let mut durations: Vec<TaskDurations, { 2 * MAX_TEMPORAL_CONSTRAINTS }> = Vec::new();
+        for i in 0..task_count {
+            let t = r.task(i)?;
+            note_durations(&mut durations, &temporal, &t);
+        }
+        r.rest = after_temporal;
+        validate_temporal_cycles(&temporal, &durations)?;
     }
     let timed_count = r.count(
         MAX_TIMED_VALUES,
@@ -336,6 +375,31 @@ pub fn validate_uplink(bytes: &[u8]) -> VResult {
     for i in 0..timed_count {
         let tv: TimedValue = r.take(ErrorSite::TimedValue(u8_index(i)))?;
         validate_timed_value(i, &tv, &timelines, &mut last_at)?;
+    }
+    let param_count = r.count(
+        MAX_PARAMS,
+        TooManyParams,
+        ErrorSite::Param(u8_index(MAX_PARAMS)),
+    )?;
+    if param_count > 0 {
+        let mut params: Vec<ParamSpec, MAX_PARAMS> = Vec::new();
+        for i in 0..param_count {
+            let p: ParamSpec = r.take(ErrorSite::Param(u8_index(i)))?;
+            validate_param(i, &p, &timelines)?;
+            let _ = params.push(p);
+        }
+        // Each use against its task, from one more walk over the tasks (only networks with
+        // parameters pay for it).
+        let after_params = r.rest;
+        r.rest = tasks_start;
+        for i in 0..task_count {
+            let t = r.task(i)?;
+            validate_param_uses(&params, &t, &timelines)?;
+        }
+        r.rest = after_params;
+        for (i, p) in params.iter().enumerate() {
+            validate_params_found(i, p, &ids)?;
+        }
     }
     if !r.rest.is_empty() {
         return err(TrailingBytes, ErrorSite::Network);
@@ -365,6 +429,9 @@ pub fn decode_into(network: &mut TaskNetwork, bytes: &[u8]) -> VResult {
         TooManyTimedValues,
         |r: &mut Reader<'_>, i| r.take(ErrorSite::TimedValue(u8_index(i))),
     )?;
+    r.refill(&mut spec.params, TooManyParams, |r: &mut Reader<'_>, i| {
+        r.take(ErrorSite::Param(u8_index(i)))
+    })?;
     Ok(())
 }
 
@@ -444,6 +511,18 @@ pub fn decode_then_validate(network: &mut TaskNetwork, bytes: &[u8]) -> VResult 
         spec.timed.push(tv).map_err(|_| {
             ValidationError::new(TooManyTimedValues, ErrorSite::TimedValue(u8_index(i)))
         })?;
+    }
+    spec.params.clear();
+    let param_count = r.count(
+        MAX_PARAMS,
+        TooManyParams,
+        ErrorSite::Param(u8_index(MAX_PARAMS)),
+    )?;
+    for i in 0..param_count {
+        let p = r.take(ErrorSite::Param(u8_index(i)))?;
+        spec.params
+            .push(p)
+            .map_err(|_| ValidationError::new(TooManyParams, ErrorSite::Param(u8_index(i))))?;
     }
     if !r.rest.is_empty() {
         return err(TrailingBytes, ErrorSite::Network);

@@ -238,7 +238,12 @@ impl<'a> Reader<'a> {
     pub(super) fn command(&mut self, site: ErrorSite) -> Result<CommandSpec, ValidationError> {
         let opcode = self.take(site)?;
         let args = self.list(ValidationCode::TooManyCommandArgs, |_| site)?;
-        Ok(CommandSpec { opcode, args })
+        let from_instance = self.list(ValidationCode::TooManyCommandArgs, |_| site)?;
+        Ok(CommandSpec {
+            opcode,
+            args,
+            from_instance,
+        })
     }
 
     /// Timeline `index`, pushed onto `timelines` as it is read (not returned and moved).

@@ -365,6 +365,12 @@ pub fn validate_task(index: usize, task: &TaskSpec, ctx: &TaskContext<'_>) -> VR
             _ => return err(TypeMismatch, s),
         }
     }
+    if let Some(command) = &task.command {
+        validate_command(command, site(TaskField::Command))?;
+    }
+    if let Some(command) = &task.control.on_failure_command {
+        validate_command(command, site(TaskField::Control))?;
+    }
     let control = &task.control;
     for condition in [
         control.start_condition,
@@ -423,12 +429,15 @@ pub fn validate_temporal(
 ) -> VResult {
     use ValidationCode::*;
     let site = ErrorSite::Temporal(u8_index(index));
-    let requested = |id: u16| {
-        ids.iter()
-            .any(|&(i, r)| i == id && r == TaskRole::Requested)
-    };
-    if !requested(tc.from_task) || !requested(tc.to_task) || tc.from_task == tc.to_task {
+    let role = |id: u16| ids.iter().find(|&&(i, _)| i == id).map(|&(_, r)| r);
+    let (Some(from), Some(to)) = (role(tc.from_task), role(tc.to_task)) else {
         return err(DanglingTemporalTask, site);
+    };
+    if tc.from_task == tc.to_task {
+        return err(DanglingTemporalTask, site);
+    }
+    if from == TaskRole::Template && to == TaskRole::Template {
+        return err(TemporalTemplatePair, site);
     }
     if tc.min_us > tc.max_us || !check_offset(tc.min_us) || !check_offset(tc.max_us) {
         return err(BadTemporalBounds, site);
@@ -476,9 +485,94 @@ pub fn validate_spec(spec: &NetworkSpec) -> VResult {
     for (i, tc) in spec.temporal.iter().enumerate() {
         validate_temporal(i, tc, &ids)?;
     }
+    if !spec.temporal.is_empty() {
+        let mut durations: Vec<TaskDurations, { 2 * MAX_TEMPORAL_CONSTRAINTS }> = Vec::new();
+        for t in spec.tasks.iter() {
+            note_durations(&mut durations, &spec.temporal, t);
+        }
+        validate_temporal_cycles(&spec.temporal, &durations)?;
+    }
     let mut last_at = [MissionTimeUs::ZERO; MAX_TIMELINES];
     for (i, tv) in spec.timed.iter().enumerate() {
         validate_timed_value(i, tv, &spec.timelines, &mut last_at)?;
+    }
+    for (i, p) in spec.params.iter().enumerate() {
+        validate_param(i, p, &spec.timelines)?;
+    }
+    if !spec.params.is_empty() {
+        for t in spec.tasks.iter() {
+            validate_param_uses(&spec.params, t, &spec.timelines)?;
+        }
+        for (i, p) in spec.params.iter().enumerate() {
+            validate_params_found(i, p, &ids)?;
+        }
+    }
+    Ok(())
+}
+
+/// Checks model parameter `index` on its own: its bounds hold its prior and value (within
+/// [`MAX_MAGNITUDE`]), and a timeline that measures it is a measured cumulative one.
+pub fn validate_param(index: usize, p: &ParamSpec, timelines: &[TimelineSpec]) -> VResult {
+    use ValidationCode::*;
+    let site = ErrorSite::Param(u8_index(index));
+    let bounded = p.min <= p.max
+        && check_magnitude(p.min)
+        && check_magnitude(p.max)
+        && (p.min..=p.max).contains(&p.prior)
+        && (p.min..=p.max).contains(&p.value);
+    if !bounded {
+        return err(BadParam, site);
+    }
+    if let Some(tl) = p.measured_by {
+        let Some(t) = timelines.get(usize::from(tl)) else {
+            return err(DanglingTimeline, site);
+        };
+        if t.state_key.is_none() || !matches!(t.kind, TimelineKind::Cumulative { .. }) {
+            return err(BadParam, site);
+        }
+    }
+    Ok(())
+}
+
+/// Checks every use of `params` that names `task`: a duration its parameter's bounds fit, an
+/// impact with a magnitude, and the number it holds is the parameter's value.
+pub fn validate_param_uses(
+    params: &[ParamSpec],
+    task: &TaskSpec,
+    timelines: &[TimelineSpec],
+) -> VResult {
+    for (i, p) in params.iter().enumerate() {
+        let site = ErrorSite::Param(u8_index(i));
+        for &u in p.uses.iter() {
+            let fits = match u {
+                ParamUse::Duration { task: id } if id == task.id => {
+                    i128::from(p.min) >= i128::from(task.min_duration_us.max(1))
+                        && i128::from(p.max) <= i128::from(MAX_DURATION_US)
+                }
+                ParamUse::Impact { task: id, impact } if id == task.id => task
+                    .impacts
+                    .get(usize::from(impact))
+                    .and_then(|i| timelines.get(usize::from(i.timeline)))
+                    .is_some_and(|t| matches!(t.kind, TimelineKind::Cumulative { .. })),
+                _ => continue,
+            };
+            let holds = use_value(core::slice::from_ref(task), u) == Some(p.value);
+            if !fits || !holds {
+                return err(ValidationCode::BadParam, site);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Checks that every use of parameter `index` names a task of the network.
+pub fn validate_params_found(index: usize, p: &ParamSpec, ids: &[(u16, TaskRole)]) -> VResult {
+    let named = |id: u16| ids.iter().any(|&(i, _)| i == id);
+    let all = p.uses.iter().all(|u| match *u {
+        ParamUse::Duration { task } | ParamUse::Impact { task, .. } => named(task),
+    });
+    if !all {
+        return err(ValidationCode::BadParam, ErrorSite::Param(u8_index(index)));
     }
     Ok(())
 }
@@ -514,6 +608,104 @@ pub fn validate_timed_value(
     };
     if !fits {
         return err(ValueOutOfRange, site);
+    }
+    Ok(())
+}
+
+/// A task named by a temporal constraint: its id, duration and minimum duration (the bounds
+/// of `end - start` in the simple temporal network).
+pub type TaskDurations = (u16, u64, u64);
+
+/// Adds `task`'s durations to `durations` if a constraint of `temporal` names it.
+pub fn note_durations<const N: usize>(
+    durations: &mut Vec<TaskDurations, N>,
+    temporal: &[TemporalConstraint],
+    task: &TaskSpec,
+) {
+    let named = temporal
+        .iter()
+        .any(|tc| tc.from_task == task.id || tc.to_task == task.id);
+    if named && !durations.iter().any(|&(id, _, _)| id == task.id) {
+        let _ = durations.push((task.id, task.duration_us, task.min_duration_us));
+    }
+}
+
+/// Refuses the first temporal constraint that closes a cycle no schedule can meet
+/// ([`ValidationCode::TemporalCycle`]): constraints `0..=i` and the durations of the tasks
+/// they name (`durations`, from [`note_durations`]) have a negative cycle, constraints `0..i`
+/// do not. Only the named tasks' start and end are nodes (at most 64), so it costs nothing
+/// when the network has no temporal constraints.
+pub fn validate_temporal_cycles(
+    temporal: &[TemporalConstraint],
+    durations: &[TaskDurations],
+) -> VResult {
+    for i in 0..temporal.len() {
+        if !temporal_consistent(temporal.get(..=i).unwrap_or(temporal), durations) {
+            return err(
+                ValidationCode::TemporalCycle,
+                ErrorSite::Temporal(u8_index(i)),
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Whether the simple temporal network of `temporal` (`to - from` in `[min, max]`) and the
+/// tasks' `end - start` in `[min_duration, duration]` has a solution: Bellman-Ford from a
+/// virtual source finds no negative cycle.
+fn temporal_consistent(temporal: &[TemporalConstraint], durations: &[TaskDurations]) -> bool {
+    const NODES: usize = 4 * MAX_TEMPORAL_CONSTRAINTS;
+    let node = |id: u16, point: TaskPoint| {
+        durations
+            .iter()
+            .position(|&(i, _, _)| i == id)
+            .map(|d| 2 * d + usize::from(point == TaskPoint::End))
+    };
+    let clamp = |v: u64| v.min(MAX_DURATION_US) as i64;
+    let mut dist = [0i64; NODES];
+    let n = (2 * durations.len()).min(NODES);
+    for _ in 0..=n {
+        let mut changed = false;
+        let mut relax = |u: usize, v: usize, w: i64| {
+            let cand = dist.get(u).copied().unwrap_or(0).saturating_add(w);
+            if let Some(dv) = dist.get_mut(v) {
+                if cand < *dv {
+                    *dv = cand;
+                    changed = true;
+                }
+            }
+        };
+        for (d, &(_, duration, min_duration)) in durations.iter().enumerate() {
+            relax(2 * d, 2 * d + 1, clamp(duration));
+            relax(2 * d + 1, 2 * d, clamp(min_duration).saturating_neg());
+        }
+        for tc in temporal {
+            let (Some(u), Some(v)) = (
+                node(tc.from_task, tc.from_point),
+                node(tc.to_task, tc.to_point),
+            ) else {
+                continue;
+            };
+            relax(u, v, tc.max_us);
+            relax(v, u, tc.min_us.saturating_neg());
+        }
+        if !changed {
+            return true;
+        }
+    }
+    false
+}
+
+/// Checks a command's instance arguments: each names an argument that can exist, and the
+/// fixed and instance arguments together fit in one command.
+fn validate_command(command: &CommandSpec, site: ErrorSite) -> VResult {
+    let total = command.args.len() + command.from_instance.len();
+    let named_ok = command.from_instance.iter().all(|a| match *a {
+        InstanceArg::Served(k) => usize::from(k) < fsw_bridge::MAX_COMMAND_ARGS,
+        InstanceArg::Instance | InstanceArg::EndS | InstanceArg::DurationS => true,
+    });
+    if total > fsw_bridge::MAX_COMMAND_ARGS || !named_ok {
+        return err(ValidationCode::BadInstanceArg, site);
     }
     Ok(())
 }
