@@ -48,7 +48,8 @@ pub struct Relaxation<'m> {
     pub pre_list: &'m mut [u32],
     /// Relaxed actions without preconditions (they fire at once in every state).
     pub free: &'m mut [u32],
-    /// Per relaxed fact: cost (u32::MAX unreached) and best supporter (u32::MAX none).
+    /// Per relaxed fact: cost (u32::MAX unreached) and best supporter (valid only for facts
+    /// the last evaluation reached at a nonzero cost).
     pub cost: &'m mut [u32],
     pub supporter: &'m mut [u32],
     /// Per relaxed action r, two words: `waiting[2r]` its preconditions not yet reached,
@@ -537,7 +538,8 @@ impl<'m> Relaxation<'m> {
         let all = facts + task.action_count();
         let relaxed = 2 * task.action_count();
         self.cost[..all].iter_mut().for_each(|x| *x = u32::MAX);
-        self.supporter[..all].iter_mut().for_each(|x| *x = u32::MAX);
+        // `supporter` is not cleared: it is read only for facts of nonzero finite cost, and
+        // those got theirs in this evaluation (when their cost was set).
         let (counts, _) = self.waiting[..2 * relaxed].as_chunks_mut::<2>();
         for (pair, &n) in counts.iter_mut().zip(self.pre_count[..relaxed].iter()) {
             *pair = [n, 0];

@@ -366,3 +366,43 @@ fn ready_set_covers_every_applicable_start_and_end() {
         }
     }
 }
+
+/// The search's filter for the start's deadlock check (`Planner::end_may_block`) against a
+/// scan of every pair of actions: every action whose end deletes another action's invariant
+/// without adding it back must be marked (it may block that one's end), and no other.
+#[test]
+fn end_may_block_marks_exactly_the_ends_that_delete_an_invariant() {
+    let mut rng = Rng(0x5eed_0005);
+    let (mut marked, mut unmarked) = (0, 0);
+    for _ in 0..300 {
+        let t = random_task(&mut rng);
+        let bytes = bytes_of(&t);
+        let task = Task::parse(&bytes).expect("valid task");
+        let mut arena = vec![0u32; 1 << 18];
+        let planner = temporal::Planner::new(task, &mut arena, temporal::PlannerConfig::default())
+            .expect("fits");
+        for x in 0..t.actions {
+            let l = &t.lists[x];
+            let deletes = |f: &u16| !l[FactList::AddEnd as usize].contains(f);
+            let expected = l[FactList::DelEnd as usize].iter().any(|f| {
+                deletes(f)
+                    && (0..t.actions).any(|y| t.lists[y][FactList::Invariant as usize].contains(f))
+            });
+            assert_eq!(
+                planner.end_may_block(x),
+                expected,
+                "action {x} of {:?}",
+                t.lists
+            );
+            if expected {
+                marked += 1;
+            } else {
+                unmarked += 1;
+            }
+        }
+    }
+    assert!(
+        marked > 50 && unmarked > 50,
+        "{marked} marked, {unmarked} not"
+    );
+}
