@@ -1,18 +1,30 @@
 #!/usr/bin/env python3
-"""Side-by-side benchmark of the onboard temporal planner (`hil plan --native`) and peer
-planners (LPG-td, Aries, Tamer through the unified-planning package) on the temporal PDDL
-benchmarks in ../shared/benchmarks/pddl (issue 13, item 6).
+"""Side-by-side benchmark of the onboard temporal planner and peer planners on the temporal
+PDDL benchmarks in ../shared/benchmarks/pddl (issue 13, item 6), all in one invocation with one
+time limit.
 
-For each instance: solved or not, makespan, time and peak memory. Ours reports its peak arena
-bytes (the planner's whole search memory) and the hil process's peak RSS; LPG-td reports its
-binary's peak RSS, Aries and Tamer the peak RSS of their process tree (the Python worker with
-unified-planning, or the planner binary it runs, whichever is larger). Every plan, ours and the peers', is checked with unified-planning's time-triggered plan
-validator. Times are host wall time and depend on the machine's load: this is a benchmark, not
-a test.
+For each instance: solved or not, makespan, time and peak memory, per planner:
+- ours natively (`hil plan --native`, in the target's 8 MiB arena by default, so the search is
+  the emulated target's): makespan, host time, peak arena bytes (the planner's whole search
+  memory) and the hil process's peak RSS;
+- ours on the emulated RAD750 (`hil plan --emulated`, the planner partition; with `--firmware`):
+  guest instructions of planning, peak arena bytes, whether plan and statistics are the native
+  ones, and whether it stayed within issue 13's 500 million instructions (the job is given
+  `--max-frames` 10 ms frames, by default 12,000: a window may run as little as one expansion,
+  so a job within the goal can take a few thousand frames; rovers 18 took 1,981 for 507
+  million instructions);
+- LPG-td (the binary's peak RSS), and Aries and Tamer (the peak RSS of their process tree): on
+  every instance with `--others all`, or by default only where LPG-td and ours (natively)
+  disagree on solved.
+Every plan, ours and the peers', is checked with unified-planning's time-triggered plan
+validator. Host times are wall time and depend on the machine's load (a benchmark, not a test);
+guest instructions do not.
 
 Set up the peers first: scripts/peers.sh (a venv in target/peers-venv). Then, e.g.:
 
-    target/peers-venv/bin/python scripts/bench-planners.py --limit 60 --out bench.md
+    nice -n 10 target/peers-venv/bin/python scripts/bench-planners.py --limit 60 \\
+        --firmware target/firmware/powerpc-unknown-linux-gnu/release/rad750-firmware \\
+        --out bench.md --json bench.json
 
 A peer that fails (timeout or no plan) on `--give-up` consecutive instances of a domain is not
 run on the domain's remaining (larger) instances; the table says so ("skipped").
@@ -214,7 +226,10 @@ def run_ours(hil, domain, problem, limit, arena_kib):
         "peak_arena_bytes": rep["peak_arena_bytes"],
         "rss_kib": rss,
         "expanded": rep["expanded"],
-        "actions": len(rep["plan"]),
+        "evaluated": rep["evaluated"],
+        "actions": rep["actions"],
+        "task_bytes": rep["task_bytes"],
+        "plan": rep["plan"],
     }
     if rep["solved"]:
         with tempfile.NamedTemporaryFile("w", suffix=".plan", delete=False) as f:
@@ -229,6 +244,39 @@ def run_ours(hil, domain, problem, limit, arena_kib):
         v = last_json(vout)
         res["valid"] = bool(v and v["valid"])
         res["invalid_reason"] = (v or {}).get("reason") or (verr or "").strip()[-200:]
+    return res
+
+
+GOAL_INSTRUCTIONS = 500_000_000
+
+
+def run_emulated(hil, firmware, domain, problem, max_frames, native):
+    """`hil plan --emulated` in the planner partition: guest instructions, peak arena, and
+    whether the plan and the search statistics are the native run's."""
+    argv = [hil, "plan", domain, problem, "--emulated", "--firmware", firmware, "--json"]
+    argv += ["--max-frames", str(max_frames)]
+    code, out, err = run_measured(argv, 3600)
+    if code is None:
+        return {"solved": False, "outcome": "killed"}
+    try:
+        rep = json.loads(out)
+    except json.JSONDecodeError:
+        return {"solved": False, "outcome": "error: " + one_line((err or out).strip()[-300:])}
+    emu = rep.get("emulated") or {}
+    res = {
+        "solved": rep["solved"],
+        "outcome": rep["outcome"],
+        "guest_instructions": emu.get("guest_instructions"),
+        "frames": emu.get("frames"),
+        "peak_arena_bytes": rep["peak_arena_bytes"],
+        "expanded": rep["expanded"],
+    }
+    res["same_plan"] = bool(
+        native and native.get("solved") and rep["solved"]
+        and rep["plan"] == native.get("plan") and rep["expanded"] == native.get("expanded")
+    )
+    g = res["guest_instructions"]
+    res["within_goal"] = bool(rep["solved"] and g is not None and g <= GOAL_INSTRUCTIONS)
     return res
 
 
@@ -259,19 +307,46 @@ def cell_ours(r):
         return f"- ({one_line(r.get('outcome', '?'))})"
     v = "" if r.get("valid") else " INVALID"
     return (
-        f"{r['makespan']:.2f} / {r['time_s']:.2f} s / {r['peak_arena_bytes'] / 1024:.0f} KiB arena"
+        f"{r['makespan']:.2f} / {r['time_s']:.2f} s / {r['peak_arena_bytes'] / 1024:,.0f} KiB"
         f" ({(r.get('rss_kib') or 0) / 1024:.0f} MB RSS){v}"
     )
 
 
+def cell_emulated(e):
+    if e is None:
+        return "-"
+    g = e.get("guest_instructions")
+    if not e.get("solved"):
+        m = re.search(r"no answer from the planner partition after (\d+) frames", e.get("outcome", ""))
+        if m:
+            # A window may run as little as one expansion (the search stops before one that
+            # would overrun the window's share), so frames say nothing sure about instructions.
+            return f"no plan within {int(m.group(1)):,} frames"
+        if g is not None:
+            return f"- ({one_line(e.get('outcome', '?'))} after {g:,})"
+        return f"- ({one_line(e.get('outcome', '?'))})"
+    same = "" if e.get("same_plan") else ", NOT the native plan"
+    goal = "" if e.get("within_goal") else " (over 500 M)"
+    return f"{g:,}{goal} / {e['peak_arena_bytes'] / 1024:,.0f} KiB{same}"
+
+
 def cell_peer(r):
     if r is None:
-        return "skipped"
+        return "not run"
     if not r.get("solved"):
         o = r.get("outcome", "?")
         return "- (" + ("timeout" if o in ("killed", "TIMEOUT") else one_line(o).lower()) + ")"
     v = "" if r.get("valid") else " INVALID"
     return f"{r['makespan']:.2f} / {r['time_s']:.2f} s / {(r.get('rss_kib') or 0) / 1024:.0f} MB{v}"
+
+
+def ratio(row, peers):
+    """Our peak arena over the lowest peak RSS of the peers that solved the instance."""
+    o = row["ours"]
+    rss = [row[p]["rss_kib"] for p in peers if row.get(p) and row[p].get("solved") and row[p].get("rss_kib")]
+    if not o.get("solved") or not rss:
+        return ""
+    return f"{o['peak_arena_bytes'] / (1024 * min(rss)):.4f}"
 
 
 def parse_range(s):
@@ -288,23 +363,36 @@ def parse_range(s):
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--hil", default=os.path.join(ROOT, "target", "release", "hil"))
+    ap.add_argument("--firmware", help="firmware ELF: also plan on the emulated target (omit: native only)")
+    ap.add_argument("--max-frames", type=int, default=12000, help="10 ms frames granted to each emulated job")
     ap.add_argument("--bench", default=DEFAULT_BENCH)
     ap.add_argument("--domains", default="satellite,rovers,driverlog")
     ap.add_argument("--instances", default="1-20")
     ap.add_argument("--peers", default="lpg,aries,tamer", help="comma list, or 'none'")
+    ap.add_argument("--others", choices=["disagree", "all"], default="disagree",
+                    help="run the peers after the first only where it and ours disagree on solved (default), or everywhere")
     ap.add_argument("--limit", type=float, default=60.0, help="seconds per planner and instance")
-    ap.add_argument("--arena-kib", type=int, default=65536)
+    ap.add_argument("--arena-kib", type=int, default=8192, help="our native arena (the target's: 8192)")
     ap.add_argument("--give-up", type=int, default=2)
     ap.add_argument("--out", help="write the Markdown table here too")
     ap.add_argument("--json", help="write every result as JSON here")
     a = ap.parse_args()
     peers = [] if a.peers == "none" else a.peers.split(",")
+    started = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     results = []
+    head = "| instance | ours, native: makespan / time / peak arena (RSS) |"
+    sep = "|---|---|"
+    if a.firmware:
+        head += " ours, emulated: guest instructions / peak arena |"
+        sep += "---|"
+    head += "".join(f" {p}: makespan / time / peak RSS |" for p in peers) + " arena / lowest peer RSS |"
+    sep += "---|" * len(peers) + "---:|"
     lines = [
-        f"Limit {a.limit:g} s per planner and instance; cells: makespan / time / memory.",
+        f"Run of {started}: limit {a.limit:g} s per planner and instance, our native arena"
+        f" {a.arena_kib} KiB" + (f", emulated jobs at most {a.max_frames} frames" if a.firmware else "") + ".",
         "",
-        "| instance | ours (hil plan --native) | " + " | ".join(peers) + " |",
-        "|---|---|" + "---|" * len(peers),
+        head,
+        sep,
     ]
     print("\n".join(lines), flush=True)
     for dom in a.domains.split(","):
@@ -314,25 +402,45 @@ def main():
         for i in parse_range(a.instances):
             problem = os.path.join(folder, "instances", f"instance-{i}.pddl")
             row = {"domain": dom, "instance": i, "ours": run_ours(a.hil, domain, problem, a.limit, a.arena_kib)}
-            for p in peers:
-                if fails[p] >= a.give_up:
+            if a.firmware:
+                row["emulated"] = run_emulated(a.hil, a.firmware, domain, problem, a.max_frames, row["ours"])
+            for k, p in enumerate(peers):
+                disagree = k > 0 and a.others == "disagree" and (
+                    row[peers[0]] is not None and bool(row[peers[0]].get("solved")) == bool(row["ours"].get("solved"))
+                )
+                if fails[p] >= a.give_up or disagree:
                     row[p] = None
                     continue
                 r = run_peer(PEERS[p], domain, problem, a.limit)
                 fails[p] = 0 if r.get("solved") else fails[p] + 1
                 row[p] = r
             results.append(row)
-            line = f"| {dom} {i} | {cell_ours(row['ours'])} | " + " | ".join(cell_peer(row[p]) for p in peers) + " |"
+            line = f"| {dom} {i} | {cell_ours(row['ours'])} |"
+            if a.firmware:
+                line += f" {cell_emulated(row['emulated'])} |"
+            line += "".join(f" {cell_peer(row[p])} |" for p in peers) + f" {ratio(row, peers)} |"
             lines.append(line)
             print(line, flush=True)
-    lines.append("")
+            if a.json:
+                with open(a.json, "w") as f:
+                    json.dump(results, f, indent=1)
+    lines += ["", "| solved (of instances run) | ours, native |" + (" ours, emulated within 500 M |" if a.firmware else "")
+              + "".join(f" {p} |" for p in peers), "|---|---:|" + ("---:|" if a.firmware else "") + "---:|" * len(peers)]
     for dom in a.domains.split(","):
         rows = [r for r in results if r["domain"] == dom]
-        s = f"{dom}: ours solved {sum(1 for r in rows if r['ours'].get('solved'))}/{len(rows)}"
+        s = f"| {dom} ({len(rows)}) | {sum(1 for r in rows if r['ours'].get('solved'))} |"
+        if a.firmware:
+            s += f" {sum(1 for r in rows if r['emulated'].get('within_goal'))} |"
         for p in peers:
-            s += f", {p} {sum(1 for r in rows if r[p] and r[p].get('solved'))}"
-        lines.append(s + "  ")
-        print(s, flush=True)
+            ran = sum(1 for r in rows if r[p] is not None)
+            s += f" {sum(1 for r in rows if r[p] and r[p].get('solved'))} (of {ran} run) |"
+        lines.append(s)
+    invalid = [f"{r['domain']} {r['instance']} {k}" for r in results for k in ["ours"] + peers
+               if r.get(k) and r[k].get("solved") and not r[k].get("valid")]
+    lines += ["", "Plans the validator refused: " + (", ".join(invalid) if invalid else "none") + "."]
+    ended = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    lines.append(f"Started {started}, ended {ended}.")
+    print("\n".join(lines[-(len(a.domains.split(',')) + 5):]), flush=True)
     if a.out:
         with open(a.out, "w") as f:
             f.write("\n".join(lines) + "\n")

@@ -48,12 +48,13 @@ pub struct Relaxation<'m> {
     pub pre_list: &'m mut [u32],
     /// Relaxed actions without preconditions (they fire at once in every state).
     pub free: &'m mut [u32],
-    /// Per relaxed fact: cost (u32::MAX unreached) and best supporter (u32::MAX none).
+    /// Per relaxed fact: cost (u32::MAX unreached) and best supporter (valid only for facts
+    /// the last evaluation reached at a nonzero cost).
     pub cost: &'m mut [u32],
     pub supporter: &'m mut [u32],
-    /// Per relaxed action: preconditions not yet reached, and the sum of their costs.
+    /// Per relaxed action r, two words: `waiting[2r]` its preconditions not yet reached,
+    /// `waiting[2r + 1]` the sum of their costs (side by side: one index for both).
     pub waiting: &'m mut [u32],
-    pub action_cost: &'m mut [u32],
     /// The priority queue's storage: a binary heap of (cost, fact) pairs, two words each, from
     /// the front, for costs of [`BUCKETS`] or more; (fact, next) entries of the bucket lists,
     /// two words each, from the back. Every push is one entry of one or the other, and an
@@ -77,19 +78,209 @@ pub struct Relaxation<'m> {
     /// (it fired at cost zero). Every applicable snap action's relaxed counterpart is set here,
     /// so the search generates successors from these bits instead of testing every action.
     pub ready: &'m mut [u32],
+    /// Bit per action: its end's only relaxed precondition is its running-action fact, so
+    /// the end fires as soon as its start does, at the start's cost (see
+    /// [`Propagation::fire`]), without a trip of that fact through the queue.
+    pub end_follows: &'m mut [u32],
 }
 
 /// Costs with a bucket of their own in the heuristic's queue (larger ones go to a heap).
 pub const BUCKETS: usize = 1024;
 
-/// The state of the heuristic's queue during one evaluation: Dial's buckets for small costs,
-/// a binary heap above them. Pops come in nondecreasing cost (every relaxed action costs at
-/// least one), so the buckets are taken in order from `cur`.
-struct Queue {
+/// The heuristic's queue during one evaluation: Dial's buckets for small costs, a binary heap
+/// above them, in the relaxation's `heap` and `buckets` words. Pops come in nondecreasing cost
+/// (every relaxed action costs at least one), so the buckets are taken in order from `cur`.
+///
+/// The propagation works on local slices (this queue and [`Propagation`]) rather than through
+/// `&mut self`: the compiler then keeps their addresses and lengths in registers instead of
+/// loading them again after every store (about a third of an evaluation's instructions on the
+/// PowerPC 750).
+struct Queue<'a> {
+    heap: &'a mut [u32],
+    buckets: &'a mut [u32],
     heap_len: usize,
     entries: usize,
     cur: usize,
     max_bucket: usize,
+}
+
+impl Queue<'_> {
+    #[inline(always)]
+    fn push(&mut self, cost: u32, fact: u32) {
+        let c = cost as usize;
+        if c < BUCKETS {
+            self.entries += 1;
+            let at = self.heap.len() - 2 * self.entries;
+            self.heap[at] = fact;
+            self.heap[at + 1] = self.buckets[c];
+            self.buckets[c] = at as u32;
+            self.max_bucket = self.max_bucket.max(c);
+        } else {
+            self.heap_push(cost, fact);
+        }
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, u32)> {
+        while self.cur < BUCKETS {
+            let head = self.buckets[self.cur];
+            if head != u32::MAX {
+                let at = head as usize;
+                self.buckets[self.cur] = self.heap[at + 1];
+                return Some((self.cur as u32, self.heap[at]));
+            }
+            self.cur += 1;
+        }
+        self.heap_pop()
+    }
+
+    fn heap_push(&mut self, cost: u32, fact: u32) {
+        let heap = &mut *self.heap;
+        let mut i = self.heap_len;
+        self.heap_len += 1;
+        heap[2 * i] = cost;
+        heap[2 * i + 1] = fact;
+        while i > 0 {
+            let parent = (i - 1) / 2;
+            if heap[2 * parent] <= heap[2 * i] {
+                break;
+            }
+            heap.swap(2 * parent, 2 * i);
+            heap.swap(2 * parent + 1, 2 * i + 1);
+            i = parent;
+        }
+    }
+
+    fn heap_pop(&mut self) -> Option<(u32, u32)> {
+        if self.heap_len == 0 {
+            return None;
+        }
+        let heap = &mut *self.heap;
+        let top = (heap[0], heap[1]);
+        self.heap_len -= 1;
+        let last = self.heap_len;
+        heap[0] = heap[2 * last];
+        heap[1] = heap[2 * last + 1];
+        let mut i = 0;
+        loop {
+            let (l, r) = (2 * i + 1, 2 * i + 2);
+            let mut m = i;
+            if l < last && heap[2 * l] < heap[2 * m] {
+                m = l;
+            }
+            if r < last && heap[2 * r] < heap[2 * m] {
+                m = r;
+            }
+            if m == i {
+                break;
+            }
+            heap.swap(2 * m, 2 * i);
+            heap.swap(2 * m + 1, 2 * i + 1);
+            i = m;
+        }
+        Some(top)
+    }
+}
+
+/// The tables one evaluation's cost propagation reads and writes, as local slices (see
+/// [`Queue`]).
+struct Propagation<'a> {
+    pre_offsets: &'a [u32],
+    pre_index: &'a [u32],
+    add_offsets: &'a [u32],
+    add_index: &'a [u32],
+    own_cost: &'a [u32],
+    cost: &'a mut [u32],
+    supporter: &'a mut [u32],
+    /// Per relaxed action: (preconditions not yet reached, the sum of their costs).
+    counts: &'a mut [[u32; 2]],
+    ready: &'a mut [u32],
+    end_follows: &'a [u32],
+    /// The first running-action fact (the task's fact count).
+    facts: usize,
+}
+
+impl Propagation<'_> {
+    /// Relaxed action `r` fires: its effects get its cost if that is cheaper, or the same
+    /// cost from a lower-numbered supporter.
+    ///
+    /// A start whose end needs nothing but the action running (an `end_follows` action) reaches
+    /// its running-action fact here, at its final cost (the start is that fact's only achiever
+    /// and fires once), so the end fires at once instead of after the fact's trip through the
+    /// queue. The order differs from the queue's, the outcome does not: every fact of cost at
+    /// most the last goal's still has its final cost and supporter when the propagation stops.
+    #[inline(always)]
+    fn fire(&mut self, r: usize, q: &mut Queue<'_>) {
+        let c = self.fire_effects(r, q);
+        if r.is_multiple_of(2) {
+            let a = r / 2;
+            if self.end_follows[a / 32] & (1 << (a % 32)) != 0 {
+                let f = self.facts + a;
+                if c < self.cost[f] {
+                    self.cost[f] = c;
+                    self.supporter[f] = r as u32;
+                    let e = r + 1;
+                    self.counts[e] = [0, c];
+                    if c == 0 {
+                        self.ready[e / 32] |= 1 << (e % 32);
+                    }
+                    self.fire_effects(e, q);
+                }
+            }
+        }
+    }
+
+    /// The effects of relaxed action `r` at its cost, which it returns. The running-action
+    /// fact of an `end_follows` start is left to [`Self::fire`].
+    #[inline(always)]
+    fn fire_effects(&mut self, r: usize, q: &mut Queue<'_>) -> u32 {
+        let c = self.counts[r][1].saturating_add(self.own_cost[r]);
+        let (lo, mut hi) = (
+            self.add_offsets[r] as usize,
+            self.add_offsets[r + 1] as usize,
+        );
+        // A start's running-action fact is its last effect.
+        if r.is_multiple_of(2) && self.end_follows[r / 64] & (1 << ((r / 2) % 32)) != 0 {
+            hi -= 1;
+        }
+        for &f in &self.add_index[lo..hi] {
+            let f = f as usize;
+            let old = self.cost[f];
+            // The cheapest achiever, the lowest-numbered among equals: the same supporter
+            // whatever order the heap takes equal costs in.
+            if c < old || (c == old && c != u32::MAX && (r as u32) < self.supporter[f]) {
+                if c < old {
+                    q.push(c, f as u32);
+                }
+                self.cost[f] = c;
+                self.supporter[f] = r as u32;
+            }
+        }
+        c
+    }
+
+    /// Fact `f` reached at cost `c`: each relaxed action it is a precondition of counts it,
+    /// and fires when its last precondition is reached.
+    #[inline(always)]
+    fn reach(&mut self, f: usize, c: u32, q: &mut Queue<'_>) {
+        let (lo, hi) = (
+            self.pre_offsets[f] as usize,
+            self.pre_offsets[f + 1] as usize,
+        );
+        for &r in &self.pre_index[lo..hi] {
+            let r = r as usize;
+            let [waiting, sum] = self.counts[r];
+            let left = waiting - 1;
+            let sum = sum.saturating_add(c);
+            self.counts[r] = [left, sum];
+            if left == 0 {
+                if sum == 0 {
+                    self.ready[r / 32] |= 1 << (r % 32);
+                }
+                self.fire(r, q);
+            }
+        }
+    }
 }
 
 /// Take `n` words off the front of `rest`, counting them in `used`.
@@ -210,8 +401,7 @@ impl<'m> Relaxation<'m> {
             free: take(free_n)?,
             cost: take(all.max(offsets_n))?,
             supporter: take(all)?,
-            waiting: take(relaxed)?,
-            action_cost: take(relaxed)?,
+            waiting: take(2 * relaxed)?,
             heap: take(2 * (all + add_entries_n + 1))?,
             buckets: take(BUCKETS)?,
             marked: take(relaxed.div_ceil(32))?,
@@ -221,6 +411,7 @@ impl<'m> Relaxation<'m> {
             add_index: take(add_entries_n)?,
             own_cost: take(relaxed)?,
             ready: take(relaxed.div_ceil(32))?,
+            end_follows: take(task.action_count().div_ceil(32))?,
         };
         relax.buckets.iter_mut().for_each(|b| *b = u32::MAX);
         Some(relax)
@@ -250,6 +441,16 @@ impl<'m> Relaxation<'m> {
             }
         }
         self.pre_list_offsets[2 * task.action_count()] = at as u32;
+        self.end_follows.iter_mut().for_each(|x| *x = 0);
+        for a in 0..task.action_count() {
+            let (lo, hi) = (
+                self.pre_list_offsets[2 * a + 1] as usize,
+                self.pre_list_offsets[2 * a + 2] as usize,
+            );
+            if hi == lo + 1 && self.pre_list[lo] as usize == task.fact_count() + a {
+                self.end_follows[a / 32] |= 1 << (a % 32);
+            }
+        }
         for f in 0..facts {
             self.pre_offsets[f + 1] += self.pre_offsets[f];
         }
@@ -317,78 +518,6 @@ impl<'m> Relaxation<'m> {
         self.ready[r / 32] & (1 << (r % 32)) != 0
     }
 
-    fn push(&mut self, q: &mut Queue, cost: u32, fact: u32) {
-        let c = cost as usize;
-        if c < BUCKETS {
-            q.entries += 1;
-            let at = self.heap.len() - 2 * q.entries;
-            self.heap[at] = fact;
-            self.heap[at + 1] = self.buckets[c];
-            self.buckets[c] = at as u32;
-            q.max_bucket = q.max_bucket.max(c);
-        } else {
-            self.heap_push(&mut q.heap_len, cost, fact);
-        }
-    }
-
-    fn pop(&mut self, q: &mut Queue) -> Option<(u32, u32)> {
-        while q.cur < BUCKETS {
-            let head = self.buckets[q.cur];
-            if head != u32::MAX {
-                let at = head as usize;
-                self.buckets[q.cur] = self.heap[at + 1];
-                return Some((q.cur as u32, self.heap[at]));
-            }
-            q.cur += 1;
-        }
-        self.heap_pop(&mut q.heap_len)
-    }
-
-    fn heap_push(&mut self, len: &mut usize, cost: u32, fact: u32) {
-        let mut i = *len;
-        *len += 1;
-        self.heap[2 * i] = cost;
-        self.heap[2 * i + 1] = fact;
-        while i > 0 {
-            let parent = (i - 1) / 2;
-            if self.heap[2 * parent] <= self.heap[2 * i] {
-                break;
-            }
-            self.heap.swap(2 * parent, 2 * i);
-            self.heap.swap(2 * parent + 1, 2 * i + 1);
-            i = parent;
-        }
-    }
-
-    fn heap_pop(&mut self, len: &mut usize) -> Option<(u32, u32)> {
-        if *len == 0 {
-            return None;
-        }
-        let top = (self.heap[0], self.heap[1]);
-        *len -= 1;
-        let last = *len;
-        self.heap[0] = self.heap[2 * last];
-        self.heap[1] = self.heap[2 * last + 1];
-        let mut i = 0;
-        loop {
-            let (l, r) = (2 * i + 1, 2 * i + 2);
-            let mut m = i;
-            if l < last && self.heap[2 * l] < self.heap[2 * m] {
-                m = l;
-            }
-            if r < last && self.heap[2 * r] < self.heap[2 * m] {
-                m = r;
-            }
-            if m == i {
-                break;
-            }
-            self.heap.swap(2 * m, 2 * i);
-            self.heap.swap(2 * m + 1, 2 * i + 1);
-            i = m;
-        }
-        Some(top)
-    }
-
     /// Whether relaxed action `r` is in the last relaxed plan.
     pub fn in_relaxed_plan(&self, r: usize) -> bool {
         self.marked[r / 32] & (1 << (r % 32)) != 0
@@ -409,16 +538,34 @@ impl<'m> Relaxation<'m> {
         let all = facts + task.action_count();
         let relaxed = 2 * task.action_count();
         self.cost[..all].iter_mut().for_each(|x| *x = u32::MAX);
-        self.supporter[..all].iter_mut().for_each(|x| *x = u32::MAX);
-        self.waiting[..relaxed].copy_from_slice(&self.pre_count[..relaxed]);
-        self.action_cost[..relaxed].iter_mut().for_each(|x| *x = 0);
+        // `supporter` is not cleared: it is read only for facts of nonzero finite cost, and
+        // those got theirs in this evaluation (when their cost was set).
+        let (counts, _) = self.waiting[..2 * relaxed].as_chunks_mut::<2>();
+        for (pair, &n) in counts.iter_mut().zip(self.pre_count[..relaxed].iter()) {
+            *pair = [n, 0];
+        }
         self.marked.iter_mut().for_each(|x| *x = 0);
         self.ready.iter_mut().for_each(|x| *x = 0);
         let mut q = Queue {
+            heap: &mut *self.heap,
+            buckets: &mut *self.buckets,
             heap_len: 0,
             entries: 0,
             cur: 0,
             max_bucket: 0,
+        };
+        let mut prop = Propagation {
+            pre_offsets: &*self.pre_offsets,
+            pre_index: &*self.pre_index,
+            add_offsets: &*self.add_offsets,
+            add_index: &*self.add_index,
+            own_cost: &*self.own_cost,
+            cost: &mut *self.cost,
+            supporter: &mut *self.supporter,
+            counts,
+            ready: &mut *self.ready,
+            end_follows: &*self.end_follows,
+            facts,
         };
         for (w, &bits) in fact_bits.iter().enumerate().take(facts.div_ceil(32)) {
             let mut bits = bits;
@@ -426,64 +573,51 @@ impl<'m> Relaxation<'m> {
                 let f = 32 * w + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 if f < facts {
-                    self.cost[f] = 0;
-                    self.push(&mut q, 0, f as u32);
+                    prop.cost[f] = 0;
+                    q.push(0, f as u32);
                 }
             }
         }
         for &a in running {
             let f = facts + a as usize;
-            self.cost[f] = 0;
-            self.push(&mut q, 0, f as u32);
+            prop.cost[f] = 0;
+            q.push(0, f as u32);
         }
         // Relaxed actions without preconditions fire at once.
-        for i in 0..self.free.len() {
-            let r = self.free[i] as usize;
-            self.ready[r / 32] |= 1 << (r % 32);
-            self.fire(r, &mut q);
+        for &r in self.free.iter() {
+            let r = r as usize;
+            prop.ready[r / 32] |= 1 << (r % 32);
+            prop.fire(r, &mut q);
         }
         let goals = task.goal_facts();
         let is_goal = |goal: &[u32], g: usize| goal[g / 32] & (1 << (g % 32)) != 0;
+        let goal = &*self.goal;
         // Distinct goal facts not yet true.
         let mut goals_left = 0;
-        for (w, &bits) in self.goal.iter().enumerate() {
+        for (w, &bits) in goal.iter().enumerate() {
             let mut bits = bits;
             while bits != 0 {
                 let f = 32 * w + bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                if self.cost[f] != 0 {
+                if prop.cost[f] != 0 {
                     goals_left += 1;
                 }
             }
         }
-        while let Some((c, f)) = self.pop(&mut q) {
+        while let Some((c, f)) = q.pop() {
             let f = f as usize;
-            if c > self.cost[f] {
+            if c > prop.cost[f] {
                 continue;
             }
             // Every fact of cost zero is taken before any other (every relaxed action costs
             // at least one), so stopping at the last goal never cuts the ready set short.
-            if f < facts && c > 0 && is_goal(self.goal, f) {
+            if f < facts && c > 0 && is_goal(goal, f) {
                 goals_left -= 1;
                 if goals_left == 0 {
                     break;
                 }
             }
-            let (lo, hi) = (
-                self.pre_offsets[f] as usize,
-                self.pre_offsets[f + 1] as usize,
-            );
-            for i in lo..hi {
-                let r = self.pre_index[i] as usize;
-                self.waiting[r] -= 1;
-                self.action_cost[r] = self.action_cost[r].saturating_add(c);
-                if self.waiting[r] == 0 {
-                    if self.action_cost[r] == 0 {
-                        self.ready[r / 32] |= 1 << (r % 32);
-                    }
-                    self.fire(r, &mut q);
-                }
-            }
+            prop.reach(f, c, &mut q);
         }
         // Empty the buckets the early stop left filled (all of them start empty).
         let used = (q.max_bucket + 1).min(BUCKETS);
@@ -543,27 +677,5 @@ impl<'m> Relaxation<'m> {
             }
         }
         h
-    }
-
-    fn fire(&mut self, r: usize, q: &mut Queue) {
-        let c = self.action_cost[r].saturating_add(self.own_cost[r]);
-        let (lo, hi) = (
-            self.add_offsets[r] as usize,
-            self.add_offsets[r + 1] as usize,
-        );
-        for i in lo..hi {
-            let f = self.add_index[i] as usize;
-            // The cheapest achiever, the lowest-numbered among equals: the same supporter
-            // whatever order the heap takes equal costs in.
-            if c < self.cost[f]
-                || (c == self.cost[f] && c != u32::MAX && (r as u32) < self.supporter[f])
-            {
-                if c < self.cost[f] {
-                    self.push(q, c, f as u32);
-                }
-                self.cost[f] = c;
-                self.supporter[f] = r as u32;
-            }
-        }
     }
 }

@@ -254,6 +254,9 @@ fn expected(
 
 fn check(seed: u64, costs: RelaxedCost) {
     let mut rng = Rng(seed);
+    // Actions whose end fires with their start (no end condition but the action running):
+    // the propagation takes a shortcut for them, which these rounds must exercise.
+    let mut end_follows = 0;
     for round in 0..300 {
         let t = random_task(&mut rng);
         let bytes = bytes_of(&t);
@@ -263,6 +266,11 @@ fn check(seed: u64, costs: RelaxedCost) {
         let mut rest: &mut [u32] = &mut arena;
         let mut used = 0;
         let mut relax = Relaxation::new(&task, &mut rest, &mut used, costs, dropped).expect("fits");
+        end_follows += relax
+            .end_follows
+            .iter()
+            .map(|w| w.count_ones())
+            .sum::<u32>();
         // Several states in a row in the same tables.
         for state in 0..8 {
             let true_facts: Vec<bool> = (0..t.facts).map(|_| rng.chance(40)).collect();
@@ -289,6 +297,10 @@ fn check(seed: u64, costs: RelaxedCost) {
             }
         }
     }
+    assert!(
+        end_follows > 100,
+        "only {end_follows} end-follows actions exercised"
+    );
 }
 
 #[test]
@@ -353,4 +365,44 @@ fn ready_set_covers_every_applicable_start_and_end() {
             }
         }
     }
+}
+
+/// The search's filter for the start's deadlock check (`Planner::end_may_block`) against a
+/// scan of every pair of actions: every action whose end deletes another action's invariant
+/// without adding it back must be marked (it may block that one's end), and no other.
+#[test]
+fn end_may_block_marks_exactly_the_ends_that_delete_an_invariant() {
+    let mut rng = Rng(0x5eed_0005);
+    let (mut marked, mut unmarked) = (0, 0);
+    for _ in 0..300 {
+        let t = random_task(&mut rng);
+        let bytes = bytes_of(&t);
+        let task = Task::parse(&bytes).expect("valid task");
+        let mut arena = vec![0u32; 1 << 18];
+        let planner = temporal::Planner::new(task, &mut arena, temporal::PlannerConfig::default())
+            .expect("fits");
+        for x in 0..t.actions {
+            let l = &t.lists[x];
+            let deletes = |f: &u16| !l[FactList::AddEnd as usize].contains(f);
+            let expected = l[FactList::DelEnd as usize].iter().any(|f| {
+                deletes(f)
+                    && (0..t.actions).any(|y| t.lists[y][FactList::Invariant as usize].contains(f))
+            });
+            assert_eq!(
+                planner.end_may_block(x),
+                expected,
+                "action {x} of {:?}",
+                t.lists
+            );
+            if expected {
+                marked += 1;
+            } else {
+                unmarked += 1;
+            }
+        }
+    }
+    assert!(
+        marked > 50 && unmarked > 50,
+        "{marked} marked, {unmarked} not"
+    );
 }

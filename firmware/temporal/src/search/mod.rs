@@ -269,6 +269,10 @@ pub struct Planner<'t, 'm> {
     relax: Relaxation<'m>,
     /// Bit per action: compression safe.
     safe: &'m mut [u32],
+    /// Bit per action: its end deletes (without adding back) a fact that is some action's
+    /// invariant, so it may block another action's end ([`Planner::ends_block_each_other`]
+    /// needs two such actions; the start's check skips the rest without decoding them).
+    may_block: &'m mut [u32],
     /// Per fact: how many running actions protect it as an invariant (for the current state).
     protect: &'m mut [u32],
     /// Per fact and numeric variable: the last step of the loaded path that wrote it (0: none).
@@ -364,6 +368,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         let relax = Relaxation::carve_tables(&task, &mut rest, &mut used).ok_or(Region::Tables)?;
         let mut take = |n: usize| carve(&mut rest, n, &mut used).ok_or(Region::Tables);
         let safe = take(actions.div_ceil(32))?;
+        let may_block = take(actions.div_ceil(32))?;
         let protect = take(facts)?;
         let last_writer = take(ids)?;
         let path_snap = take(steps)?;
@@ -388,6 +393,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             config,
             relax,
             safe,
+            may_block,
             protect,
             last_writer,
             path_snap,
@@ -462,6 +468,12 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// Whether the end of `action` may be applied straight after its start without losing plans.
     pub fn compression_safe(&self, action: usize) -> bool {
         self.safe[action / 32] & (1 << (action % 32)) != 0
+    }
+    /// Whether the end of `action` deletes (without adding back) some action's invariant: only
+    /// such actions can block each other's ends, so a start's deadlock check looks no further
+    /// for the others.
+    pub fn end_may_block(&self, action: usize) -> bool {
+        self.may_block(action)
     }
 }
 

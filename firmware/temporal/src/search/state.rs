@@ -67,8 +67,34 @@ impl<'t, 'm> Planner<'t, 'm> {
                 self.safe[a / 32] |= 1 << (a % 32);
             }
         }
+        // The actions whose end may break another's invariant: protect[f] = 1 marks the
+        // facts that are some action's invariant.
+        self.protect.iter_mut().for_each(|x| *x = 0);
+        for a in 0..task.action_count() {
+            for f in task.action(a).facts(FactList::Invariant).iter() {
+                self.protect[f] = 1;
+            }
+        }
+        self.may_block.iter_mut().for_each(|x| *x = 0);
+        for a in 0..task.action_count() {
+            let act = task.action(a);
+            let add = act.facts(FactList::AddEnd);
+            if act
+                .facts(FactList::DelEnd)
+                .iter()
+                .any(|f| self.protect[f] == 1 && !add.contains(f))
+            {
+                self.may_block[a / 32] |= 1 << (a % 32);
+            }
+        }
         self.protect.iter_mut().for_each(|x| *x = 0);
         self.last_writer.iter_mut().for_each(|x| *x = 0);
+    }
+
+    /// Whether the end of `a` deletes some action's invariant (a superset of the actions
+    /// [`Self::end_breaks_invariant`] finds for any other action).
+    pub(super) fn may_block(&self, a: usize) -> bool {
+        self.may_block[a / 32] & (1 << (a % 32)) != 0
     }
 
     // ----- states -----------------------------------------------------------------------------
@@ -219,9 +245,10 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
             // A start that would deadlock with a running action is a dead end: neither end
             // could ever be applied while the other runs.
-            if list[..n]
-                .iter()
-                .any(|&r| self.ends_block_each_other(a, r as usize))
+            if self.may_block(a)
+                && list[..n].iter().any(|&r| {
+                    self.may_block(r as usize) && self.ends_block_each_other(a, r as usize)
+                })
             {
                 return false;
             }

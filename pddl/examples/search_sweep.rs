@@ -1,0 +1,76 @@
+//! The temporal planner's search on the benchmark instances, natively, in the target's 8 MiB
+//! arena: per instance the outcome, expansions, evaluations, plan actions and a proxy for the
+//! target's cost (evaluations x ground actions, which the heuristic's work follows). For
+//! comparing search changes quickly; `scripts/bench-planners.py` is the benchmark.
+//!
+//!     cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
+use std::time::Instant;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let bench = args
+        .get(1)
+        .cloned()
+        .unwrap_or_else(|| "../shared/benchmarks/pddl".into());
+    let domains = args
+        .get(2)
+        .cloned()
+        .unwrap_or_else(|| "satellite,rovers,driverlog".into());
+    let range = args.get(3).cloned().unwrap_or_else(|| "1-20".into());
+    let (lo, hi) = range
+        .split_once('-')
+        .map(|(a, b)| (a.parse().unwrap_or(1), b.parse().unwrap_or(20)))
+        .unwrap_or((1, 20));
+    let cap: u64 = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(50_000);
+    let mut arena = vec![0u32; 8 << 18];
+    let mut total_work = 0u64;
+    for dom in domains.split(',') {
+        let folder = format!("{bench}/{dom}-time-simple-automatic");
+        let domain = std::fs::read_to_string(format!("{folder}/domain.pddl")).expect("domain");
+        for i in lo..=hi {
+            let problem = std::fs::read_to_string(format!("{folder}/instances/instance-{i}.pddl"))
+                .expect("problem");
+            let compiled = pddl::compile(
+                pddl::Source {
+                    name: "domain.pddl",
+                    text: &domain,
+                },
+                pddl::Source {
+                    name: "problem.pddl",
+                    text: &problem,
+                },
+                &pddl::ModuleRegistry::default(),
+                &pddl::Options::default(),
+            )
+            .expect("compiles");
+            let task = temporal::Task::parse(&compiled.task).expect("valid");
+            let actions = task.action_count() as u64;
+            let started = Instant::now();
+            arena.iter_mut().for_each(|w| *w = 0);
+            let mut planner =
+                temporal::Planner::new(task, &mut arena, temporal::PlannerConfig::default())
+                    .expect("fits");
+            let status = loop {
+                let s = planner.step(256);
+                if s != temporal::Status::Searching || planner.stats().expanded >= cap {
+                    break s;
+                }
+            };
+            let stats = planner.stats();
+            let mut out = vec![temporal::PlannedAction::default(); 1024];
+            let len = planner.plan(&mut out).map(|(n, _)| n).unwrap_or(0);
+            let work = stats.evaluated * actions;
+            total_work += work;
+            println!(
+                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} plan {len} work {:.1}M peak {} KiB {:.2} s",
+                stats.expanded,
+                stats.evaluated,
+                stats.restarts,
+                work as f64 / 1e6,
+                stats.peak_words * 4 / 1024,
+                started.elapsed().as_secs_f64()
+            );
+        }
+    }
+    println!("total work {:.1}M", total_work as f64 / 1e6);
+}
