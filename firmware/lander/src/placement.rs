@@ -192,6 +192,11 @@ impl TimelinePlacement {
     /// Energy the hotel load drains from the horizon start to `t`, in mJ.
     pub fn hotel_energy_mj(&self, t: MissionTimeUs) -> u64 {
         let seconds_us = t.0.saturating_sub(self.horizon_start.0);
+        // In u64 when the product fits (always at mission sizes): the same value without the
+        // 128-bit division, a library call on the 32-bit target.
+        if let Some(product) = self.hotel_load_mw.checked_mul(seconds_us) {
+            return product / 1_000_000;
+        }
         let mj = u128::from(self.hotel_load_mw) * u128::from(seconds_us) / 1_000_000;
         u64::try_from(mj).unwrap_or(u64::MAX)
     }
@@ -288,9 +293,14 @@ impl TimelinePlacement {
     }
 }
 
-impl ChainPlacement for TimelinePlacement {
-    fn place(
-        &mut self,
+impl TimelinePlacement {
+    /// The placement as first written (each candidate start checked against every placed
+    /// chain, each hold's release searched again per check): the reference
+    /// [`ChainPlacement::place`] must agree with (`tests/placement_index.rs`). Not used by the
+    /// search.
+    #[doc(hidden)]
+    pub fn place_reference(
+        &self,
         network: &FlatNetwork,
         plan: &[PlacedChain],
         candidate: u16,
@@ -359,5 +369,201 @@ impl ChainPlacement for TimelinePlacement {
 impl TimelinePlacement {
     fn phase_change(&self, index: usize) -> Option<MissionTimeUs> {
         self.phases.change_time(index)
+    }
+}
+
+/// The plan's chains indexed once per placement, so that each candidate start is checked in
+/// about `log n` steps instead of against every chain (and every hold's release searched once,
+/// not once per check): the busy intervals sorted by start with their running latest end, the
+/// uplinks sorted by start (ties in plan order), and each hold's release by the plan's uplinks.
+/// [`ChainPlacement::place`] with it decides exactly as [`TimelinePlacement::place_reference`].
+struct PlanIndex {
+    /// Non-empty spans as (start, end), sorted by start.
+    busy: Vec<(u64, u64), MAX_PLAN_CHAINS>,
+    /// `max_end[i]`: the latest end among `busy[..=i]`.
+    max_end: Vec<u64, MAX_PLAN_CHAINS>,
+    /// Uplinks as (start, position in the plan, end), sorted: by start, ties in plan order.
+    uplinks: Vec<(u64, u16, u64), MAX_PLAN_CHAINS>,
+    /// Holding chains as (end, the plan's uplink that releases it: (start, end))
+    holds: Vec<(u64, Option<(u64, u64)>), MAX_PLAN_CHAINS>,
+    /// Starts of the chains that wait for a ground release.
+    waits: Vec<u64, MAX_PLAN_CHAINS>,
+}
+
+impl PlanIndex {
+    fn new(spans: &[Span]) -> Self {
+        let mut index = Self {
+            busy: Vec::new(),
+            max_end: Vec::new(),
+            uplinks: Vec::new(),
+            holds: Vec::new(),
+            waits: Vec::new(),
+        };
+        // Never fail: at most one entry per span, at most MAX_PLAN_CHAINS spans.
+        for (position, s) in spans.iter().enumerate() {
+            if s.start < s.end {
+                let _ = index.busy.push((s.start, s.end));
+            }
+            if s.uplink {
+                let _ = index.uplinks.push((s.start, position as u16, s.end));
+            }
+            if s.waits {
+                let _ = index.waits.push(s.start);
+            }
+        }
+        index.busy.sort_unstable();
+        let mut latest = 0u64;
+        for &(_, end) in &index.busy {
+            latest = latest.max(end);
+            let _ = index.max_end.push(latest);
+        }
+        // Equal starts in plan order, as `TimelinePlacement::release` takes the first.
+        index.uplinks.sort_unstable();
+        for s in spans.iter().filter(|s| s.holds) {
+            let base = index.first_uplink(s.end);
+            let _ = index.holds.push((s.end, base));
+        }
+        index
+    }
+
+    /// The plan's first uplink (by start, then plan order) that starts at or after `from`.
+    fn first_uplink(&self, from: u64) -> Option<(u64, u64)> {
+        let at = self.uplinks.partition_point(|&(start, _, _)| start < from);
+        self.uplinks.get(at).map(|&(start, _, end)| (start, end))
+    }
+
+    /// [`TimelinePlacement::release`] over the plan and `x`, given the plan's own answer
+    /// `base` for `from`: `x` releases only if it is an uplink starting strictly before it.
+    fn release_with(base: Option<(u64, u64)>, x: &Span, from: u64) -> u64 {
+        if x.uplink && x.start >= from && base.is_none_or(|(start, _)| x.start < start) {
+            return x.end;
+        }
+        base.map_or(u64::MAX, |(_, end)| end)
+    }
+
+    /// Whether non-empty `x` overlaps a non-empty span of the plan.
+    fn overlaps(&self, x: &Span) -> bool {
+        if x.start >= x.end {
+            return false;
+        }
+        let before_end = self.busy.partition_point(|&(start, _)| start < x.end);
+        before_end
+            .checked_sub(1)
+            .and_then(|i| self.max_end.get(i))
+            .is_some_and(|&end| end > x.start)
+    }
+}
+
+impl TimelinePlacement {
+    /// [`Self::compatible`] with the plan indexed.
+    fn compatible_indexed(&self, index: &PlanIndex, x: Span, chain: &Chain) -> bool {
+        if x.start < self.horizon_start.0 || x.end > self.horizon_end.0 {
+            return false;
+        }
+        if !self
+            .phases
+            .allows_span(chain.phases, MissionTimeUs(x.start), MissionTimeUs(x.end))
+        {
+            return false;
+        }
+        if index.overlaps(&x) {
+            return false;
+        }
+        if x.waits
+            && index.holds.iter().any(|&(end, base)| {
+                x.start >= end && x.start < PlanIndex::release_with(base, &x, end)
+            })
+        {
+            return false;
+        }
+        if x.holds && !index.waits.is_empty() {
+            let release = PlanIndex::release_with(index.first_uplink(x.end), &x, x.end);
+            if index
+                .waits
+                .iter()
+                .any(|&start| start >= x.end && start < release)
+            {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+impl ChainPlacement for TimelinePlacement {
+    fn place(
+        &mut self,
+        network: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+    ) -> Option<MissionTimeUs> {
+        let chain = network.chains.get(usize::from(candidate))?;
+        let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
+        let mut energy_mj = chain.energy_mj;
+        let mut latest_end = self.horizon_start.0;
+        for p in plan {
+            let c = network.chains.get(usize::from(p.chain))?;
+            let s = span_of(c, p.start);
+            latest_end = latest_end.max(s.end);
+            energy_mj = energy_mj.saturating_add(c.energy_mj);
+            spans.push(s).ok()?;
+        }
+        let index = PlanIndex::new(&spans);
+        let fits_energy = |end: u64| {
+            let end = MissionTimeUs(end.max(latest_end));
+            energy_mj.saturating_add(self.hotel_energy_mj(end)) <= self.battery_mj
+        };
+        let valid = |x: &Span| {
+            self.compatible_indexed(&index, *x, chain)
+                && fits_energy(x.end)
+                && self.reaches_earth(&spans, *x, chain, candidate)
+        };
+        if let Some(start) = chain.fixed_start {
+            return valid(&span_of(chain, start)).then_some(start);
+        }
+        // The candidate starts of `place_reference`, those before the horizon start or never
+        // left out before sorting, duplicates checked once.
+        let from = self.horizon_start.0;
+        let mut candidates: Vec<u64, MAX_PLACEMENT_CANDIDATES> = Vec::new();
+        let mut add = |s: u64| {
+            if s >= from && s != u64::MAX {
+                let _ = candidates.push(s);
+            }
+        };
+        add(from);
+        for s in &spans {
+            add(s.end);
+            if chain.holds_for_ground && s.waits {
+                add((s.start + 1).saturating_sub(chain.duration_us));
+            }
+        }
+        for &(_, base) in &index.holds {
+            add(base.map_or(u64::MAX, |(_, end)| end));
+        }
+        if let Some(at) =
+            self.phases
+                .earliest_span(chain.phases, self.horizon_start, chain.duration_us)
+        {
+            add(at.0);
+        }
+        for t in (0..MAX_PHASE_CHANGES).filter_map(|i| self.phase_change(i)) {
+            add(t.0);
+        }
+        if let (true, Some((offset, _))) = (self.earth.modelled(), self.earth.span(candidate)) {
+            // The downlink starts as a window opens.
+            for w in self.earth.windows.windows() {
+                if let Some(s) = w.start.0.checked_sub(offset) {
+                    add(s);
+                }
+            }
+        }
+        candidates.sort_unstable();
+        let mut previous = None;
+        candidates
+            .iter()
+            .filter(|&&s| previous.replace(s) != Some(s))
+            .map(|&s| span_of(chain, MissionTimeUs(s)))
+            .find(valid)
+            .map(|x| MissionTimeUs(x.start))
     }
 }
