@@ -377,61 +377,74 @@ impl TimelinePlacement {
 /// not once per check): the busy intervals sorted by start with their running latest end, the
 /// uplinks sorted by start (ties in plan order), and each hold's release by the plan's uplinks.
 /// [`ChainPlacement::place`] with it decides exactly as [`TimelinePlacement::place_reference`].
-struct PlanIndex {
-    /// Non-empty spans as (start, end), sorted by start.
-    busy: Vec<(u64, u64), MAX_PLAN_CHAINS>,
-    /// `max_end[i]`: the latest end among `busy[..=i]`.
-    max_end: Vec<u64, MAX_PLAN_CHAINS>,
+/// The arrays are the caller's locals ([`PlanArrays`]), filled in place: no large value is
+/// built and moved per placement.
+#[derive(Clone, Copy)]
+struct PlanIndex<'a> {
+    /// Non-empty spans as (start, latest end among this and the earlier ones), sorted by start.
+    busy: &'a [(u64, u64)],
     /// Uplinks as (start, position in the plan, end), sorted: by start, ties in plan order.
-    uplinks: Vec<(u64, u16, u64), MAX_PLAN_CHAINS>,
-    /// Holding chains as (end, the plan's uplink that releases it: (start, end))
-    holds: Vec<(u64, Option<(u64, u64)>), MAX_PLAN_CHAINS>,
+    uplinks: &'a [(u64, u16, u64)],
+    /// Holding chains as (end, the plan's uplink that releases it: (start, end)).
+    holds: &'a [(u64, Option<(u64, u64)>)],
     /// Starts of the chains that wait for a ground release.
+    waits: &'a [u64],
+}
+
+/// The storage of a [`PlanIndex`].
+struct PlanArrays {
+    busy: Vec<(u64, u64), MAX_PLAN_CHAINS>,
+    uplinks: Vec<(u64, u16, u64), MAX_PLAN_CHAINS>,
+    holds: Vec<(u64, Option<(u64, u64)>), MAX_PLAN_CHAINS>,
     waits: Vec<u64, MAX_PLAN_CHAINS>,
 }
 
-impl PlanIndex {
-    fn new(spans: &[Span]) -> Self {
-        let mut index = Self {
-            busy: Vec::new(),
-            max_end: Vec::new(),
-            uplinks: Vec::new(),
-            holds: Vec::new(),
-            waits: Vec::new(),
-        };
+/// The plan's first uplink (by start, then plan order) that starts at or after `from`.
+fn first_uplink(uplinks: &[(u64, u16, u64)], from: u64) -> Option<(u64, u64)> {
+    let at = uplinks.partition_point(|&(start, _, _)| start < from);
+    uplinks.get(at).map(|&(start, _, end)| (start, end))
+}
+
+impl PlanArrays {
+    fn fill(&mut self, spans: &[Span]) -> PlanIndex<'_> {
+        self.busy.clear();
+        self.uplinks.clear();
+        self.holds.clear();
+        self.waits.clear();
         // Never fail: at most one entry per span, at most MAX_PLAN_CHAINS spans.
         for (position, s) in spans.iter().enumerate() {
             if s.start < s.end {
-                let _ = index.busy.push((s.start, s.end));
+                let _ = self.busy.push((s.start, s.end));
             }
             if s.uplink {
-                let _ = index.uplinks.push((s.start, position as u16, s.end));
+                let _ = self.uplinks.push((s.start, position as u16, s.end));
             }
             if s.waits {
-                let _ = index.waits.push(s.start);
+                let _ = self.waits.push(s.start);
             }
         }
-        index.busy.sort_unstable();
+        self.busy.sort_unstable();
         let mut latest = 0u64;
-        for &(_, end) in &index.busy {
-            latest = latest.max(end);
-            let _ = index.max_end.push(latest);
+        for (_, end) in self.busy.iter_mut() {
+            latest = latest.max(*end);
+            *end = latest;
         }
         // Equal starts in plan order, as `TimelinePlacement::release` takes the first.
-        index.uplinks.sort_unstable();
+        self.uplinks.sort_unstable();
         for s in spans.iter().filter(|s| s.holds) {
-            let base = index.first_uplink(s.end);
-            let _ = index.holds.push((s.end, base));
+            let base = first_uplink(&self.uplinks, s.end);
+            let _ = self.holds.push((s.end, base));
         }
-        index
+        PlanIndex {
+            busy: &self.busy,
+            uplinks: &self.uplinks,
+            holds: &self.holds,
+            waits: &self.waits,
+        }
     }
+}
 
-    /// The plan's first uplink (by start, then plan order) that starts at or after `from`.
-    fn first_uplink(&self, from: u64) -> Option<(u64, u64)> {
-        let at = self.uplinks.partition_point(|&(start, _, _)| start < from);
-        self.uplinks.get(at).map(|&(start, _, end)| (start, end))
-    }
-
+impl PlanIndex<'_> {
     /// [`TimelinePlacement::release`] over the plan and `x`, given the plan's own answer
     /// `base` for `from`: `x` releases only if it is an uplink starting strictly before it.
     fn release_with(base: Option<(u64, u64)>, x: &Span, from: u64) -> u64 {
@@ -449,24 +462,21 @@ impl PlanIndex {
         let before_end = self.busy.partition_point(|&(start, _)| start < x.end);
         before_end
             .checked_sub(1)
-            .and_then(|i| self.max_end.get(i))
-            .is_some_and(|&end| end > x.start)
+            .and_then(|i| self.busy.get(i))
+            .is_some_and(|&(_, latest)| latest > x.start)
     }
 }
 
 impl TimelinePlacement {
     /// [`Self::compatible`] with the plan indexed.
-    fn compatible_indexed(&self, index: &PlanIndex, x: Span, chain: &Chain) -> bool {
-        if x.start < self.horizon_start.0 || x.end > self.horizon_end.0 {
+    fn compatible_indexed(&self, index: PlanIndex<'_>, x: Span, chain: &Chain) -> bool {
+        if x.start < self.horizon_start.0 || x.end > self.horizon_end.0 || index.overlaps(&x) {
             return false;
         }
         if !self
             .phases
             .allows_span(chain.phases, MissionTimeUs(x.start), MissionTimeUs(x.end))
         {
-            return false;
-        }
-        if index.overlaps(&x) {
             return false;
         }
         if x.waits
@@ -477,7 +487,7 @@ impl TimelinePlacement {
             return false;
         }
         if x.holds && !index.waits.is_empty() {
-            let release = PlanIndex::release_with(index.first_uplink(x.end), &x, x.end);
+            let release = PlanIndex::release_with(first_uplink(index.uplinks, x.end), &x, x.end);
             if index
                 .waits
                 .iter()
@@ -508,62 +518,62 @@ impl ChainPlacement for TimelinePlacement {
             energy_mj = energy_mj.saturating_add(c.energy_mj);
             spans.push(s).ok()?;
         }
-        let index = PlanIndex::new(&spans);
+        let mut arrays = PlanArrays {
+            busy: Vec::new(),
+            uplinks: Vec::new(),
+            holds: Vec::new(),
+            waits: Vec::new(),
+        };
+        let index = arrays.fill(&spans);
         let fits_energy = |end: u64| {
             let end = MissionTimeUs(end.max(latest_end));
             energy_mj.saturating_add(self.hotel_energy_mj(end)) <= self.battery_mj
         };
         let valid = |x: &Span| {
-            self.compatible_indexed(&index, *x, chain)
+            self.compatible_indexed(index, *x, chain)
                 && fits_energy(x.end)
                 && self.reaches_earth(&spans, *x, chain, candidate)
         };
         if let Some(start) = chain.fixed_start {
             return valid(&span_of(chain, start)).then_some(start);
         }
-        // The candidate starts of `place_reference`, those before the horizon start or never
-        // left out before sorting, duplicates checked once.
+        // The earliest valid one of `place_reference`'s candidate starts, found without
+        // sorting them: a candidate is checked only while it is earlier than the best so far
+        // (those before the horizon start, and never, are not candidates).
         let from = self.horizon_start.0;
-        let mut candidates: Vec<u64, MAX_PLACEMENT_CANDIDATES> = Vec::new();
-        let mut add = |s: u64| {
-            if s >= from && s != u64::MAX {
-                let _ = candidates.push(s);
+        let mut best = u64::MAX;
+        let mut consider = |s: u64| {
+            if s >= from && s < best && valid(&span_of(chain, MissionTimeUs(s))) {
+                best = s;
             }
         };
-        add(from);
+        consider(from);
         for s in &spans {
-            add(s.end);
+            consider(s.end);
             if chain.holds_for_ground && s.waits {
-                add((s.start + 1).saturating_sub(chain.duration_us));
+                consider((s.start + 1).saturating_sub(chain.duration_us));
             }
         }
-        for &(_, base) in &index.holds {
-            add(base.map_or(u64::MAX, |(_, end)| end));
+        for &(_, base) in index.holds {
+            consider(base.map_or(u64::MAX, |(_, end)| end));
         }
         if let Some(at) =
             self.phases
                 .earliest_span(chain.phases, self.horizon_start, chain.duration_us)
         {
-            add(at.0);
+            consider(at.0);
         }
         for t in (0..MAX_PHASE_CHANGES).filter_map(|i| self.phase_change(i)) {
-            add(t.0);
+            consider(t.0);
         }
         if let (true, Some((offset, _))) = (self.earth.modelled(), self.earth.span(candidate)) {
             // The downlink starts as a window opens.
             for w in self.earth.windows.windows() {
                 if let Some(s) = w.start.0.checked_sub(offset) {
-                    add(s);
+                    consider(s);
                 }
             }
         }
-        candidates.sort_unstable();
-        let mut previous = None;
-        candidates
-            .iter()
-            .filter(|&&s| previous.replace(s) != Some(s))
-            .map(|&s| span_of(chain, MissionTimeUs(s)))
-            .find(valid)
-            .map(|x| MissionTimeUs(x.start))
+        (best != u64::MAX).then_some(MissionTimeUs(best))
     }
 }

@@ -72,6 +72,19 @@ pub trait ChainPlacement {
             .get(usize::from(candidate))
             .map_or(RankedUtility::ZERO, |c| c.utility)
     }
+
+    /// [`Self::place`], then (if placed) [`Self::utility`]: what the search asks for each
+    /// chain. A placement that computes both from the same context (the Assessor) overrides it
+    /// to do that work once; the answer must equal the two calls'.
+    fn place_valued(
+        &mut self,
+        network: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+    ) -> Option<(MissionTimeUs, RankedUtility)> {
+        let start = self.place(network, plan, candidate)?;
+        Some((start, self.utility(network, plan, candidate)))
+    }
 }
 
 /// The configuration of one search.
@@ -496,8 +509,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             return;
         }
         self.stats.placement_calls += 1;
-        if let Some(start) = placement.place(network, &self.fixed, chain) {
-            let utility = placement.utility(network, &self.fixed, chain);
+        if let Some((start, utility)) = placement.place_valued(network, &self.fixed, chain) {
             if self.fixed.push(PlacedChain { chain, start }).is_ok() {
                 self.fixed_value = (
                     self.fixed_value.0.saturating_add(&utility),
@@ -566,13 +578,9 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             return;
         }
         self.stats.placement_calls += 1;
-        let placed = placement.place(network, &plan, pair.chain);
-        let utility = match placed {
-            Some(_) => placement.utility(network, &plan, pair.chain),
-            None => RankedUtility::ZERO,
-        };
+        let placed = placement.place_valued(network, &plan, pair.chain);
         self.scratch = plan;
-        let Some(start) = placed else {
+        let Some((start, utility)) = placed else {
             return;
         };
         let mut tasks = parent.tasks;
