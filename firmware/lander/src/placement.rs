@@ -201,6 +201,28 @@ impl TimelinePlacement {
         u64::try_from(mj).unwrap_or(u64::MAX)
     }
 
+    /// Whether `energy_mj` plus the hotel load's energy to `t` is within the battery:
+    /// `energy_mj.saturating_add(self.hotel_energy_mj(t)) <= self.battery_mj`, decided by
+    /// multiplying instead of dividing when the numbers fit in u64 (a 64-bit division is a
+    /// library call on the 32-bit target): floor(p / 10^6) <= room iff p <= room * 10^6 +
+    /// 999,999.
+    fn energy_fits(&self, t: MissionTimeUs, energy_mj: u64) -> bool {
+        if self.battery_mj == u64::MAX {
+            return true;
+        }
+        let Some(room) = self.battery_mj.checked_sub(energy_mj) else {
+            return false;
+        };
+        let seconds_us = t.0.saturating_sub(self.horizon_start.0);
+        let limit = room
+            .checked_mul(1_000_000)
+            .and_then(|l| l.checked_add(999_999));
+        match (self.hotel_load_mw.checked_mul(seconds_us), limit) {
+            (Some(product), Some(limit)) => product <= limit,
+            _ => self.hotel_energy_mj(t) <= room,
+        }
+    }
+
     /// When the hold that starts at `from` is released: the end of the first uplink that starts
     /// at or after `from`, or never.
     fn release(spans: &[Span], extra: Option<Span>, from: u64) -> u64 {
@@ -374,30 +396,35 @@ impl TimelinePlacement {
 
 /// The plan's chains indexed once per placement, so that each candidate start is checked in
 /// about `log n` steps instead of against every chain (and every hold's release searched once,
-/// not once per check): the busy intervals sorted by start with their running latest end, the
-/// uplinks sorted by start (ties in plan order), and each hold's release by the plan's uplinks.
+/// not once per check): the free gaps between the plan's chains (from the busy intervals sorted
+/// by start), the uplinks sorted by start (ties in plan order), and each hold's release by the
+/// plan's uplinks.
 /// [`ChainPlacement::place`] with it decides exactly as [`TimelinePlacement::place_reference`].
-/// The arrays are the caller's locals ([`PlanArrays`]), filled in place: no large value is
+/// The arrays are the caller's locals, filled in place ([`index_plan`]): no large value is
 /// built and moved per placement.
 #[derive(Clone, Copy)]
 struct PlanIndex<'a> {
-    /// Non-empty spans as (start, latest end among this and the earlier ones), sorted by start.
-    busy: &'a [(u64, u64)],
+    /// The free gaps [a, b) between `from` and `busy_end`, in increasing order: no non-empty
+    /// span meets a gap, and every instant of `[from, busy_end)` outside the gaps is in one.
+    gaps: &'a [(u64, u64)],
     /// Uplinks as (start, position in the plan, end), sorted: by start, ties in plan order.
     uplinks: &'a [(u64, u16, u64)],
     /// Holding chains as (end, the plan's uplink that releases it: (start, end)).
     holds: &'a [(u64, Option<(u64, u64)>)],
     /// Starts of the chains that wait for a ground release.
     waits: &'a [u64],
+    /// The latest end of a non-empty span (0: none).
+    busy_end: u64,
+    /// The longest free time from `from` to `busy_end` between non-empty spans: a non-empty
+    /// chain longer than this cannot start at any `s` in `[from, busy_end)` without
+    /// overlapping one (whatever is free there is a gap shorter than the chain).
+    longest_gap: u64,
 }
 
-/// The storage of a [`PlanIndex`].
-struct PlanArrays {
-    busy: Vec<(u64, u64), MAX_PLAN_CHAINS>,
-    uplinks: Vec<(u64, u16, u64), MAX_PLAN_CHAINS>,
-    holds: Vec<(u64, Option<(u64, u64)>), MAX_PLAN_CHAINS>,
-    waits: Vec<u64, MAX_PLAN_CHAINS>,
-}
+type Busy = Vec<(u64, u64), MAX_PLAN_CHAINS>;
+type Uplinks = Vec<(u64, u16, u64), MAX_PLAN_CHAINS>;
+type Holds = Vec<(u64, Option<(u64, u64)>), MAX_PLAN_CHAINS>;
+type Waits = Vec<u64, MAX_PLAN_CHAINS>;
 
 /// The plan's first uplink (by start, then plan order) that starts at or after `from`.
 fn first_uplink(uplinks: &[(u64, u16, u64)], from: u64) -> Option<(u64, u64)> {
@@ -405,42 +432,60 @@ fn first_uplink(uplinks: &[(u64, u16, u64)], from: u64) -> Option<(u64, u64)> {
     uplinks.get(at).map(|&(start, _, end)| (start, end))
 }
 
-impl PlanArrays {
-    fn fill(&mut self, spans: &[Span]) -> PlanIndex<'_> {
-        self.busy.clear();
-        self.uplinks.clear();
-        self.holds.clear();
-        self.waits.clear();
-        // Never fail: at most one entry per span, at most MAX_PLAN_CHAINS spans.
-        for (position, s) in spans.iter().enumerate() {
-            if s.start < s.end {
-                let _ = self.busy.push((s.start, s.end));
+/// Indexes `spans` (the plan) into the caller's (empty) arrays; `from` is the horizon start.
+fn index_plan<'a>(
+    spans: &[Span],
+    from: u64,
+    busy: &'a mut Busy,
+    uplinks: &'a mut Uplinks,
+    holds: &'a mut Holds,
+    waits: &'a mut Waits,
+) -> PlanIndex<'a> {
+    // Never fail: at most one entry per span, at most MAX_PLAN_CHAINS spans.
+    for (position, s) in spans.iter().enumerate() {
+        if s.start < s.end {
+            let _ = busy.push((s.start, s.end));
+        }
+        if s.uplink {
+            let _ = uplinks.push((s.start, position as u16, s.end));
+        }
+        if s.waits {
+            let _ = waits.push(s.start);
+        }
+    }
+    busy.sort_unstable();
+    // The gaps, written over the sorted intervals (gap k is written at or before interval k).
+    let mut latest = from;
+    let mut longest_gap = 0u64;
+    let mut gaps = 0usize;
+    for k in 0..busy.len() {
+        let Some(&(start, end)) = busy.get(k) else {
+            break;
+        };
+        if start > latest {
+            longest_gap = longest_gap.max(start - latest);
+            if let Some(slot) = busy.get_mut(gaps) {
+                *slot = (latest, start);
             }
-            if s.uplink {
-                let _ = self.uplinks.push((s.start, position as u16, s.end));
-            }
-            if s.waits {
-                let _ = self.waits.push(s.start);
-            }
+            gaps += 1;
         }
-        self.busy.sort_unstable();
-        let mut latest = 0u64;
-        for (_, end) in self.busy.iter_mut() {
-            latest = latest.max(*end);
-            *end = latest;
-        }
-        // Equal starts in plan order, as `TimelinePlacement::release` takes the first.
-        self.uplinks.sort_unstable();
-        for s in spans.iter().filter(|s| s.holds) {
-            let base = first_uplink(&self.uplinks, s.end);
-            let _ = self.holds.push((s.end, base));
-        }
-        PlanIndex {
-            busy: &self.busy,
-            uplinks: &self.uplinks,
-            holds: &self.holds,
-            waits: &self.waits,
-        }
+        latest = latest.max(end);
+    }
+    let busy_end = if busy.is_empty() { 0 } else { latest };
+    busy.truncate(gaps);
+    // Equal starts in plan order, as `TimelinePlacement::release` takes the first.
+    uplinks.sort_unstable();
+    for s in spans.iter().filter(|s| s.holds) {
+        let base = first_uplink(uplinks, s.end);
+        let _ = holds.push((s.end, base));
+    }
+    PlanIndex {
+        busy_end,
+        longest_gap,
+        gaps: busy,
+        uplinks,
+        holds,
+        waits,
     }
 }
 
@@ -454,16 +499,13 @@ impl PlanIndex<'_> {
         base.map_or(u64::MAX, |(_, end)| end)
     }
 
-    /// Whether non-empty `x` overlaps a non-empty span of the plan.
+    /// Whether non-empty `x` overlaps a non-empty span of the plan, for `x` starting at or
+    /// after `from`: it does unless it starts after every span or lies inside one gap.
     fn overlaps(&self, x: &Span) -> bool {
-        if x.start >= x.end {
+        if x.start >= x.end || x.start >= self.busy_end {
             return false;
         }
-        let before_end = self.busy.partition_point(|&(start, _)| start < x.end);
-        before_end
-            .checked_sub(1)
-            .and_then(|i| self.busy.get(i))
-            .is_some_and(|&(_, latest)| latest > x.start)
+        !self.gaps.iter().any(|&(a, b)| a <= x.start && x.end <= b)
     }
 }
 
@@ -518,17 +560,19 @@ impl ChainPlacement for TimelinePlacement {
             energy_mj = energy_mj.saturating_add(c.energy_mj);
             spans.push(s).ok()?;
         }
-        let mut arrays = PlanArrays {
-            busy: Vec::new(),
-            uplinks: Vec::new(),
-            holds: Vec::new(),
-            waits: Vec::new(),
-        };
-        let index = arrays.fill(&spans);
-        let fits_energy = |end: u64| {
-            let end = MissionTimeUs(end.max(latest_end));
-            energy_mj.saturating_add(self.hotel_energy_mj(end)) <= self.battery_mj
-        };
+        let (mut busy, mut uplinks) = (Busy::new(), Uplinks::new());
+        let (mut holds, mut waits) = (Holds::new(), Waits::new());
+        let from = self.horizon_start.0;
+        let index = index_plan(
+            &spans,
+            from,
+            &mut busy,
+            &mut uplinks,
+            &mut holds,
+            &mut waits,
+        );
+        let fits_energy =
+            |end: u64| self.energy_fits(MissionTimeUs(end.max(latest_end)), energy_mj);
         let valid = |x: &Span| {
             self.compatible_indexed(index, *x, chain)
                 && fits_energy(x.end)
@@ -539,11 +583,16 @@ impl ChainPlacement for TimelinePlacement {
         }
         // The earliest valid one of `place_reference`'s candidate starts, found without
         // sorting them: a candidate is checked only while it is earlier than the best so far
-        // (those before the horizon start, and never, are not candidates).
-        let from = self.horizon_start.0;
+        // (those before the horizon start, and never, are not candidates), and not where the
+        // chain is longer than any gap before the plan's latest end (it would overlap).
         let mut best = u64::MAX;
         let mut consider = |s: u64| {
-            if s >= from && s < best && valid(&span_of(chain, MissionTimeUs(s))) {
+            if s >= from
+                && s < best
+                && !(s < index.busy_end
+                    && s.saturating_add(chain.duration_us) - s > index.longest_gap)
+                && valid(&span_of(chain, MissionTimeUs(s)))
+            {
                 best = s;
             }
         };
@@ -575,5 +624,56 @@ impl ChainPlacement for TimelinePlacement {
             }
         }
         (best != u64::MAX).then_some(MissionTimeUs(best))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `energy_fits` is the division it replaces, at and around the rounding boundary.
+    #[test]
+    fn energy_fits_is_the_divided_sum() {
+        let mut t = TimelinePlacement {
+            horizon_start: MissionTimeUs(1_000),
+            horizon_end: MissionTimeUs(u64::MAX),
+            phases: PhaseTimeline::default(),
+            battery_mj: 0,
+            hotel_load_mw: 0,
+            earth: EarthView::default(),
+        };
+        let mut checked = 0u32;
+        for load in [0u64, 1, 7, 1_000, 60_000, u64::MAX / 3] {
+            for battery in [0u64, 5, 1_000, 123_456_789, u64::MAX - 1, u64::MAX] {
+                for energy in [0u64, 3, 999, 123_456_788, u64::MAX] {
+                    for end in [
+                        0u64,
+                        1_000,
+                        1_001,
+                        999_999_999,
+                        1_000_000_000,
+                        123_456_789_000,
+                        u64::MAX,
+                    ] {
+                        t.hotel_load_mw = load;
+                        t.battery_mj = battery;
+                        let at = MissionTimeUs(end);
+                        let expected = energy.saturating_add(t.hotel_energy_mj(at)) <= battery;
+                        assert_eq!(
+                            t.energy_fits(at, energy),
+                            expected,
+                            "{load} {battery} {energy} {end}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        // The exact boundary: 7 mW for 1 s less 1 us after the start is 6.999993 mJ.
+        t.hotel_load_mw = 7;
+        t.battery_mj = 10;
+        assert!(t.energy_fits(MissionTimeUs(1_000 + 999_999), 4));
+        assert!(!t.energy_fits(MissionTimeUs(1_000 + 1_000_000), 4));
+        assert!(checked > 1_000);
     }
 }

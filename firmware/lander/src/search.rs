@@ -31,7 +31,7 @@ use fsw_bridge::MissionTimeUs;
 
 use crate::capacity::*;
 use crate::htn::FlatNetwork;
-use crate::utility::{Priority, RankedUtility, UtilityRate};
+use crate::utility::{Priority, RankedUtility, MIN_RATIO_COST_MJ};
 
 /// A chain in a plan, with the start the placement gave it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -666,24 +666,27 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
 
     // --- the exploration queue: a binary max-heap on h(P, T), then first queued ---
 
-    fn rate_of(network: &FlatNetwork, chain: u16) -> UtilityRate {
+    /// A chain's (T.utility, T.cost) for h, by reference (an unknown chain: zero utility).
+    fn chain_value(network: &FlatNetwork, chain: u16) -> (&RankedUtility, u64) {
         network
             .chains
             .get(usize::from(chain))
-            .map_or(UtilityRate::default(), |c| c.utility.per_cost(c.energy_mj))
+            .map_or((&RankedUtility::ZERO, MIN_RATIO_COST_MJ), |c| {
+                (&c.utility, c.energy_mj)
+            })
     }
 
     fn compare(&self, network: &FlatNetwork, a: &Pair, b: &Pair) -> Ordering {
         let utility = |p: &Pair| {
             self.nodes
                 .get(usize::from(p.node))
-                .map_or(RankedUtility::ZERO, |n| n.utility)
+                .map_or(&RankedUtility::ZERO, |n| &n.utility)
         };
-        Priority::compare(
-            &utility(a),
-            &Self::rate_of(network, a.chain),
-            &utility(b),
-            &Self::rate_of(network, b.chain),
+        Priority::compare_parts(
+            utility(a),
+            Self::chain_value(network, a.chain),
+            utility(b),
+            Self::chain_value(network, b.chain),
         )
         .then_with(|| b.seq.cmp(&a.seq))
     }

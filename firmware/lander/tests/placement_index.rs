@@ -74,8 +74,13 @@ fn placement(rng: &mut Rng, downlinks: DownlinkSpans) -> TimelinePlacement {
         horizon_start: hours(rng.range(0, 2)),
         horizon_end: hours(rng.range(20, 40)),
         phases,
-        battery_mj: rng.range(10, 80),
-        hotel_load_mw: rng.range(0, 1) * 1,
+        // The hotel load's drain to the chain's end decides about half the time.
+        battery_mj: if rng.chance(5) {
+            u64::MAX
+        } else {
+            rng.range(10, 80) + rng.range(0, 1) * rng.range(0, 150_000)
+        },
+        hotel_load_mw: rng.range(0, 1) * rng.range(0, 5),
         earth: EarthView {
             windows: ViewTimeline::new(&windows).expect("sorted"),
             downlinks,
