@@ -500,12 +500,17 @@ impl PlanIndex<'_> {
     }
 
     /// Whether non-empty `x` overlaps a non-empty span of the plan, for `x` starting at or
-    /// after `from`: it does unless it starts after every span or lies inside one gap.
+    /// after `from`: it does unless it starts after every span or lies inside one gap (the
+    /// last gap opening at or before its start).
     fn overlaps(&self, x: &Span) -> bool {
         if x.start >= x.end || x.start >= self.busy_end {
             return false;
         }
-        !self.gaps.iter().any(|&(a, b)| a <= x.start && x.end <= b)
+        let after = self.gaps.partition_point(|&(a, _)| a <= x.start);
+        after
+            .checked_sub(1)
+            .and_then(|i| self.gaps.get(i))
+            .is_none_or(|&(_, b)| x.end > b)
     }
 }
 
@@ -597,8 +602,24 @@ impl ChainPlacement for TimelinePlacement {
             }
         };
         consider(from);
+        // A span's end is a candidate. For a chain of non-zero length, one before the plan's
+        // latest end can only be valid where a gap opens (the chain must lie inside a gap,
+        // and a span ending strictly inside a gap would meet it), so only those, the latest
+        // end and the ends of empty spans are checked: every gap opens at `from` or at a
+        // span's end.
+        let all_ends = chain.duration_us == 0;
+        if !all_ends {
+            for &(a, _) in index.gaps {
+                consider(a);
+            }
+            if !index.gaps.is_empty() || index.busy_end > 0 {
+                consider(index.busy_end);
+            }
+        }
         for s in &spans {
-            consider(s.end);
+            if all_ends || s.start >= s.end {
+                consider(s.end);
+            }
             if chain.holds_for_ground && s.waits {
                 consider((s.start + 1).saturating_sub(chain.duration_us));
             }
