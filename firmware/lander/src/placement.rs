@@ -591,17 +591,17 @@ impl ChainPlacement for TimelinePlacement {
         // (those before the horizon start, and never, are not candidates), and not where the
         // chain is longer than any gap before the plan's latest end (it would overlap).
         let mut best = u64::MAX;
-        let mut consider = |s: u64| {
+        let consider = |s: u64, best: &mut u64| {
             if s >= from
-                && s < best
+                && s < *best
                 && !(s < index.busy_end
                     && s.saturating_add(chain.duration_us) - s > index.longest_gap)
                 && valid(&span_of(chain, MissionTimeUs(s)))
             {
-                best = s;
+                *best = s;
             }
         };
-        consider(from);
+        consider(from, &mut best);
         // A span's end is a candidate. For a chain of non-zero length, one before the plan's
         // latest end can only be valid where a gap opens (the chain must lie inside a gap,
         // and a span ending strictly inside a gap would meet it), so only those, the latest
@@ -610,38 +610,58 @@ impl ChainPlacement for TimelinePlacement {
         let all_ends = chain.duration_us == 0;
         if !all_ends {
             for &(a, _) in index.gaps {
-                consider(a);
+                consider(a, &mut best);
             }
             if !index.gaps.is_empty() || index.busy_end > 0 {
-                consider(index.busy_end);
+                consider(index.busy_end, &mut best);
             }
         }
         for s in &spans {
             if all_ends || s.start >= s.end {
-                consider(s.end);
+                consider(s.end, &mut best);
             }
             if chain.holds_for_ground && s.waits {
-                consider((s.start + 1).saturating_sub(chain.duration_us));
+                consider((s.start + 1).saturating_sub(chain.duration_us), &mut best);
             }
         }
         for &(_, base) in index.holds {
-            consider(base.map_or(u64::MAX, |(_, end)| end));
+            consider(base.map_or(u64::MAX, |(_, end)| end), &mut best);
         }
         if let Some(at) =
             self.phases
                 .earliest_span(chain.phases, self.horizon_start, chain.duration_us)
         {
-            consider(at.0);
+            consider(at.0, &mut best);
         }
         for t in (0..MAX_PHASE_CHANGES).filter_map(|i| self.phase_change(i)) {
-            consider(t.0);
+            consider(t.0, &mut best);
         }
         if let (true, Some((offset, _))) = (self.earth.modelled(), self.earth.span(candidate)) {
             // The downlink starts as a window opens.
+            // The openings are in increasing order: past the best so far the rest are later
+            // still, and one where the chain would not lie inside a gap of the plan is skipped
+            // without the full check (a gap pointer moves forward with them).
+            let mut opened = 0usize;
             for w in self.earth.windows.windows() {
-                if let Some(s) = w.start.0.checked_sub(offset) {
-                    consider(s);
+                let Some(s) = w.start.0.checked_sub(offset) else {
+                    continue;
+                };
+                if s >= best {
+                    break;
                 }
+                if chain.duration_us > 0 && s >= from && s < index.busy_end {
+                    while index.gaps.get(opened).is_some_and(|&(a, _)| a <= s) {
+                        opened += 1;
+                    }
+                    let inside = opened
+                        .checked_sub(1)
+                        .and_then(|i| index.gaps.get(i))
+                        .is_some_and(|&(_, b)| s.saturating_add(chain.duration_us) <= b);
+                    if !inside {
+                        continue;
+                    }
+                }
+                consider(s, &mut best);
             }
         }
         (best != u64::MAX).then_some(MissionTimeUs(best))
