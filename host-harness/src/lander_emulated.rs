@@ -426,7 +426,14 @@ impl EmulatedLander {
             self.grant(&mut got)?;
             frames += 1;
         }
-        self.health_events.append(&mut got.health);
+        // Named by the step it came in, so an overrun can be traced to its call.
+        let setup = self.setup;
+        self.health_events.extend(got.health.drain(..).map(|h| {
+            format!(
+                "{h} (setup {setup}, step {seq}: {:?}, frame {frames} of the step)",
+                observation.event
+            )
+        }));
         if let Some(r) = got.refused {
             return Ok(Err(r));
         }

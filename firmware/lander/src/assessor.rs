@@ -501,4 +501,21 @@ impl<P: ChainPlacement> ChainPlacement for AssessedPlacement<'_, P> {
             None => self.inner.utility(network, plan, candidate),
         }
     }
+
+    /// The Assessor asked once for both answers.
+    fn place_valued(
+        &mut self,
+        network: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+    ) -> Option<(fsw_bridge::MissionTimeUs, RankedUtility)> {
+        match self.assess(plan, candidate) {
+            Some(Err(_)) => {
+                self.refused += 1;
+                None
+            }
+            Some(Ok(utility)) => Some((self.inner.place(network, plan, candidate)?, utility)),
+            None => self.inner.place_valued(network, plan, candidate),
+        }
+    }
 }

@@ -192,8 +192,35 @@ impl TimelinePlacement {
     /// Energy the hotel load drains from the horizon start to `t`, in mJ.
     pub fn hotel_energy_mj(&self, t: MissionTimeUs) -> u64 {
         let seconds_us = t.0.saturating_sub(self.horizon_start.0);
+        // In u64 when the product fits (always at mission sizes): the same value without the
+        // 128-bit division, a library call on the 32-bit target.
+        if let Some(product) = self.hotel_load_mw.checked_mul(seconds_us) {
+            return product / 1_000_000;
+        }
         let mj = u128::from(self.hotel_load_mw) * u128::from(seconds_us) / 1_000_000;
         u64::try_from(mj).unwrap_or(u64::MAX)
+    }
+
+    /// Whether `energy_mj` plus the hotel load's energy to `t` is within the battery:
+    /// `energy_mj.saturating_add(self.hotel_energy_mj(t)) <= self.battery_mj`, decided by
+    /// multiplying instead of dividing when the numbers fit in u64 (a 64-bit division is a
+    /// library call on the 32-bit target): floor(p / 10^6) <= room iff p <= room * 10^6 +
+    /// 999,999.
+    fn energy_fits(&self, t: MissionTimeUs, energy_mj: u64) -> bool {
+        if self.battery_mj == u64::MAX {
+            return true;
+        }
+        let Some(room) = self.battery_mj.checked_sub(energy_mj) else {
+            return false;
+        };
+        let seconds_us = t.0.saturating_sub(self.horizon_start.0);
+        let limit = room
+            .checked_mul(1_000_000)
+            .and_then(|l| l.checked_add(999_999));
+        match (self.hotel_load_mw.checked_mul(seconds_us), limit) {
+            (Some(product), Some(limit)) => product <= limit,
+            _ => self.hotel_energy_mj(t) <= room,
+        }
     }
 
     /// When the hold that starts at `from` is released: the end of the first uplink that starts
@@ -288,9 +315,14 @@ impl TimelinePlacement {
     }
 }
 
-impl ChainPlacement for TimelinePlacement {
-    fn place(
-        &mut self,
+impl TimelinePlacement {
+    /// The placement as first written (each candidate start checked against every placed
+    /// chain, each hold's release searched again per check): the reference
+    /// [`ChainPlacement::place`] must agree with (`tests/placement_index.rs`). Not used by the
+    /// search.
+    #[doc(hidden)]
+    pub fn place_reference(
+        &self,
         network: &FlatNetwork,
         plan: &[PlacedChain],
         candidate: u16,
@@ -359,5 +391,330 @@ impl ChainPlacement for TimelinePlacement {
 impl TimelinePlacement {
     fn phase_change(&self, index: usize) -> Option<MissionTimeUs> {
         self.phases.change_time(index)
+    }
+}
+
+/// The plan's chains indexed once per placement, so that each candidate start is checked in
+/// about `log n` steps instead of against every chain (and every hold's release searched once,
+/// not once per check): the free gaps between the plan's chains (from the busy intervals sorted
+/// by start), the uplinks sorted by start (ties in plan order), and each hold's release by the
+/// plan's uplinks.
+/// [`ChainPlacement::place`] with it decides exactly as [`TimelinePlacement::place_reference`].
+/// The arrays are the caller's locals, filled in place ([`index_plan`]): no large value is
+/// built and moved per placement.
+#[derive(Clone, Copy)]
+struct PlanIndex<'a> {
+    /// The free gaps [a, b) between `from` and `busy_end`, in increasing order: no non-empty
+    /// span meets a gap, and every instant of `[from, busy_end)` outside the gaps is in one.
+    gaps: &'a [(u64, u64)],
+    /// Uplinks as (start, position in the plan, end), sorted: by start, ties in plan order.
+    uplinks: &'a [(u64, u16, u64)],
+    /// Holding chains as (end, the plan's uplink that releases it: (start, end)).
+    holds: &'a [(u64, Option<(u64, u64)>)],
+    /// Starts of the chains that wait for a ground release.
+    waits: &'a [u64],
+    /// The latest end of a non-empty span (0: none).
+    busy_end: u64,
+    /// The longest free time from `from` to `busy_end` between non-empty spans: a non-empty
+    /// chain longer than this cannot start at any `s` in `[from, busy_end)` without
+    /// overlapping one (whatever is free there is a gap shorter than the chain).
+    longest_gap: u64,
+}
+
+type Busy = Vec<(u64, u64), MAX_PLAN_CHAINS>;
+type Uplinks = Vec<(u64, u16, u64), MAX_PLAN_CHAINS>;
+type Holds = Vec<(u64, Option<(u64, u64)>), MAX_PLAN_CHAINS>;
+type Waits = Vec<u64, MAX_PLAN_CHAINS>;
+
+/// The plan's first uplink (by start, then plan order) that starts at or after `from`.
+fn first_uplink(uplinks: &[(u64, u16, u64)], from: u64) -> Option<(u64, u64)> {
+    let at = uplinks.partition_point(|&(start, _, _)| start < from);
+    uplinks.get(at).map(|&(start, _, end)| (start, end))
+}
+
+/// Indexes `spans` (the plan) into the caller's (empty) arrays; `from` is the horizon start.
+fn index_plan<'a>(
+    spans: &[Span],
+    from: u64,
+    busy: &'a mut Busy,
+    uplinks: &'a mut Uplinks,
+    holds: &'a mut Holds,
+    waits: &'a mut Waits,
+) -> PlanIndex<'a> {
+    // Never fail: at most one entry per span, at most MAX_PLAN_CHAINS spans.
+    for (position, s) in spans.iter().enumerate() {
+        if s.start < s.end {
+            let _ = busy.push((s.start, s.end));
+        }
+        if s.uplink {
+            let _ = uplinks.push((s.start, position as u16, s.end));
+        }
+        if s.waits {
+            let _ = waits.push(s.start);
+        }
+    }
+    busy.sort_unstable();
+    // The gaps, written over the sorted intervals (gap k is written at or before interval k).
+    let mut latest = from;
+    let mut longest_gap = 0u64;
+    let mut gaps = 0usize;
+    for k in 0..busy.len() {
+        let Some(&(start, end)) = busy.get(k) else {
+            break;
+        };
+        if start > latest {
+            longest_gap = longest_gap.max(start - latest);
+            if let Some(slot) = busy.get_mut(gaps) {
+                *slot = (latest, start);
+            }
+            gaps += 1;
+        }
+        latest = latest.max(end);
+    }
+    let busy_end = if busy.is_empty() { 0 } else { latest };
+    busy.truncate(gaps);
+    // Equal starts in plan order, as `TimelinePlacement::release` takes the first.
+    uplinks.sort_unstable();
+    for s in spans.iter().filter(|s| s.holds) {
+        let base = first_uplink(uplinks, s.end);
+        let _ = holds.push((s.end, base));
+    }
+    PlanIndex {
+        busy_end,
+        longest_gap,
+        gaps: busy,
+        uplinks,
+        holds,
+        waits,
+    }
+}
+
+impl PlanIndex<'_> {
+    /// [`TimelinePlacement::release`] over the plan and `x`, given the plan's own answer
+    /// `base` for `from`: `x` releases only if it is an uplink starting strictly before it.
+    fn release_with(base: Option<(u64, u64)>, x: &Span, from: u64) -> u64 {
+        if x.uplink && x.start >= from && base.is_none_or(|(start, _)| x.start < start) {
+            return x.end;
+        }
+        base.map_or(u64::MAX, |(_, end)| end)
+    }
+
+    /// Whether non-empty `x` overlaps a non-empty span of the plan, for `x` starting at or
+    /// after `from`: it does unless it starts after every span or lies inside one gap (the
+    /// last gap opening at or before its start).
+    fn overlaps(&self, x: &Span) -> bool {
+        if x.start >= x.end || x.start >= self.busy_end {
+            return false;
+        }
+        let after = self.gaps.partition_point(|&(a, _)| a <= x.start);
+        after
+            .checked_sub(1)
+            .and_then(|i| self.gaps.get(i))
+            .is_none_or(|&(_, b)| x.end > b)
+    }
+}
+
+impl TimelinePlacement {
+    /// [`Self::compatible`] with the plan indexed.
+    fn compatible_indexed(&self, index: PlanIndex<'_>, x: Span, chain: &Chain) -> bool {
+        if x.start < self.horizon_start.0 || x.end > self.horizon_end.0 || index.overlaps(&x) {
+            return false;
+        }
+        if !self
+            .phases
+            .allows_span(chain.phases, MissionTimeUs(x.start), MissionTimeUs(x.end))
+        {
+            return false;
+        }
+        if x.waits
+            && index.holds.iter().any(|&(end, base)| {
+                x.start >= end && x.start < PlanIndex::release_with(base, &x, end)
+            })
+        {
+            return false;
+        }
+        if x.holds && !index.waits.is_empty() {
+            let release = PlanIndex::release_with(first_uplink(index.uplinks, x.end), &x, x.end);
+            if index
+                .waits
+                .iter()
+                .any(|&start| start >= x.end && start < release)
+            {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+impl ChainPlacement for TimelinePlacement {
+    fn place(
+        &mut self,
+        network: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+    ) -> Option<MissionTimeUs> {
+        let chain = network.chains.get(usize::from(candidate))?;
+        let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
+        let mut energy_mj = chain.energy_mj;
+        let mut latest_end = self.horizon_start.0;
+        for p in plan {
+            let c = network.chains.get(usize::from(p.chain))?;
+            let s = span_of(c, p.start);
+            latest_end = latest_end.max(s.end);
+            energy_mj = energy_mj.saturating_add(c.energy_mj);
+            spans.push(s).ok()?;
+        }
+        let (mut busy, mut uplinks) = (Busy::new(), Uplinks::new());
+        let (mut holds, mut waits) = (Holds::new(), Waits::new());
+        let from = self.horizon_start.0;
+        let index = index_plan(
+            &spans,
+            from,
+            &mut busy,
+            &mut uplinks,
+            &mut holds,
+            &mut waits,
+        );
+        let fits_energy =
+            |end: u64| self.energy_fits(MissionTimeUs(end.max(latest_end)), energy_mj);
+        let valid = |x: &Span| {
+            self.compatible_indexed(index, *x, chain)
+                && fits_energy(x.end)
+                && self.reaches_earth(&spans, *x, chain, candidate)
+        };
+        if let Some(start) = chain.fixed_start {
+            return valid(&span_of(chain, start)).then_some(start);
+        }
+        // The earliest valid one of `place_reference`'s candidate starts, found without
+        // sorting them: a candidate is checked only while it is earlier than the best so far
+        // (those before the horizon start, and never, are not candidates), and not where the
+        // chain is longer than any gap before the plan's latest end (it would overlap).
+        let mut best = u64::MAX;
+        let consider = |s: u64, best: &mut u64| {
+            if s >= from
+                && s < *best
+                && !(s < index.busy_end
+                    && s.saturating_add(chain.duration_us) - s > index.longest_gap)
+                && valid(&span_of(chain, MissionTimeUs(s)))
+            {
+                *best = s;
+            }
+        };
+        consider(from, &mut best);
+        // A span's end is a candidate. For a chain of non-zero length, one before the plan's
+        // latest end can only be valid where a gap opens (the chain must lie inside a gap,
+        // and a span ending strictly inside a gap would meet it), so only those, the latest
+        // end and the ends of empty spans are checked: every gap opens at `from` or at a
+        // span's end.
+        let all_ends = chain.duration_us == 0;
+        if !all_ends {
+            for &(a, _) in index.gaps {
+                consider(a, &mut best);
+            }
+            if !index.gaps.is_empty() || index.busy_end > 0 {
+                consider(index.busy_end, &mut best);
+            }
+        }
+        for s in &spans {
+            if all_ends || s.start >= s.end {
+                consider(s.end, &mut best);
+            }
+            if chain.holds_for_ground && s.waits {
+                consider((s.start + 1).saturating_sub(chain.duration_us), &mut best);
+            }
+        }
+        for &(_, base) in index.holds {
+            consider(base.map_or(u64::MAX, |(_, end)| end), &mut best);
+        }
+        if let Some(at) =
+            self.phases
+                .earliest_span(chain.phases, self.horizon_start, chain.duration_us)
+        {
+            consider(at.0, &mut best);
+        }
+        for t in (0..MAX_PHASE_CHANGES).filter_map(|i| self.phase_change(i)) {
+            consider(t.0, &mut best);
+        }
+        if let (true, Some((offset, _))) = (self.earth.modelled(), self.earth.span(candidate)) {
+            // The downlink starts as a window opens.
+            // The openings are in increasing order: past the best so far the rest are later
+            // still, and one where the chain would not lie inside a gap of the plan is skipped
+            // without the full check (a gap pointer moves forward with them).
+            let mut opened = 0usize;
+            for w in self.earth.windows.windows() {
+                let Some(s) = w.start.0.checked_sub(offset) else {
+                    continue;
+                };
+                if s >= best {
+                    break;
+                }
+                if chain.duration_us > 0 && s >= from && s < index.busy_end {
+                    while index.gaps.get(opened).is_some_and(|&(a, _)| a <= s) {
+                        opened += 1;
+                    }
+                    let inside = opened
+                        .checked_sub(1)
+                        .and_then(|i| index.gaps.get(i))
+                        .is_some_and(|&(_, b)| s.saturating_add(chain.duration_us) <= b);
+                    if !inside {
+                        continue;
+                    }
+                }
+                consider(s, &mut best);
+            }
+        }
+        (best != u64::MAX).then_some(MissionTimeUs(best))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `energy_fits` is the division it replaces, at and around the rounding boundary.
+    #[test]
+    fn energy_fits_is_the_divided_sum() {
+        let mut t = TimelinePlacement {
+            horizon_start: MissionTimeUs(1_000),
+            horizon_end: MissionTimeUs(u64::MAX),
+            phases: PhaseTimeline::default(),
+            battery_mj: 0,
+            hotel_load_mw: 0,
+            earth: EarthView::default(),
+        };
+        let mut checked = 0u32;
+        for load in [0u64, 1, 7, 1_000, 60_000, u64::MAX / 3] {
+            for battery in [0u64, 5, 1_000, 123_456_789, u64::MAX - 1, u64::MAX] {
+                for energy in [0u64, 3, 999, 123_456_788, u64::MAX] {
+                    for end in [
+                        0u64,
+                        1_000,
+                        1_001,
+                        999_999_999,
+                        1_000_000_000,
+                        123_456_789_000,
+                        u64::MAX,
+                    ] {
+                        t.hotel_load_mw = load;
+                        t.battery_mj = battery;
+                        let at = MissionTimeUs(end);
+                        let expected = energy.saturating_add(t.hotel_energy_mj(at)) <= battery;
+                        assert_eq!(
+                            t.energy_fits(at, energy),
+                            expected,
+                            "{load} {battery} {energy} {end}"
+                        );
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        // The exact boundary: 7 mW for 1 s less 1 us after the start is 6.999993 mJ.
+        t.hotel_load_mw = 7;
+        t.battery_mj = 10;
+        assert!(t.energy_fits(MissionTimeUs(1_000 + 999_999), 4));
+        assert!(!t.energy_fits(MissionTimeUs(1_000 + 1_000_000), 4));
+        assert!(checked > 1_000);
     }
 }

@@ -31,7 +31,7 @@ use fsw_bridge::MissionTimeUs;
 
 use crate::capacity::*;
 use crate::htn::FlatNetwork;
-use crate::utility::{Priority, RankedUtility, UtilityRate};
+use crate::utility::{Priority, RankedUtility, MIN_RATIO_COST_MJ};
 
 /// A chain in a plan, with the start the placement gave it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -71,6 +71,19 @@ pub trait ChainPlacement {
             .chains
             .get(usize::from(candidate))
             .map_or(RankedUtility::ZERO, |c| c.utility)
+    }
+
+    /// [`Self::place`], then (if placed) [`Self::utility`]: what the search asks for each
+    /// chain. A placement that computes both from the same context (the Assessor) overrides it
+    /// to do that work once; the answer must equal the two calls'.
+    fn place_valued(
+        &mut self,
+        network: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+    ) -> Option<(MissionTimeUs, RankedUtility)> {
+        let start = self.place(network, plan, candidate)?;
+        Some((start, self.utility(network, plan, candidate)))
     }
 }
 
@@ -496,8 +509,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             return;
         }
         self.stats.placement_calls += 1;
-        if let Some(start) = placement.place(network, &self.fixed, chain) {
-            let utility = placement.utility(network, &self.fixed, chain);
+        if let Some((start, utility)) = placement.place_valued(network, &self.fixed, chain) {
             if self.fixed.push(PlacedChain { chain, start }).is_ok() {
                 self.fixed_value = (
                     self.fixed_value.0.saturating_add(&utility),
@@ -566,13 +578,9 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             return;
         }
         self.stats.placement_calls += 1;
-        let placed = placement.place(network, &plan, pair.chain);
-        let utility = match placed {
-            Some(_) => placement.utility(network, &plan, pair.chain),
-            None => RankedUtility::ZERO,
-        };
+        let placed = placement.place_valued(network, &plan, pair.chain);
         self.scratch = plan;
-        let Some(start) = placed else {
+        let Some((start, utility)) = placed else {
             return;
         };
         let mut tasks = parent.tasks;
@@ -658,24 +666,27 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
 
     // --- the exploration queue: a binary max-heap on h(P, T), then first queued ---
 
-    fn rate_of(network: &FlatNetwork, chain: u16) -> UtilityRate {
+    /// A chain's (T.utility, T.cost) for h, by reference (an unknown chain: zero utility).
+    fn chain_value(network: &FlatNetwork, chain: u16) -> (&RankedUtility, u64) {
         network
             .chains
             .get(usize::from(chain))
-            .map_or(UtilityRate::default(), |c| c.utility.per_cost(c.energy_mj))
+            .map_or((&RankedUtility::ZERO, MIN_RATIO_COST_MJ), |c| {
+                (&c.utility, c.energy_mj)
+            })
     }
 
     fn compare(&self, network: &FlatNetwork, a: &Pair, b: &Pair) -> Ordering {
         let utility = |p: &Pair| {
             self.nodes
                 .get(usize::from(p.node))
-                .map_or(RankedUtility::ZERO, |n| n.utility)
+                .map_or(&RankedUtility::ZERO, |n| &n.utility)
         };
-        Priority::compare(
-            &utility(a),
-            &Self::rate_of(network, a.chain),
-            &utility(b),
-            &Self::rate_of(network, b.chain),
+        Priority::compare_parts(
+            utility(a),
+            Self::chain_value(network, a.chain),
+            utility(b),
+            Self::chain_value(network, b.chain),
         )
         .then_with(|| b.seq.cmp(&a.seq))
     }

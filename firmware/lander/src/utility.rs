@@ -288,15 +288,33 @@ impl Priority {
         plan_b: &RankedUtility,
         chain_b: &UtilityRate,
     ) -> Ordering {
-        let (ca, cb) = (u128::from(chain_a.cost_mj), u128::from(chain_b.cost_mj));
+        Self::compare_parts(
+            plan_a,
+            (&chain_a.utility, chain_a.cost_mj),
+            plan_b,
+            (&chain_b.utility, chain_b.cost_mj),
+        )
+    }
+
+    /// [`Self::compare`] with each chain given as (utility, cost in mJ), by reference: the
+    /// same order (the costs clamped as [`UtilityRate::new`] does) without copying utilities
+    /// into rates, which the search's queue does for every comparison.
+    pub fn compare_parts(
+        plan_a: &RankedUtility,
+        chain_a: (&RankedUtility, u64),
+        plan_b: &RankedUtility,
+        chain_b: (&RankedUtility, u64),
+    ) -> Ordering {
+        let clamp = |c: u64| u128::from(c.clamp(MIN_RATIO_COST_MJ, MAX_ENERGY_MJ));
+        let (ca, cb) = (clamp(chain_a.1), clamp(chain_b.1));
         for k in 0..RANK_COUNT {
             let (pa, ta) = (
                 plan_a.sums.get(k).copied().unwrap_or(0),
-                chain_a.utility.sums.get(k).copied().unwrap_or(0),
+                chain_a.0.sums.get(k).copied().unwrap_or(0),
             );
             let (pb, tb) = (
                 plan_b.sums.get(k).copied().unwrap_or(0),
-                chain_b.utility.sums.get(k).copied().unwrap_or(0),
+                chain_b.0.sums.get(k).copied().unwrap_or(0),
             );
             // (pa + ta/ca) vs (pb + tb/cb)  <=>  (pa*ca + ta)*cb vs (pb*cb + tb)*ca.
             let left = (u128::from(pa) * ca + u128::from(ta)) * cb;

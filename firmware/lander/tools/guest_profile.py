@@ -1,0 +1,79 @@
+#!/usr/bin/env python3
+"""Where the emulated target's guest instructions go, by lander component.
+
+Reads QEMU's `-d exec,nochain,in_asm` log from a FIFO while a run goes on (each translated
+block's executions times its instruction count: exact counts, nothing sampled), then
+attributes every block to the innermost `firmware/lander/src` file of its (inlined) source
+frames (`llvm-symbolizer` on the firmware ELF). Used by `guest_profile.sh`; see the README's
+"Where an exploration's instructions go".
+
+usage: guest_profile.py FIFO ELF
+"""
+import collections
+import re
+import subprocess
+import sys
+
+fifo, elf = sys.argv[1], sys.argv[2]
+execs = collections.Counter()
+size = {}
+current = None
+with open(fifo, "rb", buffering=1 << 20) as log:
+    for line in log:
+        if line.startswith(b"Trace"):
+            fields = line[line.index(b"[") + 1 : line.index(b"]")].split(b"/")
+            execs[int(fields[1], 16)] += 1
+        elif line.startswith(b"IN:"):
+            current = None
+        elif line.startswith(b"0x"):
+            pc = int(line.split(b":")[0], 16)
+            if current is None:
+                current = pc
+                size[current] = 0
+            size[current] += 1
+
+pcs = sorted(execs)
+weight = {pc: execs[pc] * size.get(pc, 1) for pc in pcs}
+frames = subprocess.run(
+    ["llvm-symbolizer", "--obj=" + elf, "--inlining=true", "--functions=linkage", "--demangle"],
+    input="\n".join(hex(pc) for pc in pcs),
+    capture_output=True,
+    text=True,
+    check=True,
+).stdout.strip().split("\n\n")
+
+GROUPS = [
+    (("placement.rs", "htn.rs"), "placement (timeline: candidates, overlaps, holds, energy, Earth)"),
+    (("search.rs", "utility.rs"), "search (queue, h comparisons, paths, nodes)"),
+    (("comms.rs", "downlink/"), "data-volume check (DataPlacement, downlink manager)"),
+    (("assessor.rs",), "Assessor (map rules, prediction)"),
+    (("executor/",), "executor (planning set-up, per call)"),
+]
+
+
+def group(functions, locations):
+    files = [l.split("/lander/src/")[-1].rsplit(":", 2)[0] for l in locations if "/lander/src/" in l]
+    if files:
+        for keys, name in GROUPS:
+            if any(files[0].startswith(k) for k in keys):
+                return name
+        return "other lander: " + files[0]
+    top = re.sub(r"::h[0-9a-f]{16}", "", functions[-1])
+    if "slice::sort" in top:
+        return "library: sorting"
+    if "div_rem" in top or "udiv" in top or "umod" in top:
+        return "library: 64/128-bit division"
+    if top in ("memcpy", "memset"):
+        return "library: " + top + " (all partitions)"
+    return None
+
+
+split = collections.Counter()
+for pc, block in zip(pcs, frames):
+    lines = block.split("\n")
+    name = group(lines[0::2], lines[1::2])
+    if name:
+        split[name] += weight[pc]
+print(f"{sum(weight.values()):,} guest instructions traced (the whole run, every partition)")
+for name, count in split.most_common():
+    print(f"{count:14,d}  {name}")
