@@ -606,25 +606,7 @@ impl<'a> TemporalApp<'a> {
         // the order of the checks (a refusal now would make every chunk a stray).
         self.mac = self.security.begin_temporal(id, &config, len).ok();
         self.auth_ticks = self.receive_clock().wrapping_sub(t0);
-        self.job = Some(Job {
-            id,
-            len,
-            crc32,
-            task_at: 0,
-            task_len: 0,
-            config,
-            phase: Phase::Receiving { received: 0 },
-            ticks_per_unit: 0,
-            spent_ticks: 0,
-            windows: 0,
-            most_step_ticks: 0,
-            stalled: false,
-            most_set_up_ticks: 0,
-            outcome: None,
-            plan_len: 0,
-            makespan: 0,
-            stats: temporal::Stats::default(),
-        });
+        self.job = Some(Job::new(id, len, crc32, config));
     }
 
     fn chunk(

@@ -328,16 +328,7 @@ impl TimelinePlacement {
         candidate: u16,
     ) -> Option<MissionTimeUs> {
         let chain = network.chains.get(usize::from(candidate))?;
-        let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
-        let mut energy_mj = chain.energy_mj;
-        let mut latest_end = self.horizon_start.0;
-        for p in plan {
-            let c = network.chains.get(usize::from(p.chain))?;
-            let s = span_of(c, p.start);
-            latest_end = latest_end.max(s.end);
-            energy_mj = energy_mj.saturating_add(c.energy_mj);
-            spans.push(s).ok()?;
-        }
+        let (spans, energy_mj, latest_end) = self.plan_spans(network, plan, chain)?;
         let fits_energy = |end: u64| {
             let end = MissionTimeUs(end.max(latest_end));
             energy_mj.saturating_add(self.hotel_energy_mj(end)) <= self.battery_mj
@@ -547,14 +538,16 @@ impl TimelinePlacement {
     }
 }
 
-impl ChainPlacement for TimelinePlacement {
-    fn place(
-        &mut self,
+impl TimelinePlacement {
+    /// What both placements start from: the plan's spans, their energy with `chain`'s, and the
+    /// latest end among them (the horizon's start for an empty plan). None when the plan names
+    /// a chain the network does not have or holds more than a plan can.
+    fn plan_spans(
+        &self,
         network: &FlatNetwork,
         plan: &[PlacedChain],
-        candidate: u16,
-    ) -> Option<MissionTimeUs> {
-        let chain = network.chains.get(usize::from(candidate))?;
+        chain: &Chain,
+    ) -> Option<(Vec<Span, MAX_PLAN_CHAINS>, u64, u64)> {
         let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
         let mut energy_mj = chain.energy_mj;
         let mut latest_end = self.horizon_start.0;
@@ -565,6 +558,19 @@ impl ChainPlacement for TimelinePlacement {
             energy_mj = energy_mj.saturating_add(c.energy_mj);
             spans.push(s).ok()?;
         }
+        Some((spans, energy_mj, latest_end))
+    }
+}
+
+impl ChainPlacement for TimelinePlacement {
+    fn place(
+        &mut self,
+        network: &FlatNetwork,
+        plan: &[PlacedChain],
+        candidate: u16,
+    ) -> Option<MissionTimeUs> {
+        let chain = network.chains.get(usize::from(candidate))?;
+        let (spans, energy_mj, latest_end) = self.plan_spans(network, plan, chain)?;
         let (mut busy, mut uplinks) = (Busy::new(), Uplinks::new());
         let (mut holds, mut waits) = (Holds::new(), Waits::new());
         let from = self.horizon_start.0;

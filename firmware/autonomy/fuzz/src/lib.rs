@@ -154,15 +154,22 @@ fn element_decoders_agree_with_postcard(data: &[u8]) {
     assert_eq!(ours, derived_task, "task decoders differ");
 }
 
+/// A warm-restart area of two slots whose first holds `data` as a whole record (number 1).
+fn area_bytes(data: &[u8]) -> Vec<u8> {
+    let mut bytes = vec![0u8; 2 * (RECORD_HEADER_LEN + data.len())];
+    WarmRestartArea::new(&mut bytes)
+        .write(|buf| {
+            buf.get_mut(..data.len())?.copy_from_slice(data);
+            Some(data.len())
+        })
+        .expect("the area holds the payload");
+    bytes
+}
+
 /// Any bytes as the payload of a whole checkpoint record.
 pub fn checkpoint(data: &[u8]) {
-    let mut bytes = vec![0u8; 2 * (RECORD_HEADER_LEN + data.len())];
-    let mut area = WarmRestartArea::new(&mut bytes);
-    area.write(|buf| {
-        buf.get_mut(..data.len())?.copy_from_slice(data);
-        Some(data.len())
-    })
-    .expect("the area holds the payload");
+    let mut bytes = area_bytes(data);
+    let area = WarmRestartArea::new(&mut bytes);
     with_scratch(|Scratch { core, checker }| {
         let core = fresh(core);
         match core.restore_from(&area) {
@@ -335,13 +342,8 @@ fn side_checkpoint<S: PartitionSide>(pair: &Mutex<SidePair<S>>, data: &[u8]) -> 
         let [new_bytes, restored_bytes, again_bytes] = &mut *bufs.borrow_mut();
         side.reset();
         let new_len = side.encode_state(new_bytes).expect("a new side encodes");
-        let mut bytes = vec![0u8; 2 * (RECORD_HEADER_LEN + data.len())];
-        let mut area = WarmRestartArea::new(&mut bytes);
-        area.write(|buf| {
-            buf.get_mut(..data.len())?.copy_from_slice(data);
-            Some(data.len())
-        })
-        .expect("the area holds the payload");
+        let mut bytes = area_bytes(data);
+        let area = WarmRestartArea::new(&mut bytes);
         match side.restore_from(&area) {
             Err(SideRestoreError::NoRecord) => panic!("the record written is not found"),
             Err(SideRestoreError::BadPayload) => {
