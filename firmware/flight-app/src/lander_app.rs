@@ -450,13 +450,7 @@ impl<'a> LanderApp<'a> {
         let mut calls = 0u32;
         loop {
             if let Some(u) = until {
-                let end = now.saturating_add(p.most_call_ticks);
-                let fits = if calls == 0 {
-                    now < u && (end <= hard_until.unwrap_or(u) || p.stalled)
-                } else {
-                    end <= u
-                };
-                if !fits {
+                if !piece_fits(now, p.most_call_ticks, calls == 0, p.stalled, u, hard_until) {
                     break;
                 }
             }
@@ -492,13 +486,14 @@ impl<'a> LanderApp<'a> {
         let mut calls = 0u32;
         loop {
             if let Some(u) = until {
-                let end = now.saturating_add(sv.most_call_ticks);
-                let fits = if calls == 0 {
-                    now < u && (end <= hard_until.unwrap_or(u) || sv.stalled)
-                } else {
-                    end <= u
-                };
-                if !fits {
+                if !piece_fits(
+                    now,
+                    sv.most_call_ticks,
+                    calls == 0,
+                    sv.stalled,
+                    u,
+                    hard_until,
+                ) {
                     break;
                 }
             }

@@ -26,6 +26,27 @@ pub struct PluginWindow<'w, 'm> {
 }
 
 /// A planner the planner partition runs.
+/// Whether the next piece of a plug-in's work (a search call, an expansion, a set-up piece),
+/// costing up to `most` ticks going by the costliest so far, may start at `now` in a window
+/// whose share ends at `until`: the window's `first` piece may use the rest of the window (up to
+/// `hard_until`, the share's end when None), and runs whatever it costs after a window that ran
+/// none (`stalled`: progress); any later piece must end within the share.
+pub fn piece_fits(
+    now: u64,
+    most: u64,
+    first: bool,
+    stalled: bool,
+    until: u64,
+    hard_until: Option<u64>,
+) -> bool {
+    let end = now.saturating_add(most);
+    if first {
+        now < until && (end <= hard_until.unwrap_or(until) || stalled)
+    } else {
+        end <= until
+    }
+}
+
 pub trait PlannerPlugin {
     /// Its name, for logs.
     fn name(&self) -> &'static str;

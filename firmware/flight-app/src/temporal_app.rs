@@ -903,13 +903,7 @@ impl<'a> TemporalApp<'a> {
                 // costliest one so far; the first of a window may use the rest of the window,
                 // and runs whatever it costs after a window that ran none (progress).
                 if let Some(u) = until {
-                    let end = now.saturating_add(most);
-                    let fits = if ran == 0 {
-                        now < u && (end <= hard_until.unwrap_or(u) || job.stalled)
-                    } else {
-                        end <= u
-                    };
-                    if !fits {
+                    if !piece_fits(now, most, ran == 0, job.stalled, u, hard_until) {
                         break;
                     }
                 }
@@ -1143,13 +1137,10 @@ fn set_up_pieces(
     let mut pieces = 0u32;
     loop {
         if let Some(u) = until {
-            let end = now.saturating_add(most);
-            let fits = if pieces == 0 {
-                now < u && (end <= hard_until.unwrap_or(u) || stalled)
-            } else {
-                planner.next_set_up_piece_is_small() && end <= u
-            };
-            if !fits {
+            let first = pieces == 0;
+            if !(piece_fits(now, most, first, stalled, u, hard_until)
+                && (first || planner.next_set_up_piece_is_small()))
+            {
                 return (false, most, pieces);
             }
         }
