@@ -196,7 +196,9 @@ pub enum LanderSetupError {
     /// The horizon ends before it starts.
     BadHorizon,
     /// An energy over the algorithms' largest (`lander::capacity::MAX_ENERGY_MJ`), or a product
-    /// size or value over its largest: `index` the primitive or chain.
+    /// size or value over its largest: `index` the primitive or chain; `u16::MAX` a value of
+    /// the header (the charge, reserve or hotel load, or in the learned part a parameter's
+    /// energy, the sol's radio energy, or a volume factor over its largest or given twice).
     OutOfRange { index: u16 },
     /// More primitives or chains than the target holds.
     TooMany,

@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use ::lander::comms::CommsModel;
 use ::lander::downlink::DataProduct;
-use ::lander::executor::{Decision, Directive, ExecConfig, Observation};
+use ::lander::executor::{Decision, Directive, ExecConfig, Learned, Observation};
 use ::lander::htn::{FlatNetwork, HtnModel};
 use ::lander::placement::TimelinePlacement;
 use ::lander::setup::LanderSetup;
@@ -73,6 +73,7 @@ impl StepWatch for Recorder {
         _: &FlatNetwork,
         _: &TimelinePlacement,
         _: &::lander::assessor::ScienceContext,
+        _: &Learned,
     ) -> Result<(), String> {
         self.transcript.logs.push(Vec::new());
         self.seen = 0;
@@ -456,6 +457,7 @@ impl StepWatch for EmulatedLander {
         network: &FlatNetwork,
         timeline: &TimelinePlacement,
         context: &::lander::assessor::ScienceContext,
+        learned: &Learned,
     ) -> Result<(), String> {
         let mut setup = LanderSetup {
             config,
@@ -463,6 +465,7 @@ impl StepWatch for EmulatedLander {
             network: network.clone(),
             timeline: timeline.clone(),
             context: context.clone(),
+            learned: learned.clone(),
         };
         if let Some(perturb) = self.perturb_setup {
             perturb(&mut setup);

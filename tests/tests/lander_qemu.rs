@@ -120,6 +120,7 @@ fn lander_missions_decide_on_the_target_as_natively_and_bad_setups_are_refused()
         network,
         timeline,
         context,
+        learned: Default::default(),
     };
     let bytes = EmulatedLander::encode(&setup).unwrap();
     // Corrupted on the way: a flipped bit under the announced CRC.

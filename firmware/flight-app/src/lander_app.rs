@@ -284,6 +284,8 @@ impl<'a> LanderApp<'a> {
         storage
             .executor
             .reset(s.config, &s.primitives, &s.network, &s.timeline, &s.context);
+        // What the executor it replaces had learned (natively: `set_learned` after `new`).
+        storage.executor.set_learned(&s.learned);
         self.active = Some(setup);
         self.next_seq = 0;
         self.reported = 0;

@@ -43,6 +43,7 @@ fn setup() -> (HtnModel, LanderSetup) {
         network,
         timeline,
         context: rsm1::context(Rsm1Options::FULL),
+        learned: Default::default(),
     };
     (model, s)
 }

@@ -155,6 +155,9 @@ impl CommsModel {
     }
 }
 
+/// The largest volume factor learnt: a product measured 1,000 times its model's size.
+pub const MAX_VOLUME_PPM: u64 = 1_000_000_000;
+
 /// Measured product sizes against the model's, per primitive kind, in parts per million.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct VolumeFactors {
@@ -178,7 +181,7 @@ impl VolumeFactors {
         }
         let f = u64::try_from(u128::from(measured) * 1_000_000 / u128::from(prior))
             .unwrap_or(u64::MAX)
-            .min(1_000_000_000);
+            .min(MAX_VOLUME_PPM);
         let old = self.ppm(kind);
         let changed = f.abs_diff(old) * 100 > old;
         match self.entries.iter_mut().find(|(k, _)| *k == kind) {
@@ -189,6 +192,27 @@ impl VolumeFactors {
             }
         }
         changed
+    }
+
+    /// The factors measured, one per kind at most, in the order first learned.
+    pub fn entries(&self) -> &[(PrimitiveKind, u64)] {
+        &self.entries
+    }
+
+    /// The factors `entries` (as [`Self::entries`] gives them): `None` when a kind comes twice
+    /// or a factor is over [`MAX_VOLUME_PPM`].
+    pub fn from_entries(entries: &[(PrimitiveKind, u64)]) -> Option<Self> {
+        let mut out = Self::default();
+        for (i, &(kind, ppm)) in entries.iter().enumerate() {
+            let twice = entries
+                .get(..i)
+                .is_some_and(|e| e.iter().any(|x| x.0 == kind));
+            if twice || ppm > MAX_VOLUME_PPM {
+                return None;
+            }
+            out.entries.push((kind, ppm)).ok()?;
+        }
+        Some(out)
     }
 
     /// `prior` bytes of a product of `kind`, at the measured factor.

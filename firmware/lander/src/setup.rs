@@ -1,7 +1,9 @@
 //! The executor's setup on the wire: what [`Executor::new`](crate::executor::Executor::new)
 //! and [`Executor::set_view_windows`](crate::executor::Executor::set_view_windows) take (the
 //! configuration, the model's primitives, the flattened network, the placement's horizon,
-//! charge, hotel load, phases and Earth-in-view windows, the science context), encoded by the
+//! charge, hotel load, phases and Earth-in-view windows, the science context), and what the
+//! executor it replaces had learned ([`Learned`], given by
+//! [`Executor::set_learned`](crate::executor::Executor::set_learned)), encoded by the
 //! host and uplinked in chunks to the planner partition, which decodes it in place
 //! ([`decode_into`]) and validates it ([`validate`]) before it builds the executor
 //! ([`Executor::reset`](crate::executor::Executor::reset)).
@@ -22,13 +24,16 @@ use crate::assessor::{
     Biosignature, ScienceContext, SiteRecord, TargetRecord, MAX_SITES, MAX_TARGETS_PER_SITE,
 };
 use crate::capacity::*;
-use crate::executor::{ExecConfig, Strategy};
+use crate::comms::VolumeFactors;
+use crate::executor::{ExecConfig, Learned, ParameterUpdate, Strategy, MAX_PARAMETER_UPDATES};
+use crate::htn::PrimitiveKind;
 use crate::htn::{Chain, FlatNetwork, PhaseTimeline, PrimitiveSpec};
 use crate::placement::{EarthView, TimelinePlacement, ViewTimeline, ViewWindow};
 use crate::utility::Score;
 
-/// The format's version (the header's first field).
-pub const SETUP_VERSION: u8 = 1;
+/// The format's version (the header's first field). 2: the header ends with the learned
+/// part (measured parameters, volume factors, the sol's radio energy spent).
+pub const SETUP_VERSION: u8 = 2;
 
 /// Everything the executor is built from. All-zero bytes are a valid (empty) setup: the
 /// planner partition keeps one in memory that is not zeroed for it, zeroes it once and decodes
@@ -42,6 +47,9 @@ pub struct LanderSetup {
     /// `earth.windows` are the Earth-in-view windows; `earth.downlinks` is not carried).
     pub timeline: TimelinePlacement,
     pub context: ScienceContext,
+    /// What the executor starts with learned (a model uplink carries the replaced
+    /// executor's; empty at the mission's start).
+    pub learned: Learned,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -82,6 +90,10 @@ struct Header {
     sites: Vec<WireSite, MAX_SITES>,
     primitives: u16,
     chains: u16,
+    /// The learned part ([`Learned`]).
+    params: Vec<ParameterUpdate, MAX_PARAMETER_UPDATES>,
+    volumes: Vec<(PrimitiveKind, u64), { PrimitiveKind::ALL.len() }>,
+    comm_spent: (u16, u64),
 }
 
 fn strategy_code(s: Strategy) -> u8 {
@@ -158,6 +170,10 @@ pub fn encode(setup: &LanderSetup, out: &mut [u8]) -> Result<usize, EncodeError>
         sites,
         primitives: setup.primitives.len() as u16,
         chains: setup.network.chains.len() as u16,
+        params: setup.learned.params.clone(),
+        // Never fails: the same capacity.
+        volumes: Vec::from_slice(setup.learned.volumes.entries()).unwrap_or_default(),
+        comm_spent: setup.learned.comm_spent,
     };
     let mut used = 0usize;
     let put = |out: &mut [u8], used: &mut usize, v: &dyn Fn(&mut [u8]) -> Option<usize>| {
@@ -260,6 +276,12 @@ pub fn decode_into(bytes: &[u8], out: &mut LanderSetup) -> Result<(), LanderSetu
             targets,
         });
     }
+    out.learned = Learned {
+        params: h.params.clone(),
+        volumes: VolumeFactors::from_entries(&h.volumes)
+            .ok_or(LanderSetupError::OutOfRange { index: u16::MAX })?,
+        comm_spent: h.comm_spent,
+    };
     out.primitives.clear();
     for _ in 0..h.primitives {
         let (p, r) =
@@ -294,9 +316,13 @@ pub fn validate(setup: &LanderSetup) -> Result<(), LanderSetupError> {
     if t.horizon_end < t.horizon_start {
         return Err(LanderSetupError::BadHorizon);
     }
+    let l = &setup.learned;
     if t.battery_mj > MAX_ENERGY_MJ
         || setup.config.reserve_mj > MAX_ENERGY_MJ
         || t.hotel_load_mw > MAX_ENERGY_MJ
+        || l.params.iter().any(|p| p.energy_mj > MAX_ENERGY_MJ)
+        || l.comm_spent.1 > MAX_ENERGY_MJ
+        || VolumeFactors::from_entries(l.volumes.entries()).is_none()
     {
         return Err(LanderSetupError::OutOfRange { index: u16::MAX });
     }

@@ -1,13 +1,15 @@
 //! The executor's setup on the wire (`lander::setup`) and its values on the link
 //! (`lander::wire`): what the planner partition decodes is what the host encoded, bad bytes
 //! are refused with their reason, and an executor built in place (`Executor::reset`, the
-//! target's way) decides exactly as one built by `Executor::new`.
+//! target's way) decides exactly as one built by `Executor::new`, also when given what a
+//! replaced executor had learned (`Executor::set_learned`, the setup's learned part).
 use fsw_bridge::lander::LanderSetupError;
 use fsw_bridge::MissionTimeUs;
 use lander::assessor::Biosignature;
+use lander::comms::VolumeFactors;
 use lander::executor::{
-    Decision, DecisionKind, Directive, Event, ExecConfig, Executor, Observation, Outcome, Reason,
-    Strategy, TaskResult,
+    Decision, DecisionKind, Directive, Event, ExecConfig, Executor, Learned, Observation, Outcome,
+    ParameterUpdate, Reason, Strategy, TaskResult,
 };
 use lander::htn::{flatten, FlattenOptions, PrimitiveKind};
 use lander::placement::{ViewTimeline, ViewWindow};
@@ -43,6 +45,7 @@ fn rsm1_setup(strategy: Strategy) -> LanderSetup {
         network,
         timeline,
         context,
+        learned: Default::default(),
     }
 }
 
@@ -365,4 +368,138 @@ fn link_and_data_inputs_cross_the_link_unchanged() {
     });
     w.tier = 4;
     assert_eq!(product_from_wire(&w), Err(lander::wire::UnknownKind(4)));
+}
+
+/// What a replaced executor learned: excavation and sampling at site 0 cost twice their priors
+/// and take 1.5 times as long, panoramas come out three times their size, and sol 0's
+/// downlinks spent 50 Wh.
+fn learned(s: &LanderSetup) -> Learned {
+    let mut l = Learned::default();
+    for kind in [PrimitiveKind::ExcavateSite, PrimitiveKind::CollectSample] {
+        let prior = s
+            .primitives
+            .iter()
+            .find(|p| p.kind == kind && p.site == Some(0))
+            .unwrap();
+        assert!(l.set_parameter(ParameterUpdate {
+            kind,
+            site: 0,
+            duration_us: prior.duration_us * 3 / 2,
+            energy_mj: prior.energy_mj * 2,
+        }));
+    }
+    l.volumes =
+        VolumeFactors::from_entries(&[(PrimitiveKind::TakeMonoPanorama, 3_000_000)]).unwrap();
+    l.comm_spent = (0, 50 * WH_MJ);
+    l
+}
+
+#[test]
+fn the_learned_part_crosses_the_link_and_bad_values_are_refused() {
+    let mut s = rsm1_setup(Strategy::Replan);
+    s.learned = learned(&s);
+    let bytes = encoded(&s);
+    let mut out = empty();
+    decode_into(&bytes, &mut out).unwrap();
+    assert_eq!(*out, s);
+    assert_eq!(out.learned.params.len(), 2);
+    // An energy over the largest the algorithms take.
+    let mut bad = s.clone();
+    bad.learned.params[1].energy_mj = u64::MAX;
+    assert_eq!(
+        decode_into(&encoded(&bad), &mut out),
+        Err(LanderSetupError::OutOfRange { index: u16::MAX })
+    );
+    let mut bad = s.clone();
+    bad.learned.comm_spent.1 = u64::MAX;
+    assert_eq!(
+        decode_into(&encoded(&bad), &mut out),
+        Err(LanderSetupError::OutOfRange { index: u16::MAX })
+    );
+    // A volume factor given twice, or over the largest (the encoder cannot write them: spliced
+    // in by hand, the second entry's kind or factor changed).
+    let mut two = s.clone();
+    two.learned.volumes = VolumeFactors::from_entries(&[
+        (PrimitiveKind::TakeMonoPanorama, 2_000_000),
+        (PrimitiveKind::CollectSample, 2_000_000),
+    ])
+    .unwrap();
+    let good = encoded(&two);
+    let factor = postcard::to_allocvec(&2_000_000u64).unwrap();
+    let mut entries = vec![2u8, 0];
+    entries.extend(&factor);
+    entries.push(1);
+    entries.extend(&factor);
+    let at = good
+        .windows(entries.len())
+        .position(|w| w == entries.as_slice())
+        .expect("the volume list");
+    decode_into(&good, &mut out).unwrap();
+    let mut twice = good.clone();
+    twice[at + 2 + factor.len()] = 0;
+    assert_eq!(
+        decode_into(&twice, &mut out),
+        Err(LanderSetupError::OutOfRange { index: u16::MAX })
+    );
+    let mut huge = good[..at + 2 + factor.len() + 1].to_vec();
+    huge.extend(postcard::to_allocvec(&(lander::comms::MAX_VOLUME_PPM + 1)).unwrap());
+    huge.extend(&good[at + entries.len()..]);
+    assert_eq!(
+        decode_into(&huge, &mut out),
+        Err(LanderSetupError::OutOfRange { index: u16::MAX })
+    );
+}
+
+#[test]
+fn an_executor_given_what_was_learned_decides_in_place_as_a_new_one_and_otherwise_than_without() {
+    std::thread::Builder::new()
+        .stack_size(64 << 20)
+        .spawn(|| {
+            let s = rsm1_setup(Strategy::Replan);
+            let l = learned(&s);
+            let model = lander::htn::HtnModel {
+                primitives: s.primitives.clone(),
+                ..Default::default()
+            };
+            let build = || {
+                Box::new(
+                    Executor::new(s.config, &model, &s.network, &s.timeline, &s.context, None)
+                        .unwrap(),
+                )
+            };
+            let mut new = build();
+            new.set_learned(&l);
+            assert_eq!(new.learned(), l);
+            let mut reset = build();
+            let _ = script(&mut reset, 1_000);
+            reset.reset(s.config, &s.primitives, &s.network, &s.timeline, &s.context);
+            reset.set_learned(&l);
+            let mut without = build();
+            let a = script(&mut new, 1_000_000);
+            let b = script(&mut reset, 3);
+            let c = script(&mut without, 1_000_000);
+            assert!(a.0.len() > 20, "{:?}", a.0);
+            assert_eq!(a, b);
+            // The learned values are used: the predictions (and so the directives) differ.
+            assert_ne!(a.1, c.1);
+            // The sampling at site 0 is expected to cost what was learned.
+            let collect = s
+                .primitives
+                .iter()
+                .find(|p| p.kind == PrimitiveKind::CollectSample && p.site == Some(0))
+                .unwrap();
+            let dispatched = a.1.iter().find_map(|d| match *d {
+                Directive::Dispatch {
+                    kind: PrimitiveKind::CollectSample,
+                    site: Some(0),
+                    expected_energy_mj,
+                    ..
+                } => Some(expected_energy_mj),
+                _ => None,
+            });
+            assert_eq!(dispatched, Some(collect.energy_mj * 2));
+        })
+        .unwrap()
+        .join()
+        .unwrap();
 }

@@ -2,6 +2,7 @@
 //! stepped by the world until the horizon, the lander's death or the last step, and watched
 //! by a [`StepWatch`] (the emulated target's comparison, tests).
 use super::*;
+use lander::executor::Learned;
 
 /// The value of the products that reached Earth.
 fn realised_of(products: &[Product]) -> u64 {
@@ -15,13 +16,16 @@ fn realised_of(products: &[Product]) -> u64 {
 /// The executor type the simulation drives (the default capacities).
 pub type Autonomy = Executor;
 
-/// An executor for the state `now`, `charge_mj`, `context` (what the lander has learned) with
-/// the model of `options` (a model uplink: the executor is rebuilt and plans from the state).
+/// An executor for the state `now`, `charge_mj`, `context` (what the lander has learned about
+/// the science) and `learned` (the measured parameters and volumes of the executor it replaces,
+/// and the sol's radio energy spent) with the model of `options` (a model uplink: the executor
+/// is rebuilt and plans from the state).
 #[allow(clippy::too_many_arguments)]
 fn rebuild(
     s: &Scenario,
     options: Rsm1Options,
     context: &lander::assessor::ScienceContext,
+    learned: &Learned,
     now: u64,
     charge_mj: u64,
     strategy: Strategy,
@@ -46,7 +50,7 @@ fn rebuild(
     timeline.horizon_start = MissionTimeUs(now);
     timeline.hotel_load_mw = (s.power.hotel_w + s.power.seismometer_w) * 1_000;
     timeline.earth.windows = EarthSchedule::from_scenario(s).view_timeline(now, horizon_us(s));
-    let exec = Box::new(
+    let mut exec = Box::new(
         Executor::new(
             ExecConfig::new(strategy),
             &model,
@@ -57,7 +61,15 @@ fn rebuild(
         )
         .map_err(|e| format!("the executor refused the new model: {e:?}"))?,
     );
-    watch.built(ExecConfig::new(strategy), &model, &net, &timeline, context)?;
+    exec.set_learned(learned);
+    watch.built(
+        ExecConfig::new(strategy),
+        &model,
+        &net,
+        &timeline,
+        context,
+        learned,
+    )?;
     Ok((model, exec))
 }
 
@@ -86,7 +98,8 @@ fn next_arrival(pending: &[PendingChange]) -> Option<u64> {
 /// with it.
 pub trait StepWatch {
     /// An executor was built (at the start, and at each model uplink) from these inputs, as
-    /// [`Executor::new`] takes them without a plan.
+    /// [`Executor::new`] takes them without a plan, then given `learned`
+    /// ([`Executor::set_learned`]: empty at the start, the replaced executor's at an uplink).
     fn built(
         &mut self,
         config: ExecConfig,
@@ -94,8 +107,9 @@ pub trait StepWatch {
         network: &lander::htn::FlatNetwork,
         timeline: &lander::placement::TimelinePlacement,
         context: &lander::assessor::ScienceContext,
+        learned: &Learned,
     ) -> Result<(), String> {
-        let _ = (config, model, network, timeline, context);
+        let _ = (config, model, network, timeline, context, learned);
         Ok(())
     }
 
@@ -160,6 +174,7 @@ pub fn run_watched(
         &net,
         &timeline,
         &context,
+        &Learned::default(),
     )?;
     // The world's truth: the model's priors (prescient: bias-scaled, as the planner's).
     let mut world = World::new(s, &model, config.seed, config.prescient);
@@ -261,10 +276,13 @@ pub fn run_watched(
                     past.retries += stats.retries;
                     past.replans += stats.replans;
                     past.ground_halts += stats.ground_halts;
+                    // What the executor measured carries over (IV.C.3 across the rebuild).
+                    let learned = exec.learned();
                     let (m, e) = rebuild(
                         s,
                         options,
                         &context,
+                        &learned,
                         world.now,
                         world.battery_mj,
                         config.strategy,

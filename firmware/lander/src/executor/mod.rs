@@ -75,9 +75,11 @@ use crate::search::{PlacedChain, Search, SearchConfig, SearchStats};
 use crate::utility::RankedUtility;
 
 mod in_place;
+mod learned;
 mod plan;
 mod types;
 
+pub use learned::Learned;
 pub use plan::{already_done, predicted, reparameterize};
 pub use types::*;
 

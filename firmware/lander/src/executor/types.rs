@@ -223,7 +223,7 @@ pub struct ExecStep {
 }
 
 /// A measured parameter replacing the priors of (kind, site).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct ParameterUpdate {
     pub kind: PrimitiveKind,
     pub site: u8,
