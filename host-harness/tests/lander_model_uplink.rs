@@ -3,31 +3,22 @@
 //! the product volume factors, the sol's radio energy spent) carries over to the new one, so
 //! the new plan predicts with the measured values, not the model's priors again.
 //!
-//! The mission is ELAP 6's world with every task costing 30% more energy than modelled and
-//! decisional products three times their model's size, so what is learned differs from the
-//! priors, and its model uplink made in answer to the first sample collected (new site values,
-//! in the same order): the new executor goes on sampling at site 0, where it measured.
+//! The mission is `scenarios/lander/learned-across-uplink.toml`: ELAP 6's world with every
+//! task costing 30% more energy than modelled and decisional products three times their
+//! model's size, so what is learned differs from the priors, and a model uplink made in answer
+//! to the first sample collected (new site values, in the same order): the new executor goes
+//! on sampling at site 0, where it measured.
 use hil::study::load_scenario;
 use lander::executor::{Directive, ExecConfig, Learned, Observation};
 use lander::htn::{FlatNetwork, HtnModel, PrimitiveKind};
 use lander::placement::TimelinePlacement;
-use lander_sim::scenario::{GroundChange, Scenario};
+use lander_sim::scenario::Scenario;
 use lander_sim::sim::{run_watched, Autonomy, RunConfig, StepWatch};
 
-/// ELAP 6's world with energy overruns and larger decisional products, and a model uplink
-/// after the first sample.
+/// The shipped mission with a model uplink after learning.
 pub fn learning_then_uplink() -> Scenario {
-    let path = hil::repo_root().join("scenarios/lander/elap/06-ground-changes-mission-model.toml");
-    let mut s = load_scenario(&path).unwrap_or_else(|e| panic!("{}", e.render()));
-    s.energy.bias = 0.3;
-    s.data.decisional = 3.0;
-    s.ground.changes = vec![GroundChange {
-        after_samples: Some(1),
-        site_values: vec![0.9, 0.6, 0.3],
-        ..GroundChange::default()
-    }];
-    assert!(s.validate().is_empty(), "{:?}", s.validate());
-    s
+    let path = hil::repo_root().join("scenarios/lander/learned-across-uplink.toml");
+    load_scenario(&path).unwrap_or_else(|e| panic!("{}", e.render()))
 }
 
 /// Per executor built: the model's priors (kind, site) -> (duration, energy), the learned
@@ -93,6 +84,8 @@ fn what_the_executor_learned_survives_a_model_uplink() {
     let mut watch = Watch::default();
     let run = run_watched(&s, &config, &mut watch).unwrap();
     assert_eq!(run.changes.len(), 1, "the model uplink was applied");
+    let verdicts = lander_sim::expect::check_all(&s, &run);
+    assert!(verdicts.iter().all(|v| v.passed), "{verdicts:?}");
     let [first, second] = &watch.builds[..] else {
         panic!("{} executors built, not 2", watch.builds.len());
     };

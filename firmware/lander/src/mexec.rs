@@ -11,6 +11,19 @@
 //! but not always the earliest valid start: a window that opens between two candidates is
 //! missed, as the planner's own candidates miss one with rate impacts.
 //!
+//! **Earth in view** ([`MexecEarth`], issue 11 items 5 and 8), as [`TimelinePlacement`] has
+//! it: with the in-view windows given, a chain's downlink primitives (its span in
+//! [`EarthView::downlinks`]) must lie entirely inside one window, each window's opening minus
+//! the chain's downlink offset is one more candidate start (so the windows do not make the
+//! earliest start missed), and a chain that creates data its own downlinks do not carry is
+//! placed only if some window still has in-view time after the chain's end, before the horizon
+//! end, that no entry of the plan (held or laid out) takes; with Earth given, a chain also
+//! ends by that horizon end (the simple timeline's horizon). How much data the downlinks carry
+//! is [`crate::comms::DataPlacement`]'s check, which wraps this placement as it wraps the
+//! simple one. Without windows (`earth: None`) Earth is not modelled.
+//!
+//! [`TimelinePlacement`]: crate::placement::TimelinePlacement
+//!
 //! Limits: a plan's primitives and the planner's entries share the autonomy crate's
 //! [`autonomy::MAX_PLAN_ENTRIES`] (512): a plan that would need more is refused (counted in
 //! [`MexecPlacement::plan_full`]). One list of entries (24 KiB at that capacity) is on the
@@ -25,7 +38,9 @@ use autonomy::timeline::TimelineAnchor;
 use autonomy::{TaskNetwork, TaskState, FIRST_INSTANCE_ID, MAX_PLAN_ENTRIES};
 use fsw_bridge::MissionTimeUs;
 
+use crate::capacity::MAX_VIEW_WINDOWS;
 use crate::htn::FlatNetwork;
+use crate::placement::EarthView;
 use crate::search::{ChainPlacement, PlacedChain};
 
 /// The adapter. Borrowed state is the MEXEC planner's: its network, its timelines' anchors and
@@ -40,6 +55,77 @@ pub struct MexecPlacement<'a> {
     pub now: MissionTimeUs,
     /// Plans refused because they needed more than [`MAX_PLAN_ENTRIES`] entries.
     pub plan_full: u32,
+    /// Earth-in-view windows and the chains' downlink spans (`None`: not modelled).
+    pub earth: Option<MexecEarth<'a>>,
+}
+
+/// What the MEXEC placement knows about Earth: the windows and the chains' downlink spans
+/// (as [`crate::placement::TimelinePlacement::earth`]), and the horizon end chains end by and
+/// data must reach Earth by.
+#[derive(Clone, Copy, Debug)]
+pub struct MexecEarth<'a> {
+    pub view: &'a EarthView,
+    pub horizon_end: MissionTimeUs,
+}
+
+impl MexecEarth<'_> {
+    /// Whether chain `index` of `flat` started at `start` and ending at `end` reaches Earth
+    /// with `entries` placed (the rule of the module docs).
+    fn reaches_earth(
+        &self,
+        flat: &FlatNetwork,
+        entries: &[PlanEntry],
+        index: u16,
+        start: u64,
+        end: u64,
+    ) -> bool {
+        if end > self.horizon_end.0 {
+            return false;
+        }
+        if !self.view.modelled() {
+            return true;
+        }
+        let own = self
+            .view
+            .downlinks
+            .get(usize::from(index))
+            .copied()
+            .flatten();
+        if let Some((from, to)) = own {
+            if !self
+                .view
+                .windows
+                .contains(start.saturating_add(from), start.saturating_add(to))
+            {
+                return false;
+            }
+        }
+        let later = flat.chains.get(usize::from(index)).is_some_and(|c| {
+            c.products
+                .iter()
+                .any(|p| own.is_none_or(|(from, _)| p.offset_us > from))
+        });
+        !later || self.room_after(entries, end)
+    }
+
+    /// Whether some window has an instant after `t`, before the horizon end, that no
+    /// non-empty entry covers. The free time of `[a, b)` is a union of intervals each opening
+    /// at `a` or at an entry's end, so those instants are the ones to try.
+    fn room_after(&self, entries: &[PlanEntry], t: u64) -> bool {
+        let covered = |x: u64| {
+            entries
+                .iter()
+                .any(|e| e.start.0 < e.end.0 && e.start.0 <= x && x < e.end.0)
+        };
+        self.view.windows.windows().iter().any(|w| {
+            let (a, b) = (w.start.0.max(t), w.end.0.min(self.horizon_end.0));
+            a < b
+                && (!covered(a)
+                    || entries
+                        .iter()
+                        .any(|e| a <= e.end.0 && e.end.0 < b && !covered(e.end.0)))
+        })
+    }
 }
 
 type Entries = Vec<PlanEntry, MAX_PLAN_ENTRIES>;
@@ -123,7 +209,7 @@ impl ChainPlacement for MexecPlacement<'_> {
             self.lay_out(flat, &mut base, p.chain, p.start, false)?;
         }
         let chain = flat.chains.get(usize::from(candidate))?;
-        let mut starts: Vec<u64, { MAX_PLAN_ENTRIES + 1 }> = Vec::new();
+        let mut starts: Vec<u64, { MAX_PLAN_ENTRIES + 1 + MAX_VIEW_WINDOWS }> = Vec::new();
         match chain.fixed_start {
             Some(fixed) => {
                 let _ = starts.push(fixed.0);
@@ -133,6 +219,23 @@ impl ChainPlacement for MexecPlacement<'_> {
                 for e in &base {
                     if e.end >= self.now {
                         let _ = starts.push(e.end.0);
+                    }
+                }
+                let span = self
+                    .earth
+                    .and_then(|e| e.view.downlinks.get(usize::from(candidate)).copied())
+                    .flatten();
+                if let (Some(earth), Some((from, _))) = (self.earth, span) {
+                    // The downlink starts as a window opens.
+                    for w in earth.view.windows.windows() {
+                        match w.start.0.checked_sub(from) {
+                            Some(s) if s >= self.now.0 => {
+                                if starts.push(s).is_err() {
+                                    break;
+                                }
+                            }
+                            _ => {}
+                        }
                     }
                 }
             }
@@ -147,7 +250,11 @@ impl ChainPlacement for MexecPlacement<'_> {
             previous = Some(s);
             let placed = self.lay_out(flat, &mut base, candidate, MissionTimeUs(s), true);
             base.truncate(held);
-            if placed.is_some() {
+            let reaches = |end: MissionTimeUs| {
+                self.earth
+                    .is_none_or(|e| e.reaches_earth(flat, &base, candidate, s, end.0))
+            };
+            if placed.is_some_and(reaches) {
                 return Some(MissionTimeUs(s));
             }
         }

@@ -17,9 +17,11 @@ use common::*;
 use fsw_bridge::MissionTimeUs;
 use heapless::Vec as HVec;
 use lander::capacity::MAX_PLAN_CHAINS;
+use lander::comms::{CommsModel, DataPlacement, DataView};
+use lander::downlink::Tier;
 use lander::htn::*;
-use lander::mexec::MexecPlacement;
-use lander::placement::TimelinePlacement;
+use lander::mexec::{MexecEarth, MexecPlacement};
+use lander::placement::{EarthView, TimelinePlacement, ViewTimeline, ViewWindow};
 use lander::search::{ChainPlacement, PlacedChain, Search, SearchConfig};
 use lander::utility::RankedUtility;
 
@@ -239,6 +241,7 @@ fn the_mexec_timelines_decide_as_the_simple_timeline_on_random_htns() {
             definition_of: &definition_of,
             now: MissionTimeUs::ZERO,
             plan_full: 0,
+            earth: None,
         };
         let mut simple = TimelinePlacement {
             horizon_start: MissionTimeUs::ZERO,
@@ -354,6 +357,7 @@ fn held_instances_are_respected_whatever_ids_the_planner_gave_them() {
             definition_of: &definition_of,
             now: MissionTimeUs::ZERO,
             plan_full: 0,
+            earth: None,
         };
         // One hour fits between the held instances; two and three do not.
         assert_eq!(mexec.place(&one_hour, &[], 0), Some(hours(1)), "{ids:?}");
@@ -384,6 +388,7 @@ fn nothing_starts_before_now_and_the_battery_is_never_overdrawn() {
         definition_of: &[0],
         now: hours(5),
         plan_full: 0,
+        earth: None,
     };
     assert_eq!(mexec.place(&net, &[], 0), Some(hours(5)));
     let one = [PlacedChain {
@@ -423,10 +428,266 @@ fn a_plan_longer_than_the_mexec_plan_is_refused_and_counted() {
         definition_of: &[0],
         now: MissionTimeUs::ZERO,
         plan_full: 0,
+        earth: None,
     };
     assert_eq!(mexec.place(&net, &[], 0), None);
     assert!(mexec.plan_full > 0);
     // With one held entry fewer it fits, before the held ones.
     mexec.held = &entries[1..];
     assert_eq!(mexec.place(&net, &[], 0), Some(MissionTimeUs::ZERO));
+}
+
+/// A random small instance with Earth and data: primitives of whole hours (some downlinks,
+/// some creating a product), chains of one to three of them built directly, Earth in view in
+/// one to three windows of whole hours.
+struct EarthCase {
+    primitives: Vec<Primitive>,
+    specs: Vec<PrimitiveSpec>,
+    net: FlatNetwork,
+    view: EarthView,
+    battery_mj: u64,
+    horizon_h: u64,
+}
+
+fn earth_case(rng: &mut Rng) -> EarthCase {
+    let count = rng.range(2, 5) as usize;
+    let mut primitives = Vec::new();
+    let mut specs = Vec::new();
+    for _ in 0..count {
+        let p = Primitive {
+            duration_us: rng.range(1, 3) * HOUR,
+            energy_mj: rng.range(1, 6),
+        };
+        let mut spec = primitive_spec(p, RankedUtility::ZERO);
+        if rng.chance(35) {
+            spec.kind = PrimitiveKind::Downlink;
+        } else if rng.chance(60) {
+            spec.product = Some(ProductSpec {
+                size_bytes: rng.range(1, 40) * 1_000,
+                tier: [Tier::Decisional, Tier::Mandatory, Tier::Residual][rng.range(0, 2) as usize],
+                value: rng.range(1, 9),
+            });
+        }
+        primitives.push(p);
+        specs.push(spec);
+    }
+    let mut net = FlatNetwork::default();
+    for c in 0..rng.range(2, 5) {
+        let mut chain = Chain::bare(c as u16, c as u8, small_utility(rng), 0);
+        for _ in 0..rng.range(1, 3) {
+            let i = rng.range(0, count as u64 - 1) as usize;
+            chain.primitives.push(i as u8).expect("room");
+            chain.energy_mj += primitives[i].energy_mj;
+            chain.duration_us += primitives[i].duration_us;
+            if let Some(spec) = specs[i].product {
+                chain
+                    .products
+                    .push(ChainProduct {
+                        offset_us: chain.duration_us,
+                        spec,
+                    })
+                    .expect("room");
+            }
+        }
+        net.chains.push(chain).expect("room");
+    }
+    let mut windows = Vec::new();
+    let mut at = rng.range(0, 4);
+    for _ in 0..rng.range(1, 3) {
+        let len = rng.range(1, 5);
+        windows.push(ViewWindow {
+            start: hours(at),
+            end: hours(at + len),
+        });
+        at += len + rng.range(1, 6);
+    }
+    let windows = ViewTimeline::new(&windows).expect("sorted");
+    let view = EarthView::new(windows, &specs, &net);
+    EarthCase {
+        primitives,
+        specs,
+        net,
+        view,
+        battery_mj: rng.range(3, 25),
+        horizon_h: rng.range(6, 24),
+    }
+}
+
+/// The earliest start on the hour grid at which `candidate` may be added to `plan`, by the
+/// rules written out directly: after now (0), ending by the horizon, overlapping no chain of
+/// the plan, the plan's energy and the candidate's within the battery, the candidate's
+/// downlinks inside one window, and, when it creates data its downlinks do not carry, a free
+/// in-view hour after its end. Every time in the instance is whole hours, so the earliest
+/// valid start is too.
+fn earliest_by_hand(case: &EarthCase, plan: &[PlacedChain], candidate: u16) -> Option<u64> {
+    let chain = &case.net.chains[usize::from(candidate)];
+    let busy: Vec<(u64, u64)> = plan
+        .iter()
+        .map(|p| {
+            let c = &case.net.chains[usize::from(p.chain)];
+            (p.start.0, p.start.0 + c.duration_us)
+        })
+        .collect();
+    let energy: u64 = plan
+        .iter()
+        .map(|p| case.net.chains[usize::from(p.chain)].energy_mj)
+        .sum::<u64>()
+        + chain.energy_mj;
+    if energy > case.battery_mj {
+        return None;
+    }
+    let in_view = |a: u64, b: u64| {
+        case.view
+            .windows
+            .windows()
+            .iter()
+            .any(|w| w.start.0 <= a && b <= w.end.0)
+    };
+    // The downlink span, from the primitives themselves.
+    let mut span: Option<(u64, u64)> = None;
+    let mut t = 0;
+    for &i in &chain.primitives {
+        let d = case.primitives[usize::from(i)].duration_us;
+        if case.specs[usize::from(i)].kind == PrimitiveKind::Downlink {
+            span = Some(span.map_or((t, t + d), |(a, _)| (a, t + d)));
+        }
+        t += d;
+    }
+    let uncarried = chain
+        .products
+        .iter()
+        .any(|p| span.is_none_or(|(a, _)| p.offset_us > a));
+    (0..case.horizon_h).map(|h| h * HOUR).find(|&s| {
+        let end = s + chain.duration_us;
+        let overlaps = busy.iter().any(|&(a, b)| s < b && a < end);
+        let downlink_ok = span.is_none_or(|(a, b)| in_view(s + a, s + b));
+        let room = !uncarried
+            || (end / HOUR..case.horizon_h).any(|h| {
+                let (a, b) = (h * HOUR, (h + 1) * HOUR);
+                in_view(a, b) && !busy.iter().any(|&(x, y)| x < b && a < y)
+            });
+        end <= case.horizon_h * HOUR && !overlaps && downlink_ok && room
+    })
+}
+
+/// Issue 11 item 2's "can be added" with Earth in view: the MEXEC placement given the windows
+/// places every chain where the rules written out directly say (the earliest valid start, or
+/// none), and so does the simple timeline; with the downlink manager's data check around
+/// each ([`DataPlacement`]) the two decide the same too. Without the windows the MEXEC
+/// placement would put downlinks where Earth is not in view (counted: it happens).
+#[test]
+fn the_mexec_placement_keeps_downlinks_in_view_and_data_reachable_as_the_rules_say() {
+    let (mut compared, mut placed, mut refused, mut blind_wrong) = (0, 0, 0, 0);
+    let mut data_vetoes = 0;
+    for seed in 0..400 {
+        let mut rng = Rng::new(1_000 + seed);
+        let case = earth_case(&mut rng);
+        let tasks = network(&case.primitives, case.battery_mj);
+        let anchors = anchors(&tasks);
+        let definition_of: Vec<u8> = (0..case.primitives.len() as u8).collect();
+        let horizon_end = hours(case.horizon_h);
+        let mut mexec = MexecPlacement {
+            network: &tasks,
+            anchors: &anchors,
+            held: &[],
+            definition_of: &definition_of,
+            now: MissionTimeUs::ZERO,
+            plan_full: 0,
+            earth: Some(MexecEarth {
+                view: &case.view,
+                horizon_end,
+            }),
+        };
+        let mut simple = TimelinePlacement {
+            horizon_start: MissionTimeUs::ZERO,
+            horizon_end,
+            phases: PhaseTimeline::default(),
+            battery_mj: case.battery_mj,
+            hotel_load_mw: 0,
+            earth: case.view.clone(),
+        };
+        // Plans built chain by chain as the rules allow, every chain tried at each step.
+        let mut plan: Vec<PlacedChain> = Vec::new();
+        for _ in 0..3 {
+            let mut next = None;
+            for c in 0..case.net.chains.len() as u16 {
+                let want = earliest_by_hand(&case, &plan, c).map(MissionTimeUs);
+                assert_eq!(
+                    mexec.place(&case.net, &plan, c),
+                    want,
+                    "seed {seed} {plan:?} {c}"
+                );
+                assert_eq!(
+                    simple.place(&case.net, &plan, c),
+                    want,
+                    "seed {seed} {plan:?} {c}"
+                );
+                compared += 1;
+                match want {
+                    Some(start) => {
+                        placed += 1;
+                        next.get_or_insert(PlacedChain { chain: c, start });
+                    }
+                    None => refused += 1,
+                }
+                let mut blind = MexecPlacement {
+                    earth: None,
+                    ..mexec
+                };
+                let got = blind.place(&case.net, &plan, c);
+                blind_wrong += usize::from(got.is_some() && got != want);
+            }
+            // The data check around each: the same decisions.
+            let comms = CommsModel {
+                rate_bps: 8 * rng.range(2, 12),
+                overhead_us: 0,
+                thermal_limit_us: 10 * HOUR,
+                radio_power_mw: 0,
+                per_downlink_mj: 1 << 30,
+                per_sol_mj: 1 << 30,
+                sol_us: 100 * HOUR,
+            };
+            let view = DataView {
+                comms: &comms,
+                onboard: &[],
+                spans: &case.view.downlinks,
+                spent: (0, 0),
+            };
+            let mut data_mexec = DataPlacement::new(
+                MexecPlacement {
+                    plan_full: 0,
+                    ..mexec
+                },
+                view,
+            );
+            let mut data_simple = DataPlacement::new(simple.clone(), view);
+            for c in 0..case.net.chains.len() as u16 {
+                assert_eq!(
+                    data_mexec.place(&case.net, &plan, c),
+                    data_simple.place(&case.net, &plan, c),
+                    "seed {seed}: data check, {plan:?} {c}"
+                );
+            }
+            assert_eq!(data_mexec.stats, data_simple.stats, "seed {seed}");
+            data_vetoes += data_mexec.stats.vetoes;
+            match next {
+                Some(p) => plan.push(p),
+                None => break,
+            }
+        }
+        assert_eq!(mexec.plan_full, 0);
+    }
+    println!("{compared} placements compared: {placed} placed, {refused} refused; {blind_wrong} wrong without the windows; {data_vetoes} data vetoes");
+    assert!(
+        placed > 200 && refused > 200,
+        "{placed} placed, {refused} refused"
+    );
+    assert!(
+        blind_wrong > 20,
+        "windows change placements: {blind_wrong} of {compared}"
+    );
+    assert!(
+        data_vetoes > 20,
+        "the data check binds: {data_vetoes} vetoes"
+    );
 }
