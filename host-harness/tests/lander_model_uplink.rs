@@ -158,3 +158,78 @@ fn what_the_executor_learned_survives_a_model_uplink() {
         second.given.comm_spent
     );
 }
+
+/// A ground command for model parameters (`scenarios/lander/ground-sets-parameters.toml`): the
+/// ground sets sampling at site 0 to 3 h and 600 Wh (the model: 2 h, 400 Wh). The rebuilt
+/// executor is given it among what it learned; its first sample at site 0 is expected at the
+/// ground's values, and the lander's own measurement of it replaces them for the next ones.
+#[test]
+fn the_ground_sets_a_task_parameter_through_the_model_uplink() {
+    let path = hil::repo_root().join("scenarios/lander/ground-sets-parameters.toml");
+    let s = load_scenario(&path).unwrap_or_else(|e| panic!("{}", e.render()));
+    let config = RunConfig::new(s.run.strategy.strategy(), s.run.seed);
+    let mut watch = Watch::default();
+    let run = run_watched(&s, &config, &mut watch).unwrap();
+    let verdicts = lander_sim::expect::check_all(&s, &run);
+    assert!(verdicts.iter().all(|v| v.passed), "{verdicts:?}");
+    let [_, second] = &watch.builds[..] else {
+        panic!("{} executors built, not 2", watch.builds.len());
+    };
+    let ground = lander::executor::ParameterUpdate {
+        kind: PrimitiveKind::CollectSample,
+        site: 0,
+        duration_us: 180 * 60_000_000,
+        energy_mj: 600 * 3_600_000,
+    };
+    assert!(
+        second.given.params.contains(&ground),
+        "{:?}",
+        second.given.params
+    );
+    let site0: Vec<u64> = second
+        .dispatches
+        .iter()
+        .filter(|&&(k, site, _)| k == PrimitiveKind::CollectSample && site == Some(0))
+        .map(|&(_, _, e)| e)
+        .collect();
+    assert!(
+        site0.len() >= 2,
+        "samples at site 0 after the uplink: {site0:?}"
+    );
+    assert_eq!(
+        site0[0], ground.energy_mj,
+        "the first at the ground's value"
+    );
+    assert!(
+        site0[1..].iter().all(|&e| e != ground.energy_mj),
+        "the later ones at the measured value: {site0:?}"
+    );
+}
+
+/// A ground parameter the lander has no task or site for is refused at its field.
+#[test]
+fn bad_ground_parameters_are_refused_at_their_field() {
+    let path = hil::repo_root().join("scenarios/lander/ground-sets-parameters.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    for (from, to, field) in [
+        (
+            "task = \"collect_sample\"",
+            "task = \"collect_samples\"",
+            ".task",
+        ),
+        ("site = 0", "site = 3", ".site"),
+        ("duration_min = 180", "duration_min = 0", ".duration_min"),
+        ("energy_wh = 600", "energy_wh = 2000000", ".energy_wh"),
+    ] {
+        let bad = text.replacen(from, to, 1);
+        let e = hil::study::parse_scenario(hil::diag::SourceFile::new("g.toml", bad)).unwrap_err();
+        assert!(
+            e.field.starts_with("ground.changes[0].parameters[0]") && e.field.ends_with(field),
+            "{to}: {e}"
+        );
+    }
+    assert_eq!(
+        lander_sim::scenario::kind_named("find_collection_targets"),
+        Some(PrimitiveKind::FindCollectionTargets)
+    );
+}

@@ -311,12 +311,56 @@ pub struct GroundChange {
     /// A new per-sol communication energy allowance.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub per_sol_wh: Option<u64>,
+    /// Task parameters the ground sets (a model uplink, like a new model: the executor is
+    /// rebuilt with them among what it has learned).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub parameters: Vec<GroundParameter>,
+}
+
+/// A task's duration and energy at a site, set by the ground (seed 000 II.D's task parameters;
+/// IV.C.3's model parameters, not only measured): they replace the model's prior and what the
+/// lander measured for every primitive of that kind at that site, until the lander measures
+/// one again.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GroundParameter {
+    /// The primitive task, snake case: `collect_sample`, `excavate_site`,
+    /// `find_collection_targets`, ... (the kinds that take a site).
+    pub task: String,
+    pub site: u8,
+    pub duration_min: u64,
+    pub energy_wh: u64,
+}
+
+/// The primitive kind named `name` in snake case (`collect_sample` is
+/// `PrimitiveKind::CollectSample`).
+pub fn kind_named(name: &str) -> Option<lander::htn::PrimitiveKind> {
+    lander::htn::PrimitiveKind::ALL
+        .into_iter()
+        .find(|k| snake_case(&format!("{k:?}")) == name)
+}
+
+fn snake_case(camel: &str) -> String {
+    let mut out = String::new();
+    for (i, c) in camel.chars().enumerate() {
+        if c.is_ascii_uppercase() {
+            if i > 0 {
+                out.push('_');
+            }
+            out.push(c.to_ascii_lowercase());
+        } else {
+            out.push(c);
+        }
+    }
+    out
 }
 
 impl GroundChange {
     /// Whether the change is a model uplink (the executor is rebuilt).
     pub fn changes_model(&self) -> bool {
-        !self.site_values.is_empty() || self.targets_per_site.is_some()
+        !self.site_values.is_empty()
+            || self.targets_per_site.is_some()
+            || !self.parameters.is_empty()
     }
 }
 
@@ -711,7 +755,7 @@ impl Scenario {
             if !c.changes_model() && c.rate_bps.is_none() && c.per_sol_wh.is_none() {
                 e.push(FieldError {
                     field: at.clone(),
-                    message: "changes nothing: give site_values, targets_per_site, rate_bps or per_sol_wh".into(),
+                    message: "changes nothing: give site_values, targets_per_site, parameters, rate_bps or per_sol_wh".into(),
                 });
             }
             if !c.site_values.is_empty() && c.site_values.len() != usize::from(m.sites) {
@@ -728,6 +772,34 @@ impl Scenario {
                     e.push(FieldError {
                         field: format!("{at}.targets_per_site"),
                         message: format!("must be in 1..={}", m.targets_per_site),
+                    });
+                }
+            }
+            for (k, p) in c.parameters.iter().enumerate() {
+                let field = format!("{at}.parameters[{k}]");
+                let sited = ["excavate_site", "find_collection_targets", "collect_sample"];
+                if kind_named(&p.task).is_none() {
+                    e.push(FieldError {
+                        field: format!("{field}.task"),
+                        message: format!("unknown task {:?}: one of {sited:?}", p.task),
+                    });
+                }
+                if p.site >= m.sites {
+                    e.push(FieldError {
+                        field: format!("{field}.site"),
+                        message: format!("must be below {} (the sites)", m.sites),
+                    });
+                }
+                if p.duration_min == 0 || p.duration_min > 100 * 24 * 60 {
+                    e.push(FieldError {
+                        field: format!("{field}.duration_min"),
+                        message: "must be in 1..=144000 (100 days)".into(),
+                    });
+                }
+                if p.energy_wh > 1_000_000 {
+                    e.push(FieldError {
+                        field: format!("{field}.energy_wh"),
+                        message: "must be at most 1000000".into(),
                     });
                 }
             }

@@ -356,44 +356,53 @@ fn the_strategy_study_on_the_target_is_the_native_study() {
     assert_eq!(emulated, native);
 }
 
-/// A model uplink after learning (`scenarios/lander/learned-across-uplink.toml`): the new
-/// setup carries what the replaced executor measured (its learned part), and the target's new
-/// executor decides with it exactly as the native one (the same decisions, directives, run and
-/// verdicts). A setup whose learned part is dropped on the way up makes the target plan site
-/// 0's sampling at the model's priors: the run diverges after the uplink (setup 2), so the
-/// comparison would catch a target that lost what was learned.
+/// A model uplink after learning (`scenarios/lander/learned-across-uplink.toml`), and one
+/// that carries task parameters the ground sets (`scenarios/lander/ground-sets-parameters.toml`):
+/// the new setup carries what the replaced executor measured and what the ground set (its
+/// learned part), and the target's new executor decides with it exactly as the native one (the
+/// same decisions, directives, run and verdicts). A setup whose learned part is dropped on the
+/// way up makes the target plan site 0's sampling at the model's priors: the run diverges after
+/// the uplink (in its second setup), so the comparison would catch a target that lost it.
 #[test]
 fn what_was_learned_survives_a_model_uplink_on_the_target_as_natively() {
     let _one = hil_tests::exclusive_qemu();
     let mut target = EmulatedLander::boot(firmware()).unwrap_or_else(|e| panic!("{e}"));
-    let path = hil::repo_root().join("scenarios/lander/learned-across-uplink.toml");
-    let s = load_scenario(&path).unwrap_or_else(|d| panic!("{}", d.render()));
-    let config = RunConfig::new(s.run.strategy.strategy(), s.run.seed);
-    let mut native = Recorder::default();
-    let want = run_watched(&s, &config, &mut native).unwrap();
-    // The learned part dropped on the way up (the target's first run: setups 1 and 2): the
-    // target diverges in the second setup, the new model's.
-    target.perturb_setup = Some(|setup| setup.learned = Default::default());
-    let e = target.run(&s, &config).expect_err("diverges");
-    target.perturb_setup = None;
-    assert!(
-        e.starts_with("DIVERGED at step") && e.contains("(setup 2,"),
-        "{e}"
-    );
-    // Carried: the same decisions as natively.
-    let got = target.run(&s, &config).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(got.transcript, native.transcript, "the decisions");
-    assert_eq!(got.result, want, "the run");
-    let verdicts = check_all(&s, &got.result);
-    assert!(verdicts.iter().all(|v| v.passed), "{verdicts:?}");
-    assert_eq!(got.costs.setups, 2, "the start and the model uplink");
-    assert!(
-        got.transcript.logs[1].len() > 20,
-        "the new executor decided: {:?}",
-        got.transcript.logs[1]
-    );
-    println!(
-        "learned-across-uplink: {} steps, setups of {:?} bytes, built in {:?} ticks",
-        got.costs.steps, got.costs.setup_bytes, got.costs.build_ticks
-    );
+    for file in ["learned-across-uplink.toml", "ground-sets-parameters.toml"] {
+        let path = hil::repo_root().join("scenarios/lander").join(file);
+        let s = load_scenario(&path).unwrap_or_else(|d| panic!("{}", d.render()));
+        let config = RunConfig::new(s.run.strategy.strategy(), s.run.seed);
+        // The learned part dropped on the way up: the target diverges in the run's second
+        // setup, the new model's.
+        let second = target.position().0 + 2;
+        target.perturb_setup = Some(|setup| setup.learned = Default::default());
+        let e = target.run(&s, &config).expect_err("diverges");
+        target.perturb_setup = None;
+        assert!(
+            e.starts_with("DIVERGED at step") && e.contains(&format!("(setup {second},")),
+            "{file}: {e}"
+        );
+        // Carried: the same decisions as natively.
+        let mut native = Recorder::default();
+        let want = run_watched(&s, &config, &mut native).unwrap();
+        let got = target
+            .run(&s, &config)
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(got.transcript, native.transcript, "{file}: the decisions");
+        assert_eq!(got.result, want, "{file}: the run");
+        let verdicts = check_all(&s, &got.result);
+        assert!(verdicts.iter().all(|v| v.passed), "{file}: {verdicts:?}");
+        assert_eq!(
+            got.costs.setups, 2,
+            "{file}: the start and the model uplink"
+        );
+        assert!(
+            got.transcript.logs[1].len() > 20,
+            "{file}: the new executor decided: {:?}",
+            got.transcript.logs[1]
+        );
+        println!(
+            "{file}: {} steps, setups of {:?} bytes, built in {:?} ticks",
+            got.costs.steps, got.costs.setup_bytes, got.costs.build_ticks
+        );
+    }
 }

@@ -281,11 +281,16 @@ impl<'a> LanderApp<'a> {
             self.refuse(setup, None, reason, downlink);
             return;
         }
-        storage
-            .executor
-            .reset(s.config, &s.primitives, &s.network, &s.timeline, &s.context);
-        // What the executor it replaces had learned (natively: `set_learned` after `new`).
-        storage.executor.set_learned(&s.learned);
+        // With what the executor it replaces had learned (natively: `set_learned` after
+        // `new`; the same executor, its first plan set up once here).
+        storage.executor.reset(
+            s.config,
+            &s.primitives,
+            &s.network,
+            &s.timeline,
+            &s.context,
+            &s.learned,
+        );
         self.active = Some(setup);
         self.next_seq = 0;
         self.reported = 0;

@@ -265,7 +265,14 @@ fn an_executor_built_in_place_decides_as_a_new_one() {
                     .unwrap(),
                 );
                 let _ = script(&mut reset, 1_000);
-                reset.reset(s.config, &s.primitives, &s.network, &s.timeline, &s.context);
+                reset.reset(
+                    s.config,
+                    &s.primitives,
+                    &s.network,
+                    &s.timeline,
+                    &s.context,
+                    &Learned::default(),
+                );
                 let a = script(&mut new, 1_000_000);
                 let b = script(&mut reset, 3);
                 assert!(
@@ -472,8 +479,14 @@ fn an_executor_given_what_was_learned_decides_in_place_as_a_new_one_and_otherwis
             assert_eq!(new.learned(), l);
             let mut reset = build();
             let _ = script(&mut reset, 1_000);
-            reset.reset(s.config, &s.primitives, &s.network, &s.timeline, &s.context);
-            reset.set_learned(&l);
+            reset.reset(
+                s.config,
+                &s.primitives,
+                &s.network,
+                &s.timeline,
+                &s.context,
+                &l,
+            );
             let mut without = build();
             let a = script(&mut new, 1_000_000);
             let b = script(&mut reset, 3);

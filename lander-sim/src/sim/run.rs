@@ -276,8 +276,22 @@ pub fn run_watched(
                     past.retries += stats.retries;
                     past.replans += stats.replans;
                     past.ground_halts += stats.ground_halts;
-                    // What the executor measured carries over (IV.C.3 across the rebuild).
-                    let learned = exec.learned();
+                    // What the executor measured carries over (IV.C.3 across the rebuild),
+                    // with the parameters the ground sets.
+                    let mut learned = exec.learned();
+                    for p in &change.parameters {
+                        let kind = crate::scenario::kind_named(&p.task)
+                            .ok_or_else(|| format!("unknown task {:?}", p.task))?;
+                        let update = lander::executor::ParameterUpdate {
+                            kind,
+                            site: p.site,
+                            duration_us: p.duration_min * MIN_US,
+                            energy_mj: p.energy_wh * WH_MJ,
+                        };
+                        if !learned.set_parameter(update) {
+                            return Err("more task parameters than the executor holds".into());
+                        }
+                    }
                     let (m, e) = rebuild(
                         s,
                         options,

@@ -6,8 +6,10 @@ use super::*;
 impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
     /// Makes `self` the executor [`Executor::new`] builds without a plan (its first steps make
     /// the plan with the search) for `primitives` (the model's), `network`, `timeline` and
-    /// `context`, writing every field in place: no temporary larger than the placement's
-    /// timeline is made. Whatever `self` held before is gone.
+    /// `context`, then given `learned` ([`Executor::set_learned`]), writing every field in
+    /// place: no temporary larger than the placement's timeline is made, and the first plan is
+    /// set up once, with `learned` (on the target the whole build runs inside one planner
+    /// window). Whatever `self` held before is gone.
     pub fn reset(
         &mut self,
         config: ExecConfig,
@@ -15,6 +17,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         network: &FlatNetwork,
         timeline: &TimelinePlacement,
         context: &ScienceContext,
+        learned: &Learned,
     ) {
         self.config = config;
         self.primitives.clear();
@@ -32,6 +35,10 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         self.assessor = Assessor::default();
         self.timeline = timeline.clone();
         self.params.clear();
+        for p in learned.params.iter() {
+            // Never fails: the same capacity.
+            let _ = self.params.push(*p);
+        }
         self.steps.clear();
         self.cursor = 0;
         self.mode = Mode::Ready;
@@ -49,13 +56,14 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         self.now = timeline.horizon_start;
         self.battery_mj = timeline.battery_mj;
         // elap-downlink's link and data state, as `new` leaves it (no link modelled, nothing
-        // onboard): `set_comms` and `set_onboard_data` give them after the reset.
+        // onboard): `set_comms` and `set_onboard_data` give them after the reset; the volume
+        // factors and the sol's radio energy spent are learned.
         self.comms = None;
         self.onboard.clear();
-        self.volumes = VolumeFactors::default();
+        self.volumes = learned.volumes.clone();
         self.downlink_sizes.clear();
         self.payload.clear();
-        self.comm_spent = (0, 0);
+        self.comm_spent = learned.comm_spent;
         self.data_stats = DataStats::default();
         self.begin_planning(Reason::Initial);
     }
