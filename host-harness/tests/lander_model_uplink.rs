@@ -21,11 +21,14 @@ pub fn learning_then_uplink() -> Scenario {
     load_scenario(&path).unwrap_or_else(|e| panic!("{}", e.render()))
 }
 
+/// A primitive's (kind, site) and its prior (duration, energy).
+type Prior = ((PrimitiveKind, Option<u8>), (u64, u64));
+
 /// Per executor built: the model's priors (kind, site) -> (duration, energy), the learned
 /// state it was given, the learned state it ended with, and its dispatches.
 #[derive(Default)]
 struct Build {
-    priors: Vec<((PrimitiveKind, Option<u8>), (u64, u64))>,
+    priors: Vec<Prior>,
     given: Learned,
     last: Learned,
     dispatches: Vec<(PrimitiveKind, Option<u8>, u64)>,

@@ -228,13 +228,9 @@ impl ChainPlacement for MexecPlacement<'_> {
                 if let (Some(earth), Some((from, _))) = (self.earth, span) {
                     // The downlink starts as a window opens.
                     for w in earth.view.windows.windows() {
-                        match w.start.0.checked_sub(from) {
-                            Some(s) if s >= self.now.0 => {
-                                if starts.push(s).is_err() {
-                                    break;
-                                }
-                            }
-                            _ => {}
+                        let s = w.start.0.checked_sub(from).filter(|&s| s >= self.now.0);
+                        if s.is_some_and(|s| starts.push(s).is_err()) {
+                            break;
                         }
                     }
                 }
