@@ -29,7 +29,10 @@
 //!   call, so a replan spreads over as many calls as it needs.
 //! - **Model parameter updates** (IV.C.3): when a primitive with a site completes, its
 //!   measured duration and energy replace the priors of every primitive of the same kind at
-//!   the same site: at once in the remaining plan's predictions, and in every later replan.
+//!   the same site: at once in the remaining plan's predictions, and in every later replan;
+//!   and in the executor that replaces this one at a model uplink ([`Executor::learned`],
+//!   [`Executor::set_learned`], with the volume factors and the sol's radio energy spent; the
+//!   ground may set such a parameter too, [`Learned::set_parameter`]).
 //! - **Strategies** (III.D), [`Strategy`]: Static abandons the rest of the plan at the first
 //!   failure; Ground halts and waits for ground input at every failure; FE pushes and retries,
 //!   and halts for ground when that does not resolve the failure; Replan pushes and retries,
@@ -59,7 +62,8 @@
 //! observation, directive, decisions, statistics, errors), re-exported here; this file holds the
 //! [`Executor`] and its stepping (dispatch, push, retry, the strategies' answers to failures);
 //! `plan` holds model updates, the science context, replanning, plan installation and the
-//! prediction helpers ([`predicted`], [`already_done`], [`reparameterize`]).
+//! prediction helpers ([`predicted`], [`already_done`], [`reparameterize`]); `learned` what is
+//! carried across a rebuild.
 use heapless::Vec;
 
 use fsw_bridge::MissionTimeUs;
