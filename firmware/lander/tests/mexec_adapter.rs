@@ -691,3 +691,59 @@ fn the_mexec_placement_keeps_downlinks_in_view_and_data_reachable_as_the_rules_s
         "the data check binds: {data_vetoes} vetoes"
     );
 }
+
+/// Instances the MEXEC planner already holds take in-view time too: a chain whose data needs a
+/// later downlink is refused when held instances fill the rest of the only window, and placed
+/// when they leave an hour of it.
+#[test]
+fn held_instances_take_in_view_time_from_data_waiting_for_a_downlink() {
+    let primitives = [Primitive {
+        duration_us: HOUR,
+        energy_mj: 1,
+    }];
+    let tasks = network(&primitives, 100);
+    let anchors = anchors(&tasks);
+    let mut spec = primitive_spec(primitives[0], RankedUtility::ZERO);
+    spec.product = Some(ProductSpec {
+        size_bytes: 1_000,
+        tier: Tier::Mandatory,
+        value: 1,
+    });
+    let mut net = FlatNetwork::default();
+    let mut chain = Chain::bare(1, 0, RankedUtility::ZERO, 1);
+    chain.primitives.push(0).unwrap();
+    chain.duration_us = HOUR;
+    chain
+        .products
+        .push(ChainProduct {
+            offset_us: HOUR,
+            spec: spec.product.unwrap(),
+        })
+        .unwrap();
+    net.chains.push(chain).unwrap();
+    let windows = ViewTimeline::new(&[ViewWindow {
+        start: hours(2),
+        end: hours(4),
+    }])
+    .unwrap();
+    let view = EarthView::new(windows, &[spec], &net);
+    for (held_until, want) in [(4, None), (3, Some(hours(0)))] {
+        let entries = [held(FIRST_INSTANCE_ID + 7, 0, 2, held_until)];
+        let mut mexec = MexecPlacement {
+            network: &tasks,
+            anchors: &anchors,
+            held: &entries,
+            definition_of: &[0],
+            now: MissionTimeUs::ZERO,
+            plan_full: 0,
+            earth: Some(MexecEarth {
+                view: &view,
+                horizon_end: hours(10),
+            }),
+        };
+        assert_eq!(mexec.place(&net, &[], 0), want, "held until {held_until} h");
+        // Without Earth the data is not followed: placed at once either way.
+        mexec.earth = None;
+        assert_eq!(mexec.place(&net, &[], 0), Some(hours(0)));
+    }
+}
