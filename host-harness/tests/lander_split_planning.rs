@@ -10,7 +10,12 @@ use lander_sim::sim::{run_watched, RunConfig};
 
 fn scenarios() -> Vec<std::path::PathBuf> {
     let root = hil::repo_root().join("scenarios/lander");
-    let mut files = vec![root.join("bsm-1.toml"), root.join("rsm-1.toml")];
+    let mut files = vec![
+        root.join("bsm-1.toml"),
+        root.join("rsm-1.toml"),
+        root.join("learned-across-uplink.toml"),
+        root.join("ground-sets-parameters.toml"),
+    ];
     let mut elap: Vec<_> = std::fs::read_dir(root.join("elap"))
         .unwrap()
         .map(|e| e.unwrap().path())
