@@ -65,6 +65,19 @@ impl<T: Clone, const N: usize> Outbox<T, N> {
         }
     }
 
+    /// Makes this outbox what [`Outbox::new`] is, in place: assigning `new()` writes the
+    /// whole log's capacity (the planner's outbox is about 9 KiB), clearing writes its length.
+    pub fn reset(&mut self) {
+        self.next_seq = 1;
+        self.sent = 0;
+        self.sendable = 0;
+        self.log.clear();
+        self.refused = 0;
+        self.resent = 0;
+        self.rebase = None;
+        self.rebases = 0;
+    }
+
     /// Keeps `message` for sending; false (and counted) when the log is full.
     pub fn push(&mut self, message: T) -> bool {
         if self.log.push((self.next_seq, message)).is_err() {
@@ -177,6 +190,45 @@ impl<T: Clone, const N: usize> Outbox<T, N> {
     }
 }
 
+/// Decodes an outbox as a checkpoint holds it (its `Serialize`) into the outbox itself, its
+/// log straight into place ([`crate::in_place`]): `take_from_bytes` built it in a temporary
+/// that was moved whole (capacity, not length) twice or more on the way to its place. What
+/// the encoding skips is as in a decoded one: nothing sent, nothing sendable, no rebase.
+pub(super) struct OutboxInPlace<'a, T, const N: usize>(pub &'a mut Outbox<T, N>);
+
+impl<'de, T: Deserialize<'de>, const N: usize> serde::de::DeserializeSeed<'de>
+    for OutboxInPlace<'_, T, N>
+{
+    type Value = ();
+
+    fn deserialize<D: serde::Deserializer<'de>>(self, deserializer: D) -> Result<(), D::Error> {
+        // Five fields saved: next_seq, log, refused, resent, rebases.
+        deserializer.deserialize_tuple(5, self)
+    }
+}
+
+impl<'de, T: Deserialize<'de>, const N: usize> serde::de::Visitor<'de> for OutboxInPlace<'_, T, N> {
+    type Value = ();
+
+    fn expecting(&self, formatter: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        formatter.write_str("a saved outbox")
+    }
+
+    fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<(), A::Error> {
+        use crate::in_place::{field, field_into, VecInto};
+        let o = self.0;
+        o.sent = 0;
+        o.sendable = 0;
+        o.rebase = None;
+        o.next_seq = field(&mut seq, 0)?;
+        field_into(&mut seq, VecInto(&mut o.log), 1)?;
+        o.refused = field(&mut seq, 2)?;
+        o.resent = field(&mut seq, 3)?;
+        o.rebases = field(&mut seq, 4)?;
+        Ok(())
+    }
+}
+
 /// The receiving end of one direction.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Inbox {
@@ -243,3 +295,75 @@ pub(super) const EMPTY_INBOX: Inbox = Inbox {
     duplicates: 0,
     out_of_order: 0,
 };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An outbox with messages kept, some sent, acknowledged and refused: every saved field
+    /// away from its default.
+    fn busy() -> Outbox<u32, 4> {
+        let mut o = Outbox::new();
+        for m in 10..16 {
+            o.push(m);
+        }
+        o.checkpointed();
+        o.transmit(&mut |_| true);
+        o.on_ack(1);
+        o.on_resume(1);
+        o.rebases = 3;
+        o
+    }
+
+    /// `outbox` encoded into `buf` with `extra` after it: the whole length used, or None.
+    fn encoded<const N: usize>(
+        outbox: &Outbox<u32, N>,
+        buf: &mut [u8],
+        extra: &[u8],
+    ) -> Option<usize> {
+        let n = postcard::to_slice(outbox, buf).ok()?.len();
+        buf.get_mut(n..n + extra.len())?.copy_from_slice(extra);
+        Some(n)
+    }
+
+    #[test]
+    fn an_outbox_decoded_in_place_is_the_one_take_from_bytes_builds() {
+        let saved = busy();
+        let mut buf = [0u8; 128];
+        let n = encoded(&saved, &mut buf, &[7, 8]).unwrap_or(0);
+        assert!(n > 0);
+        let (bytes, tail) = (buf.get(..n).unwrap_or(&[]), buf.get(..n + 2).unwrap_or(&[]));
+        let built = postcard::take_from_bytes::<Outbox<u32, 4>>(bytes).ok();
+        assert_eq!(built.as_ref().map(|(_, rest)| rest.len()), Some(0));
+        // Into a busy outbox: nothing of what it held stays.
+        let mut in_place = busy();
+        in_place.sent = 9;
+        in_place.rebase = Some(5);
+        let rest = crate::in_place::take_in_place(tail, OutboxInPlace(&mut in_place));
+        assert_eq!(rest, Some(&[7u8, 8][..]));
+        assert_eq!(Some(&in_place), built.as_ref().map(|(o, _)| o));
+        assert_eq!(in_place.unacknowledged(), 3);
+        // A log longer than the capacity is refused, as `Deserialize` refuses it.
+        let mut long: Outbox<u32, 8> = Outbox::new();
+        for m in 0..6 {
+            long.push(m);
+        }
+        let mut long_buf = [0u8; 128];
+        let long_n = encoded(&long, &mut long_buf, &[]).unwrap_or(0);
+        let long_bytes = long_buf.get(..long_n).unwrap_or(&[]);
+        assert!(long_n > 0);
+        assert!(postcard::from_bytes::<Outbox<u32, 4>>(long_bytes).is_err());
+        assert!(crate::in_place::take_in_place(long_bytes, OutboxInPlace(&mut busy())).is_none());
+        // Cut short: refused.
+        let cut = buf.get(..n - 1).unwrap_or(&[]);
+        assert!(crate::in_place::take_in_place(cut, OutboxInPlace(&mut busy())).is_none());
+    }
+
+    #[test]
+    fn reset_makes_an_outbox_a_new_one() {
+        let mut o = busy();
+        o.reset();
+        assert_eq!(o, Outbox::new());
+        assert_eq!((o.sent, o.sendable, o.rebase), (0, 0, None));
+    }
+}

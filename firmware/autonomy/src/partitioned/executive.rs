@@ -522,7 +522,7 @@ impl ExecutivePartition {
         self.replan_now = false;
         self.generation = 0;
         self.transfer = None;
-        self.to_planner = Outbox::new();
+        self.to_planner.reset();
         self.from_planner = EMPTY_INBOX;
         self.resume = true;
         self.status = None;
@@ -540,7 +540,7 @@ impl ExecutivePartition {
         let (image, rest) = decode_network(&mut self.network, rest)?;
         let rest = in_place::take_in_place(rest, ExecutiveInPlace(&mut self.control.executive))?;
         let rest = in_place::take_in_place(rest, StateTableInPlace(&mut self.control.states))?;
-        let (to_planner, rest) = postcard::take_from_bytes(rest).ok()?;
+        let rest = in_place::take_in_place(rest, OutboxInPlace(&mut self.to_planner))?;
         let (from_planner, rest) = postcard::take_from_bytes(rest).ok()?;
         if !rest.is_empty() {
             return None;
@@ -560,7 +560,6 @@ impl ExecutivePartition {
         self.image_valid = true;
         self.control.state_type_mismatches = meta.state_type_mismatches;
         self.control.last_state_type_mismatch = meta.last_state_type_mismatch;
-        self.to_planner = to_planner;
         self.from_planner = from_planner;
         self.loaded = meta.loaded;
         self.now = meta.now;

@@ -156,8 +156,8 @@ mod executive;
 mod frame;
 mod planner;
 
-use channel::EMPTY_INBOX;
 pub use channel::{Inbox, Outbox, Wire};
+use channel::{OutboxInPlace, EMPTY_INBOX};
 pub use executive::{ExecutivePartition, ExecutivePartitionStats};
 pub use frame::{run_frame, Frame, FrameEnv, Interrupted, Point, Side};
 pub use planner::PlannerPartition;

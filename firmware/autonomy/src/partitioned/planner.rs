@@ -86,7 +86,7 @@ impl PlannerPartition {
         self.frame = None;
         self.assembly = None;
         self.image_len = 0;
-        self.to_executive = Outbox::new();
+        self.to_executive.reset();
         self.from_executive = EMPTY_INBOX;
         self.resume = true;
         self.refused_networks = 0;
@@ -344,7 +344,8 @@ impl PlannerPartition {
     }
 
     /// Replaces the state with one [`PlannerPartition::encode_state`] wrote, checked as a
-    /// restored checkpoint is (no restart adjustments). None when refused.
+    /// restored checkpoint is (no restart adjustments). None when refused; the state may then
+    /// be partly overwritten ([`PartitionSide::restore_record`] resets it).
     pub fn decode_state(&mut self, payload: &[u8]) -> Option<()> {
         let (meta, mut rest): (PlannerMeta, _) = postcard::take_from_bytes(payload).ok()?;
         if let Some((_, len, got)) = meta.assembly {
@@ -357,14 +358,13 @@ impl PlannerPartition {
         }
         let (image, rest) = decode_network(&mut self.network, rest)?;
         let rest = in_place::take_in_place(rest, PlannerInPlace(&mut self.planner))?;
-        let (to_executive, rest) = postcard::take_from_bytes(rest).ok()?;
+        let rest = in_place::take_in_place(rest, OutboxInPlace(&mut self.to_executive))?;
         let (from_executive, rest) = postcard::take_from_bytes(rest).ok()?;
         if !rest.is_empty() {
             return None;
         }
         checkpoint::check_planner_restored(meta.loaded, meta.now, &self.network, &self.planner)
             .ok()?;
-        self.to_executive = to_executive;
         self.from_executive = from_executive;
         self.loaded = meta.loaded;
         self.now = meta.now;
