@@ -395,6 +395,59 @@ struct GroundAction {
     numeric: [Vec<NumericSpec>; 5],
 }
 
+/// The ground actions that may take part in reaching `goals`, in their order: backward
+/// relevance over the relaxed task. A fact is relevant if it is a goal or a condition (at
+/// start, over all or at end) of a relevant action; an action is relevant if it adds a
+/// relevant fact (at its start or its end) or has a numeric effect (kept whatever it changes:
+/// numeric conditions are not traced). Conditions are positive only (the front end refuses
+/// negative conditions on facts actions change), so deleting never helps: every valid plan
+/// stays valid with its irrelevant actions taken out, and the planner loses no plan by never
+/// seeing them. Nor does the search, which would otherwise generate, evaluate and propagate
+/// through them on every state (satellite's images of directions no goal names, rovers'
+/// samples nobody communicates).
+fn relevant_actions(ground: Vec<GroundAction>, goals: &[Key]) -> Vec<GroundAction> {
+    let relevant = relevance(&ground, goals);
+    ground
+        .into_iter()
+        .zip(relevant)
+        .filter_map(|(a, r)| r.then_some(a))
+        .collect()
+}
+
+/// Per ground action: relevant (see [`relevant_actions`]).
+fn relevance<'g>(ground: &'g [GroundAction], goals: &'g [Key]) -> Vec<bool> {
+    let mut achievers: HashMap<&'g Key, Vec<usize>> = HashMap::new();
+    for (i, a) in ground.iter().enumerate() {
+        for k in a.facts[3].iter().chain(&a.facts[5]) {
+            achievers.entry(k).or_default().push(i);
+        }
+    }
+    let mut relevant = vec![false; ground.len()];
+    let mut seen: HashSet<&'g Key> = HashSet::new();
+    let mut todo: Vec<&'g Key> = Vec::new();
+    let take = |i: usize, relevant: &mut Vec<bool>, todo: &mut Vec<&'g Key>| {
+        if !relevant[i] {
+            relevant[i] = true;
+            todo.extend(ground[i].facts[..3].iter().flatten());
+        }
+    };
+    for (i, a) in ground.iter().enumerate() {
+        if !a.numeric[3].is_empty() || !a.numeric[4].is_empty() {
+            take(i, &mut relevant, &mut todo);
+        }
+    }
+    todo.extend(goals.iter());
+    while let Some(k) = todo.pop() {
+        if !seen.insert(k) {
+            continue;
+        }
+        for &i in achievers.get(k).map_or(&[][..], Vec::as_slice) {
+            take(i, &mut relevant, &mut todo);
+        }
+    }
+    relevant
+}
+
 /// Ground `domain` + `problem` and write the task.
 pub fn compile(
     files: &Files<'_>,
@@ -915,10 +968,6 @@ pub fn compile(
     }
     // Facts: every atom some action or the goal names, minus the window facts.
     let mut fact_ids: BTreeMap<Key, u16> = BTreeMap::new();
-    let mut keys: Vec<&Key> = ground
-        .iter()
-        .flat_map(|a| a.facts.iter().flatten())
-        .collect();
     let mut goal_keys = Vec::new();
     let mut goal_conditions = Vec::new();
     for c in &problem.goal {
@@ -961,6 +1010,13 @@ pub fn compile(
             }
         }
     }
+    if options.prune_irrelevant {
+        ground = relevant_actions(ground, &goal_keys);
+    }
+    let mut keys: Vec<&Key> = ground
+        .iter()
+        .flat_map(|a| a.facts.iter().flatten())
+        .collect();
     keys.extend(goal_keys.iter());
     for k in keys {
         if windows.contains_key(k) {

@@ -62,13 +62,18 @@ pub fn line_col(text: &str, offset: usize) -> (usize, usize) {
     (line, before[start..].chars().count() + 1)
 }
 
-/// How times become ticks.
+/// How times become ticks, and what the compiled task keeps.
 #[derive(Clone, Copy, Debug)]
 pub struct Options {
     /// Ticks per PDDL time unit (1000: a tick is a millisecond of a second-based domain).
     pub ticks_per_unit: u32,
     /// The separation between interfering happenings, in ticks (10 = 0.01 units, as VAL's).
     pub epsilon_ticks: u32,
+    /// Leave out the ground actions that cannot help reach the goal (backward relevance,
+    /// `ground::relevant_actions`): no plan is lost, and the planner's work per state shrinks
+    /// with the task. Off where goals are added after compiling (the rover mission's
+    /// opportunistic goals are facts of the task that the problem's goal does not name).
+    pub prune_irrelevant: bool,
 }
 
 impl Default for Options {
@@ -76,6 +81,7 @@ impl Default for Options {
         Self {
             ticks_per_unit: 1000,
             epsilon_ticks: 10,
+            prune_irrelevant: true,
         }
     }
 }

@@ -215,6 +215,7 @@ fn compile(task: &RandomTask) -> Result<pddl::Compiled, pddl::PddlError> {
         &pddl::Options {
             ticks_per_unit: 1,
             epsilon_ticks: 1,
+            ..Default::default()
         },
     )
 }

@@ -72,7 +72,7 @@ fn a_second_search_that_prunes_too_much_hands_over_to_a_third_that_finds_the_pla
     // the third, as configured, finds a valid plan; neither answers "unsolvable".
     let (status, stats, plan) = run(PlannerConfig::default(), Some(0));
     assert_eq!(status, temporal::Status::Solved, "{stats:?}");
-    assert_eq!(stats.restarts, 2, "{stats:?}");
+    assert_eq!(stats.restarts, 3, "{stats:?}");
     validator.validate(&plan).expect("valid");
     // Asked to prune every repeat, the searches after a restart prune as asked: the answer
     // stays "unsolvable" (there is no third search to hand over to).

@@ -18,8 +18,8 @@ fn the_emulated_rover_missions_are_decided_onboard_as_natively() {
     let target = EmulatedPlanner::boot(hil_tests::firmware()).expect("boots");
     let mut backend = Backend::Emulated(Box::new(target));
     for (name, sha) in [
-        ("sahara-day", "a0cba0ac89c4f039"),
-        ("field-trial", "529b646a3f3b62be"),
+        ("sahara-day", "4debee67ccc69a8d"),
+        ("field-trial", "59dfa6e3ede06c63"),
     ] {
         same_decisions(name, sha, &mut backend);
     }

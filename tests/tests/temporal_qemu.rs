@@ -186,7 +186,7 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
         )
         .expect_err("too large");
     assert!(
-        matches!(&e, EmulatedError::Refused(r) if r == "TooLarge { capacity: 1048576 }"),
+        matches!(&e, EmulatedError::Refused(r) if *r == format!("TooLarge {{ capacity: {} }}", flight_app::MAX_TEMPORAL_TASK_BYTES)),
         "{e}"
     );
 

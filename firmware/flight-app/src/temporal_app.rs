@@ -56,8 +56,8 @@
 //! well as the executive's) and its own A/B anti-replay counter records, written before the
 //! task takes effect, so a replay stays refused after a warm reset and a power cycle, as the
 //! executive's do. Why not the executive, which verifies task networks and commands:
-//! - the planner partition is where the bytes are (it reassembles them in its 1 MiB task
-//!   buffer); routing up to 1 MiB through the executive, or a digest and a verdict between
+//! - the planner partition is where the bytes are (it reassembles them in its 2 MiB task
+//!   buffer); routing up to 2 MiB through the executive, or a digest and a verdict between
 //!   the two partitions, would need new traffic on the autonomy core's checkpointed channel
 //!   (`autonomy::partitioned`), which the MEXEC planner's protocol owns, and would make the
 //!   executive's windows, whose costs are budgeted, pay for the planner's jobs;
@@ -88,8 +88,10 @@ pub const MAX_ROVER_REPORTS: usize = 200;
 /// Bytes of the search arena on the target: 8 MiB. The benchmark instances 1-3 of satellite,
 /// rovers and driverlog peak at 0.5 to 2.2 MiB (`hil plan --native`).
 pub const TEMPORAL_ARENA_BYTES: usize = 8 << 20;
-/// Largest compiled task the target takes: 1 MiB (satellite 3 is about 18 KiB).
-pub const MAX_TEMPORAL_TASK_BYTES: usize = 1 << 20;
+/// Largest compiled task the target takes: 2 MiB (satellite 3 is about 18 KiB, driverlog 20
+/// 1.39 MB; with the 8 MiB arena and the statics the planner partition uses about 11 of its
+/// 16 MiB region).
+pub const MAX_TEMPORAL_TASK_BYTES: usize = 2 << 20;
 /// Most actions of a plan the target reports: plans of up to 2,048 snap actions
 /// (`temporal::PlannerConfig`'s default `max_steps`; a job asking for more is held to it).
 pub const MAX_TEMPORAL_PLAN_ACTIONS: usize = 1024;

@@ -1,7 +1,7 @@
 //! The temporal PDDL planner in the planner partition (issue 13): the memory of its plug-in
 //! (`flight_app::TemporalApp`) and the calls the partition's loop makes.
 //!
-//! The task buffer (1 MiB) and the search arena (8 MiB) are statics in `.bss.noinit.planner`:
+//! The task buffer (2 MiB) and the search arena (8 MiB) are statics in `.bss.noinit.planner`:
 //! in the partition's region, after its zeroed statics, and never zeroed, neither at a
 //! partition start nor at boot (the warm boot's image check covers the RAM image only), so
 //! they cost no boot time. The planner writes every arena word it reads; the task buffer is

@@ -518,6 +518,27 @@ impl<'m> Relaxation<'m> {
         self.ready[r / 32] & (1 << (r % 32)) != 0
     }
 
+    /// How many (deleted fact, relaxed-plan action) pairs there are: for each fact of
+    /// `deletes` (repeats counted), the relaxed actions of the last relaxed plan that have it
+    /// as a relaxed precondition, other than action `a`'s own start and end. How much of the
+    /// relaxed plan a snap of `a` with those deletes undoes (the search's successor order).
+    pub fn plan_conflicts(&self, a: usize, deletes: impl Iterator<Item = usize>) -> u32 {
+        let mut n = 0u32;
+        for f in deletes {
+            let (lo, hi) = (
+                self.pre_offsets[f] as usize,
+                self.pre_offsets[f + 1] as usize,
+            );
+            for &r in &self.pre_index[lo..hi] {
+                let r = r as usize;
+                if r / 2 != a && self.in_relaxed_plan(r) {
+                    n += 1;
+                }
+            }
+        }
+        n
+    }
+
     /// Whether relaxed action `r` is in the last relaxed plan.
     pub fn in_relaxed_plan(&self, r: usize) -> bool {
         self.marked[r / 32] & (1 << (r % 32)) != 0

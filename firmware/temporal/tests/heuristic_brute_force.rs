@@ -4,7 +4,8 @@
 //! the goals, and the ready set (the search's successor candidates) by testing every relaxed
 //! action's preconditions. h, the relaxed plan (the preferred operators) and the ready set must
 //! be the same for every state, evaluated one after another in one set of tables (so scratch
-//! left over from one state would show in the next).
+//! left over from one state would show in the next). So must the count of relaxed-plan
+//! actions whose preconditions a snap's deletes undo (the search's successor order).
 mod common;
 
 use common::Rng;
@@ -257,6 +258,7 @@ fn check(seed: u64, costs: RelaxedCost) {
     // Actions whose end fires with their start (no end condition but the action running):
     // the propagation takes a shortcut for them, which these rounds must exercise.
     let mut end_follows = 0;
+    let mut conflicts = 0;
     for round in 0..300 {
         let t = random_task(&mut rng);
         let bytes = bytes_of(&t);
@@ -294,6 +296,28 @@ fn check(seed: u64, costs: RelaxedCost) {
                     .map(|r| relax.in_relaxed_plan(r))
                     .collect();
                 assert_eq!(marked, want.marked, "relaxed plan, {ctx}");
+                // The successor order's count: deleted facts against the relaxed plan's
+                // preconditions, pair by pair, from the definitions.
+                for a in 0..t.actions {
+                    for list in [FactList::DelStart, FactList::DelEnd] {
+                        let dels = &t.lists[a][list as usize];
+                        let want_conflicts: usize = dels
+                            .iter()
+                            .map(|&f| {
+                                (0..2 * t.actions)
+                                    .filter(|&r| {
+                                        r / 2 != a
+                                            && want.marked[r]
+                                            && relaxed_pre(&t, r).contains(&(f as usize))
+                                    })
+                                    .count()
+                            })
+                            .sum();
+                        let got = relax.plan_conflicts(a, dels.iter().map(|&f| f as usize));
+                        assert_eq!(got as usize, want_conflicts, "conflicts of {a}, {ctx}");
+                        conflicts += want_conflicts;
+                    }
+                }
             }
         }
     }
@@ -301,6 +325,7 @@ fn check(seed: u64, costs: RelaxedCost) {
         end_follows > 100,
         "only {end_follows} end-follows actions exercised"
     );
+    assert!(conflicts > 100, "only {conflicts} conflicts exercised");
 }
 
 #[test]

@@ -676,11 +676,14 @@ pub fn compile(scenario: &RoverScenario, dir: &Path) -> Result<pddl::Compiled, S
         &positions,
         scenario.path_estimate.speed,
     )));
+    // Opportunistic goals arrive after compiling: keep the actions that reach them.
+    let mut options = crate::plan::PlanOptions::default();
+    options.pddl.prune_irrelevant = false;
     let (_, _, compiled, _) = crate::plan::compile_files(
         &dir.join(&scenario.rover.domain),
         &dir.join(&scenario.rover.problem),
         &modules,
-        &crate::plan::PlanOptions::default(),
+        &options,
     )
     .map_err(|e| e.render())?;
     Ok(compiled)

@@ -89,8 +89,15 @@ impl<'t, 'm> Planner<'t, 'm> {
                 if !ok {
                     continue;
                 }
-                let key = h.min(0xfff) << 20 | (self.seq & 0xf_ffff);
-                self.seq = self.seq.wrapping_add(1);
+                // Among equal h, the first search tries successors that undo less of the
+                // relaxed plan first (see [`ORDERED_RESTART_AFTER`]); ties go by parent node
+                // and then snap, i.e. first generated first (the heap compares all three).
+                let conflicts = if self.phase == 0 {
+                    self.relaxed_plan_conflicts(a, snap & 3)
+                } else {
+                    0
+                };
+                let key = h.min(0xffff) << 16 | conflicts.min(0xffff);
                 if !self.regular.push(key, node, snap) {
                     if self.config.shed_when_full && self.regular.len > 1 {
                         self.stats.shed += self.regular.shed_worse_half() as u64;
@@ -119,6 +126,24 @@ impl<'t, 'm> Planner<'t, 'm> {
         result
     }
 
+    /// How many actions of the relaxed plan last evaluated (other than `a`'s own start and
+    /// end) need a fact that snap `kind` of action `a` deletes. Trying the successors that
+    /// undo less of the relaxed plan first gets off plateaus sooner where h counts on several
+    /// things being done from the current state (satellite: the relaxed plan turns a satellite
+    /// from where it points to every direction it needs; each real turn deletes that pointing,
+    /// leaves h unchanged or one higher, and before this order the search evaluated every turn
+    /// before the switch-on or calibration that lowers h).
+    pub(super) fn relaxed_plan_conflicts(&self, a: usize, kind: u32) -> u32 {
+        let act = self.task.action(a);
+        let start = act.facts(FactList::DelStart);
+        let end = act.facts(FactList::DelEnd);
+        match kind {
+            START => self.relax.plan_conflicts(a, start.iter()),
+            END => self.relax.plan_conflicts(a, end.iter()),
+            _ => self.relax.plan_conflicts(a, start.iter().chain(end.iter())),
+        }
+    }
+
     /// Run at most `budget` expansions.
     pub fn step(&mut self, budget: u32) -> Status {
         // A planner made with `new_deferred` finishes its set-up first.
@@ -127,8 +152,13 @@ impl<'t, 'm> Planner<'t, 'm> {
             if self.status != Status::Searching {
                 break;
             }
-            if self.phase == 0 && self.stats.expanded - self.last_progress > self.restart_after {
+            let stalled = self.stats.expanded - self.last_progress;
+            if self.phase == 0 && stalled > self.ordered_restart_after {
                 self.restart(1);
+                continue;
+            }
+            if self.phase == 1 && stalled > self.restart_after {
+                self.restart(2);
                 continue;
             }
             let entry = if (self.turn || self.boost > 0) && self.preferred.len > 0 {
@@ -142,7 +172,7 @@ impl<'t, 'm> Planner<'t, 'm> {
                 // The second search prunes more than asked: its end proves nothing, and the
                 // third (as asked) decides.
                 if self.pruning_more() {
-                    self.restart(2);
+                    self.restart(3);
                     continue;
                 }
                 // With entries shed, an empty open list proves nothing.
@@ -157,7 +187,9 @@ impl<'t, 'm> Planner<'t, 'm> {
                 Ok(()) => {}
                 // A path too long to extend is a branch dropped, not the search's end.
                 Err(Region::PlanLength) => self.stats.too_long += 1,
-                Err(_) if self.pruning_more() => self.restart(2),
+                Err(_) if self.pruning_more() => self.restart(3),
+                // The ordered search gives way to the searches as before.
+                Err(_) if self.phase == 0 => self.restart(1),
                 Err(r) => self.status = Status::OutOfMemory(r),
             }
         }
@@ -167,28 +199,31 @@ impl<'t, 'm> Planner<'t, 'm> {
     }
 
     /// Whether the search under way prunes more repeated states than the configuration asks
-    /// (the second search of [`RESTART_AFTER`]).
+    /// (the search after [`RESTART_AFTER`]).
     fn pruning_more(&self) -> bool {
-        self.phase == 1 && self.duplicates != self.config.duplicates
+        self.phase == 2 && self.duplicates != self.config.duplicates
     }
 
-    /// Abandon the search under way and start again from the root as search `phase` (1: the
-    /// second, 2: the third; see [`RESTART_AFTER`]): the nodes, the duplicate table and the
+    /// Abandon the search under way and start again from the root as search `phase` (1, 2 or
+    /// 3; see [`ORDERED_RESTART_AFTER`] and [`RESTART_AFTER`]): the nodes, the duplicate table and the
     /// open lists are emptied (the arena's high-water mark and the statistics carry on).
     pub(super) fn restart(&mut self, phase: u8) {
         let s = self.stats();
         self.stats.peak_words = s.peak_words;
         self.stats.restarts += 1;
         self.phase = phase;
-        self.boost_amount = BOOST_SECOND;
+        self.boost_amount = if phase == 1 {
+            BOOST_FIRST
+        } else {
+            BOOST_SECOND
+        };
         self.duplicates = match (phase, self.config.duplicates) {
-            (1, Duplicates::PruneQuiescent) => Duplicates::PruneAll,
+            (2, Duplicates::PruneQuiescent) => Duplicates::PruneAll,
             (_, asked) => asked,
         };
         self.shed_base = self.stats.shed;
         self.boost = 0;
         self.turn = false;
-        self.seq = 0;
         self.nodes_used = 0;
         self.loaded_node = NONE;
         self.buckets.iter_mut().for_each(|b| *b = NONE);
