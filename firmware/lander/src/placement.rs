@@ -404,6 +404,9 @@ struct PlanIndex<'a> {
     holds: &'a [(u64, Option<(u64, u64)>)],
     /// Starts of the chains that wait for a ground release.
     waits: &'a [u64],
+    /// The latest of `waits` (0: none): a holding chain ending after it blocks no waiting
+    /// chain of the plan.
+    latest_wait: u64,
     /// The latest end of a non-empty span (0: none).
     busy_end: u64,
     /// The longest free time from `from` to `busy_end` between non-empty spans: a non-empty
@@ -464,6 +467,7 @@ fn index_plan<'a>(
     }
     let busy_end = if busy.is_empty() { 0 } else { latest };
     busy.truncate(gaps);
+    let latest_wait = waits.iter().copied().max().unwrap_or(0);
     // Equal starts in plan order, as `TimelinePlacement::release` takes the first.
     uplinks.sort_unstable();
     for s in spans.iter().filter(|s| s.holds) {
@@ -473,6 +477,7 @@ fn index_plan<'a>(
     PlanIndex {
         busy_end,
         longest_gap,
+        latest_wait,
         gaps: busy,
         uplinks,
         holds,
@@ -517,14 +522,23 @@ impl TimelinePlacement {
         {
             return false;
         }
+        // A chain that is not an uplink releases no hold: each hold blocks [end, its plan
+        // release), as `release_with` gives for it, without its branches.
         if x.waits
-            && index.holds.iter().any(|&(end, base)| {
-                x.start >= end && x.start < PlanIndex::release_with(base, &x, end)
-            })
+            && if x.uplink {
+                index.holds.iter().any(|&(end, base)| {
+                    x.start >= end && x.start < PlanIndex::release_with(base, &x, end)
+                })
+            } else {
+                index.holds.iter().any(|&(end, base)| {
+                    x.start >= end && x.start < base.map_or(u64::MAX, |(_, release)| release)
+                })
+            }
         {
             return false;
         }
-        if x.holds && !index.waits.is_empty() {
+        // No waiting chain starts at or after `x.end` when `x.end` is past the latest one.
+        if x.holds && !index.waits.is_empty() && x.end <= index.latest_wait {
             let release = PlanIndex::release_with(first_uplink(index.uplinks, x.end), &x, x.end);
             if index
                 .waits
@@ -615,8 +629,15 @@ impl ChainPlacement for TimelinePlacement {
         // span's end.
         let all_ends = chain.duration_us == 0;
         if !all_ends {
-            for &(a, _) in index.gaps {
-                consider(a, &mut best);
+            // A chain longer than a gap overlaps a span if it starts at the gap's opening
+            // (the check's overlap test would say so): not checked.
+            for &(a, b) in index.gaps {
+                if a >= best {
+                    break;
+                }
+                if b - a >= chain.duration_us {
+                    consider(a, &mut best);
+                }
             }
             if !index.gaps.is_empty() || index.busy_end > 0 {
                 consider(index.busy_end, &mut best);
