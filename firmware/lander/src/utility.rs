@@ -456,15 +456,15 @@ mod tests {
                     for &pb in &[pa.saturating_sub(1), pa, pa.saturating_add(1), 0, u32::MAX] {
                         for &tb in &[ta.saturating_sub(1), ta, ta.saturating_add(1), 0, 10_000] {
                             for &cb in &costs {
-                                let mut a = [0u32; RANK_COUNT];
-                                let mut b = [0u32; RANK_COUNT];
-                                let (mut x, mut y) = ([0u32; RANK_COUNT], [0u32; RANK_COUNT]);
-                                a[2] = pa;
-                                x[2] = ta;
-                                b[2] = pb;
-                                y[2] = tb;
-                                let got =
-                                    Priority::compare_parts(&u(a), (&u(x), ca), &u(b), (&u(y), cb));
+                                // In the third rank, the first two equal.
+                                let plan = |v: u32| u([7, 7, v, 0, 0, 0, 0]);
+                                let chain = |v: u32| u([0, 0, v, 0, 0, 0, 0]);
+                                let got = Priority::compare_parts(
+                                    &plan(pa),
+                                    (&chain(ta), ca),
+                                    &plan(pb),
+                                    (&chain(tb), cb),
+                                );
                                 assert_eq!(
                                     got,
                                     reference(pa, ta, ca, pb, tb, cb),
