@@ -73,11 +73,15 @@ impl ViewTimeline {
         &self.windows
     }
 
-    /// Whether [start, end) lies inside one window.
+    /// Whether [start, end) lies inside one window. The windows are sorted and disjoint, so
+    /// only the last one opening at or before `start` can hold it (an earlier one ends at or
+    /// before that one opens): found by binary search, not by a scan of every window.
     pub fn contains(&self, start: u64, end: u64) -> bool {
-        self.windows
-            .iter()
-            .any(|w| w.start.0 <= start && end <= w.end.0)
+        let after = self.windows.partition_point(|w| w.start.0 <= start);
+        after
+            .checked_sub(1)
+            .and_then(|i| self.windows.get(i))
+            .is_some_and(|w| end <= w.end.0)
     }
 }
 
@@ -698,6 +702,36 @@ impl ChainPlacement for TimelinePlacement {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `ViewTimeline::contains` (binary search) answers as a scan of every window, on windows
+    /// touching and apart, for intervals empty and not, inside, across and outside them.
+    #[test]
+    fn contains_is_the_scan_of_every_window() {
+        let w = |a: u64, b: u64| ViewWindow {
+            start: MissionTimeUs(a),
+            end: MissionTimeUs(b),
+        };
+        let timelines = [
+            ViewTimeline::new(&[]).unwrap_or_default(),
+            ViewTimeline::new(&[w(10, 20)]).unwrap_or_default(),
+            ViewTimeline::new(&[w(0, 10), w(10, 20), w(25, 30), w(31, 40)]).unwrap_or_default(),
+            ViewTimeline::new(&[w(5, 6), w(8, 12), w(12, 13), w(20, 45)]).unwrap_or_default(),
+        ];
+        let mut inside = 0u32;
+        for t in &timelines {
+            for start in 0..50u64 {
+                for end in start..52u64 {
+                    let scan = t
+                        .windows()
+                        .iter()
+                        .any(|w| w.start.0 <= start && end <= w.end.0);
+                    assert_eq!(t.contains(start, end), scan, "{start} {end} {t:?}");
+                    inside += u32::from(scan);
+                }
+            }
+        }
+        assert!(inside > 500, "{inside}");
+    }
 
     /// `energy_fits` is the division it replaces, at and around the rounding boundary.
     #[test]
