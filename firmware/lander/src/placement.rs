@@ -332,7 +332,8 @@ impl TimelinePlacement {
         candidate: u16,
     ) -> Option<MissionTimeUs> {
         let chain = network.chains.get(usize::from(candidate))?;
-        let (spans, energy_mj, latest_end) = self.plan_spans(network, plan, chain)?;
+        let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
+        let (energy_mj, latest_end) = self.plan_spans(network, plan, chain, &mut spans)?;
         let fits_energy = |end: u64| {
             let end = MissionTimeUs(end.max(latest_end));
             energy_mj.saturating_add(self.hotel_energy_mj(end)) <= self.battery_mj
@@ -557,16 +558,18 @@ impl TimelinePlacement {
 }
 
 impl TimelinePlacement {
-    /// What both placements start from: the plan's spans, their energy with `chain`'s, and the
-    /// latest end among them (the horizon's start for an empty plan). None when the plan names
-    /// a chain the network does not have or holds more than a plan can.
+    /// What both placements start from: the plan's spans (into the caller's `spans`, not
+    /// returned by value: a plan-sized vector copied per placement), their energy with
+    /// `chain`'s, and the latest end among them (the horizon's start for an empty plan). None
+    /// when the plan names a chain the network does not have or holds more than a plan can.
     fn plan_spans(
         &self,
         network: &FlatNetwork,
         plan: &[PlacedChain],
         chain: &Chain,
-    ) -> Option<(Vec<Span, MAX_PLAN_CHAINS>, u64, u64)> {
-        let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
+        spans: &mut Vec<Span, MAX_PLAN_CHAINS>,
+    ) -> Option<(u64, u64)> {
+        spans.clear();
         let mut energy_mj = chain.energy_mj;
         let mut latest_end = self.horizon_start.0;
         for p in plan {
@@ -576,7 +579,7 @@ impl TimelinePlacement {
             energy_mj = energy_mj.saturating_add(c.energy_mj);
             spans.push(s).ok()?;
         }
-        Some((spans, energy_mj, latest_end))
+        Some((energy_mj, latest_end))
     }
 }
 
@@ -588,7 +591,8 @@ impl ChainPlacement for TimelinePlacement {
         candidate: u16,
     ) -> Option<MissionTimeUs> {
         let chain = network.chains.get(usize::from(candidate))?;
-        let (spans, energy_mj, latest_end) = self.plan_spans(network, plan, chain)?;
+        let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
+        let (energy_mj, latest_end) = self.plan_spans(network, plan, chain, &mut spans)?;
         let (mut busy, mut uplinks) = (Busy::new(), Uplinks::new());
         let (mut holds, mut waits) = (Holds::new(), Waits::new());
         let from = self.horizon_start.0;

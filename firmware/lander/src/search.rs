@@ -570,17 +570,16 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         ) else {
             return;
         };
-        let mut plan = core::mem::take(&mut self.scratch);
-        self.path_of(pair.node, &mut plan);
-        if plan.len() >= MAX_PLAN_CHAINS {
+        // The plan is built in `scratch` in place (moving a plan-sized vector out and back
+        // copies it twice).
+        path_into(&self.fixed, &self.nodes, pair.node, &mut self.scratch);
+        if self.scratch.len() >= MAX_PLAN_CHAINS {
             self.stats.node_overflows += 1;
-            self.scratch = plan;
             return;
         }
         self.stats.placement_calls += 1;
-        let placed = placement.place_valued(network, &plan, pair.chain);
-        self.scratch = plan;
-        let Some((start, utility)) = placed else {
+        let Some((start, utility)) = placement.place_valued(network, &self.scratch, pair.chain)
+        else {
             return;
         };
         let mut tasks = parent.tasks;
@@ -638,30 +637,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
 
     /// The plan of `node`: the fixed chains, then its chains from the root down.
     fn path_of(&self, node: u16, out: &mut Vec<PlacedChain, MAX_PLAN_CHAINS>) {
-        out.clear();
-        for p in &self.fixed {
-            let _ = out.push(*p);
-        }
-        let base = out.len();
-        let mut at = node;
-        while let Some(n) = self.nodes.get(usize::from(at)) {
-            if n.parent == NO_PARENT {
-                break;
-            }
-            if out
-                .push(PlacedChain {
-                    chain: n.chain,
-                    start: n.start,
-                })
-                .is_err()
-            {
-                break;
-            }
-            at = n.parent;
-        }
-        if let Some(tail) = out.get_mut(base..) {
-            tail.reverse();
-        }
+        path_into(&self.fixed, &self.nodes, node, out);
     }
 
     // --- the exploration queue: a binary max-heap on h(P, T), then first queued ---
@@ -741,5 +717,39 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             i = largest;
         }
         top
+    }
+}
+
+/// [`Search::path_of`] over the search's fields, so that it can write into the search's own
+/// scratch vector.
+fn path_into(
+    fixed: &[PlacedChain],
+    nodes: &[Node],
+    node: u16,
+    out: &mut Vec<PlacedChain, MAX_PLAN_CHAINS>,
+) {
+    out.clear();
+    for p in fixed {
+        let _ = out.push(*p);
+    }
+    let base = out.len();
+    let mut at = node;
+    while let Some(n) = nodes.get(usize::from(at)) {
+        if n.parent == NO_PARENT {
+            break;
+        }
+        if out
+            .push(PlacedChain {
+                chain: n.chain,
+                start: n.start,
+            })
+            .is_err()
+        {
+            break;
+        }
+        at = n.parent;
+    }
+    if let Some(tail) = out.get_mut(base..) {
+        tail.reverse();
     }
 }
