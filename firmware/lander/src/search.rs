@@ -242,6 +242,9 @@ pub struct Search<const NODES: usize = MAX_SEARCH_NODES, const QUEUE: usize = MA
     excluded: TaskSet,
     /// Utility and cost of the fixed plan (each chain's utility as it was when it was added).
     fixed_value: (RankedUtility, u64),
+    /// The chains of the batch being searched, in index order (each new node is paired with
+    /// them, not with every chain of the network).
+    batch_chains: Vec<u16, MAX_CHAINS>,
 }
 
 impl<const NODES: usize, const QUEUE: usize> Default for Search<NODES, QUEUE> {
@@ -269,6 +272,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             scratch: Vec::new(),
             excluded: TaskSet::default(),
             fixed_value: (RankedUtility::ZERO, 0),
+            batch_chains: Vec::new(),
         }
     }
 
@@ -288,6 +292,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         self.scratch.clear();
         self.excluded = TaskSet::default();
         self.fixed_value = (RankedUtility::ZERO, 0);
+        self.batch_chains.clear();
     }
 
     pub fn config(&self) -> &SearchConfig {
@@ -522,6 +527,13 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
 
     /// Queues the root with every chain of `batch`.
     fn seed_batch(&mut self, network: &FlatNetwork, batch: u8) {
+        self.batch_chains.clear();
+        for (i, c) in network.chains.iter().enumerate() {
+            if c.batch == batch {
+                // Never fails: at most MAX_CHAINS chains (a network's capacity).
+                let _ = self.batch_chains.push(i as u16);
+            }
+        }
         self.reset_root(network);
         self.pair_with_batch(network, 0, batch);
     }
@@ -532,7 +544,13 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         let Some(n) = self.nodes.get(usize::from(node)).copied() else {
             return;
         };
-        for (i, c) in network.chains.iter().enumerate() {
+        for k in 0..self.batch_chains.len() {
+            let Some(&i) = self.batch_chains.get(k) else {
+                break;
+            };
+            let Some(c) = network.chains.get(usize::from(i)) else {
+                continue;
+            };
             if c.batch != batch || n.tasks.contains(c.task_slot) {
                 continue;
             }
@@ -546,7 +564,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
                 network,
                 Pair {
                     node,
-                    chain: i as u16,
+                    chain: i,
                     seq: self.next_seq,
                 },
             );
