@@ -268,9 +268,22 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                     science: &self.science,
                     refused: 0,
                 };
-                let step = self
-                    .search
-                    .step(&self.network, &mut placement, budget.max(1));
+                // The call's budget covers `budget` explorations and at most `budget`
+                // downlink-manager checks (at least one exploration): a backlog downlink's
+                // exploration solves up to four problems, so calls of such explorations would
+                // otherwise cost several times the calls before them, and the planner
+                // partition, which sizes a call by the costliest so far, overran its window
+                // (ELAP 2's Discovery replan). The search resumes exactly: the plan is the same
+                // however the calls are cut.
+                let budget = budget.max(1);
+                let mut used = 0u32;
+                let step = loop {
+                    let s = self.search.step(&self.network, &mut placement, 1);
+                    used = used.saturating_add(s.used.max(1));
+                    if s.done || used >= budget || placement.inner.stats.checks >= budget {
+                        break s;
+                    }
+                };
                 let d = placement.inner.stats;
                 let t = &mut self.data_stats;
                 t.checks = t.checks.saturating_add(d.checks);
