@@ -552,6 +552,11 @@ impl<P: ChainPlacement> ChainPlacement for DataPlacement<'_, P> {
 /// it assigns to this downlink (Critical and Decisional first, as placed), and returns the
 /// duration that carries them: at least `duration_us`, at most the overhead and the longest
 /// transmission (and `window_end`, when Earth sets earlier).
+///
+/// In one call: [`NextDownlink::load`], the knapsack's [`DATA_KNAPSACK_BUDGET`] nodes, then
+/// [`NextDownlink::finish`]. The executor makes the same three steps over several calls
+/// (the knapsack resumes exactly), so that no call of the planner partition runs the whole
+/// budget at once.
 #[allow(clippy::too_many_arguments)]
 pub fn next_downlink(
     comms: &CommsModel,
@@ -564,70 +569,157 @@ pub fn next_downlink(
     spent: (u16, u64),
     payload: &mut Vec<DataProduct, MAX_DATA_PRODUCTS>,
 ) -> u64 {
-    payload.clear();
-    let longest = comms
-        .max_duration_us()
-        .max(duration_us)
-        .min(window_end.saturating_sub(start).max(duration_us));
-    let mut opps: Vec<DownlinkOpportunity, MAX_DOWNLINKS> = Vec::new();
-    let _ = opps.push(comms.opportunity(start, start.saturating_add(longest)));
-    for &(s, e) in later_downlinks {
-        if opps.push(comms.opportunity(s, e)).is_err() {
-            break;
-        }
-    }
-    let segment = comms.capacity_of(comms.max_duration_us());
-    let mut products: Vec<DataProduct, MAX_DATA_PRODUCTS> = Vec::new();
-    // Per onboard product, its items' range.
-    let mut ranges: Vec<(usize, usize), MAX_DATA_PRODUCTS> = Vec::new();
-    for p in onboard.iter().chain(later) {
-        let first = products.len();
-        match push_segments(&mut products, *p, segment) {
-            Some(n) => {
-                let _ = ranges.push((first, first + n));
-            }
-            None => break,
-        }
-    }
-    let mut allocations: Vec<SolAllocation, MAX_SOLS> = Vec::new();
-    for o in &opps {
-        if !allocations.iter().any(|a| a.sol == o.sol) {
-            let spent = if o.sol == spent.0 { spent.1 } else { 0 };
-            let _ = allocations.push(SolAllocation {
-                sol: o.sol,
-                energy_mj: comms.per_sol_mj.saturating_sub(spent),
-            });
-        }
-    }
     let mut manager = DownlinkManager::new();
-    if manager.load(&products, &opps, &allocations).is_err() {
-        return duration_us;
+    let mut next = NextDownlink::new();
+    let loaded = next.load(
+        comms,
+        onboard,
+        later,
+        (start, duration_us, window_end),
+        later_downlinks,
+        spent,
+        &mut manager,
+        payload,
+    );
+    if loaded {
+        manager.step(DATA_KNAPSACK_BUDGET);
     }
-    manager.step(DATA_KNAPSACK_BUDGET);
-    let mut required = 0u64;
-    for (p, &(a, b)) in onboard.iter().zip(ranges.iter()) {
-        let here: u64 = (a..b)
-            .filter(|&i| manager.placement(i) == Placement::Downlink(0))
-            .filter_map(|i| products.get(i).map(|x| x.size_bytes))
-            .sum();
-        if here > 0 {
-            let _ = payload.push(*p);
-            if p.tier != Tier::Residual {
+    next.finish(comms, &manager, payload)
+}
+
+/// [`next_downlink`] in parts: what [`NextDownlink::finish`] needs of what
+/// [`NextDownlink::load`] set up, while the knapsack runs in between.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct NextDownlink {
+    /// Per onboard product (in `payload`'s order after `load`), its items' range.
+    ranges: Vec<(u8, u8), MAX_DATA_PRODUCTS>,
+    /// The planned duration, and the longest the downlink may last.
+    duration_us: u64,
+    longest: u64,
+    /// Whether the problem was loaded (otherwise the planned duration stands, nothing sent).
+    loaded: bool,
+}
+
+impl NextDownlink {
+    pub const fn new() -> Self {
+        Self {
+            ranges: Vec::new(),
+            duration_us: 0,
+            longest: 0,
+            loaded: false,
+        }
+    }
+
+    /// Loads [`next_downlink`]'s problem into `manager` (`at`: the downlink's start, planned
+    /// duration and Earth's setting) and `payload` with the onboard products it may carry;
+    /// false when the problem does not load (the downlink then keeps its planned duration
+    /// and carries nothing). Then run the knapsack ([`DATA_KNAPSACK_BUDGET`] nodes in all) and
+    /// [`Self::finish`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn load(
+        &mut self,
+        comms: &CommsModel,
+        onboard: &[DataProduct],
+        later: &[DataProduct],
+        at: (u64, u64, u64),
+        later_downlinks: &[(u64, u64)],
+        spent: (u16, u64),
+        manager: &mut DownlinkManager,
+        payload: &mut Vec<DataProduct, MAX_DATA_PRODUCTS>,
+    ) -> bool {
+        let (start, duration_us, window_end) = at;
+        payload.clear();
+        self.ranges.clear();
+        self.duration_us = duration_us;
+        self.loaded = false;
+        let longest = comms
+            .max_duration_us()
+            .max(duration_us)
+            .min(window_end.saturating_sub(start).max(duration_us));
+        self.longest = longest;
+        let mut opps: Vec<DownlinkOpportunity, MAX_DOWNLINKS> = Vec::new();
+        let _ = opps.push(comms.opportunity(start, start.saturating_add(longest)));
+        for &(s, e) in later_downlinks {
+            if opps.push(comms.opportunity(s, e)).is_err() {
+                break;
+            }
+        }
+        let segment = comms.capacity_of(comms.max_duration_us());
+        let mut products: Vec<DataProduct, MAX_DATA_PRODUCTS> = Vec::new();
+        for (k, p) in onboard.iter().chain(later).enumerate() {
+            let first = products.len();
+            match push_segments(&mut products, *p, segment) {
+                Some(n) => {
+                    // Only the onboard products' ranges are read (at most 64 items: u8).
+                    if k < onboard.len() {
+                        let _ = self.ranges.push((first as u8, (first + n) as u8));
+                        let _ = payload.push(*p);
+                    }
+                }
+                None => break,
+            }
+        }
+        let mut allocations: Vec<SolAllocation, MAX_SOLS> = Vec::new();
+        for o in &opps {
+            if !allocations.iter().any(|a| a.sol == o.sol) {
+                let spent = if o.sol == spent.0 { spent.1 } else { 0 };
+                let _ = allocations.push(SolAllocation {
+                    sol: o.sol,
+                    energy_mj: comms.per_sol_mj.saturating_sub(spent),
+                });
+            }
+        }
+        if manager.load(&products, &opps, &allocations).is_err() {
+            payload.clear();
+            return false;
+        }
+        self.loaded = true;
+        true
+    }
+
+    /// After the knapsack: keeps in `payload` (as [`Self::load`] left it) the onboard products
+    /// assigned to this downlink, ordered by tier and age, and returns the duration that
+    /// carries them ([`next_downlink`]'s answer).
+    pub fn finish(
+        &self,
+        comms: &CommsModel,
+        manager: &DownlinkManager,
+        payload: &mut Vec<DataProduct, MAX_DATA_PRODUCTS>,
+    ) -> u64 {
+        if !self.loaded {
+            payload.clear();
+            return self.duration_us;
+        }
+        let segment = comms.capacity_of(comms.max_duration_us());
+        let mut required = 0u64;
+        let mut k = 0usize;
+        payload.retain(|p| {
+            let (a, b) = self.ranges.get(k).copied().unwrap_or((0, 0));
+            k += 1;
+            let here: u64 = (usize::from(a)..usize::from(b))
+                .filter(|&i| manager.placement(i) == Placement::Downlink(0))
+                .filter_map(|i| manager.products().get(i).map(|x| x.size_bytes))
+                .sum();
+            if here > 0 && p.tier != Tier::Residual {
                 required = required.saturating_add(here);
             }
-        }
+            here > 0
+        });
+        payload.sort_unstable_by_key(|p| (p.tier, p.created_at));
+        // Long enough for the required products; Residual ones ride in what that leaves.
+        let duration = comms
+            .duration_for(required)
+            .max(self.duration_us)
+            .min(self.longest);
+        let mut room = comms.capacity_of(duration);
+        payload.retain(|p| {
+            // A product larger than any one downlink goes down in part.
+            let fits = p.size_bytes <= room || (p.size_bytes > segment && room > 0);
+            if fits {
+                room = room.saturating_sub(p.size_bytes);
+            }
+            fits
+        });
+        duration
     }
-    payload.sort_unstable_by_key(|p| (p.tier, p.created_at));
-    // Long enough for the required products; Residual ones ride in what that leaves.
-    let duration = comms.duration_for(required).max(duration_us).min(longest);
-    let mut room = comms.capacity_of(duration);
-    payload.retain(|p| {
-        // A product larger than any one downlink goes down in part.
-        let fits = p.size_bytes <= room || (p.size_bytes > segment && room > 0);
-        if fits {
-            room = room.saturating_sub(p.size_bytes);
-        }
-        fits
-    });
-    duration
 }

@@ -73,11 +73,15 @@ impl ViewTimeline {
         &self.windows
     }
 
-    /// Whether [start, end) lies inside one window.
+    /// Whether [start, end) lies inside one window. The windows are sorted and disjoint, so
+    /// only the last one opening at or before `start` can hold it (an earlier one ends at or
+    /// before that one opens): found by binary search, not by a scan of every window.
     pub fn contains(&self, start: u64, end: u64) -> bool {
-        self.windows
-            .iter()
-            .any(|w| w.start.0 <= start && end <= w.end.0)
+        let after = self.windows.partition_point(|w| w.start.0 <= start);
+        after
+            .checked_sub(1)
+            .and_then(|i| self.windows.get(i))
+            .is_some_and(|w| end <= w.end.0)
     }
 }
 
@@ -328,7 +332,8 @@ impl TimelinePlacement {
         candidate: u16,
     ) -> Option<MissionTimeUs> {
         let chain = network.chains.get(usize::from(candidate))?;
-        let (spans, energy_mj, latest_end) = self.plan_spans(network, plan, chain)?;
+        let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
+        let (energy_mj, latest_end) = self.plan_spans(network, plan, chain, &mut spans)?;
         let fits_energy = |end: u64| {
             let end = MissionTimeUs(end.max(latest_end));
             energy_mj.saturating_add(self.hotel_energy_mj(end)) <= self.battery_mj
@@ -404,6 +409,9 @@ struct PlanIndex<'a> {
     holds: &'a [(u64, Option<(u64, u64)>)],
     /// Starts of the chains that wait for a ground release.
     waits: &'a [u64],
+    /// The latest of `waits` (0: none): a holding chain ending after it blocks no waiting
+    /// chain of the plan.
+    latest_wait: u64,
     /// The latest end of a non-empty span (0: none).
     busy_end: u64,
     /// The longest free time from `from` to `busy_end` between non-empty spans: a non-empty
@@ -464,6 +472,7 @@ fn index_plan<'a>(
     }
     let busy_end = if busy.is_empty() { 0 } else { latest };
     busy.truncate(gaps);
+    let latest_wait = waits.iter().copied().max().unwrap_or(0);
     // Equal starts in plan order, as `TimelinePlacement::release` takes the first.
     uplinks.sort_unstable();
     for s in spans.iter().filter(|s| s.holds) {
@@ -473,6 +482,7 @@ fn index_plan<'a>(
     PlanIndex {
         busy_end,
         longest_gap,
+        latest_wait,
         gaps: busy,
         uplinks,
         holds,
@@ -517,14 +527,23 @@ impl TimelinePlacement {
         {
             return false;
         }
+        // A chain that is not an uplink releases no hold: each hold blocks [end, its plan
+        // release), as `release_with` gives for it, without its branches.
         if x.waits
-            && index.holds.iter().any(|&(end, base)| {
-                x.start >= end && x.start < PlanIndex::release_with(base, &x, end)
-            })
+            && if x.uplink {
+                index.holds.iter().any(|&(end, base)| {
+                    x.start >= end && x.start < PlanIndex::release_with(base, &x, end)
+                })
+            } else {
+                index.holds.iter().any(|&(end, base)| {
+                    x.start >= end && x.start < base.map_or(u64::MAX, |(_, release)| release)
+                })
+            }
         {
             return false;
         }
-        if x.holds && !index.waits.is_empty() {
+        // No waiting chain starts at or after `x.end` when `x.end` is past the latest one.
+        if x.holds && !index.waits.is_empty() && x.end <= index.latest_wait {
             let release = PlanIndex::release_with(first_uplink(index.uplinks, x.end), &x, x.end);
             if index
                 .waits
@@ -539,16 +558,18 @@ impl TimelinePlacement {
 }
 
 impl TimelinePlacement {
-    /// What both placements start from: the plan's spans, their energy with `chain`'s, and the
-    /// latest end among them (the horizon's start for an empty plan). None when the plan names
-    /// a chain the network does not have or holds more than a plan can.
+    /// What both placements start from: the plan's spans (into the caller's `spans`, not
+    /// returned by value: a plan-sized vector copied per placement), their energy with
+    /// `chain`'s, and the latest end among them (the horizon's start for an empty plan). None
+    /// when the plan names a chain the network does not have or holds more than a plan can.
     fn plan_spans(
         &self,
         network: &FlatNetwork,
         plan: &[PlacedChain],
         chain: &Chain,
-    ) -> Option<(Vec<Span, MAX_PLAN_CHAINS>, u64, u64)> {
-        let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
+        spans: &mut Vec<Span, MAX_PLAN_CHAINS>,
+    ) -> Option<(u64, u64)> {
+        spans.clear();
         let mut energy_mj = chain.energy_mj;
         let mut latest_end = self.horizon_start.0;
         for p in plan {
@@ -558,7 +579,7 @@ impl TimelinePlacement {
             energy_mj = energy_mj.saturating_add(c.energy_mj);
             spans.push(s).ok()?;
         }
-        Some((spans, energy_mj, latest_end))
+        Some((energy_mj, latest_end))
     }
 }
 
@@ -570,7 +591,8 @@ impl ChainPlacement for TimelinePlacement {
         candidate: u16,
     ) -> Option<MissionTimeUs> {
         let chain = network.chains.get(usize::from(candidate))?;
-        let (spans, energy_mj, latest_end) = self.plan_spans(network, plan, chain)?;
+        let mut spans: Vec<Span, MAX_PLAN_CHAINS> = Vec::new();
+        let (energy_mj, latest_end) = self.plan_spans(network, plan, chain, &mut spans)?;
         let (mut busy, mut uplinks) = (Busy::new(), Uplinks::new());
         let (mut holds, mut waits) = (Holds::new(), Waits::new());
         let from = self.horizon_start.0;
@@ -615,8 +637,15 @@ impl ChainPlacement for TimelinePlacement {
         // span's end.
         let all_ends = chain.duration_us == 0;
         if !all_ends {
-            for &(a, _) in index.gaps {
-                consider(a, &mut best);
+            // A chain longer than a gap overlaps a span if it starts at the gap's opening
+            // (the check's overlap test would say so): not checked.
+            for &(a, b) in index.gaps {
+                if a >= best {
+                    break;
+                }
+                if b - a >= chain.duration_us {
+                    consider(a, &mut best);
+                }
             }
             if !index.gaps.is_empty() || index.busy_end > 0 {
                 consider(index.busy_end, &mut best);
@@ -677,6 +706,36 @@ impl ChainPlacement for TimelinePlacement {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `ViewTimeline::contains` (binary search) answers as a scan of every window, on windows
+    /// touching and apart, for intervals empty and not, inside, across and outside them.
+    #[test]
+    fn contains_is_the_scan_of_every_window() {
+        let w = |a: u64, b: u64| ViewWindow {
+            start: MissionTimeUs(a),
+            end: MissionTimeUs(b),
+        };
+        let timelines = [
+            ViewTimeline::new(&[]).unwrap_or_default(),
+            ViewTimeline::new(&[w(10, 20)]).unwrap_or_default(),
+            ViewTimeline::new(&[w(0, 10), w(10, 20), w(25, 30), w(31, 40)]).unwrap_or_default(),
+            ViewTimeline::new(&[w(5, 6), w(8, 12), w(12, 13), w(20, 45)]).unwrap_or_default(),
+        ];
+        let mut inside = 0u32;
+        for t in &timelines {
+            for start in 0..50u64 {
+                for end in start..52u64 {
+                    let scan = t
+                        .windows()
+                        .iter()
+                        .any(|w| w.start.0 <= start && end <= w.end.0);
+                    assert_eq!(t.contains(start, end), scan, "{start} {end} {t:?}");
+                    inside += u32::from(scan);
+                }
+            }
+        }
+        assert!(inside > 500, "{inside}");
+    }
 
     /// `energy_fits` is the division it replaces, at and around the rounding boundary.
     #[test]

@@ -242,6 +242,9 @@ pub struct Search<const NODES: usize = MAX_SEARCH_NODES, const QUEUE: usize = MA
     excluded: TaskSet,
     /// Utility and cost of the fixed plan (each chain's utility as it was when it was added).
     fixed_value: (RankedUtility, u64),
+    /// The chains of the batch being searched, in index order (each new node is paired with
+    /// them, not with every chain of the network).
+    batch_chains: Vec<u16, MAX_CHAINS>,
 }
 
 impl<const NODES: usize, const QUEUE: usize> Default for Search<NODES, QUEUE> {
@@ -269,6 +272,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             scratch: Vec::new(),
             excluded: TaskSet::default(),
             fixed_value: (RankedUtility::ZERO, 0),
+            batch_chains: Vec::new(),
         }
     }
 
@@ -288,6 +292,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         self.scratch.clear();
         self.excluded = TaskSet::default();
         self.fixed_value = (RankedUtility::ZERO, 0);
+        self.batch_chains.clear();
     }
 
     pub fn config(&self) -> &SearchConfig {
@@ -522,6 +527,13 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
 
     /// Queues the root with every chain of `batch`.
     fn seed_batch(&mut self, network: &FlatNetwork, batch: u8) {
+        self.batch_chains.clear();
+        for (i, c) in network.chains.iter().enumerate() {
+            if c.batch == batch {
+                // Never fails: at most MAX_CHAINS chains (a network's capacity).
+                let _ = self.batch_chains.push(i as u16);
+            }
+        }
         self.reset_root(network);
         self.pair_with_batch(network, 0, batch);
     }
@@ -532,7 +544,13 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         let Some(n) = self.nodes.get(usize::from(node)).copied() else {
             return;
         };
-        for (i, c) in network.chains.iter().enumerate() {
+        for k in 0..self.batch_chains.len() {
+            let Some(&i) = self.batch_chains.get(k) else {
+                break;
+            };
+            let Some(c) = network.chains.get(usize::from(i)) else {
+                continue;
+            };
             if c.batch != batch || n.tasks.contains(c.task_slot) {
                 continue;
             }
@@ -546,7 +564,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
                 network,
                 Pair {
                     node,
-                    chain: i as u16,
+                    chain: i,
                     seq: self.next_seq,
                 },
             );
@@ -570,17 +588,16 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
         ) else {
             return;
         };
-        let mut plan = core::mem::take(&mut self.scratch);
-        self.path_of(pair.node, &mut plan);
-        if plan.len() >= MAX_PLAN_CHAINS {
+        // The plan is built in `scratch` in place (moving a plan-sized vector out and back
+        // copies it twice).
+        path_into(&self.fixed, &self.nodes, pair.node, &mut self.scratch);
+        if self.scratch.len() >= MAX_PLAN_CHAINS {
             self.stats.node_overflows += 1;
-            self.scratch = plan;
             return;
         }
         self.stats.placement_calls += 1;
-        let placed = placement.place_valued(network, &plan, pair.chain);
-        self.scratch = plan;
-        let Some((start, utility)) = placed else {
+        let Some((start, utility)) = placement.place_valued(network, &self.scratch, pair.chain)
+        else {
             return;
         };
         let mut tasks = parent.tasks;
@@ -638,30 +655,7 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
 
     /// The plan of `node`: the fixed chains, then its chains from the root down.
     fn path_of(&self, node: u16, out: &mut Vec<PlacedChain, MAX_PLAN_CHAINS>) {
-        out.clear();
-        for p in &self.fixed {
-            let _ = out.push(*p);
-        }
-        let base = out.len();
-        let mut at = node;
-        while let Some(n) = self.nodes.get(usize::from(at)) {
-            if n.parent == NO_PARENT {
-                break;
-            }
-            if out
-                .push(PlacedChain {
-                    chain: n.chain,
-                    start: n.start,
-                })
-                .is_err()
-            {
-                break;
-            }
-            at = n.parent;
-        }
-        if let Some(tail) = out.get_mut(base..) {
-            tail.reverse();
-        }
+        path_into(&self.fixed, &self.nodes, node, out);
     }
 
     // --- the exploration queue: a binary max-heap on h(P, T), then first queued ---
@@ -741,5 +735,39 @@ impl<const NODES: usize, const QUEUE: usize> Search<NODES, QUEUE> {
             i = largest;
         }
         top
+    }
+}
+
+/// [`Search::path_of`] over the search's fields, so that it can write into the search's own
+/// scratch vector.
+fn path_into(
+    fixed: &[PlacedChain],
+    nodes: &[Node],
+    node: u16,
+    out: &mut Vec<PlacedChain, MAX_PLAN_CHAINS>,
+) {
+    out.clear();
+    for p in fixed {
+        let _ = out.push(*p);
+    }
+    let base = out.len();
+    let mut at = node;
+    while let Some(n) = nodes.get(usize::from(at)) {
+        if n.parent == NO_PARENT {
+            break;
+        }
+        if out
+            .push(PlacedChain {
+                chain: n.chain,
+                start: n.start,
+            })
+            .is_err()
+        {
+            break;
+        }
+        at = n.parent;
+    }
+    if let Some(tail) = out.get_mut(base..) {
+        tail.reverse();
     }
 }

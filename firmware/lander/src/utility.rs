@@ -305,23 +305,37 @@ impl Priority {
         plan_b: &RankedUtility,
         chain_b: (&RankedUtility, u64),
     ) -> Ordering {
-        let clamp = |c: u64| u128::from(c.clamp(MIN_RATIO_COST_MJ, MAX_ENERGY_MJ));
+        let clamp = |c: u64| c.clamp(MIN_RATIO_COST_MJ, MAX_ENERGY_MJ);
         let (ca, cb) = (clamp(chain_a.1), clamp(chain_b.1));
-        for k in 0..RANK_COUNT {
-            let (pa, ta) = (
-                plan_a.sums.get(k).copied().unwrap_or(0),
-                chain_a.0.sums.get(k).copied().unwrap_or(0),
-            );
-            let (pb, tb) = (
-                plan_b.sums.get(k).copied().unwrap_or(0),
-                chain_b.0.sums.get(k).copied().unwrap_or(0),
-            );
-            // (pa + ta/ca) vs (pb + tb/cb)  <=>  (pa*ca + ta)*cb vs (pb*cb + tb)*ca.
-            let left = (u128::from(pa) * ca + u128::from(ta)) * cb;
-            let right = (u128::from(pb) * cb + u128::from(tb)) * ca;
-            match left.cmp(&right) {
-                Ordering::Equal => continue,
-                unequal => return unequal,
+        for ((&pa, &ta), (&pb, &tb)) in plan_a
+            .sums
+            .iter()
+            .zip(&chain_a.0.sums)
+            .zip(plan_b.sums.iter().zip(&chain_b.0.sums))
+        {
+            // (pa + ta/ca) vs (pb + tb/cb), exactly, without 128-bit products where the
+            // answer is plain (a 128-bit multiplication is a library call on the 32-bit target):
+            // - a ratio below 1 (t < c) adds less than one to its plan's sum, so integer sums
+            //   that differ decide when the smaller side's ratio is below 1;
+            // - equal sums compare the ratios, ta*cb vs tb*ca, in u64 when both fit;
+            // - otherwise (pa*ca + ta)*cb vs (pb*cb + tb)*ca in u128.
+            let order = if pa > pb && u64::from(tb) < cb {
+                Ordering::Greater
+            } else if pb > pa && u64::from(ta) < ca {
+                Ordering::Less
+            } else if pa == pb {
+                match (u64::from(ta).checked_mul(cb), u64::from(tb).checked_mul(ca)) {
+                    (Some(left), Some(right)) => left.cmp(&right),
+                    _ => (u128::from(ta) * u128::from(cb)).cmp(&(u128::from(tb) * u128::from(ca))),
+                }
+            } else {
+                let (ca, cb) = (u128::from(ca), u128::from(cb));
+                let left = (u128::from(pa) * ca + u128::from(ta)) * cb;
+                let right = (u128::from(pb) * cb + u128::from(tb)) * ca;
+                left.cmp(&right)
+            };
+            if order != Ordering::Equal {
+                return order;
             }
         }
         Ordering::Equal
@@ -399,5 +413,74 @@ mod tests {
             UtilityRate::new(RankedUtility::ZERO, 1),
         );
         assert!(Priority::new(plan, chain) < more);
+    }
+
+    /// `compare_parts`'s shortcuts decide as the 128-bit cross-multiplication they avoid, on
+    /// every combination of boundary values (ratios just below, at and above 1, sums equal and
+    /// one apart, costs clamped at both ends, products over u64).
+    #[test]
+    fn compare_parts_is_the_cross_multiplication() {
+        let reference = |pa: u32, ta: u32, ca: u64, pb: u32, tb: u32, cb: u64| {
+            let clamp = |c: u64| u128::from(c.clamp(MIN_RATIO_COST_MJ, MAX_ENERGY_MJ));
+            let (ca, cb) = (clamp(ca), clamp(cb));
+            ((u128::from(pa) * ca + u128::from(ta)) * cb)
+                .cmp(&((u128::from(pb) * cb + u128::from(tb)) * ca))
+        };
+        let sums = [
+            0u32,
+            1,
+            2,
+            9_999,
+            10_000,
+            10_001,
+            123_456,
+            u32::MAX - 1,
+            u32::MAX,
+        ];
+        let costs = [
+            0u64,
+            1,
+            2,
+            9_999,
+            10_000,
+            10_001,
+            1 << 32,
+            MAX_ENERGY_MJ,
+            u64::MAX,
+        ];
+        let mut checked = 0u64;
+        let mut shortcuts = 0u64;
+        for &pa in &sums {
+            for &ta in &sums {
+                for &ca in &costs {
+                    for &pb in &[pa.saturating_sub(1), pa, pa.saturating_add(1), 0, u32::MAX] {
+                        for &tb in &[ta.saturating_sub(1), ta, ta.saturating_add(1), 0, 10_000] {
+                            for &cb in &costs {
+                                // In the third rank, the first two equal.
+                                let plan = |v: u32| u([7, 7, v, 0, 0, 0, 0]);
+                                let chain = |v: u32| u([0, 0, v, 0, 0, 0, 0]);
+                                let got = Priority::compare_parts(
+                                    &plan(pa),
+                                    (&chain(ta), ca),
+                                    &plan(pb),
+                                    (&chain(tb), cb),
+                                );
+                                assert_eq!(
+                                    got,
+                                    reference(pa, ta, ca, pb, tb, cb),
+                                    "{pa} {ta} {ca} / {pb} {tb} {cb}"
+                                );
+                                checked += 1;
+                                shortcuts += u64::from(pa != pb && (ta < 10_000 || tb < 10_000));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        assert!(
+            checked > 100_000 && shortcuts > 1_000,
+            "{checked} {shortcuts}"
+        );
     }
 }

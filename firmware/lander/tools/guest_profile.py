@@ -7,7 +7,10 @@ attributes every block to the innermost `firmware/lander/src` file of its (inlin
 frames (`llvm-symbolizer` on the firmware ELF). Used by `guest_profile.sh`; see the README's
 "Where an exploration's instructions go".
 
-usage: guest_profile.py FIFO ELF
+usage: guest_profile.py FIFO ELF [DETAIL]
+With DETAIL (a number N), also the N costliest source lines of lander code (the innermost
+inlined frame in firmware/lander/src: file:line and function, and the library function inlined
+there, if any), to find what to change inside a component.
 """
 import collections
 import re
@@ -69,11 +72,23 @@ def group(functions, locations):
 
 
 split = collections.Counter()
+detail = collections.Counter()
 for pc, block in zip(pcs, frames):
     lines = block.split("\n")
     name = group(lines[0::2], lines[1::2])
     if name:
         split[name] += weight[pc]
+    inner = [k for k in range(1, len(lines), 2) if "/lander/src/" in lines[k]]
+    if inner:
+        k = inner[0]
+        function = re.sub(r"::h[0-9a-f]{16}", "", lines[k - 1])[-60:]
+        where = lines[k].split("/lander/src/")[-1]
+        via = "" if k == 1 else " <- " + re.sub(r"::h[0-9a-f]{16}", "", lines[0])[-40:]
+        detail[f"{where}  {function}{via}"] += weight[pc]
 print(f"{sum(weight.values()):,} guest instructions traced (the whole run, every partition)")
 for name, count in split.most_common():
     print(f"{count:14,d}  {name}")
+if len(sys.argv) > 3:
+    print("costliest lines of lander code (innermost frame):")
+    for name, count in detail.most_common(int(sys.argv[3])):
+        print(f"{count:14,d}  {name}")

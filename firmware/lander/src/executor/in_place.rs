@@ -65,6 +65,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         self.payload.clear();
         self.comm_spent = learned.comm_spent;
         self.data_stats = DataStats::default();
+        // `self.sizing` is set up afresh by each downlink's dispatch (`begin_sizing`).
         self.begin_planning(Reason::Initial);
     }
 }

@@ -81,20 +81,32 @@ use crate::utility::RankedUtility;
 mod in_place;
 mod learned;
 mod plan;
+mod sizing;
 mod types;
 
 pub use learned::Learned;
 pub use plan::{already_done, predicted, reparameterize};
+pub use sizing::SIZING_NODES_PER_EXPLORATION;
 pub use types::*;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Mode {
     Ready,
-    Pushing { since: MissionTimeUs },
+    Pushing {
+        since: MissionTimeUs,
+    },
     Running,
-    Planning { reason: Reason },
-    Halted { reason: Reason },
-    Abandoned { reason: Reason },
+    Planning {
+        reason: Reason,
+    },
+    /// The pending downlink is being sized before its dispatch ([`sizing`]).
+    Sizing,
+    Halted {
+        reason: Reason,
+    },
+    Abandoned {
+        reason: Reason,
+    },
     Done,
 }
 
@@ -148,6 +160,8 @@ pub struct Executor<const NODES: usize = MAX_SEARCH_NODES, const QUEUE: usize = 
     /// Radio energy the dispatched downlinks planned to spend: (sol, mJ) for the latest sol.
     comm_spent: (u16, u64),
     data_stats: DataStats,
+    /// The downlink being dispatched, while it is sized over several calls.
+    sizing: sizing::Sizing,
 }
 
 impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
@@ -195,6 +209,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             payload: Vec::new(),
             comm_spent: (0, 0),
             data_stats: DataStats::default(),
+            sizing: sizing::Sizing::new(),
         };
         match plan {
             Some(plan) => e.install(plan)?,
@@ -417,9 +432,17 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                         return Directive::Planning { reason };
                     }
                 }
+                Mode::Sizing => {
+                    if !self.continue_sizing(budget) {
+                        return Directive::Planning {
+                            reason: Reason::DataVolume,
+                        };
+                    }
+                    return self.finish_dispatch();
+                }
                 Mode::Ready | Mode::Pushing { .. } => {
                     let met = observation.preconditions_met && self.pending() == observed;
-                    if let Some(d) = self.advance(met, self.pending() == observed) {
+                    if let Some(d) = self.advance(met, self.pending() == observed, budget) {
                         return d;
                     }
                 }
@@ -438,7 +461,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
 
     /// Ready or pushing: dispatch the next primitive, wait, push, or fail it. `observed`: the
     /// observation's preconditions are about this primitive (`met` says whether they hold).
-    fn advance(&mut self, met: bool, observed: bool) -> Option<Directive> {
+    fn advance(&mut self, met: bool, observed: bool, budget: u32) -> Option<Directive> {
         let Some(step) = self.steps.get(self.cursor).copied() else {
             if let Some(reason) = self.replan_pending.take() {
                 self.begin_planning(reason);
@@ -455,7 +478,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             });
         }
         if met {
-            return Some(self.dispatch());
+            return Some(self.dispatch(budget));
         }
         if !self.config.flexible() {
             self.fail(Reason::PreconditionsUnmet, false);
@@ -480,17 +503,34 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         Some(Directive::Pushing { deadline })
     }
 
-    fn dispatch(&mut self) -> Directive {
+    fn dispatch(&mut self, budget: u32) -> Directive {
         let now = self.now;
         let Some(step) = self.steps.get_mut(self.cursor) else {
             self.mode = Mode::Done;
             return Directive::Done;
         };
         step.start = now;
-        let step = *step;
         self.payload.clear();
-        self.size_dispatched_downlink();
-        let step = self.steps.get(self.cursor).copied().unwrap_or(step);
+        // A downlink is sized first (what it carries, how long it lasts), over as many calls
+        // as its knapsack needs at `budget`.
+        if self.begin_sizing() {
+            self.mode = Mode::Sizing;
+            if !self.continue_sizing(budget) {
+                return Directive::Planning {
+                    reason: Reason::DataVolume,
+                };
+            }
+        }
+        self.finish_dispatch()
+    }
+
+    /// Dispatches the pending primitive (sized, if a downlink).
+    fn finish_dispatch(&mut self) -> Directive {
+        let now = self.now;
+        let Some(step) = self.steps.get(self.cursor).copied() else {
+            self.mode = Mode::Done;
+            return Directive::Done;
+        };
         self.reshift();
         self.mode = Mode::Running;
         self.stats.dispatched += 1;

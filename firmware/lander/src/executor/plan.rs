@@ -7,7 +7,7 @@ use fsw_bridge::MissionTimeUs;
 
 use super::*;
 use crate::assessor::{assess_chains, AssessedPlacement, Biosignature, SampleRef};
-use crate::comms::{next_downlink, size_downlinks, DataPlacement, DataView};
+use crate::comms::{size_downlinks, DataPlacement, DataView};
 use crate::downlink::Tier;
 use crate::placement::{downlink_spans, is_downlink};
 
@@ -243,86 +243,6 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         new && !downlink_left && drain_left
     }
 
-    /// The downlink about to be dispatched: what it carries (the downlink manager's assignment
-    /// over the onboard products and those the rest of the plan creates, against it and the
-    /// plan's later downlinks) and a duration that carries it (at least the planned one).
-    pub(super) fn size_dispatched_downlink(&mut self) {
-        let Some(comms) = self.comms else {
-            return;
-        };
-        let Some(step) = self.steps.get(self.cursor).copied() else {
-            return;
-        };
-        let is_dl = |p: u8| {
-            self.primitives
-                .get(usize::from(p))
-                .is_some_and(|s| is_downlink(s.kind))
-        };
-        if !is_dl(step.primitive) {
-            return;
-        }
-        let mut later: Vec<DataProduct, MAX_DATA_PRODUCTS> = Vec::new();
-        let mut downlinks: Vec<(u64, u64), MAX_DOWNLINKS> = Vec::new();
-        for s in self.steps.iter().skip(self.cursor + 1) {
-            let end = s.start.0.saturating_add(s.duration_us);
-            if is_dl(s.primitive) {
-                let _ = downlinks.push((s.start.0, end));
-            }
-            if let Some(spec) = self.primitives.get(usize::from(s.primitive)) {
-                if let Some(p) = spec.product {
-                    let _ = later.push(DataProduct {
-                        size_bytes: self.volumes.scale(spec.kind, p.size_bytes),
-                        value: p.value,
-                        created_at: MissionTimeUs(end),
-                        tier: p.tier,
-                    });
-                }
-            }
-        }
-        let now = self.now.0;
-        let window_end = self
-            .timeline
-            .earth
-            .windows
-            .windows()
-            .iter()
-            .find(|w| w.start.0 <= now && now < w.end.0)
-            .map_or(u64::MAX, |w| w.end.0);
-        let sol = comms.sol_of(now);
-        let spent = if self.comm_spent.0 == sol {
-            self.comm_spent
-        } else {
-            (sol, 0)
-        };
-        let duration = next_downlink(
-            &comms,
-            &self.onboard,
-            &later,
-            now,
-            step.duration_us,
-            window_end,
-            &downlinks,
-            spent,
-            &mut self.payload,
-        );
-        if let Some(s) = self.steps.get_mut(self.cursor) {
-            if duration != s.duration_us && s.duration_us > 0 {
-                s.energy_mj = u64::try_from(
-                    u128::from(s.energy_mj) * u128::from(duration) / u128::from(s.duration_us),
-                )
-                .unwrap_or(MAX_ENERGY_MJ)
-                .min(MAX_ENERGY_MJ);
-                s.duration_us = duration;
-            }
-        }
-        let tx = duration
-            .saturating_sub(comms.overhead_us)
-            .min(comms.max_transmit_us());
-        let mj = u64::try_from(u128::from(tx) * u128::from(comms.radio_power_mw) / 1_000_000)
-            .unwrap_or(u64::MAX);
-        self.comm_spent = (sol, spent.1.saturating_add(mj));
-    }
-
     /// Runs the search within `budget`; true when the plan is installed (or planning failed).
     pub(super) fn continue_planning(&mut self, budget: u32) -> bool {
         let mut timeline = self.timeline.clone();
@@ -348,9 +268,22 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                     science: &self.science,
                     refused: 0,
                 };
-                let step = self
-                    .search
-                    .step(&self.network, &mut placement, budget.max(1));
+                // The call's budget covers `budget` explorations and at most `budget`
+                // downlink-manager checks (at least one exploration): a backlog downlink's
+                // exploration solves up to four problems, so calls of such explorations would
+                // otherwise cost several times the calls before them, and the planner
+                // partition, which sizes a call by the costliest so far, overran its window
+                // (ELAP 2's Discovery replan). The search resumes exactly: the plan is the same
+                // however the calls are cut.
+                let budget = budget.max(1);
+                let mut used = 0u32;
+                let step = loop {
+                    let s = self.search.step(&self.network, &mut placement, 1);
+                    used = used.saturating_add(s.used.max(1));
+                    if s.done || used >= budget || placement.inner.stats.checks >= budget {
+                        break s;
+                    }
+                };
                 let d = placement.inner.stats;
                 let t = &mut self.data_stats;
                 t.checks = t.checks.saturating_add(d.checks);

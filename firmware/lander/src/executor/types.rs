@@ -147,7 +147,8 @@ pub enum Directive {
     Wait { until: MissionTimeUs },
     /// Task push: the due primitive waits for its preconditions until `deadline`.
     Pushing { deadline: MissionTimeUs },
-    /// The search is running; call again with more budget.
+    /// The search is running, or (with [`Reason::DataVolume`]) the downlink due now is being
+    /// sized before its dispatch; call again with more budget.
     Planning { reason: Reason },
     /// Halted: waiting for ground input.
     HaltedForGround { reason: Reason },
