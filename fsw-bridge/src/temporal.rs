@@ -442,6 +442,35 @@ pub enum RoverReport {
     },
     /// The answer to Close is complete.
     Closed,
+    /// After a reset of the planner partition, the mission was taken up again from its
+    /// checkpoint: the state after the first `events` events it took (the host sends the
+    /// others again), the last of them at `last_ms`. Appended.
+    Resumed {
+        events: u32,
+        last_ms: u32,
+    },
+    /// After a reset, a checkpoint of a mission was found but refused (nothing flies). Appended.
+    NotResumed {
+        reason: RoverResumeRefusal,
+    },
+}
+
+/// Why the checkpoint of a rover mission was not taken up after a reset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RoverResumeRefusal {
+    /// A record of another format version (`found`).
+    Version { found: u32 },
+    /// A record's length is beyond its slot.
+    BadLength,
+    /// A record's CRC-32 does not match its words.
+    BadCrc,
+    /// The mission's task in the task buffer is not the one the record was made with (its
+    /// CRC-32, or it no longer validates).
+    TaskChanged,
+    /// The plan record the state names is not whole.
+    PlanMissing,
+    /// A field beyond a capacity or the task (a phase, a count, an action, a step).
+    OutOfRange,
 }
 
 impl RoverReport {
@@ -462,6 +491,8 @@ impl RoverReport {
                 | RoverReport::InactiveTaken { .. }
                 | RoverReport::ExpectedTaken { .. }
                 | RoverReport::Closed
+                | RoverReport::Resumed { .. }
+                | RoverReport::NotResumed { .. }
         )
     }
 }

@@ -483,14 +483,61 @@ impl EmulatedPlanner {
         self.rover_frames(job, max_frames)
     }
 
+    /// [`Self::rover_event`] with a warm reset armed in granted frame `after` of its answer,
+    /// landing once the planner partition has run `ticks` ticks of CPU in it
+    /// (`ResetKind::PlannerAfterTicks`): None when it landed (what came of the answer before
+    /// it is void).
+    pub fn rover_event_with_reset(
+        &mut self,
+        job: u16,
+        event: fsw_bridge::temporal::RoverEvent,
+        reset: Option<(u32, u32)>,
+        max_frames: u32,
+    ) -> Result<Option<Vec<fsw_bridge::temporal::RoverReport>>, EmulatedError> {
+        self.link
+            .send(HostToTarget::Rover { job, event })
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        let resets = self.resets;
+        let answer = self.rover_frames_resetting(job, max_frames, reset)?;
+        if self.resets != resets {
+            self.rover_reports.clear();
+            return Ok(None);
+        }
+        Ok(Some(answer))
+    }
+
+    /// Frames until the rover mission's next last answer (after a reset: its `Resumed`).
+    pub fn rover_answer(
+        &mut self,
+        job: u16,
+        max_frames: u32,
+    ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        self.rover_frames(job, max_frames)
+    }
+
     /// The rover mission's reports, frame after frame, up to the last answer to an event.
     fn rover_frames(
         &mut self,
         job: u16,
         max_frames: u32,
     ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        self.rover_frames_resetting(job, max_frames, None)
+    }
+
+    /// [`Self::rover_frames`], with a warm reset armed before frame `reset.0` (it ends the
+    /// wait when it lands).
+    fn rover_frames_resetting(
+        &mut self,
+        job: u16,
+        max_frames: u32,
+        reset: Option<(u32, u32)>,
+    ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        let resets = self.resets;
         let mut frames = 0;
         loop {
+            if self.resets != resets {
+                return Ok(Vec::new());
+            }
             if let Some(last) = self
                 .rover_reports
                 .iter()
@@ -505,7 +552,8 @@ impl EmulatedPlanner {
                 )));
             }
             let mut got = Collected::default();
-            self.grant_one(job, &mut got, None)?;
+            let arm = reset.filter(|r| r.0 == frames).map(|r| r.1);
+            self.grant_one(job, &mut got, arm)?;
             self.health_events.append(&mut got.health);
             frames += 1;
         }

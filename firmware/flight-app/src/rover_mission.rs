@@ -17,9 +17,15 @@
 //! scratch of `network_from_plan`), zero-filled in place at the first `Start` (every field is an
 //! integer, a bool or an array of them, so all-zero bytes are a valid, idle mission): a
 //! partition (re)start costs nothing for it. Capacities are the named constants below; an
-//! event beyond them is refused ([`RoverRefusal::Capacity`]), never a panic. A mission does not
-//! survive a reset of the partition (the host starts it again).
+//! event beyond them is refused ([`RoverRefusal::Capacity`]), never a panic.
+//!
+//! A mission survives a reset of the partition: before it takes each event it checkpoints the
+//! state the last one left ([`checkpoint`]), and after a (re)start the plug-in takes it up
+//! again from there.
 #![deny(clippy::indexing_slicing)]
+
+#[path = "rover_checkpoint.rs"]
+pub mod checkpoint;
 
 use fsw_bridge::temporal::{
     RoverRefusal, RoverReplanWhy, RoverReport, RoverStartKind, TemporalOutcome,
@@ -129,6 +135,15 @@ pub struct RoverMission {
     /// The CPU of the current attempt's replan task, and its length.
     build_ticks: u32,
     replan_len: usize,
+    /// The task's CRC-32, its fact words and numeric variables (for the checkpoint).
+    task_crc: u32,
+    fact_words: u16,
+    numerics: u16,
+    /// Events taken since the task was accepted.
+    events: u32,
+    /// Plans made (the network's generation), and the checkpoint's bookkeeping.
+    plan_gen: u32,
+    saved: checkpoint::Saved,
 }
 
 /// The mission's inputs each time it runs: the task buffer, the plan buffer, the CPU clock.
@@ -184,6 +199,12 @@ impl RoverMission {
             inactive: [0; MAX_ROVER_FACT_WORDS],
             build_ticks: 0,
             replan_len: 0,
+            task_crc: 0,
+            fact_words: 0,
+            numerics: 0,
+            events: 0,
+            plan_gen: 0,
+            saved: checkpoint::Saved::NONE,
         })
     }
 
@@ -205,6 +226,9 @@ impl RoverMission {
         self.waited = false;
         self.held = false;
         self.inactive.iter_mut().for_each(|w| *w = 0);
+        self.events = 0;
+        self.plan_gen = 0;
+        self.saved = checkpoint::Saved::NONE;
     }
 
     /// The job whose task the armed mission waits for.
@@ -215,6 +239,37 @@ impl RoverMission {
     /// The job of the mission flying (any phase but idle).
     pub fn job(&self) -> Option<u16> {
         (self.phase != IDLE).then_some(self.job)
+    }
+
+    /// Back to an idle mission (what a refused checkpoint leaves).
+    fn reset_idle(&mut self) {
+        self.phase = IDLE;
+        self.running_len = 0;
+        self.arrived_len = 0;
+        self.carried_len = 0;
+        self.has_plan = false;
+        self.waited = false;
+        self.held = false;
+        self.events = 0;
+        self.plan_gen = 0;
+        self.saved = checkpoint::Saved::NONE;
+        self.dispatcher.network_mut().clear();
+    }
+
+    /// An event is taken (after the checkpoint of the state before it).
+    pub fn took_event(&mut self) {
+        self.events = self.events.saturating_add(1);
+    }
+
+    /// Whether a mission is flying whose state a checkpoint should keep (its task accepted,
+    /// not planning).
+    pub fn checkpointable(&self) -> bool {
+        matches!(self.phase, READY | FLYING | STOPPED)
+    }
+
+    /// The time of the last event taken.
+    pub fn last_ms(&self) -> u32 {
+        self.last_ms
     }
 
     /// Whether an attempt is being planned.
@@ -250,6 +305,9 @@ impl RoverMission {
         }
         self.task_at = task_at;
         self.task_len = task_len;
+        self.task_crc = checkpoint::crc32(bytes);
+        self.fact_words = replan::fact_words(&task) as u16;
+        self.numerics = task.numeric_count() as u16;
         self.phase = READY;
         RoverReport::Ready {
             facts: sat(task.fact_count() as u64),
@@ -862,6 +920,7 @@ impl RoverMission {
         });
         self.has_plan = true;
         self.epoch = t;
+        self.plan_gen = self.plan_gen.wrapping_add(1);
         self.phase = FLYING;
         RoverNext::Answered
     }

@@ -79,6 +79,7 @@ use sdls::temporal::TemporalMac;
 use temporal::{PlannedAction, Planner, Region, Status, Task, TaskErrorKind};
 
 use super::*;
+use crate::rover_mission::checkpoint::{self as rover_checkpoint, RoverCheckpoint};
 use crate::rover_mission::{RoverCtx, RoverMission, RoverNext, ROVER_REPLAN_AT};
 
 /// Reports of the onboard rover mission waiting for room in the outbound queue (a replan with
@@ -233,6 +234,10 @@ pub struct TemporalApp<'a> {
     pub rover_reports_lost: u32,
     /// The job in progress is an attempt of the rover mission (planned, not reported).
     rover_attempt: bool,
+    /// The rover mission's checkpoint, in memory a warm reset keeps (None: not kept), and a
+    /// record found there at the (re)start, taken up in the next window.
+    rover_checkpoint: Option<&'a mut RoverCheckpoint>,
+    rover_resume: bool,
 }
 
 /// `temporal::PlannerConfig` for a job's configuration (`max_steps` held to what the plan
@@ -327,7 +332,52 @@ impl<'a> TemporalApp<'a> {
             rover_reports: heapless::Deque::new(),
             rover_reports_lost: 0,
             rover_attempt: false,
+            rover_checkpoint: None,
+            rover_resume: false,
         }
+    }
+
+    /// Keep the rover mission's checkpoint in `checkpoint` ([`crate::rover_mission::checkpoint`]):
+    /// memory a warm reset does not clear. Call [`Self::resume_rover`] after the storage is
+    /// given.
+    pub fn keep_rover_in(&mut self, checkpoint: &'a mut RoverCheckpoint) {
+        self.rover_checkpoint = Some(checkpoint);
+    }
+
+    /// After a (re)start: whether the checkpoint holds a record of a mission, which the next
+    /// window then takes up again (or refuses, saying why).
+    pub fn resume_rover(&mut self) -> bool {
+        self.rover_resume = self.storage.is_some()
+            && self.rover_memory.is_some()
+            && self
+                .rover_checkpoint
+                .as_deref()
+                .is_some_and(|c| c.holds_a_record());
+        self.rover_resume
+    }
+
+    /// The window's work of taking the mission up again from its checkpoint.
+    fn rover_resume_window(&mut self) {
+        self.rover_resume = false;
+        if self.rover.is_none() {
+            self.rover = self.rover_memory.take().map(|zeroed| zeroed());
+        }
+        let (Some(m), Some(cp), Some(storage)) = (
+            self.rover.as_deref_mut(),
+            self.rover_checkpoint.as_deref(),
+            self.storage.as_ref(),
+        ) else {
+            return;
+        };
+        let report = match rover_checkpoint::restore(m, cp, storage.task) {
+            Ok(None) => return,
+            Ok(Some(events)) => RoverReport::Resumed {
+                events,
+                last_ms: m.last_ms(),
+            },
+            Err(reason) => RoverReport::NotResumed { reason },
+        };
+        self.rover_say(report);
     }
 
     /// Memory for the onboard rover mission ([`crate::rover_mission`]): `memory` returns it
@@ -369,6 +419,9 @@ impl<'a> TemporalApp<'a> {
                 return;
             };
             m.arm(job, horizon_slack_ms, max_expansions, us_per_expansion);
+            if let Some(cp) = self.rover_checkpoint.as_deref_mut() {
+                cp.clear();
+            }
             return;
         }
         let flying = self
@@ -435,6 +488,11 @@ impl<'a> TemporalApp<'a> {
             self.rover_attempt = false;
             next
         } else {
+            // The state the last event left, before this one changes it.
+            if let Some(cp) = self.rover_checkpoint.as_deref_mut() {
+                rover_checkpoint::save(m, cp);
+            }
+            m.took_event();
             match self.rover_event.take() {
                 Some(RoverEvent::Goal { fact, at_ms }) => m.goal(&mut ctx, fact, at_ms, &mut out),
                 Some(RoverEvent::Ended { action, at_ms }) => {
@@ -449,6 +507,7 @@ impl<'a> TemporalApp<'a> {
                 Some(RoverEvent::Start { .. }) | None => RoverNext::Answered,
             }
         };
+
         if let RoverNext::Plan {
             len,
             max_expansions,
@@ -588,6 +647,12 @@ impl<'a> TemporalApp<'a> {
                 self.refuse(id, TemporalRefusal::Busy { job: flying }, downlink);
                 return;
             }
+        }
+        // A mission closed is forgotten once another job begins; until then a reset takes
+        // it up as it was before its Close (the host may not have had the answer).
+        let armed = self.rover.as_deref().and_then(|m| m.armed_for()) == Some(id);
+        if let (false, Some(cp)) = (armed, self.rover_checkpoint.as_deref_mut()) {
+            cp.clear();
         }
         self.end_job();
         self.receive_ticks = 0;
@@ -748,6 +813,9 @@ impl<'a> TemporalApp<'a> {
                     (armed, self.rover.as_deref_mut(), self.storage.as_ref())
                 {
                     let report = m.accepted(storage.task, task_at as usize, task_len as usize);
+                    if let Some(cp) = self.rover_checkpoint.as_deref_mut() {
+                        rover_checkpoint::save(m, cp);
+                    }
                     self.end_job();
                     self.rover_say(report);
                 }
@@ -1008,7 +1076,8 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn planning_pending(&self) -> bool {
-        self.rover_event.is_some()
+        self.rover_resume
+            || self.rover_event.is_some()
             || self.job.is_some_and(|j| {
                 matches!(j.phase, Phase::Planning | Phase::Verifying { .. })
                     || (self.rover_attempt && matches!(j.phase, Phase::Reporting { .. }))
@@ -1024,6 +1093,10 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn window(&mut self, w: &mut PluginWindow<'_, '_>) {
+        if self.rover_resume {
+            self.rover_resume_window();
+            return;
+        }
         if self.rover_window(w.clock) {
             return;
         }
