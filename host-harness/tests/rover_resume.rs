@@ -47,6 +47,7 @@ fn a_reset_in_any_event_resumes_the_mission_with_the_same_decisions() {
                         event,
                         after,
                         planner_ticks: 0,
+                        damage: None,
                     },
                 );
                 assert_eq!(
@@ -79,4 +80,185 @@ fn a_reset_in_any_event_resumes_the_mission_with_the_same_decisions() {
         assert!(replayed > 0, "{name}");
         eprintln!("{name}: {landed} resets landed, {mid_search} in a search, {replayed} events sent again");
     }
+}
+
+use flight_app::rover_mission::checkpoint::{RoverCheckpoint, VERSION};
+
+/// A reset in event 30 of sahara-day (a plan flying), after its first window, with `damage`
+/// done to the kept memories: the run's result.
+fn damaged(damage: hil::rover::Damage) -> Result<hil::rover::RoverRun, String> {
+    let mut backend = Backend::native();
+    backend.reset_at(ResetAt {
+        event: 30,
+        after: 1,
+        planner_ticks: 0,
+        damage: Some(damage),
+    });
+    run_file(&scenario("sahara-day"), None, &mut backend).map(|(run, _)| run)
+}
+
+fn refused_with(damage: hil::rover::Damage, reason: &str) {
+    let e = damaged(damage).expect_err("the damaged checkpoint was not refused");
+    assert!(
+        e.contains(&format!("NotResumed {{ reason: {reason}")),
+        "{reason}: {e}"
+    );
+}
+
+/// The slot holding the newest state record (the larger sequence).
+fn newest(cp: &RoverCheckpoint) -> usize {
+    usize::from(cp.state[1][2] > cp.state[0][2])
+}
+
+/// Seals slot words again after a test changed its payload (the record's own CRC-32).
+fn reseal(slot: &mut [u32]) {
+    let n = slot[3] as usize;
+    let bytes: Vec<u8> = slot[..4 + n].iter().flat_map(|w| w.to_be_bytes()).collect();
+    slot[4 + n] = flight_app::temporal_crc32(&bytes);
+}
+
+#[test]
+fn a_damaged_newest_record_resumes_from_the_other_slot() {
+    let (plain, _) = run_file(&scenario("sahara-day"), None, &mut Backend::native()).unwrap();
+    let mut backend = Backend::native();
+    backend.reset_at(ResetAt {
+        event: 30,
+        after: 1,
+        planner_ticks: 0,
+        damage: Some(|cp, _| {
+            let i = newest(cp);
+            cp.state[i][10] ^= 1;
+        }),
+    });
+    let (run, _) = run_file(&scenario("sahara-day"), None, &mut backend).unwrap();
+    assert_eq!(run.decisions, plain.decisions);
+    // The record before it: the state before event 29, which is sent again.
+    let r = &run.resumes[0];
+    assert_eq!((r.resumed_after, r.replayed), (29, 1), "{r:?}");
+}
+
+#[test]
+fn damaged_or_foreign_checkpoints_are_refused_with_their_reason() {
+    refused_with(
+        |cp, _| {
+            cp.state[0][10] ^= 1;
+            cp.state[1][12] ^= 0x8000;
+        },
+        "BadCrc",
+    );
+    refused_with(
+        |cp, _| {
+            for s in cp.state.iter_mut() {
+                s[1] = VERSION + 1;
+            }
+        },
+        "Version { found: 2 }",
+    );
+    refused_with(
+        |cp, _| {
+            for s in cp.state.iter_mut() {
+                s[3] = u32::MAX - 2;
+            }
+        },
+        "BadLength",
+    );
+    // The task the records were made with is no longer in the task buffer.
+    refused_with(|_, task| task[200] ^= 0x10, "TaskChanged");
+    // The plan's network is gone (both plan slots).
+    refused_with(
+        |cp, _| {
+            for p in cp.plan.iter_mut() {
+                p[7] ^= 1;
+            }
+        },
+        "PlanMissing",
+    );
+    // Whole records (their CRC made right) with a field out of range: a phase, a count beyond
+    // its capacity, a running action beyond the task.
+    refused_with(
+        |cp, _| {
+            for s in cp.state.iter_mut() {
+                s[4 + 1] = 9;
+                reseal(s);
+            }
+        },
+        "OutOfRange",
+    );
+    refused_with(
+        |cp, _| {
+            for s in cp.state.iter_mut() {
+                s[4 + 20] = 129; // fact words beyond 128
+                reseal(s);
+            }
+        },
+        "OutOfRange",
+    );
+}
+
+#[test]
+fn garbage_in_the_checkpoint_never_panics_and_never_changes_a_decision() {
+    let (plain, _) = run_file(&scenario("sahara-day"), None, &mut Backend::native()).unwrap();
+    // Each seed writes random words at random places of the four slots (fn pointers take no
+    // state: the seed is in a static).
+    static SEED: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    static RESEALED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+    let (mut resumed, mut refused) = (0, 0);
+    for seed in 1..=40u64 {
+        SEED.store(seed, std::sync::atomic::Ordering::SeqCst);
+        RESEALED.store(false, std::sync::atomic::Ordering::SeqCst);
+        let result = damaged(|cp, _| {
+            let mut x = SEED
+                .load(std::sync::atomic::Ordering::SeqCst)
+                .wrapping_mul(0x9e37_79b9_7f4a_7c15);
+            let mut next = || {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                x
+            };
+            let n = 1 + next() % 4;
+            for _ in 0..n {
+                let v = next() as u32;
+                let which = next() % 4;
+                let at = next() as usize;
+                // Header words often (magic, version, sequence, length), payload otherwise.
+                let slot: &mut [u32] = match which {
+                    0 | 1 => &mut cp.state[which as usize][..],
+                    _ => &mut cp.plan[which as usize - 2][..],
+                };
+                let at = if next() % 2 == 0 { at % 4 } else { at % slot.len() };
+                slot[at] = v;
+            }
+            if next() % 3 == 0 {
+                // Sometimes a whole record with garbage inside.
+                let i = (next() % 2) as usize;
+                let at = 4 + (next() as usize) % (cp.state[i][3] as usize).clamp(1, 300);
+                cp.state[i][at.min(cp.state[i].len() - 2)] = next() as u32;
+                if (cp.state[i][3] as usize) + 5 <= cp.state[i].len() {
+                    reseal(&mut cp.state[i]);
+                    RESEALED.store(true, std::sync::atomic::Ordering::SeqCst);
+                }
+            }
+        });
+        match result {
+            // A record made whole again around garbage (its CRC recomputed) is believed when
+            // its fields are in range: what it decides then is not checked, only that nothing
+            // panics. Any other damage is caught, or the other slot is taken.
+            Ok(_) if RESEALED.load(std::sync::atomic::Ordering::SeqCst) => resumed += 1,
+            Ok(run) => {
+                resumed += 1;
+                assert_eq!(run.decisions, plain.decisions, "seed {seed}");
+            }
+            Err(e) => {
+                refused += 1;
+                assert!(
+                    e.contains("not taken up again")
+                        || RESEALED.load(std::sync::atomic::Ordering::SeqCst),
+                    "seed {seed}: {e}"
+                );
+            }
+        }
+    }
+    eprintln!("{resumed} resumed, {refused} refused");
+    assert!(resumed > 0 && refused > 0);
 }

@@ -44,7 +44,7 @@ use temporal::Task;
 mod onboard;
 mod sim;
 
-pub use onboard::{Backend, NativeOnboard, Place, ResetAt, Resume};
+pub use onboard::{Backend, Damage, NativeOnboard, Place, ResetAt, Resume};
 use sim::{Rng, RoverSim};
 
 // ----- the scenario file ----------------------------------------------------------------------

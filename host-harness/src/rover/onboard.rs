@@ -42,12 +42,18 @@ pub struct Backend {
 /// natively), once the planner partition has run `planner_ticks` ticks of CPU in that frame
 /// (emulated: a warm reset, `ResetKind::PlannerAfterTicks`; natively the plug-in is made anew
 /// over the same memories, as the partition's restart does).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug)]
 pub struct ResetAt {
     pub event: usize,
     pub after: u32,
     pub planner_ticks: u32,
+    /// Natively only (tests): damage the memories the reset keeps (the rover checkpoint, the
+    /// task buffer) before the restart.
+    pub damage: Option<Damage>,
 }
+
+/// What a test does to the memories a reset keeps: the rover checkpoint and the task buffer.
+pub type Damage = fn(&mut RoverCheckpoint, &mut [u8]);
 
 /// A reset that landed and the mission's resumption.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
@@ -125,7 +131,7 @@ impl Backend {
         reset: Option<ResetAt>,
     ) -> Result<Option<Vec<RoverReport>>, String> {
         match &mut self.place {
-            Place::Native(n) => n.event_with_reset(job, event, reset.map(|r| r.after)),
+            Place::Native(n) => n.event_with_reset(job, event, reset.map(|r| (r.after, r.damage))),
             Place::Emulated(e) => e
                 .rover_event_with_reset(
                     job,
@@ -288,6 +294,17 @@ impl NativeOnboard {
     /// does: the task buffer, the arena, the rover checkpoint and the security area are kept;
     /// the rover mission's memory is not (a restart takes the mission up from its checkpoint).
     pub fn restart(&mut self) {
+        self.restart_damaged(None)
+    }
+
+    /// [`Self::restart`], with `damage` done to the memories it keeps in between.
+    pub fn restart_damaged(&mut self, damage: Option<Damage>) {
+        // The old plug-in goes first: it held the only references into the memories.
+        self.app = TemporalApp::new(&mut []);
+        if let Some(damage) = damage {
+            // SAFETY: no plug-in refers to the memories now; they are leaked (live on).
+            unsafe { damage(&mut *self.checkpoint, &mut *self.task) };
+        }
         let plan =
             Box::leak(vec![PlannedAction::default(); MAX_TEMPORAL_PLAN_ACTIONS].into_boxed_slice());
         self.app = TemporalApp::new(plan);
@@ -330,7 +347,7 @@ impl NativeOnboard {
     fn exchange_until(
         &mut self,
         msgs: &[HostToTarget],
-        reset_after: Option<u32>,
+        reset_after: Option<(u32, Option<Damage>)>,
     ) -> Result<Option<Vec<RoverReport>>, String> {
         let mut windows = 0u32;
         let mut out: Vec<TargetToHost> = Vec::new();
@@ -359,8 +376,8 @@ impl NativeOnboard {
             if let Some(r) = refused {
                 return Err(format!("the plug-in refused the task: {r}"));
             }
-            if reset_after == Some(windows) {
-                self.restart();
+            if let Some((_, damage)) = reset_after.filter(|r| r.0 == windows) {
+                self.restart_damaged(damage);
                 return Ok(None);
             }
             if reports.last().is_some_and(RoverReport::is_last) {
@@ -409,7 +426,7 @@ impl NativeOnboard {
         &mut self,
         job: u16,
         event: RoverEvent,
-        reset_after: Option<u32>,
+        reset_after: Option<(u32, Option<Damage>)>,
     ) -> Result<Option<Vec<RoverReport>>, String> {
         self.exchange_until(&[HostToTarget::Rover { job, event }], reset_after)
     }
