@@ -67,6 +67,8 @@ const FLYING: u8 = 3;
 const PLANNING: u8 = 4;
 /// No plan came: only `Close` is taken.
 const STOPPED: u8 = 5;
+/// A plan came: its dispatch network is being built, a piece per window.
+const NETWORK: u8 = 6;
 
 /// A running action on the rover, as the mission knows it.
 #[derive(Clone, Copy, Debug, Default)]
@@ -86,6 +88,9 @@ pub enum RoverNext {
     Answered,
     /// Plan the replan task of `len` bytes at [`ROVER_REPLAN_AT`] with `max_expansions`.
     Plan { len: usize, max_expansions: u32 },
+    /// The plan's network is being built: the next piece in the next window
+    /// ([`RoverMission::network_piece`]), with the plan still in the plug-in's plan buffer.
+    Building,
 }
 
 /// The onboard mission: see the module's documentation.
@@ -144,12 +149,22 @@ pub struct RoverMission {
     /// Plans made (the network's generation), and the checkpoint's bookkeeping.
     plan_gen: u32,
     saved: checkpoint::Saved,
+    /// The network being built (phase NETWORK): the plan's length (in the plug-in's plan
+    /// buffer), how far the steps are, the costliest step so far, the CPU so far.
+    plan_len: usize,
+    progress: replan::NetworkProgress,
+    step_most: u64,
+    network_ticks: u64,
 }
 
 /// The mission's inputs each time it runs: the task buffer, the plan buffer, the CPU clock.
 pub struct RoverCtx<'c> {
     pub task_buffer: &'c mut [u8],
     pub clock: &'c mut dyn crate::CpuClock,
+    /// The window's share and its end (`PluginWindow`'s; None: no limit): a plan's network is
+    /// built in pieces within them ([`crate::piece_fits`]).
+    pub until: Option<u64>,
+    pub hard_until: Option<u64>,
 }
 
 fn sat(v: u64) -> u32 {
@@ -205,6 +220,10 @@ impl RoverMission {
             events: 0,
             plan_gen: 0,
             saved: checkpoint::Saved::NONE,
+            plan_len: 0,
+            progress: replan::NetworkProgress { next: 0, total: 0 },
+            step_most: 0,
+            network_ticks: 0,
         })
     }
 
@@ -272,9 +291,15 @@ impl RoverMission {
         self.last_ms
     }
 
-    /// Whether an attempt is being planned.
+    /// Whether an attempt is being planned, or its plan's network built.
     pub fn planning(&self) -> bool {
-        self.phase == PLANNING
+        matches!(self.phase, PLANNING | NETWORK)
+    }
+
+    /// Whether a plan's network is being built (the next piece waits for a window), and the
+    /// plan's length in the plug-in's plan buffer.
+    pub fn building(&self) -> Option<usize> {
+        (self.phase == NETWORK).then_some(self.plan_len)
     }
 
     /// The armed mission's task was accepted at `task_at`, `task_len` bytes of `buffer`.
@@ -848,7 +873,6 @@ impl RoverMission {
             };
         }
         let t0 = ctx.clock.ticks();
-        let t = self.replan_at;
         let Some(new_task) = ctx
             .task_buffer
             .get(ROVER_REPLAN_AT..ROVER_REPLAN_AT.saturating_add(self.replan_len))
@@ -858,19 +882,95 @@ impl RoverMission {
             return Self::refuse(out, RoverRefusal::BadTask);
         };
         let net = self.dispatcher.network_mut();
-        net.clear();
-        let built = replan::network_from_plan(&new_task, plan, true, &mut self.scratch, net);
-        let makespan_net = net.makespan;
-        if built.is_err()
-            || self
-                .dispatcher
-                .restart(makespan_net.saturating_add(self.horizon_slack))
-                .is_err()
+        let Ok(progress) = replan::network_from_plan_begin(&new_task, plan, &mut self.scratch, net)
+        else {
+            self.phase = STOPPED;
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        let _ = makespan;
+        self.progress = progress;
+        self.plan_len = plan.len();
+        self.step_most = 0;
+        self.network_ticks = u64::from(sat(ctx.clock.ticks().wrapping_sub(t0)));
+        self.phase = NETWORK;
+        self.network_piece(ctx, plan, out)
+    }
+
+    /// A window's piece of the plan's network (phase NETWORK): its steps in time order, each
+    /// with the constraints into it, while the costliest step so far fits the window's share
+    /// (the first of a window always runs); then the dispatcher's first windows and the new
+    /// plan's reports, in the piece after the last step if the share still holds one, else in
+    /// the next window's. The network is `network_from_plan`'s whatever the pieces.
+    pub fn network_piece(
+        &mut self,
+        ctx: &mut RoverCtx<'_>,
+        plan: &[PlannedAction],
+        out: &mut dyn FnMut(RoverReport),
+    ) -> RoverNext {
+        if self.phase != NETWORK || plan.len() != self.plan_len {
+            self.phase = STOPPED;
+            return Self::refuse(out, RoverRefusal::BadTask);
+        }
+        let t0 = ctx.clock.ticks();
+        let Some(new_task) = ctx
+            .task_buffer
+            .get(ROVER_REPLAN_AT..ROVER_REPLAN_AT.saturating_add(self.replan_len))
+            .and_then(|b| Task::parse(b).ok())
+        else {
+            self.phase = STOPPED;
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        let (until, hard_until) = (ctx.until, ctx.hard_until);
+        let clock = &mut *ctx.clock;
+        let mut last = clock.ticks();
+        let mut most = self.step_most;
+        let mut fits = || {
+            let now = clock.ticks();
+            most = most.max(now.wrapping_sub(last));
+            last = now;
+            until.map_or(true, |u| crate::piece_fits(now, most, false, false, u, hard_until))
+        };
+        let steps_done = if self.progress.next < self.progress.total {
+            let net = self.dispatcher.network_mut();
+            match replan::network_from_plan_steps(
+                &new_task,
+                plan,
+                true,
+                &mut self.scratch,
+                net,
+                &mut self.progress,
+                &mut fits,
+            ) {
+                Ok(done) => done && fits(),
+                Err(_) => {
+                    self.phase = STOPPED;
+                    return Self::refuse(out, RoverRefusal::BadTask);
+                }
+            }
+        } else {
+            true
+        };
+        self.step_most = most;
+        if !steps_done {
+            self.network_ticks = self
+                .network_ticks
+                .saturating_add(ctx.clock.ticks().wrapping_sub(t0));
+            return RoverNext::Building;
+        }
+        let Some(task) = self.task(ctx.task_buffer) else {
+            self.phase = STOPPED;
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        let t = self.replan_at;
+        let makespan_net = self.dispatcher.network().makespan;
+        if self
+            .dispatcher
+            .restart(makespan_net.saturating_add(self.horizon_slack))
+            .is_err()
         {
             self.phase = STOPPED;
             return Self::refuse(out, RoverRefusal::BadTask);
         }
-        let _ = makespan;
         let steps = self.dispatcher.network().step_count();
         for k in 0..=steps {
             if let Some(p) = self.planned.get_mut(k) {
@@ -894,7 +994,9 @@ impl RoverMission {
             }
         }
         // Steps of actions still running that the new network does not have.
-        let network_ticks = sat(ctx.clock.ticks().wrapping_sub(t0));
+        let network_ticks = sat(self
+            .network_ticks
+            .saturating_add(ctx.clock.ticks().wrapping_sub(t0)));
         out(RoverReport::NewPlan {
             actions: plan.len() as u16,
             makespan_ms: makespan_net,

@@ -446,12 +446,18 @@ impl<'a> TemporalApp<'a> {
 
     /// A window's work of the rover mission: an attempt's end, or the event waiting. True if
     /// there was some.
-    fn rover_window(&mut self, clock: &mut dyn CpuClock) -> bool {
+    fn rover_window(
+        &mut self,
+        clock: &mut dyn CpuClock,
+        until: Option<u64>,
+        hard_until: Option<u64>,
+    ) -> bool {
         let attempt_over = self.rover_attempt
             && self
                 .job
                 .is_some_and(|j| matches!(j.phase, Phase::Reporting { .. }));
-        if !attempt_over && self.rover_event.is_none() {
+        let building = self.rover.as_deref().and_then(|m| m.building());
+        if !attempt_over && building.is_none() && self.rover_event.is_none() {
             return false;
         }
         let (Some(m), Some(storage)) = (self.rover.as_deref_mut(), self.storage.as_mut()) else {
@@ -467,8 +473,13 @@ impl<'a> TemporalApp<'a> {
         let mut ctx = RoverCtx {
             task_buffer: &mut *storage.task,
             clock,
+            until,
+            hard_until,
         };
-        let next = if attempt_over {
+        let next = if let Some(plan_len) = building {
+            let plan = self.plan.get(..plan_len).unwrap_or_default();
+            m.network_piece(&mut ctx, plan, &mut out)
+        } else if attempt_over {
             let Some(job) = self.job else {
                 return false;
             };
@@ -1078,6 +1089,7 @@ impl PlannerPlugin for TemporalApp<'_> {
     fn planning_pending(&self) -> bool {
         self.rover_resume
             || self.rover_event.is_some()
+            || self.rover.as_deref().is_some_and(|m| m.building().is_some())
             || self.job.is_some_and(|j| {
                 matches!(j.phase, Phase::Planning | Phase::Verifying { .. })
                     || (self.rover_attempt && matches!(j.phase, Phase::Reporting { .. }))
@@ -1097,7 +1109,7 @@ impl PlannerPlugin for TemporalApp<'_> {
             self.rover_resume_window();
             return;
         }
-        if self.rover_window(w.clock) {
+        if self.rover_window(w.clock, w.until, w.hard_until) {
             return;
         }
         if self
