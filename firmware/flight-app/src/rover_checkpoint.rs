@@ -493,6 +493,7 @@ fn decode(
         return Err(TaskChanged);
     }
     let task = Task::parse(bytes).map_err(|_| TaskChanged)?;
+    m.task_layout = task.layout();
     let events = g.get()?;
     let last_ms = g.get()?;
     let has_plan = g.flag()?;

@@ -33,6 +33,7 @@ use fsw_bridge::temporal::{
 use temporal::dispatch::{Decision, Dispatcher, MAX_DISPATCH_STEPS};
 use temporal::replan::{self, Carried, ReplanInput};
 use temporal::task::UNBOUNDED;
+use temporal::task::TaskLayout;
 use temporal::{PlannedAction, Task};
 
 /// Where each attempt's replan task goes in the task buffer (the mission's own task, secured,
@@ -155,6 +156,11 @@ pub struct RoverMission {
     progress: replan::NetworkProgress,
     step_most: u64,
     network_ticks: u64,
+    /// Where the mission's task and the current attempt's replan task were validated: each is
+    /// taken up again from its layout, not validated at every event (the task buffer holds
+    /// them unchanged: nothing writes it while the mission flies).
+    task_layout: TaskLayout,
+    replan_layout: TaskLayout,
 }
 
 /// The mission's inputs each time it runs: the task buffer, the plan buffer, the CPU clock.
@@ -224,6 +230,8 @@ impl RoverMission {
             progress: replan::NetworkProgress { next: 0, total: 0 },
             step_most: 0,
             network_ticks: 0,
+            task_layout: TaskLayout::default(),
+            replan_layout: TaskLayout::default(),
         })
     }
 
@@ -331,6 +339,7 @@ impl RoverMission {
         self.task_at = task_at;
         self.task_len = task_len;
         self.task_crc = checkpoint::crc32(bytes);
+        self.task_layout = task.layout();
         self.fact_words = replan::fact_words(&task) as u16;
         self.numerics = task.numeric_count() as u16;
         self.phase = READY;
@@ -342,7 +351,7 @@ impl RoverMission {
 
     fn task<'b>(&self, buffer: &'b [u8]) -> Option<Task<'b>> {
         let bytes = buffer.get(self.task_at..self.task_at.saturating_add(self.task_len))?;
-        Task::parse(bytes).ok()
+        Task::from_layout(bytes, &self.task_layout)
     }
 
     /// The event's time is not before the last one's.
@@ -784,7 +793,7 @@ impl RoverMission {
             .split_at_mut(ROVER_REPLAN_AT.min(ctx.task_buffer.len()));
         let Some(task) = base
             .get(self.task_at..self.task_at.saturating_add(self.task_len))
-            .and_then(|b| Task::parse(b).ok())
+            .and_then(|b| Task::from_layout(b, &self.task_layout))
         else {
             self.phase = STOPPED;
             return Self::refuse(out, RoverRefusal::BadTask);
@@ -828,6 +837,7 @@ impl RoverMission {
         planning_ticks: u64,
         plan: &[PlannedAction],
         makespan: u32,
+        replan_layout: Option<TaskLayout>,
         out: &mut dyn FnMut(RoverReport),
     ) -> RoverNext {
         if self.phase != PLANNING {
@@ -873,14 +883,20 @@ impl RoverMission {
             };
         }
         let t0 = ctx.clock.ticks();
-        let Some(new_task) = ctx
+        // The replan task as the search validated it (its layout), or validated here.
+        let bytes = ctx
             .task_buffer
             .get(ROVER_REPLAN_AT..ROVER_REPLAN_AT.saturating_add(self.replan_len))
-            .and_then(|b| Task::parse(b).ok())
-        else {
+            .unwrap_or_default();
+        let new_task = match replan_layout.and_then(|l| Task::from_layout(bytes, &l)) {
+            Some(t) => Some(t),
+            None => Task::parse(bytes).ok(),
+        };
+        let Some(new_task) = new_task else {
             self.phase = STOPPED;
             return Self::refuse(out, RoverRefusal::BadTask);
         };
+        self.replan_layout = new_task.layout();
         let net = self.dispatcher.network_mut();
         let Ok(progress) = replan::network_from_plan_begin(&new_task, plan, &mut self.scratch, net)
         else {
@@ -915,7 +931,7 @@ impl RoverMission {
         let Some(new_task) = ctx
             .task_buffer
             .get(ROVER_REPLAN_AT..ROVER_REPLAN_AT.saturating_add(self.replan_len))
-            .and_then(|b| Task::parse(b).ok())
+            .and_then(|b| Task::from_layout(b, &self.replan_layout))
         else {
             self.phase = STOPPED;
             return Self::refuse(out, RoverRefusal::BadTask);

@@ -238,6 +238,8 @@ pub struct TemporalApp<'a> {
     /// record found there at the (re)start, taken up in the next window.
     rover_checkpoint: Option<&'a mut RoverCheckpoint>,
     rover_resume: bool,
+    /// The layout of the rover attempt's replan task, as its search validated it.
+    rover_replan_layout: Option<temporal::task::TaskLayout>,
 }
 
 /// `temporal::PlannerConfig` for a job's configuration (`max_steps` held to what the plan
@@ -334,6 +336,7 @@ impl<'a> TemporalApp<'a> {
             rover_attempt: false,
             rover_checkpoint: None,
             rover_resume: false,
+            rover_replan_layout: None,
         }
     }
 
@@ -492,6 +495,7 @@ impl<'a> TemporalApp<'a> {
                 job.spent_ticks,
                 plan,
                 job.makespan,
+                self.rover_replan_layout.take(),
                 &mut out,
             );
             self.planner = None;
@@ -1047,6 +1051,7 @@ impl<'a> TemporalApp<'a> {
         // A rover mission's attempt gives its storage back: the mission reads the task buffer
         // in the next window.
         if self.rover_attempt {
+            self.rover_replan_layout = self.planner.as_ref().map(|p| p.task().layout());
             self.planner = None;
         }
     }
