@@ -14,7 +14,8 @@
 //! (its decrementer-counted CPU time, the same run to run), and the guest instructions that
 //! makes under `-icount shift=2` (4 ns each, 15.06 per 16.6 MHz tick). Never host time.
 use fsw_bridge::temporal::{
-    TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalReport, TEMPORAL_CHUNK_MAX,
+    RoverReport, TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalReport,
+    TEMPORAL_CHUNK_MAX,
 };
 use fsw_bridge::{HostToTarget, MissionTimeUs, ResetKind, TargetToHost};
 
@@ -553,8 +554,37 @@ impl EmulatedPlanner {
             }
             let mut got = Collected::default();
             let arm = reset.filter(|r| r.0 == frames).map(|r| r.1);
+            let searching_before = self.rover_reports.last().is_some_and(|r| {
+                matches!(
+                    r,
+                    RoverReport::Replan { .. }
+                        | RoverReport::Paused { .. }
+                        | RoverReport::Carried { .. }
+                        | RoverReport::AttemptGoal { .. }
+                        | RoverReport::Dropped { .. }
+                )
+            });
             self.grant_one(job, &mut got, arm)?;
-            self.health_events.append(&mut got.health);
+            // A health event in a frame of a planning attempt's search (after its replan task
+            // was built, before a frame that brings its Attempt) is the search's (an expansion
+            // or a set-up piece that did not fit the window), not the mission's.
+            let searching = searching_before
+                && !got.all.iter().any(|r| {
+                    matches!(
+                        r,
+                        TemporalReport::Rover {
+                            report: RoverReport::Attempt { .. },
+                            ..
+                        }
+                    )
+                });
+            for h in got.health.drain(..) {
+                self.health_events.push(if searching {
+                    format!("{h} (in a planning attempt's search)")
+                } else {
+                    h
+                });
+            }
             frames += 1;
         }
     }

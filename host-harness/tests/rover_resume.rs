@@ -27,18 +27,21 @@ fn a_reset_in_any_event_resumes_the_mission_with_the_same_decisions() {
     for name in ["sahara-day", "field-trial"] {
         let (plain, _) = run_file(&scenario(name), None, &mut Backend::native()).unwrap();
         assert!(plain.resumes.is_empty());
-        // The events of the run: every one of them gets a reset, before it is taken (after 0
-        // windows) and after its first window (a replan's search has started then).
-        let events = plain.reports_received; // more than the events: the loop ends on the last
-        let mut landed = 0;
-        let mut replayed = 0;
-        let mut mid_search = 0;
+        // More than the events (reports are more): a reset armed past the last event never
+        // lands.
+        let events = plain.reports_received;
+        let (mut landed, mut replayed, mut late) = (0, 0, 0);
         for event in 0..events {
+            // Natively an answer takes a window to take the event, then (a replan) one for
+            // the search, one for the attempt's end and the network's steps, one for the
+            // dispatcher's windows: a reset after 0 windows comes before the mission took the
+            // event, after 1 once it took it, after 2 or 3 only in a replan's answer.
             // field-trial's searches are long (2,500 expansions): fewer points there.
-            let afters: &[u32] = if name == "sahara-day" || event % 4 == 0 {
-                &[0, 1, 3]
-            } else {
-                &[1]
+            let afters: &[u32] = match (name, event % 3) {
+                ("sahara-day", 0) => &[0, 1, 2, 3],
+                ("sahara-day", _) => &[0, 1],
+                (_, 0) => &[1, 2, 3],
+                _ => &[],
             };
             for &after in afters {
                 let run = with_reset(
@@ -61,24 +64,26 @@ fn a_reset_in_any_event_resumes_the_mission_with_the_same_decisions() {
                     assert_eq!(r.during_event, event);
                     // The checkpoint is the state before the event, or (the reset came
                     // before the mission took it) before the one before.
-                    assert!(
-                        r.resumed_after as usize == event || r.resumed_after as usize + 1 == event,
-                        "{r:?}"
-                    );
+                    let expected = if after == 0 {
+                        event.saturating_sub(1)
+                    } else {
+                        event
+                    };
+                    assert_eq!(r.resumed_after as usize, expected, "{r:?}");
                     assert_eq!(r.replayed, event - r.resumed_after as usize);
                     replayed += r.replayed;
-                    if after == 3 {
-                        mid_search += 1;
+                    if after >= 2 {
+                        late += 1;
                     }
                 }
             }
         }
-        // Resets landed in the events, some in the middle of a replan (an answer taking more
-        // than three windows is a search), and some made the host send an event again.
-        assert!(landed > 40, "{name}: {landed}");
-        assert!(mid_search >= 2, "{name}: {mid_search}");
-        assert!(replayed > 0, "{name}");
-        eprintln!("{name}: {landed} resets landed, {mid_search} in a search, {replayed} events sent again");
+        // Resets landed in the events, some late in a replan's answer, and (sahara-day) some
+        // made the host send an event again.
+        eprintln!("{name}: {landed} resets landed, {late} late in a replan, {replayed} events sent again");
+        assert!(landed > 20, "{name}: {landed}");
+        assert!(late >= 2, "{name}: {late}");
+        assert!(name != "sahara-day" || replayed > 20, "{name}: {replayed}");
     }
 }
 
@@ -226,7 +231,11 @@ fn garbage_in_the_checkpoint_never_panics_and_never_changes_a_decision() {
                     0 | 1 => &mut cp.state[which as usize][..],
                     _ => &mut cp.plan[which as usize - 2][..],
                 };
-                let at = if next() % 2 == 0 { at % 4 } else { at % slot.len() };
+                let at = if next() % 2 == 0 {
+                    at % 4
+                } else {
+                    at % slot.len()
+                };
                 slot[at] = v;
             }
             if next() % 3 == 0 {

@@ -381,12 +381,18 @@ fn long_rover(objectives: usize) -> (String, String) {
         .collect::<Vec<_>>()
         .join(" ");
     let p = p
-        .replace("o1 o2 o3 o4 - objective", &format!("{} - objective", names.join(" ")))
+        .replace(
+            "o1 o2 o3 o4 - objective",
+            &format!("{} - objective", names.join(" ")),
+        )
         .replace(
             "(visible-from o1 w1) (visible-from o2 w3) (visible-from o3 w2) (visible-from o4 w5)",
             &visible,
         )
-        .replace("(at 900 (not (comm-open c1)))", "(at 5400 (not (comm-open c1)))")
+        .replace(
+            "(at 900 (not (comm-open c1)))",
+            "(at 5400 (not (comm-open c1)))",
+        )
         .replace(
             "(:goal (and (image-sent o1) (rock-sent w2) (image-sent o2)))",
             &format!("(:goal (and {goals}))"),
@@ -422,7 +428,13 @@ fn a_network_built_in_pieces_is_the_network_built_whole() {
                 go
             };
             let done = replan::network_from_plan_steps(
-                &task, &plan, true, &mut scratch, &mut net, &mut progress, &mut more,
+                &task,
+                &plan,
+                true,
+                &mut scratch,
+                &mut net,
+                &mut progress,
+                &mut more,
             )
             .unwrap();
             if done {
@@ -433,14 +445,24 @@ fn a_network_built_in_pieces_is_the_network_built_whole() {
         assert_eq!(pieces, (2 * plan.len()).div_ceil(per_piece));
         assert_eq!(net.step_count(), whole.step_count());
         assert_eq!(net.makespan, whole.makespan);
-        assert_eq!(net.constraints(), whole.constraints(), "{per_piece} a piece");
+        assert_eq!(
+            net.constraints(),
+            whole.constraints(),
+            "{per_piece} a piece"
+        );
         for k in 1..=net.step_count() {
             assert_eq!(net.step(k), whole.step(k));
         }
         // A piece out of step with the network is refused.
         progress.next = 3;
         assert!(replan::network_from_plan_steps(
-            &task, &plan, true, &mut scratch, &mut net, &mut progress, &mut || true
+            &task,
+            &plan,
+            true,
+            &mut scratch,
+            &mut net,
+            &mut progress,
+            &mut || true
         )
         .is_err());
     }

@@ -32,8 +32,8 @@ use fsw_bridge::temporal::{
 };
 use temporal::dispatch::{Decision, Dispatcher, MAX_DISPATCH_STEPS};
 use temporal::replan::{self, Carried, ReplanInput};
-use temporal::task::UNBOUNDED;
 use temporal::task::TaskLayout;
+use temporal::task::UNBOUNDED;
 use temporal::{PlannedAction, Task};
 
 /// Where each attempt's replan task goes in the task buffer (the mission's own task, secured,
@@ -914,9 +914,9 @@ impl RoverMission {
 
     /// A window's piece of the plan's network (phase NETWORK): its steps in time order, each
     /// with the constraints into it, while the costliest step so far fits the window's share
-    /// (the first of a window always runs); then the dispatcher's first windows and the new
-    /// plan's reports, in the piece after the last step if the share still holds one, else in
-    /// the next window's. The network is `network_from_plan`'s whatever the pieces.
+    /// (the first of a window always runs); then, first in the window after the last step's,
+    /// the dispatcher's windows over the whole network and the new plan's reports. The network
+    /// is `network_from_plan`'s whatever the pieces.
     pub fn network_piece(
         &mut self,
         ctx: &mut RoverCtx<'_>,
@@ -944,7 +944,9 @@ impl RoverMission {
             let now = clock.ticks();
             most = most.max(now.wrapping_sub(last));
             last = now;
-            until.map_or(true, |u| crate::piece_fits(now, most, false, false, u, hard_until))
+            until.map_or(true, |u| {
+                crate::piece_fits(now, most, false, false, u, hard_until)
+            })
         };
         let steps_done = if self.progress.next < self.progress.total {
             let net = self.dispatcher.network_mut();
@@ -957,7 +959,9 @@ impl RoverMission {
                 &mut self.progress,
                 &mut fits,
             ) {
-                Ok(done) => done && fits(),
+                // The rest (the dispatcher's windows over the whole network, an STN
+                // propagation that costs several steps' work) in a window of its own.
+                Ok(_) => false,
                 Err(_) => {
                     self.phase = STOPPED;
                     return Self::refuse(out, RoverRefusal::BadTask);

@@ -943,9 +943,12 @@ impl<'a> TemporalApp<'a> {
         if job.phase != Phase::Planning {
             return;
         }
-        let mut outcome = None;
+        // A rover attempt's plan found in the window before: taken out of the search in this
+        // one (see below).
+        let extracting = job.outcome.is_some();
+        let mut outcome = job.outcome;
         let mut most = job.most_step_ticks;
-        let mut ran = 0u32;
+        let mut ran = u32::from(extracting);
         // Setting the search up (the layout, the duplicate table, the relaxation's indexes,
         // the compression marks, the root) comes in pieces, in windows of their own: the whole
         // costs more than a window (satellite 2: about 54,000 ticks), so it is divided (see
@@ -1028,6 +1031,16 @@ impl<'a> TemporalApp<'a> {
             return;
         };
         job.outcome = Some(outcome);
+        // Taking a rover attempt's plan out of the search (its steps' STN windows: work that
+        // grows with the plan's length) waits for a window of its own when the search ran in
+        // this one.
+        if self.rover_attempt
+            && !extracting
+            && until.is_some()
+            && outcome == TemporalOutcome::Solved
+        {
+            return;
+        }
         job.phase = Phase::Reporting {
             next: 0,
             stats_sent: false,
@@ -1094,7 +1107,10 @@ impl PlannerPlugin for TemporalApp<'_> {
     fn planning_pending(&self) -> bool {
         self.rover_resume
             || self.rover_event.is_some()
-            || self.rover.as_deref().is_some_and(|m| m.building().is_some())
+            || self
+                .rover
+                .as_deref()
+                .is_some_and(|m| m.building().is_some())
             || self.job.is_some_and(|j| {
                 matches!(j.phase, Phase::Planning | Phase::Verifying { .. })
                     || (self.rover_attempt && matches!(j.phase, Phase::Reporting { .. }))

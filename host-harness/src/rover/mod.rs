@@ -964,6 +964,9 @@ pub fn run(
     w.run.end_s = secs(t);
     w.run.health_events = w.backend.health_events();
     w.run.resumes = w.backend.resumes.clone();
+    for h in w.backend.health_during.clone() {
+        w.cost(format!("health monitor: {h}"));
+    }
     for r in w.run.resumes.clone() {
         w.cost(format!(
             "planner partition reset during event {}: the mission resumed from its checkpoint after event {}, {} event(s) sent again and answered the same",

@@ -35,6 +35,8 @@ pub struct Backend {
     reset_at: Option<ResetAt>,
     /// The resets that landed and how the mission took up again.
     pub resumes: Vec<Resume>,
+    /// The target's health-monitor events, each with the event in whose answer it came.
+    pub health_during: Vec<String>,
 }
 
 /// A reset of the planner partition injected in the answer to an event: event `event`
@@ -94,6 +96,7 @@ impl Backend {
             log: Vec::new(),
             reset_at: None,
             resumes: Vec::new(),
+            health_during: Vec::new(),
         }
     }
 
@@ -214,6 +217,7 @@ impl Backend {
     /// from its checkpoint before the answer is returned.
     pub fn event(&mut self, job: u16, event: RoverEvent) -> Result<Vec<RoverReport>, String> {
         let during = self.log.len();
+        let health = self.health_events().len();
         let reset = self.reset_at.filter(|r| r.event == during);
         let answer = match self.answer(job, event, reset)? {
             Some(answer) => answer,
@@ -222,6 +226,12 @@ impl Backend {
                 self.resume(job, during, event)?
             }
         };
+        for h in self.health_events().get(health..).unwrap_or_default() {
+            let last = answer.last();
+            self.health_during.push(format!(
+                "{h} in the answer to event {during} ({event:?}): {last:?}"
+            ));
+        }
         self.log.push((event, answer.clone()));
         Ok(answer)
     }
