@@ -448,6 +448,9 @@ pub enum RoverReport {
     Resumed {
         events: u32,
         last_ms: u32,
+        /// The planner partition's CPU taking it up (records checked, task checked, network
+        /// rebuilt), timebase ticks.
+        restore_ticks: u32,
     },
     /// After a reset, a checkpoint of a mission was found but refused (nothing flies). Appended.
     NotResumed {

@@ -80,7 +80,9 @@ fn a_reset_in_any_event_resumes_the_mission_with_the_same_decisions() {
         }
         // Resets landed in the events, some late in a replan's answer, and (sahara-day) some
         // made the host send an event again.
-        eprintln!("{name}: {landed} resets landed, {late} late in a replan, {replayed} events sent again");
+        eprintln!(
+            "{name}: {landed} resets landed, {late} late in a replan, {replayed} events sent again"
+        );
         assert!(landed > 20, "{name}: {landed}");
         assert!(late >= 2, "{name}: {late}");
         assert!(name != "sahara-day" || replayed > 20, "{name}: {replayed}");

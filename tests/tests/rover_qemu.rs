@@ -217,6 +217,13 @@ fn an_emulated_rover_mission_survives_a_warm_reset_with_the_same_decisions() {
             "{r:?}"
         );
         assert!(run.health_events.is_empty(), "{:?}", run.health_events);
+        // Taken up within a window of the planner partition (33,200 ticks).
+        assert!(
+            r.restore_ticks > 0 && r.restore_ticks < 33_200,
+            "{}",
+            r.restore_ticks
+        );
+        eprintln!("{at:?}: {r:?}");
     }
     drop(backend);
 }

@@ -360,7 +360,8 @@ impl<'a> TemporalApp<'a> {
     }
 
     /// The window's work of taking the mission up again from its checkpoint.
-    fn rover_resume_window(&mut self) {
+    fn rover_resume_window(&mut self, clock: &mut dyn CpuClock) {
+        let t0 = clock.ticks();
         self.rover_resume = false;
         if self.rover.is_none() {
             self.rover = self.rover_memory.take().map(|zeroed| zeroed());
@@ -377,6 +378,7 @@ impl<'a> TemporalApp<'a> {
             Ok(Some(events)) => RoverReport::Resumed {
                 events,
                 last_ms: m.last_ms(),
+                restore_ticks: sat(clock.ticks().wrapping_sub(t0)),
             },
             Err(reason) => RoverReport::NotResumed { reason },
         };
@@ -1127,7 +1129,7 @@ impl PlannerPlugin for TemporalApp<'_> {
 
     fn window(&mut self, w: &mut PluginWindow<'_, '_>) {
         if self.rover_resume {
-            self.rover_resume_window();
+            self.rover_resume_window(w.clock);
             return;
         }
         if self.rover_window(w.clock, w.until, w.hard_until) {

@@ -969,8 +969,11 @@ pub fn run(
     }
     for r in w.run.resumes.clone() {
         w.cost(format!(
-            "planner partition reset during event {}: the mission resumed from its checkpoint after event {}, {} event(s) sent again and answered the same",
-            r.during_event, r.resumed_after, r.replayed
+            "planner partition reset during event {}: the mission resumed from its checkpoint after event {} ({} guest instructions), {} event(s) sent again and answered the same",
+            r.during_event,
+            r.resumed_after,
+            instructions(u64::from(r.restore_ticks)),
+            r.replayed
         ));
     }
     let mut h = Sha256::new();

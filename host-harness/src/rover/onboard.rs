@@ -66,6 +66,8 @@ pub struct Resume {
     pub resumed_after: u32,
     /// Events sent again whose answers had come before the reset (each answered the same).
     pub replayed: usize,
+    /// The planner partition's CPU taking the mission up, timebase ticks (0 natively).
+    pub restore_ticks: u32,
 }
 
 /// A report without its costs (the decisions only).
@@ -161,8 +163,12 @@ impl Backend {
                 .rover_answer(job, MAX_FRAMES_PER_EVENT)
                 .map_err(|e| e.to_string())?,
         };
-        let resumed_after = match said.last() {
-            Some(RoverReport::Resumed { events, .. }) => *events,
+        let (resumed_after, restore_ticks) = match said.last() {
+            Some(RoverReport::Resumed {
+                events,
+                restore_ticks,
+                ..
+            }) => (*events, *restore_ticks),
             other => {
                 return Err(format!(
                     "the mission was not taken up again after the reset: {other:?}"
@@ -191,6 +197,7 @@ impl Backend {
             during_event: during,
             resumed_after,
             replayed: during - from,
+            restore_ticks,
         });
         self.answer(job, event, None)?
             .ok_or_else(|| "a reset landed that was not armed".to_string())
