@@ -944,9 +944,7 @@ impl RoverMission {
             let now = clock.ticks();
             most = most.max(now.wrapping_sub(last));
             last = now;
-            until.map_or(true, |u| {
-                crate::piece_fits(now, most, false, false, u, hard_until)
-            })
+            until.is_none_or(|u| crate::piece_fits(now, most, false, false, u, hard_until))
         };
         let steps_done = if self.progress.next < self.progress.total {
             let net = self.dispatcher.network_mut();
