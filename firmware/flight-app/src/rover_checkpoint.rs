@@ -126,7 +126,8 @@ pub struct Saved {
     /// The sequence number of the last state record, and its slot.
     pub seq: u32,
     pub slot: u8,
-    /// The plan generation the plan record holds (0: none), and that record's CRC.
+    /// Whether a plan record was written, its plan generation and its CRC.
+    pub plan_saved: bool,
     pub plan_gen: u32,
     pub plan_crc: u32,
 }
@@ -135,6 +136,7 @@ impl Saved {
     pub const NONE: Self = Self {
         seq: 0,
         slot: 1,
+        plan_saved: false,
         plan_gen: 0,
         plan_crc: 0,
     };
@@ -264,7 +266,7 @@ pub fn save(m: &mut RoverMission, cp: &mut RoverCheckpoint) {
     if !m.checkpointable() {
         return;
     }
-    if m.has_plan && m.saved.plan_gen != m.plan_gen {
+    if m.has_plan && !(m.saved.plan_saved && m.saved.plan_gen == m.plan_gen) {
         let slot_i = (m.plan_gen % 2) as usize;
         let Some(slot) = cp.plan.get_mut(slot_i) else {
             return;
@@ -308,6 +310,7 @@ pub fn save(m: &mut RoverMission, cp: &mut RoverCheckpoint) {
         let Some(crc) = seal(slot, PLAN_MAGIC, m.plan_gen, n) else {
             return;
         };
+        m.saved.plan_saved = true;
         m.saved.plan_gen = m.plan_gen;
         m.saved.plan_crc = crc;
     }
@@ -393,6 +396,13 @@ pub fn save(m: &mut RoverMission, cp: &mut RoverCheckpoint) {
     }
 }
 
+/// Checkpoint the mission into a memory it has not written before (tests and fuzzing: the
+/// round trip `restore(save(m))`): both records anew, from sequence 1.
+pub fn save_all(m: &mut RoverMission, cp: &mut RoverCheckpoint) {
+    m.saved = Saved::NONE;
+    save(m, cp);
+}
+
 /// Take the mission up again from `cp` into `m` (an idle mission, as the partition's start
 /// leaves it), its task in `task_buffer`. `Ok(None)`: no record to resume (nothing is said);
 /// `Ok(Some(events))`: resumed after that many events; `Err`: a record was refused (the
@@ -440,6 +450,7 @@ pub fn restore(
                 m.saved = Saved {
                     seq: *seq,
                     slot: i as u8,
+                    plan_saved: m.has_plan,
                     plan_gen: m.plan_gen,
                     plan_crc: m.saved.plan_crc,
                 };
