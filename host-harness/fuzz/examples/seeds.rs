@@ -1274,7 +1274,7 @@ fn rover_checkpoint_seeds() -> Vec<(String, Vec<u8>)> {
         ));
     }
     let mut seeds = Vec::new();
-    for (name, events) in [("sahara-day", [1usize, 3, 10, 30, 60]), ("field-trial", [2, 5, 20, 40, 70])] {
+    for (name, events) in [("sahara-day", [1usize, 3, 10, 30, 60]), ("field-trial", [2, 5, 20, 40, 50])] {
         for event in events {
             let mut backend = Backend::native();
             backend.reset_at(ResetAt {
@@ -1285,8 +1285,10 @@ fn rover_checkpoint_seeds() -> Vec<(String, Vec<u8>)> {
             });
             let path = hil::repo_root().join(format!("scenarios/rover/{name}.toml"));
             run_file(&path, None, &mut backend).expect("the mission resumes");
-            let bytes = CAPTURED.lock().unwrap().take().expect("the reset landed");
-            seeds.push((format!("{name}-event{event:03}"), bytes));
+            // A reset armed past the run's last event does not land.
+            if let Some(bytes) = CAPTURED.lock().unwrap().take() {
+                seeds.push((format!("{name}-event{event:03}"), bytes));
+            }
         }
     }
     seeds

@@ -1164,7 +1164,7 @@ pub fn encode_rover_checkpoint(task_buffer: &[u8], cp: &RoverCheckpoint) -> Vec<
 
 fn decode_rover_checkpoint(data: &[u8]) -> (Vec<u8>, Box<RoverCheckpoint>) {
     let mut at = 0usize;
-    let mut word = |at: &mut usize| {
+    let word = |at: &mut usize| {
         let w = data
             .get(*at..*at + 4)
             .map_or(0, |b| u32::from_be_bytes([b[0], b[1], b[2], b[3]]));
