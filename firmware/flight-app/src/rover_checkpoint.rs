@@ -15,7 +15,7 @@
 //! search, say) loses that event's work; the host sends it again and the mission, being
 //! deterministic, answers it as it would have. The plan's network changes only with a new
 //! plan, so it is a record of its own, written again only when the plan changed; the state
-//! record (about 300 words for the rover's task) is written at every event.
+//! record (35 to 71 words for the rover's day) is written at every event.
 //!
 //! Format: two slots for each of the two records, written alternately, so a reset while one
 //! is written leaves the other whole. A slot is `[magic, version, sequence, n, payload (n
@@ -30,7 +30,7 @@
 //!
 //! Bounds: [`STATE_SLOT_WORDS`] and [`PLAN_SLOT_WORDS`] hold a mission at every capacity of
 //! [`super`] (4,096 facts, 64 numeric variables, 16 running actions, 16 goals, a network of
-//! 256 steps and 2,048 constraints); 70 KB in all.
+//! 256 steps and 2,048 constraints); 65,696 bytes in all.
 #![deny(clippy::indexing_slicing)]
 
 use fsw_bridge::temporal::RoverResumeRefusal;

@@ -54,7 +54,7 @@ static mut APP: MaybeUninit<TemporalApp<'static>> = MaybeUninit::uninit();
 #[link_section = ".bss.noinit.planner"]
 static mut MISSION: MaybeUninit<RoverMission> = MaybeUninit::uninit();
 
-/// The rover mission's checkpoint (`flight_app::rover_mission::checkpoint`, 70 KB): kept
+/// The rover mission's checkpoint (`flight_app::rover_mission::checkpoint`, 65,696 bytes): kept
 /// across a warm reset and a restart of the partition, checked before it is believed.
 #[link_section = ".bss.noinit.planner"]
 static mut ROVER_CHECKPOINT: MaybeUninit<RoverCheckpoint> = MaybeUninit::uninit();
