@@ -241,7 +241,9 @@ pub type TemporalChunkBytes = Vec<u8, TEMPORAL_CHUNK_MAX>;
 // `Ended` (an action the rover was told to start ended) answers `EndTaken`; `Close` answers
 // the goals `Achieved`, the opportunistic goals `Kept`, and `Closed`. An event the mission
 // cannot take is answered `Refused` with the reason, and changes nothing. Times are mission
-// milliseconds (the rover task's ticks), absolute.
+// milliseconds (the rover task's ticks), absolute. After a reset of the planner partition the
+// mission says on its own, in the first granted window, `Resumed` (from its checkpoint: the
+// host sends again the events after it) or `NotResumed` with the reason.
 
 /// An event of the onboard rover mission, host to target
 /// ([`HostToTarget::Rover`](crate::HostToTarget::Rover)).
