@@ -264,3 +264,41 @@ fn a_long_plan_is_divided_across_windows_with_the_native_decisions() {
     assert!(outside.is_empty(), "{outside:?}");
     drop(backend);
 }
+
+/// long-day with a warm reset while its 72-action plan flies (event 50): the restore rebuilds
+/// the 144-step network from the plan record within one window, the mission makes the native
+/// run's decisions, and nothing overruns outside the search.
+#[test]
+fn a_long_plan_survives_a_warm_reset_within_a_window() {
+    let _one = hil_tests::exclusive_qemu();
+    let target = EmulatedPlanner::boot(hil_tests::firmware()).expect("boots");
+    let mut backend = Backend::on_target(target);
+    let scenario = hil::repo_root().join("scenarios/rover/long-day.toml");
+    let (native, _) = run_file(&scenario, None, &mut Backend::native()).expect("native run");
+    backend.reset_at(ResetAt {
+        event: 50,
+        after: 0,
+        planner_ticks: 100,
+        damage: None,
+    });
+    let (run, verdicts) = run_file(&scenario, None, &mut backend).expect("emulated run");
+    for v in &verdicts {
+        assert!(v.ok, "{}: {}", v.what, v.got);
+    }
+    assert_eq!(run.decisions, native.decisions);
+    let r = backend.resumes.pop().expect("the reset landed");
+    eprintln!("{r:?}");
+    assert_eq!(r.during_event, 50);
+    assert!(
+        r.restore_ticks > 0 && r.restore_ticks < 33_200,
+        "{}",
+        r.restore_ticks
+    );
+    let outside: Vec<_> = run
+        .health_events
+        .iter()
+        .filter(|h| !h.contains("in a planning attempt's search"))
+        .collect();
+    assert!(outside.is_empty(), "{outside:?}");
+    drop(backend);
+}
