@@ -241,7 +241,9 @@ pub type TemporalChunkBytes = Vec<u8, TEMPORAL_CHUNK_MAX>;
 // `Ended` (an action the rover was told to start ended) answers `EndTaken`; `Close` answers
 // the goals `Achieved`, the opportunistic goals `Kept`, and `Closed`. An event the mission
 // cannot take is answered `Refused` with the reason, and changes nothing. Times are mission
-// milliseconds (the rover task's ticks), absolute.
+// milliseconds (the rover task's ticks), absolute. After a reset of the planner partition the
+// mission says on its own, in the first granted window, `Resumed` (from its checkpoint: the
+// host sends again the events after it) or `NotResumed` with the reason.
 
 /// An event of the onboard rover mission, host to target
 /// ([`HostToTarget::Rover`](crate::HostToTarget::Rover)).
@@ -442,6 +444,38 @@ pub enum RoverReport {
     },
     /// The answer to Close is complete.
     Closed,
+    /// After a reset of the planner partition, the mission was taken up again from its
+    /// checkpoint: the state after the first `events` events it took (the host sends the
+    /// others again), the last of them at `last_ms`. Appended.
+    Resumed {
+        events: u32,
+        last_ms: u32,
+        /// The planner partition's CPU taking it up (records checked, task checked, network
+        /// rebuilt), timebase ticks.
+        restore_ticks: u32,
+    },
+    /// After a reset, a checkpoint of a mission was found but refused (nothing flies). Appended.
+    NotResumed {
+        reason: RoverResumeRefusal,
+    },
+}
+
+/// Why the checkpoint of a rover mission was not taken up after a reset.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum RoverResumeRefusal {
+    /// A record of another format version (`found`).
+    Version { found: u32 },
+    /// A record's length is beyond its slot.
+    BadLength,
+    /// A record's CRC-32 does not match its words.
+    BadCrc,
+    /// The mission's task in the task buffer is not the one the record was made with (its
+    /// CRC-32, or it no longer validates).
+    TaskChanged,
+    /// The plan record the state names is not whole.
+    PlanMissing,
+    /// A field beyond a capacity or the task (a phase, a count, an action, a step).
+    OutOfRange,
 }
 
 impl RoverReport {
@@ -462,6 +496,8 @@ impl RoverReport {
                 | RoverReport::InactiveTaken { .. }
                 | RoverReport::ExpectedTaken { .. }
                 | RoverReport::Closed
+                | RoverReport::Resumed { .. }
+                | RoverReport::NotResumed { .. }
         )
     }
 }

@@ -14,7 +14,8 @@
 //! (its decrementer-counted CPU time, the same run to run), and the guest instructions that
 //! makes under `-icount shift=2` (4 ns each, 15.06 per 16.6 MHz tick). Never host time.
 use fsw_bridge::temporal::{
-    TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalReport, TEMPORAL_CHUNK_MAX,
+    RoverReport, TemporalConfig, TemporalDuplicates, TemporalOutcome, TemporalReport,
+    TEMPORAL_CHUNK_MAX,
 };
 use fsw_bridge::{HostToTarget, MissionTimeUs, ResetKind, TargetToHost};
 
@@ -483,14 +484,61 @@ impl EmulatedPlanner {
         self.rover_frames(job, max_frames)
     }
 
+    /// [`Self::rover_event`] with a warm reset armed in granted frame `after` of its answer,
+    /// landing once the planner partition has run `ticks` ticks of CPU in it
+    /// (`ResetKind::PlannerAfterTicks`): None when it landed (what came of the answer before
+    /// it is void).
+    pub fn rover_event_with_reset(
+        &mut self,
+        job: u16,
+        event: fsw_bridge::temporal::RoverEvent,
+        reset: Option<(u32, u32)>,
+        max_frames: u32,
+    ) -> Result<Option<Vec<fsw_bridge::temporal::RoverReport>>, EmulatedError> {
+        self.link
+            .send(HostToTarget::Rover { job, event })
+            .map_err(|e| EmulatedError::Target(e.to_string()))?;
+        let resets = self.resets;
+        let answer = self.rover_frames_resetting(job, max_frames, reset)?;
+        if self.resets != resets {
+            self.rover_reports.clear();
+            return Ok(None);
+        }
+        Ok(Some(answer))
+    }
+
+    /// Frames until the rover mission's next last answer (after a reset: its `Resumed`).
+    pub fn rover_answer(
+        &mut self,
+        job: u16,
+        max_frames: u32,
+    ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        self.rover_frames(job, max_frames)
+    }
+
     /// The rover mission's reports, frame after frame, up to the last answer to an event.
     fn rover_frames(
         &mut self,
         job: u16,
         max_frames: u32,
     ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        self.rover_frames_resetting(job, max_frames, None)
+    }
+
+    /// [`Self::rover_frames`], with a warm reset armed before frame `reset.0` (it ends the
+    /// wait when it lands).
+    fn rover_frames_resetting(
+        &mut self,
+        job: u16,
+        max_frames: u32,
+        reset: Option<(u32, u32)>,
+    ) -> Result<Vec<fsw_bridge::temporal::RoverReport>, EmulatedError> {
+        let resets = self.resets;
         let mut frames = 0;
         loop {
+            if self.resets != resets {
+                return Ok(Vec::new());
+            }
             if let Some(last) = self
                 .rover_reports
                 .iter()
@@ -505,8 +553,38 @@ impl EmulatedPlanner {
                 )));
             }
             let mut got = Collected::default();
-            self.grant_one(job, &mut got, None)?;
-            self.health_events.append(&mut got.health);
+            let arm = reset.filter(|r| r.0 == frames).map(|r| r.1);
+            let searching_before = self.rover_reports.last().is_some_and(|r| {
+                matches!(
+                    r,
+                    RoverReport::Replan { .. }
+                        | RoverReport::Paused { .. }
+                        | RoverReport::Carried { .. }
+                        | RoverReport::AttemptGoal { .. }
+                        | RoverReport::Dropped { .. }
+                )
+            });
+            self.grant_one(job, &mut got, arm)?;
+            // A health event in a frame of a planning attempt's search (after its replan task
+            // was built, before a frame that brings its Attempt) is the search's (an expansion
+            // or a set-up piece that did not fit the window), not the mission's.
+            let searching = searching_before
+                && !got.all.iter().any(|r| {
+                    matches!(
+                        r,
+                        TemporalReport::Rover {
+                            report: RoverReport::Attempt { .. },
+                            ..
+                        }
+                    )
+                });
+            for h in got.health.drain(..) {
+                self.health_events.push(if searching {
+                    format!("{h} (in a planning attempt's search)")
+                } else {
+                    h
+                });
+            }
             frames += 1;
         }
     }

@@ -364,6 +364,110 @@ fn a_network_rebuilt_from_a_plan_dispatches_it_as_planned() {
     assert_eq!(started, original.len());
 }
 
+/// The rover's problem made long (issue 13 item 3): `objectives` objectives to image and send
+/// in one long window.
+fn long_rover(objectives: usize) -> (String, String) {
+    let (d, p) = rover();
+    let names: Vec<String> = (1..=objectives).map(|i| format!("o{i}")).collect();
+    let visible: String = names
+        .iter()
+        .enumerate()
+        .map(|(i, o)| format!("(visible-from {o} w{})", 1 + i % 5))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let goals: String = names
+        .iter()
+        .map(|o| format!("(image-sent {o})"))
+        .collect::<Vec<_>>()
+        .join(" ");
+    let p = p
+        .replace(
+            "o1 o2 o3 o4 - objective",
+            &format!("{} - objective", names.join(" ")),
+        )
+        .replace(
+            "(visible-from o1 w1) (visible-from o2 w3) (visible-from o3 w2) (visible-from o4 w5)",
+            &visible,
+        )
+        .replace(
+            "(at 900 (not (comm-open c1)))",
+            "(at 5400 (not (comm-open c1)))",
+        )
+        .replace(
+            "(:goal (and (image-sent o1) (rock-sent w2) (image-sent o2)))",
+            &format!("(:goal (and {goals}))"),
+        );
+    (d, p)
+}
+
+/// A network built in pieces (any number of steps a piece, down to one) is the network built
+/// whole: the same steps, constraints and makespan, for a plan of over 60 actions.
+#[test]
+fn a_network_built_in_pieces_is_the_network_built_whole() {
+    let (d, p) = long_rover(30);
+    let compiled = common::compile(&d, &p).expect("compiles");
+    let task = Task::parse(&compiled.task).unwrap();
+    let plan = plan_task(task).expect("a plan");
+    assert!(plan.len() >= 60, "{} actions", plan.len());
+    let mut scratch = vec![0u32; task.fact_count() + task.numeric_count()];
+    let mut whole = PlanNetwork::new();
+    replan::network_from_plan(&task, &plan, true, &mut scratch, &mut whole).expect("network");
+    for per_piece in [1usize, 2, 7, 50] {
+        let mut net = PlanNetwork::new();
+        let mut scratch = vec![0u32; task.fact_count() + task.numeric_count()];
+        let mut progress =
+            replan::network_from_plan_begin(&task, &plan, &mut scratch, &mut net).unwrap();
+        assert_eq!(progress.total, 2 * plan.len());
+        let mut pieces = 0;
+        loop {
+            pieces += 1;
+            let mut left = per_piece - 1;
+            let mut more = || {
+                let go = left > 0;
+                left = left.saturating_sub(1);
+                go
+            };
+            let done = replan::network_from_plan_steps(
+                &task,
+                &plan,
+                true,
+                &mut scratch,
+                &mut net,
+                &mut progress,
+                &mut more,
+            )
+            .unwrap();
+            if done {
+                break;
+            }
+            assert_eq!(progress.next, pieces * per_piece);
+        }
+        assert_eq!(pieces, (2 * plan.len()).div_ceil(per_piece));
+        assert_eq!(net.step_count(), whole.step_count());
+        assert_eq!(net.makespan, whole.makespan);
+        assert_eq!(
+            net.constraints(),
+            whole.constraints(),
+            "{per_piece} a piece"
+        );
+        for k in 1..=net.step_count() {
+            assert_eq!(net.step(k), whole.step(k));
+        }
+        // A piece out of step with the network is refused.
+        progress.next = 3;
+        assert!(replan::network_from_plan_steps(
+            &task,
+            &plan,
+            true,
+            &mut scratch,
+            &mut net,
+            &mut progress,
+            &mut || true
+        )
+        .is_err());
+    }
+}
+
 #[test]
 fn bad_replan_inputs_are_refused_never_a_panic() {
     use temporal::replan::ReplanError;

@@ -17,15 +17,22 @@
 //! scratch of `network_from_plan`), zero-filled in place at the first `Start` (every field is an
 //! integer, a bool or an array of them, so all-zero bytes are a valid, idle mission): a
 //! partition (re)start costs nothing for it. Capacities are the named constants below; an
-//! event beyond them is refused ([`RoverRefusal::Capacity`]), never a panic. A mission does not
-//! survive a reset of the partition (the host starts it again).
+//! event beyond them is refused ([`RoverRefusal::Capacity`]), never a panic.
+//!
+//! A mission survives a reset of the partition: before it takes each event it checkpoints the
+//! state the last one left ([`checkpoint`]), and after a (re)start the plug-in takes it up
+//! again from there.
 #![deny(clippy::indexing_slicing)]
+
+#[path = "rover_checkpoint.rs"]
+pub mod checkpoint;
 
 use fsw_bridge::temporal::{
     RoverRefusal, RoverReplanWhy, RoverReport, RoverStartKind, TemporalOutcome,
 };
 use temporal::dispatch::{Decision, Dispatcher, MAX_DISPATCH_STEPS};
 use temporal::replan::{self, Carried, ReplanInput};
+use temporal::task::TaskLayout;
 use temporal::task::UNBOUNDED;
 use temporal::{PlannedAction, Task};
 
@@ -61,6 +68,8 @@ const FLYING: u8 = 3;
 const PLANNING: u8 = 4;
 /// No plan came: only `Close` is taken.
 const STOPPED: u8 = 5;
+/// A plan came: its dispatch network is being built, a piece per window.
+const NETWORK: u8 = 6;
 
 /// A running action on the rover, as the mission knows it.
 #[derive(Clone, Copy, Debug, Default)]
@@ -80,6 +89,9 @@ pub enum RoverNext {
     Answered,
     /// Plan the replan task of `len` bytes at [`ROVER_REPLAN_AT`] with `max_expansions`.
     Plan { len: usize, max_expansions: u32 },
+    /// The plan's network is being built: the next piece in the next window
+    /// ([`RoverMission::network_piece`]), with the plan still in the plug-in's plan buffer.
+    Building,
 }
 
 /// The onboard mission: see the module's documentation.
@@ -129,12 +141,36 @@ pub struct RoverMission {
     /// The CPU of the current attempt's replan task, and its length.
     build_ticks: u32,
     replan_len: usize,
+    /// The task's CRC-32, its fact words and numeric variables (for the checkpoint).
+    task_crc: u32,
+    fact_words: u16,
+    numerics: u16,
+    /// Events taken since the task was accepted.
+    events: u32,
+    /// Plans made (the network's generation), and the checkpoint's bookkeeping.
+    plan_gen: u32,
+    saved: checkpoint::Saved,
+    /// The network being built (phase NETWORK): the plan's length (in the plug-in's plan
+    /// buffer), how far the steps are, the costliest step so far, the CPU so far.
+    plan_len: usize,
+    progress: replan::NetworkProgress,
+    step_most: u64,
+    network_ticks: u64,
+    /// Where the mission's task and the current attempt's replan task were validated: each is
+    /// taken up again from its layout, not validated at every event (the task buffer holds
+    /// them unchanged: nothing writes it while the mission flies).
+    task_layout: TaskLayout,
+    replan_layout: TaskLayout,
 }
 
 /// The mission's inputs each time it runs: the task buffer, the plan buffer, the CPU clock.
 pub struct RoverCtx<'c> {
     pub task_buffer: &'c mut [u8],
     pub clock: &'c mut dyn crate::CpuClock,
+    /// The window's share and its end (`PluginWindow`'s; None: no limit): a plan's network is
+    /// built in pieces within them ([`crate::piece_fits`]).
+    pub until: Option<u64>,
+    pub hard_until: Option<u64>,
 }
 
 fn sat(v: u64) -> u32 {
@@ -184,6 +220,18 @@ impl RoverMission {
             inactive: [0; MAX_ROVER_FACT_WORDS],
             build_ticks: 0,
             replan_len: 0,
+            task_crc: 0,
+            fact_words: 0,
+            numerics: 0,
+            events: 0,
+            plan_gen: 0,
+            saved: checkpoint::Saved::NONE,
+            plan_len: 0,
+            progress: replan::NetworkProgress { next: 0, total: 0 },
+            step_most: 0,
+            network_ticks: 0,
+            task_layout: TaskLayout::default(),
+            replan_layout: TaskLayout::default(),
         })
     }
 
@@ -205,6 +253,9 @@ impl RoverMission {
         self.waited = false;
         self.held = false;
         self.inactive.iter_mut().for_each(|w| *w = 0);
+        self.events = 0;
+        self.plan_gen = 0;
+        self.saved = checkpoint::Saved::NONE;
     }
 
     /// The job whose task the armed mission waits for.
@@ -217,9 +268,46 @@ impl RoverMission {
         (self.phase != IDLE).then_some(self.job)
     }
 
-    /// Whether an attempt is being planned.
+    /// Back to an idle mission (what a refused checkpoint leaves).
+    fn reset_idle(&mut self) {
+        self.phase = IDLE;
+        self.running_len = 0;
+        self.arrived_len = 0;
+        self.carried_len = 0;
+        self.has_plan = false;
+        self.waited = false;
+        self.held = false;
+        self.events = 0;
+        self.plan_gen = 0;
+        self.saved = checkpoint::Saved::NONE;
+        self.dispatcher.network_mut().clear();
+    }
+
+    /// An event is taken (after the checkpoint of the state before it).
+    pub fn took_event(&mut self) {
+        self.events = self.events.saturating_add(1);
+    }
+
+    /// Whether a mission is flying whose state a checkpoint should keep (its task accepted,
+    /// not planning).
+    pub fn checkpointable(&self) -> bool {
+        matches!(self.phase, READY | FLYING | STOPPED)
+    }
+
+    /// The time of the last event taken.
+    pub fn last_ms(&self) -> u32 {
+        self.last_ms
+    }
+
+    /// Whether an attempt is being planned, or its plan's network built.
     pub fn planning(&self) -> bool {
-        self.phase == PLANNING
+        matches!(self.phase, PLANNING | NETWORK)
+    }
+
+    /// Whether a plan's network is being built (the next piece waits for a window), and the
+    /// plan's length in the plug-in's plan buffer.
+    pub fn building(&self) -> Option<usize> {
+        (self.phase == NETWORK).then_some(self.plan_len)
     }
 
     /// The armed mission's task was accepted at `task_at`, `task_len` bytes of `buffer`.
@@ -250,6 +338,10 @@ impl RoverMission {
         }
         self.task_at = task_at;
         self.task_len = task_len;
+        self.task_crc = checkpoint::crc32(bytes);
+        self.task_layout = task.layout();
+        self.fact_words = replan::fact_words(&task) as u16;
+        self.numerics = task.numeric_count() as u16;
         self.phase = READY;
         RoverReport::Ready {
             facts: sat(task.fact_count() as u64),
@@ -259,7 +351,7 @@ impl RoverMission {
 
     fn task<'b>(&self, buffer: &'b [u8]) -> Option<Task<'b>> {
         let bytes = buffer.get(self.task_at..self.task_at.saturating_add(self.task_len))?;
-        Task::parse(bytes).ok()
+        Task::from_layout(bytes, &self.task_layout)
     }
 
     /// The event's time is not before the last one's.
@@ -701,7 +793,7 @@ impl RoverMission {
             .split_at_mut(ROVER_REPLAN_AT.min(ctx.task_buffer.len()));
         let Some(task) = base
             .get(self.task_at..self.task_at.saturating_add(self.task_len))
-            .and_then(|b| Task::parse(b).ok())
+            .and_then(|b| Task::from_layout(b, &self.task_layout))
         else {
             self.phase = STOPPED;
             return Self::refuse(out, RoverRefusal::BadTask);
@@ -745,6 +837,7 @@ impl RoverMission {
         planning_ticks: u64,
         plan: &[PlannedAction],
         makespan: u32,
+        replan_layout: Option<TaskLayout>,
         out: &mut dyn FnMut(RoverReport),
     ) -> RoverNext {
         if self.phase != PLANNING {
@@ -790,29 +883,112 @@ impl RoverMission {
             };
         }
         let t0 = ctx.clock.ticks();
-        let t = self.replan_at;
-        let Some(new_task) = ctx
+        // The replan task as the search validated it (its layout), or validated here.
+        let bytes = ctx
             .task_buffer
             .get(ROVER_REPLAN_AT..ROVER_REPLAN_AT.saturating_add(self.replan_len))
-            .and_then(|b| Task::parse(b).ok())
+            .unwrap_or_default();
+        let new_task = match replan_layout.and_then(|l| Task::from_layout(bytes, &l)) {
+            Some(t) => Some(t),
+            None => Task::parse(bytes).ok(),
+        };
+        let Some(new_task) = new_task else {
+            self.phase = STOPPED;
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        self.replan_layout = new_task.layout();
+        let net = self.dispatcher.network_mut();
+        let Ok(progress) = replan::network_from_plan_begin(&new_task, plan, &mut self.scratch, net)
         else {
             self.phase = STOPPED;
             return Self::refuse(out, RoverRefusal::BadTask);
         };
-        let net = self.dispatcher.network_mut();
-        net.clear();
-        let built = replan::network_from_plan(&new_task, plan, true, &mut self.scratch, net);
-        let makespan_net = net.makespan;
-        if built.is_err()
-            || self
-                .dispatcher
-                .restart(makespan_net.saturating_add(self.horizon_slack))
-                .is_err()
+        let _ = makespan;
+        self.progress = progress;
+        self.plan_len = plan.len();
+        self.step_most = 0;
+        self.network_ticks = u64::from(sat(ctx.clock.ticks().wrapping_sub(t0)));
+        self.phase = NETWORK;
+        self.network_piece(ctx, plan, out)
+    }
+
+    /// A window's piece of the plan's network (phase NETWORK): its steps in time order, each
+    /// with the constraints into it, while the costliest step so far fits the window's share
+    /// (the first of a window always runs); then, first in the window after the last step's,
+    /// the dispatcher's windows over the whole network and the new plan's reports. The network
+    /// is `network_from_plan`'s whatever the pieces.
+    pub fn network_piece(
+        &mut self,
+        ctx: &mut RoverCtx<'_>,
+        plan: &[PlannedAction],
+        out: &mut dyn FnMut(RoverReport),
+    ) -> RoverNext {
+        if self.phase != NETWORK || plan.len() != self.plan_len {
+            self.phase = STOPPED;
+            return Self::refuse(out, RoverRefusal::BadTask);
+        }
+        let t0 = ctx.clock.ticks();
+        let Some(new_task) = ctx
+            .task_buffer
+            .get(ROVER_REPLAN_AT..ROVER_REPLAN_AT.saturating_add(self.replan_len))
+            .and_then(|b| Task::from_layout(b, &self.replan_layout))
+        else {
+            self.phase = STOPPED;
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        let (until, hard_until) = (ctx.until, ctx.hard_until);
+        let clock = &mut *ctx.clock;
+        let mut last = clock.ticks();
+        let mut most = self.step_most;
+        let mut fits = || {
+            let now = clock.ticks();
+            most = most.max(now.wrapping_sub(last));
+            last = now;
+            until.is_none_or(|u| crate::piece_fits(now, most, false, false, u, hard_until))
+        };
+        let steps_done = if self.progress.next < self.progress.total {
+            let net = self.dispatcher.network_mut();
+            match replan::network_from_plan_steps(
+                &new_task,
+                plan,
+                true,
+                &mut self.scratch,
+                net,
+                &mut self.progress,
+                &mut fits,
+            ) {
+                // The rest (the dispatcher's windows over the whole network, an STN
+                // propagation that costs several steps' work) in a window of its own.
+                Ok(_) => false,
+                Err(_) => {
+                    self.phase = STOPPED;
+                    return Self::refuse(out, RoverRefusal::BadTask);
+                }
+            }
+        } else {
+            true
+        };
+        self.step_most = most;
+        if !steps_done {
+            self.network_ticks = self
+                .network_ticks
+                .saturating_add(ctx.clock.ticks().wrapping_sub(t0));
+            return RoverNext::Building;
+        }
+        let Some(task) = self.task(ctx.task_buffer) else {
+            self.phase = STOPPED;
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        let t = self.replan_at;
+        let makespan_net = self.dispatcher.network().makespan;
+        if self
+            .dispatcher
+            .restart(makespan_net.saturating_add(self.horizon_slack))
+            .is_err()
         {
             self.phase = STOPPED;
             return Self::refuse(out, RoverRefusal::BadTask);
         }
-        let _ = makespan;
         let steps = self.dispatcher.network().step_count();
         for k in 0..=steps {
             if let Some(p) = self.planned.get_mut(k) {
@@ -836,7 +1012,9 @@ impl RoverMission {
             }
         }
         // Steps of actions still running that the new network does not have.
-        let network_ticks = sat(ctx.clock.ticks().wrapping_sub(t0));
+        let network_ticks = sat(self
+            .network_ticks
+            .saturating_add(ctx.clock.ticks().wrapping_sub(t0)));
         out(RoverReport::NewPlan {
             actions: plan.len() as u16,
             makespan_ms: makespan_net,
@@ -862,6 +1040,7 @@ impl RoverMission {
         });
         self.has_plan = true;
         self.epoch = t;
+        self.plan_gen = self.plan_gen.wrapping_add(1);
         self.phase = FLYING;
         RoverNext::Answered
     }

@@ -79,6 +79,7 @@ use sdls::temporal::TemporalMac;
 use temporal::{PlannedAction, Planner, Region, Status, Task, TaskErrorKind};
 
 use super::*;
+use crate::rover_mission::checkpoint::{self as rover_checkpoint, RoverCheckpoint};
 use crate::rover_mission::{RoverCtx, RoverMission, RoverNext, ROVER_REPLAN_AT};
 
 /// Reports of the onboard rover mission waiting for room in the outbound queue (a replan with
@@ -235,6 +236,12 @@ pub struct TemporalApp<'a> {
     pub rover_reports_lost: u32,
     /// The job in progress is an attempt of the rover mission (planned, not reported).
     rover_attempt: bool,
+    /// The rover mission's checkpoint, in memory a warm reset keeps (None: not kept), and a
+    /// record found there at the (re)start, taken up in the next window.
+    rover_checkpoint: Option<&'a mut RoverCheckpoint>,
+    rover_resume: bool,
+    /// The layout of the rover attempt's replan task, as its search validated it.
+    rover_replan_layout: Option<temporal::task::TaskLayout>,
 }
 
 /// `temporal::PlannerConfig` for a job's configuration (`max_steps` held to what the plan
@@ -329,7 +336,55 @@ impl<'a> TemporalApp<'a> {
             rover_reports: heapless::Deque::new(),
             rover_reports_lost: 0,
             rover_attempt: false,
+            rover_checkpoint: None,
+            rover_resume: false,
+            rover_replan_layout: None,
         }
+    }
+
+    /// Keep the rover mission's checkpoint in `checkpoint` ([`crate::rover_mission::checkpoint`]):
+    /// memory a warm reset does not clear. Call [`Self::resume_rover`] after the storage is
+    /// given.
+    pub fn keep_rover_in(&mut self, checkpoint: &'a mut RoverCheckpoint) {
+        self.rover_checkpoint = Some(checkpoint);
+    }
+
+    /// After a (re)start: whether the checkpoint holds a record of a mission, which the next
+    /// window then takes up again (or refuses, saying why).
+    pub fn resume_rover(&mut self) -> bool {
+        self.rover_resume = self.storage.is_some()
+            && self.rover_memory.is_some()
+            && self
+                .rover_checkpoint
+                .as_deref()
+                .is_some_and(|c| c.holds_a_record());
+        self.rover_resume
+    }
+
+    /// The window's work of taking the mission up again from its checkpoint.
+    fn rover_resume_window(&mut self, clock: &mut dyn CpuClock) {
+        let t0 = clock.ticks();
+        self.rover_resume = false;
+        if self.rover.is_none() {
+            self.rover = self.rover_memory.take().map(|zeroed| zeroed());
+        }
+        let (Some(m), Some(cp), Some(storage)) = (
+            self.rover.as_deref_mut(),
+            self.rover_checkpoint.as_deref(),
+            self.storage.as_ref(),
+        ) else {
+            return;
+        };
+        let report = match rover_checkpoint::restore(m, cp, storage.task) {
+            Ok(None) => return,
+            Ok(Some(events)) => RoverReport::Resumed {
+                events,
+                last_ms: m.last_ms(),
+                restore_ticks: sat(clock.ticks().wrapping_sub(t0)),
+            },
+            Err(reason) => RoverReport::NotResumed { reason },
+        };
+        self.rover_say(report);
     }
 
     /// Memory for the onboard rover mission ([`crate::rover_mission`]): `memory` returns it
@@ -371,6 +426,9 @@ impl<'a> TemporalApp<'a> {
                 return;
             };
             m.arm(job, horizon_slack_ms, max_expansions, us_per_expansion);
+            if let Some(cp) = self.rover_checkpoint.as_deref_mut() {
+                cp.clear();
+            }
             return;
         }
         let flying = self
@@ -395,12 +453,18 @@ impl<'a> TemporalApp<'a> {
 
     /// A window's work of the rover mission: an attempt's end, or the event waiting. True if
     /// there was some.
-    fn rover_window(&mut self, clock: &mut dyn CpuClock) -> bool {
+    fn rover_window(
+        &mut self,
+        clock: &mut dyn CpuClock,
+        until: Option<u64>,
+        hard_until: Option<u64>,
+    ) -> bool {
         let attempt_over = self.rover_attempt
             && self
                 .job
                 .is_some_and(|j| matches!(j.phase, Phase::Reporting { .. }));
-        if !attempt_over && self.rover_event.is_none() {
+        let building = self.rover.as_deref().and_then(|m| m.building());
+        if !attempt_over && building.is_none() && self.rover_event.is_none() {
             return false;
         }
         let (Some(m), Some(storage)) = (self.rover.as_deref_mut(), self.storage.as_mut()) else {
@@ -416,8 +480,13 @@ impl<'a> TemporalApp<'a> {
         let mut ctx = RoverCtx {
             task_buffer: &mut *storage.task,
             clock,
+            until,
+            hard_until,
         };
-        let next = if attempt_over {
+        let next = if let Some(plan_len) = building {
+            let plan = self.plan.get(..plan_len).unwrap_or_default();
+            m.network_piece(&mut ctx, plan, &mut out)
+        } else if attempt_over {
             let Some(job) = self.job else {
                 return false;
             };
@@ -430,6 +499,7 @@ impl<'a> TemporalApp<'a> {
                 job.spent_ticks,
                 plan,
                 job.makespan,
+                self.rover_replan_layout.take(),
                 &mut out,
             );
             self.planner = None;
@@ -437,6 +507,11 @@ impl<'a> TemporalApp<'a> {
             self.rover_attempt = false;
             next
         } else {
+            // The state the last event left, before this one changes it.
+            if let Some(cp) = self.rover_checkpoint.as_deref_mut() {
+                rover_checkpoint::save(m, cp);
+            }
+            m.took_event();
             match self.rover_event.take() {
                 Some(RoverEvent::Goal { fact, at_ms }) => m.goal(&mut ctx, fact, at_ms, &mut out),
                 Some(RoverEvent::Ended { action, at_ms }) => {
@@ -451,6 +526,7 @@ impl<'a> TemporalApp<'a> {
                 Some(RoverEvent::Start { .. }) | None => RoverNext::Answered,
             }
         };
+
         if let RoverNext::Plan {
             len,
             max_expansions,
@@ -590,6 +666,12 @@ impl<'a> TemporalApp<'a> {
                 self.refuse(id, TemporalRefusal::Busy { job: flying }, downlink);
                 return;
             }
+        }
+        // A mission closed is forgotten once another job begins; until then a reset takes
+        // it up as it was before its Close (the host may not have had the answer).
+        let armed = self.rover.as_deref().and_then(|m| m.armed_for()) == Some(id);
+        if let (false, Some(cp)) = (armed, self.rover_checkpoint.as_deref_mut()) {
+            cp.clear();
         }
         self.end_job();
         self.receive_ticks = 0;
@@ -750,6 +832,9 @@ impl<'a> TemporalApp<'a> {
                     (armed, self.rover.as_deref_mut(), self.storage.as_ref())
                 {
                     let report = m.accepted(storage.task, task_at as usize, task_len as usize);
+                    if let Some(cp) = self.rover_checkpoint.as_deref_mut() {
+                        rover_checkpoint::save(m, cp);
+                    }
                     self.end_job();
                     self.rover_say(report);
                 }
@@ -862,9 +947,12 @@ impl<'a> TemporalApp<'a> {
         if job.phase != Phase::Planning {
             return;
         }
-        let mut outcome = None;
+        // A rover attempt's plan found in the window before: taken out of the search in this
+        // one (see below).
+        let extracting = job.outcome.is_some();
+        let mut outcome = job.outcome;
         let mut most = job.most_step_ticks;
-        let mut ran = 0u32;
+        let mut ran = u32::from(extracting);
         // Setting the search up (the layout, the duplicate table, the relaxation's indexes,
         // the compression marks, the root) comes in pieces, in windows of their own: the whole
         // costs more than a window (satellite 2: about 54,000 ticks), so it is divided (see
@@ -947,6 +1035,16 @@ impl<'a> TemporalApp<'a> {
             return;
         };
         job.outcome = Some(outcome);
+        // Taking a rover attempt's plan out of the search (its steps' STN windows: work that
+        // grows with the plan's length) waits for a window of its own when the search ran in
+        // this one.
+        if self.rover_attempt
+            && !extracting
+            && until.is_some()
+            && outcome == TemporalOutcome::Solved
+        {
+            return;
+        }
         job.phase = Phase::Reporting {
             next: 0,
             stats_sent: false,
@@ -970,6 +1068,7 @@ impl<'a> TemporalApp<'a> {
         // A rover mission's attempt gives its storage back: the mission reads the task buffer
         // in the next window.
         if self.rover_attempt {
+            self.rover_replan_layout = self.planner.as_ref().map(|p| p.task().layout());
             self.planner = None;
         }
     }
@@ -1010,7 +1109,12 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn planning_pending(&self) -> bool {
-        self.rover_event.is_some()
+        self.rover_resume
+            || self.rover_event.is_some()
+            || self
+                .rover
+                .as_deref()
+                .is_some_and(|m| m.building().is_some())
             || self.job.is_some_and(|j| {
                 matches!(j.phase, Phase::Planning | Phase::Verifying { .. })
                     || (self.rover_attempt && matches!(j.phase, Phase::Reporting { .. }))
@@ -1026,7 +1130,11 @@ impl PlannerPlugin for TemporalApp<'_> {
     }
 
     fn window(&mut self, w: &mut PluginWindow<'_, '_>) {
-        if self.rover_window(w.clock) {
+        if self.rover_resume {
+            self.rover_resume_window(w.clock);
+            return;
+        }
+        if self.rover_window(w.clock, w.until, w.hard_until) {
             return;
         }
         if self

@@ -43,6 +43,20 @@ fn uplink_chunks_hold_over_their_seeds_and_600_mutations() {
 }
 
 #[test]
+fn rover_checkpoints_hold_over_their_seeds_and_300_mutations() {
+    let seeds = seeds("rover_checkpoint");
+    // Every seed is a mission a reset left: each is taken up (and round-trips).
+    for (name, data) in &seeds {
+        assert!(
+            fuzz_logic::rover_checkpoint_restores(data),
+            "{name}: not taken up; {REGENERATE}"
+        );
+    }
+    let ran = bounded::run(&seeds, 300, 0x7e57, 64 * 1024, fuzz_logic::rover_checkpoint);
+    assert_eq!(ran, seeds.len() + 300);
+}
+
+#[test]
 fn message_seeds_load_networks_fly_frames_and_restore_after_resets() {
     let (mut loaded, mut frames, mut resets) = (0, 0, 0);
     for (_, bytes) in seeds("messages") {

@@ -16,6 +16,7 @@
 use core::mem::MaybeUninit;
 use core::ptr::addr_of_mut;
 
+use flight_app::rover_mission::checkpoint::RoverCheckpoint;
 use flight_app::rover_mission::RoverMission;
 use flight_app::{
     PlannerPlugin, TemporalApp, TemporalStorage, MAX_TEMPORAL_PLAN_ACTIONS,
@@ -52,6 +53,11 @@ static mut APP: MaybeUninit<TemporalApp<'static>> = MaybeUninit::uninit();
 /// a partition start, zero-filled at the mission's first `Start` ([`rover_memory`]).
 #[link_section = ".bss.noinit.planner"]
 static mut MISSION: MaybeUninit<RoverMission> = MaybeUninit::uninit();
+
+/// The rover mission's checkpoint (`flight_app::rover_mission::checkpoint`, 65,696 bytes): kept
+/// across a warm reset and a restart of the partition, checked before it is believed.
+#[link_section = ".bss.noinit.planner"]
+static mut ROVER_CHECKPOINT: MaybeUninit<RoverCheckpoint> = MaybeUninit::uninit();
 
 /// The rover mission's memory, zero-filled: called once per partition (re)start, by the
 /// plug-in, at the first rover `Start`.
@@ -118,6 +124,16 @@ pub fn start(has_security_area: bool) -> &'static mut TemporalApp<'static> {
             defmt::info!(
                 "temporal: job {=u16} resumed after a restart; its task is checked again",
                 app.job().unwrap_or(0)
+            );
+        }
+        // SAFETY: ROVER_CHECKPOINT is this partition's static in `.bss.noinit.planner`,
+        // referred to by nothing else; it is words only, so every bit pattern is valid, and its
+        // records are checked (magic, version, length, CRC-32, every field) before use.
+        let checkpoint = &mut *(addr_of_mut!(ROVER_CHECKPOINT) as *mut RoverCheckpoint);
+        app.keep_rover_in(checkpoint);
+        if app.resume_rover() {
+            defmt::info!(
+                "temporal: a rover mission's checkpoint found; taken up in the next window"
             );
         }
         app

@@ -622,14 +622,36 @@ pub fn network_from_plan(
     scratch: &mut [u32],
     net: &mut PlanNetwork,
 ) -> Result<(), NetworkError> {
-    let ids = task.fact_count() + task.numeric_count();
-    let last_writer = scratch.get_mut(..ids).ok_or(NetworkError::TooManySteps)?;
-    last_writer.iter_mut().for_each(|w| *w = 0);
+    let mut progress = network_from_plan_begin(task, plan, scratch, net)?;
+    network_from_plan_steps(
+        task,
+        plan,
+        open_ends,
+        scratch,
+        net,
+        &mut progress,
+        &mut || true,
+    )?;
+    Ok(())
+}
+
+/// How far a network built in pieces is ([`network_from_plan_begin`], then
+/// [`network_from_plan_steps`] until it says done): steps added so far, of `total`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct NetworkProgress {
+    pub next: usize,
+    pub total: usize,
+}
+
+/// The plan's snaps (time, plan index, is end) in time order, into `order`; their number.
+fn plan_order(
+    task: &Task<'_>,
+    plan: &[PlannedAction],
+    order: &mut [(u32, u16, bool); MAX_DISPATCH_STEPS],
+) -> Result<usize, NetworkError> {
     if 2 * plan.len() > MAX_DISPATCH_STEPS {
         return Err(NetworkError::TooManySteps);
     }
-    // (time, plan index, is end), sorted.
-    let mut order = [(0u32, 0u16, false); MAX_DISPATCH_STEPS];
     let mut n = 0;
     for (i, p) in plan.iter().enumerate() {
         if usize::from(p.action) >= task.action_count() {
@@ -655,12 +677,70 @@ pub fn network_from_plan(
             j -= 1;
         }
     }
+    Ok(n)
+}
+
+/// [`network_from_plan`] in pieces: the first, which checks the plan, empties `net` and sets
+/// its makespan. The steps follow by [`network_from_plan_steps`], with the same `scratch` and
+/// `net` untouched in between.
+pub fn network_from_plan_begin(
+    task: &Task<'_>,
+    plan: &[PlannedAction],
+    scratch: &mut [u32],
+    net: &mut PlanNetwork,
+) -> Result<NetworkProgress, NetworkError> {
+    let ids = task.fact_count() + task.numeric_count();
+    let last_writer = scratch.get_mut(..ids).ok_or(NetworkError::TooManySteps)?;
+    last_writer.iter_mut().for_each(|w| *w = 0);
+    let mut order = [(0u32, 0u16, false); MAX_DISPATCH_STEPS];
+    let n = plan_order(task, plan, &mut order)?;
     net.clear();
-    net.makespan = order.iter().map(|s| s.0).max().unwrap_or(0);
+    net.makespan = order
+        .get(..n)
+        .unwrap_or(&[])
+        .iter()
+        .map(|s| s.0)
+        .max()
+        .unwrap_or(0);
+    Ok(NetworkProgress { next: 0, total: n })
+}
+
+/// The next steps of a network built in pieces, each with the constraints into it: one step,
+/// then more while `more()` says so (it is asked before each further step). True when the
+/// last step is in: the network is [`network_from_plan`]'s.
+pub fn network_from_plan_steps(
+    task: &Task<'_>,
+    plan: &[PlannedAction],
+    open_ends: bool,
+    scratch: &mut [u32],
+    net: &mut PlanNetwork,
+    progress: &mut NetworkProgress,
+    more: &mut dyn FnMut() -> bool,
+) -> Result<bool, NetworkError> {
+    let ids = task.fact_count() + task.numeric_count();
+    let last_writer = scratch.get_mut(..ids).ok_or(NetworkError::TooManySteps)?;
+    let mut order = [(0u32, 0u16, false); MAX_DISPATCH_STEPS];
+    let n = plan_order(task, plan, &mut order)?;
+    if n != progress.total || progress.next > n || net.step_count() != progress.next {
+        return Err(NetworkError::UnknownStep);
+    }
+    let order = order.get(..n).unwrap_or(&[]);
+    // Each action's start step (a start comes before its own end).
     let mut start_step = [0u16; MAX_DISPATCH_STEPS];
+    for (j0, &(_, i, end)) in order.iter().enumerate() {
+        if !end {
+            if let Some(s) = start_step.get_mut(usize::from(i)) {
+                *s = (j0 + 1) as u16;
+            }
+        }
+    }
     let eps = task.epsilon();
     let facts = task.fact_count();
-    for (j0, &(_, i, end)) in order.iter().enumerate() {
+    let from = progress.next;
+    for (j0, &(_, i, end)) in order.iter().enumerate().skip(from) {
+        if j0 > from && !more() {
+            return Ok(false);
+        }
         let j = j0 + 1;
         let p = plan.get(usize::from(i)).ok_or(NetworkError::UnknownStep)?;
         let a = usize::from(p.action);
@@ -674,11 +754,6 @@ pub fn network_from_plan(
                 act.start_window
             },
         })?;
-        if !end {
-            if let Some(s) = start_step.get_mut(usize::from(i)) {
-                *s = j as u16;
-            }
-        }
         // Constraints into step j, merged per earlier step.
         let mut cs = [(0usize, 0u32, UNBOUNDED); 64];
         let mut m = 0usize;
@@ -754,6 +829,7 @@ pub fn network_from_plan(
                 *w = j as u32;
             }
         });
+        progress.next = j;
     }
-    Ok(())
+    Ok(true)
 }

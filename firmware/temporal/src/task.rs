@@ -213,6 +213,77 @@ pub struct Task<'a> {
     names_at: usize,
 }
 
+/// Where [`Task::parse`] found a task's parts: kept by a caller that holds the same bytes
+/// unchanged, to take the task up again without validating it anew ([`Task::from_layout`]).
+/// Every field is an integer, so all-zero bytes are a valid layout (of no task: it matches no
+/// bytes but an empty slice, which no task is).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TaskLayout {
+    len: usize,
+    facts: usize,
+    numerics: usize,
+    actions: usize,
+    epsilon: u32,
+    ticks_per_unit: u32,
+    goal_facts: usize,
+    goal_conditions: usize,
+    init_facts_at: usize,
+    init_numerics_at: usize,
+    goal_facts_at: usize,
+    goal_conditions_at: usize,
+    offsets_at: usize,
+    names_at: usize,
+}
+
+impl<'a> Task<'a> {
+    /// The layout [`Self::from_layout`] takes.
+    pub fn layout(&self) -> TaskLayout {
+        TaskLayout {
+            len: self.bytes.len(),
+            facts: self.facts,
+            numerics: self.numerics,
+            actions: self.actions,
+            epsilon: self.epsilon,
+            ticks_per_unit: self.ticks_per_unit,
+            goal_facts: self.goal_facts,
+            goal_conditions: self.goal_conditions,
+            init_facts_at: self.init_facts_at,
+            init_numerics_at: self.init_numerics_at,
+            goal_facts_at: self.goal_facts_at,
+            goal_conditions_at: self.goal_conditions_at,
+            offsets_at: self.offsets_at,
+            names_at: self.names_at,
+        }
+    }
+
+    /// The task over `bytes` that [`Self::parse`] validated before, without validating it
+    /// again: the caller keeps the bytes unchanged since (the planner partition's task buffer,
+    /// which nothing writes while the task is in use). None if the length differs or the
+    /// layout is empty. Reading a task whose bytes did change afterwards gives wrong answers,
+    /// never a panic (every read of a task is bounds-checked).
+    pub fn from_layout(bytes: &'a [u8], layout: &TaskLayout) -> Option<Self> {
+        if bytes.len() != layout.len || layout.len == 0 || layout.epsilon == 0 {
+            return None;
+        }
+        Some(Self {
+            bytes,
+            facts: layout.facts,
+            numerics: layout.numerics,
+            actions: layout.actions,
+            epsilon: layout.epsilon,
+            ticks_per_unit: layout.ticks_per_unit,
+            goal_facts: layout.goal_facts,
+            goal_conditions: layout.goal_conditions,
+            init_facts_at: layout.init_facts_at,
+            init_numerics_at: layout.init_numerics_at,
+            goal_facts_at: layout.goal_facts_at,
+            goal_conditions_at: layout.goal_conditions_at,
+            offsets_at: layout.offsets_at,
+            names_at: layout.names_at,
+        })
+    }
+}
+
 /// A list of u16 fact ids inside the task.
 #[derive(Clone, Copy)]
 pub struct Facts<'a> {

@@ -114,6 +114,10 @@ fn generate() {
         &root.join("firmware/flight-app/fuzz/seeds/uplink_chunks"),
         &chunk_seeds(&networks),
     );
+    write(
+        &root.join("firmware/flight-app/fuzz/seeds/rover_checkpoint"),
+        &rover_checkpoint_seeds(),
+    );
 
     let copies = |dir: &Path| -> Vec<(String, Vec<u8>)> {
         let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
@@ -1250,4 +1254,42 @@ fn security_seeds(networks: &[(String, Vec<u8>)]) -> Vec<(String, Vec<u8>)> {
         ("security-verdicts.ops".into(), encode_ops(&ops)),
         ("security-sequence-end.ops".into(), encode_ops(&wrap)),
     ]
+}
+
+/// The rover mission's checkpoint as resets left it (`flight_app_fuzz::rover_checkpoint`):
+/// sahara-day and field-trial flown natively, a reset injected in an event (before a plan,
+/// with a plan flying, after a replan), the memories it keeps captured.
+fn rover_checkpoint_seeds() -> Vec<(String, Vec<u8>)> {
+    use flight_app::rover_mission::checkpoint::RoverCheckpoint;
+    use hil::rover::{run_file, Backend, ResetAt};
+    use std::sync::Mutex;
+    static CAPTURED: Mutex<Option<Vec<u8>>> = Mutex::new(None);
+    fn capture(cp: &mut RoverCheckpoint, task: &mut [u8]) {
+        // The newest state record names where the mission's task is (payload words 5 and 6).
+        let i = usize::from(cp.state[1][2] > cp.state[0][2]);
+        let end = (cp.state[i][4 + 5] + cp.state[i][4 + 6]) as usize;
+        *CAPTURED.lock().unwrap() = Some(flight_app_fuzz::encode_rover_checkpoint(
+            &task[..end.min(task.len())],
+            cp,
+        ));
+    }
+    let mut seeds = Vec::new();
+    for (name, events) in [("sahara-day", [1usize, 3, 10, 30, 60]), ("field-trial", [2, 5, 20, 40, 50])] {
+        for event in events {
+            let mut backend = Backend::native();
+            backend.reset_at(ResetAt {
+                event,
+                after: 1,
+                planner_ticks: 0,
+                damage: Some(capture),
+            });
+            let path = hil::repo_root().join(format!("scenarios/rover/{name}.toml"));
+            run_file(&path, None, &mut backend).expect("the mission resumes");
+            // A reset armed past the run's last event does not land.
+            if let Some(bytes) = CAPTURED.lock().unwrap().take() {
+                seeds.push((format!("{name}-event{event:03}"), bytes));
+            }
+        }
+    }
+    seeds
 }

@@ -8,8 +8,8 @@
 //!
 //! - the onboard side of the mission decides: `flight_app::rover_mission` inside the temporal
 //!   plug-in, in the planner partition of the emulated RAD750 with `--emulated` (one QEMU for
-//!   the whole run; [`onboard::Backend::Emulated`]), or the same plug-in code in this process
-//!   natively ([`onboard::Backend::Native`]). It plans (every plan and replan a search of the
+//!   the whole run; [`onboard::Place::Emulated`]), or the same plug-in code in this process
+//!   natively ([`onboard::Place::Native`]). It plans (every plan and replan a search of the
 //!   plug-in, across windows), turns each plan into a dispatch network
 //!   ([`temporal::replan::network_from_plan`]) and executes it with [`temporal::Dispatcher`]
 //!   (start at lb if ready early, at once within (lb, ub], replan past ub; it names its next
@@ -44,7 +44,7 @@ use temporal::Task;
 mod onboard;
 mod sim;
 
-pub use onboard::{Backend, NativeOnboard};
+pub use onboard::{Backend, Damage, NativeOnboard, Place, ResetAt, Resume};
 use sim::{Rng, RoverSim};
 
 // ----- the scenario file ----------------------------------------------------------------------
@@ -266,6 +266,9 @@ pub struct RoverRun {
     pub onboard: OnboardCosts,
     /// The target's health-monitor events (an overrun of the planner's window; emulated).
     pub health_events: Vec<String>,
+    /// Resets of the planner partition injected during the run, and how the mission was taken
+    /// up again from its checkpoint ([`onboard::ResetAt`]).
+    pub resumes: Vec<onboard::Resume>,
 }
 
 /// An expectation and whether it held.
@@ -771,6 +774,7 @@ pub fn run(
             reports_received: ready.len(),
             onboard: OnboardCosts::default(),
             health_events: Vec::new(),
+            resumes: Vec::new(),
         },
         carried: Vec::new(),
     };
@@ -962,6 +966,19 @@ pub fn run(
     }
     w.run.end_s = secs(t);
     w.run.health_events = w.backend.health_events();
+    w.run.resumes = w.backend.resumes.clone();
+    for h in w.backend.health_during.clone() {
+        w.cost(format!("health monitor: {h}"));
+    }
+    for r in w.run.resumes.clone() {
+        w.cost(format!(
+            "planner partition reset during event {}: the mission resumed from its checkpoint after event {} ({} guest instructions), {} event(s) sent again and answered the same",
+            r.during_event,
+            r.resumed_after,
+            instructions(u64::from(r.restore_ticks)),
+            r.replayed
+        ));
+    }
     let mut h = Sha256::new();
     for l in &w.run.decisions {
         h.update(l.as_bytes());
@@ -982,7 +999,7 @@ pub fn onboard_metric(
     firmware: &crate::firmware::FirmwareImage,
 ) -> Result<u64, String> {
     let target = crate::plan_emulated::EmulatedPlanner::boot(firmware)?;
-    let mut backend = Backend::Emulated(Box::new(target));
+    let mut backend = Backend::on_target(target);
     let (run, verdicts) = run_file(&crate::repo_root().join(scenario), None, &mut backend)?;
     if let Some(v) = verdicts.iter().find(|v| !v.ok) {
         return Err(format!("{scenario}: {}: {}", v.what, v.got));
@@ -1199,7 +1216,7 @@ pub fn cli(command: RoverCommand) -> Result<ExitCode, String> {
                 crate::firmware::build().map_err(|e| e.to_string())?
             }
         };
-        Backend::Emulated(Box::new(crate::plan_emulated::EmulatedPlanner::boot(&fw)?))
+        Backend::on_target(crate::plan_emulated::EmulatedPlanner::boot(&fw)?)
     } else {
         Backend::native()
     };

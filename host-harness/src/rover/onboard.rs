@@ -5,6 +5,7 @@
 use fsw_bridge::temporal::{RoverEvent, RoverReport, TemporalConfig, TemporalReport};
 use fsw_bridge::{HostToTarget, TargetToHost};
 
+use flight_app::rover_mission::checkpoint::RoverCheckpoint;
 use flight_app::rover_mission::RoverMission;
 use flight_app::{
     Memories, NoClock, PlannerPlugin, PluginWindow, SecurityStore, StoreError, TemporalApp,
@@ -19,20 +20,187 @@ use crate::mission::auth::{Signer, TEST_KEY};
 const MAX_FRAMES_PER_EVENT: u32 = 20_000;
 
 /// Where the onboard side runs.
-pub enum Backend {
+pub enum Place {
     /// The plug-in in this process (no clock: its costs are 0).
     Native(Box<NativeOnboard>),
     /// The planner partition of an emulated target.
     Emulated(Box<crate::plan_emulated::EmulatedPlanner>),
 }
 
+/// Where the onboard side runs, the events it took (to send again after a reset of the
+/// planner partition) and the resets injected ([`ResetAt`]).
+pub struct Backend {
+    pub place: Place,
+    log: Vec<(RoverEvent, Vec<RoverReport>)>,
+    reset_at: Option<ResetAt>,
+    /// The resets that landed and how the mission took up again.
+    pub resumes: Vec<Resume>,
+    /// The target's health-monitor events, each with the event in whose answer it came.
+    pub health_during: Vec<String>,
+}
+
+/// A reset of the planner partition injected in the answer to an event: event `event`
+/// (counted from 0 after the mission's Ready), after `after` frames of its answer (windows
+/// natively), once the planner partition has run `planner_ticks` ticks of CPU in that frame
+/// (emulated: a warm reset, `ResetKind::PlannerAfterTicks`; natively the plug-in is made anew
+/// over the same memories, as the partition's restart does).
+#[derive(Clone, Copy, Debug)]
+pub struct ResetAt {
+    pub event: usize,
+    pub after: u32,
+    pub planner_ticks: u32,
+    /// Natively only (tests): damage the memories the reset keeps (the rover checkpoint, the
+    /// task buffer) before the restart.
+    pub damage: Option<Damage>,
+}
+
+/// What a test does to the memories a reset keeps: the rover checkpoint and the task buffer.
+pub type Damage = fn(&mut RoverCheckpoint, &mut [u8]);
+
+/// A reset that landed and the mission's resumption.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Resume {
+    /// The event whose answer the reset interrupted (from 0 after Ready).
+    pub during_event: usize,
+    /// The checkpoint held the state after this many events.
+    pub resumed_after: u32,
+    /// Events sent again whose answers had come before the reset (each answered the same).
+    pub replayed: usize,
+    /// The planner partition's CPU taking the mission up, timebase ticks (0 natively).
+    pub restore_ticks: u32,
+}
+
+/// A report without its costs (the decisions only).
+pub fn decision_of(r: &RoverReport) -> RoverReport {
+    let mut r = *r;
+    match &mut r {
+        RoverReport::Attempt {
+            build_ticks,
+            planning_ticks,
+            ..
+        } => {
+            *build_ticks = 0;
+            *planning_ticks = 0;
+        }
+        RoverReport::NewPlan { network_ticks, .. } => *network_ticks = 0,
+        RoverReport::Dispatch { poll_ticks, .. } | RoverReport::Wait { poll_ticks, .. } => {
+            *poll_ticks = 0
+        }
+        _ => {}
+    }
+    r
+}
+
 impl Backend {
+    fn at(place: Place) -> Self {
+        Self {
+            place,
+            log: Vec::new(),
+            reset_at: None,
+            resumes: Vec::new(),
+            health_during: Vec::new(),
+        }
+    }
+
     pub fn native() -> Self {
-        Backend::Native(Box::new(NativeOnboard::new()))
+        Self::at(Place::Native(Box::new(NativeOnboard::new())))
+    }
+
+    /// The planner partition of `target`.
+    pub fn on_target(target: crate::plan_emulated::EmulatedPlanner) -> Self {
+        Self::at(Place::Emulated(Box::new(target)))
+    }
+
+    /// The emulated target, if it is one.
+    pub fn target(&mut self) -> Option<&mut crate::plan_emulated::EmulatedPlanner> {
+        match &mut self.place {
+            Place::Emulated(e) => Some(e),
+            Place::Native(_) => None,
+        }
     }
 
     pub fn emulated(&self) -> bool {
-        matches!(self, Backend::Emulated(_))
+        matches!(self.place, Place::Emulated(_))
+    }
+
+    /// Inject a reset of the planner partition in the mission started next ([`ResetAt`]).
+    pub fn reset_at(&mut self, at: ResetAt) {
+        self.reset_at = Some(at);
+    }
+
+    /// One event's answer, with a reset armed in it if `reset`: None if the reset landed.
+    fn answer(
+        &mut self,
+        job: u16,
+        event: RoverEvent,
+        reset: Option<ResetAt>,
+    ) -> Result<Option<Vec<RoverReport>>, String> {
+        match &mut self.place {
+            Place::Native(n) => n.event_with_reset(job, event, reset.map(|r| (r.after, r.damage))),
+            Place::Emulated(e) => e
+                .rover_event_with_reset(
+                    job,
+                    event,
+                    reset.map(|r| (r.after, r.planner_ticks)),
+                    MAX_FRAMES_PER_EVENT,
+                )
+                .map_err(|e| e.to_string()),
+        }
+    }
+
+    /// After a reset landed in the answer to event `during`: the mission's word on its
+    /// checkpoint, then the events after it sent again (each must answer as before), then
+    /// event `during`'s answer.
+    fn resume(
+        &mut self,
+        job: u16,
+        during: usize,
+        event: RoverEvent,
+    ) -> Result<Vec<RoverReport>, String> {
+        let said = match &mut self.place {
+            Place::Native(n) => n.exchange(&[])?,
+            Place::Emulated(e) => e
+                .rover_answer(job, MAX_FRAMES_PER_EVENT)
+                .map_err(|e| e.to_string())?,
+        };
+        let (resumed_after, restore_ticks) = match said.last() {
+            Some(RoverReport::Resumed {
+                events,
+                restore_ticks,
+                ..
+            }) => (*events, *restore_ticks),
+            other => {
+                return Err(format!(
+                    "the mission was not taken up again after the reset: {other:?}"
+                ))
+            }
+        };
+        let from = resumed_after as usize;
+        if from > during {
+            return Err(format!(
+                "the checkpoint is after {from} events, but only {during} were answered"
+            ));
+        }
+        for i in from..during {
+            let (ev, before) = self.log[i].clone();
+            let again = self
+                .answer(job, ev, None)?
+                .ok_or("a reset landed that was not armed")?;
+            let same = |v: &[RoverReport]| v.iter().map(decision_of).collect::<Vec<_>>();
+            if same(&again) != same(&before) {
+                return Err(format!(
+                    "event {i} ({ev:?}) sent again after the reset was answered otherwise: {again:?}, before: {before:?}"
+                ));
+            }
+        }
+        self.resumes.push(Resume {
+            during_event: during,
+            resumed_after,
+            replayed: during - from,
+            restore_ticks,
+        });
+        self.answer(job, event, None)?
+            .ok_or_else(|| "a reset landed that was not armed".to_string())
     }
 
     /// `start` for a new job, then `task` uplinked (signed) as that job: the mission's Ready
@@ -42,29 +210,44 @@ impl Backend {
         task: &[u8],
         start: RoverEvent,
     ) -> Result<(u16, Vec<RoverReport>), String> {
-        match self {
-            Backend::Native(n) => n.start(task, start),
-            Backend::Emulated(e) => e
+        self.log.clear();
+        match &mut self.place {
+            Place::Native(n) => n.start(task, start),
+            Place::Emulated(e) => e
                 .rover_start(task, start, MAX_FRAMES_PER_EVENT)
                 .map_err(|e| e.to_string()),
         }
     }
 
-    /// One event, and the mission's answer (its last report last).
+    /// One event, and the mission's answer (its last report last). A reset of the planner
+    /// partition armed in it ([`Self::reset_at`]) is injected, and the mission taken up again
+    /// from its checkpoint before the answer is returned.
     pub fn event(&mut self, job: u16, event: RoverEvent) -> Result<Vec<RoverReport>, String> {
-        match self {
-            Backend::Native(n) => n.event(job, event),
-            Backend::Emulated(e) => e
-                .rover_event(job, event, MAX_FRAMES_PER_EVENT)
-                .map_err(|e| e.to_string()),
+        let during = self.log.len();
+        let health = self.health_events().len();
+        let reset = self.reset_at.filter(|r| r.event == during);
+        let answer = match self.answer(job, event, reset)? {
+            Some(answer) => answer,
+            None => {
+                self.reset_at = None;
+                self.resume(job, during, event)?
+            }
+        };
+        for h in self.health_events().get(health..).unwrap_or_default() {
+            let last = answer.last();
+            self.health_during.push(format!(
+                "{h} in the answer to event {during} ({event:?}): {last:?}"
+            ));
         }
+        self.log.push((event, answer.clone()));
+        Ok(answer)
     }
 
     /// Health-monitor events of the target since boot (an overrun of the planner's window).
     pub fn health_events(&self) -> Vec<String> {
-        match self {
-            Backend::Native(_) => Vec::new(),
-            Backend::Emulated(e) => e.health_events.clone(),
+        match &self.place {
+            Place::Native(_) => Vec::new(),
+            Place::Emulated(e) => e.health_events.clone(),
         }
     }
 }
@@ -92,6 +275,9 @@ pub struct NativeOnboard {
     app: TemporalApp<'static>,
     task: *mut [u8],
     arena: *mut [u32],
+    /// What a reset keeps besides the buffers: the rover checkpoint and the security area.
+    checkpoint: *mut RoverCheckpoint,
+    store: *mut MemoryStore,
     signer: Signer,
     next_job: u16,
 }
@@ -104,24 +290,50 @@ fn native_mission() -> &'static mut RoverMission {
 
 impl NativeOnboard {
     fn new() -> Self {
-        let plan =
-            Box::leak(vec![PlannedAction::default(); MAX_TEMPORAL_PLAN_ACTIONS].into_boxed_slice());
-        let mut app = TemporalApp::new(plan);
         let mut area = [0u8; sdls::nv::SECURITY_AREA_BYTES];
         sdls::nv::provision(&mut area, &TEST_KEY).expect("the area holds a key");
-        app.secure(Some(Box::leak(Box::new(MemoryStore(area)))));
-        app.fly_rover_in(native_mission);
         let task = Box::into_raw(vec![0u8; MAX_TEMPORAL_TASK_BYTES].into_boxed_slice());
         let arena = Box::into_raw(vec![0u32; TEMPORAL_ARENA_BYTES / 4].into_boxed_slice());
         let mut n = Self {
-            app,
+            app: TemporalApp::new(&mut []),
             task,
             arena,
+            checkpoint: Box::into_raw(Box::new(RoverCheckpoint::new())),
+            store: Box::into_raw(Box::new(MemoryStore(area))),
             signer: Signer::new(TEST_KEY),
             next_job: 1,
         };
-        n.give_storage();
+        n.restart();
         n
+    }
+
+    /// The plug-in made anew over the same memories, as the planner partition's (re)start
+    /// does: the task buffer, the arena, the rover checkpoint and the security area are kept;
+    /// the rover mission's memory is not (a restart takes the mission up from its checkpoint).
+    pub fn restart(&mut self) {
+        self.restart_damaged(None)
+    }
+
+    /// [`Self::restart`], with `damage` done to the memories it keeps in between.
+    pub fn restart_damaged(&mut self, damage: Option<Damage>) {
+        // The old plug-in goes first: it held the only references into the memories.
+        self.app = TemporalApp::new(&mut []);
+        if let Some(damage) = damage {
+            // SAFETY: no plug-in refers to the memories now; they are leaked (live on).
+            unsafe { damage(&mut *self.checkpoint, &mut *self.task) };
+        }
+        let plan =
+            Box::leak(vec![PlannedAction::default(); MAX_TEMPORAL_PLAN_ACTIONS].into_boxed_slice());
+        self.app = TemporalApp::new(plan);
+        // SAFETY: the old plug-in, which held the only references into these memories, was
+        // just dropped; they are leaked (live as long as the plug-in).
+        unsafe {
+            self.app.secure(Some(&mut *self.store));
+            self.app.fly_rover_in(native_mission);
+            self.app.keep_rover_in(&mut *self.checkpoint);
+        }
+        self.give_storage();
+        self.app.resume_rover();
     }
 
     fn give_storage(&mut self) {
@@ -143,6 +355,18 @@ impl NativeOnboard {
     /// Hand `msg` to the plug-in, then run windows (no CPU limit) and take its reports until the
     /// mission's last answer.
     fn exchange(&mut self, msgs: &[HostToTarget]) -> Result<Vec<RoverReport>, String> {
+        self.exchange_until(msgs, None)
+            .map(|r| r.expect("no reset was armed"))
+    }
+
+    /// [`Self::exchange`], with the plug-in restarted after `reset_after` windows if given
+    /// (None returned: the reset happened).
+    fn exchange_until(
+        &mut self,
+        msgs: &[HostToTarget],
+        reset_after: Option<(u32, Option<Damage>)>,
+    ) -> Result<Option<Vec<RoverReport>>, String> {
+        let mut windows = 0u32;
         let mut out: Vec<TargetToHost> = Vec::new();
         for msg in msgs {
             self.give_storage();
@@ -169,8 +393,12 @@ impl NativeOnboard {
             if let Some(r) = refused {
                 return Err(format!("the plug-in refused the task: {r}"));
             }
+            if let Some((_, damage)) = reset_after.filter(|r| r.0 == windows) {
+                self.restart_damaged(damage);
+                return Ok(None);
+            }
             if reports.last().is_some_and(RoverReport::is_last) {
-                return Ok(reports);
+                return Ok(Some(reports));
             }
             if !self.app.planning_pending() {
                 return Err("the mission did not answer".into());
@@ -191,6 +419,7 @@ impl NativeOnboard {
                 hard_until: None,
             };
             self.app.window(&mut w);
+            windows += 1;
         }
         Err("the mission did not answer in a million windows".into())
     }
@@ -210,7 +439,12 @@ impl NativeOnboard {
         Ok((job, self.exchange(&msgs)?))
     }
 
-    fn event(&mut self, job: u16, event: RoverEvent) -> Result<Vec<RoverReport>, String> {
-        self.exchange(&[HostToTarget::Rover { job, event }])
+    fn event_with_reset(
+        &mut self,
+        job: u16,
+        event: RoverEvent,
+        reset_after: Option<(u32, Option<Damage>)>,
+    ) -> Result<Option<Vec<RoverReport>>, String> {
+        self.exchange_until(&[HostToTarget::Rover { job, event }], reset_after)
     }
 }

@@ -29,6 +29,10 @@
 //!   chunks and delivered with a script of defects (duplicates, losses, reordering, wrong
 //!   totals, flipped bits, resets and grants in between).
 //!
+//! * [`rover_checkpoint`]: the rover mission's checkpoint memory (and the task buffer it names)
+//!   as a reset leaves it, any bytes: taking the mission up again never panics, and a mission
+//!   taken up saves and takes up again to the same records (`restore(save(m))` is `m`).
+//!
 //! Seeds are in `seeds/<target>/`: the message sequences of the shipped scenarios flown on the
 //! native target (`hil` signs with the key the harness provisions), and the shipped networks
 //! as chunked uplinks (regenerate them with
@@ -53,7 +57,11 @@ use serde::{Deserialize, Serialize};
 pub mod bounded;
 
 /// The targets of this crate, by name.
-pub const TARGETS: &[bounded::Target] = &[("messages", messages), ("uplink_chunks", uplink_chunks)];
+pub const TARGETS: &[bounded::Target] = &[
+    ("messages", messages),
+    ("uplink_chunks", uplink_chunks),
+    ("rover_checkpoint", rover_checkpoint),
+];
 
 /// Bytes of the warm-restart area in the harness: the executive's and the planner's shares
 /// (`flight_app::executive_share`: half each; a checkpoint slot is half a share), small enough
@@ -1124,4 +1132,92 @@ impl Harness {
             assert_eq!(&again[..len], record.payload, "restore changed the state");
         }
     }
+}
+
+// ----- the rover mission's checkpoint ---------------------------------------------------------
+
+use flight_app::rover_mission::checkpoint::{
+    restore as rover_restore, save_all as rover_save_all, RoverCheckpoint,
+};
+use flight_app::rover_mission::RoverMission;
+
+/// The input of [`rover_checkpoint`]: the task buffer's first bytes (their length a big-endian
+/// u32, then the bytes), then each of the four slots (state 0 and 1, plan 0 and 1) as a
+/// big-endian u32 count of words and the words (big-endian); what is missing is zeros, what
+/// is beyond a slot is cut.
+pub fn encode_rover_checkpoint(task_buffer: &[u8], cp: &RoverCheckpoint) -> Vec<u8> {
+    let mut out = Vec::new();
+    out.extend_from_slice(&(task_buffer.len() as u32).to_be_bytes());
+    out.extend_from_slice(task_buffer);
+    let slots: [&[u32]; 4] = [&cp.state[0], &cp.state[1], &cp.plan[0], &cp.plan[1]];
+    for slot in slots {
+        // Up to the record's end (its length word and CRC), or its magic only when empty.
+        let n = slot[3] as usize + 5;
+        let used = if slot[0] == 0 { 1 } else { n.min(slot.len()) };
+        out.extend_from_slice(&(used as u32).to_be_bytes());
+        for w in &slot[..used] {
+            out.extend_from_slice(&w.to_be_bytes());
+        }
+    }
+    out
+}
+
+fn decode_rover_checkpoint(data: &[u8]) -> (Vec<u8>, Box<RoverCheckpoint>) {
+    let mut at = 0usize;
+    let word = |at: &mut usize| {
+        let w = data
+            .get(*at..*at + 4)
+            .map_or(0, |b| u32::from_be_bytes([b[0], b[1], b[2], b[3]]));
+        *at += 4;
+        w
+    };
+    // The task buffer: at most the half of the buffer the mission's task lives in.
+    let len = (word(&mut at) as usize).min(flight_app::rover_mission::ROVER_REPLAN_AT);
+    let task = data.get(at..).unwrap_or_default();
+    let task = task[..len.min(task.len())].to_vec();
+    at += len;
+    let mut cp = Box::new(RoverCheckpoint::new());
+    for i in 0..4 {
+        let n = word(&mut at) as usize;
+        let slot: &mut [u32] = match i {
+            0 | 1 => &mut cp.state[i][..],
+            _ => &mut cp.plan[i - 2][..],
+        };
+        for k in 0..n.min(slot.len()) {
+            slot[k] = word(&mut at);
+        }
+        at += 4 * n.saturating_sub(slot.len());
+    }
+    (task, cp)
+}
+
+/// See [`rover_checkpoint_restores`].
+pub fn rover_checkpoint(data: &[u8]) {
+    rover_checkpoint_restores(data);
+}
+
+/// Takes the mission up from the checkpoint in `data` ([`encode_rover_checkpoint`]'s layout);
+/// whether it was. A mission taken up is saved into fresh memory and taken up again from it:
+/// the same events count, and saved again, the same records word for word.
+pub fn rover_checkpoint_restores(data: &[u8]) -> bool {
+    let (task, cp) = decode_rover_checkpoint(data);
+    let mut m = Box::new(RoverMission::new().expect("an idle mission"));
+    let Ok(Some(events)) = rover_restore(&mut m, &cp, &task) else {
+        return false;
+    };
+    let mut once = Box::new(RoverCheckpoint::new());
+    rover_save_all(&mut m, &mut once);
+    let mut again = Box::new(RoverMission::new().expect("an idle mission"));
+    assert_eq!(
+        rover_restore(&mut again, &once, &task),
+        Ok(Some(events)),
+        "a mission taken up did not take up again from its own checkpoint"
+    );
+    let mut twice = Box::new(RoverCheckpoint::new());
+    rover_save_all(&mut again, &mut twice);
+    assert!(
+        once.state == twice.state && once.plan == twice.plan,
+        "restore(save(m)) saved other records than m"
+    );
+    true
 }
