@@ -36,4 +36,7 @@ pub use types::*;
 /// reports down) appended: a peer of v3 would take them for garbage, so a `hil`
 /// and a firmware a message set apart now refuse each other at the Hello by name instead of
 /// looking like a lost link.
-pub const PROTOCOL_VERSION: u16 = 4;
+/// v5: the rover mission's `RoverReport::Resumed` and `NotResumed` (with
+/// `RoverResumeRefusal`) after a planner-partition restart appended: a v4 `hil` would take
+/// them for garbage.
+pub const PROTOCOL_VERSION: u16 = 5;

@@ -207,7 +207,7 @@ fn an_emulated_rover_mission_survives_a_warm_reset_with_the_same_decisions() {
             assert!(v.ok, "{}: {}", v.what, v.got);
         }
         assert_eq!(run.decisions, native.decisions, "{at:?}");
-        assert_eq!(run.decisions_sha256, "a0cba0ac89c4f039");
+        assert_eq!(run.decisions_sha256, "4debee67ccc69a8d");
         let r = backend.resumes.pop().expect("the reset landed");
         assert!(backend.resumes.is_empty());
         assert_eq!(r.during_event, at.event);
