@@ -198,19 +198,8 @@ fn read_i64(bytes: &[u8], at: usize) -> i64 {
 #[derive(Clone, Copy)]
 pub struct Task<'a> {
     bytes: &'a [u8],
-    facts: usize,
-    numerics: usize,
-    actions: usize,
-    epsilon: u32,
-    ticks_per_unit: u32,
-    goal_facts: usize,
-    goal_conditions: usize,
-    init_facts_at: usize,
-    init_numerics_at: usize,
-    goal_facts_at: usize,
-    goal_conditions_at: usize,
-    offsets_at: usize,
-    names_at: usize,
+    /// Where [`Task::parse`] found the parts; `layout.len` is `bytes.len()`.
+    layout: TaskLayout,
 }
 
 /// Where [`Task::parse`] found a task's parts: kept by a caller that holds the same bytes
@@ -238,22 +227,7 @@ pub struct TaskLayout {
 impl<'a> Task<'a> {
     /// The layout [`Self::from_layout`] takes.
     pub fn layout(&self) -> TaskLayout {
-        TaskLayout {
-            len: self.bytes.len(),
-            facts: self.facts,
-            numerics: self.numerics,
-            actions: self.actions,
-            epsilon: self.epsilon,
-            ticks_per_unit: self.ticks_per_unit,
-            goal_facts: self.goal_facts,
-            goal_conditions: self.goal_conditions,
-            init_facts_at: self.init_facts_at,
-            init_numerics_at: self.init_numerics_at,
-            goal_facts_at: self.goal_facts_at,
-            goal_conditions_at: self.goal_conditions_at,
-            offsets_at: self.offsets_at,
-            names_at: self.names_at,
-        }
+        self.layout
     }
 
     /// The task over `bytes` that [`Self::parse`] validated before, without validating it
@@ -267,19 +241,7 @@ impl<'a> Task<'a> {
         }
         Some(Self {
             bytes,
-            facts: layout.facts,
-            numerics: layout.numerics,
-            actions: layout.actions,
-            epsilon: layout.epsilon,
-            ticks_per_unit: layout.ticks_per_unit,
-            goal_facts: layout.goal_facts,
-            goal_conditions: layout.goal_conditions,
-            init_facts_at: layout.init_facts_at,
-            init_numerics_at: layout.init_numerics_at,
-            goal_facts_at: layout.goal_facts_at,
-            goal_conditions_at: layout.goal_conditions_at,
-            offsets_at: layout.offsets_at,
-            names_at: layout.names_at,
+            layout: *layout,
         })
     }
 }
@@ -530,19 +492,22 @@ impl<'a> Task<'a> {
         }
         Ok(Self {
             bytes,
-            facts,
-            numerics,
-            actions,
-            epsilon,
-            ticks_per_unit,
-            goal_facts,
-            goal_conditions,
-            init_facts_at,
-            init_numerics_at,
-            goal_facts_at,
-            goal_conditions_at,
-            offsets_at,
-            names_at,
+            layout: TaskLayout {
+                len: bytes.len(),
+                facts,
+                numerics,
+                actions,
+                epsilon,
+                ticks_per_unit,
+                goal_facts,
+                goal_conditions,
+                init_facts_at,
+                init_numerics_at,
+                goal_facts_at,
+                goal_conditions_at,
+                offsets_at,
+                names_at,
+            },
         })
     }
 
@@ -550,40 +515,40 @@ impl<'a> Task<'a> {
         self.bytes
     }
     pub fn fact_count(&self) -> usize {
-        self.facts
+        self.layout.facts
     }
     pub fn numeric_count(&self) -> usize {
-        self.numerics
+        self.layout.numerics
     }
     pub fn action_count(&self) -> usize {
-        self.actions
+        self.layout.actions
     }
     /// The separation between interfering happenings, in ticks.
     pub fn epsilon(&self) -> u32 {
-        self.epsilon
+        self.layout.epsilon
     }
     pub fn ticks_per_unit(&self) -> u32 {
-        self.ticks_per_unit
+        self.layout.ticks_per_unit
     }
     pub fn initially_true(&self, fact: usize) -> bool {
         self.bytes
-            .get(self.init_facts_at + fact / 8)
+            .get(self.layout.init_facts_at + fact / 8)
             .is_some_and(|b| b & (1 << (fact % 8)) != 0)
     }
     pub fn initial_value(&self, var: usize) -> i64 {
-        read_i64(self.bytes, self.init_numerics_at + 8 * var)
+        read_i64(self.bytes, self.layout.init_numerics_at + 8 * var)
     }
     pub fn goal_facts(&self) -> Facts<'a> {
         Facts {
             bytes: self.bytes,
-            at: self.goal_facts_at,
-            len: self.goal_facts,
+            at: self.layout.goal_facts_at,
+            len: self.layout.goal_facts,
         }
     }
     pub fn goal_conditions(&self) -> impl Iterator<Item = Linear<'a>> + 'a {
         let bytes = self.bytes;
-        let mut at = self.goal_conditions_at;
-        (0..self.goal_conditions).map(move |_| {
+        let mut at = self.layout.goal_conditions_at;
+        (0..self.layout.goal_conditions).map(move |_| {
             let (lin, next) = linear_at(bytes, at, false);
             at = next;
             lin
@@ -591,13 +556,13 @@ impl<'a> Task<'a> {
     }
     /// Action `a` (`a < action_count()`).
     pub fn action(&self, a: usize) -> Action<'a> {
-        let at = read_u32(self.bytes, self.offsets_at + 4 * a) as usize;
+        let at = read_u32(self.bytes, self.layout.offsets_at + 4 * a) as usize;
         read_action(self.bytes, at)
     }
     /// The bytes of action `a`'s record (`a < action_count()`), for tasks written from this
     /// one (a replan, [`crate::replan`]).
     pub fn action_record(&self, a: usize) -> &'a [u8] {
-        let at = read_u32(self.bytes, self.offsets_at + 4 * a) as usize;
+        let at = read_u32(self.bytes, self.layout.offsets_at + 4 * a) as usize;
         let act = read_action(self.bytes, at);
         let (mut end, n) = act.numeric_list(4);
         for _ in 0..n {
@@ -607,7 +572,7 @@ impl<'a> Task<'a> {
     }
     /// The action's name, as the front end wrote it (`(navigate rover0 waypoint1 waypoint2)`).
     pub fn action_name(&self, a: usize) -> &'a str {
-        let mut at = self.names_at;
+        let mut at = self.layout.names_at;
         for _ in 0..a {
             at += 2 + read_u16(self.bytes, at) as usize;
         }
