@@ -7,23 +7,14 @@ use std::collections::HashSet;
 
 use temporal::task::{FactList, NumericList, Task};
 
+mod common;
+
 fn compile(domain: &str, problem: &str, prune: bool) -> pddl::Compiled {
-    pddl::compile(
-        pddl::Source {
-            name: "domain.pddl",
-            text: domain,
-        },
-        pddl::Source {
-            name: "problem.pddl",
-            text: problem,
-        },
-        &pddl::ModuleRegistry::new(),
-        &pddl::Options {
-            prune_irrelevant: prune,
-            ..Default::default()
-        },
-    )
-    .expect("compiles")
+    let options = pddl::Options {
+        prune_irrelevant: prune,
+        ..Default::default()
+    };
+    common::compile_with(domain, problem, &options).expect("compiles")
 }
 
 /// The relevant actions' names by repeated scans of every action of the unpruned task.

@@ -622,6 +622,15 @@ pub fn plan(
 }
 
 pub fn compile(domain: &str, problem: &str) -> Result<pddl::Compiled, pddl::PddlError> {
+    compile_with(domain, problem, &pddl::Options::default())
+}
+
+/// [`compile`] with the front end's options.
+pub fn compile_with(
+    domain: &str,
+    problem: &str,
+    options: &pddl::Options,
+) -> Result<pddl::Compiled, pddl::PddlError> {
     pddl::compile(
         pddl::Source {
             name: "domain.pddl",
@@ -632,7 +641,7 @@ pub fn compile(domain: &str, problem: &str) -> Result<pddl::Compiled, pddl::Pddl
             text: problem,
         },
         &pddl::ModuleRegistry::new(),
-        &pddl::Options::default(),
+        options,
     )
 }
 
