@@ -239,5 +239,5 @@ fn every_decision_of_a_run_is_one_the_mission_sent() {
     assert!(run.reports_received > dispatch_lines);
     // Natively nothing is counted in guest instructions.
     assert_eq!(run.onboard.polls, 0);
-    assert_eq!(run.decisions_sha256, "4debee67ccc69a8d");
+    assert_eq!(run.decisions_sha256, "23b00d4803be8c09");
 }

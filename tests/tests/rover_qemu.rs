@@ -18,8 +18,8 @@ fn the_emulated_rover_missions_are_decided_onboard_as_natively() {
     let target = EmulatedPlanner::boot(hil_tests::firmware()).expect("boots");
     let mut backend = Backend::on_target(target);
     for (name, sha) in [
-        ("sahara-day", "4debee67ccc69a8d"),
-        ("field-trial", "59dfa6e3ede06c63"),
+        ("sahara-day", "23b00d4803be8c09"),
+        ("field-trial", "529b646a3f3b62be"),
     ] {
         same_decisions(name, sha, &mut backend);
     }
@@ -207,7 +207,7 @@ fn an_emulated_rover_mission_survives_a_warm_reset_with_the_same_decisions() {
             assert!(v.ok, "{}: {}", v.what, v.got);
         }
         assert_eq!(run.decisions, native.decisions, "{at:?}");
-        assert_eq!(run.decisions_sha256, "4debee67ccc69a8d");
+        assert_eq!(run.decisions_sha256, "23b00d4803be8c09");
         let r = backend.resumes.pop().expect("the reset landed");
         assert!(backend.resumes.is_empty());
         assert_eq!(r.during_event, at.event);

@@ -89,15 +89,9 @@ impl<'t, 'm> Planner<'t, 'm> {
                 if !ok {
                     continue;
                 }
-                // Among equal h, the first search tries successors that undo less of the
-                // relaxed plan first (see [`ORDERED_RESTART_AFTER`]); ties go by parent node
-                // and then snap, i.e. first generated first (the heap compares all three).
-                let conflicts = if self.phase == 0 {
-                    self.relaxed_plan_conflicts(a, snap & 3)
-                } else {
-                    0
-                };
-                let key = h.min(0xffff) << 16 | conflicts.min(0xffff);
+                // The regular list takes successors of equal h in the order generated: ties
+                // go by parent node and then snap (the heap compares all three words).
+                let key = h.min(0xffff) << 16;
                 if !self.regular.push(key, node, snap) {
                     if self.config.shed_when_full && self.regular.len > 1 {
                         self.stats.shed += self.regular.shed_worse_half() as u64;
@@ -108,10 +102,19 @@ impl<'t, 'm> Planner<'t, 'm> {
                     }
                 }
                 self.stats.generated += 1;
-                if self.config.preferred_operators
-                    && self.relax.in_relaxed_plan(r)
-                    && !self.preferred.push(key, node, snap)
-                {
+                if !(self.config.preferred_operators && self.relax.in_relaxed_plan(r)) {
+                    continue;
+                }
+                // In the first search, the preferred list tries successors of equal h that
+                // undo less of the relaxed plan first (see [`ORDERED_RESTART_AFTER`]); the
+                // search alternates between the two lists, so it alternates between that
+                // order and the order generated.
+                let key = if self.phase == 0 {
+                    key | self.relaxed_plan_conflicts(a, snap & 3).min(0xffff)
+                } else {
+                    key
+                };
+                if !self.preferred.push(key, node, snap) {
                     if self.config.shed_when_full && self.preferred.len > 1 {
                         self.stats.shed += self.preferred.shed_worse_half() as u64;
                     }
