@@ -5,7 +5,10 @@
 //! and absent, ids, priorities, permissions) with every byte replaced by each of the values
 //! where a varint, a tag or a boolean changes meaning, and cut at every length.
 mod common;
-use autonomy::model::{TaskSpec, TimelineSpec};
+use autonomy::model::{
+    ConstraintSpec, ConstraintWhen, Effect, ImpactSpec, ImpactWhen, Requirement, TaskRole,
+    TaskSpec, TimelineSpec,
+};
 use autonomy::uplink::{take_task, take_timeline};
 
 /// Byte values at the edges: 0, 1, 2 (a bad tag or boolean), 3 and 4 (the largest third byte
@@ -38,12 +41,66 @@ fn variants(bytes: &[u8]) -> Vec<Vec<u8>> {
     out
 }
 
+/// The flyby's tasks, and one with every kind of requirement and effect (the flyby's
+/// constraints and impacts need not use them all).
+fn tasks() -> Vec<TaskSpec> {
+    let mut tasks = common::flyby_spec().tasks.to_vec();
+    let mut every = tasks[0].clone();
+    every.constraints.clear();
+    every.impacts.clear();
+    for (i, require) in [
+        Requirement::OneOf { mask: 0x8000_0001 },
+        Requirement::Range {
+            min: -5,
+            max: 1 << 40,
+        },
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let when = [ConstraintWhen::Pre, ConstraintWhen::Maintain][i];
+        every
+            .constraints
+            .push(ConstraintSpec {
+                when,
+                timeline: 1,
+                require,
+                start_offset_us: -3,
+                end_offset_us: 1 << 35,
+            })
+            .unwrap();
+    }
+    for (i, effect) in [
+        Effect::Assign(-1),
+        Effect::Add(300),
+        Effect::Rate(-(1 << 33)),
+        Effect::Claim,
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let when = [ImpactWhen::Pre, ImpactWhen::Maintain, ImpactWhen::Post][i % 3];
+        every
+            .impacts
+            .push(ImpactSpec {
+                when,
+                timeline: 2,
+                effect,
+                start_offset_us: 7,
+                end_offset_us: -7,
+            })
+            .unwrap();
+    }
+    every.role = TaskRole::Template;
+    tasks.push(every);
+    tasks
+}
+
 #[test]
 fn task_reader_agrees_with_postcard_on_every_mutation() {
-    let spec = common::flyby_spec();
     let mut checked = 0;
     let mut accepted = 0;
-    for task in &spec.tasks {
+    for task in &tasks() {
         let bytes = encode(task);
         assert_eq!(take_task(&bytes, 0).unwrap(), (task.clone(), &[][..]));
         for b in variants(&bytes) {
