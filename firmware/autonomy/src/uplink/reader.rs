@@ -127,91 +127,6 @@ impl<'a> Reader<'a> {
         Err(ValidationError::new(ValidationCode::Decode, site))
     }
 
-    /// An enum's variant index as postcard writes it (a `u32` varint: at most five bytes, the
-    /// fifth at most 0x0F), below `count` (the derived decoder refuses any other): `Decode`
-    /// otherwise.
-    pub(super) fn variant(&mut self, site: ErrorSite, count: u32) -> Result<u32, ValidationError> {
-        let mut value = 0u32;
-        for i in 0..5u32 {
-            let b = self.byte(site)?;
-            value |= u32::from(b & 0x7F) << (7 * i);
-            if b & 0x80 == 0 {
-                if (i == 4 && b > 0x0F) || value >= count {
-                    break;
-                }
-                return Ok(value);
-            }
-        }
-        Err(ValidationError::new(ValidationCode::Decode, site))
-    }
-
-    /// A constraint as postcard writes a [`ConstraintSpec`], field by field.
-    pub(super) fn constraint(
-        &mut self,
-        site: ErrorSite,
-    ) -> Result<ConstraintSpec, ValidationError> {
-        let when = match self.variant(site, 2)? {
-            0 => ConstraintWhen::Pre,
-            _ => ConstraintWhen::Maintain,
-        };
-        let timeline = self.byte(site)?;
-        let require = match self.variant(site, 2)? {
-            0 => Requirement::OneOf {
-                mask: self.u32(site)?,
-            },
-            _ => Requirement::Range {
-                min: self.i64(site)?,
-                max: self.i64(site)?,
-            },
-        };
-        Ok(ConstraintSpec {
-            when,
-            timeline,
-            require,
-            start_offset_us: self.i64(site)?,
-            end_offset_us: self.i64(site)?,
-        })
-    }
-
-    /// An impact as postcard writes an [`ImpactSpec`], field by field.
-    pub(super) fn impact(&mut self, site: ErrorSite) -> Result<ImpactSpec, ValidationError> {
-        let when = match self.variant(site, 3)? {
-            0 => ImpactWhen::Pre,
-            1 => ImpactWhen::Maintain,
-            _ => ImpactWhen::Post,
-        };
-        let timeline = self.byte(site)?;
-        let effect = match self.variant(site, 4)? {
-            0 => Effect::Assign(self.i64(site)?),
-            1 => Effect::Add(self.i64(site)?),
-            2 => Effect::Rate(self.i64(site)?),
-            _ => Effect::Claim,
-        };
-        Ok(ImpactSpec {
-            when,
-            timeline,
-            effect,
-            start_offset_us: self.i64(site)?,
-            end_offset_us: self.i64(site)?,
-        })
-    }
-
-    /// A `u32` as postcard writes it (a varint of at most five bytes, the fifth at most 0x0F).
-    pub(super) fn u32(&mut self, site: ErrorSite) -> Result<u32, ValidationError> {
-        let mut value = 0u32;
-        for i in 0..5u32 {
-            let b = self.byte(site)?;
-            value |= u32::from(b & 0x7F) << (7 * i);
-            if b & 0x80 == 0 {
-                if i == 4 && b > 0x0F {
-                    break;
-                }
-                return Ok(value);
-            }
-        }
-        Err(ValidationError::new(ValidationCode::Decode, site))
-    }
-
     /// An `i64` as postcard writes it (zigzag, then a varint), read with [`Reader::u64`].
     pub(super) fn i64(&mut self, site: ErrorSite) -> Result<i64, ValidationError> {
         let z = self.u64(site)?;
@@ -311,29 +226,6 @@ impl<'a> Reader<'a> {
         }
         for i in 0..n {
             let item = self.take(site(i))?;
-            items
-                .push(item)
-                .map_err(|_| ValidationError::new(too_many, site(i)))?;
-        }
-        Ok(())
-    }
-
-    /// [`Reader::list_into`] with each item read by `read` (given the item's site) instead of
-    /// postcard's deserializer.
-    pub(super) fn list_into_with<T, const N: usize>(
-        &mut self,
-        items: &mut Vec<T, N>,
-        too_many: ValidationCode,
-        site: impl Fn(usize) -> ErrorSite,
-        mut read: impl FnMut(&mut Self, ErrorSite) -> Result<T, ValidationError>,
-    ) -> Result<(), ValidationError> {
-        items.clear();
-        let n = self.length(site(0))?;
-        if n > N {
-            return Err(ValidationError::new(too_many, site(N)));
-        }
-        for i in 0..n {
-            let item = read(self, site(i))?;
             items
                 .push(item)
                 .map_err(|_| ValidationError::new(too_many, site(i)))?;
@@ -466,10 +358,7 @@ impl<'a> Reader<'a> {
         let id = self.u16(site(TaskField::Id))?;
         let name = self.name(site(TaskField::Name))?;
         let priority = self.byte(site(TaskField::Whole))?;
-        let role = match self.variant(site(TaskField::Whole), 2)? {
-            0 => TaskRole::Requested,
-            _ => TaskRole::Template,
-        };
+        let role = self.take(site(TaskField::Whole))?;
         let command = self.option(site(TaskField::Command), |r| {
             r.command(site(TaskField::Command))
         })?;
@@ -504,18 +393,12 @@ impl<'a> Reader<'a> {
         let Some(t) = tasks.last_mut() else {
             return Err(ValidationError::new(TooManyTasks, site(TaskField::Whole)));
         };
-        self.list_into_with(
-            &mut t.constraints,
-            TooManyConstraints,
-            |k| site(TaskField::Constraint(u8_index(k))),
-            Self::constraint,
-        )?;
-        self.list_into_with(
-            &mut t.impacts,
-            TooManyImpacts,
-            |k| site(TaskField::Impact(u8_index(k))),
-            Self::impact,
-        )?;
+        self.list_into(&mut t.constraints, TooManyConstraints, |k| {
+            site(TaskField::Constraint(u8_index(k)))
+        })?;
+        self.list_into(&mut t.impacts, TooManyImpacts, |k| {
+            site(TaskField::Impact(u8_index(k)))
+        })?;
         self.control_into(|field| ErrorSite::Task { task, field }, &mut t.control)?;
         self.list_into(&mut t.contingencies, TooManyContingencies, |k| {
             site(TaskField::Contingency(u8_index(k)))
