@@ -99,6 +99,34 @@ impl<'a> Reader<'a> {
         Err(error)
     }
 
+    /// A `u8` as postcard writes it: the byte itself (`Decode` when there is none). Read here
+    /// rather than through `take`, whose deserializer costs about 90 instructions a number.
+    pub(super) fn byte(&mut self, site: ErrorSite) -> Result<u8, ValidationError> {
+        let (&b, rest) = self
+            .rest
+            .split_first()
+            .ok_or(ValidationError::new(ValidationCode::Decode, site))?;
+        self.rest = rest;
+        Ok(b)
+    }
+
+    /// A `u16` as postcard writes it: a varint of at most three bytes, the third at most 3
+    /// (what postcard refuses, a longer or larger one or too few bytes, is `Decode`).
+    pub(super) fn u16(&mut self, site: ErrorSite) -> Result<u16, ValidationError> {
+        let mut value = 0u16;
+        for i in 0..3u32 {
+            let b = self.byte(site)?;
+            value |= u16::from(b & 0x7F) << (7 * i);
+            if b & 0x80 == 0 {
+                if i == 2 && b > 0x03 {
+                    break;
+                }
+                return Ok(value);
+            }
+        }
+        Err(ValidationError::new(ValidationCode::Decode, site))
+    }
+
     /// An `i64` as postcard writes it (zigzag, then a varint), read with [`Reader::u64`].
     pub(super) fn i64(&mut self, site: ErrorSite) -> Result<i64, ValidationError> {
         let z = self.u64(site)?;
@@ -153,7 +181,7 @@ impl<'a> Reader<'a> {
         too_many: ValidationCode,
         first_over: ErrorSite,
     ) -> Result<usize, ValidationError> {
-        let n: u16 = self.take(ErrorSite::Network)?;
+        let n = self.u16(ErrorSite::Network)?;
         let n = usize::from(n);
         if n > max {
             return Err(ValidationError::new(too_many, first_over));
@@ -209,6 +237,14 @@ impl<'a> Reader<'a> {
     /// Read here as postcard reads a string (length, then UTF-8 bytes) but straight into the
     /// [`Name`], without postcard's string visitor and the moves of its result.
     pub(super) fn name(&mut self, site: ErrorSite) -> Result<Name, ValidationError> {
+        let mut name = Name::new();
+        self.name_into(site, &mut name)?;
+        Ok(name)
+    }
+
+    /// [`Reader::name`] into `name` (cleared first), not returned and moved.
+    pub(super) fn name_into(&mut self, site: ErrorSite, name: &mut Name) -> VResult {
+        name.clear();
         let len = self.length(site)?;
         if len > MAX_NAME_LEN {
             return Err(ValidationError::new(ValidationCode::NameTooLong, site));
@@ -216,10 +252,9 @@ impl<'a> Reader<'a> {
         let decode_error = ValidationError::new(ValidationCode::Decode, site);
         let (bytes, rest) = self.rest.split_at_checked(len).ok_or(decode_error)?;
         let text = core::str::from_utf8(bytes).map_err(|_| decode_error)?;
-        let mut name = Name::new();
         name.push_str(text).map_err(|_| decode_error)?;
         self.rest = rest;
-        Ok(name)
+        Ok(())
     }
 
     /// An `Option` (postcard: a tag byte 0 or 1, then the value) whose value `read` decodes.
@@ -228,7 +263,7 @@ impl<'a> Reader<'a> {
         site: ErrorSite,
         read: impl FnOnce(&mut Self) -> Result<T, ValidationError>,
     ) -> Result<Option<T>, ValidationError> {
-        match self.take::<u8>(site)? {
+        match self.byte(site)? {
             0 => Ok(None),
             1 => read(self).map(Some),
             _ => Err(ValidationError::new(ValidationCode::Decode, site)),
@@ -246,35 +281,44 @@ impl<'a> Reader<'a> {
         })
     }
 
-    /// Timeline `index`, pushed onto `timelines` as it is read (not returned and moved).
+    /// Timeline `index`, decoded into `timelines` (pushed at its end): the name and the
+    /// thresholds are read straight into the pushed element, the other fields assigned to it,
+    /// so nothing is built in a temporary and moved (each move a `memcpy` call on the target).
+    /// On error `timelines` may hold a partly decoded last element (the caller discards the
+    /// network).
     pub(super) fn timeline_into<const N: usize>(
         &mut self,
         index: usize,
         timelines: &mut Vec<TimelineSpec, N>,
     ) -> Result<(), ValidationError> {
         let site = ErrorSite::Timeline(u8_index(index));
-        let name = self.name(site)?;
-        let kind = self.take(site)?;
-        let state_key = self.take(site)?;
-        let after_reset = self.take(ErrorSite::TimelineAfterReset(u8_index(index)))?;
-        let stale_after_us = self.take(ErrorSite::TimelineStaleAfter(u8_index(index)))?;
-        let background_rate = self.i64(site)?;
-        let external = self.bool(site)?;
-        let thresholds = self.list(ValidationCode::TooManyThresholds, |_| {
-            ErrorSite::TimelineThresholds(u8_index(index))
-        })?;
         timelines
             .push(TimelineSpec {
-                name,
-                kind,
-                state_key,
-                after_reset,
-                stale_after_us,
-                background_rate,
-                external,
-                thresholds,
+                name: Name::new(),
+                kind: TimelineKind::Claimable,
+                state_key: None,
+                after_reset: None,
+                stale_after_us: None,
+                background_rate: 0,
+                external: false,
+                thresholds: Vec::new(),
             })
-            .map_err(|_| ValidationError::new(ValidationCode::TooManyTimelines, site))
+            .map_err(|_| ValidationError::new(ValidationCode::TooManyTimelines, site))?;
+        let Some(t) = timelines.last_mut() else {
+            return Err(ValidationError::new(ValidationCode::TooManyTimelines, site));
+        };
+        self.name_into(site, &mut t.name)?;
+        t.kind = self.take(site)?;
+        t.state_key = self.take(site)?;
+        let after_reset_site = ErrorSite::TimelineAfterReset(u8_index(index));
+        t.after_reset = self.option(after_reset_site, |r| r.i64(after_reset_site))?;
+        let stale_site = ErrorSite::TimelineStaleAfter(u8_index(index));
+        t.stale_after_us = self.option(stale_site, |r| r.u64(stale_site))?;
+        t.background_rate = self.i64(site)?;
+        t.external = self.bool(site)?;
+        self.list_into(&mut t.thresholds, ValidationCode::TooManyThresholds, |_| {
+            ErrorSite::TimelineThresholds(u8_index(index))
+        })
     }
 
     /// Timeline `index` as a value ([`Reader::timeline_into`] into a list of one).
@@ -311,9 +355,9 @@ impl<'a> Reader<'a> {
         use ValidationCode::*;
         let task = u16_index(index);
         let site = |field| ErrorSite::Task { task, field };
-        let id = self.take(site(TaskField::Id))?;
+        let id = self.u16(site(TaskField::Id))?;
         let name = self.name(site(TaskField::Name))?;
-        let priority = self.take(site(TaskField::Whole))?;
+        let priority = self.byte(site(TaskField::Whole))?;
         let role = self.take(site(TaskField::Whole))?;
         let command = self.option(site(TaskField::Command), |r| {
             r.command(site(TaskField::Command))
@@ -359,8 +403,8 @@ impl<'a> Reader<'a> {
         self.list_into(&mut t.contingencies, TooManyContingencies, |k| {
             site(TaskField::Contingency(u8_index(k)))
         })?;
-        t.permissions.may_move = self.take(site(TaskField::Whole))?;
-        t.permissions.may_delete = self.take(site(TaskField::Whole))?;
+        t.permissions.may_move = self.bool(site(TaskField::Whole))?;
+        t.permissions.may_delete = self.bool(site(TaskField::Whole))?;
         self.list_into(&mut t.permissions.may_add, TooManyPermissions, |k| {
             site(TaskField::Permission(u8_index(k)))
         })?;
@@ -388,9 +432,9 @@ impl<'a> Reader<'a> {
     ) -> Result<(), ValidationError> {
         let control = site(TaskField::Control);
         let responses = |f| site(TaskField::Responses(f));
-        c.start_condition = self.take(control)?;
-        c.maintain_condition = self.take(control)?;
-        c.skip_condition = self.take(control)?;
+        c.start_condition = self.option(control, |r| r.byte(control))?;
+        c.maintain_condition = self.option(control, |r| r.byte(control))?;
+        c.skip_condition = self.option(control, |r| r.byte(control))?;
         c.pre_wait_timeout_us = self.u64(control)?;
         c.response_timeout_us = self.u64(control)?;
         c.on_failure_command = self.option(control, |r| r.command(control))?;
