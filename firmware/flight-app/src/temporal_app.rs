@@ -1313,23 +1313,13 @@ fn decode_record(words: &[u32; TEMPORAL_RESUME_RECORD_WORDS]) -> Option<Job> {
     if task_at.checked_add(task_len)? > len || bytes[23] != 0 {
         return None;
     }
+    let id = u16::try_from(words[2]).ok()?;
+    let config = sdls::temporal::config_from_bytes(&config)?;
     Some(Job {
-        id: u16::try_from(words[2]).ok()?,
-        len,
-        crc32: words[4],
         task_at,
         task_len,
-        config: sdls::temporal::config_from_bytes(&config)?,
         phase: Phase::Verifying { checked: 0 },
         ticks_per_unit: words[7],
-        spent_ticks: 0,
-        windows: 0,
-        most_step_ticks: 0,
-        stalled: false,
-        most_set_up_ticks: 0,
-        outcome: None,
-        plan_len: 0,
-        makespan: 0,
-        stats: temporal::Stats::default(),
+        ..Job::new(id, len, words[4], config)
     })
 }
