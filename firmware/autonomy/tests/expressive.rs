@@ -120,17 +120,6 @@ fn maintain(timeline: u8, require: Requirement) -> ConstraintSpec {
 const IN_VIEW: Requirement = Requirement::OneOf { mask: 0b10 };
 const WARM: Requirement = Requirement::OneOf { mask: 0b10 };
 
-/// The network through the uplink: encoded, validated and decoded as the target does.
-fn uplinked(spec: NetworkSpec) -> TaskNetwork {
-    let network = TaskNetwork::from_spec(spec).unwrap();
-    let mut buf = vec![0u8; 1 << 16];
-    let len = network.encode(&mut buf).unwrap();
-    let mut decoded = TaskNetwork::EMPTY;
-    decode_into(&mut decoded, &buf[..len]).unwrap();
-    assert_eq!(decoded, network);
-    decoded
-}
-
 /// Runs the core over `seconds`, one step a second, answering every command Ok at once;
 /// returns the mission seconds at which commands were dispatched.
 fn dispatch_times(

@@ -5,7 +5,7 @@
 //! validate, decode) and the core's behaviour, with the target's refusals of what the format
 //! forbids.
 mod common;
-use autonomy::uplink::{decode_into, validate_uplink, ErrorSite, TaskField, ValidationCode};
+use autonomy::uplink::{validate_uplink, ErrorSite, TaskField, ValidationCode};
 use autonomy::*;
 use common::*;
 
@@ -126,18 +126,6 @@ const AFTER_HEAT: TemporalConstraint = TemporalConstraint {
     min_us: 60 * SEC as i64,
     max_us: 1000 * SEC as i64,
 };
-
-/// The network through the uplink: encoded, validated and decoded as the target does.
-fn uplinked(spec: NetworkSpec) -> TaskNetwork {
-    let network = TaskNetwork::from_spec(spec).unwrap();
-    let mut buf = vec![0u8; 1 << 16];
-    let len = network.encode(&mut buf).unwrap();
-    validate_uplink(&buf[..len]).unwrap();
-    let mut decoded = TaskNetwork::EMPTY;
-    decode_into(&mut decoded, &buf[..len]).unwrap();
-    assert_eq!(decoded, network);
-    decoded
-}
 
 /// Runs the core one step a second for `seconds`, answering each command Ok when `answer_at`
 /// says (by opcode; default at once). Returns every dispatch: (second, opcode, args).

@@ -5,7 +5,7 @@
 //! state update) changes it; the next plan uses the new value, and a checkpoint keeps it
 //! across a warm reset. With the target's refusals of parameters that cannot be.
 mod common;
-use autonomy::uplink::{decode_into, encode_spec, validate_uplink, ErrorSite, ValidationCode};
+use autonomy::uplink::{encode_spec, validate_uplink, ErrorSite, ValidationCode};
 use autonomy::*;
 use common::*;
 
@@ -105,17 +105,6 @@ fn network() -> NetworkSpec {
         })
         .unwrap();
     n
-}
-
-fn uplinked(spec: NetworkSpec) -> TaskNetwork {
-    let network = TaskNetwork::from_spec(spec).unwrap();
-    let mut buf = vec![0u8; 1 << 16];
-    let len = network.encode(&mut buf).unwrap();
-    validate_uplink(&buf[..len]).unwrap();
-    let mut decoded = TaskNetwork::EMPTY;
-    decode_into(&mut decoded, &buf[..len]).unwrap();
-    assert_eq!(decoded, network);
-    decoded
 }
 
 /// Steps the core one second at a time over `from..=to`, answering commands Ok at once and

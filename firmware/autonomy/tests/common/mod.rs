@@ -14,6 +14,19 @@ pub fn flyby_spec() -> NetworkSpec {
     autonomy::scenarios::flyby_spec().expect("flyby fits")
 }
 
+/// The network through the uplink: encoded, validated and decoded as the target does, and
+/// decoded equal to what was encoded.
+pub fn uplinked(spec: NetworkSpec) -> TaskNetwork {
+    let network = TaskNetwork::from_spec(spec).unwrap();
+    let mut buf = vec![0u8; 1 << 16];
+    let len = network.encode(&mut buf).unwrap();
+    autonomy::uplink::validate_uplink(&buf[..len]).unwrap();
+    let mut decoded = TaskNetwork::EMPTY;
+    autonomy::uplink::decode_into(&mut decoded, &buf[..len]).unwrap();
+    assert_eq!(decoded, network);
+    decoded
+}
+
 pub fn flyby_network() -> TaskNetwork {
     TaskNetwork::from_spec(flyby_spec()).expect("flyby network validates")
 }
