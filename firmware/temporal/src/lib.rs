@@ -19,6 +19,7 @@
 
 pub mod constraints;
 pub mod dispatch;
+pub mod dispatch_wire;
 pub mod heuristic;
 pub mod opportunistic;
 pub mod replan;
