@@ -9,7 +9,7 @@ use super::*;
 use crate::assessor::{assess_chains, AssessedPlacement, Biosignature, SampleRef};
 use crate::comms::{size_downlinks, DataPlacement, DataView};
 use crate::downlink::Tier;
-use crate::placement::{downlink_spans, is_downlink};
+use crate::placement::{downlink_spans, is_downlink, CachedTimeline};
 
 impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
     /// Model parameter update (IV.C.3).
@@ -169,6 +169,8 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             }
         }
         self.planning_from = (self.now, self.battery_mj);
+        // The chains may have changed above: the kept plan index no longer applies.
+        self.index_cache.clear();
         let config = SearchConfig {
             battery_mj: self.battery_mj,
             reserve_mj: self.config.reserve_mj,
@@ -261,8 +263,12 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                         (sol, 0)
                     },
                 };
+                let cached = CachedTimeline {
+                    timeline: &timeline,
+                    cache: &mut self.index_cache,
+                };
                 let mut placement = AssessedPlacement {
-                    inner: DataPlacement::new(timeline, view),
+                    inner: DataPlacement::new(cached, view),
                     assessor: self.assessor,
                     context: &self.context,
                     science: &self.science,
@@ -296,7 +302,10 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             }
             None => {
                 let mut placement = AssessedPlacement {
-                    inner: timeline,
+                    inner: CachedTimeline {
+                        timeline: &timeline,
+                        cache: &mut self.index_cache,
+                    },
                     assessor: self.assessor,
                     context: &self.context,
                     science: &self.science,
