@@ -169,6 +169,10 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             }
         }
         self.planning_from = (self.now, self.battery_mj);
+        // The placement plans from now with the charge now: set here once, not in a copy of
+        // the timeline (several KB with the chains' downlink spans) made at every call.
+        self.timeline.horizon_start = self.now;
+        self.timeline.battery_mj = self.battery_mj;
         // The chains may have changed above: the kept plan index no longer applies.
         self.index_cache.clear();
         let config = SearchConfig {
@@ -247,9 +251,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
 
     /// Runs the search within `budget`; true when the plan is installed (or planning failed).
     pub(super) fn continue_planning(&mut self, budget: u32) -> bool {
-        let mut timeline = self.timeline.clone();
-        timeline.horizon_start = self.planning_from.0;
-        timeline.battery_mj = self.planning_from.1;
+        let timeline = &self.timeline;
         let step = match &self.comms {
             Some(comms) => {
                 let sol = comms.sol_of(self.planning_from.0 .0);
@@ -264,7 +266,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                     },
                 };
                 let cached = CachedTimeline {
-                    timeline: &timeline,
+                    timeline,
                     cache: &mut self.index_cache,
                 };
                 let mut placement = AssessedPlacement {
@@ -303,7 +305,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             None => {
                 let mut placement = AssessedPlacement {
                     inner: CachedTimeline {
-                        timeline: &timeline,
+                        timeline,
                         cache: &mut self.index_cache,
                     },
                     assessor: self.assessor,
