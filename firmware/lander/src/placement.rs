@@ -517,9 +517,13 @@ impl PlanIndex<'_> {
 }
 
 impl TimelinePlacement {
-    /// [`Self::compatible`] with the plan indexed.
-    fn compatible_indexed(&self, index: PlanIndex<'_>, x: Span, chain: &Chain) -> bool {
-        if x.start < self.horizon_start.0 || x.end > self.horizon_end.0 || index.overlaps(&x) {
+    /// [`Self::compatible`] with the plan indexed; `free`: `x` is known to overlap no span of
+    /// the plan (lies inside a gap of the index), so that is not searched again.
+    fn compatible_indexed(&self, index: PlanIndex<'_>, x: Span, chain: &Chain, free: bool) -> bool {
+        if x.start < self.horizon_start.0
+            || x.end > self.horizon_end.0
+            || (!free && index.overlaps(&x))
+        {
             return false;
         }
         if !self
@@ -642,30 +646,32 @@ impl TimelinePlacement {
         let from = self.horizon_start.0;
         let fits_energy =
             |end: u64| self.energy_fits(MissionTimeUs(end.max(latest_end)), energy_mj);
-        let valid = |x: &Span| {
-            self.compatible_indexed(index, *x, chain)
+        // `free`: the caller knows that `x` overlaps no span of the plan (it lies inside a
+        // gap), so the index's binary search for it is not made again.
+        let valid = |x: &Span, free: bool| {
+            self.compatible_indexed(index, *x, chain, free)
                 && fits_energy(x.end)
                 && self.reaches_earth(spans, *x, chain, candidate)
         };
         if let Some(start) = chain.fixed_start {
-            return valid(&span_of(chain, start)).then_some(start);
+            return valid(&span_of(chain, start), false).then_some(start);
         }
         // The earliest valid one of `place_reference`'s candidate starts, found without
         // sorting them: a candidate is checked only while it is earlier than the best so far
         // (those before the horizon start, and never, are not candidates), and not where the
         // chain is longer than any gap before the plan's latest end (it would overlap).
         let mut best = u64::MAX;
-        let consider = |s: u64, best: &mut u64| {
+        let consider = |s: u64, best: &mut u64, free: bool| {
             if s >= from
                 && s < *best
                 && !(s < index.busy_end
                     && s.saturating_add(chain.duration_us) - s > index.longest_gap)
-                && valid(&span_of(chain, MissionTimeUs(s)))
+                && valid(&span_of(chain, MissionTimeUs(s)), free)
             {
                 *best = s;
             }
         };
-        consider(from, &mut best);
+        consider(from, &mut best, false);
         // A span's end is a candidate. For a chain of non-zero length, one before the plan's
         // latest end can only be valid where a gap opens (the chain must lie inside a gap,
         // and a span ending strictly inside a gap would meet it), so only those, the latest
@@ -680,32 +686,37 @@ impl TimelinePlacement {
                     break;
                 }
                 if b - a >= chain.duration_us {
-                    consider(a, &mut best);
+                    // It lies inside this gap: free.
+                    consider(a, &mut best, true);
                 }
             }
             if !index.gaps.is_empty() || index.busy_end > 0 {
-                consider(index.busy_end, &mut best);
+                consider(index.busy_end, &mut best, false);
             }
         }
         for s in spans {
             if all_ends || s.start >= s.end {
-                consider(s.end, &mut best);
+                consider(s.end, &mut best, false);
             }
             if chain.holds_for_ground && s.waits {
-                consider((s.start + 1).saturating_sub(chain.duration_us), &mut best);
+                consider(
+                    (s.start + 1).saturating_sub(chain.duration_us),
+                    &mut best,
+                    false,
+                );
             }
         }
         for &(_, base) in index.holds {
-            consider(base.map_or(u64::MAX, |(_, end)| end), &mut best);
+            consider(base.map_or(u64::MAX, |(_, end)| end), &mut best, false);
         }
         if let Some(at) =
             self.phases
                 .earliest_span(chain.phases, self.horizon_start, chain.duration_us)
         {
-            consider(at.0, &mut best);
+            consider(at.0, &mut best, false);
         }
         for t in (0..MAX_PHASE_CHANGES).filter_map(|i| self.phase_change(i)) {
-            consider(t.0, &mut best);
+            consider(t.0, &mut best, false);
         }
         if let (true, Some((offset, _))) = (self.earth.modelled(), self.earth.span(candidate)) {
             // The downlink starts as a window opens.
@@ -720,6 +731,7 @@ impl TimelinePlacement {
                 if s >= best {
                     break;
                 }
+                let mut free = false;
                 if chain.duration_us > 0 && s >= from && s < index.busy_end {
                     while index.gaps.get(opened).is_some_and(|&(a, _)| a <= s) {
                         opened += 1;
@@ -731,8 +743,10 @@ impl TimelinePlacement {
                     if !inside {
                         continue;
                     }
+                    // Inside the gap found: what the overlap test would find again.
+                    free = true;
                 }
-                consider(s, &mut best);
+                consider(s, &mut best, free);
             }
         }
         (best != u64::MAX).then_some(MissionTimeUs(best))
