@@ -33,6 +33,7 @@ pub fn sort_small<T: Copy>(v: &mut [T], mut cmp: impl FnMut(&T, &T) -> Ordering)
 }
 
 #[cfg(test)]
+#[allow(clippy::indexing_slicing)]
 mod tests {
     use super::*;
 
