@@ -94,6 +94,10 @@ pub struct Relaxation<'m> {
     /// decoding each start (satellite's turns, rovers' and driverlog's moves: most actions).
     pub direct_offsets: &'m mut [u32],
     pub direct: &'m mut [u32],
+    /// Per relaxed action r, four words: where its effects are in `add_index` (from, to; a
+    /// start's without its running-action fact), its own cost, and for a start 1 if its end
+    /// follows (see `end_follows`): what firing it reads, side by side.
+    pub fire_info: &'m mut [u32],
 }
 
 /// Costs with a bucket of their own in the heuristic's queue (larger ones go to a heap).
@@ -199,15 +203,15 @@ impl Queue<'_> {
 struct Propagation<'a> {
     pre_offsets: &'a [u32],
     pre_index: &'a [u32],
-    add_offsets: &'a [u32],
     add_index: &'a [u32],
-    own_cost: &'a [u32],
     cost: &'a mut [u32],
     supporter: &'a mut [u32],
     /// Per relaxed action: (preconditions not yet reached, the sum of their costs).
     counts: &'a mut [[u32; 2]],
     ready: &'a mut [u32],
-    end_follows: &'a [u32],
+    /// Per relaxed action: its effects' range in `add_index` (a start's without its
+    /// running-action fact), its own cost, and (starts) whether its end follows.
+    fire_info: &'a [[u32; 4]],
     pre_split: &'a [u32],
     direct_offsets: &'a [u32],
     direct: &'a [u32],
@@ -229,36 +233,27 @@ impl Propagation<'_> {
     /// and supporter when the propagation stops.
     #[inline(always)]
     fn fire(&mut self, r: usize, sum: u32, q: &mut Queue<'_>) {
-        let c = sum.saturating_add(self.own_cost[r]);
-        let is_start = r.is_multiple_of(2);
-        let (lo, hi) = (
-            self.add_offsets[r] as usize,
-            self.add_offsets[r + 1] as usize - usize::from(is_start),
-        );
-        self.effects(r, c, lo, hi, q);
-        if !is_start {
+        let [lo, hi, own, follows] = self.fire_info[r];
+        let c = sum.saturating_add(own);
+        self.effects(r, c, lo as usize, hi as usize, q);
+        if !r.is_multiple_of(2) {
             return;
         }
-        let a = r / 2;
-        let f = self.facts + a;
-        if self.end_follows[a / 32] & (1 << (a % 32)) != 0 {
-            // The action runs in the state (the fact's cost is zero, its end fired already
-            // from it), or the start reaches the fact now, for the only time.
-            if c < self.cost[f] {
+        let f = self.facts + r / 2;
+        // The action runs in the state (the fact's cost is zero, its end fired already from
+        // it), or the start reaches the fact now, for the only time.
+        if c < self.cost[f] {
+            if follows != 0 {
                 let e = r + 1;
                 if c == 0 {
                     self.ready[e / 32] |= 1 << (e % 32);
                 }
-                let ce = c.saturating_add(self.own_cost[e]);
-                let (lo, hi) = (
-                    self.add_offsets[e] as usize,
-                    self.add_offsets[e + 1] as usize,
-                );
-                self.effects(e, ce, lo, hi, q);
+                let [lo, hi, own, _] = self.fire_info[e];
+                self.effects(e, c.saturating_add(own), lo as usize, hi as usize, q);
+            } else {
+                q.push(c, f as u32);
+                self.cost[f] = c;
             }
-        } else if c < self.cost[f] {
-            q.push(c, f as u32);
-            self.cost[f] = c;
         }
     }
 
@@ -286,8 +281,9 @@ impl Propagation<'_> {
     ///
     /// The starts whose only precondition is f (its direct starts) are not counted: their
     /// effects, and their ends' where the end follows, are relaxed from f's `direct` entries,
-    /// as [`Self::fire`] would (an end only if its action is not running: a running action's
-    /// end fired from its running-action fact already).
+    /// as [`Self::fire`] would (also the end of an action running in the state: its effects
+    /// got their costs from the running-action fact first, see [`Relaxation::evaluate`], and
+    /// relaxing them again changes nothing).
     #[inline(always)]
     fn reach(&mut self, f: usize, c: u32, q: &mut Queue<'_>) {
         let (lo, split, hi) = (
@@ -300,8 +296,8 @@ impl Propagation<'_> {
             for &r in &self.pre_index[lo..split] {
                 let r = r as usize;
                 self.ready[r / 32] |= 1 << (r % 32);
-                let a = r / 2;
-                if self.own_cost[r] == 0 && self.end_follows[a / 32] & (1 << (a % 32)) != 0 {
+                let [_, _, own, follows] = self.fire_info[r];
+                if own == 0 && follows != 0 {
                     let e = r + 1;
                     self.ready[e / 32] |= 1 << (e % 32);
                 }
@@ -314,9 +310,6 @@ impl Propagation<'_> {
         let (entries, _) = self.direct[dlo..dhi].as_chunks::<3>();
         for &[g, delta, r] in entries {
             let g = g as usize;
-            if r % 2 == 1 && self.cost[self.facts + r as usize / 2] == 0 {
-                continue;
-            }
             let cg = c.saturating_add(delta);
             let old = self.cost[g];
             if cg < old || (cg == old && cg != u32::MAX && r < self.supporter[g]) {
@@ -475,6 +468,7 @@ impl<'m> Relaxation<'m> {
             pre_split: take(all)?,
             direct_offsets: take(all + 1)?,
             direct: take(3 * add_entries_n)?,
+            fire_info: take(4 * relaxed)?,
         };
         relax.buckets.iter_mut().for_each(|b| *b = u32::MAX);
         Some(relax)
@@ -548,6 +542,17 @@ impl<'m> Relaxation<'m> {
             if !goal_dropped(dropped_goals, i) {
                 self.goal[g / 32] |= 1 << (g % 32);
             }
+        }
+        for r in 0..2 * task.action_count() {
+            let start = r.is_multiple_of(2);
+            let a = r / 2;
+            let follows = start && self.end_follows[a / 32] & (1 << (a % 32)) != 0;
+            self.fire_info[4 * r..4 * r + 4].copy_from_slice(&[
+                self.add_offsets[r],
+                self.add_offsets[r + 1] - u32::from(start),
+                self.own_cost[r],
+                u32::from(follows),
+            ]);
         }
         // Fill using `cost` as the per-fact insertion cursor: each fact's direct starts
         // first, then the other relaxed actions.
@@ -706,14 +711,12 @@ impl<'m> Relaxation<'m> {
         let mut prop = Propagation {
             pre_offsets: &*self.pre_offsets,
             pre_index: &*self.pre_index,
-            add_offsets: &*self.add_offsets,
             add_index: &*self.add_index,
-            own_cost: &*self.own_cost,
             cost: &mut *self.cost,
             supporter: &mut *self.supporter,
             counts,
             ready: &mut *self.ready,
-            end_follows: &*self.end_follows,
+            fire_info: self.fire_info[..4 * relaxed].as_chunks::<4>().0,
             pre_split: &*self.pre_split,
             direct_offsets: &*self.direct_offsets,
             direct: &*self.direct,
@@ -730,10 +733,17 @@ impl<'m> Relaxation<'m> {
                 }
             }
         }
+        // The running actions' facts are reached first, before anything is taken from the
+        // queue: their ends fire now, so when a direct start later relaxes the end of a
+        // running action (`reach` does not look whether it runs), the end's effects have
+        // their costs from the running-action fact already, at most the start's path's, with
+        // the same supporter: nothing changes and nothing is pushed (every relaxed action's
+        // effects are pushed at most once, the queue's bound).
         for &a in running {
-            let f = facts + a as usize;
-            prop.cost[f] = 0;
-            q.push(0, f as u32);
+            prop.cost[facts + a as usize] = 0;
+        }
+        for &a in running {
+            prop.reach(facts + a as usize, 0, &mut q);
         }
         // Relaxed actions without preconditions fire at once.
         for &r in self.free.iter() {
