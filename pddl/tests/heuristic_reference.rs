@@ -75,7 +75,7 @@ impl Walk {
     fn apply(&mut self, task: &Task<'_>, r: usize) {
         let a = r / 2;
         let act = task.action(a);
-        let (del, add) = if r % 2 == 0 {
+        let (del, add) = if r.is_multiple_of(2) {
             self.running.push(a as u32);
             self.running.sort_unstable();
             (FactList::DelStart, FactList::AddStart)
