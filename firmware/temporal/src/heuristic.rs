@@ -91,7 +91,8 @@ pub struct Relaxation<'m> {
     /// (fact, cost over c, supporter): each start's effects, then its end's if the end follows
     /// (at the start's own cost plus the end's; the supporter is the end, odd), else its
     /// running-action fact. Reaching f relaxes these directly instead of counting, firing and
-    /// decoding each start (satellite's turns, rovers' and driverlog's moves: most actions).
+    /// decoding each start (satellite's turns, nearly all its actions; rovers' calibrations
+    /// and drops; driverlog's walks).
     pub direct_offsets: &'m mut [u32],
     pub direct: &'m mut [u32],
     /// Per relaxed action r, four words: where its effects are in `add_index` (from, to; a
