@@ -273,3 +273,67 @@ fn garbage_in_the_checkpoint_never_panics_and_never_changes_a_decision() {
     eprintln!("{resumed} resumed, {refused} refused");
     assert!(resumed > 0 && refused > 0);
 }
+
+/// The restore divided across windows (each window's share too small for more than its first
+/// piece): the state record, the plan's network, the dispatcher's windows, one a window; the
+/// mission takes up the same as whole, makes the same decisions, and a record refused in a
+/// later piece (its plan record gone) is refused with the same reason after the other slot was
+/// tried, and a damaged newest record falls back to the other slot.
+#[test]
+fn a_restore_divided_across_windows_takes_the_mission_up_as_whole() {
+    let (plain, _) = run_file(&scenario("sahara-day"), None, &mut Backend::native()).unwrap();
+    let divided = |at: ResetAt| {
+        let mut backend = Backend::native();
+        backend.native_onboard().unwrap().one_piece_restores = true;
+        backend.reset_at(at);
+        let run = run_file(&scenario("sahara-day"), None, &mut backend).map(|(run, _)| run);
+        (
+            run,
+            backend.native_onboard().unwrap().restore_windows.clone(),
+        )
+    };
+    for (event, pieces) in [(0, 1), (12, 3), (20, 3), (30, 3)] {
+        let (run, windows) = divided(ResetAt {
+            event,
+            after: 1,
+            planner_ticks: 0,
+            damage: None,
+        });
+        let run = run.unwrap();
+        assert_eq!(run.decisions, plain.decisions, "reset in event {event}");
+        assert_eq!(run.resumes.len(), 1, "{:?}", run.resumes);
+        assert_eq!(run.resumes[0].resumed_after as usize, event);
+        // Before the first plan the state record is all; with a plan flying, three pieces in
+        // three windows.
+        assert_eq!(windows, vec![pieces], "reset in event {event}");
+    }
+    // The newest state record damaged: its CRC leaves it out before the first piece, the
+    // other slot's three pieces take the mission up one event older.
+    let (run, windows) = divided(ResetAt {
+        event: 30,
+        after: 1,
+        planner_ticks: 0,
+        damage: Some(|cp, _| {
+            let i = newest(cp);
+            cp.state[i][6] ^= 1;
+        }),
+    });
+    let run = run.unwrap();
+    assert_eq!(run.decisions, plain.decisions);
+    assert_eq!(run.resumes[0].resumed_after, 29);
+    assert_eq!(windows, vec![3]);
+    // Both plan records gone: refused in the second piece of each state record.
+    let (run, windows) = divided(ResetAt {
+        event: 30,
+        after: 1,
+        planner_ticks: 0,
+        damage: Some(|cp, _| {
+            for p in cp.plan.iter_mut() {
+                p[7] ^= 1;
+            }
+        }),
+    });
+    let e = run.expect_err("the checkpoint without its plan was not refused");
+    assert!(e.contains("NotResumed { reason: PlanMissing"), "{e}");
+    assert_eq!(windows, vec![4]);
+}

@@ -565,3 +565,99 @@ fn bad_replan_inputs_are_refused_never_a_panic() {
     }];
     assert!(replan::network_from_plan(&task, &bad, true, &mut scratch, &mut net).is_err());
 }
+
+/// The dispatcher's incremental windows are the whole propagation's on long-day's plan (the
+/// rover's day with thirty objectives, over 60 actions): executed with every action's end on
+/// time, a tenth early and a tenth late by turns, every decision and every step's window at every poll the
+/// same as the propagation from nothing's, through the replans the late ends cause.
+#[test]
+fn incremental_dispatch_windows_are_the_whole_propagations_on_a_long_plan() {
+    let (d, p) = long_rover(30);
+    let compiled = common::compile(&d, &p).expect("compiles");
+    let task = Task::parse(&compiled.task).unwrap();
+    let plan = plan_task(task).expect("a plan");
+    assert!(plan.len() >= 60, "{} actions", plan.len());
+    let mut scratch = vec![0u32; task.fact_count() + task.numeric_count()];
+    let mut net = PlanNetwork::new();
+    replan::network_from_plan(&task, &plan, false, &mut scratch, &mut net).expect("network");
+    let steps = net.step_count();
+    let (mut finished, mut replanned) = (0, 0);
+    for (run, slack) in [(0u32, 0u32), (1, 60_000), (2, 600_000)] {
+        let horizon = net.makespan + slack;
+        let mut inc = Dispatcher::new(net.clone(), horizon).expect("consistent");
+        let mut whole = Dispatcher::new(net.clone(), horizon).expect("consistent");
+        whole.set_whole_propagation(true);
+        let mut now = 0u32;
+        let mut ends: Vec<(u32, usize)> = Vec::new();
+        let (mut polls, mut starts, mut replans) = (0, 0, 0);
+        for _ in 0..8 * steps {
+            let a = inc.poll(now, &|_| true);
+            assert_eq!(a, whole.poll(now, &|_| true), "run {run} at {now}");
+            for k in 0..=steps {
+                assert_eq!(
+                    inc.window(k),
+                    whole.window(k),
+                    "run {run}: step {k} at {now}"
+                );
+            }
+            polls += 1;
+            match a {
+                Decision::Start { step, action } => {
+                    inc.executed(step, now).unwrap();
+                    whole.executed(step, now).unwrap();
+                    let planned = plan
+                        .iter()
+                        .find(|p| p.action == action)
+                        .map_or(1000, |p| p.duration);
+                    // By turns on time, a tenth early, a tenth late.
+                    let took = match (starts + run as usize) % 3 {
+                        0 => planned,
+                        1 => planned - planned / 10,
+                        _ => planned + planned / 10,
+                    };
+                    ends.push((now + took, inc.network().end_of(step).unwrap()));
+                    starts += 1;
+                }
+                Decision::Wait { until } => {
+                    ends.sort();
+                    let next = match (until, ends.first().map(|e| e.0)) {
+                        (Some(u), Some(e)) => u.min(e),
+                        (a, b) => match a.or(b) {
+                            Some(t) => t,
+                            None => break,
+                        },
+                    };
+                    now = next.max(now);
+                    while ends.first().is_some_and(|e| e.0 <= now) {
+                        let (t, k) = ends.remove(0);
+                        inc.executed(k, t).unwrap();
+                        whole.executed(k, t).unwrap();
+                    }
+                }
+                Decision::Replan { .. } => {
+                    // Go on as a replan would not: time passes, the ends come in.
+                    replans += 1;
+                    now += 5_000;
+                    while ends.first().is_some_and(|e| e.0 <= now) {
+                        let (t, k) = ends.remove(0);
+                        inc.executed(k, t).unwrap();
+                        whole.executed(k, t).unwrap();
+                    }
+                    if replans > 100 {
+                        break;
+                    }
+                }
+                Decision::Finished => break,
+            }
+        }
+        eprintln!("run {run}: {polls} polls, {starts} starts, {replans} replans");
+        assert!(starts > 10, "run {run}: {starts} starts");
+        finished += usize::from(starts == plan.len());
+        replanned += usize::from(replans > 0);
+    }
+    // Both a run dispatched to the end and one past a step's ub were compared.
+    assert!(
+        finished > 0 && replanned > 0,
+        "{finished} finished, {replanned} replanned"
+    );
+}

@@ -406,76 +406,203 @@ pub fn save_all(m: &mut RoverMission, cp: &mut RoverCheckpoint) {
 /// Take the mission up again from `cp` into `m` (an idle mission, as the partition's start
 /// leaves it), its task in `task_buffer`. `Ok(None)`: no record to resume (nothing is said);
 /// `Ok(Some(events))`: resumed after that many events; `Err`: a record was refused (the
-/// mission stays idle).
+/// mission stays idle). [`restore_piece`]'s pieces all in one.
 pub fn restore(
     m: &mut RoverMission,
     cp: &RoverCheckpoint,
     task_buffer: &[u8],
 ) -> Result<Option<u32>, RoverResumeRefusal> {
-    let looks = [
-        look(cp.state.first().map_or(&[][..], |s| &s[..]), STATE_MAGIC),
-        look(cp.state.get(1).map_or(&[][..], |s| &s[..]), STATE_MAGIC),
-    ];
-    // The newest whole record first, then the other whole one.
-    let mut order: [Option<(u32, usize)>; 2] = [None, None];
-    let mut first_refusal = None;
-    for (i, l) in looks.iter().enumerate() {
-        match l {
-            Slot::Whole(seq, _, _) => {
-                if let Some(o) = order.get_mut(i) {
-                    *o = Some((*seq, i));
+    let mut r = Restoring::new();
+    loop {
+        if let Some(done) = restore_piece(m, cp, task_buffer, &mut r, &mut || true) {
+            return done;
+        }
+    }
+}
+
+/// Where a restore divided across windows stands ([`restore_piece`]). [`Restoring::new`]
+/// begins one.
+#[derive(Clone, Copy, Debug)]
+pub struct Restoring {
+    /// The whole state records to try, newest first: (sequence, slot).
+    order: [Option<(u32, usize)>; 2],
+    /// The next of `order` to try.
+    next: usize,
+    /// What is next for the record being taken up: the state (0), the plan's network (1), the
+    /// dispatcher's windows and the executed steps (2).
+    stage: u8,
+    /// The slots were looked at.
+    looked: bool,
+    first_refusal: Option<RoverResumeRefusal>,
+    any: bool,
+    /// The record being taken up: its plan's generation and CRC, its steps, the task's
+    /// actions, and where its executed steps' times begin in its payload.
+    plan_gen: u32,
+    plan_crc: u32,
+    steps: usize,
+    actions: usize,
+    done_at: usize,
+}
+
+impl Default for Restoring {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Restoring {
+    pub const fn new() -> Self {
+        Self {
+            order: [None, None],
+            next: 0,
+            stage: 0,
+            looked: false,
+            first_refusal: None,
+            any: false,
+            plan_gen: 0,
+            plan_crc: 0,
+            steps: 0,
+            actions: 0,
+            done_at: 0,
+        }
+    }
+}
+
+/// One piece of taking the mission up again (see [`restore`]), then more while `fits()` says
+/// the next one fits the window (`flight_app::piece_fits`' rule, the caller's): the state
+/// record (checked, the task's bytes against its CRC and validated), then the plan record's
+/// network, then the dispatcher's windows over it (an STN propagation) and the executed steps
+/// marked. `None`: more to do in a later window (the mission must take no event meanwhile);
+/// `Some(result)`: [`restore`]'s result, the same whatever the pieces. A record refused in a
+/// later piece falls back to the other slot as a whole restore does.
+pub fn restore_piece(
+    m: &mut RoverMission,
+    cp: &RoverCheckpoint,
+    task_buffer: &[u8],
+    r: &mut Restoring,
+    fits: &mut dyn FnMut() -> bool,
+) -> Option<Result<Option<u32>, RoverResumeRefusal>> {
+    if !r.looked {
+        r.looked = true;
+        let looks = [
+            look(cp.state.first().map_or(&[][..], |s| &s[..]), STATE_MAGIC),
+            look(cp.state.get(1).map_or(&[][..], |s| &s[..]), STATE_MAGIC),
+        ];
+        // The newest whole record first, then the other whole one.
+        for (i, l) in looks.iter().enumerate() {
+            match l {
+                Slot::Whole(seq, _, _) => {
+                    if let Some(o) = r.order.get_mut(i) {
+                        *o = Some((*seq, i));
+                    }
                 }
+                Slot::Damaged(why) => {
+                    r.first_refusal.get_or_insert(*why);
+                }
+                Slot::Empty => {}
             }
-            Slot::Damaged(r) => {
-                first_refusal.get_or_insert(*r);
+        }
+        match r.order {
+            // Sequence numbers wrap: the newer is the one just after the other.
+            [Some(a), Some(b)] if b.0.wrapping_sub(a.0) < u32::MAX / 2 => {
+                r.order = [Some(b), Some(a)];
             }
-            Slot::Empty => {}
+            [None, Some(b)] => r.order = [Some(b), None],
+            _ => {}
         }
     }
-    if let [Some(a), Some(b)] = order {
-        // Sequence numbers wrap: the newer is the one just after the other.
-        if b.0.wrapping_sub(a.0) < u32::MAX / 2 {
-            order = [Some(b), Some(a)];
-        }
-    }
-    let mut any = false;
-    for (_, i) in order.into_iter().flatten() {
-        any = true;
-        let Some(Slot::Whole(seq, payload, _)) = looks.get(i) else {
-            continue;
+    let mut first = true;
+    loop {
+        let Some(&Some((seq, i))) = r.order.get(r.next) else {
+            return Some(match r.first_refusal {
+                Some(why) => Err(why),
+                None if r.any => Err(RoverResumeRefusal::OutOfRange),
+                None => Ok(None),
+            });
         };
-        m.reset_idle();
-        match decode(m, cp, payload, task_buffer) {
-            Ok(()) => {
+        if !first && !fits() {
+            return None;
+        }
+        first = false;
+        // The slot's payload: whole when looked at, and nothing writes the records while the
+        // mission is taken up.
+        let payload = cp
+            .state
+            .get(i)
+            .and_then(|s| {
+                let n = s.get(3).copied()? as usize;
+                s.get(HEADER..HEADER.checked_add(n)?)
+            })
+            .unwrap_or(&[]);
+        let piece = match r.stage {
+            0 => {
+                r.any = true;
+                m.reset_idle();
+                decode(m, payload, task_buffer, r).map(|()| {
+                    let has_plan = m.has_plan;
+                    r.stage = 1;
+                    !has_plan
+                })
+            }
+            1 => restore_plan(m, cp, r.plan_gen, r.plan_crc, r.steps, r.actions).map(|()| {
+                r.stage = 2;
+                false
+            }),
+            _ => plan_windows(m, payload, r).map(|()| true),
+        };
+        match piece {
+            Ok(false) => {}
+            Ok(true) => {
                 m.saved = Saved {
-                    seq: *seq,
+                    seq,
                     slot: i as u8,
                     plan_saved: m.has_plan,
                     plan_gen: m.plan_gen,
                     plan_crc: m.saved.plan_crc,
                 };
-                return Ok(Some(m.events));
+                return Some(Ok(Some(m.events)));
             }
-            Err(r) => {
+            Err(why) => {
                 m.reset_idle();
-                first_refusal.get_or_insert(r);
+                r.first_refusal.get_or_insert(why);
+                r.next += 1;
+                r.stage = 0;
             }
         }
     }
-    match first_refusal {
-        Some(r) => Err(r),
-        None if any => Err(RoverResumeRefusal::OutOfRange),
-        None => Ok(None),
-    }
 }
 
-/// The state record's payload into `m`, checked field by field; its plan record's network
-/// into the dispatcher.
+/// The last piece of a restore: the dispatcher's windows over the plan's network, then the
+/// steps executed (their times from the state record's payload, at `r.done_at`).
+fn plan_windows(
+    m: &mut RoverMission,
+    payload: &[u32],
+    r: &Restoring,
+) -> Result<(), RoverResumeRefusal> {
+    use RoverResumeRefusal::OutOfRange;
+    let makespan = m.dispatcher.network().makespan;
+    m.dispatcher
+        .restart(makespan.saturating_add(m.horizon_slack))
+        .map_err(|_| OutOfRange)?;
+    let done = payload
+        .get(r.done_at..)
+        .and_then(|d| d.get(..=r.steps))
+        .ok_or(OutOfRange)?;
+    for (k, &at) in done.iter().enumerate().skip(1) {
+        if at != UNBOUNDED {
+            m.dispatcher.executed(k, at).map_err(|_| OutOfRange)?;
+        }
+    }
+    Ok(())
+}
+
+/// The state record's payload into `m`, checked field by field; what the later pieces need of
+/// it (its plan record, where its executed steps' times are) into `r`.
 fn decode(
     m: &mut RoverMission,
-    cp: &RoverCheckpoint,
     payload: &[u32],
     task_buffer: &[u8],
+    r: &mut Restoring,
 ) -> Result<(), RoverResumeRefusal> {
     use RoverResumeRefusal::{OutOfRange, PlanMissing, TaskChanged};
     let mut g = Get {
@@ -558,22 +685,28 @@ fn decode(
         *m.kept.get_mut(i).ok_or(OutOfRange)? = kept;
     }
     let steps = g.upto(MAX_DISPATCH_STEPS)?;
-    let mut done = [UNBOUNDED; MAX_DISPATCH_STEPS + 1];
-    g.fill(done.get_mut(..=steps).ok_or(OutOfRange)?)?;
+    // The executed steps' times, marked in the last piece.
+    let done_at = g.at;
+    g.at = g.at.saturating_add(steps + 1);
     // A plan is dispatched only while flying.
     if g.at != payload.len() || (has_plan && phase != FLYING) {
-        return Err(OutOfRange);
+        return Err(if g.at > payload.len() {
+            RoverResumeRefusal::BadLength
+        } else {
+            OutOfRange
+        });
     }
-    if has_plan {
-        restore_plan(m, cp, plan_gen, plan_crc, steps, actions, horizon_slack)?;
-        for (k, &at) in done.iter().enumerate().take(steps + 1).skip(1) {
-            if at != UNBOUNDED {
-                m.dispatcher.executed(k, at).map_err(|_| OutOfRange)?;
-            }
-        }
-    } else if steps != 0 {
+    if !has_plan && steps != 0 {
         return Err(PlanMissing);
     }
+    *r = Restoring {
+        plan_gen,
+        plan_crc,
+        steps,
+        actions,
+        done_at,
+        ..*r
+    };
     m.job = job;
     m.phase = phase;
     m.horizon_slack = horizon_slack;
@@ -602,7 +735,8 @@ fn decode(
     Ok(())
 }
 
-/// The plan record of generation `gen` (CRC `crc`, `steps` steps) into the dispatcher.
+/// The plan record of generation `gen` (CRC `crc`, `steps` steps) into the dispatcher's
+/// network (its windows are the next piece's).
 fn restore_plan(
     m: &mut RoverMission,
     cp: &RoverCheckpoint,
@@ -610,7 +744,6 @@ fn restore_plan(
     crc: u32,
     steps: usize,
     actions: usize,
-    horizon_slack: u32,
 ) -> Result<(), RoverResumeRefusal> {
     use RoverResumeRefusal::{OutOfRange, PlanMissing};
     let slot = cp.plan.get((gen % 2) as usize).ok_or(PlanMissing)?;
@@ -667,7 +800,5 @@ fn restore_plan(
     if g.at != payload.len() {
         return Err(OutOfRange);
     }
-    m.dispatcher
-        .restart(makespan.saturating_add(horizon_slack))
-        .map_err(|_| OutOfRange)
+    Ok(())
 }

@@ -240,6 +240,11 @@ pub struct TemporalApp<'a> {
     /// record found there at the (re)start, taken up in the next window.
     rover_checkpoint: Option<&'a mut RoverCheckpoint>,
     rover_resume: bool,
+    /// Where taking the mission up again stands (it is divided across windows), the costliest
+    /// piece so far and the ticks of its pieces so far.
+    rover_restoring: rover_checkpoint::Restoring,
+    rover_restore_most: u64,
+    rover_restore_ticks: u64,
     /// The layout of the rover attempt's replan task, as its search validated it.
     rover_replan_layout: Option<temporal::task::TaskLayout>,
 }
@@ -338,6 +343,9 @@ impl<'a> TemporalApp<'a> {
             rover_attempt: false,
             rover_checkpoint: None,
             rover_resume: false,
+            rover_restoring: rover_checkpoint::Restoring::new(),
+            rover_restore_most: 0,
+            rover_restore_ticks: 0,
             rover_replan_layout: None,
         }
     }
@@ -352,6 +360,9 @@ impl<'a> TemporalApp<'a> {
     /// After a (re)start: whether the checkpoint holds a record of a mission, which the next
     /// window then takes up again (or refuses, saying why).
     pub fn resume_rover(&mut self) -> bool {
+        self.rover_restoring = rover_checkpoint::Restoring::new();
+        self.rover_restore_most = 0;
+        self.rover_restore_ticks = 0;
         self.rover_resume = self.storage.is_some()
             && self.rover_memory.is_some()
             && self
@@ -361,10 +372,23 @@ impl<'a> TemporalApp<'a> {
         self.rover_resume
     }
 
-    /// The window's work of taking the mission up again from its checkpoint.
-    fn rover_resume_window(&mut self, clock: &mut dyn CpuClock) {
+    /// The mission is being taken up again from its checkpoint (its pieces go on in the next
+    /// windows; it takes no event meanwhile).
+    pub fn rover_resuming(&self) -> bool {
+        self.rover_resume
+    }
+
+    /// The window's work of taking the mission up again from its checkpoint: its pieces
+    /// ([`rover_checkpoint::restore_piece`]) while the costliest so far fits the window's
+    /// share (the window's first always runs: [`crate::piece_fits`]' rule), the rest in the
+    /// next windows; `Resumed` says the ticks of all the pieces.
+    fn rover_resume_window(
+        &mut self,
+        clock: &mut dyn CpuClock,
+        until: Option<u64>,
+        hard_until: Option<u64>,
+    ) {
         let t0 = clock.ticks();
-        self.rover_resume = false;
         if self.rover.is_none() {
             self.rover = self.rover_memory.take().map(|zeroed| zeroed());
         }
@@ -373,14 +397,39 @@ impl<'a> TemporalApp<'a> {
             self.rover_checkpoint.as_deref(),
             self.storage.as_ref(),
         ) else {
+            self.rover_resume = false;
             return;
         };
-        let report = match rover_checkpoint::restore(m, cp, storage.task) {
+        let mut last = t0;
+        let mut most = self.rover_restore_most;
+        let mut fits = || {
+            let now = clock.ticks();
+            most = most.max(now.wrapping_sub(last));
+            last = now;
+            until.is_none_or(|u| crate::piece_fits(now, most, false, false, u, hard_until))
+        };
+        let done = rover_checkpoint::restore_piece(
+            m,
+            cp,
+            storage.task,
+            &mut self.rover_restoring,
+            &mut fits,
+        );
+        let now = clock.ticks();
+        self.rover_restore_most = most.max(now.wrapping_sub(last));
+        self.rover_restore_ticks = self
+            .rover_restore_ticks
+            .saturating_add(now.wrapping_sub(t0));
+        let Some(done) = done else {
+            return;
+        };
+        self.rover_resume = false;
+        let report = match done {
             Ok(None) => return,
             Ok(Some(events)) => RoverReport::Resumed {
                 events,
                 last_ms: m.last_ms(),
-                restore_ticks: sat(clock.ticks().wrapping_sub(t0)),
+                restore_ticks: sat(self.rover_restore_ticks),
             },
             Err(reason) => RoverReport::NotResumed { reason },
         };
@@ -1131,7 +1180,7 @@ impl PlannerPlugin for TemporalApp<'_> {
 
     fn window(&mut self, w: &mut PluginWindow<'_, '_>) {
         if self.rover_resume {
-            self.rover_resume_window(w.clock);
+            self.rover_resume_window(w.clock, w.until, w.hard_until);
             return;
         }
         if self.rover_window(w.clock, w.until, w.hard_until) {

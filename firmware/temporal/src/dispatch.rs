@@ -28,6 +28,8 @@ use crate::task::UNBOUNDED;
 pub const MAX_DISPATCH_STEPS: usize = 256;
 /// Most constraints a [`PlanNetwork`] holds.
 pub const MAX_DISPATCH_CONSTRAINTS: usize = 2048;
+/// Words of a bit set over the steps (the epoch included).
+const BLOCKED_WORDS: usize = (MAX_DISPATCH_STEPS + 1).div_ceil(32);
 
 /// One step of a plan: the start or the end of an action, and its window from timed literals
 /// (`(0, UNBOUNDED)` for none).
@@ -171,6 +173,19 @@ pub struct Dispatcher {
     lst: [u32; MAX_DISPATCH_STEPS + 1],
     /// Latest time of any step: the makespan kept, or later if the caller allows.
     horizon: u32,
+    /// `est` is the least schedule worked out at `est_now` for the steps executed then, and
+    /// what was executed since keeps it a lower bound of the next one (see [`Self::executed`]):
+    /// the next propagation may start from it. False (all-zero memory) means work it out anew.
+    est_warm: bool,
+    /// `lst` is the greatest schedule for the steps executed now (it does not depend on the
+    /// time now): the next propagation keeps it.
+    lst_kept: bool,
+    /// Something was executed since `est` was worked out.
+    executed_since: bool,
+    /// The time `est` was worked out at.
+    est_now: u32,
+    /// Every propagation worked out whole (the reference the incremental one is tested against).
+    whole_only: bool,
 }
 
 impl Dispatcher {
@@ -183,6 +198,11 @@ impl Dispatcher {
             est: [0; MAX_DISPATCH_STEPS + 1],
             lst: [0; MAX_DISPATCH_STEPS + 1],
             horizon,
+            est_warm: false,
+            lst_kept: false,
+            executed_since: false,
+            est_now: 0,
+            whole_only: false,
         };
         if let Some(epoch) = d.done.get_mut(0) {
             *epoch = 0;
@@ -202,6 +222,7 @@ impl Dispatcher {
     /// bool, so all-zero bytes are a valid (empty) one: the planner partition zero-fills one in
     /// place and builds each plan's network into it.
     pub fn network_mut(&mut self) -> &mut PlanNetwork {
+        self.forget_windows();
         &mut self.net
     }
 
@@ -212,6 +233,7 @@ impl Dispatcher {
         self.est.iter_mut().for_each(|e| *e = 0);
         self.lst.iter_mut().for_each(|l| *l = 0);
         self.horizon = horizon;
+        self.forget_windows();
         if let Some(epoch) = self.done.get_mut(0) {
             *epoch = 0;
         }
@@ -228,10 +250,71 @@ impl Dispatcher {
         self.done.get(k).copied().filter(|&t| t != UNBOUNDED)
     }
 
+    /// The next propagation works every window out anew.
+    fn forget_windows(&mut self) {
+        self.est_warm = false;
+        self.lst_kept = false;
+        self.executed_since = false;
+    }
+
+    /// Every propagation worked out whole, from nothing (`true`), or incrementally (the
+    /// default): the two give the same windows and decisions; the whole one is the reference
+    /// the tests hold the incremental one to.
+    pub fn set_whole_propagation(&mut self, whole: bool) {
+        self.whole_only = whole;
+        self.forget_windows();
+    }
+
     /// Works out every step's window at time `now`. Err(step): the first step not yet executed
     /// whose window is empty (or the network has no schedule at all: the first step not yet
     /// executed).
+    ///
+    /// Incrementally, with the same result as from nothing: the latest times do not depend on
+    /// `now`, so they are kept until a step is executed; the earliest times are kept when
+    /// nothing was executed and `now` has not passed any open step's earliest time (they are
+    /// then still the least schedule), and otherwise worked out from the last ones (label
+    /// correcting from a lower bound ends at the least schedule). The last ones are a lower
+    /// bound of the new least schedule when time went forward and the new one exists with
+    /// every executed step at the time it happened at, at or after its last earliest time:
+    /// for a step not executed, every bound into it is still there and its window only
+    /// narrowed, so the last least schedule's every iterate stays below the new one. When the
+    /// new one does not exist, or a step was executed before its earliest time (an action
+    /// that ended early), the propagation from the last times fails (the executed step's
+    /// window is its time) and is worked out again from nothing, so a refusal names the same
+    /// step as the whole propagation's.
     fn propagate(&mut self, now: u32) -> Result<(), usize> {
+        if self.whole_only || !self.est_warm || now < self.est_now {
+            self.forget_windows();
+        }
+        let steps = self.net.step_count;
+        let keep_est = self.est_warm && !self.executed_since && {
+            let (done, est) = (&self.done, &self.est);
+            (1..=steps)
+                .all(|k| done.get(k) != Some(&UNBOUNDED) || est.get(k).is_some_and(|&e| now <= e))
+        };
+        let warm = self.est_warm;
+        let r = self.propagate_from(now, keep_est, warm);
+        let r = if r.is_err() && (keep_est || warm || self.lst_kept) {
+            self.forget_windows();
+            self.propagate_from(now, false, false)
+        } else {
+            r
+        };
+        match r {
+            Ok(()) => {
+                self.est_warm = true;
+                self.lst_kept = true;
+                self.executed_since = false;
+                self.est_now = now;
+            }
+            Err(_) => self.forget_windows(),
+        }
+        r
+    }
+
+    /// [`Self::propagate`]'s work: the earliest times kept (`keep_est`), worked out from the
+    /// last ones (`warm`) or from nothing; the latest kept if `lst_kept`.
+    fn propagate_from(&mut self, now: u32, keep_est: bool, warm: bool) -> Result<(), usize> {
         let steps = self.net.step_count;
         let net = &self.net;
         let done = &self.done;
@@ -243,10 +326,9 @@ impl Dispatcher {
             }
         };
         let first_open = (1..=steps)
-            .find(|&k| self.executed_at(k).is_none())
+            .find(|&k| done.get(k).is_some_and(|&t| t == UNBOUNDED))
             .unwrap_or(0);
         let cs = self.net.constraints();
-        self.est.iter_mut().for_each(|e| *e = 0);
         // Between two executed steps a constraint says nothing any more: what happened
         // happened (an action that overran its duration ended when it ended).
         let get = |i: usize| match cs.get(i).copied() {
@@ -259,29 +341,43 @@ impl Dispatcher {
             Some(c) => c,
             None => NO_CONSTRAINT,
         };
-        match stn::earliest_with(steps, cs.len(), &get, &window, &mut self.est) {
-            Ok(()) => {}
-            Err(stn::Inconsistent::WindowMissed { step }) => return Err(usize::from(step)),
-            Err(_) => return Err(first_open),
+        if !keep_est {
+            if !warm {
+                self.est.iter_mut().for_each(|e| *e = 0);
+            }
+            match stn::earliest_with(steps, cs.len(), &get, &window, &mut self.est) {
+                Ok(()) => {}
+                Err(stn::Inconsistent::WindowMissed { step }) => return Err(usize::from(step)),
+                Err(_) => return Err(first_open),
+            }
         }
-        if stn::latest_with(steps, cs.len(), &get, &window, self.horizon, &mut self.lst).is_err() {
+        if !self.lst_kept
+            && stn::latest_with(steps, cs.len(), &get, &window, self.horizon, &mut self.lst)
+                .is_err()
+        {
             return Err(first_open);
         }
         for k in 1..=steps {
-            if self.executed_at(k).is_none() && self.est.get(k) > self.lst.get(k) {
+            if done.get(k) == Some(&UNBOUNDED) && self.est.get(k) > self.lst.get(k) {
                 return Err(k);
             }
         }
         Ok(())
     }
 
-    /// Whether every step that must come before step `k` has been executed.
-    fn enabled(&self, k: usize) -> bool {
-        self.net.constraints().iter().all(|c| {
-            usize::from(c.after) != k
-                || c.before == 0
-                || self.executed_at(usize::from(c.before)).is_some()
-        })
+    /// The steps some step that must come before has not been executed for (one bit a step),
+    /// in one pass over the constraints.
+    fn blocked(&self) -> [u32; BLOCKED_WORDS] {
+        let mut blocked = [0u32; BLOCKED_WORDS];
+        for c in self.net.constraints() {
+            if c.before != 0 && self.executed_at(usize::from(c.before)).is_none() {
+                let a = usize::from(c.after);
+                if let Some(w) = blocked.get_mut(a / 32) {
+                    *w |= 1 << (a % 32);
+                }
+            }
+        }
+        blocked
     }
 
     /// What to do at time `now`, given which actions are ready to start (their conditions hold
@@ -295,12 +391,18 @@ impl Dispatcher {
             let ub = self.lst.get(step).copied().unwrap_or(0);
             return Decision::Replan { step, ub };
         }
+        let blocked = self.blocked();
+        let enabled = |k: usize| {
+            blocked
+                .get(k / 32)
+                .is_some_and(|w| w & (1 << (k % 32)) == 0)
+        };
         let mut until: Option<u32> = None;
         for k in 1..=steps {
             let Some(step) = self.net.step(k) else {
                 continue;
             };
-            if step.end || self.executed_at(k).is_some() || !self.enabled(k) {
+            if step.end || self.executed_at(k).is_some() || !enabled(k) {
                 continue;
             }
             let (lb, ub) = (
@@ -332,6 +434,13 @@ impl Dispatcher {
         }
         let slot = self.done.get_mut(k).ok_or(NetworkError::UnknownStep)?;
         *slot = at;
+        self.lst_kept = false;
+        self.executed_since = true;
+        // A step executed before its earliest time makes the last earliest times no lower
+        // bound of the next ones: the next propagation starts from nothing.
+        if self.est.get(k).is_none_or(|&e| at < e) {
+            self.est_warm = false;
+        }
         Ok(())
     }
 }

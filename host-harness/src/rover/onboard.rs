@@ -111,6 +111,14 @@ impl Backend {
         Self::at(Place::Emulated(Box::new(target)))
     }
 
+    /// The plug-in in this process, if it is there.
+    pub fn native_onboard(&mut self) -> Option<&mut NativeOnboard> {
+        match &mut self.place {
+            Place::Native(n) => Some(n),
+            Place::Emulated(_) => None,
+        }
+    }
+
     /// The emulated target, if it is one.
     pub fn target(&mut self) -> Option<&mut crate::plan_emulated::EmulatedPlanner> {
         match &mut self.place {
@@ -280,6 +288,22 @@ pub struct NativeOnboard {
     store: *mut MemoryStore,
     signer: Signer,
     next_job: u16,
+    /// Tests: while the mission is taken up again after a restart, every window's share is
+    /// too small for more than its first piece (a clock that ticks at every reading), so the
+    /// restore is divided across as many windows as it has pieces.
+    pub one_piece_restores: bool,
+    /// The windows each restore took (one a restore unless `one_piece_restores`).
+    pub restore_windows: Vec<u32>,
+}
+
+/// A clock that ticks at every reading (the native windows of [`NativeOnboard::one_piece_restores`]).
+struct TickClock(u64);
+
+impl flight_app::CpuClock for TickClock {
+    fn ticks(&mut self) -> u64 {
+        self.0 += 1;
+        self.0
+    }
 }
 
 fn native_mission() -> &'static mut RoverMission {
@@ -302,6 +326,8 @@ impl NativeOnboard {
             store: Box::into_raw(Box::new(MemoryStore(area))),
             signer: Signer::new(TEST_KEY),
             next_job: 1,
+            one_piece_restores: false,
+            restore_windows: Vec::new(),
         };
         n.restart();
         n
@@ -333,7 +359,9 @@ impl NativeOnboard {
             self.app.keep_rover_in(&mut *self.checkpoint);
         }
         self.give_storage();
-        self.app.resume_rover();
+        if self.app.resume_rover() {
+            self.restore_windows.push(0);
+        }
     }
 
     fn give_storage(&mut self) {
@@ -410,15 +438,25 @@ impl NativeOnboard {
                 security: None,
             };
             let mut sink = |m: TargetToHost| out.push(m);
+            let resuming = self.app.rover_resuming();
+            let divided = resuming && self.one_piece_restores;
+            let (mut ticking, mut no_clock) = (TickClock(0), NoClock);
+            let clock: &mut dyn flight_app::CpuClock =
+                if divided { &mut ticking } else { &mut no_clock };
             let mut w = PluginWindow {
                 memories: &mut memories,
                 fetch: None,
-                clock: &mut NoClock,
+                clock,
                 downlink: &mut sink,
-                until: None,
+                until: divided.then_some(1),
                 hard_until: None,
             };
             self.app.window(&mut w);
+            if resuming {
+                if let Some(n) = self.restore_windows.last_mut() {
+                    *n += 1;
+                }
+            }
             windows += 1;
         }
         Err("the mission did not answer in a million windows".into())
