@@ -28,7 +28,6 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.status = Status::OutOfMemory(Region::Nodes);
             return None;
         };
-        self.best_node = root;
         if self.is_goal(self.child_state) {
             self.goal_node = root;
             self.status = Status::Solved;
@@ -88,19 +87,6 @@ impl<'t, 'm> Planner<'t, 'm> {
                 let ok = self.apply(probe, snap);
                 self.probe_state = probe;
                 if !ok {
-                    continue;
-                }
-                if self.climbing {
-                    // The climb's breadth-first search: helpful successors only (at first), in
-                    // the order generated (one key: ties go by parent node, then snap).
-                    if self.climb_helpful && !self.relax.in_relaxed_plan(r) {
-                        continue;
-                    }
-                    if !self.regular.push(0, node, snap) {
-                        result = Err(Region::RegularOpen);
-                        break 'words;
-                    }
-                    self.stats.generated += 1;
                     continue;
                 }
                 // The regular list takes successors of equal h in the order generated: ties
@@ -169,34 +155,9 @@ impl<'t, 'm> Planner<'t, 'm> {
             if self.status != Status::Searching {
                 break;
             }
-            if self.climbing {
-                if self.climb_stalled() {
-                    self.end_climb();
-                    continue;
-                }
-                let Some((_, parent, snap)) = self.regular.pop() else {
-                    match self.widen_climb() {
-                        Ok(true) => {}
-                        _ => self.end_climb(),
-                    }
-                    continue;
-                };
-                match self.expand(parent, snap) {
-                    Ok(()) => {}
-                    Err(Region::PlanLength) => self.stats.too_long += 1,
-                    Err(_) => self.end_climb(),
-                }
-                continue;
-            }
             let stalled = self.stats.expanded - self.last_progress;
             if self.phase == 0 && stalled > self.ordered_restart_after {
-                if self.climb_when == 3 {
-                    self.climb_from_best(1);
-                } else if self.climb_when == 1 {
-                    self.start_climb(1);
-                } else {
-                    self.restart(1);
-                }
+                self.restart(1);
                 continue;
             }
             if self.phase == 1 && stalled > self.restart_after {
@@ -230,7 +191,6 @@ impl<'t, 'm> Planner<'t, 'm> {
                 // A path too long to extend is a branch dropped, not the search's end.
                 Err(Region::PlanLength) => self.stats.too_long += 1,
                 Err(_) if self.pruning_more() => self.restart(3),
-                Err(_) if self.phase == 3 && self.climb_when == 4 => self.start_climb(4),
                 // The ordered search gives way to the searches as before.
                 Err(_) if self.phase == 0 => self.restart(1),
                 Err(r) => self.status = Status::OutOfMemory(r),
@@ -255,7 +215,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.stats.peak_words = s.peak_words;
         self.stats.restarts += 1;
         self.phase = phase;
-        self.boost_amount = if phase <= 1 {
+        self.boost_amount = if phase == 1 {
             BOOST_FIRST
         } else {
             BOOST_SECOND
@@ -401,8 +361,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.stats.dead_ends += 1;
             return Ok(());
         }
-        let improved = h < self.stats.best_h;
-        if improved {
+        if h < self.stats.best_h {
             self.stats.best_h = h;
             self.boost += self.boost_amount;
             self.last_progress = self.stats.expanded;
@@ -420,12 +379,6 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.goal_node = node;
             self.status = Status::Solved;
             return Ok(());
-        }
-        if improved {
-            self.best_node = node;
-        }
-        if self.climbing && improved {
-            return self.commit_climb(node, h);
         }
         self.push_successors(node, h)
     }

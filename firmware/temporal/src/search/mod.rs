@@ -29,7 +29,6 @@ use crate::heuristic::{self, carve, Relaxation, RelaxedCost, DEAD_END};
 use crate::stn;
 use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
-mod climb;
 mod expand;
 mod path;
 pub(crate) use path::{for_each_read, for_each_write, snap_reads};
@@ -90,9 +89,6 @@ pub const ORDERED_RESTART_AFTER: u64 = 500;
 /// "unsolvable". A small portfolio of configurations, one after the other in the same arena,
 /// the same on every target.
 pub const RESTART_AFTER: u64 = 3000;
-
-/// Whether the portfolio begins with enforced hill-climbing ([`climb`]).
-pub const CLIMB_FIRST: bool = false;
 
 /// How the planner searches.
 #[derive(Clone, Copy, Debug)]
@@ -358,20 +354,6 @@ pub struct Planner<'t, 'm> {
     /// [`ORDERED_RESTART_AFTER`] unless set otherwise ([`Planner::set_restart_after`]).
     ordered_restart_after: u64,
     turn: bool,
-    /// The enforced hill-climbing runs ([`climb`]), before the best-first searches.
-    climbing: bool,
-    /// The node the climb last committed to (the root at first), and whether its
-    /// breadth-first search takes only helpful successors (until it fails once).
-    climb_node: u32,
-    climb_helpful: bool,
-    /// Expansions when the climb's current breadth-first search began, and how many it may
-    /// run without a better state.
-    climb_since: u64,
-    climb_limit: u64,
-    /// When the climb runs: 0 first, 1 after the ordered search, 2 never.
-    climb_when: u8,
-    /// The node of the best h in the search under way.
-    best_node: u32,
     goal_node: u32,
     status: Status,
     stats: Stats,
@@ -478,18 +460,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             boost: 0,
             last_progress: 0,
             phase: 0,
-            climbing: CLIMB_FIRST,
-            climb_node: 0,
-            climb_helpful: config.preferred_operators,
-            climb_since: 0,
-            climb_limit: u64::MAX,
-            climb_when: 2,
-            best_node: 0,
-            duplicates: if CLIMB_FIRST {
-                Duplicates::PruneAll
-            } else {
-                config.duplicates
-            },
+            duplicates: config.duplicates,
             shed_base: 0,
             restart_after: RESTART_AFTER,
             ordered_restart_after: ORDERED_RESTART_AFTER,
@@ -526,17 +497,6 @@ impl<'t, 'm> Planner<'t, 'm> {
     pub fn set_restart_after(&mut self, expansions: u64) {
         self.restart_after = expansions;
         self.ordered_restart_after = expansions;
-    }
-    /// Experiment: when the climb runs (0 first, 1 after the ordered search, 2 never) and its
-    /// breadth-first searches' limit.
-    pub fn set_climb(&mut self, when: u8, limit: u64) {
-        self.climb_when = when;
-        self.climb_limit = limit;
-        if when != 0 && self.climbing {
-            self.climbing = false;
-            self.restart(0);
-            self.stats.restarts -= 1;
-        }
     }
     /// Whether the end of `action` may be applied straight after its start without losing plans.
     pub fn compression_safe(&self, action: usize) -> bool {
