@@ -3,9 +3,11 @@
 //! arena of 32-bit words handed in by the caller.
 //!
 //! A search node is a record in the arena: its parent, the snap action that reached it, its h,
-//! its bit-packed state (facts one bit each, numeric values, the running actions) and the
-//! serialised temporal constraints its own step added ([`crate::constraints`]). Nothing else is
-//! stored per state: when a node is taken from an open list, the plan to its parent is walked
+//! its state's hash, its duplicate-chain link and the serialised temporal constraints its own
+//! step added ([`crate::constraints`]). Its bit-packed state (facts one bit each, numeric
+//! values, the running actions) is not stored: it is rebuilt from the path where needed
+//! ([`replay`]): driverlog 18's 820 facts made a node's header and state about 34 words, its
+//! header is 5 now (beside the constraint bytes). Nothing else is stored per state: when a node is taken from an open list, the plan to its parent is walked
 //! back, the ordering annotations are recreated from the steps' conditions and effects, the
 //! constraints are unpacked and the STN is checked ([`crate::stn`]).
 //!
@@ -31,6 +33,7 @@ use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod expand;
 mod path;
+mod replay;
 pub(crate) use path::{for_each_read, for_each_write, snap_reads};
 mod setup;
 mod state;
@@ -52,7 +55,8 @@ pub const MAX_PLAN_ACTIONS: usize = MAX_STEPS / 2;
 pub const MAX_RUNNING: usize = 64;
 /// Largest serialised constraint list one node may add, in bytes.
 pub const MAX_NODE_CONSTRAINT_BYTES: usize = 2048;
-/// Words of a node record before its state.
+/// Words of a node record before its constraint bytes: parent, snap, h and byte count, state
+/// hash, next node of its duplicate bucket.
 const NODE_HEADER: usize = 5;
 /// Preferred-queue pops granted after progress (a new best h) in the first search. Fast
 /// Downward grants 1000; on driverlog the successor that makes progress is often not a
@@ -329,6 +333,8 @@ pub struct Planner<'t, 'm> {
     parent_state: &'m mut [u32],
     child_state: &'m mut [u32],
     probe_state: &'m mut [u32],
+    /// A node's path while its state is rebuilt ([`replay`]).
+    replay_nodes: &'m mut [u32],
     /// The child's serialised constraints.
     child_bytes: [u8; MAX_NODE_CONSTRAINT_BYTES],
     /// The node store and the duplicate buckets (head node of each chain).
@@ -412,6 +418,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         let parent_state = take(sw)?;
         let child_state = take(sw)?;
         let probe_state = take(sw)?;
+        let replay_nodes = take(steps)?;
         let fixed = used;
         let remaining = rest.len();
         let bucket_count = (remaining / 64).clamp(1024, 1 << 16).next_power_of_two();
@@ -442,6 +449,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             parent_state,
             child_state,
             probe_state,
+            replay_nodes,
             child_bytes: [0; MAX_NODE_CONSTRAINT_BYTES],
             nodes,
             nodes_used: 0,

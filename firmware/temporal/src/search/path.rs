@@ -5,21 +5,21 @@ use super::*;
 impl<'t, 'm> Planner<'t, 'm> {
     // ----- nodes --------------------------------------------------------------------------------
 
-    pub(super) fn node_state(&self, node: u32) -> &[u32] {
-        let at = node as usize + NODE_HEADER;
-        &self.nodes[at..]
-    }
     pub(super) fn node_parent(&self, node: u32) -> u32 {
         self.nodes[node as usize]
     }
     pub(super) fn node_snap(&self, node: u32) -> u32 {
         self.nodes[node as usize + 1]
     }
+    /// The hash of the node's state ([`Self::state_hash`]; the state itself is rebuilt,
+    /// [`super::replay`]).
+    pub(super) fn node_hash(&self, node: u32) -> u32 {
+        self.nodes[node as usize + 3]
+    }
     pub(super) fn node_constraint_bytes(&self, node: u32) -> (usize, usize) {
         let n = node as usize;
         let bytes = (self.nodes[n + 2] & 0xffff) as usize;
-        let state_len = self.nodes[n + 3] as usize;
-        (n + NODE_HEADER + state_len, bytes)
+        (n + NODE_HEADER, bytes)
     }
     pub(super) fn state_hash(&self, state: &[u32]) -> u32 {
         let n = self.used_state_words(state);
@@ -30,12 +30,11 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         h
     }
-    pub(super) fn find_duplicate(&self, state: &[u32], hash: u32) -> bool {
-        let n = self.used_state_words(state);
+    /// Whether the state in `child_state` (hash `hash`) was stored before.
+    pub(super) fn find_duplicate(&mut self, hash: u32) -> bool {
         let mut node = self.buckets[hash as usize & (self.buckets.len() - 1)];
         while node != NONE {
-            let s = self.node_state(node);
-            if s[..n] == state[..n] {
+            if self.node_has_child_state(node, hash) {
                 return true;
             }
             node = self.nodes[node as usize + 4];
@@ -52,8 +51,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         bytes: usize,
         hash: u32,
     ) -> Option<u32> {
-        let state_len = self.used_state_words(self.child_state);
-        let words = NODE_HEADER + state_len + bytes.div_ceil(4);
+        let words = NODE_HEADER + bytes.div_ceil(4);
         if self.nodes_used + words > self.nodes.len() {
             return None;
         }
@@ -63,12 +61,10 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.nodes[at] = parent;
         self.nodes[at + 1] = snap;
         self.nodes[at + 2] = h.min(0xffff) << 16 | bytes as u32;
-        self.nodes[at + 3] = state_len as u32;
+        self.nodes[at + 3] = hash;
         self.nodes[at + 4] = self.buckets[bucket];
         self.buckets[bucket] = id;
-        self.nodes[at + NODE_HEADER..at + NODE_HEADER + state_len]
-            .copy_from_slice(&self.child_state[..state_len]);
-        let cat = at + NODE_HEADER + state_len;
+        let cat = at + NODE_HEADER;
         for (i, chunk) in self.child_bytes[..bytes].chunks(4).enumerate() {
             let mut w = [0u8; 4];
             w[..chunk.len()].copy_from_slice(chunk);
@@ -111,10 +107,17 @@ impl<'t, 'm> Planner<'t, 'm> {
         let mut steps = 0usize;
         let mut constraints = 0usize;
         let mut bytes = [0u8; MAX_NODE_CONSTRAINT_BYTES];
+        // The node's state, rebuilt along the path.
+        let ps = core::mem::take(&mut self.parent_state);
+        self.initial_state(ps);
+        self.parent_state = ps;
         for d in 0..depth {
             let n = self.path_nodes[d];
             let snap = self.node_snap(n);
             if snap != NONE {
+                let ps = core::mem::take(&mut self.parent_state);
+                self.replay(ps, snap);
+                self.parent_state = ps;
                 let a = snap >> 2;
                 let kinds: &[u32] = match snap & 3 {
                     START => &[0],
@@ -152,12 +155,6 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.loaded_steps = steps;
         self.loaded_constraints = constraints;
         // Start steps of the running actions: the last start of each.
-        let state_len = self.used_state_words(self.node_state(node));
-        let (ps, ns) = (
-            &mut *self.parent_state,
-            &self.nodes[node as usize + NODE_HEADER..],
-        );
-        ps[..state_len].copy_from_slice(&ns[..state_len]);
         let at = self.running_at();
         let running_n = self.parent_state[at] as usize;
         for i in 0..running_n {
