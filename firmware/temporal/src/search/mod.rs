@@ -333,8 +333,6 @@ pub struct Planner<'t, 'm> {
     parent_state: &'m mut [u32],
     child_state: &'m mut [u32],
     probe_state: &'m mut [u32],
-    /// A node's path while its state is rebuilt ([`replay`]).
-    replay_nodes: &'m mut [u32],
     /// The child's serialised constraints.
     child_bytes: [u8; MAX_NODE_CONSTRAINT_BYTES],
     /// The node store and the duplicate buckets (head node of each chain).
@@ -418,7 +416,6 @@ impl<'t, 'm> Planner<'t, 'm> {
         let parent_state = take(sw)?;
         let child_state = take(sw)?;
         let probe_state = take(sw)?;
-        let replay_nodes = take(steps)?;
         let fixed = used;
         let remaining = rest.len();
         let bucket_count = (remaining / 64).clamp(1024, 1 << 16).next_power_of_two();
@@ -449,7 +446,6 @@ impl<'t, 'm> Planner<'t, 'm> {
             parent_state,
             child_state,
             probe_state,
-            replay_nodes,
             child_bytes: [0; MAX_NODE_CONSTRAINT_BYTES],
             nodes,
             nodes_used: 0,

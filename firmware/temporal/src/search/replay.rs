@@ -72,27 +72,36 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
     }
 
-    /// Rebuild the state of `node` into `out`, its path (root last) in `scratch`. False if the
-    /// path is longer than `scratch` (it never is: every stored path was loaded in it).
-    pub(super) fn rebuild_state(&self, node: u32, out: &mut [u32], scratch: &mut [u32]) -> bool {
-        let mut depth = 0usize;
+    /// Rebuild the state of `node` into `out`. The path is walked root first by reversing
+    /// the parent links on the way up and restoring them after (no scratch: the arena's tables
+    /// are laid out as before).
+    pub(super) fn rebuild_state(&mut self, node: u32, out: &mut [u32]) {
+        let mut prev = NONE;
         let mut n = node;
         while n != NONE {
-            let Some(slot) = scratch.get_mut(depth) else {
-                return false;
-            };
-            *slot = n;
-            depth += 1;
-            n = self.node_parent(n);
+            let next = self.nodes[n as usize];
+            self.nodes[n as usize] = prev;
+            prev = n;
+            n = next;
         }
+        let root = prev;
         self.initial_state(out);
-        for &n in scratch[..depth].iter().rev() {
+        let mut n = root;
+        while n != NONE {
             let snap = self.node_snap(n);
             if snap != NONE {
                 self.replay(out, snap);
             }
+            n = self.nodes[n as usize];
         }
-        true
+        let mut prev = NONE;
+        let mut n = root;
+        while n != NONE {
+            let next = self.nodes[n as usize];
+            self.nodes[n as usize] = prev;
+            prev = n;
+            n = next;
+        }
     }
 
     /// Whether the state of `node` equals `child_state` (compared over the words the child
@@ -102,12 +111,10 @@ impl<'t, 'm> Planner<'t, 'm> {
             return false;
         }
         let probe = core::mem::take(&mut self.probe_state);
-        let scratch = core::mem::take(&mut self.replay_nodes);
-        let rebuilt = self.rebuild_state(node, probe, scratch);
+        self.rebuild_state(node, probe);
         let n = self.used_state_words(self.child_state);
-        let same = rebuilt && probe[..n] == self.child_state[..n];
+        let same = probe[..n] == self.child_state[..n];
         self.probe_state = probe;
-        self.replay_nodes = scratch;
         same
     }
 }
@@ -127,10 +134,8 @@ impl<'t, 'm> Planner<'t, 'm> {
         while node < self.nodes_used {
             let id = node as u32;
             let probe = core::mem::take(&mut self.probe_state);
-            let scratch = core::mem::take(&mut self.replay_nodes);
-            let rebuilt = self.rebuild_state(id, probe, scratch);
+            self.rebuild_state(id, probe);
             self.probe_state = probe;
-            self.replay_nodes = scratch;
             // The path, root first.
             let mut depth = 0;
             let mut n = id;
@@ -141,7 +146,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
             let state = core::mem::take(&mut self.child_state);
             self.initial_state(state);
-            let mut applied = rebuilt && n == NONE;
+            let mut applied = n == NONE;
             for &p in path[..depth].iter().rev() {
                 let snap = self.node_snap(p);
                 if snap == NONE {
