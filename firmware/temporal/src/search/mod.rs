@@ -6,8 +6,9 @@
 //! its state's hash, its duplicate-chain link and the serialised temporal constraints its own
 //! step added ([`crate::constraints`]). Its bit-packed state (facts one bit each, numeric
 //! values, the running actions) is not stored: it is rebuilt from the path where needed
-//! ([`replay`]): driverlog 18's 820 facts made a node's header and state about 34 words, its
-//! header is 5 now (beside the constraint bytes). Nothing else is stored per state: when a node is taken from an open list, the plan to its parent is walked
+//! ([`replay`]) from the nearest ancestor that keeps one (one node in [`STATE_EVERY`]):
+//! driverlog 18's 820 facts made a node's header and state about 34 words, its header is 5
+//! now (beside the constraint bytes). Nothing else is stored per state: when a node is taken from an open list, the plan to its parent is walked
 //! back, the ordering annotations are recreated from the steps' conditions and effects, the
 //! constraints are unpacked and the STN is checked ([`crate::stn`]).
 //!
@@ -55,6 +56,12 @@ pub const MAX_PLAN_ACTIONS: usize = MAX_STEPS / 2;
 pub const MAX_RUNNING: usize = 64;
 /// Largest serialised constraint list one node may add, in bytes.
 pub const MAX_NODE_CONSTRAINT_BYTES: usize = 2048;
+/// One node in this many along a path keeps its state (after its constraint bytes); the others'
+/// are rebuilt from it by applying at most this many - 1 snaps ([`replay`]). At most 15 (four
+/// bits of the node's header). Every node keeping one cost driverlog 18 the arena (not solved
+/// in 8 MiB); none keeping one cost driverlog 2 20 % more guest instructions (77.5 M instead
+/// of 64.3 M: every expansion replayed its whole path).
+const STATE_EVERY: u32 = 8;
 /// Words of a node record before its constraint bytes: parent, snap, h and byte count, state
 /// hash, next node of its duplicate bucket.
 const NODE_HEADER: usize = 5;

@@ -16,9 +16,13 @@ impl<'t, 'm> Planner<'t, 'm> {
     pub(super) fn node_hash(&self, node: u32) -> u32 {
         self.nodes[node as usize + 3]
     }
+    /// Snaps from the nearest node on the path that keeps its state (0: this one does).
+    pub(super) fn node_since(&self, node: u32) -> u32 {
+        self.nodes[node as usize + 2] >> 12 & 0xf
+    }
     pub(super) fn node_constraint_bytes(&self, node: u32) -> (usize, usize) {
         let n = node as usize;
-        let bytes = (self.nodes[n + 2] & 0xffff) as usize;
+        let bytes = (self.nodes[n + 2] & 0xfff) as usize;
         (n + NODE_HEADER, bytes)
     }
     pub(super) fn state_hash(&self, state: &[u32]) -> u32 {
@@ -51,7 +55,18 @@ impl<'t, 'm> Planner<'t, 'm> {
         bytes: usize,
         hash: u32,
     ) -> Option<u32> {
-        let words = NODE_HEADER + bytes.div_ceil(4);
+        // Snaps since the last node that keeps its state (see [`STATE_EVERY`]).
+        let since = if parent == NONE {
+            0
+        } else {
+            (self.node_since(parent) + 1) % STATE_EVERY
+        };
+        let state_len = if since == 0 {
+            self.used_state_words(self.child_state)
+        } else {
+            0
+        };
+        let words = NODE_HEADER + bytes.div_ceil(4) + state_len;
         if self.nodes_used + words > self.nodes.len() {
             return None;
         }
@@ -60,7 +75,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         let bucket = hash as usize & (self.buckets.len() - 1);
         self.nodes[at] = parent;
         self.nodes[at + 1] = snap;
-        self.nodes[at + 2] = h.min(0xffff) << 16 | bytes as u32;
+        self.nodes[at + 2] = h.min(0xffff) << 16 | since << 12 | bytes as u32;
         self.nodes[at + 3] = hash;
         self.nodes[at + 4] = self.buckets[bucket];
         self.buckets[bucket] = id;
@@ -70,6 +85,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             w[..chunk.len()].copy_from_slice(chunk);
             self.nodes[cat + i] = u32::from_le_bytes(w);
         }
+        let sat = cat + bytes.div_ceil(4);
+        self.nodes[sat..sat + state_len].copy_from_slice(&self.child_state[..state_len]);
         self.nodes_used += words;
         self.stats.nodes += 1;
         Some(id)
@@ -107,17 +124,10 @@ impl<'t, 'm> Planner<'t, 'm> {
         let mut steps = 0usize;
         let mut constraints = 0usize;
         let mut bytes = [0u8; MAX_NODE_CONSTRAINT_BYTES];
-        // The node's state, rebuilt along the path.
-        let ps = core::mem::take(&mut self.parent_state);
-        self.initial_state(ps);
-        self.parent_state = ps;
         for d in 0..depth {
             let n = self.path_nodes[d];
             let snap = self.node_snap(n);
             if snap != NONE {
-                let ps = core::mem::take(&mut self.parent_state);
-                self.replay(ps, snap);
-                self.parent_state = ps;
                 let a = snap >> 2;
                 let kinds: &[u32] = match snap & 3 {
                     START => &[0],
@@ -154,6 +164,10 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         self.loaded_steps = steps;
         self.loaded_constraints = constraints;
+        // The node's state.
+        let ps = core::mem::take(&mut self.parent_state);
+        self.rebuild_state(node, ps);
+        self.parent_state = ps;
         // Start steps of the running actions: the last start of each.
         let at = self.running_at();
         let running_n = self.parent_state[at] as usize;

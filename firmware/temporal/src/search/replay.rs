@@ -1,7 +1,9 @@
 //! States rebuilt from the plan instead of stored in every node (issue 13: driverlog 16 to 20
 //! filled the 8 MiB arena with nodes). A node keeps its parent, its snap, its h, its state's
-//! hash, its duplicate-chain link and its constraint bytes; its state is the initial state
-//! with the snaps of its path applied, rebuilt when the search needs it: the loaded path's end
+//! hash, its duplicate-chain link and its constraint bytes; one node in [`STATE_EVERY`] along
+//! a path (the root, and every node that many snaps below one that does) also keeps its
+//! state. Any other node's state is the nearest such ancestor's with the snaps after it
+//! applied, rebuilt when the search needs it: the loaded path's end
 //! state on each expansion ([`Planner::load_path`]), and a stored state only where its hash
 //! equals a new state's (the duplicate table, [`Planner::find_duplicate`], and the ancestors
 //! [`Planner::repeats_ancestor`] compares). Every node on a path was checked applicable when
@@ -72,36 +74,30 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
     }
 
-    /// Rebuild the state of `node` into `out`. The path is walked root first by reversing
-    /// the parent links on the way up and restoring them after (no scratch: the arena's tables
-    /// are laid out as before).
-    pub(super) fn rebuild_state(&mut self, node: u32, out: &mut [u32]) {
-        let mut prev = NONE;
+    /// Rebuild the state of `node` into `out`: the state kept by the nearest node of its path
+    /// that keeps one (at most [`STATE_EVERY`] - 1 snaps up), with the snaps after it applied.
+    pub(super) fn rebuild_state(&self, node: u32, out: &mut [u32]) {
+        let mut after = [NONE; STATE_EVERY as usize];
+        let mut m = 0;
         let mut n = node;
-        while n != NONE {
-            let next = self.nodes[n as usize];
-            self.nodes[n as usize] = prev;
-            prev = n;
-            n = next;
+        while self.node_since(n) != 0 && m < after.len() {
+            after[m] = n;
+            m += 1;
+            n = self.node_parent(n);
         }
-        let root = prev;
-        self.initial_state(out);
-        let mut n = root;
-        while n != NONE {
-            let snap = self.node_snap(n);
-            if snap != NONE {
-                self.replay(out, snap);
-            }
-            n = self.nodes[n as usize];
+        let (at, bytes) = self.node_constraint_bytes(n);
+        let at = at + bytes.div_ceil(4);
+        let len = self.used_state_words(&self.nodes[at..]);
+        out[..len].copy_from_slice(&self.nodes[at..at + len]);
+        for &n in after[..m].iter().rev() {
+            self.replay(out, self.node_snap(n));
         }
-        let mut prev = NONE;
-        let mut n = root;
-        while n != NONE {
-            let next = self.nodes[n as usize];
-            self.nodes[n as usize] = prev;
-            prev = n;
-            n = next;
-        }
+    }
+
+    /// The state a node keeps (one with [`Self::node_since`] 0).
+    fn node_stored_state(&self, node: u32) -> &[u32] {
+        let (at, bytes) = self.node_constraint_bytes(node);
+        &self.nodes[at + bytes.div_ceil(4)..]
     }
 
     /// Whether the state of `node` equals `child_state` (compared over the words the child
@@ -136,6 +132,11 @@ impl<'t, 'm> Planner<'t, 'm> {
             let probe = core::mem::take(&mut self.probe_state);
             self.rebuild_state(id, probe);
             self.probe_state = probe;
+            let state_len = if self.node_since(id) == 0 {
+                self.used_state_words(self.node_stored_state(id))
+            } else {
+                0
+            };
             // The path, root first.
             let mut depth = 0;
             let mut n = id;
@@ -169,7 +170,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
             count += 1;
             let (_, bytes) = self.node_constraint_bytes(id);
-            node += NODE_HEADER + bytes.div_ceil(4);
+            node += NODE_HEADER + bytes.div_ceil(4) + state_len;
         }
         self.loaded_node = NONE;
         Ok(count)
