@@ -3,7 +3,7 @@
 //! target's cost (evaluations x ground actions, which the heuristic's work follows). For
 //! comparing search changes quickly; `scripts/bench-planners.py` is the benchmark.
 //!
-//!     cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
+//!     [ARENA_KIB=N] cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
 use std::time::Instant;
 
 fn main() {
@@ -22,7 +22,12 @@ fn main() {
         .map(|(a, b)| (a.parse().unwrap_or(1), b.parse().unwrap_or(20)))
         .unwrap_or((1, 20));
     let cap: u64 = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(50_000);
-    let mut arena = vec![0u32; 8 << 18];
+    // ARENA_KIB: another arena size (the target's is 8192).
+    let kib: usize = std::env::var("ARENA_KIB")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(8192);
+    let mut arena = vec![0u32; kib * 256];
     let mut total_work = 0u64;
     for dom in domains.split(',') {
         let folder = format!("{bench}/{dom}-time-simple-automatic");

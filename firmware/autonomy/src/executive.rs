@@ -296,7 +296,8 @@ impl Executive {
         for e in &self.entries {
             let _ = order.push((e.planned_start, e.instance));
         }
-        order.sort_unstable();
+        // Not the library's sort, whose code the warm boot would check (`small_sort`).
+        crate::small_sort::sort(&mut order);
         for &(_, instance) in &order {
             let Some(i) = self.entries.iter().position(|e| e.instance == instance) else {
                 continue;

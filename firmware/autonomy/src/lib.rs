@@ -37,6 +37,7 @@ pub mod partitioned;
 pub mod plan;
 pub mod planner;
 pub mod scenarios;
+pub mod small_sort;
 pub mod telemetry;
 pub mod timeline;
 pub mod uplink;

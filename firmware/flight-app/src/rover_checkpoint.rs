@@ -503,11 +503,9 @@ pub fn restore_piece(
             }
         }
         match r.order {
-            [Some(a), Some(b)] => {
-                // Sequence numbers wrap: the newer is the one just after the other.
-                if b.0.wrapping_sub(a.0) < u32::MAX / 2 {
-                    r.order = [Some(b), Some(a)];
-                }
+            // Sequence numbers wrap: the newer is the one just after the other.
+            [Some(a), Some(b)] if b.0.wrapping_sub(a.0) < u32::MAX / 2 => {
+                r.order = [Some(b), Some(a)];
             }
             [None, Some(b)] => r.order = [Some(b), None],
             _ => {}

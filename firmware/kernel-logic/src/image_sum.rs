@@ -1,5 +1,6 @@
-//! The RAM image's checksum, as the reset stub computes it (`boot.rs`, routine 40), for the
-//! kernel's check of the deferred code before it first runs (`kernel/deferred.rs`).
+//! The RAM image's checksum, as the reset stub computes it (`boot.rs`, routine 40) and the
+//! kernel's check of the deferred code before it first runs (`kernel/deferred.rs`, the same
+//! `lmw` loop): the definition, tested on the host.
 //!
 //! Two 32-bit words: a chain that takes the words in turn, adding one and XORing the next
 //! (both steps are bijections of the chain and of the word, so any damage confined to one word

@@ -50,5 +50,6 @@ pub mod placement;
 pub mod rsm1;
 pub mod search;
 pub mod setup;
+mod small_sort;
 pub mod utility;
 pub mod wire;

@@ -9,7 +9,10 @@ mod common;
 use common::*;
 use fsw_bridge::MissionTimeUs;
 use lander::htn::{Chain, ChainProduct, FlatNetwork, PhaseMask, PhaseTimeline, ProductSpec, Tier};
-use lander::placement::{DownlinkSpans, EarthView, TimelinePlacement, ViewTimeline, ViewWindow};
+use lander::placement::{
+    CachedTimeline, DownlinkSpans, EarthView, PlanIndexCache, TimelinePlacement, ViewTimeline,
+    ViewWindow,
+};
 use lander::search::{ChainPlacement, PlacedChain};
 
 const CASES: u64 = 400;
@@ -141,4 +144,70 @@ fn the_indexed_placement_decides_as_the_reference() {
         "{placed} {refused}"
     );
     assert!(holds_checked > 1_000, "{holds_checked}");
+}
+
+/// The placement with its index kept between calls ([`CachedTimeline`]) decides as the
+/// placement that indexes every plan again, over sequences of plans as the search asks them:
+/// the same plan again, the plan with one chain more (updated in place), a shorter plan, a
+/// plan whose last chain moved, another horizon start (indexed again), on the same random
+/// plans as above (overlapping ones included).
+#[test]
+fn the_kept_index_decides_as_the_index_built_per_call() {
+    let (mut compared, mut extended, mut placed) = (0u32, 0u32, 0u32);
+    let mut cache = PlanIndexCache::new();
+    for seed in 0..CASES {
+        let mut rng = Rng::new(seed ^ 0x5eed);
+        let (net, downlinks) = network(&mut rng);
+        let mut place = placement(&mut rng, downlinks);
+        // A new network: what the cache holds no longer applies.
+        cache.clear();
+        let mut plan: Vec<PlacedChain> = Vec::new();
+        let anywhere = rng.chance(30);
+        for _ in 0..rng.range(1, 16) {
+            // The plan asked: mostly the current one, sometimes a shorter one, one with its
+            // last chain moved, or from another horizon start.
+            let mut asked = plan.clone();
+            let mut timeline = place.clone();
+            match rng.range(0, 9) {
+                0 => asked.truncate(rng.range(0, asked.len() as u64) as usize),
+                1 => {
+                    if let Some(last) = asked.last_mut() {
+                        last.start = MissionTimeUs(last.start.0 + HOUR / 2);
+                    }
+                }
+                2 => timeline.horizon_start = MissionTimeUs(timeline.horizon_start.0 + HOUR),
+                _ => {}
+            }
+            for candidate in 0..net.chains.len() as u16 {
+                let fresh = timeline.place(&net, &asked, candidate);
+                let kept = CachedTimeline {
+                    timeline: &timeline,
+                    cache: &mut cache,
+                }
+                .place(&net, &asked, candidate);
+                assert_eq!(
+                    kept, fresh,
+                    "seed {seed}: chain {candidate} after {asked:?}"
+                );
+                compared += 1;
+                placed += u32::from(fresh.is_some());
+            }
+            let chain = rng.range(0, net.chains.len() as u64 - 1) as u16;
+            let start = if anywhere {
+                Some(MissionTimeUs(rng.range(0, 60) * HOUR / 2))
+            } else {
+                place.place(&net, &plan, chain)
+            };
+            if let Some(start) = start {
+                plan.push(PlacedChain { chain, start });
+                extended += 1;
+            }
+        }
+    }
+    assert!(compared > 20_000, "{compared}");
+    assert!(extended > 2_000, "{extended}");
+    assert!(
+        placed > compared / 10 && placed < compared * 9 / 10,
+        "{placed}"
+    );
 }

@@ -82,6 +82,23 @@ pub struct Relaxation<'m> {
     /// the end fires as soon as its start does, at the start's cost (see
     /// [`Propagation::fire`]), without a trip of that fact through the queue.
     pub end_follows: &'m mut [u32],
+    /// For relaxed fact f, where its direct starts end in `pre_index`: the starts whose only
+    /// relaxed precondition is f come first in f's list, `pre_index[pre_offsets[f]..
+    /// pre_split[f]]`, the other relaxed actions after.
+    pub pre_split: &'m mut [u32],
+    /// For relaxed fact f, what its direct starts do once f is reached at cost c, flattened:
+    /// `direct[3 * direct_offsets[f]..3 * direct_offsets[f + 1]]`, entries of three words
+    /// (fact, cost over c, supporter): each start's effects, then its end's if the end follows
+    /// (at the start's own cost plus the end's; the supporter is the end, odd), else its
+    /// running-action fact. Reaching f relaxes these directly instead of counting, firing and
+    /// decoding each start (satellite's turns, nearly all its actions; rovers' calibrations
+    /// and drops; driverlog's walks).
+    pub direct_offsets: &'m mut [u32],
+    pub direct: &'m mut [u32],
+    /// Per relaxed action r, four words: where its effects are in `add_index` (from, to; a
+    /// start's without its running-action fact), its own cost, and for a start 1 if its end
+    /// follows (see `end_follows`): what firing it reads, side by side.
+    pub fire_info: &'m mut [u32],
 }
 
 /// Costs with a bucket of their own in the heuristic's queue (larger ones go to a heap).
@@ -187,67 +204,68 @@ impl Queue<'_> {
 struct Propagation<'a> {
     pre_offsets: &'a [u32],
     pre_index: &'a [u32],
-    add_offsets: &'a [u32],
     add_index: &'a [u32],
-    own_cost: &'a [u32],
     cost: &'a mut [u32],
     supporter: &'a mut [u32],
     /// Per relaxed action: (preconditions not yet reached, the sum of their costs).
     counts: &'a mut [[u32; 2]],
     ready: &'a mut [u32],
-    end_follows: &'a [u32],
+    /// Per relaxed action: its effects' range in `add_index` (a start's without its
+    /// running-action fact), its own cost, and (starts) whether its end follows.
+    fire_info: &'a [[u32; 4]],
+    pre_split: &'a [u32],
+    direct_offsets: &'a [u32],
+    direct: &'a [u32],
     /// The first running-action fact (the task's fact count).
     facts: usize,
 }
 
 impl Propagation<'_> {
-    /// Relaxed action `r` fires: its effects get its cost if that is cheaper, or the same
-    /// cost from a lower-numbered supporter.
+    /// Relaxed action `r` fires with `sum`, the sum of its preconditions' costs: its effects
+    /// get its cost if that is cheaper, or the same cost from a lower-numbered supporter.
     ///
-    /// A start whose end needs nothing but the action running (an `end_follows` action) reaches
-    /// its running-action fact here, at its final cost (the start is that fact's only achiever
-    /// and fires once), so the end fires at once instead of after the fact's trip through the
-    /// queue. The order differs from the queue's, the outcome does not: every fact of cost at
-    /// most the last goal's still has its final cost and supporter when the propagation stops.
+    /// A start's running-action fact (its last effect in the table) is its own case: the start
+    /// is that fact's only achiever and fires once an evaluation. A start whose end needs
+    /// nothing but the action running (an `end_follows` action) fires that end at once, at the
+    /// start's cost plus the end's own, instead of sending the fact through the queue, and
+    /// leaves the fact's cost and supporter alone: the relaxed plan's extraction knows the
+    /// fact's supporter (the start) without them. The order differs from the queue's, the
+    /// outcome does not: every fact of cost at most the last goal's still has its final cost
+    /// and supporter when the propagation stops.
     #[inline(always)]
-    fn fire(&mut self, r: usize, q: &mut Queue<'_>) {
-        let c = self.fire_effects(r, q);
-        if r.is_multiple_of(2) {
-            let a = r / 2;
-            if self.end_follows[a / 32] & (1 << (a % 32)) != 0 {
-                let f = self.facts + a;
-                if c < self.cost[f] {
-                    self.cost[f] = c;
-                    self.supporter[f] = r as u32;
-                    let e = r + 1;
-                    self.counts[e] = [0, c];
-                    if c == 0 {
-                        self.ready[e / 32] |= 1 << (e % 32);
-                    }
-                    self.fire_effects(e, q);
+    fn fire(&mut self, r: usize, sum: u32, q: &mut Queue<'_>) {
+        let [lo, hi, own, follows] = self.fire_info[r];
+        let c = sum.saturating_add(own);
+        self.effects(r, c, lo as usize, hi as usize, q);
+        if !r.is_multiple_of(2) {
+            return;
+        }
+        let f = self.facts + r / 2;
+        // The action runs in the state (the fact's cost is zero, its end fired already from
+        // it), or the start reaches the fact now, for the only time.
+        if c < self.cost[f] {
+            if follows != 0 {
+                let e = r + 1;
+                if c == 0 {
+                    self.ready[e / 32] |= 1 << (e % 32);
                 }
+                let [lo, hi, own, _] = self.fire_info[e];
+                self.effects(e, c.saturating_add(own), lo as usize, hi as usize, q);
+            } else {
+                q.push(c, f as u32);
+                self.cost[f] = c;
             }
         }
     }
 
-    /// The effects of relaxed action `r` at its cost, which it returns. The running-action
-    /// fact of an `end_follows` start is left to [`Self::fire`].
+    /// Relaxed action `r`'s effects `add_index[lo..hi]` at cost `c`.
     #[inline(always)]
-    fn fire_effects(&mut self, r: usize, q: &mut Queue<'_>) -> u32 {
-        let c = self.counts[r][1].saturating_add(self.own_cost[r]);
-        let (lo, mut hi) = (
-            self.add_offsets[r] as usize,
-            self.add_offsets[r + 1] as usize,
-        );
-        // A start's running-action fact is its last effect.
-        if r.is_multiple_of(2) && self.end_follows[r / 64] & (1 << ((r / 2) % 32)) != 0 {
-            hi -= 1;
-        }
+    fn effects(&mut self, r: usize, c: u32, lo: usize, hi: usize, q: &mut Queue<'_>) {
         for &f in &self.add_index[lo..hi] {
             let f = f as usize;
             let old = self.cost[f];
             // The cheapest achiever, the lowest-numbered among equals: the same supporter
-            // whatever order the heap takes equal costs in.
+            // whatever order the queue takes equal costs in.
             if c < old || (c == old && c != u32::MAX && (r as u32) < self.supporter[f]) {
                 if c < old {
                     q.push(c, f as u32);
@@ -256,29 +274,65 @@ impl Propagation<'_> {
                 self.supporter[f] = r as u32;
             }
         }
-        c
     }
 
     /// Fact `f` reached at cost `c`: each relaxed action it is a precondition of counts it,
-    /// and fires when its last precondition is reached.
+    /// and fires when its last precondition is reached (its count is not written back then:
+    /// nothing reads it again this evaluation).
+    ///
+    /// The starts whose only precondition is f (its direct starts) are not counted: their
+    /// effects, and their ends' where the end follows, are relaxed from f's `direct` entries,
+    /// as [`Self::fire`] would (also the end of an action running in the state: its effects
+    /// got their costs from the running-action fact first, see [`Relaxation::evaluate`], and
+    /// relaxing them again changes nothing).
     #[inline(always)]
     fn reach(&mut self, f: usize, c: u32, q: &mut Queue<'_>) {
-        let (lo, hi) = (
+        let (lo, split, hi) = (
             self.pre_offsets[f] as usize,
+            self.pre_split[f] as usize,
             self.pre_offsets[f + 1] as usize,
         );
-        for &r in &self.pre_index[lo..hi] {
+        if c == 0 {
+            // Direct starts ready in the state, and the ends that fire at cost zero with them.
+            for &r in &self.pre_index[lo..split] {
+                let r = r as usize;
+                self.ready[r / 32] |= 1 << (r % 32);
+                let [_, _, own, follows] = self.fire_info[r];
+                if own == 0 && follows != 0 {
+                    let e = r + 1;
+                    self.ready[e / 32] |= 1 << (e % 32);
+                }
+            }
+        }
+        let (dlo, dhi) = (
+            3 * self.direct_offsets[f] as usize,
+            3 * self.direct_offsets[f + 1] as usize,
+        );
+        let (entries, _) = self.direct[dlo..dhi].as_chunks::<3>();
+        for &[g, delta, r] in entries {
+            let g = g as usize;
+            let cg = c.saturating_add(delta);
+            let old = self.cost[g];
+            if cg < old || (cg == old && cg != u32::MAX && r < self.supporter[g]) {
+                if cg < old {
+                    q.push(cg, g as u32);
+                }
+                self.cost[g] = cg;
+                self.supporter[g] = r;
+            }
+        }
+        for &r in &self.pre_index[split..hi] {
             let r = r as usize;
             let [waiting, sum] = self.counts[r];
-            let left = waiting - 1;
             let sum = sum.saturating_add(c);
-            self.counts[r] = [left, sum];
-            if left == 0 {
-                if sum == 0 {
-                    self.ready[r / 32] |= 1 << (r % 32);
-                }
-                self.fire(r, q);
+            if waiting > 1 {
+                self.counts[r] = [waiting - 1, sum];
+                continue;
             }
+            if sum == 0 {
+                self.ready[r / 32] |= 1 << (r % 32);
+            }
+            self.fire(r, sum, q);
         }
     }
 }
@@ -412,6 +466,10 @@ impl<'m> Relaxation<'m> {
             own_cost: take(relaxed)?,
             ready: take(relaxed.div_ceil(32))?,
             end_follows: take(task.action_count().div_ceil(32))?,
+            pre_split: take(all)?,
+            direct_offsets: take(all + 1)?,
+            direct: take(3 * add_entries_n)?,
+            fire_info: take(4 * relaxed)?,
         };
         relax.buckets.iter_mut().for_each(|b| *b = u32::MAX);
         Some(relax)
@@ -486,22 +544,98 @@ impl<'m> Relaxation<'m> {
                 self.goal[g / 32] |= 1 << (g % 32);
             }
         }
-        // Fill using `cost` as the per-fact insertion cursor.
+        for r in 0..2 * task.action_count() {
+            let start = r.is_multiple_of(2);
+            let a = r / 2;
+            let follows = start && self.end_follows[a / 32] & (1 << (a % 32)) != 0;
+            self.fire_info[4 * r..4 * r + 4].copy_from_slice(&[
+                self.add_offsets[r],
+                self.add_offsets[r + 1] - u32::from(start),
+                self.own_cost[r],
+                u32::from(follows),
+            ]);
+        }
+        // Fill using `cost` as the per-fact insertion cursor: each fact's direct starts
+        // first, then the other relaxed actions.
         for f in 0..facts {
             self.cost[f] = self.pre_offsets[f];
         }
-        for r in 0..2 * task.action_count() {
-            let (lo, hi) = (
-                self.pre_list_offsets[r] as usize,
-                self.pre_list_offsets[r + 1] as usize,
-            );
-            for i in lo..hi {
-                let p = self.pre_list[i] as usize;
-                let at = self.cost[p] as usize;
-                self.pre_index[at] = r as u32;
-                self.cost[p] += 1;
+        for direct_pass in [true, false] {
+            for r in 0..2 * task.action_count() {
+                if self.is_direct(r) != direct_pass {
+                    continue;
+                }
+                let (lo, hi) = (
+                    self.pre_list_offsets[r] as usize,
+                    self.pre_list_offsets[r + 1] as usize,
+                );
+                for i in lo..hi {
+                    let p = self.pre_list[i] as usize;
+                    let at = self.cost[p] as usize;
+                    self.pre_index[at] = r as u32;
+                    self.cost[p] += 1;
+                }
+            }
+            if direct_pass {
+                for f in 0..facts {
+                    self.pre_split[f] = self.cost[f];
+                }
             }
         }
+        // The direct starts' entries, fact by fact.
+        let mut at = 0usize;
+        for f in 0..facts {
+            self.direct_offsets[f] = at as u32;
+            let (lo, split) = (self.pre_offsets[f] as usize, self.pre_split[f] as usize);
+            for i in lo..split {
+                let r = self.pre_index[i] as usize;
+                let a = r / 2;
+                let own = self.own_cost[r];
+                // The start's effects but its running-action fact (its last).
+                let (slo, shi) = (
+                    self.add_offsets[r] as usize,
+                    self.add_offsets[r + 1] as usize - 1,
+                );
+                for k in slo..shi {
+                    self.direct[3 * at..3 * at + 3].copy_from_slice(&[
+                        self.add_index[k],
+                        own,
+                        r as u32,
+                    ]);
+                    at += 1;
+                }
+                if self.end_follows[a / 32] & (1 << (a % 32)) != 0 {
+                    let e = r + 1;
+                    let both = own.saturating_add(self.own_cost[e]);
+                    let (elo, ehi) = (
+                        self.add_offsets[e] as usize,
+                        self.add_offsets[e + 1] as usize,
+                    );
+                    for k in elo..ehi {
+                        self.direct[3 * at..3 * at + 3].copy_from_slice(&[
+                            self.add_index[k],
+                            both,
+                            e as u32,
+                        ]);
+                        at += 1;
+                    }
+                } else {
+                    self.direct[3 * at..3 * at + 3].copy_from_slice(&[
+                        (task.fact_count() + a) as u32,
+                        own,
+                        r as u32,
+                    ]);
+                    at += 1;
+                }
+            }
+        }
+        self.direct_offsets[facts] = at as u32;
+    }
+
+    /// Whether relaxed action `r` is a start with one relaxed precondition (a direct start of
+    /// that fact: see [`Self::direct`]).
+    fn is_direct(&self, r: usize) -> bool {
+        r.is_multiple_of(2) && self.pre_count[r] == 1
     }
 
     /// The relaxed preconditions of relaxed action `r`, each once.
@@ -578,14 +712,15 @@ impl<'m> Relaxation<'m> {
         let mut prop = Propagation {
             pre_offsets: &*self.pre_offsets,
             pre_index: &*self.pre_index,
-            add_offsets: &*self.add_offsets,
             add_index: &*self.add_index,
-            own_cost: &*self.own_cost,
             cost: &mut *self.cost,
             supporter: &mut *self.supporter,
             counts,
             ready: &mut *self.ready,
-            end_follows: &*self.end_follows,
+            fire_info: self.fire_info[..4 * relaxed].as_chunks::<4>().0,
+            pre_split: &*self.pre_split,
+            direct_offsets: &*self.direct_offsets,
+            direct: &*self.direct,
             facts,
         };
         for (w, &bits) in fact_bits.iter().enumerate().take(facts.div_ceil(32)) {
@@ -599,16 +734,23 @@ impl<'m> Relaxation<'m> {
                 }
             }
         }
+        // The running actions' facts are reached first, before anything is taken from the
+        // queue: their ends fire now, so when a direct start later relaxes the end of a
+        // running action (`reach` does not look whether it runs), the end's effects have
+        // their costs from the running-action fact already, at most the start's path's, with
+        // the same supporter: nothing changes and nothing is pushed (every relaxed action's
+        // effects are pushed at most once, the queue's bound).
         for &a in running {
-            let f = facts + a as usize;
-            prop.cost[f] = 0;
-            q.push(0, f as u32);
+            prop.cost[facts + a as usize] = 0;
+        }
+        for &a in running {
+            prop.reach(facts + a as usize, 0, &mut q);
         }
         // Relaxed actions without preconditions fire at once.
         for &r in self.free.iter() {
             let r = r as usize;
             prop.ready[r / 32] |= 1 << (r % 32);
-            prop.fire(r, &mut q);
+            prop.fire(r, 0, &mut q);
         }
         let goals = task.goal_facts();
         let is_goal = |goal: &[u32], g: usize| goal[g / 32] & (1 << (g % 32)) != 0;
@@ -661,8 +803,18 @@ impl<'m> Relaxation<'m> {
         while top > 0 {
             top -= 1;
             let f = self.stack[top] as usize;
-            let r = self.supporter[f];
-            if self.cost[f] == 0 || r == u32::MAX {
+            if self.cost[f] == 0 {
+                continue;
+            }
+            // A running-action fact's only achiever is its action's start (the propagation
+            // does not record it: see [`Propagation::fire`]); it is on the stack only as a
+            // precondition of an end that fired, so it was reached.
+            let r = if f >= facts {
+                2 * (f - facts) as u32
+            } else {
+                self.supporter[f]
+            };
+            if r == u32::MAX {
                 continue;
             }
             let r = r as usize;

@@ -237,7 +237,7 @@ impl MultipleKnapsack {
             let _ = self.order.push(i as u8);
         }
         let items_ref = &self.items;
-        self.order.sort_unstable_by(|&a, &b| {
+        crate::small_sort::sort_small(&mut self.order, |&a, &b| {
             match (items_ref.get(usize::from(a)), items_ref.get(usize::from(b))) {
                 (Some(x), Some(y)) => solver_order((usize::from(a), x), (usize::from(b), y)),
                 _ => a.cmp(&b),

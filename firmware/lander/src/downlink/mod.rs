@@ -232,9 +232,8 @@ impl DownlinkManager {
                 }
             }
             let products_ref = &self.products;
-            picked.sort_unstable_by_key(|&i| {
-                (products_ref.get(usize::from(i)).map(|p| p.created_at), i)
-            });
+            let key = |i: u8| (products_ref.get(usize::from(i)).map(|p| p.created_at), i);
+            crate::small_sort::sort_small(&mut picked, |&a, &b| key(a).cmp(&key(b)));
             for &i in &picked {
                 let Some(p) = self.products.get(usize::from(i)).copied() else {
                     continue;

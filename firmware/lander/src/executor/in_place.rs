@@ -34,6 +34,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
         self.context = context.clone();
         self.assessor = Assessor::default();
         self.timeline = timeline.clone();
+        self.index_cache.clear();
         self.params.clear();
         for p in learned.params.iter() {
             // Never fails: the same capacity.

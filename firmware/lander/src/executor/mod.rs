@@ -74,7 +74,7 @@ use crate::capacity::*;
 use crate::comms::{CommsError, CommsModel, DataStats, DownlinkSizes, VolumeFactors};
 use crate::downlink::DataProduct;
 use crate::htn::{FlatNetwork, HtnModel, PrimitiveKind, PrimitiveSpec};
-use crate::placement::{TimelinePlacement, ViewTimeline};
+use crate::placement::{PlanIndexCache, TimelinePlacement, ViewTimeline};
 use crate::search::{PlacedChain, Search, SearchConfig, SearchStats};
 use crate::utility::RankedUtility;
 
@@ -125,6 +125,9 @@ pub struct Executor<const NODES: usize = MAX_SEARCH_NODES, const QUEUE: usize = 
     /// The placement's horizon end, phases, hotel load and Earth-in-view windows (its start
     /// and charge are set at each plan, its chains' downlink spans computed).
     timeline: TimelinePlacement,
+    /// The search's plan index kept between placements and planning calls (cleared whenever
+    /// a search starts: the network's chains may have changed).
+    index_cache: PlanIndexCache,
     params: Vec<ParameterUpdate, MAX_PARAMETER_UPDATES>,
     steps: Vec<ExecStep, MAX_EXEC_STEPS>,
     cursor: usize,
@@ -185,6 +188,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             context: context.clone(),
             assessor: Assessor::default(),
             timeline: timeline.clone(),
+            index_cache: PlanIndexCache::new(),
             params: Vec::new(),
             steps: Vec::new(),
             cursor: 0,

@@ -9,7 +9,7 @@ use super::*;
 use crate::assessor::{assess_chains, AssessedPlacement, Biosignature, SampleRef};
 use crate::comms::{size_downlinks, DataPlacement, DataView};
 use crate::downlink::Tier;
-use crate::placement::{downlink_spans, is_downlink};
+use crate::placement::{downlink_spans, is_downlink, CachedTimeline};
 
 impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
     /// Model parameter update (IV.C.3).
@@ -169,6 +169,12 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             }
         }
         self.planning_from = (self.now, self.battery_mj);
+        // The placement plans from now with the charge now: set here once, not in a copy of
+        // the timeline (several KB with the chains' downlink spans) made at every call.
+        self.timeline.horizon_start = self.now;
+        self.timeline.battery_mj = self.battery_mj;
+        // The chains may have changed above: the kept plan index no longer applies.
+        self.index_cache.clear();
         let config = SearchConfig {
             battery_mj: self.battery_mj,
             reserve_mj: self.config.reserve_mj,
@@ -245,9 +251,7 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
 
     /// Runs the search within `budget`; true when the plan is installed (or planning failed).
     pub(super) fn continue_planning(&mut self, budget: u32) -> bool {
-        let mut timeline = self.timeline.clone();
-        timeline.horizon_start = self.planning_from.0;
-        timeline.battery_mj = self.planning_from.1;
+        let timeline = &self.timeline;
         let step = match &self.comms {
             Some(comms) => {
                 let sol = comms.sol_of(self.planning_from.0 .0);
@@ -261,8 +265,12 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
                         (sol, 0)
                     },
                 };
+                let cached = CachedTimeline {
+                    timeline,
+                    cache: &mut self.index_cache,
+                };
                 let mut placement = AssessedPlacement {
-                    inner: DataPlacement::new(timeline, view),
+                    inner: DataPlacement::new(cached, view),
                     assessor: self.assessor,
                     context: &self.context,
                     science: &self.science,
@@ -296,7 +304,10 @@ impl<const NODES: usize, const QUEUE: usize> Executor<NODES, QUEUE> {
             }
             None => {
                 let mut placement = AssessedPlacement {
-                    inner: timeline,
+                    inner: CachedTimeline {
+                        timeline,
+                        cache: &mut self.index_cache,
+                    },
                     assessor: self.assessor,
                     context: &self.context,
                     science: &self.science,

@@ -336,14 +336,14 @@ impl<'t, 'm> Planner<'t, 'm> {
             Duplicates::PruneQuiescent => quiescent,
             Duplicates::PruneAll => true,
         };
-        if prune && self.find_duplicate(self.child_state, hash) {
+        if prune && self.find_duplicate(hash) {
             self.stats.duplicates += 1;
             return Ok(());
         }
         if self.duplicates == Duplicates::PruneQuiescent
             && !quiescent
             && kind != START
-            && self.repeats_ancestor(&running[..running_n], (kind == END).then_some(a))
+            && self.repeats_ancestor(&running[..running_n], (kind == END).then_some(a), hash)
         {
             self.stats.duplicates += 1;
             return Ok(());
@@ -390,7 +390,12 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// same facts, values and running instances, with the running actions as far from their
     /// ends or farther, and the child's later steps constrained by everything the ancestor's
     /// are and more. `ended` is the action whose end the child applied.
-    pub(super) fn repeats_ancestor(&self, parent_running: &[u32], ended: Option<usize>) -> bool {
+    pub(super) fn repeats_ancestor(
+        &mut self,
+        parent_running: &[u32],
+        ended: Option<usize>,
+        hash: u32,
+    ) -> bool {
         // The latest start step among the child's running actions.
         let mut latest_start = 0usize;
         for (i, &r) in parent_running.iter().enumerate() {
@@ -398,15 +403,13 @@ impl<'t, 'm> Planner<'t, 'm> {
                 latest_start = latest_start.max(self.running_start[i] as usize);
             }
         }
-        let n = self.used_state_words(self.child_state);
         let mut steps_at = self.loaded_steps;
         for d in (0..self.loaded_depth).rev() {
             if steps_at < latest_start {
                 break;
             }
             let node = self.path_nodes[d];
-            let state = self.node_state(node);
-            if state.get(..n) == self.child_state.get(..n) {
+            if self.node_has_child_state(node, hash) {
                 return true;
             }
             steps_at -= match self.node_snap(node) {

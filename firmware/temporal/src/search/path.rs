@@ -5,21 +5,25 @@ use super::*;
 impl<'t, 'm> Planner<'t, 'm> {
     // ----- nodes --------------------------------------------------------------------------------
 
-    pub(super) fn node_state(&self, node: u32) -> &[u32] {
-        let at = node as usize + NODE_HEADER;
-        &self.nodes[at..]
-    }
     pub(super) fn node_parent(&self, node: u32) -> u32 {
         self.nodes[node as usize]
     }
     pub(super) fn node_snap(&self, node: u32) -> u32 {
         self.nodes[node as usize + 1]
     }
+    /// The hash of the node's state ([`Self::state_hash`]; the state itself is rebuilt,
+    /// [`super::replay`]).
+    pub(super) fn node_hash(&self, node: u32) -> u32 {
+        self.nodes[node as usize + 3]
+    }
+    /// Snaps from the nearest node on the path that keeps its state (0: this one does).
+    pub(super) fn node_since(&self, node: u32) -> u32 {
+        self.nodes[node as usize + 2] >> 12 & 0xf
+    }
     pub(super) fn node_constraint_bytes(&self, node: u32) -> (usize, usize) {
         let n = node as usize;
-        let bytes = (self.nodes[n + 2] & 0xffff) as usize;
-        let state_len = self.nodes[n + 3] as usize;
-        (n + NODE_HEADER + state_len, bytes)
+        let bytes = (self.nodes[n + 2] & 0xfff) as usize;
+        (n + NODE_HEADER, bytes)
     }
     pub(super) fn state_hash(&self, state: &[u32]) -> u32 {
         let n = self.used_state_words(state);
@@ -30,12 +34,11 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         h
     }
-    pub(super) fn find_duplicate(&self, state: &[u32], hash: u32) -> bool {
-        let n = self.used_state_words(state);
+    /// Whether the state in `child_state` (hash `hash`) was stored before.
+    pub(super) fn find_duplicate(&mut self, hash: u32) -> bool {
         let mut node = self.buckets[hash as usize & (self.buckets.len() - 1)];
         while node != NONE {
-            let s = self.node_state(node);
-            if s[..n] == state[..n] {
+            if self.node_has_child_state(node, hash) {
                 return true;
             }
             node = self.nodes[node as usize + 4];
@@ -52,8 +55,18 @@ impl<'t, 'm> Planner<'t, 'm> {
         bytes: usize,
         hash: u32,
     ) -> Option<u32> {
-        let state_len = self.used_state_words(self.child_state);
-        let words = NODE_HEADER + state_len + bytes.div_ceil(4);
+        // Snaps since the last node that keeps its state (see [`STATE_EVERY`]).
+        let since = if parent == NONE {
+            0
+        } else {
+            (self.node_since(parent) + 1) % STATE_EVERY
+        };
+        let state_len = if since == 0 {
+            self.used_state_words(self.child_state)
+        } else {
+            0
+        };
+        let words = NODE_HEADER + bytes.div_ceil(4) + state_len;
         if self.nodes_used + words > self.nodes.len() {
             return None;
         }
@@ -62,18 +75,18 @@ impl<'t, 'm> Planner<'t, 'm> {
         let bucket = hash as usize & (self.buckets.len() - 1);
         self.nodes[at] = parent;
         self.nodes[at + 1] = snap;
-        self.nodes[at + 2] = h.min(0xffff) << 16 | bytes as u32;
-        self.nodes[at + 3] = state_len as u32;
+        self.nodes[at + 2] = h.min(0xffff) << 16 | since << 12 | bytes as u32;
+        self.nodes[at + 3] = hash;
         self.nodes[at + 4] = self.buckets[bucket];
         self.buckets[bucket] = id;
-        self.nodes[at + NODE_HEADER..at + NODE_HEADER + state_len]
-            .copy_from_slice(&self.child_state[..state_len]);
-        let cat = at + NODE_HEADER + state_len;
+        let cat = at + NODE_HEADER;
         for (i, chunk) in self.child_bytes[..bytes].chunks(4).enumerate() {
             let mut w = [0u8; 4];
             w[..chunk.len()].copy_from_slice(chunk);
             self.nodes[cat + i] = u32::from_le_bytes(w);
         }
+        let sat = cat + bytes.div_ceil(4);
+        self.nodes[sat..sat + state_len].copy_from_slice(&self.child_state[..state_len]);
         self.nodes_used += words;
         self.stats.nodes += 1;
         Some(id)
@@ -151,13 +164,11 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         self.loaded_steps = steps;
         self.loaded_constraints = constraints;
+        // The node's state.
+        let ps = core::mem::take(&mut self.parent_state);
+        self.rebuild_state(node, ps);
+        self.parent_state = ps;
         // Start steps of the running actions: the last start of each.
-        let state_len = self.used_state_words(self.node_state(node));
-        let (ps, ns) = (
-            &mut *self.parent_state,
-            &self.nodes[node as usize + NODE_HEADER..],
-        );
-        ps[..state_len].copy_from_slice(&ns[..state_len]);
         let at = self.running_at();
         let running_n = self.parent_state[at] as usize;
         for i in 0..running_n {
