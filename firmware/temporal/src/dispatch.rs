@@ -165,6 +165,7 @@ pub enum Decision {
 }
 
 /// Executes a [`PlanNetwork`]: see the module's documentation.
+#[derive(Clone, Debug)]
 pub struct Dispatcher {
     net: PlanNetwork,
     /// The time each step was executed at (UNBOUNDED: not yet); index 0 is the epoch.
@@ -211,6 +212,29 @@ impl Dispatcher {
             Ok(()) => Ok(d),
             Err(_) => Err(NetworkError::Inconsistent),
         }
+    }
+
+    /// A dispatcher of the empty network, nothing worked out (all-zero but the network's
+    /// unused constraint slots): `const`, for a partition's static state; give it a network
+    /// with [`Self::network_mut`] and [`Self::restart`].
+    pub const fn empty() -> Self {
+        Self {
+            net: PlanNetwork::new(),
+            done: [0; MAX_DISPATCH_STEPS + 1],
+            est: [0; MAX_DISPATCH_STEPS + 1],
+            lst: [0; MAX_DISPATCH_STEPS + 1],
+            horizon: 0,
+            est_warm: false,
+            lst_kept: false,
+            executed_since: false,
+            est_now: 0,
+            whole_only: false,
+        }
+    }
+
+    /// The latest time of any step, as given to [`Self::restart`].
+    pub fn horizon(&self) -> u32 {
+        self.horizon
     }
 
     pub fn network(&self) -> &PlanNetwork {

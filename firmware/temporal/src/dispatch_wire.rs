@@ -5,7 +5,7 @@
 //! The network is the word sequence the rover checkpoint's plan record holds: `[makespan,
 //! steps, constraints, each step (action | end << 16, window lo, window hi), each constraint
 //! (before | after << 16, lb, ub)]`, at most [`network_words`] of a full network (6,915
-//! words). [`chunk`] cuts chunk `index` of it (at most [`CHUNK_WORDS`] words) without a
+//! words, in 289 chunks). [`chunk`] cuts chunk `index` of it (at most [`CHUNK_WORDS`] words) without a
 //! buffer of the whole; [`NetworkReceiver`] takes the chunks in order into a [`PlanNetwork`],
 //! each checked (its plan's generation, its index, its length, its CRC-32) and every field
 //! checked against the capacities; a chunk it cannot take is refused with its reason
@@ -17,8 +17,11 @@
 use crate::constraints::Constraint;
 use crate::dispatch::{PlanNetwork, PlanStep, MAX_DISPATCH_CONSTRAINTS, MAX_DISPATCH_STEPS};
 
-/// Words of a chunk's payload at most.
-pub const CHUNK_WORDS: usize = 64;
+/// Words of a chunk's payload at most: 24 words, 96 bytes, the size of the channel's chunks
+/// of a task network's image (`autonomy::partitioned::NETWORK_CHUNK_BYTES`), so a chunk's
+/// message is no larger than the channel's largest message now (the outboxes hold their
+/// capacity of the largest message).
+pub const CHUNK_WORDS: usize = 24;
 
 /// The words of `net`'s sequence.
 pub fn network_words(net: &PlanNetwork) -> usize {
@@ -115,6 +118,27 @@ pub fn chunk(net: &PlanNetwork, plan: u32, index: usize) -> Option<NetworkChunk>
     };
     c.crc = c.expected_crc();
     Some(c)
+}
+
+/// Chunk `index` of `total` of plan `plan` carrying `payload` (at most [`CHUNK_WORDS`]
+/// words; more are cut), with its CRC: how a restore sends a checkpoint's words through a
+/// receiver again.
+pub fn chunk_of(plan: u32, index: u16, total: u16, payload: &[u32]) -> NetworkChunk {
+    let mut words = [0u32; CHUNK_WORDS];
+    let len = payload.len().min(CHUNK_WORDS);
+    for (w, &p) in words.iter_mut().zip(payload) {
+        *w = p;
+    }
+    let mut c = NetworkChunk {
+        plan,
+        index,
+        total,
+        len: len as u16,
+        words,
+        crc: 0,
+    };
+    c.crc = c.expected_crc();
+    c
 }
 
 /// Why a chunk was not taken (nothing changed).
@@ -261,6 +285,72 @@ impl NetworkReceiver {
         } else {
             Received::More { next: self.next }
         })
+    }
+
+    /// Whether a network is being received or held (a first chunk was taken).
+    pub fn receiving(&self) -> bool {
+        self.receiving
+    }
+
+    /// The plan's generation of the network received or held.
+    pub fn plan(&self) -> u32 {
+        self.plan
+    }
+
+    /// Chunks taken, and how many the network takes.
+    pub fn progress(&self) -> (u16, u16) {
+        (self.next, self.total)
+    }
+
+    /// Whether the whole network was taken.
+    pub fn whole(&self) -> bool {
+        self.receiving && self.next == self.total
+    }
+
+    /// Words taken so far (the chunks' payloads, in order).
+    pub fn words_taken(&self) -> usize {
+        self.at
+    }
+
+    /// Word `p` of the sequence taken so far into `net` (0 past what was taken): with
+    /// [`NetworkReceiver::words_taken`], what a checkpoint of a network being received keeps,
+    /// to send through a new receiver again at a restore (so a restored network passes every
+    /// check a received one does).
+    pub fn taken_word(&self, net: &PlanNetwork, p: usize) -> u32 {
+        if p >= self.at {
+            return 0;
+        }
+        match p {
+            0 => return net.makespan,
+            1 => return self.steps as u32,
+            2 => return self.constraints as u32,
+            _ => {}
+        }
+        let q = p - 3;
+        // The item (step or constraint) being read when `at` stopped is in `pending`.
+        let partial_from = 3 + (self.at - 3) / 3 * 3;
+        if p >= partial_from {
+            return self.pending.get(q % 3).copied().unwrap_or(0);
+        }
+        if q < 3 * self.steps {
+            let Some(s) = net.step(q / 3 + 1) else {
+                return 0;
+            };
+            match q % 3 {
+                0 => u32::from(s.action) | (u32::from(s.end) << 16),
+                1 => s.window.0,
+                _ => s.window.1,
+            }
+        } else {
+            let Some(c) = net.constraints().get((q - 3 * self.steps) / 3) else {
+                return 0;
+            };
+            match q % 3 {
+                0 => u32::from(c.before) | (u32::from(c.after) << 16),
+                1 => c.lb,
+                _ => c.ub,
+            }
+        }
     }
 
     /// Word `w` at position `self.at`, into `net` if given (else only checked).

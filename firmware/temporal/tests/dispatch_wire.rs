@@ -6,7 +6,7 @@ mod common;
 
 use common::Rng;
 use temporal::constraints::Constraint;
-use temporal::dispatch_wire::{chunk, chunks, NetworkReceiver, Received, WireRefusal};
+use temporal::dispatch_wire::{chunk, chunks, NetworkReceiver, Received, WireRefusal, CHUNK_WORDS};
 use temporal::task::UNBOUNDED;
 use temporal::{PlanNetwork, PlanStep};
 
@@ -92,11 +92,12 @@ fn a_full_network_takes_its_bounded_chunks() {
         })
         .unwrap();
     }
-    // 3 + 3 x 256 + 3 x 2,048 words: 6,915, in 109 chunks of 64.
-    assert_eq!(chunks(&net), 109);
+    // 3 + 3 x 256 + 3 x 2,048 words: 6,915, in 289 chunks of 24.
+    assert_eq!(CHUNK_WORDS, 24);
+    assert_eq!(chunks(&net), 289);
     let mut rx = NetworkReceiver::new();
     let mut got = PlanNetwork::new();
-    for i in 0..109 {
+    for i in 0..289 {
         rx.take(&chunk(&net, 7, i).unwrap(), &mut got).unwrap();
     }
     same(&net, &got);
@@ -170,7 +171,7 @@ fn random_chunks_never_panic() {
         let mut c = chunk(&net, 1, rng.below(chunks(&net).max(1) as u64) as usize)
             .unwrap_or_else(|| chunk(&random_network(&mut rng, 5), 1, 0).unwrap());
         for _ in 0..rng.below(4) {
-            let i = rng.below(64) as usize;
+            let i = rng.below(CHUNK_WORDS as u64) as usize;
             c.words[i] = rng.next_u64() as u32;
         }
         if rng.chance(30) {
@@ -183,5 +184,39 @@ fn random_chunks_never_panic() {
         }
         let _ = rx.take(&c, &mut got);
         assert!(got.step_count() <= 256);
+    }
+}
+
+#[test]
+fn the_words_taken_are_the_chunks_payloads_at_every_cut() {
+    // What a checkpoint of a network being received keeps: every word taken, a step or a
+    // constraint cut across two chunks included, equal to the chunks' payloads.
+    let mut rng = Rng(0x7a4e);
+    for _ in 0..60 {
+        let net = random_network(&mut rng, 40);
+        let mut rx = NetworkReceiver::new();
+        let mut got = PlanNetwork::new();
+        let mut sent = Vec::new();
+        for i in 0..chunks(&net) {
+            let c = chunk(&net, 2, i).unwrap();
+            sent.extend_from_slice(&c.words[..usize::from(c.len)]);
+            rx.take(&c, &mut got).unwrap();
+            assert_eq!(rx.words_taken(), sent.len());
+            assert_eq!(rx.progress(), (i as u16 + 1, chunks(&net) as u16));
+            for (p, &w) in sent.iter().enumerate() {
+                assert_eq!(rx.taken_word(&got, p), w, "word {p} after chunk {i}");
+            }
+            // Sent again through a new receiver, as a restore does: the same state.
+            let mut again = NetworkReceiver::new();
+            let mut net2 = PlanNetwork::new();
+            for (j, part) in sent.chunks(CHUNK_WORDS).enumerate() {
+                let c = temporal::dispatch_wire::chunk_of(2, j as u16, chunks(&net) as u16, part);
+                again.take(&c, &mut net2).unwrap();
+            }
+            assert_eq!(again.words_taken(), sent.len());
+            assert_eq!(again.whole(), rx.whole());
+        }
+        assert!(rx.whole());
+        same(&net, &got);
     }
 }

@@ -31,8 +31,10 @@ const MAGIC: u32 = 0x4D58_4350; // "MXCP"
 /// uplink format 2 inside, the executive's retry state, the planner's failure ledger. Version
 /// 3: uplink format 3 inside (staleness bounds), and each state-table entry's stale mark (its
 /// measurement time was there already). Version 4: uplink format 5 inside, and each executive
-/// entry's served definition and temporal window.
-pub const CHECKPOINT_FORMAT: u16 = 4;
+/// entry's served definition and temporal window. Version 5: the channel's dispatch messages
+/// (issue 13 item 3), the executive's dispatch part (`partitioned::ExecutiveDispatch`) and the
+/// planner's dispatch notes.
+pub const CHECKPOINT_FORMAT: u16 = 5;
 /// Bytes of each record header.
 pub const RECORD_HEADER_LEN: usize = 20;
 

@@ -45,6 +45,8 @@ pub struct ExecutivePartition {
     /// encoding it again costs a restore as much as decoding the network).
     image_valid: bool,
     pub stats: ExecutivePartitionStats,
+    /// The temporal plan this side dispatches (its network from the planner in chunks).
+    dispatch: ExecutiveDispatch,
 }
 
 /// Counts of what the executive partition dropped or refused.
@@ -103,7 +105,27 @@ impl ExecutivePartition {
                 telemetry_dropped: 0,
                 resyncs: 0,
             },
+            dispatch: ExecutiveDispatch::new(),
         }
+    }
+
+    /// The temporal plan's dispatch state.
+    pub fn dispatch(&self) -> &ExecutiveDispatch {
+        &self.dispatch
+    }
+
+    /// The dispatcher of the plan held whole, to poll.
+    pub fn dispatcher_mut(&mut self) -> Option<&mut temporal::Dispatcher> {
+        self.dispatch.dispatcher_mut()
+    }
+
+    /// Step `step` of the plan held was executed at `at` (ticks since the plan's epoch): the
+    /// dispatcher marks it and the planner is told ([`DispatchNote::Executed`]), through the
+    /// checkpointed channel. Refused with its reason, nothing changed.
+    pub fn dispatch_executed(&mut self, step: u16, at: u32) -> Result<(), ExecutedRefusal> {
+        let note = self.dispatch.executed(step, at)?;
+        self.to_planner.push(PlannerInput::Dispatch(note));
+        Ok(())
     }
 
     pub fn control(&self) -> &ControlLoop {
@@ -348,6 +370,11 @@ impl ExecutivePartition {
                 }
             }
             ExecutiveInput::Status(status) => self.status = Some(status),
+            ExecutiveInput::DispatchChunk { horizon, chunk } => {
+                if let Some(note) = self.dispatch.take(&chunk, horizon) {
+                    self.to_planner.push(PlannerInput::Dispatch(note));
+                }
+            }
         }
     }
 
@@ -487,6 +514,7 @@ impl ExecutivePartition {
         put(&self.control.states, buf, &mut len)?;
         put(&self.to_planner, buf, &mut len)?;
         put(&self.from_planner, buf, &mut len)?;
+        self.dispatch.encode(buf, &mut len)?;
         Some(len)
     }
 
@@ -530,6 +558,7 @@ impl ExecutivePartition {
         self.image_len = 0;
         self.image_valid = false;
         self.stats = ExecutivePartitionStats::default();
+        self.dispatch.reset();
     }
 
     /// Replaces the state with one [`ExecutivePartition::encode_state`] wrote, checked as a
@@ -542,6 +571,7 @@ impl ExecutivePartition {
         let rest = in_place::take_in_place(rest, StateTableInPlace(&mut self.control.states))?;
         let rest = in_place::take_in_place(rest, OutboxInPlace(&mut self.to_planner))?;
         let (from_planner, rest) = postcard::take_from_bytes(rest).ok()?;
+        let rest = self.dispatch.decode(rest).ok()?;
         if !rest.is_empty() {
             return None;
         }

@@ -121,6 +121,9 @@ pub enum PlannerInput {
     NetworkEnd { generation: u32, crc: u32 },
     /// The executive's first window of frame `frame` at mission time `now` is done: plan.
     Frame { frame: u32, now: MissionTimeUs },
+    /// About the temporal plan the executive dispatches (appended: the variants above keep
+    /// their encoding).
+    Dispatch(DispatchNote),
 }
 
 /// From the planner partition to the executive partition.
@@ -132,6 +135,9 @@ pub enum ExecutiveInput {
     Telemetry(TelemetryEvent),
     /// The answer to [`PlannerInput::Frame`].
     Status(PlannerStatus),
+    /// A chunk of a temporal plan's dispatch network, every step by `horizon` (appended: the
+    /// variants above keep their encoding).
+    DispatchChunk { horizon: u32, chunk: DispatchChunk },
 }
 
 /// What the planner's window for one frame did.
@@ -152,12 +158,18 @@ pub struct PlannerStatus {
 }
 
 mod channel;
+mod dispatch;
 mod executive;
 mod frame;
 mod planner;
 
 pub use channel::{Inbox, Outbox, Wire};
 use channel::{OutboxInPlace, EMPTY_INBOX};
+pub use dispatch::{
+    ChunkRefusal, DispatchChunk, DispatchNote, DispatchRestoreError, DispatchSender,
+    ExecutedRefusal, ExecutiveDispatch, DISPATCH_PART_FORMAT, MAX_DISPATCH_CHUNKS_PER_WINDOW,
+    MAX_DISPATCH_NOTES,
+};
 pub use executive::{ExecutivePartition, ExecutivePartitionStats};
 pub use frame::{run_frame, Frame, FrameEnv, Interrupted, Point, Side};
 pub use planner::PlannerPartition;

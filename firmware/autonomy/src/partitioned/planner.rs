@@ -24,6 +24,11 @@ pub struct PlannerPartition {
     resume: bool,
     /// Network images refused (bad CRC, bad length, failed validation).
     pub refused_networks: u32,
+    /// What the executive said of the temporal plan it dispatches, for this side's owner
+    /// ([`PlannerPartition::take_dispatch_notes`]); checkpointed (applied messages are).
+    dispatch_notes: Vec<DispatchNote, MAX_DISPATCH_NOTES>,
+    /// Notes lost because `dispatch_notes` was full.
+    pub dispatch_notes_dropped: u32,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -73,6 +78,8 @@ impl PlannerPartition {
             from_executive: EMPTY_INBOX,
             resume: true,
             refused_networks: 0,
+            dispatch_notes: Vec::new(),
+            dispatch_notes_dropped: 0,
         }
     }
 
@@ -90,6 +97,30 @@ impl PlannerPartition {
         self.from_executive = EMPTY_INBOX;
         self.resume = true;
         self.refused_networks = 0;
+        self.dispatch_notes.clear();
+        self.dispatch_notes_dropped = 0;
+    }
+
+    /// Puts a chunk of a temporal plan's dispatch network in the channel to the executive
+    /// (see [`DispatchSender::pump`]); false when the outbox has no room for it beside a
+    /// window's status.
+    pub fn send_dispatch_chunk(
+        &mut self,
+        chunk: &temporal::dispatch_wire::NetworkChunk,
+        horizon: u32,
+    ) -> bool {
+        self.to_executive.room() > 2
+            && self.to_executive.push(ExecutiveInput::DispatchChunk {
+                horizon,
+                chunk: DispatchChunk::from(*chunk),
+            })
+    }
+
+    /// What the executive said of the plan it dispatches since the last call, in order (the
+    /// network held, chunks refused, steps executed). A caller that checkpoints what it took
+    /// does so before this side's next checkpoint.
+    pub fn take_dispatch_notes(&mut self) -> Vec<DispatchNote, MAX_DISPATCH_NOTES> {
+        core::mem::take(&mut self.dispatch_notes)
     }
 
     pub fn planner(&self) -> &Planner {
@@ -177,6 +208,11 @@ impl PlannerPartition {
                 }
             }
             PlannerInput::Frame { frame, now } => self.frame = Some((frame, now)),
+            PlannerInput::Dispatch(note) => {
+                if self.dispatch_notes.push(note).is_err() {
+                    self.dispatch_notes_dropped = self.dispatch_notes_dropped.saturating_add(1);
+                }
+            }
             PlannerInput::NetworkBegin { generation, len } => {
                 // The plan of the old network is void from here.
                 self.loaded = false;
@@ -322,6 +358,11 @@ impl PlannerPartition {
         put(&self.planner, buf, &mut len)?;
         put(&self.to_executive, buf, &mut len)?;
         put(&self.from_executive, buf, &mut len)?;
+        put(
+            &(self.dispatch_notes_dropped, &self.dispatch_notes),
+            buf,
+            &mut len,
+        )?;
         Some(len)
     }
 
@@ -360,6 +401,8 @@ impl PlannerPartition {
         let rest = in_place::take_in_place(rest, PlannerInPlace(&mut self.planner))?;
         let rest = in_place::take_in_place(rest, OutboxInPlace(&mut self.to_executive))?;
         let (from_executive, rest) = postcard::take_from_bytes(rest).ok()?;
+        let ((dropped, notes), rest): ((u32, Vec<DispatchNote, MAX_DISPATCH_NOTES>), _) =
+            postcard::take_from_bytes(rest).ok()?;
         if !rest.is_empty() {
             return None;
         }
@@ -372,6 +415,8 @@ impl PlannerPartition {
         self.frame = meta.frame;
         self.assembly = meta.assembly;
         self.refused_networks = meta.refused_networks;
+        self.dispatch_notes = notes;
+        self.dispatch_notes_dropped = dropped;
         self.image_len = 0;
         if meta.assembly.is_none() && meta.loaded {
             self.image.get_mut(..image.len())?.copy_from_slice(image);
