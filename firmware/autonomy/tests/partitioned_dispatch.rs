@@ -517,3 +517,57 @@ fn the_mexec_messages_keep_their_encodings() {
         c
     );
 }
+
+#[test]
+fn every_note_round_trips_and_a_bad_one_is_refused() {
+    let mut buf = [0u8; 64];
+    let notes = [
+        DispatchNote::Loaded { plan: 7 },
+        DispatchNote::Executed {
+            plan: u32::MAX,
+            step: 255,
+            at: 123_456,
+        },
+        DispatchNote::Refused {
+            plan: 1,
+            index: 288,
+            reason: ChunkRefusal::OtherPlan { receiving: 9 },
+        },
+        DispatchNote::Refused {
+            plan: 1,
+            index: 2,
+            reason: ChunkRefusal::OutOfOrder { expected: 65_535 },
+        },
+        DispatchNote::Refused {
+            plan: 1,
+            index: 0,
+            reason: ChunkRefusal::Inconsistent,
+        },
+    ];
+    for note in notes {
+        let m = PlannerInput::Dispatch(note);
+        let n = postcard::to_slice(&m, &mut buf).unwrap().len();
+        assert_eq!(postcard::from_bytes::<PlannerInput>(&buf[..n]).unwrap(), m);
+        // An unknown kind, an unknown refusal, cut short: refused, never a panic.
+        for (at, byte) in [(2, 9u8), (n - 1, 99)] {
+            let mut bad = buf[..n].to_vec();
+            bad[at] = byte;
+            assert!(
+                postcard::from_bytes::<PlannerInput>(&bad).is_err(),
+                "{note:?}"
+            );
+        }
+        assert!(postcard::from_bytes::<PlannerInput>(&buf[..n - 1]).is_err());
+    }
+    // A chunk's message cut short or with a wrong length: refused.
+    let c = ExecutiveInput::DispatchChunk {
+        horizon: 5,
+        chunk: chunk(&chain(2), 1, 0).unwrap().into(),
+    };
+    let mut big = [0u8; 256];
+    let n = postcard::to_slice(&c, &mut big).unwrap().len();
+    assert!(postcard::from_bytes::<ExecutiveInput>(&big[..n - 1]).is_err());
+    let mut bad = big[..n].to_vec();
+    bad[2] -= 1; // the byte string's length (after the variant and the horizon)
+    assert!(postcard::from_bytes::<ExecutiveInput>(&bad).is_err());
+}

@@ -25,8 +25,10 @@ pub const MAX_DISPATCH_NOTES: usize = 32;
 /// [`ExecutiveDispatch::encode`]).
 pub const DISPATCH_PART_FORMAT: u8 = 1;
 
-/// One chunk of a plan's network as the channel carries it (`NetworkChunk`'s fields).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// One chunk of a plan's network as the channel carries it (`NetworkChunk`'s fields), encoded
+/// as one byte string of [`CHUNK_BYTES`] (big-endian fields: a derived encoding of the 24-word
+/// array cost the image 3 KB more, which every warm boot checks).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DispatchChunk {
     pub plan: u32,
     pub index: u16,
@@ -63,7 +65,7 @@ impl From<DispatchChunk> for NetworkChunk {
 }
 
 /// Why the executive did not take a chunk (`WireRefusal`, on the channel).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ChunkRefusal {
     BadCrc,
     OtherPlan {
@@ -92,8 +94,10 @@ impl From<WireRefusal> for ChunkRefusal {
     }
 }
 
-/// What the executive tells the planner about the plan it dispatches.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+/// What the executive tells the planner about the plan it dispatches, encoded as one byte
+/// string of [`NOTE_BYTES`] (kind, plan, step or index, time or the refusal's argument, the
+/// refusal's code; as for [`DispatchChunk`], smaller code than a derived encoding).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DispatchNote {
     /// Plan `plan`'s network is whole in the executive's dispatcher, its windows worked out.
     Loaded { plan: u32 },
@@ -107,6 +111,139 @@ pub enum DispatchNote {
     /// start the executive dispatched or an action's end it was told of (the planner's replan
     /// state is the happenings applied in order).
     Executed { plan: u32, step: u16, at: u32 },
+}
+
+/// Bytes of a chunk's encoding: plan, index, total, length, the words, the CRC.
+const CHUNK_BYTES: usize = 4 + 2 + 2 + 2 + 4 * CHUNK_WORDS + 4;
+/// Bytes of a note's encoding.
+const NOTE_BYTES: usize = 1 + 4 + 4 + 4 + 1;
+
+/// Reads a fixed-length byte string (what `serialize_bytes` wrote) into `T`.
+struct FixedBytes<T, const N: usize>(fn(&[u8; N]) -> Option<T>);
+
+impl<'de, T, const N: usize> serde::de::Visitor<'de> for FixedBytes<T, N> {
+    type Value = T;
+
+    fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str("a dispatch message's bytes")
+    }
+
+    fn visit_bytes<E: serde::de::Error>(self, v: &[u8]) -> Result<T, E> {
+        let bytes: &[u8; N] = v
+            .try_into()
+            .map_err(|_| E::invalid_length(v.len(), &self))?;
+        (self.0)(bytes).ok_or_else(|| E::custom("a field out of range"))
+    }
+}
+
+fn be32(b: &[u8], at: usize) -> u32 {
+    b.get(at..at + 4)
+        .and_then(|w| w.try_into().ok())
+        .map(u32::from_be_bytes)
+        .unwrap_or(0)
+}
+
+fn be16(b: &[u8], at: usize) -> u16 {
+    b.get(at..at + 2)
+        .and_then(|w| w.try_into().ok())
+        .map(u16::from_be_bytes)
+        .unwrap_or(0)
+}
+
+fn put_be(b: &mut [u8], at: usize, v: &[u8]) {
+    if let Some(dst) = b.get_mut(at..at + v.len()) {
+        dst.copy_from_slice(v);
+    }
+}
+
+impl Serialize for DispatchChunk {
+    #[inline(never)]
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut b = [0u8; CHUNK_BYTES];
+        put_be(&mut b, 0, &self.plan.to_be_bytes());
+        put_be(&mut b, 4, &self.index.to_be_bytes());
+        put_be(&mut b, 6, &self.total.to_be_bytes());
+        put_be(&mut b, 8, &self.len.to_be_bytes());
+        for (i, w) in self.words.iter().enumerate() {
+            put_be(&mut b, 10 + 4 * i, &w.to_be_bytes());
+        }
+        put_be(&mut b, CHUNK_BYTES - 4, &self.crc.to_be_bytes());
+        s.serialize_bytes(&b)
+    }
+}
+
+impl<'de> Deserialize<'de> for DispatchChunk {
+    #[inline(never)]
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_bytes(FixedBytes::<Self, CHUNK_BYTES>(|b| {
+            let mut words = [0u32; CHUNK_WORDS];
+            for (i, w) in words.iter_mut().enumerate() {
+                *w = be32(b, 10 + 4 * i);
+            }
+            Some(Self {
+                plan: be32(b, 0),
+                index: be16(b, 4),
+                total: be16(b, 6),
+                len: be16(b, 8),
+                words,
+                crc: be32(b, CHUNK_BYTES - 4),
+            })
+        }))
+    }
+}
+
+impl Serialize for DispatchNote {
+    #[inline(never)]
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let (kind, plan, a, b, code) = match *self {
+            DispatchNote::Loaded { plan } => (0u8, plan, 0, 0, 0),
+            DispatchNote::Refused {
+                plan,
+                index,
+                reason,
+            } => {
+                let (code, arg) = deferred_refusal_code(Some(reason));
+                (1, plan, u32::from(index), arg, code as u8)
+            }
+            DispatchNote::Executed { plan, step, at } => (2, plan, u32::from(step), at, 0),
+        };
+        let mut bytes = [0u8; NOTE_BYTES];
+        bytes[0] = kind;
+        put_be(&mut bytes, 1, &plan.to_be_bytes());
+        put_be(&mut bytes, 5, &a.to_be_bytes());
+        put_be(&mut bytes, 9, &b.to_be_bytes());
+        bytes[NOTE_BYTES - 1] = code;
+        s.serialize_bytes(&bytes)
+    }
+}
+
+impl<'de> Deserialize<'de> for DispatchNote {
+    #[inline(never)]
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_bytes(FixedBytes::<Self, NOTE_BYTES>(|b| {
+            let (plan, a, arg) = (be32(b, 1), be32(b, 5), be32(b, 9));
+            let (kind, code) = (b[0], b[NOTE_BYTES - 1]);
+            let step = u16::try_from(a).ok()?;
+            // What a kind does not use is zero.
+            if (kind != 1 && code != 0) || (kind == 0 && (a | arg) != 0) {
+                return None;
+            }
+            Some(match kind {
+                0 => DispatchNote::Loaded { plan },
+                1 => DispatchNote::Refused {
+                    plan,
+                    index: step,
+                    reason: deferred_refusal_of(u32::from(code), arg)??,
+                },
+                2 => DispatchNote::Executed {
+                    plan,
+                    step,
+                    at: arg,
+                },
+                _ => return None,
+            })
+        }))
+    }
 }
 
 /// Why [`ExecutiveDispatch::executed`] refused a step.
@@ -175,13 +312,18 @@ impl ExecutiveDispatch {
     /// Makes this what [`ExecutiveDispatch::new`] is, in place (the dispatcher is 30 KB).
     pub fn reset(&mut self) {
         if self.active {
-            self.dispatcher.network_mut().clear();
+            self.deferred_clear();
         }
         self.active = false;
         self.receiver = EMPTY_RECEIVER;
         self.loaded = false;
         self.refused = 0;
         self.last_refusal = None;
+    }
+
+    #[inline(never)]
+    fn deferred_clear(&mut self) {
+        self.dispatcher.network_mut().clear();
     }
 
     /// The plan whose network the dispatcher holds whole, and the dispatcher.
@@ -201,6 +343,11 @@ impl ExecutiveDispatch {
     /// step by `horizon` (at least the makespan). What the planner should hear comes back: the
     /// network held, or the chunk refused; nothing for a chunk taken with more to come.
     pub fn take(&mut self, c: &DispatchChunk, horizon: u32) -> Option<DispatchNote> {
+        self.deferred_take(c, horizon)
+    }
+
+    #[inline(never)]
+    fn deferred_take(&mut self, c: &DispatchChunk, horizon: u32) -> Option<DispatchNote> {
         self.active = true;
         let chunk = NetworkChunk::from(*c);
         let refused = |this: &mut Self, reason: ChunkRefusal| {
@@ -238,6 +385,11 @@ impl ExecutiveDispatch {
     /// Step `step` of the held network was executed at `at`: the dispatcher marks it, and the
     /// note for the planner comes back.
     pub fn executed(&mut self, step: u16, at: u32) -> Result<DispatchNote, ExecutedRefusal> {
+        self.deferred_executed(step, at)
+    }
+
+    #[inline(never)]
+    fn deferred_executed(&mut self, step: u16, at: u32) -> Result<DispatchNote, ExecutedRefusal> {
         if !self.loaded {
             return Err(ExecutedRefusal::NoNetwork);
         }
@@ -268,6 +420,15 @@ impl ExecutiveDispatch {
             *len += 1;
             return Some(());
         }
+        self.deferred_encode(buf, len)
+    }
+
+    /// [`ExecutiveDispatch::encode`] of an active part. Named `deferred_`: the firmware's
+    /// linker script puts this module's `deferred_` functions and its trait impls in the
+    /// deferred block (none runs before a dispatch chunk arrives); the paths every MEXEC
+    /// checkpoint, restore and reset take stay in the code a warm boot checks.
+    #[inline(never)]
+    fn deferred_encode(&self, buf: &mut [u8], len: &mut usize) -> Option<()> {
         *buf.get_mut(*len)? = DISPATCH_PART_FORMAT;
         let length_at = *len + 1;
         let body_at = length_at + 4;
@@ -283,7 +444,7 @@ impl ExecutiveDispatch {
         let executed = (1..=steps)
             .filter(|&k| self.loaded && self.dispatcher.executed_at(k).is_some())
             .count();
-        let (code, arg) = refusal_code(self.last_refusal);
+        let (code, arg) = deferred_refusal_code(self.last_refusal);
         put(self.receiver.plan())?;
         put(u32::from(self.receiver.receiving()) | (u32::from(self.loaded) << 1))?;
         put(u32::from(next) | (u32::from(total) << 16))?;
@@ -319,15 +480,31 @@ impl ExecutiveDispatch {
     /// the executed steps are marked again. Refused with its reason (this is then the empty
     /// state).
     pub fn decode<'a>(&mut self, bytes: &'a [u8]) -> Result<&'a [u8], DispatchRestoreError> {
+        if let (Some((&0, rest)), false) = (bytes.split_first(), self.active) {
+            // Nothing received (every MEXEC checkpoint), and nothing held here.
+            self.receiver = EMPTY_RECEIVER;
+            self.loaded = false;
+            self.refused = 0;
+            self.last_refusal = None;
+            return Ok(rest);
+        }
+        self.deferred_decode(bytes)
+    }
+
+    #[inline(never)]
+    fn deferred_decode<'a>(&mut self, bytes: &'a [u8]) -> Result<&'a [u8], DispatchRestoreError> {
         self.reset();
-        let r = self.decode_inner(bytes);
+        let r = self.deferred_decode_inner(bytes);
         if r.is_err() {
             self.reset();
         }
         r
     }
 
-    fn decode_inner<'a>(&mut self, bytes: &'a [u8]) -> Result<&'a [u8], DispatchRestoreError> {
+    fn deferred_decode_inner<'a>(
+        &mut self,
+        bytes: &'a [u8],
+    ) -> Result<&'a [u8], DispatchRestoreError> {
         use DispatchRestoreError as E;
         let (&format, rest) = bytes.split_first().ok_or(E::BadLength)?;
         if format == 0 {
@@ -376,7 +553,7 @@ impl ExecutiveDispatch {
             return Err(E::BadLength);
         }
         self.refused = refused;
-        self.last_refusal = refusal_of(code, arg).ok_or(E::OutOfRange)?;
+        self.last_refusal = deferred_refusal_of(code, arg).ok_or(E::OutOfRange)?;
         // The words again, chunk by chunk, through the receiver.
         let mut chunk_words = [0u32; CHUNK_WORDS];
         for i in 0..next {
@@ -409,7 +586,7 @@ impl ExecutiveDispatch {
     }
 }
 
-fn refusal_code(r: Option<ChunkRefusal>) -> (u32, u32) {
+fn deferred_refusal_code(r: Option<ChunkRefusal>) -> (u32, u32) {
     match r {
         None => (0, 0),
         Some(ChunkRefusal::BadCrc) => (1, 0),
@@ -422,7 +599,7 @@ fn refusal_code(r: Option<ChunkRefusal>) -> (u32, u32) {
     }
 }
 
-fn refusal_of(code: u32, arg: u32) -> Option<Option<ChunkRefusal>> {
+fn deferred_refusal_of(code: u32, arg: u32) -> Option<Option<ChunkRefusal>> {
     Some(match code {
         0 => None,
         1 => Some(ChunkRefusal::BadCrc),
