@@ -62,6 +62,11 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.load_protection(&running[..running_n], true);
         let sw = self.probe_state.len();
         let mut result = Ok(());
+        // In a novelty search the successors of a state novel in its partition come first.
+        let novel_bit = match self.novelty(h) {
+            2 => 1 << 31,
+            _ => 0,
+        };
         let words = self.relax.ready.len();
         'words: for w in 0..words {
             let mut bits = self.relax.ready[w];
@@ -91,7 +96,11 @@ impl<'t, 'm> Planner<'t, 'm> {
                 }
                 // The regular list takes successors of equal h in the order generated: ties
                 // go by parent node and then snap (the heap compares all three words).
-                let key = h.min(0xffff) << 16;
+                let key = if self.novelty_words > 0 {
+                    novel_bit | h.min(0x7fff) << 16
+                } else {
+                    h.min(0xffff) << 16
+                };
                 if !self.regular.push(key, node, snap) {
                     if self.config.shed_when_full && self.regular.len > 1 {
                         self.stats.shed += self.regular.shed_worse_half() as u64;
@@ -225,6 +234,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             (_, asked) => asked,
         };
         self.shed_base = self.stats.shed;
+        self.set_novelty_table();
         self.boost = 0;
         self.turn = false;
         self.nodes_used = 0;
