@@ -184,7 +184,7 @@ impl<'t, 'm> Planner<'t, 'm> {
                 // The second search prunes more than asked: its end proves nothing, and the
                 // third (as asked) decides.
                 if self.pruning_more() {
-                    self.restart(3);
+                    self.restart(self.after_pruning_more());
                     continue;
                 }
                 // With entries shed, an empty open list proves nothing.
@@ -199,7 +199,7 @@ impl<'t, 'm> Planner<'t, 'm> {
                 Ok(()) => {}
                 // A path too long to extend is a branch dropped, not the search's end.
                 Err(Region::PlanLength) => self.stats.too_long += 1,
-                Err(_) if self.pruning_more() => self.restart(3),
+                Err(_) if self.pruning_more() => self.restart(self.after_pruning_more()),
                 // The ordered search gives way to the searches as before.
                 Err(_) if self.phase == 0 => self.restart(1),
                 Err(r) => self.status = Status::OutOfMemory(r),
@@ -213,7 +213,18 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// Whether the search under way prunes more repeated states than the configuration asks
     /// (the search after [`RESTART_AFTER`]).
     fn pruning_more(&self) -> bool {
-        self.phase == 2 && self.duplicates != self.config.duplicates
+        (self.phase == 2 || self.phase == NOVELTY_LAST) && self.duplicates != self.config.duplicates
+    }
+
+    /// The search after one that pruned more than asked and ended without a plan: the novelty
+    /// search that prunes as much ([`NOVELTY_LAST`]) if the portfolio has it and it has not
+    /// run, then the search as configured.
+    fn after_pruning_more(&self) -> u8 {
+        if self.phase == 2 && self.novelty_phases & 1 << NOVELTY_LAST != 0 {
+            NOVELTY_LAST
+        } else {
+            3
+        }
     }
 
     /// Abandon the search under way and start again from the root as search `phase` (1, 2 or
@@ -230,14 +241,14 @@ impl<'t, 'm> Planner<'t, 'm> {
             BOOST_SECOND
         };
         self.duplicates = match (phase, self.config.duplicates) {
-            (2, Duplicates::PruneQuiescent) => Duplicates::PruneAll,
+            (2 | NOVELTY_LAST, Duplicates::PruneQuiescent) => Duplicates::PruneAll,
             (_, asked) => asked,
         };
         self.shed_base = self.stats.shed;
-        self.set_novelty_table();
         self.boost = 0;
         self.turn = false;
         self.nodes_used = 0;
+        self.set_novelty_table();
         self.loaded_node = NONE;
         self.buckets.iter_mut().for_each(|b| *b = NONE);
         self.regular.len = 0;

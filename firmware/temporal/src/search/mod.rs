@@ -103,9 +103,14 @@ pub const ORDERED_RESTART_AFTER: u64 = 500;
 /// the same on every target.
 pub const RESTART_AFTER: u64 = 3000;
 
-/// The searches of the portfolio (bit p: search p, 0 to 3) that order their open lists by
-/// novelty first and h second ([`novelty`]).
-pub const NOVELTY_PHASES: u8 = 0;
+/// The searches of the portfolio (bit p: search p, 0 to 3, and [`NOVELTY_LAST`]) that order
+/// their open lists by novelty first and h second ([`novelty`]).
+pub const NOVELTY_PHASES: u8 = 1 << 1 | 1 << NOVELTY_LAST;
+
+/// A search that runs only if bit 4 of [`NOVELTY_PHASES`] is set: after the third search
+/// (which prunes every repeated state) ends without a plan, a novelty search that prunes as
+/// much, before the fourth (as configured).
+pub const NOVELTY_LAST: u8 = 4;
 
 /// How the planner searches.
 #[derive(Clone, Copy, Debug)]

@@ -19,13 +19,14 @@ use super::*;
 impl<'t, 'm> Planner<'t, 'm> {
     /// Give the search under way its novelty table at the end of the node store (emptied) if
     /// it is a novelty search ([`NOVELTY_PHASES`]), or the node store all of it back. The
-    /// table takes at most an eighth of the node store.
+    /// table takes at most an eighth of the node store's free part (all of it at a restart,
+    /// whose nodes are emptied first).
     pub(super) fn set_novelty_table(&mut self) {
         self.novelty_words = 0;
         if self.novelty_phases & 1 << self.phase == 0 {
             return;
         }
-        let room = (self.nodes.len() - self.nodes_used) / 8;
+        let room = self.nodes.len().saturating_sub(self.nodes_used) / 8;
         let want = NoveltyTable::words_for(self.fact_words, NOVELTY_PARTITIONS);
         let words = want.min(room);
         let at = self.nodes.len() - words;
