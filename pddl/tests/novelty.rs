@@ -1,14 +1,17 @@
 //! The novelty searches of the portfolio (`temporal::search::NOVELTY_PHASES`): the second
-//! search orders its open lists by the novelty of a state within its (h, goals achieved)
-//! partition, then by h. Driverlog 12's plateaus took the portfolio without it 23,991
-//! evaluations (its third search); the second search with novelty solves it in about 2,100,
+//! search orders its regular open list by the novelty of a state within its (h, goals
+//! achieved) partition, then by h. Driverlog 12's plateaus took the portfolio without it
+//! 23,991 evaluations (its third search); the second search with novelty solves it in 3,445,
 //! and the plan must pass the validator. Without novelty, the same budget finds no plan.
 mod common;
 
 use common::Validator;
 use temporal::{PlannerConfig, Status};
 
-fn plan(novelty_phases: Option<u8>, expansions: u32) -> (Status, temporal::Stats, Vec<common::Step>) {
+fn plan(
+    novelty_phases: Option<u8>,
+    expansions: u32,
+) -> (Status, temporal::Stats, Vec<common::Step>) {
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/benchmarks/driverlog");
     let d = std::fs::read_to_string(format!("{dir}/domain.pddl")).expect("domain");
     let p = std::fs::read_to_string(format!("{dir}/instance-12.pddl")).expect("problem");
@@ -45,12 +48,12 @@ fn the_second_search_with_novelty_solves_driverlog_12_where_the_one_without_cann
     let d = std::fs::read_to_string(format!("{dir}/domain.pddl")).expect("domain");
     let p = std::fs::read_to_string(format!("{dir}/instance-12.pddl")).expect("problem");
     let validator = Validator::new(&d, &p, 0.01);
-    let (status, stats, steps) = plan(None, 6_000);
+    let (status, stats, steps) = plan(None, 10_000);
     assert_eq!(status, Status::Solved, "{stats:?}");
     assert_eq!(stats.restarts, 1, "the second search finds it: {stats:?}");
-    assert!(stats.evaluated < 3_000, "{stats:?}");
+    assert!(stats.evaluated < 5_000, "{stats:?}");
     validator.validate(&steps).expect("valid");
-    // The portfolio without novelty: the same 6,000 expansions find no plan.
-    let (status, stats, _) = plan(Some(0), 6_000);
+    // The portfolio without novelty: the same 10,000 expansions find no plan.
+    let (status, stats, _) = plan(Some(0), 10_000);
     assert_eq!(status, Status::Searching, "{stats:?}");
 }

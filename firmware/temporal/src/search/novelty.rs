@@ -3,8 +3,10 @@
 //!
 //! A state has novelty 1 in its partition if one of its facts holds in no state of that
 //! partition evaluated before, 2 otherwise (BFWS(f5)'s w over single atoms, with 2 standing for
-//! "more than 1"). The novelty search of the portfolio ([`super::NOVELTY_PHASES`]) orders the
-//! open lists by the novelty of the state a successor is generated from, then by its h: on a
+//! "more than 1"). A novelty search of the portfolio ([`super::NOVELTY_PHASES`]) orders its
+//! regular open list by the novelty of the state a successor is generated from (the search is
+//! lazy: a successor is evaluated when taken), then by its h; the second search's preferred
+//! list keeps h, the last resort's ([`super::NOVELTY_LAST`]) is ordered the same way. On a
 //! plateau (h stays the same while drivers walk and trucks drive back) states that reach a fact
 //! not seen at that h come first, so the search spreads over the plateau instead of taking
 //! every interleaving of the same moves.
