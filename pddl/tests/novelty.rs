@@ -15,7 +15,17 @@ fn plan(
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/benchmarks/driverlog");
     let d = std::fs::read_to_string(format!("{dir}/domain.pddl")).expect("domain");
     let p = std::fs::read_to_string(format!("{dir}/instance-12.pddl")).expect("problem");
-    let compiled = common::compile(&d, &p).expect("compiles");
+    plan_in(&d, &p, novelty_phases, expansions)
+}
+
+/// Plan `p` of domain `d` in the target's arena with at most `expansions` expansions.
+fn plan_in(
+    d: &str,
+    p: &str,
+    novelty_phases: Option<u8>,
+    expansions: u32,
+) -> (Status, temporal::Stats, Vec<common::Step>) {
+    let compiled = common::compile(d, p).expect("compiles");
     let task = temporal::Task::parse(&compiled.task).expect("valid");
     let tpu = f64::from(task.ticks_per_unit());
     // The target's arena (8 MiB).
@@ -56,4 +66,34 @@ fn the_second_search_with_novelty_solves_driverlog_12_where_the_one_without_cann
     // The portfolio without novelty: the same 10,000 expansions find no plan.
     let (status, stats, _) = plan(Some(0), 10_000);
     assert_eq!(status, Status::Searching, "{stats:?}");
+}
+
+/// The driverlog instances whose searches the novelty searches changed (13 and 17: the second
+/// search with novelty; 16: the last-resort novelty search; 18: the third search, after the
+/// second with novelty), from `../shared/benchmarks`, each plan through the validator. Long in
+/// a debug build: `cargo test --release -p pddl --test novelty -- --ignored`.
+#[test]
+#[ignore]
+fn driverlog_plans_the_novelty_searches_find_are_valid() {
+    let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../../shared/benchmarks/pddl/driverlog-time-simple-automatic"
+    );
+    for (instance, restarts) in [(13, 1), (16, 3), (17, 1), (18, 2)] {
+        let d = std::fs::read_to_string(format!("{dir}/domain.pddl")).expect("domain");
+        let p = std::fs::read_to_string(format!("{dir}/instances/instance-{instance}.pddl"))
+            .expect("problem");
+        let validator = Validator::new(&d, &p, 0.01);
+        let (status, stats, steps) = plan_in(&d, &p, None, 1_000_000);
+        assert_eq!(status, Status::Solved, "driverlog {instance}: {stats:?}");
+        assert_eq!(stats.restarts, restarts, "driverlog {instance}: {stats:?}");
+        validator
+            .validate(&steps)
+            .unwrap_or_else(|e| panic!("driverlog {instance}: {e}"));
+        println!(
+            "driverlog {instance}: {} evaluations, {} actions",
+            stats.evaluated,
+            steps.len()
+        );
+    }
 }
