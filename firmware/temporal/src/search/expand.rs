@@ -235,8 +235,8 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
     }
 
-    /// Abandon the search under way and start again from the root as search `phase` (1, 2 or
-    /// 3; see [`ORDERED_RESTART_AFTER`] and [`RESTART_AFTER`]): the nodes, the duplicate table and the
+    /// Abandon the search under way and start again from the root as search `phase` (1, 2, 3 or
+    /// [`NOVELTY_LAST`]; see [`ORDERED_RESTART_AFTER`] and [`RESTART_AFTER`]): the nodes, the duplicate table and the
     /// open lists are emptied (the arena's high-water mark and the statistics carry on).
     pub(super) fn restart(&mut self, phase: u8) {
         let s = self.stats();

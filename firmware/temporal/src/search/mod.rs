@@ -104,7 +104,9 @@ pub const ORDERED_RESTART_AFTER: u64 = 500;
 pub const RESTART_AFTER: u64 = 3000;
 
 /// The searches of the portfolio (bit p: search p, 0 to 3, and [`NOVELTY_LAST`]) that order
-/// their open lists by novelty first and h second ([`novelty`]).
+/// their regular open list (the last resort: both lists) by novelty first and h second
+/// ([`NoveltyTable`]): the second search and the last resort, chosen by measurement (the README's
+/// "A width-based search").
 pub const NOVELTY_PHASES: u8 = 1 << 1 | 1 << NOVELTY_LAST;
 
 /// A search that runs only if bit 4 of [`NOVELTY_PHASES`] is set: after the third search
@@ -365,8 +367,8 @@ pub struct Planner<'t, 'm> {
     boost_amount: u32,
     /// Expansions when the best h last improved.
     last_progress: u64,
-    /// Which search of the portfolio runs (0 to 3; see [`ORDERED_RESTART_AFTER`] and
-    /// [`RESTART_AFTER`]), the repeated
+    /// Which search of the portfolio runs (0 to 3, or [`NOVELTY_LAST`]; see
+    /// [`ORDERED_RESTART_AFTER`] and [`RESTART_AFTER`]), the repeated
     /// states it prunes, and the shed count when it started.
     phase: u8,
     duplicates: Duplicates,
