@@ -55,12 +55,19 @@ fn main() {
         "firmware/flight-app/src",
         "firmware/sdls/src",
         "firmware/temporal/src",
+        "firmware/lander/src",
         "fsw-bridge/src",
     ] {
         collect(&repo.join(dir), &mut files);
         println!("cargo:rerun-if-changed={}", repo.join(dir).display());
     }
     files.push(script);
+    // How crate lander is compiled (its symbol names, which place its code: rustc-wrapper.sh).
+    for build_file in ["firmware/image/rustc-wrapper.sh", "firmware/image/.cargo/config.toml"] {
+        let path = repo.join(build_file);
+        println!("cargo:rerun-if-changed={}", path.display());
+        files.push(path);
+    }
     // The manifests of this workspace (features and dependencies: which partitions go in).
     for member in [
         "image",

@@ -3,7 +3,7 @@
 //! target's cost (evaluations x ground actions, which the heuristic's work follows). For
 //! comparing search changes quickly; `scripts/bench-planners.py` is the benchmark.
 //!
-//!     [ARENA_KIB=N] cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
+//!     [ARENA_KIB=N] [NOVELTY_PHASES=MASK] cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
 use std::time::Instant;
 
 fn main() {
@@ -52,9 +52,19 @@ fn main() {
             let actions = task.action_count() as u64;
             let started = Instant::now();
             arena.iter_mut().for_each(|w| *w = 0);
-            let mut planner =
-                temporal::Planner::new(task, &mut arena, temporal::PlannerConfig::default())
-                    .expect("fits");
+            let mut planner = temporal::Planner::new_deferred(
+                task,
+                &mut arena,
+                temporal::PlannerConfig::default(),
+            )
+            .expect("fits");
+            // NOVELTY_PHASES: which searches of the portfolio order by novelty (bit p: search p).
+            if let Some(mask) = std::env::var("NOVELTY_PHASES")
+                .ok()
+                .and_then(|s| s.parse().ok())
+            {
+                planner.set_novelty_phases(mask);
+            }
             let status = loop {
                 let s = planner.step(256);
                 if s != temporal::Status::Searching || planner.stats().expanded >= cap {

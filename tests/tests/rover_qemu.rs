@@ -228,7 +228,7 @@ fn an_emulated_rover_mission_survives_a_warm_reset_with_the_same_decisions() {
     drop(backend);
 }
 
-/// A long plan (long-day: 30 objectives, 72 actions, 144 steps): its dispatch network costs
+/// A long plan (long-day: 30 objectives, 72 actions, 144 steps, decisions `becb4a452dc8b9f2`): its dispatch network costs
 /// several windows of the planner partition (over 3.7 million guest instructions) and is
 /// built in pieces across them, so no step of the mission overruns a window; the decisions
 /// are the native run's. (The search of this 30-goal task has an expansion that overruns a
@@ -245,6 +245,9 @@ fn a_long_plan_is_divided_across_windows_with_the_native_decisions() {
         assert!(v.ok, "{}: {}", v.what, v.got);
     }
     assert_eq!(emulated.decisions, native.decisions);
+    // Pinned as the other scenarios' are, so a change of the search that changes this long
+    // plan's decisions is seen (and the README's hash updated) rather than passing silently.
+    assert_eq!(emulated.decisions_sha256, "becb4a452dc8b9f2");
     let actions = emulated
         .decisions
         .iter()

@@ -32,7 +32,9 @@ fn insertion<T: Ord>(v: &mut [T]) {
     }
 }
 
-fn heapsort<T: Ord>(v: &mut [T]) {
+/// Sorts `v` in increasing order by heapsort (no quadratic worst case; a few hundred bytes of
+/// code a type). Also the MEXEC planner's sort of its candidate starts.
+pub fn heapsort<T: Ord>(v: &mut [T]) {
     fn sift_down<T: Ord>(v: &mut [T], mut root: usize, end: usize) {
         loop {
             let mut child = 2 * root + 1;

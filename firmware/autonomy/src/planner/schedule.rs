@@ -524,36 +524,13 @@ impl Planner {
     }
 }
 
-/// Sorts `v` in increasing order (heapsort). The library's `sort_unstable` of `u64` is about
-/// 8.7 KiB of code (its small-slice sorting networks), all of it in the RAM image that the
-/// reset stub checks at every warm boot; this is a few hundred bytes, and the candidates are
-/// sorted only when a search goes past the first few found by [`next_candidate`]. Sorted
-/// values are the same whatever the algorithm.
+/// Sorts `v` in increasing order ([`crate::small_sort::heapsort`]). The library's
+/// `sort_unstable` of `u64` is about 8.7 KiB of code (its small-slice sorting networks), all of
+/// it in the RAM image that the reset stub checks at every warm boot; this is a few hundred
+/// bytes, and the candidates are sorted only when a search goes past the first few found by
+/// [`next_candidate`]. Sorted values are the same whatever the algorithm.
 pub(super) fn heapsort(v: &mut [u64]) {
-    fn sift_down(v: &mut [u64], mut root: usize, end: usize) {
-        loop {
-            let mut child = 2 * root + 1;
-            if child >= end {
-                return;
-            }
-            if child + 1 < end && v.get(child) < v.get(child + 1) {
-                child += 1;
-            }
-            if v.get(root) >= v.get(child) {
-                return;
-            }
-            v.swap(root, child);
-            root = child;
-        }
-    }
-    let n = v.len();
-    for start in (0..n / 2).rev() {
-        sift_down(v, start, n);
-    }
-    for end in (1..n).rev() {
-        v.swap(0, end);
-        sift_down(v, 0, end);
-    }
+    crate::small_sort::heapsort(v);
 }
 
 /// The smallest candidate after `tried` (the first if None): taking these in turn gives the

@@ -62,6 +62,12 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.load_protection(&running[..running_n], true);
         let sw = self.probe_state.len();
         let mut result = Ok(());
+        // In a novelty search the regular list takes the successors of a state novel in its
+        // partition first, then by h.
+        let novel_bit = match self.novelty(h) {
+            2 => 1 << 31,
+            _ => 0,
+        };
         let words = self.relax.ready.len();
         'words: for w in 0..words {
             let mut bits = self.relax.ready[w];
@@ -91,7 +97,11 @@ impl<'t, 'm> Planner<'t, 'm> {
                 }
                 // The regular list takes successors of equal h in the order generated: ties
                 // go by parent node and then snap (the heap compares all three words).
-                let key = h.min(0xffff) << 16;
+                let key = if self.novelty_words > 0 {
+                    novel_bit | h.min(0x7fff) << 16
+                } else {
+                    h.min(0xffff) << 16
+                };
                 if !self.regular.push(key, node, snap) {
                     if self.config.shed_when_full && self.regular.len > 1 {
                         self.stats.shed += self.regular.shed_worse_half() as u64;
@@ -109,10 +119,17 @@ impl<'t, 'm> Planner<'t, 'm> {
                 // undo less of the relaxed plan first (see [`ORDERED_RESTART_AFTER`]); the
                 // search alternates between the two lists, so it alternates between that
                 // order and the order generated.
+                // The second search, with novelty, orders only its regular list by it: its
+                // preferred list stays greedy in h (novelty in both cost driverlog 4, 6, 14 and
+                // 17 more evaluations); the last resort ([`NOVELTY_LAST`]) orders both (with
+                // the preferred list greedy it does not solve driverlog 16). See the README's
+                // "A width-based search".
                 let key = if self.phase == 0 {
                     key | self.relaxed_plan_conflicts(a, snap & 3).min(0xffff)
-                } else {
+                } else if self.phase == NOVELTY_LAST {
                     key
+                } else {
+                    h.min(0xffff) << 16
                 };
                 if !self.preferred.push(key, node, snap) {
                     if self.config.shed_when_full && self.preferred.len > 1 {
@@ -175,7 +192,7 @@ impl<'t, 'm> Planner<'t, 'm> {
                 // The second search prunes more than asked: its end proves nothing, and the
                 // third (as asked) decides.
                 if self.pruning_more() {
-                    self.restart(3);
+                    self.restart(self.after_pruning_more());
                     continue;
                 }
                 // With entries shed, an empty open list proves nothing.
@@ -190,7 +207,7 @@ impl<'t, 'm> Planner<'t, 'm> {
                 Ok(()) => {}
                 // A path too long to extend is a branch dropped, not the search's end.
                 Err(Region::PlanLength) => self.stats.too_long += 1,
-                Err(_) if self.pruning_more() => self.restart(3),
+                Err(_) if self.pruning_more() => self.restart(self.after_pruning_more()),
                 // The ordered search gives way to the searches as before.
                 Err(_) if self.phase == 0 => self.restart(1),
                 Err(r) => self.status = Status::OutOfMemory(r),
@@ -204,11 +221,22 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// Whether the search under way prunes more repeated states than the configuration asks
     /// (the search after [`RESTART_AFTER`]).
     fn pruning_more(&self) -> bool {
-        self.phase == 2 && self.duplicates != self.config.duplicates
+        (self.phase == 2 || self.phase == NOVELTY_LAST) && self.duplicates != self.config.duplicates
     }
 
-    /// Abandon the search under way and start again from the root as search `phase` (1, 2 or
-    /// 3; see [`ORDERED_RESTART_AFTER`] and [`RESTART_AFTER`]): the nodes, the duplicate table and the
+    /// The search after one that pruned more than asked and ended without a plan: the novelty
+    /// search that prunes as much ([`NOVELTY_LAST`]) if the portfolio has it and it has not
+    /// run, then the search as configured.
+    fn after_pruning_more(&self) -> u8 {
+        if self.phase == 2 && self.novelty_phases & 1 << NOVELTY_LAST != 0 {
+            NOVELTY_LAST
+        } else {
+            3
+        }
+    }
+
+    /// Abandon the search under way and start again from the root as search `phase` (1, 2, 3 or
+    /// [`NOVELTY_LAST`]; see [`ORDERED_RESTART_AFTER`] and [`RESTART_AFTER`]): the nodes, the duplicate table and the
     /// open lists are emptied (the arena's high-water mark and the statistics carry on).
     pub(super) fn restart(&mut self, phase: u8) {
         let s = self.stats();
@@ -221,13 +249,14 @@ impl<'t, 'm> Planner<'t, 'm> {
             BOOST_SECOND
         };
         self.duplicates = match (phase, self.config.duplicates) {
-            (2, Duplicates::PruneQuiescent) => Duplicates::PruneAll,
+            (2 | NOVELTY_LAST, Duplicates::PruneQuiescent) => Duplicates::PruneAll,
             (_, asked) => asked,
         };
         self.shed_base = self.stats.shed;
         self.boost = 0;
         self.turn = false;
         self.nodes_used = 0;
+        self.set_novelty_table();
         self.loaded_node = NONE;
         self.buckets.iter_mut().for_each(|b| *b = NONE);
         self.regular.len = 0;

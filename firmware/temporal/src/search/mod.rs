@@ -33,12 +33,14 @@ use crate::stn;
 use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod expand;
+mod novelty;
 mod path;
 mod replay;
 pub(crate) use path::{for_each_read, for_each_write, snap_reads};
 mod setup;
 mod state;
 
+pub use novelty::{NoveltyTable, NOVELTY_PARTITIONS};
 use setup::SetUp;
 pub use setup::BUCKET_WORDS_PER_PIECE;
 
@@ -100,6 +102,17 @@ pub const ORDERED_RESTART_AFTER: u64 = 500;
 /// "unsolvable". A small portfolio of configurations, one after the other in the same arena,
 /// the same on every target.
 pub const RESTART_AFTER: u64 = 3000;
+
+/// The searches of the portfolio (bit p: search p, 0 to 3, and [`NOVELTY_LAST`]) that order
+/// their regular open list (the last resort: both lists) by novelty first and h second
+/// ([`NoveltyTable`]): the second search and the last resort, chosen by measurement (the README's
+/// "A width-based search").
+pub const NOVELTY_PHASES: u8 = 1 << 1 | 1 << NOVELTY_LAST;
+
+/// A search that runs only if bit 4 of [`NOVELTY_PHASES`] is set: after the third search
+/// (which prunes every repeated state) ends without a plan, a novelty search that prunes as
+/// much, before the fourth (as configured).
+pub const NOVELTY_LAST: u8 = 4;
 
 /// How the planner searches.
 #[derive(Clone, Copy, Debug)]
@@ -354,8 +367,8 @@ pub struct Planner<'t, 'm> {
     boost_amount: u32,
     /// Expansions when the best h last improved.
     last_progress: u64,
-    /// Which search of the portfolio runs (0 to 3; see [`ORDERED_RESTART_AFTER`] and
-    /// [`RESTART_AFTER`]), the repeated
+    /// Which search of the portfolio runs (0 to 3, or [`NOVELTY_LAST`]; see
+    /// [`ORDERED_RESTART_AFTER`] and [`RESTART_AFTER`]), the repeated
     /// states it prunes, and the shed count when it started.
     phase: u8,
     duplicates: Duplicates,
@@ -365,6 +378,11 @@ pub struct Planner<'t, 'm> {
     /// [`ORDERED_RESTART_AFTER`] unless set otherwise ([`Planner::set_restart_after`]).
     ordered_restart_after: u64,
     turn: bool,
+    /// [`NOVELTY_PHASES`] unless set otherwise ([`Planner::set_novelty_phases`]).
+    novelty_phases: u8,
+    /// Words at the end of the node store that hold the novelty table while a novelty search
+    /// runs (0 otherwise): the nodes end before them.
+    novelty_words: usize,
     goal_node: u32,
     status: Status,
     stats: Stats,
@@ -477,6 +495,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             ordered_restart_after: ORDERED_RESTART_AFTER,
             boost_amount: BOOST_FIRST,
             turn: false,
+            novelty_phases: NOVELTY_PHASES,
+            novelty_words: 0,
             goal_node: NONE,
             status: Status::Searching,
             stats: Stats {
@@ -487,6 +507,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             fact_words: facts.div_ceil(32),
             set_up: SetUp::Buckets(0),
         };
+        let mut planner = planner;
+        planner.set_novelty_table();
         Ok(planner)
     }
 
@@ -498,8 +520,11 @@ impl<'t, 'm> Planner<'t, 'm> {
     }
     pub fn stats(&self) -> Stats {
         let mut s = self.stats;
-        let used =
-            self.fixed_words + self.nodes_used + 3 * self.regular.peak + 3 * self.preferred.peak;
+        let used = self.fixed_words
+            + self.nodes_used
+            + self.novelty_words
+            + 3 * self.regular.peak
+            + 3 * self.preferred.peak;
         s.peak_words = s.peak_words.max(used as u64);
         s
     }
@@ -508,6 +533,13 @@ impl<'t, 'm> Planner<'t, 'm> {
     pub fn set_restart_after(&mut self, expansions: u64) {
         self.restart_after = expansions;
         self.ordered_restart_after = expansions;
+    }
+    /// Order the searches of the portfolio in `mask` (bit p: search p) by novelty instead of
+    /// [`NOVELTY_PHASES`] (for measuring placements; before the first [`Self::step`] of a
+    /// planner made with [`Self::new_deferred`] to cover the first search).
+    pub fn set_novelty_phases(&mut self, mask: u8) {
+        self.novelty_phases = mask;
+        self.set_novelty_table();
     }
     /// Whether the end of `action` may be applied straight after its start without losing plans.
     pub fn compression_safe(&self, action: usize) -> bool {

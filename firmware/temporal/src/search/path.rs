@@ -67,7 +67,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             0
         };
         let words = NODE_HEADER + bytes.div_ceil(4) + state_len;
-        if self.nodes_used + words > self.nodes.len() {
+        if self.nodes_used + words + self.novelty_words > self.nodes.len() {
             return None;
         }
         let id = self.nodes_used as u32;
