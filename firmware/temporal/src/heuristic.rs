@@ -99,7 +99,19 @@ pub struct Relaxation<'m> {
     /// start's without its running-action fact), its own cost, and for a start 1 if its end
     /// follows (see `end_follows`): what firing it reads, side by side.
     pub fire_info: &'m mut [u32],
+    /// Per action a, three words, read where `2a` leads a group (see [`GROUP`]): the group's
+    /// entries in `direct` (from, to: entries of three words, as a direct start's) and how
+    /// many starts it has (those of actions a, a + 1, ...). Starts with two or more relaxed
+    /// preconditions that follow each other in action order with the same preconditions
+    /// (rovers' navigates from one waypoint, one per destination) are counted once, as one
+    /// relaxed action, and their effects relaxed from the flattened entries when the group
+    /// fires, instead of each start being counted, fired and decoded.
+    pub group_info: &'m mut [u32],
 }
+
+/// Set on a `pre_index` entry that is a group of starts (see [`Relaxation::group_info`]):
+/// the rest is the group's first start, whose counter the group uses.
+pub const GROUP: u32 = 1 << 31;
 
 /// Costs with a bucket of their own in the heuristic's queue (larger ones go to a heap).
 pub const BUCKETS: usize = 1024;
@@ -216,6 +228,9 @@ struct Propagation<'a> {
     pre_split: &'a [u32],
     direct_offsets: &'a [u32],
     direct: &'a [u32],
+    /// Per action: a group's entries in `direct` and its number of starts (see
+    /// [`Relaxation::group_info`]).
+    group_info: &'a [[u32; 3]],
     /// The first running-action fact (the task's fact count).
     facts: usize,
 }
@@ -322,17 +337,52 @@ impl Propagation<'_> {
             }
         }
         for &r in &self.pre_index[split..hi] {
-            let r = r as usize;
-            let [waiting, sum] = self.counts[r];
+            let i = (r & !GROUP) as usize;
+            let [waiting, sum] = self.counts[i];
             let sum = sum.saturating_add(c);
             if waiting > 1 {
-                self.counts[r] = [waiting - 1, sum];
+                self.counts[i] = [waiting - 1, sum];
+                continue;
+            }
+            if r & GROUP != 0 {
+                self.fire_group(i, sum, q);
                 continue;
             }
             if sum == 0 {
-                self.ready[r / 32] |= 1 << (r % 32);
+                self.ready[i / 32] |= 1 << (i % 32);
             }
-            self.fire(r, sum, q);
+            self.fire(i, sum, q);
+        }
+    }
+
+    /// The group of starts led by start `r0` fires with `sum`, its preconditions' cost sum:
+    /// each start fires as [`Self::fire`] would fire it, from the group's flattened entries
+    /// (an action running in the state: as for a direct start in [`Self::reach`]).
+    #[inline(always)]
+    fn fire_group(&mut self, r0: usize, sum: u32, q: &mut Queue<'_>) {
+        let [lo, hi, n] = self.group_info[r0 / 2];
+        if sum == 0 {
+            for r in (r0..r0 + 2 * n as usize).step_by(2) {
+                self.ready[r / 32] |= 1 << (r % 32);
+                let [_, _, own, follows] = self.fire_info[r];
+                if own == 0 && follows != 0 {
+                    let e = r + 1;
+                    self.ready[e / 32] |= 1 << (e % 32);
+                }
+            }
+        }
+        let (entries, _) = self.direct[3 * lo as usize..3 * hi as usize].as_chunks::<3>();
+        for &[g, delta, r] in entries {
+            let g = g as usize;
+            let cg = sum.saturating_add(delta);
+            let old = self.cost[g];
+            if cg < old || (cg == old && cg != u32::MAX && r < self.supporter[g]) {
+                if cg < old {
+                    q.push(cg, g as u32);
+                }
+                self.cost[g] = cg;
+                self.supporter[g] = r;
+            }
         }
     }
 }
@@ -470,6 +520,7 @@ impl<'m> Relaxation<'m> {
             direct_offsets: take(all + 1)?,
             direct: take(3 * add_entries_n)?,
             fire_info: take(4 * relaxed)?,
+            group_info: take(3 * task.action_count())?,
         };
         relax.buckets.iter_mut().for_each(|b| *b = u32::MAX);
         Some(relax)
@@ -487,7 +538,6 @@ impl<'m> Relaxation<'m> {
             let mut n = 0;
             self.pre_list_offsets[r] = at as u32;
             for_each_pre(task, r, &mut |p| {
-                self.pre_offsets[p + 1] += 1;
                 self.pre_list[at] = p as u32;
                 at += 1;
                 n += 1;
@@ -507,6 +557,37 @@ impl<'m> Relaxation<'m> {
             );
             if hi == lo + 1 && self.pre_list[lo] as usize == task.fact_count() + a {
                 self.end_follows[a / 32] |= 1 << (a % 32);
+            }
+        }
+        // Groups: runs of starts of consecutive actions with the same two or more relaxed
+        // preconditions (in the same order). The first start of a run leads it
+        // (`group_info`'s count is the run's length); the others have a count of zero and are
+        // left out of the precondition index.
+        let mut leader = usize::MAX;
+        for a in 0..task.action_count() {
+            self.group_info[3 * a + 2] = 0;
+            let r = 2 * a;
+            if self.pre_count[r] < 2 {
+                leader = usize::MAX;
+                continue;
+            }
+            if leader != usize::MAX && self.preconditions(2 * leader) == self.preconditions(r) {
+                self.group_info[3 * leader + 2] += 1;
+            } else {
+                leader = a;
+                self.group_info[3 * a + 2] = 1;
+            }
+        }
+        for r in 0..2 * task.action_count() {
+            if self.is_group_member(r) {
+                continue;
+            }
+            let (lo, hi) = (
+                self.pre_list_offsets[r] as usize,
+                self.pre_list_offsets[r + 1] as usize,
+            );
+            for i in lo..hi {
+                self.pre_offsets[self.pre_list[i] as usize + 1] += 1;
             }
         }
         for f in 0..facts {
@@ -562,9 +643,14 @@ impl<'m> Relaxation<'m> {
         }
         for direct_pass in [true, false] {
             for r in 0..2 * task.action_count() {
-                if self.is_direct(r) != direct_pass {
+                if self.is_direct(r) != direct_pass || self.is_group_member(r) {
                     continue;
                 }
+                let id = if self.is_group_leader(r) {
+                    r as u32 | GROUP
+                } else {
+                    r as u32
+                };
                 let (lo, hi) = (
                     self.pre_list_offsets[r] as usize,
                     self.pre_list_offsets[r + 1] as usize,
@@ -572,7 +658,7 @@ impl<'m> Relaxation<'m> {
                 for i in lo..hi {
                     let p = self.pre_list[i] as usize;
                     let at = self.cost[p] as usize;
-                    self.pre_index[at] = r as u32;
+                    self.pre_index[at] = id;
                     self.cost[p] += 1;
                 }
             }
@@ -589,47 +675,73 @@ impl<'m> Relaxation<'m> {
             let (lo, split) = (self.pre_offsets[f] as usize, self.pre_split[f] as usize);
             for i in lo..split {
                 let r = self.pre_index[i] as usize;
-                let a = r / 2;
-                let own = self.own_cost[r];
-                // The start's effects but its running-action fact (its last).
-                let (slo, shi) = (
-                    self.add_offsets[r] as usize,
-                    self.add_offsets[r + 1] as usize - 1,
-                );
-                for k in slo..shi {
-                    self.direct[3 * at..3 * at + 3].copy_from_slice(&[
-                        self.add_index[k],
-                        own,
-                        r as u32,
-                    ]);
-                    at += 1;
-                }
-                if self.end_follows[a / 32] & (1 << (a % 32)) != 0 {
-                    let e = r + 1;
-                    let both = own.saturating_add(self.own_cost[e]);
-                    let (elo, ehi) = (
-                        self.add_offsets[e] as usize,
-                        self.add_offsets[e + 1] as usize,
-                    );
-                    for k in elo..ehi {
-                        self.direct[3 * at..3 * at + 3].copy_from_slice(&[
-                            self.add_index[k],
-                            both,
-                            e as u32,
-                        ]);
-                        at += 1;
-                    }
-                } else {
-                    self.direct[3 * at..3 * at + 3].copy_from_slice(&[
-                        (task.fact_count() + a) as u32,
-                        own,
-                        r as u32,
-                    ]);
-                    at += 1;
-                }
+                at = self.start_entries(task, r, at);
             }
         }
         self.direct_offsets[facts] = at as u32;
+        // The groups' entries, after the facts'.
+        for a in 0..task.action_count() {
+            if !self.is_group_leader(2 * a) {
+                continue;
+            }
+            let n = self.group_info[3 * a + 2] as usize;
+            self.group_info[3 * a] = at as u32;
+            for b in a..a + n {
+                at = self.start_entries(task, 2 * b, at);
+            }
+            self.group_info[3 * a + 1] = at as u32;
+        }
+    }
+
+    /// Write start `r`'s entries for `direct` from entry `at` on (its effects but its
+    /// running-action fact, then its end's if the end follows, else the running-action fact:
+    /// see [`Self::direct`]); returns the next free entry.
+    fn start_entries(&mut self, task: &Task<'_>, r: usize, mut at: usize) -> usize {
+        let a = r / 2;
+        let own = self.own_cost[r];
+        // The start's effects but its running-action fact (its last).
+        let (slo, shi) = (
+            self.add_offsets[r] as usize,
+            self.add_offsets[r + 1] as usize - 1,
+        );
+        for k in slo..shi {
+            self.direct[3 * at..3 * at + 3].copy_from_slice(&[self.add_index[k], own, r as u32]);
+            at += 1;
+        }
+        if self.end_follows[a / 32] & (1 << (a % 32)) != 0 {
+            let e = r + 1;
+            let both = own.saturating_add(self.own_cost[e]);
+            let (elo, ehi) = (
+                self.add_offsets[e] as usize,
+                self.add_offsets[e + 1] as usize,
+            );
+            for k in elo..ehi {
+                self.direct[3 * at..3 * at + 3].copy_from_slice(&[
+                    self.add_index[k],
+                    both,
+                    e as u32,
+                ]);
+                at += 1;
+            }
+        } else {
+            self.direct[3 * at..3 * at + 3].copy_from_slice(&[
+                (task.fact_count() + a) as u32,
+                own,
+                r as u32,
+            ]);
+            at += 1;
+        }
+        at
+    }
+
+    /// Whether relaxed action `r` is the first start of a group (see [`GROUP`]).
+    fn is_group_leader(&self, r: usize) -> bool {
+        r.is_multiple_of(2) && self.pre_count[r] >= 2 && self.group_info[3 * (r / 2) + 2] > 0
+    }
+
+    /// Whether relaxed action `r` is a start of a group other than its first.
+    fn is_group_member(&self, r: usize) -> bool {
+        r.is_multiple_of(2) && self.pre_count[r] >= 2 && self.group_info[3 * (r / 2) + 2] == 0
     }
 
     /// Whether relaxed action `r` is a start with one relaxed precondition (a direct start of
@@ -664,9 +776,17 @@ impl<'m> Relaxation<'m> {
                 self.pre_offsets[f + 1] as usize,
             );
             for &r in &self.pre_index[lo..hi] {
-                let r = r as usize;
-                if r / 2 != a && self.in_relaxed_plan(r) {
-                    n += 1;
+                let r0 = (r & !GROUP) as usize;
+                // A group stands for its starts, every other relaxed action from its first.
+                let starts = if r & GROUP != 0 {
+                    self.group_info[3 * (r0 / 2) + 2] as usize
+                } else {
+                    1
+                };
+                for r in (r0..r0 + 2 * starts).step_by(2) {
+                    if r / 2 != a && self.in_relaxed_plan(r) {
+                        n += 1;
+                    }
                 }
             }
         }
@@ -721,6 +841,9 @@ impl<'m> Relaxation<'m> {
             pre_split: &*self.pre_split,
             direct_offsets: &*self.direct_offsets,
             direct: &*self.direct,
+            group_info: self.group_info[..3 * task.action_count()]
+                .as_chunks::<3>()
+                .0,
             facts,
         };
         for (w, &bits) in fact_bits.iter().enumerate().take(facts.div_ceil(32)) {
