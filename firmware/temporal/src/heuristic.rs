@@ -107,6 +107,10 @@ pub struct Relaxation<'m> {
     /// relaxed action, and their effects relaxed from the flattened entries when the group
     /// fires, instead of each start being counted, fired and decoded.
     pub group_info: &'m mut [u32],
+    /// Per relaxed fact: how many relaxed actions of the last relaxed plan have it as a
+    /// relaxed precondition (counted after the extraction, cleared through the plan's actions
+    /// at the next evaluation's start): what [`Self::plan_conflicts`] adds up.
+    pub plan_need: &'m mut [u32],
 }
 
 /// Set on a `pre_index` entry that is a group of starts (see [`Relaxation::group_info`]):
@@ -521,8 +525,11 @@ impl<'m> Relaxation<'m> {
             direct: take(3 * add_entries_n)?,
             fire_info: take(4 * relaxed)?,
             group_info: take(3 * task.action_count())?,
+            plan_need: take(all)?,
         };
         relax.buckets.iter_mut().for_each(|b| *b = u32::MAX);
+        relax.marked.iter_mut().for_each(|x| *x = 0);
+        relax.plan_need.iter_mut().for_each(|x| *x = 0);
         Some(relax)
     }
 
@@ -771,26 +778,34 @@ impl<'m> Relaxation<'m> {
     pub fn plan_conflicts(&self, a: usize, deletes: impl Iterator<Item = usize>) -> u32 {
         let mut n = 0u32;
         for f in deletes {
-            let (lo, hi) = (
-                self.pre_offsets[f] as usize,
-                self.pre_offsets[f + 1] as usize,
-            );
-            for &r in &self.pre_index[lo..hi] {
-                let r0 = (r & !GROUP) as usize;
-                // A group stands for its starts, every other relaxed action from its first.
-                let starts = if r & GROUP != 0 {
-                    self.group_info[3 * (r0 / 2) + 2] as usize
-                } else {
-                    1
-                };
-                for r in (r0..r0 + 2 * starts).step_by(2) {
-                    if r / 2 != a && self.in_relaxed_plan(r) {
-                        n += 1;
-                    }
+            n += self.plan_need[f];
+            // Less `a`'s own start and end where they are in the plan and need f.
+            for r in [2 * a, 2 * a + 1] {
+                if self.in_relaxed_plan(r) && self.preconditions(r).contains(&(f as u32)) {
+                    n -= 1;
                 }
             }
         }
         n
+    }
+
+    /// Add (`up`) or clear the relaxed plan's actions' preconditions in `plan_need`.
+    fn count_plan_needs(&mut self, up: bool) {
+        for (w, &bits) in self.marked.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                let r = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (lo, hi) = (
+                    self.pre_list_offsets[r] as usize,
+                    self.pre_list_offsets[r + 1] as usize,
+                );
+                for &p in &self.pre_list[lo..hi] {
+                    let need = &mut self.plan_need[p as usize];
+                    *need = if up { *need + 1 } else { 0 };
+                }
+            }
+        }
     }
 
     /// Whether relaxed action `r` is in the last relaxed plan.
@@ -812,6 +827,7 @@ impl<'m> Relaxation<'m> {
         let facts = task.fact_count();
         let all = facts + task.action_count();
         let relaxed = 2 * task.action_count();
+        self.count_plan_needs(false);
         self.cost[..all].iter_mut().for_each(|x| *x = u32::MAX);
         // `supporter` is not cleared: it is read only for facts of nonzero finite cost, and
         // those got theirs in this evaluation (when their cost was set).
@@ -972,6 +988,7 @@ impl<'m> Relaxation<'m> {
                 self.marked[r / 32] |= 1 << (r % 32);
             }
         }
+        self.count_plan_needs(true);
         h
     }
 }
