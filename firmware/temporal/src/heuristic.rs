@@ -52,8 +52,17 @@ pub struct Relaxation<'m> {
     /// the last evaluation reached at a nonzero cost).
     pub cost: &'m mut [u32],
     pub supporter: &'m mut [u32],
-    /// Per relaxed action r, two words: `waiting[2r]` its preconditions not yet reached,
-    /// `waiting[2r + 1]` the sum of their costs (side by side: one index for both).
+    /// Per relaxed action r, four words side by side (one index for all): `waiting[4r]` its
+    /// preconditions not yet reached and `waiting[4r + 1]` the sum of their costs, valid if
+    /// `waiting[4r + 2]` is this evaluation's `epoch` (else they are `waiting[4r + 3]` and
+    /// zero: nothing reached yet), and `waiting[4r + 3]`, for a counted relaxed action, how
+    /// many of its relaxed preconditions are facts false in `last_state` ([`NOT_COUNTED`]
+    /// for a direct start, a group's other start or an action without preconditions). The
+    /// last is kept up to date from the facts that differ between one evaluated state and the
+    /// next, so the facts true in the state are never counted one relaxed action at a time,
+    /// and the counters are not reset each evaluation (a new epoch voids them): rovers'
+    /// `available` and `channel_free` are preconditions of every communicate and hold in
+    /// nearly every state (about half the counting was of facts true in the state).
     pub waiting: &'m mut [u32],
     /// The priority queue's storage: a binary heap of (cost, fact) pairs, two words each, from
     /// the front, for costs of [`BUCKETS`] or more; (fact, next) entries of the bucket lists,
@@ -111,7 +120,18 @@ pub struct Relaxation<'m> {
     /// relaxed precondition (counted after the extraction, cleared through the plan's actions
     /// at the next evaluation's start): what [`Self::plan_conflicts`] adds up.
     pub plan_need: &'m mut [u32],
+    /// Bit per relaxed action: counted, and all its relaxed preconditions are facts true in
+    /// `last_state` (`waiting[4r + 3]` is zero): it fires at cost zero at once.
+    pub zero_left: &'m mut [u32],
+    /// The facts of the state last evaluated (bitset; all false before the first).
+    pub last_state: &'m mut [u32],
+    /// This evaluation's number: counters stamped with another are void (see `waiting`).
+    pub epoch: u32,
 }
+
+/// `Relaxation::waiting[4r + 3]` of a relaxed action that is not counted (never zero, never reached by
+/// the updates).
+pub const NOT_COUNTED: u32 = 1 << 30;
 
 /// Set on a `pre_index` entry that is a group of starts (see [`Relaxation::group_info`]):
 /// the rest is the group's first start, whose counter the group uses.
@@ -224,7 +244,9 @@ struct Propagation<'a> {
     cost: &'a mut [u32],
     supporter: &'a mut [u32],
     /// Per relaxed action: (preconditions not yet reached, the sum of their costs).
-    counts: &'a mut [[u32; 2]],
+    counts: &'a mut [[u32; 4]],
+    /// This evaluation's epoch (see [`Relaxation::waiting`]).
+    epoch: u32,
     ready: &'a mut [u32],
     /// Per relaxed action: its effects' range in `add_index` (a start's without its
     /// running-action fact), its own cost, and (starts) whether its end follows.
@@ -306,11 +328,36 @@ impl Propagation<'_> {
     /// relaxing them again changes nothing).
     #[inline(always)]
     fn reach(&mut self, f: usize, c: u32, q: &mut Queue<'_>) {
-        let (lo, split, hi) = (
-            self.pre_offsets[f] as usize,
-            self.pre_split[f] as usize,
-            self.pre_offsets[f + 1] as usize,
-        );
+        self.reach_direct(f, c, q);
+        let (split, hi) = (self.pre_split[f] as usize, self.pre_offsets[f + 1] as usize);
+        for &r in &self.pre_index[split..hi] {
+            let i = (r & !GROUP) as usize;
+            let [waiting, sum, epoch, left] = self.counts[i];
+            let (waiting, sum) = if epoch == self.epoch {
+                (waiting, sum)
+            } else {
+                (left, 0)
+            };
+            let sum = sum.saturating_add(c);
+            if waiting > 1 {
+                self.counts[i] = [waiting - 1, sum, self.epoch, left];
+                continue;
+            }
+            if r & GROUP != 0 {
+                self.fire_group(i, sum, q);
+                continue;
+            }
+            if sum == 0 {
+                self.ready[i / 32] |= 1 << (i % 32);
+            }
+            self.fire(i, sum, q);
+        }
+    }
+
+    /// What fact `f` reached at cost `c` does through its direct starts (see [`Self::reach`]).
+    #[inline(always)]
+    fn reach_direct(&mut self, f: usize, c: u32, q: &mut Queue<'_>) {
+        let (lo, split) = (self.pre_offsets[f] as usize, self.pre_split[f] as usize);
         if c == 0 {
             // Direct starts ready in the state, and the ends that fire at cost zero with them.
             for &r in &self.pre_index[lo..split] {
@@ -339,23 +386,6 @@ impl Propagation<'_> {
                 self.cost[g] = cg;
                 self.supporter[g] = r;
             }
-        }
-        for &r in &self.pre_index[split..hi] {
-            let i = (r & !GROUP) as usize;
-            let [waiting, sum] = self.counts[i];
-            let sum = sum.saturating_add(c);
-            if waiting > 1 {
-                self.counts[i] = [waiting - 1, sum];
-                continue;
-            }
-            if r & GROUP != 0 {
-                self.fire_group(i, sum, q);
-                continue;
-            }
-            if sum == 0 {
-                self.ready[i / 32] |= 1 << (i % 32);
-            }
-            self.fire(i, sum, q);
         }
     }
 
@@ -509,7 +539,7 @@ impl<'m> Relaxation<'m> {
             free: take(free_n)?,
             cost: take(all.max(offsets_n))?,
             supporter: take(all)?,
-            waiting: take(2 * relaxed)?,
+            waiting: take(4 * relaxed)?,
             heap: take(2 * (all + add_entries_n + 1))?,
             buckets: take(BUCKETS)?,
             marked: take(relaxed.div_ceil(32))?,
@@ -526,6 +556,9 @@ impl<'m> Relaxation<'m> {
             fire_info: take(4 * relaxed)?,
             group_info: take(3 * task.action_count())?,
             plan_need: take(all)?,
+            zero_left: take(relaxed.div_ceil(32))?,
+            last_state: take(facts.div_ceil(32))?,
+            epoch: 1,
         };
         relax.buckets.iter_mut().for_each(|b| *b = u32::MAX);
         relax.marked.iter_mut().for_each(|x| *x = 0);
@@ -698,6 +731,18 @@ impl<'m> Relaxation<'m> {
             }
             self.group_info[3 * a + 1] = at as u32;
         }
+        // Every fact false in the (empty) state last evaluated.
+        self.last_state.iter_mut().for_each(|x| *x = 0);
+        self.zero_left.iter_mut().for_each(|x| *x = 0);
+        self.epoch = 1;
+        for r in 0..2 * task.action_count() {
+            let left = if self.pre_count[r] == 0 || self.is_direct(r) || self.is_group_member(r) {
+                NOT_COUNTED
+            } else {
+                self.pre_count[r]
+            };
+            self.waiting[4 * r..4 * r + 4].copy_from_slice(&[0, 0, 0, left]);
+        }
     }
 
     /// Write start `r`'s entries for `direct` from entry `at` on (its effects but its
@@ -831,10 +876,47 @@ impl<'m> Relaxation<'m> {
         self.cost[..all].iter_mut().for_each(|x| *x = u32::MAX);
         // `supporter` is not cleared: it is read only for facts of nonzero finite cost, and
         // those got theirs in this evaluation (when their cost was set).
-        let (counts, _) = self.waiting[..2 * relaxed].as_chunks_mut::<2>();
-        for (pair, &n) in counts.iter_mut().zip(self.pre_count[..relaxed].iter()) {
-            *pair = [n, 0];
+        // The counted relaxed actions' preconditions false in this state, from the last
+        // state's by the facts that changed.
+        for w in 0..facts.div_ceil(32) {
+            let mut now = fact_bits[w];
+            if 32 * (w + 1) > facts {
+                now &= (1u32 << (facts % 32)) - 1;
+            }
+            let mut changed = now ^ self.last_state[w];
+            self.last_state[w] = now;
+            while changed != 0 {
+                let b = changed.trailing_zeros();
+                changed &= changed - 1;
+                let f = 32 * w + b as usize;
+                let (split, hi) = (self.pre_split[f] as usize, self.pre_offsets[f + 1] as usize);
+                let now_true = now & (1 << b) != 0;
+                for &r in &self.pre_index[split..hi] {
+                    let i = (r & !GROUP) as usize;
+                    let left = &mut self.waiting[4 * i + 3];
+                    if now_true {
+                        *left -= 1;
+                        if *left == 0 {
+                            self.zero_left[i / 32] |= 1 << (i % 32);
+                        }
+                    } else {
+                        if *left == 0 {
+                            self.zero_left[i / 32] &= !(1 << (i % 32));
+                        }
+                        *left += 1;
+                    }
+                }
+            }
         }
+        // A new epoch voids every counter (after 2^32 - 1 evaluations, stamp them all void).
+        self.epoch = self.epoch.wrapping_add(1);
+        if self.epoch == 0 {
+            for r in 0..relaxed {
+                self.waiting[4 * r + 2] = 0;
+            }
+            self.epoch = 1;
+        }
+        let (counts, _) = self.waiting[..4 * relaxed].as_chunks_mut::<4>();
         self.marked.iter_mut().for_each(|x| *x = 0);
         self.ready.iter_mut().for_each(|x| *x = 0);
         let mut q = Queue {
@@ -852,6 +934,7 @@ impl<'m> Relaxation<'m> {
             cost: &mut *self.cost,
             supporter: &mut *self.supporter,
             counts,
+            epoch: self.epoch,
             ready: &mut *self.ready,
             fire_info: self.fire_info[..4 * relaxed].as_chunks::<4>().0,
             pre_split: &*self.pre_split,
@@ -869,7 +952,6 @@ impl<'m> Relaxation<'m> {
                 bits &= bits - 1;
                 if f < facts {
                     prop.cost[f] = 0;
-                    q.push(0, f as u32);
                 }
             }
         }
@@ -884,6 +966,32 @@ impl<'m> Relaxation<'m> {
         }
         for &a in running {
             prop.reach(facts + a as usize, 0, &mut q);
+        }
+        // The facts true in the state: their direct starts (counted relaxed actions count
+        // only the facts false in the state, see `left`).
+        for (w, &bits) in fact_bits.iter().enumerate().take(facts.div_ceil(32)) {
+            let mut bits = bits;
+            while bits != 0 {
+                let f = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if f < facts {
+                    prop.reach_direct(f, 0, &mut q);
+                }
+            }
+        }
+        // The counted relaxed actions whose preconditions all hold.
+        for (w, &bits) in self.zero_left.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                let r = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if r.is_multiple_of(2) && self.group_info[3 * (r / 2) + 2] > 0 {
+                    prop.fire_group(r, 0, &mut q);
+                } else {
+                    prop.ready[r / 32] |= 1 << (r % 32);
+                    prop.fire(r, 0, &mut q);
+                }
+            }
         }
         // Relaxed actions without preconditions fire at once.
         for &r in self.free.iter() {
