@@ -1014,10 +1014,34 @@ impl<'m> Relaxation<'m> {
                 }
             }
         }
+        let mut level = 0;
         while let Some((c, f)) = q.pop() {
             let f = f as usize;
             if c > prop.cost[f] {
                 continue;
+            }
+            // The first fact taken at a new cost c: every fact of cost below c was taken and
+            // fired its relaxed actions, so every fact of cost c has its final cost and
+            // supporter (what fires from here on adds c + 1 or more). If every goal not yet
+            // taken costs c, nothing taken from here on changes h, the relaxed plan or the
+            // ready set: stop (the facts of the last goal's cost were taken before for
+            // nothing, up to the goal).
+            if c != level {
+                level = c;
+                let mut at_level = 0;
+                for (w, &bits) in goal.iter().enumerate() {
+                    let mut bits = bits;
+                    while bits != 0 {
+                        let g = 32 * w + bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        if prop.cost[g] == c {
+                            at_level += 1;
+                        }
+                    }
+                }
+                if at_level == goals_left {
+                    break;
+                }
             }
             // Every fact of cost zero is taken before any other (every relaxed action costs
             // at least one), so stopping at the last goal never cuts the ready set short.
