@@ -642,27 +642,40 @@ fn check_action(c: &mut Cursor<'_>, facts: usize, numerics: usize) -> Result<(),
     Ok(())
 }
 
-/// Read an action record at `at` (validated by [`check_action`]).
+/// Read an action record at `at` (validated by [`check_action`]). The search reads records
+/// for every successor it tries: the header is taken as one fixed-size array and each list as
+/// one slice (a bounds check a list, not one a word or id).
 fn read_action(bytes: &[u8], at: usize) -> Action<'_> {
-    let duration_lb = read_u32(bytes, at);
-    let duration_ub = read_u32(bytes, at + 4);
-    let start_window = (read_u32(bytes, at + 8), read_u32(bytes, at + 12));
-    let end_window = (read_u32(bytes, at + 16), read_u32(bytes, at + 20));
-    let mut p = at + 24;
+    let record = bytes.get(at..).unwrap_or(&[]);
+    let (head, mut rest) = record.split_first_chunk::<24>().unwrap_or((&[0; 24], &[]));
+    let word = |k: usize| {
+        u32::from_le_bytes([
+            head[4 * k],
+            head[4 * k + 1],
+            head[4 * k + 2],
+            head[4 * k + 3],
+        ])
+    };
     let mut lists = [Facts { list: &[] }; 7];
     for slot in lists.iter_mut() {
-        let n = read_u16(bytes, p) as usize;
-        *slot = Facts::new(bytes, p + 2, n);
-        p += 2 + 2 * n;
+        let Some((count, tail)) = rest.split_first_chunk::<2>() else {
+            break;
+        };
+        let n = u16::from_le_bytes(*count) as usize;
+        let (list, tail) = tail.split_at_checked(2 * n).unwrap_or((&[], &[]));
+        *slot = Facts {
+            list: list.as_chunks::<2>().0,
+        };
+        rest = tail;
     }
     Action {
         bytes,
-        duration_lb,
-        duration_ub,
-        start_window,
-        end_window,
+        duration_lb: word(0),
+        duration_ub: word(1),
+        start_window: (word(2), word(3)),
+        end_window: (word(4), word(5)),
         lists,
-        numeric_at: p,
+        numeric_at: bytes.len() - rest.len(),
     }
 }
 
