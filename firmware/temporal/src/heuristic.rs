@@ -878,13 +878,13 @@ impl<'m> Relaxation<'m> {
         // those got theirs in this evaluation (when their cost was set).
         // The counted relaxed actions' preconditions false in this state, from the last
         // state's by the facts that changed.
-        for w in 0..facts.div_ceil(32) {
-            let mut now = fact_bits[w];
+        for (w, (&bits, last)) in fact_bits.iter().zip(self.last_state.iter_mut()).enumerate() {
+            let mut now = bits;
             if 32 * (w + 1) > facts {
                 now &= (1u32 << (facts % 32)) - 1;
             }
-            let mut changed = now ^ self.last_state[w];
-            self.last_state[w] = now;
+            let mut changed = now ^ *last;
+            *last = now;
             while changed != 0 {
                 let b = changed.trailing_zeros();
                 changed &= changed - 1;

@@ -357,7 +357,10 @@ pub struct Action<'a> {
 
 impl<'a> Action<'a> {
     pub fn facts(&self, list: FactList) -> Facts<'a> {
-        self.lists[list as usize]
+        self.lists
+            .get(list as usize)
+            .copied()
+            .unwrap_or(Facts { list: &[] })
     }
     /// Where numeric list `i` starts and how many records it has.
     fn numeric_list(&self, i: usize) -> (usize, usize) {
@@ -648,14 +651,8 @@ fn check_action(c: &mut Cursor<'_>, facts: usize, numerics: usize) -> Result<(),
 fn read_action(bytes: &[u8], at: usize) -> Action<'_> {
     let record = bytes.get(at..).unwrap_or(&[]);
     let (head, mut rest) = record.split_first_chunk::<24>().unwrap_or((&[0; 24], &[]));
-    let word = |k: usize| {
-        u32::from_le_bytes([
-            head[4 * k],
-            head[4 * k + 1],
-            head[4 * k + 2],
-            head[4 * k + 3],
-        ])
-    };
+    let (words, _) = head.as_chunks::<4>();
+    let word = |k: usize| words.get(k).map_or(0, |&w| u32::from_le_bytes(w));
     let mut lists = [Facts { list: &[] }; 7];
     for slot in lists.iter_mut() {
         let Some((count, tail)) = rest.split_first_chunk::<2>() else {
