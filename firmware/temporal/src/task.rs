@@ -567,6 +567,20 @@ impl<'a> Task<'a> {
         let at = read_u32(self.bytes, self.layout.offsets_at + 4 * a) as usize;
         read_action(self.bytes, at)
     }
+    /// Action `a`'s duration bounds (lb, ub) and its start and end windows, read from its
+    /// record's header without decoding its lists (the search's path and STN read these for
+    /// every step of every path it loads).
+    pub fn action_times(&self, a: usize) -> ((u32, u32), (u32, u32), (u32, u32)) {
+        let at = read_u32(self.bytes, self.layout.offsets_at + 4 * a) as usize;
+        let head = self
+            .bytes
+            .get(at..)
+            .and_then(|r| r.first_chunk::<24>())
+            .unwrap_or(&[0; 24]);
+        let (words, _) = head.as_chunks::<4>();
+        let word = |k: usize| words.get(k).map_or(0, |&w| u32::from_le_bytes(w));
+        ((word(0), word(1)), (word(2), word(3)), (word(4), word(5)))
+    }
     /// The bytes of action `a`'s record (`a < action_count()`), for tasks written from this
     /// one (a replan, [`crate::replan`]).
     pub fn action_record(&self, a: usize) -> &'a [u8] {
