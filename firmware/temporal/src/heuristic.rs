@@ -52,8 +52,17 @@ pub struct Relaxation<'m> {
     /// the last evaluation reached at a nonzero cost).
     pub cost: &'m mut [u32],
     pub supporter: &'m mut [u32],
-    /// Per relaxed action r, two words: `waiting[2r]` its preconditions not yet reached,
-    /// `waiting[2r + 1]` the sum of their costs (side by side: one index for both).
+    /// Per relaxed action r, four words side by side (one index for all): `waiting[4r]` its
+    /// preconditions not yet reached and `waiting[4r + 1]` the sum of their costs, valid if
+    /// `waiting[4r + 2]` is this evaluation's `epoch` (else they are `waiting[4r + 3]` and
+    /// zero: nothing reached yet), and `waiting[4r + 3]`, for a counted relaxed action, how
+    /// many of its relaxed preconditions are facts false in `last_state` ([`NOT_COUNTED`]
+    /// for a direct start, a group's other start or an action without preconditions). The
+    /// last is kept up to date from the facts that differ between one evaluated state and the
+    /// next, so the facts true in the state are never counted one relaxed action at a time,
+    /// and the counters are not reset each evaluation (a new epoch voids them): rovers'
+    /// `available` and `channel_free` are preconditions of every communicate and hold in
+    /// nearly every state (about half the counting was of facts true in the state).
     pub waiting: &'m mut [u32],
     /// The priority queue's storage: a binary heap of (cost, fact) pairs, two words each, from
     /// the front, for costs of [`BUCKETS`] or more; (fact, next) entries of the bucket lists,
@@ -99,7 +108,34 @@ pub struct Relaxation<'m> {
     /// start's without its running-action fact), its own cost, and for a start 1 if its end
     /// follows (see `end_follows`): what firing it reads, side by side.
     pub fire_info: &'m mut [u32],
+    /// Per action a, three words, read where `2a` leads a group (see [`GROUP`]): the group's
+    /// entries in `direct` (from, to: entries of three words, as a direct start's) and how
+    /// many starts it has (those of actions a, a + 1, ...). Starts with two or more relaxed
+    /// preconditions that follow each other in action order with the same preconditions
+    /// (rovers' navigates from one waypoint, one per destination) are counted once, as one
+    /// relaxed action, and their effects relaxed from the flattened entries when the group
+    /// fires, instead of each start being counted, fired and decoded.
+    pub group_info: &'m mut [u32],
+    /// Per relaxed fact: how many relaxed actions of the last relaxed plan have it as a
+    /// relaxed precondition (counted after the extraction, cleared through the plan's actions
+    /// at the next evaluation's start): what [`Self::plan_conflicts`] adds up.
+    pub plan_need: &'m mut [u32],
+    /// Bit per relaxed action: counted, and all its relaxed preconditions are facts true in
+    /// `last_state` (`waiting[4r + 3]` is zero): it fires at cost zero at once.
+    pub zero_left: &'m mut [u32],
+    /// The facts of the state last evaluated (bitset; all false before the first).
+    pub last_state: &'m mut [u32],
+    /// This evaluation's number: counters stamped with another are void (see `waiting`).
+    pub epoch: u32,
 }
+
+/// `Relaxation::waiting[4r + 3]` of a relaxed action that is not counted (never zero, never reached by
+/// the updates).
+pub const NOT_COUNTED: u32 = 1 << 30;
+
+/// Set on a `pre_index` entry that is a group of starts (see [`Relaxation::group_info`]):
+/// the rest is the group's first start, whose counter the group uses.
+pub const GROUP: u32 = 1 << 31;
 
 /// Costs with a bucket of their own in the heuristic's queue (larger ones go to a heap).
 pub const BUCKETS: usize = 1024;
@@ -208,7 +244,9 @@ struct Propagation<'a> {
     cost: &'a mut [u32],
     supporter: &'a mut [u32],
     /// Per relaxed action: (preconditions not yet reached, the sum of their costs).
-    counts: &'a mut [[u32; 2]],
+    counts: &'a mut [[u32; 4]],
+    /// This evaluation's epoch (see [`Relaxation::waiting`]).
+    epoch: u32,
     ready: &'a mut [u32],
     /// Per relaxed action: its effects' range in `add_index` (a start's without its
     /// running-action fact), its own cost, and (starts) whether its end follows.
@@ -216,6 +254,9 @@ struct Propagation<'a> {
     pre_split: &'a [u32],
     direct_offsets: &'a [u32],
     direct: &'a [u32],
+    /// Per action: a group's entries in `direct` and its number of starts (see
+    /// [`Relaxation::group_info`]).
+    group_info: &'a [[u32; 3]],
     /// The first running-action fact (the task's fact count).
     facts: usize,
 }
@@ -287,11 +328,36 @@ impl Propagation<'_> {
     /// relaxing them again changes nothing).
     #[inline(always)]
     fn reach(&mut self, f: usize, c: u32, q: &mut Queue<'_>) {
-        let (lo, split, hi) = (
-            self.pre_offsets[f] as usize,
-            self.pre_split[f] as usize,
-            self.pre_offsets[f + 1] as usize,
-        );
+        self.reach_direct(f, c, q);
+        let (split, hi) = (self.pre_split[f] as usize, self.pre_offsets[f + 1] as usize);
+        for &r in &self.pre_index[split..hi] {
+            let i = (r & !GROUP) as usize;
+            let [waiting, sum, epoch, left] = self.counts[i];
+            let (waiting, sum) = if epoch == self.epoch {
+                (waiting, sum)
+            } else {
+                (left, 0)
+            };
+            let sum = sum.saturating_add(c);
+            if waiting > 1 {
+                self.counts[i] = [waiting - 1, sum, self.epoch, left];
+                continue;
+            }
+            if r & GROUP != 0 {
+                self.fire_group(i, sum, q);
+                continue;
+            }
+            if sum == 0 {
+                self.ready[i / 32] |= 1 << (i % 32);
+            }
+            self.fire(i, sum, q);
+        }
+    }
+
+    /// What fact `f` reached at cost `c` does through its direct starts (see [`Self::reach`]).
+    #[inline(always)]
+    fn reach_direct(&mut self, f: usize, c: u32, q: &mut Queue<'_>) {
+        let (lo, split) = (self.pre_offsets[f] as usize, self.pre_split[f] as usize);
         if c == 0 {
             // Direct starts ready in the state, and the ends that fire at cost zero with them.
             for &r in &self.pre_index[lo..split] {
@@ -321,18 +387,36 @@ impl Propagation<'_> {
                 self.supporter[g] = r;
             }
         }
-        for &r in &self.pre_index[split..hi] {
-            let r = r as usize;
-            let [waiting, sum] = self.counts[r];
-            let sum = sum.saturating_add(c);
-            if waiting > 1 {
-                self.counts[r] = [waiting - 1, sum];
-                continue;
-            }
-            if sum == 0 {
+    }
+
+    /// The group of starts led by start `r0` fires with `sum`, its preconditions' cost sum:
+    /// each start fires as [`Self::fire`] would fire it, from the group's flattened entries
+    /// (an action running in the state: as for a direct start in [`Self::reach`]).
+    #[inline(always)]
+    fn fire_group(&mut self, r0: usize, sum: u32, q: &mut Queue<'_>) {
+        let [lo, hi, n] = self.group_info[r0 / 2];
+        if sum == 0 {
+            for r in (r0..r0 + 2 * n as usize).step_by(2) {
                 self.ready[r / 32] |= 1 << (r % 32);
+                let [_, _, own, follows] = self.fire_info[r];
+                if own == 0 && follows != 0 {
+                    let e = r + 1;
+                    self.ready[e / 32] |= 1 << (e % 32);
+                }
             }
-            self.fire(r, sum, q);
+        }
+        let (entries, _) = self.direct[3 * lo as usize..3 * hi as usize].as_chunks::<3>();
+        for &[g, delta, r] in entries {
+            let g = g as usize;
+            let cg = sum.saturating_add(delta);
+            let old = self.cost[g];
+            if cg < old || (cg == old && cg != u32::MAX && r < self.supporter[g]) {
+                if cg < old {
+                    q.push(cg, g as u32);
+                }
+                self.cost[g] = cg;
+                self.supporter[g] = r;
+            }
         }
     }
 }
@@ -455,7 +539,7 @@ impl<'m> Relaxation<'m> {
             free: take(free_n)?,
             cost: take(all.max(offsets_n))?,
             supporter: take(all)?,
-            waiting: take(2 * relaxed)?,
+            waiting: take(4 * relaxed)?,
             heap: take(2 * (all + add_entries_n + 1))?,
             buckets: take(BUCKETS)?,
             marked: take(relaxed.div_ceil(32))?,
@@ -470,8 +554,15 @@ impl<'m> Relaxation<'m> {
             direct_offsets: take(all + 1)?,
             direct: take(3 * add_entries_n)?,
             fire_info: take(4 * relaxed)?,
+            group_info: take(3 * task.action_count())?,
+            plan_need: take(all)?,
+            zero_left: take(relaxed.div_ceil(32))?,
+            last_state: take(facts.div_ceil(32))?,
+            epoch: 1,
         };
         relax.buckets.iter_mut().for_each(|b| *b = u32::MAX);
+        relax.marked.iter_mut().for_each(|x| *x = 0);
+        relax.plan_need.iter_mut().for_each(|x| *x = 0);
         Some(relax)
     }
 
@@ -487,7 +578,6 @@ impl<'m> Relaxation<'m> {
             let mut n = 0;
             self.pre_list_offsets[r] = at as u32;
             for_each_pre(task, r, &mut |p| {
-                self.pre_offsets[p + 1] += 1;
                 self.pre_list[at] = p as u32;
                 at += 1;
                 n += 1;
@@ -507,6 +597,37 @@ impl<'m> Relaxation<'m> {
             );
             if hi == lo + 1 && self.pre_list[lo] as usize == task.fact_count() + a {
                 self.end_follows[a / 32] |= 1 << (a % 32);
+            }
+        }
+        // Groups: runs of starts of consecutive actions with the same two or more relaxed
+        // preconditions (in the same order). The first start of a run leads it
+        // (`group_info`'s count is the run's length); the others have a count of zero and are
+        // left out of the precondition index.
+        let mut leader = usize::MAX;
+        for a in 0..task.action_count() {
+            self.group_info[3 * a + 2] = 0;
+            let r = 2 * a;
+            if self.pre_count[r] < 2 {
+                leader = usize::MAX;
+                continue;
+            }
+            if leader != usize::MAX && self.preconditions(2 * leader) == self.preconditions(r) {
+                self.group_info[3 * leader + 2] += 1;
+            } else {
+                leader = a;
+                self.group_info[3 * a + 2] = 1;
+            }
+        }
+        for r in 0..2 * task.action_count() {
+            if self.is_group_member(r) {
+                continue;
+            }
+            let (lo, hi) = (
+                self.pre_list_offsets[r] as usize,
+                self.pre_list_offsets[r + 1] as usize,
+            );
+            for i in lo..hi {
+                self.pre_offsets[self.pre_list[i] as usize + 1] += 1;
             }
         }
         for f in 0..facts {
@@ -562,9 +683,14 @@ impl<'m> Relaxation<'m> {
         }
         for direct_pass in [true, false] {
             for r in 0..2 * task.action_count() {
-                if self.is_direct(r) != direct_pass {
+                if self.is_direct(r) != direct_pass || self.is_group_member(r) {
                     continue;
                 }
+                let id = if self.is_group_leader(r) {
+                    r as u32 | GROUP
+                } else {
+                    r as u32
+                };
                 let (lo, hi) = (
                     self.pre_list_offsets[r] as usize,
                     self.pre_list_offsets[r + 1] as usize,
@@ -572,7 +698,7 @@ impl<'m> Relaxation<'m> {
                 for i in lo..hi {
                     let p = self.pre_list[i] as usize;
                     let at = self.cost[p] as usize;
-                    self.pre_index[at] = r as u32;
+                    self.pre_index[at] = id;
                     self.cost[p] += 1;
                 }
             }
@@ -589,47 +715,85 @@ impl<'m> Relaxation<'m> {
             let (lo, split) = (self.pre_offsets[f] as usize, self.pre_split[f] as usize);
             for i in lo..split {
                 let r = self.pre_index[i] as usize;
-                let a = r / 2;
-                let own = self.own_cost[r];
-                // The start's effects but its running-action fact (its last).
-                let (slo, shi) = (
-                    self.add_offsets[r] as usize,
-                    self.add_offsets[r + 1] as usize - 1,
-                );
-                for k in slo..shi {
-                    self.direct[3 * at..3 * at + 3].copy_from_slice(&[
-                        self.add_index[k],
-                        own,
-                        r as u32,
-                    ]);
-                    at += 1;
-                }
-                if self.end_follows[a / 32] & (1 << (a % 32)) != 0 {
-                    let e = r + 1;
-                    let both = own.saturating_add(self.own_cost[e]);
-                    let (elo, ehi) = (
-                        self.add_offsets[e] as usize,
-                        self.add_offsets[e + 1] as usize,
-                    );
-                    for k in elo..ehi {
-                        self.direct[3 * at..3 * at + 3].copy_from_slice(&[
-                            self.add_index[k],
-                            both,
-                            e as u32,
-                        ]);
-                        at += 1;
-                    }
-                } else {
-                    self.direct[3 * at..3 * at + 3].copy_from_slice(&[
-                        (task.fact_count() + a) as u32,
-                        own,
-                        r as u32,
-                    ]);
-                    at += 1;
-                }
+                at = self.start_entries(task, r, at);
             }
         }
         self.direct_offsets[facts] = at as u32;
+        // The groups' entries, after the facts'.
+        for a in 0..task.action_count() {
+            if !self.is_group_leader(2 * a) {
+                continue;
+            }
+            let n = self.group_info[3 * a + 2] as usize;
+            self.group_info[3 * a] = at as u32;
+            for b in a..a + n {
+                at = self.start_entries(task, 2 * b, at);
+            }
+            self.group_info[3 * a + 1] = at as u32;
+        }
+        // Every fact false in the (empty) state last evaluated.
+        self.last_state.iter_mut().for_each(|x| *x = 0);
+        self.zero_left.iter_mut().for_each(|x| *x = 0);
+        self.epoch = 1;
+        for r in 0..2 * task.action_count() {
+            let left = if self.pre_count[r] == 0 || self.is_direct(r) || self.is_group_member(r) {
+                NOT_COUNTED
+            } else {
+                self.pre_count[r]
+            };
+            self.waiting[4 * r..4 * r + 4].copy_from_slice(&[0, 0, 0, left]);
+        }
+    }
+
+    /// Write start `r`'s entries for `direct` from entry `at` on (its effects but its
+    /// running-action fact, then its end's if the end follows, else the running-action fact:
+    /// see [`Self::direct`]); returns the next free entry.
+    fn start_entries(&mut self, task: &Task<'_>, r: usize, mut at: usize) -> usize {
+        let a = r / 2;
+        let own = self.own_cost[r];
+        // The start's effects but its running-action fact (its last).
+        let (slo, shi) = (
+            self.add_offsets[r] as usize,
+            self.add_offsets[r + 1] as usize - 1,
+        );
+        for k in slo..shi {
+            self.direct[3 * at..3 * at + 3].copy_from_slice(&[self.add_index[k], own, r as u32]);
+            at += 1;
+        }
+        if self.end_follows[a / 32] & (1 << (a % 32)) != 0 {
+            let e = r + 1;
+            let both = own.saturating_add(self.own_cost[e]);
+            let (elo, ehi) = (
+                self.add_offsets[e] as usize,
+                self.add_offsets[e + 1] as usize,
+            );
+            for k in elo..ehi {
+                self.direct[3 * at..3 * at + 3].copy_from_slice(&[
+                    self.add_index[k],
+                    both,
+                    e as u32,
+                ]);
+                at += 1;
+            }
+        } else {
+            self.direct[3 * at..3 * at + 3].copy_from_slice(&[
+                (task.fact_count() + a) as u32,
+                own,
+                r as u32,
+            ]);
+            at += 1;
+        }
+        at
+    }
+
+    /// Whether relaxed action `r` is the first start of a group (see [`GROUP`]).
+    fn is_group_leader(&self, r: usize) -> bool {
+        r.is_multiple_of(2) && self.pre_count[r] >= 2 && self.group_info[3 * (r / 2) + 2] > 0
+    }
+
+    /// Whether relaxed action `r` is a start of a group other than its first.
+    fn is_group_member(&self, r: usize) -> bool {
+        r.is_multiple_of(2) && self.pre_count[r] >= 2 && self.group_info[3 * (r / 2) + 2] == 0
     }
 
     /// Whether relaxed action `r` is a start with one relaxed precondition (a direct start of
@@ -659,18 +823,34 @@ impl<'m> Relaxation<'m> {
     pub fn plan_conflicts(&self, a: usize, deletes: impl Iterator<Item = usize>) -> u32 {
         let mut n = 0u32;
         for f in deletes {
-            let (lo, hi) = (
-                self.pre_offsets[f] as usize,
-                self.pre_offsets[f + 1] as usize,
-            );
-            for &r in &self.pre_index[lo..hi] {
-                let r = r as usize;
-                if r / 2 != a && self.in_relaxed_plan(r) {
-                    n += 1;
+            n += self.plan_need[f];
+            // Less `a`'s own start and end where they are in the plan and need f.
+            for r in [2 * a, 2 * a + 1] {
+                if self.in_relaxed_plan(r) && self.preconditions(r).contains(&(f as u32)) {
+                    n -= 1;
                 }
             }
         }
         n
+    }
+
+    /// Add (`up`) or clear the relaxed plan's actions' preconditions in `plan_need`.
+    fn count_plan_needs(&mut self, up: bool) {
+        for (w, &bits) in self.marked.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                let r = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (lo, hi) = (
+                    self.pre_list_offsets[r] as usize,
+                    self.pre_list_offsets[r + 1] as usize,
+                );
+                for &p in &self.pre_list[lo..hi] {
+                    let need = &mut self.plan_need[p as usize];
+                    *need = if up { *need + 1 } else { 0 };
+                }
+            }
+        }
     }
 
     /// Whether relaxed action `r` is in the last relaxed plan.
@@ -692,13 +872,51 @@ impl<'m> Relaxation<'m> {
         let facts = task.fact_count();
         let all = facts + task.action_count();
         let relaxed = 2 * task.action_count();
+        self.count_plan_needs(false);
         self.cost[..all].iter_mut().for_each(|x| *x = u32::MAX);
         // `supporter` is not cleared: it is read only for facts of nonzero finite cost, and
         // those got theirs in this evaluation (when their cost was set).
-        let (counts, _) = self.waiting[..2 * relaxed].as_chunks_mut::<2>();
-        for (pair, &n) in counts.iter_mut().zip(self.pre_count[..relaxed].iter()) {
-            *pair = [n, 0];
+        // The counted relaxed actions' preconditions false in this state, from the last
+        // state's by the facts that changed.
+        for (w, (&bits, last)) in fact_bits.iter().zip(self.last_state.iter_mut()).enumerate() {
+            let mut now = bits;
+            if 32 * (w + 1) > facts {
+                now &= (1u32 << (facts % 32)) - 1;
+            }
+            let mut changed = now ^ *last;
+            *last = now;
+            while changed != 0 {
+                let b = changed.trailing_zeros();
+                changed &= changed - 1;
+                let f = 32 * w + b as usize;
+                let (split, hi) = (self.pre_split[f] as usize, self.pre_offsets[f + 1] as usize);
+                let now_true = now & (1 << b) != 0;
+                for &r in &self.pre_index[split..hi] {
+                    let i = (r & !GROUP) as usize;
+                    let left = &mut self.waiting[4 * i + 3];
+                    if now_true {
+                        *left -= 1;
+                        if *left == 0 {
+                            self.zero_left[i / 32] |= 1 << (i % 32);
+                        }
+                    } else {
+                        if *left == 0 {
+                            self.zero_left[i / 32] &= !(1 << (i % 32));
+                        }
+                        *left += 1;
+                    }
+                }
+            }
         }
+        // A new epoch voids every counter (after 2^32 - 1 evaluations, stamp them all void).
+        self.epoch = self.epoch.wrapping_add(1);
+        if self.epoch == 0 {
+            for r in 0..relaxed {
+                self.waiting[4 * r + 2] = 0;
+            }
+            self.epoch = 1;
+        }
+        let (counts, _) = self.waiting[..4 * relaxed].as_chunks_mut::<4>();
         self.marked.iter_mut().for_each(|x| *x = 0);
         self.ready.iter_mut().for_each(|x| *x = 0);
         let mut q = Queue {
@@ -716,11 +934,15 @@ impl<'m> Relaxation<'m> {
             cost: &mut *self.cost,
             supporter: &mut *self.supporter,
             counts,
+            epoch: self.epoch,
             ready: &mut *self.ready,
             fire_info: self.fire_info[..4 * relaxed].as_chunks::<4>().0,
             pre_split: &*self.pre_split,
             direct_offsets: &*self.direct_offsets,
             direct: &*self.direct,
+            group_info: self.group_info[..3 * task.action_count()]
+                .as_chunks::<3>()
+                .0,
             facts,
         };
         for (w, &bits) in fact_bits.iter().enumerate().take(facts.div_ceil(32)) {
@@ -730,7 +952,6 @@ impl<'m> Relaxation<'m> {
                 bits &= bits - 1;
                 if f < facts {
                     prop.cost[f] = 0;
-                    q.push(0, f as u32);
                 }
             }
         }
@@ -745,6 +966,32 @@ impl<'m> Relaxation<'m> {
         }
         for &a in running {
             prop.reach(facts + a as usize, 0, &mut q);
+        }
+        // The facts true in the state: their direct starts (counted relaxed actions count
+        // only the facts false in the state, see `left`).
+        for (w, &bits) in fact_bits.iter().enumerate().take(facts.div_ceil(32)) {
+            let mut bits = bits;
+            while bits != 0 {
+                let f = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if f < facts {
+                    prop.reach_direct(f, 0, &mut q);
+                }
+            }
+        }
+        // The counted relaxed actions whose preconditions all hold.
+        for (w, &bits) in self.zero_left.iter().enumerate() {
+            let mut bits = bits;
+            while bits != 0 {
+                let r = 32 * w + bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if r.is_multiple_of(2) && self.group_info[3 * (r / 2) + 2] > 0 {
+                    prop.fire_group(r, 0, &mut q);
+                } else {
+                    prop.ready[r / 32] |= 1 << (r % 32);
+                    prop.fire(r, 0, &mut q);
+                }
+            }
         }
         // Relaxed actions without preconditions fire at once.
         for &r in self.free.iter() {
@@ -767,10 +1014,34 @@ impl<'m> Relaxation<'m> {
                 }
             }
         }
+        let mut level = 0;
         while let Some((c, f)) = q.pop() {
             let f = f as usize;
             if c > prop.cost[f] {
                 continue;
+            }
+            // The first fact taken at a new cost c: every fact of cost below c was taken and
+            // fired its relaxed actions, so every fact of cost c has its final cost and
+            // supporter (what fires from here on adds c + 1 or more). If every goal not yet
+            // taken costs c, nothing taken from here on changes h, the relaxed plan or the
+            // ready set: stop (the facts of the last goal's cost were taken before for
+            // nothing, up to the goal).
+            if c != level {
+                level = c;
+                let mut at_level = 0;
+                for (w, &bits) in goal.iter().enumerate() {
+                    let mut bits = bits;
+                    while bits != 0 {
+                        let g = 32 * w + bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        if prop.cost[g] == c {
+                            at_level += 1;
+                        }
+                    }
+                }
+                if at_level == goals_left {
+                    break;
+                }
             }
             // Every fact of cost zero is taken before any other (every relaxed action costs
             // at least one), so stopping at the last goal never cuts the ready set short.
@@ -849,6 +1120,7 @@ impl<'m> Relaxation<'m> {
                 self.marked[r / 32] |= 1 << (r % 32);
             }
         }
+        self.count_plan_needs(true);
         h
     }
 }

@@ -246,27 +246,38 @@ impl<'a> Task<'a> {
     }
 }
 
-/// A list of u16 fact ids inside the task.
+/// A list of u16 fact ids inside the task: its bytes, sliced once, so that reading an id
+/// checks no bounds (the search reads these lists for every successor it tries; reading each
+/// id through a bounds-checked offset was a fifth of an expansion's instructions on the
+/// PowerPC 750, rovers 17).
 #[derive(Clone, Copy)]
 pub struct Facts<'a> {
-    bytes: &'a [u8],
-    at: usize,
-    len: usize,
+    list: &'a [[u8; 2]],
 }
 
 impl<'a> Facts<'a> {
+    /// The `len` ids from byte `at` of `bytes` (none if they are not all inside: a validated
+    /// task's lists always are).
+    fn new(bytes: &'a [u8], at: usize, len: usize) -> Self {
+        let list = at
+            .checked_add(2 * len)
+            .and_then(|end| bytes.get(at..end))
+            .unwrap_or(&[]);
+        Facts {
+            list: list.as_chunks::<2>().0,
+        }
+    }
     pub fn len(&self) -> usize {
-        self.len
+        self.list.len()
     }
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.list.is_empty()
     }
     pub fn get(&self, i: usize) -> u16 {
-        read_u16(self.bytes, self.at + 2 * i)
+        self.list.get(i).map_or(0, |&b| u16::from_le_bytes(b))
     }
     pub fn iter(&self) -> impl Iterator<Item = usize> + 'a {
-        let (bytes, at) = (self.bytes, self.at);
-        (0..self.len).map(move |i| read_u16(bytes, at + 2 * i) as usize)
+        self.list.iter().map(|&b| u16::from_le_bytes(b) as usize)
     }
     pub fn contains(&self, fact: usize) -> bool {
         self.iter().any(|f| f == fact)
@@ -339,20 +350,17 @@ pub struct Action<'a> {
     pub duration_ub: u32,
     pub start_window: (u32, u32),
     pub end_window: (u32, u32),
-    lists: [usize; 7],
-    list_lens: [usize; 7],
+    lists: [Facts<'a>; 7],
     /// Offset of the numeric section (five counted lists of linear records).
     numeric_at: usize,
 }
 
 impl<'a> Action<'a> {
     pub fn facts(&self, list: FactList) -> Facts<'a> {
-        let i = list as usize;
-        Facts {
-            bytes: self.bytes,
-            at: self.lists.get(i).copied().unwrap_or(0),
-            len: self.list_lens.get(i).copied().unwrap_or(0),
-        }
+        self.lists
+            .get(list as usize)
+            .copied()
+            .unwrap_or(Facts { list: &[] })
     }
     /// Where numeric list `i` starts and how many records it has.
     fn numeric_list(&self, i: usize) -> (usize, usize) {
@@ -539,11 +547,11 @@ impl<'a> Task<'a> {
         read_i64(self.bytes, self.layout.init_numerics_at + 8 * var)
     }
     pub fn goal_facts(&self) -> Facts<'a> {
-        Facts {
-            bytes: self.bytes,
-            at: self.layout.goal_facts_at,
-            len: self.layout.goal_facts,
-        }
+        Facts::new(
+            self.bytes,
+            self.layout.goal_facts_at,
+            self.layout.goal_facts,
+        )
     }
     pub fn goal_conditions(&self) -> impl Iterator<Item = Linear<'a>> + 'a {
         let bytes = self.bytes;
@@ -558,6 +566,20 @@ impl<'a> Task<'a> {
     pub fn action(&self, a: usize) -> Action<'a> {
         let at = read_u32(self.bytes, self.layout.offsets_at + 4 * a) as usize;
         read_action(self.bytes, at)
+    }
+    /// Action `a`'s duration bounds (lb, ub) and its start and end windows, read from its
+    /// record's header without decoding its lists (the search's path and STN read these for
+    /// every step of every path it loads).
+    pub fn action_times(&self, a: usize) -> ((u32, u32), (u32, u32), (u32, u32)) {
+        let at = read_u32(self.bytes, self.layout.offsets_at + 4 * a) as usize;
+        let head = self
+            .bytes
+            .get(at..)
+            .and_then(|r| r.first_chunk::<24>())
+            .unwrap_or(&[0; 24]);
+        let (words, _) = head.as_chunks::<4>();
+        let word = |k: usize| words.get(k).map_or(0, |&w| u32::from_le_bytes(w));
+        ((word(0), word(1)), (word(2), word(3)), (word(4), word(5)))
     }
     /// The bytes of action `a`'s record (`a < action_count()`), for tasks written from this
     /// one (a replan, [`crate::replan`]).
@@ -637,30 +659,34 @@ fn check_action(c: &mut Cursor<'_>, facts: usize, numerics: usize) -> Result<(),
     Ok(())
 }
 
-/// Read an action record at `at` (validated by [`check_action`]).
+/// Read an action record at `at` (validated by [`check_action`]). The search reads records
+/// for every successor it tries: the header is taken as one fixed-size array and each list as
+/// one slice (a bounds check a list, not one a word or id).
 fn read_action(bytes: &[u8], at: usize) -> Action<'_> {
-    let duration_lb = read_u32(bytes, at);
-    let duration_ub = read_u32(bytes, at + 4);
-    let start_window = (read_u32(bytes, at + 8), read_u32(bytes, at + 12));
-    let end_window = (read_u32(bytes, at + 16), read_u32(bytes, at + 20));
-    let mut p = at + 24;
-    let mut lists = [0usize; 7];
-    let mut list_lens = [0usize; 7];
-    for (slot, len) in lists.iter_mut().zip(list_lens.iter_mut()) {
-        let n = read_u16(bytes, p) as usize;
-        *slot = p + 2;
-        *len = n;
-        p += 2 + 2 * n;
+    let record = bytes.get(at..).unwrap_or(&[]);
+    let (head, mut rest) = record.split_first_chunk::<24>().unwrap_or((&[0; 24], &[]));
+    let (words, _) = head.as_chunks::<4>();
+    let word = |k: usize| words.get(k).map_or(0, |&w| u32::from_le_bytes(w));
+    let mut lists = [Facts { list: &[] }; 7];
+    for slot in lists.iter_mut() {
+        let Some((count, tail)) = rest.split_first_chunk::<2>() else {
+            break;
+        };
+        let n = u16::from_le_bytes(*count) as usize;
+        let (list, tail) = tail.split_at_checked(2 * n).unwrap_or((&[], &[]));
+        *slot = Facts {
+            list: list.as_chunks::<2>().0,
+        };
+        rest = tail;
     }
     Action {
         bytes,
-        duration_lb,
-        duration_ub,
-        start_window,
-        end_window,
+        duration_lb: word(0),
+        duration_ub: word(1),
+        start_window: (word(2), word(3)),
+        end_window: (word(4), word(5)),
         lists,
-        list_lens,
-        numeric_at: p,
+        numeric_at: bytes.len() - rest.len(),
     }
 }
 

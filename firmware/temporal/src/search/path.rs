@@ -297,8 +297,8 @@ impl<'t, 'm> Planner<'t, 'm> {
         });
         writes_err?;
         if end {
-            let act = task.action(a);
-            add(start_step, act.duration_lb, act.duration_ub, n)?;
+            let ((lb, ub), _, _) = task.action_times(a);
+            add(start_step, lb, ub, n)?;
         }
         Ok(())
     }
@@ -306,11 +306,11 @@ impl<'t, 'm> Planner<'t, 'm> {
 
 /// The window of plan step `snap` (`action << 1 | is_end`).
 pub(super) fn step_window(task: &Task<'_>, snap: u32) -> (u32, u32) {
-    let act = task.action((snap >> 1) as usize);
+    let (_, start, end) = task.action_times((snap >> 1) as usize);
     if snap & 1 == 1 {
-        act.end_window
+        end
     } else {
-        act.start_window
+        start
     }
 }
 

@@ -199,7 +199,11 @@ impl<'t, 'm> Planner<'t, 'm> {
         if !act.facts(pre).iter().all(|f| Self::fact(state, f)) {
             return false;
         }
-        if !self.numeric_ok(state, conds, a) {
+        // (Not `numeric_ok`: the record is decoded already.)
+        if !act
+            .numeric(conds)
+            .all(|c| c.holds(&|v| self.value(state, v)))
+        {
             return false;
         }
         // Numeric effects read the values before the snap.
