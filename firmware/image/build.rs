@@ -63,7 +63,10 @@ fn main() {
     }
     files.push(script);
     // How crate lander is compiled (its symbol names, which place its code: rustc-wrapper.sh).
-    for build_file in ["firmware/image/rustc-wrapper.sh", "firmware/image/.cargo/config.toml"] {
+    for build_file in [
+        "firmware/image/rustc-wrapper.sh",
+        "firmware/image/.cargo/config.toml",
+    ] {
         let path = repo.join(build_file);
         println!("cargo:rerun-if-changed={}", path.display());
         files.push(path);
