@@ -10,6 +10,8 @@
 //! nothing with the grounding, the binary task or the planner's own checks.
 #![allow(dead_code)]
 
+pub mod rover;
+
 use std::collections::{HashMap, HashSet};
 
 use pddl::ast::{self, Cmp, Condition, Domain, Effect, Expr, InitItem, NumOp, Problem, Term, When};
