@@ -40,14 +40,7 @@ fn plan_in(
     if status == Status::Solved {
         let mut out = vec![temporal::PlannedAction::default(); 256];
         let (n, _) = planner.plan(&mut out).expect("a plan");
-        steps = out[..n]
-            .iter()
-            .map(|s| common::Step {
-                start: f64::from(s.start) / tpu,
-                action: compiled.action_names[s.action as usize].clone(),
-                duration: f64::from(s.duration) / tpu,
-            })
-            .collect();
+        steps = common::steps_of(&compiled, &out[..n], tpu);
     }
     (status, planner.stats(), steps)
 }

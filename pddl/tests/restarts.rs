@@ -38,14 +38,7 @@ fn run(
     if status == temporal::Status::Solved {
         let mut out = vec![temporal::PlannedAction::default(); 64];
         let (n, _) = planner.plan(&mut out).expect("a plan");
-        plan = out[..n]
-            .iter()
-            .map(|s| common::Step {
-                start: f64::from(s.start) / tpu,
-                action: compiled.action_names[s.action as usize].clone(),
-                duration: f64::from(s.duration) / tpu,
-            })
-            .collect();
+        plan = common::steps_of(&compiled, &out[..n], tpu);
     }
     (status, planner.stats(), plan)
 }

@@ -582,6 +582,21 @@ pub struct Planned {
     pub stats: temporal::Stats,
 }
 
+/// The planner's actions as the validator's steps, in PDDL time units (`tpu` ticks a unit).
+pub fn steps_of(
+    compiled: &pddl::Compiled,
+    plan: &[temporal::PlannedAction],
+    tpu: f64,
+) -> Vec<Step> {
+    plan.iter()
+        .map(|s| Step {
+            start: f64::from(s.start) / tpu,
+            action: compiled.action_names[s.action as usize].clone(),
+            duration: f64::from(s.duration) / tpu,
+        })
+        .collect()
+}
+
 /// Plan `compiled` natively in an arena of `arena_words` words, at most `max_expansions`.
 pub fn plan(
     compiled: &pddl::Compiled,
@@ -606,14 +621,7 @@ pub fn plan(
         let mut out = vec![temporal::PlannedAction::default(); 4096];
         let (n, m) = planner.plan(&mut out).expect("a solved search has a plan");
         makespan = f64::from(m) / tpu;
-        plan = out[..n]
-            .iter()
-            .map(|s| Step {
-                start: f64::from(s.start) / tpu,
-                action: compiled.action_names[s.action as usize].clone(),
-                duration: f64::from(s.duration) / tpu,
-            })
-            .collect();
+        plan = steps_of(compiled, &out[..n], tpu);
     }
     Planned {
         status,
