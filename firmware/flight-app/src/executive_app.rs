@@ -37,6 +37,9 @@ pub struct ExecutiveApp {
     pub(crate) reported_state_type_mismatches: u32,
     /// The stale-commit count last reported ([`metric::STALE_COMMITS`]).
     pub(crate) reported_stale_commits: u32,
+    /// The channel counts last reported ([`metric::CHANNEL_REFUSED_TO_PLANNER`],
+    /// [`metric::PLANNER_TELEMETRY_DROPPED`]).
+    pub(crate) reported_channel_losses: (u32, u32),
     /// Frames whose planner cycle stopped on its budget, since boot
     /// ([`metric::PLANNER_PENDING_FRAMES`]).
     pub(crate) pending_frames: u32,
@@ -69,6 +72,7 @@ impl ExecutiveApp {
             persist: Persistence::NEW,
             reported_state_type_mismatches: 0,
             reported_stale_commits: 0,
+            reported_channel_losses: (0, 0),
             pending_frames: 0,
             security: SecurityAssociation::none(),
             security_refusals: [0; SecurityRefusal::COUNT],
@@ -90,6 +94,7 @@ impl ExecutiveApp {
         self.persist = Persistence::NEW;
         self.reported_state_type_mismatches = 0;
         self.reported_stale_commits = 0;
+        self.reported_channel_losses = (0, 0);
         self.pending_frames = 0;
         self.security = SecurityAssociation::none();
         self.security_refusals = [0; SecurityRefusal::COUNT];
@@ -393,6 +398,21 @@ impl ExecutiveApp {
         if stale != self.reported_stale_commits {
             downlink.send(metric_event(metric::STALE_COMMITS, u64::from(stale)));
             self.reported_stale_commits = stale;
+        }
+        let losses = (
+            self.executive.to_planner().refused,
+            self.executive.stats.telemetry_dropped,
+        );
+        if losses != self.reported_channel_losses {
+            downlink.send(metric_event(
+                metric::CHANNEL_REFUSED_TO_PLANNER,
+                u64::from(losses.0),
+            ));
+            downlink.send(metric_event(
+                metric::PLANNER_TELEMETRY_DROPPED,
+                u64::from(losses.1),
+            ));
+            self.reported_channel_losses = losses;
         }
         if status.pending {
             self.pending_frames = self.pending_frames.saturating_add(1);

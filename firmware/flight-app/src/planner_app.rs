@@ -34,6 +34,8 @@ pub struct PlannerApp {
     /// The CPU clock's reading at the start of the last window: other plug-ins of the
     /// partition share the window's planning CPU from there.
     pub(crate) window_started: u64,
+    /// The channel's refusal count last reported ([`metric::CHANNEL_REFUSED_TO_EXECUTIVE`]).
+    pub(crate) reported_refused: u32,
 }
 
 impl Default for PlannerApp {
@@ -51,6 +53,7 @@ impl PlannerApp {
             cpu_budget: None,
             recovering: None,
             window_started: 0,
+            reported_refused: 0,
         }
     }
 
@@ -62,6 +65,7 @@ impl PlannerApp {
         self.cpu_budget = None;
         self.recovering = None;
         self.window_started = 0;
+        self.reported_refused = 0;
     }
 
     /// The CPU clock's reading at the start of the last window ([`PlannerApp::window`]).
@@ -182,6 +186,14 @@ impl PlannerApp {
                 metric::PLANNER_CHECKPOINT_TICKS,
                 t2.wrapping_sub(t1),
             ));
+        }
+        let refused = self.partition.to_executive().refused;
+        if refused != self.reported_refused {
+            downlink.send(metric_event(
+                metric::CHANNEL_REFUSED_TO_EXECUTIVE,
+                u64::from(refused),
+            ));
+            self.reported_refused = refused;
         }
         Some(status)
     }

@@ -130,6 +130,20 @@ metric_table! {
     /// frame's window (the planner was throttled), since boot; sent when it changes.
     PLANNER_PENDING_FRAMES = 0x1029,
         "planner_pending_frames", Count, Value, FlightApp, Mission;
+    /// Messages the executive partition could not put in its channel to the planner (the
+    /// channel's log full of messages not yet acknowledged; its last place is kept for the
+    /// frame's own message): a total kept by the checkpoints, sent when it changes. Each is a
+    /// report, state update or note the planner did not get.
+    CHANNEL_REFUSED_TO_PLANNER = 0x102A,
+        "channel_refused_to_planner", Count, Value, FlightApp, Mission;
+    /// The same for the planner partition's channel to the executive (telemetry refused; the
+    /// last place is kept for the window's status). Sent by the planner partition.
+    CHANNEL_REFUSED_TO_EXECUTIVE = 0x102B,
+        "channel_refused_to_executive", Count, Value, FlightApp, Mission;
+    /// Planner telemetry the executive received but could not keep for the host (its
+    /// forwarding buffer full): a total kept by the checkpoints, sent when it changes.
+    PLANNER_TELEMETRY_DROPPED = 0x102C,
+        "planner_telemetry_dropped", Count, Value, FlightApp, Mission;
 }
 
 /// The per-reason refusal count metric of `reason`.

@@ -47,6 +47,24 @@ pub struct ExecutivePartition {
     pub stats: ExecutivePartitionStats,
     /// The temporal plan this side dispatches (its network from the planner in chunks).
     dispatch: ExecutiveDispatch,
+    /// The frame's message found no room (the planner has not acknowledged what it holds): it
+    /// goes once an acknowledgement makes room, late rather than lost. Not saved: a restore
+    /// sends the frame again ([`ExecutivePartition::resynchronise`]).
+    frame_unsent: bool,
+}
+
+/// Puts `message` in `outbox` if that leaves the last place free, for the frame's message
+/// (without it the planner never answers the frame, see [`ExecutivePartition::first_window`]);
+/// else refuses it, counted in the outbox's `refused`.
+fn push_keeping_frame(
+    outbox: &mut Outbox<PlannerInput, MAX_TO_PLANNER_IN_FLIGHT>,
+    message: PlannerInput,
+) {
+    if outbox.room() > 1 {
+        outbox.push(message);
+    } else {
+        outbox.refused = outbox.refused.saturating_add(1);
+    }
 }
 
 /// Counts of what the executive partition dropped or refused.
@@ -106,6 +124,7 @@ impl ExecutivePartition {
                 resyncs: 0,
             },
             dispatch: ExecutiveDispatch::new(),
+            frame_unsent: false,
         }
     }
 
@@ -124,7 +143,7 @@ impl ExecutivePartition {
     /// checkpointed channel. Refused with its reason, nothing changed.
     pub fn dispatch_executed(&mut self, step: u16, at: u32) -> Result<(), ExecutedRefusal> {
         let note = self.dispatch.executed(step, at)?;
-        self.to_planner.push(PlannerInput::Dispatch(note));
+        push_keeping_frame(&mut self.to_planner, PlannerInput::Dispatch(note));
         Ok(())
     }
 
@@ -239,10 +258,12 @@ impl ExecutivePartition {
         };
         self.ensure_image();
         if !t.begun {
-            if !self.to_planner.push(PlannerInput::NetworkBegin {
-                generation: self.generation,
-                len: t.len,
-            }) {
+            if self.to_planner.room() < 2
+                || !self.to_planner.push(PlannerInput::NetworkBegin {
+                    generation: self.generation,
+                    len: t.len,
+                })
+            {
                 return;
             }
             t.begun = true;
@@ -264,6 +285,7 @@ impl ExecutivePartition {
             chunks += 1;
         }
         if t.pushed >= t.len
+            && self.to_planner.room() > 1
             && self.to_planner.push(PlannerInput::NetworkEnd {
                 generation: self.generation,
                 crc: t.crc,
@@ -277,7 +299,7 @@ impl ExecutivePartition {
                 ..
             } = self;
             control.after_load(network, &mut |m| {
-                to_planner.push(PlannerInput::Core(m));
+                push_keeping_frame(to_planner, PlannerInput::Core(m));
             });
             return;
         }
@@ -300,7 +322,7 @@ impl ExecutivePartition {
             ..
         } = self;
         let params_changed = control.on_state_update(network, key, value, at, &mut |m| {
-            to_planner.push(PlannerInput::Core(m));
+            push_keeping_frame(to_planner, PlannerInput::Core(m));
         });
         if params_changed {
             // The image streamed to a planner that starts over must hold the new values.
@@ -320,7 +342,12 @@ impl ExecutivePartition {
                     self.apply(message);
                 }
             }
-            Wire::Ack { upto } => self.to_planner.on_ack(upto),
+            Wire::Ack { upto } => {
+                self.to_planner.on_ack(upto);
+                if self.frame_unsent {
+                    self.push_frame();
+                }
+            }
             Wire::Resume { received } => {
                 if self.to_planner.on_resume(received) {
                     self.resynchronise();
@@ -343,10 +370,7 @@ impl ExecutivePartition {
         self.status = None;
         self.start_transfer();
         if self.frame != 0 {
-            self.to_planner.push(PlannerInput::Frame {
-                frame: self.frame,
-                now: self.now,
-            });
+            self.push_frame();
         }
     }
 
@@ -372,7 +396,7 @@ impl ExecutivePartition {
             ExecutiveInput::Status(status) => self.status = Some(status),
             ExecutiveInput::DispatchChunk { horizon, chunk } => {
                 if let Some(note) = self.dispatch.take(&chunk, horizon) {
-                    self.to_planner.push(PlannerInput::Dispatch(note));
+                    push_keeping_frame(&mut self.to_planner, PlannerInput::Dispatch(note));
                 }
             }
         }
@@ -385,7 +409,7 @@ impl ExecutivePartition {
             ..
         } = self;
         control.accept(commit, &mut |m| {
-            to_planner.push(PlannerInput::Core(m));
+            push_keeping_frame(to_planner, PlannerInput::Core(m));
         });
     }
 
@@ -407,7 +431,7 @@ impl ExecutivePartition {
         } = self;
         let mut to_planner = |m| {
             if !transferring {
-                to_planner.push(PlannerInput::Core(m));
+                push_keeping_frame(to_planner, PlannerInput::Core(m));
             }
         };
         if let Some(seq) = self.restored.take() {
@@ -418,7 +442,16 @@ impl ExecutivePartition {
             control.judge_ages(network, now, out, &mut to_planner);
             control.step(network, now, out, &mut to_planner);
         }
-        self.to_planner.push(PlannerInput::Frame { frame, now });
+        self.push_frame();
+    }
+
+    /// The frame in progress for the planner; when the outbox is full, again after the next
+    /// acknowledgement (see `frame_unsent`).
+    fn push_frame(&mut self) {
+        self.frame_unsent = !self.to_planner.push(PlannerInput::Frame {
+            frame: self.frame,
+            now: self.now,
+        });
     }
 
     /// The executive's second window: the planner's telemetry for the host, then the second
@@ -446,7 +479,7 @@ impl ExecutivePartition {
             {
                 *replan_now = true;
             }
-            to_planner.push(PlannerInput::Core(m));
+            push_keeping_frame(to_planner, PlannerInput::Core(m));
         });
     }
 
@@ -559,6 +592,7 @@ impl ExecutivePartition {
         self.image_valid = false;
         self.stats = ExecutivePartitionStats::default();
         self.dispatch.reset();
+        self.frame_unsent = false;
     }
 
     /// Replaces the state with one [`ExecutivePartition::encode_state`] wrote, checked as a
@@ -597,6 +631,7 @@ impl ExecutivePartition {
         self.generation = meta.generation;
         self.transfer = meta.transfer;
         self.stats = meta.stats;
+        self.frame_unsent = false;
         Some(())
     }
 }

@@ -86,7 +86,12 @@ use fsw_bridge::{
 pub const MAJOR_FRAME_US: u64 = 10_000;
 /// Messages the executive keeps for the planner until they are acknowledged: a frame's state
 /// updates, reports and returned commits, and up to [`MAX_CHUNKS_PER_FRAME`] network chunks.
-pub const MAX_TO_PLANNER_IN_FLIGHT: usize = 64;
+/// Twice [`crate::capacity::MAX_COMMITTED`], so that a report for every task the executive
+/// holds fits beside the frame's other messages (64 failed at once filled the log, and the
+/// frame's own message was refused before its last place was kept for it). The last place
+/// is always the frame's; anything else refused is counted (`Outbox::refused`, reported as
+/// `channel_refused_to_planner`).
+pub const MAX_TO_PLANNER_IN_FLIGHT: usize = 2 * crate::capacity::MAX_COMMITTED;
 /// Network chunks the executive puts in the channel per frame (the rest of the log is kept for
 /// the frame's other messages, and a port holds a frame's messages): 16 chunks of 96 bytes,
 /// 1.5 KiB of image per frame, so the flyby's image (about 1 KiB) goes in one frame and the

@@ -58,7 +58,14 @@ impl Outputs for Forward<'_> {
     }
 
     fn telemetry(&mut self, event: TelemetryEvent) {
-        self.outbox.push(ExecutiveInput::Telemetry(event));
+        // The last place is the window's status's: without it the executive would wait for an
+        // answer that never comes. Telemetry that finds no other room is refused and counted
+        // (`Outbox::refused`, which the planner partition's application reports).
+        if self.outbox.room() > 1 {
+            self.outbox.push(ExecutiveInput::Telemetry(event));
+        } else {
+            self.outbox.refused = self.outbox.refused.saturating_add(1);
+        }
     }
 }
 
@@ -263,6 +270,11 @@ impl PlannerPartition {
     /// validity checks at the frame's time, then the commits (no more than the channel's log
     /// has room for), then the status. The planner's decisions go to the executive.
     pub fn window(&mut self, budget: impl crate::planner::Budget) -> Option<PlannerStatus> {
+        // No room for the status: the executive has not acknowledged what this side sent. The
+        // frame waits for a window after its acknowledgement (late, not lost).
+        if self.to_executive.room() == 0 {
+            return None;
+        }
         let (frame, now) = self.frame.take()?;
         let now = MissionTimeUs(now.0.min(MAX_MISSION_TIME_US));
         self.now = now;
@@ -314,7 +326,8 @@ impl PlannerPartition {
             status.checks = report.checks;
             status.next_wakeup = planner.next_wakeup(network, now);
         }
-        self.to_executive.push(ExecutiveInput::Status(status));
+        // Every push above left this place free.
+        let _ = self.to_executive.push(ExecutiveInput::Status(status));
         Some(status)
     }
 

@@ -94,6 +94,21 @@ fn every_application_metric_is_in_the_dictionary() {
             "PLANNER_PENDING_FRAMES",
             Mission,
         ),
+        (
+            metric::CHANNEL_REFUSED_TO_PLANNER,
+            "CHANNEL_REFUSED_TO_PLANNER",
+            Mission,
+        ),
+        (
+            metric::CHANNEL_REFUSED_TO_EXECUTIVE,
+            "CHANNEL_REFUSED_TO_EXECUTIVE",
+            Mission,
+        ),
+        (
+            metric::PLANNER_TELEMETRY_DROPPED,
+            "PLANNER_TELEMETRY_DROPPED",
+            Mission,
+        ),
     ];
     assert_eq!(
         ids.len(),
