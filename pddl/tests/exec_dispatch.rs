@@ -18,6 +18,9 @@ use temporal::dispatch_wire::chunks;
 use temporal::replan;
 use temporal::Task;
 
+/// Work units of one call of the executive's divided poll (`Dispatcher::poll_continue`).
+const SLICE_UNITS: u32 = 256;
+
 /// One window each way, as a frame hands the ports over.
 fn exchange(executive: &mut ExecutivePartition, planner: &mut PlannerPartition) {
     planner.checkpointed();
@@ -109,9 +112,31 @@ fn through_the_channel(problem: (String, String), least_actions: usize) {
         reference.executed(k, at).unwrap();
         executed.push((k as u16, at));
     };
+    // The executive's polls divided across calls of `SLICE_UNITS` units (its cycles), the
+    // reference's whole.
+    let (mut most_units, mut most_calls) = (0u32, 0usize);
     for _ in 0..8 * net.step_count() {
-        let ours = executive.dispatcher_mut().unwrap().poll(now, &|_| true);
+        let d = executive.dispatcher_mut().unwrap();
+        d.poll_begin(now);
+        let mut calls = 0;
+        let ours = loop {
+            calls += 1;
+            if let Some(decision) = d.poll_continue(&|_| true, SLICE_UNITS) {
+                break decision;
+            }
+        };
+        most_units = most_units.max(d.poll_units());
+        most_calls = most_calls.max(calls);
         assert_eq!(ours, reference.poll(now, &|_| true), "at {now}");
+        // (Finished works nothing out: the windows are those of each one's last poll, or of
+        // the executive's restore.)
+        for k in (0..=net.step_count()).filter(|_| ours != Decision::Finished) {
+            assert_eq!(
+                executive.dispatch().loaded().unwrap().1.window(k),
+                reference.window(k),
+                "step {k} at {now} after {polls} polls: {ours:?}"
+            );
+        }
         polls += 1;
         match ours {
             Decision::Start { step, action } => {
@@ -156,6 +181,10 @@ fn through_the_channel(problem: (String, String), least_actions: usize) {
             restores += 1;
         }
     }
+    println!(
+        "{polls} polls; the costliest {most_units} units, {most_calls} calls of {SLICE_UNITS}"
+    );
+    assert!(most_units > 0 && most_calls > 1, "polls divided");
     assert_eq!(executed.len(), net.step_count(), "every step executed");
     assert_eq!(notes, executed);
     assert!(restores >= 3, "{restores} restores");

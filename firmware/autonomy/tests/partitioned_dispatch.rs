@@ -543,6 +543,13 @@ fn every_note_round_trips_and_a_bad_one_is_refused() {
             index: 0,
             reason: ChunkRefusal::Inconsistent,
         },
+        DispatchNote::Refused {
+            plan: 1,
+            index: 0,
+            reason: ChunkRefusal::TooLarge {
+                max_chunks: MAX_CHECKPOINTED_DISPATCH_CHUNKS,
+            },
+        },
     ];
     for note in notes {
         let m = PlannerInput::Dispatch(note);

@@ -24,6 +24,10 @@ use crate::constraints::Constraint;
 use crate::stn;
 use crate::task::UNBOUNDED;
 
+#[path = "dispatch/sliced.rs"]
+mod sliced;
+pub use sliced::MAX_DEFERRED;
+
 /// Most plan steps a [`PlanNetwork`] holds (two per action; step 0, the epoch, not counted).
 pub const MAX_DISPATCH_STEPS: usize = 256;
 /// Most constraints a [`PlanNetwork`] holds.
@@ -187,6 +191,8 @@ pub struct Dispatcher {
     est_now: u32,
     /// Every propagation worked out whole (the reference the incremental one is tested against).
     whole_only: bool,
+    /// A poll divided across calls, in progress ([`Self::poll_begin`]).
+    slice: sliced::Slice,
 }
 
 impl Dispatcher {
@@ -204,6 +210,7 @@ impl Dispatcher {
             executed_since: false,
             est_now: 0,
             whole_only: false,
+            slice: sliced::Slice::IDLE,
         };
         if let Some(epoch) = d.done.get_mut(0) {
             *epoch = 0;
@@ -229,6 +236,7 @@ impl Dispatcher {
             executed_since: false,
             est_now: 0,
             whole_only: false,
+            slice: sliced::Slice::IDLE,
         }
     }
 
@@ -246,6 +254,7 @@ impl Dispatcher {
     /// bool, so all-zero bytes are a valid (empty) one: the planner partition zero-fills one in
     /// place and builds each plan's network into it.
     pub fn network_mut(&mut self) -> &mut PlanNetwork {
+        self.drop_slice();
         self.forget_windows();
         &mut self.net
     }
@@ -253,6 +262,7 @@ impl Dispatcher {
     /// Starts dispatching the network anew (nothing executed, the epoch at 0), every step by
     /// `horizon`: [`Self::new`] in place. Fails if the network has no such schedule.
     pub fn restart(&mut self, horizon: u32) -> Result<(), NetworkError> {
+        self.drop_slice();
         self.done.iter_mut().for_each(|d| *d = UNBOUNDED);
         self.est.iter_mut().for_each(|e| *e = 0);
         self.lst.iter_mut().for_each(|l| *l = 0);
@@ -285,6 +295,8 @@ impl Dispatcher {
     /// default): the two give the same windows and decisions; the whole one is the reference
     /// the tests hold the incremental one to.
     pub fn set_whole_propagation(&mut self, whole: bool) {
+        self.end_slice();
+        self.mark_deferred();
         self.whole_only = whole;
         self.forget_windows();
     }
@@ -407,6 +419,10 @@ impl Dispatcher {
     /// What to do at time `now`, given which actions are ready to start (their conditions hold
     /// in the executive's view).
     pub fn poll(&mut self, now: u32, ready: &dyn Fn(u16) -> bool) -> Decision {
+        if self.slice.active() {
+            self.end_slice();
+            self.mark_deferred();
+        }
         let steps = self.net.step_count;
         if (1..=steps).all(|k| self.executed_at(k).is_some()) {
             return Decision::Finished;
@@ -451,11 +467,22 @@ impl Dispatcher {
     }
 
     /// Step `k` (a start the dispatcher gave, or an action's end) was executed at `at`.
-    /// Err if `k` is not a step or was executed already (nothing changes).
+    /// Err if `k` is not a step or was executed already (nothing changes). While a divided poll
+    /// is in progress ([`Self::poll_begin`]) the step is marked once it has decided (until then
+    /// [`Self::executed_at`] does not show it; marked twice is refused the same).
     pub fn executed(&mut self, k: usize, at: u32) -> Result<(), NetworkError> {
         if k == 0 || k > self.net.step_count || self.executed_at(k).is_some() {
             return Err(NetworkError::UnknownStep);
         }
+        if self.slice.active() {
+            // Marked once the divided poll in progress has decided (see `sliced`).
+            return self.defer_executed(k, at);
+        }
+        self.mark_executed(k, at)
+    }
+
+    /// [`Self::executed`]'s marking.
+    fn mark_executed(&mut self, k: usize, at: u32) -> Result<(), NetworkError> {
         let slot = self.done.get_mut(k).ok_or(NetworkError::UnknownStep)?;
         *slot = at;
         self.lst_kept = false;

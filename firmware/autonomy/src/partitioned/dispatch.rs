@@ -21,6 +21,29 @@ use temporal::{Dispatcher, PlanNetwork};
 pub const MAX_DISPATCH_CHUNKS_PER_WINDOW: usize = 16;
 /// Notes from the executive the planner holds until its owner takes them.
 pub const MAX_DISPATCH_NOTES: usize = 32;
+/// Most chunks of a network the executive takes (2,688 words: 112 of [`CHUNK_WORDS`]), so that
+/// its checkpoint part ([`dispatch_part_max_bytes`], 12,845 bytes with every one of
+/// `MAX_DISPATCH_STEPS` steps executed) fits a record slot of the executive's warm-restart
+/// slice (16 KiB, 16,364 bytes of payload on the target) beside the MEXEC side of the record:
+/// with an idle one the record is 12,929 bytes, 3,435 under the slot's payload, which are the
+/// MEXEC side's (`flight-app`'s test `dispatch_checkpoint_room` writes it into a slot). A network at the dispatcher's capacity (256
+/// steps, 2,048 constraints: 6,915 words, 289 chunks, 27.7 KB of checkpoint) would not fit: it
+/// is refused by name, [`ChunkRefusal::TooLarge`], by the sender before any chunk goes
+/// ([`DispatchSender::check`]) and by the executive for any chunk of it that comes. Long-day's
+/// network, thirty objectives and 71 actions, is 65 chunks.
+pub const MAX_CHECKPOINTED_DISPATCH_CHUNKS: u16 = 112;
+
+/// Bytes of the executive's dispatch part at most (see [`ExecutiveDispatch::encode`]): format
+/// byte, length, nine header words, the words of [`MAX_CHECKPOINTED_DISPATCH_CHUNKS`] chunks,
+/// every step executed (step and time), the CRC.
+pub const fn dispatch_part_max_bytes() -> usize {
+    1 + 4
+        + 4 * (9
+            + MAX_CHECKPOINTED_DISPATCH_CHUNKS as usize * CHUNK_WORDS
+            + 2 * temporal::dispatch::MAX_DISPATCH_STEPS)
+        + 4
+}
+
 /// Format of the executive's dispatch part in its checkpoint (see
 /// [`ExecutiveDispatch::encode`]).
 pub const DISPATCH_PART_FORMAT: u8 = 1;
@@ -79,6 +102,11 @@ pub enum ChunkRefusal {
     Complete,
     /// The network came whole but has no schedule within its horizon.
     Inconsistent,
+    /// The network has more chunks than the executive's checkpoint holds
+    /// ([`MAX_CHECKPOINTED_DISPATCH_CHUNKS`]): not taken, the network held stays.
+    TooLarge {
+        max_chunks: u16,
+    },
 }
 
 impl From<WireRefusal> for ChunkRefusal {
@@ -359,6 +387,16 @@ impl ExecutiveDispatch {
                 reason,
             })
         };
+        if c.total > MAX_CHECKPOINTED_DISPATCH_CHUNKS {
+            // Its checkpoint would not fit a slot: refused before the receiver sees it, so the
+            // network held (or being received) stays.
+            return refused(
+                self,
+                ChunkRefusal::TooLarge {
+                    max_chunks: MAX_CHECKPOINTED_DISPATCH_CHUNKS,
+                },
+            );
+        }
         let taken = self.receiver.take(&chunk, self.dispatcher.network_mut());
         if taken.is_ok() && c.index == 0 {
             // A new network: the one held is gone.
@@ -552,6 +590,11 @@ impl ExecutiveDispatch {
         {
             return Err(E::BadLength);
         }
+        if total > MAX_CHECKPOINTED_DISPATCH_CHUNKS {
+            return Err(E::Chunk(ChunkRefusal::TooLarge {
+                max_chunks: MAX_CHECKPOINTED_DISPATCH_CHUNKS,
+            }));
+        }
         self.refused = refused;
         self.last_refusal = deferred_refusal_of(code, arg).ok_or(E::OutOfRange)?;
         // The words again, chunk by chunk, through the receiver.
@@ -596,6 +639,7 @@ fn deferred_refusal_code(r: Option<ChunkRefusal>) -> (u32, u32) {
         Some(ChunkRefusal::OutOfRange) => (5, 0),
         Some(ChunkRefusal::Complete) => (6, 0),
         Some(ChunkRefusal::Inconsistent) => (7, 0),
+        Some(ChunkRefusal::TooLarge { max_chunks }) => (8, u32::from(max_chunks)),
     }
 }
 
@@ -611,6 +655,9 @@ fn deferred_refusal_of(code: u32, arg: u32) -> Option<Option<ChunkRefusal>> {
         5 => Some(ChunkRefusal::OutOfRange),
         6 => Some(ChunkRefusal::Complete),
         7 => Some(ChunkRefusal::Inconsistent),
+        8 => Some(ChunkRefusal::TooLarge {
+            max_chunks: u16::try_from(arg).ok()?,
+        }),
         _ => return None,
     })
 }
@@ -634,14 +681,32 @@ impl DispatchSender {
         }
     }
 
-    /// Whether every chunk of `net` was put in the channel.
+    /// Whether every chunk of `net` was put in the channel (never, for a network
+    /// [`DispatchSender::check`] refuses).
     pub fn done(&self, net: &PlanNetwork) -> bool {
         usize::from(self.next) >= chunks(net)
     }
 
+    /// The chunks `net` takes, or [`ChunkRefusal::TooLarge`] when the executive's checkpoint
+    /// would not hold it (more than [`MAX_CHECKPOINTED_DISPATCH_CHUNKS`]): such a network is
+    /// not sent ([`DispatchSender::pump`] sends none of it).
+    pub fn check(net: &PlanNetwork) -> Result<usize, ChunkRefusal> {
+        let n = chunks(net);
+        if n > usize::from(MAX_CHECKPOINTED_DISPATCH_CHUNKS) {
+            return Err(ChunkRefusal::TooLarge {
+                max_chunks: MAX_CHECKPOINTED_DISPATCH_CHUNKS,
+            });
+        }
+        Ok(n)
+    }
+
     /// Puts the next chunks of `net` in `planner`'s outbox (at most
-    /// [`MAX_DISPATCH_CHUNKS_PER_WINDOW`], leaving room for a window's status); how many.
+    /// [`MAX_DISPATCH_CHUNKS_PER_WINDOW`], leaving room for a window's status); how many (0 for a
+    /// network [`DispatchSender::check`] refuses).
     pub fn pump(&mut self, net: &PlanNetwork, planner: &mut PlannerPartition) -> usize {
+        if Self::check(net).is_err() {
+            return 0;
+        }
         let mut sent = 0;
         while sent < MAX_DISPATCH_CHUNKS_PER_WINDOW {
             let Some(c) = chunk(net, self.plan, usize::from(self.next)) else {

@@ -170,10 +170,11 @@ mod planner;
 
 pub use channel::{Inbox, Outbox, Wire};
 use channel::{OutboxInPlace, EMPTY_INBOX};
+pub use dispatch::dispatch_part_max_bytes;
 pub use dispatch::{
     ChunkRefusal, DispatchChunk, DispatchNote, DispatchRestoreError, DispatchSender,
-    ExecutedRefusal, ExecutiveDispatch, DISPATCH_PART_FORMAT, MAX_DISPATCH_CHUNKS_PER_WINDOW,
-    MAX_DISPATCH_NOTES,
+    ExecutedRefusal, ExecutiveDispatch, DISPATCH_PART_FORMAT, MAX_CHECKPOINTED_DISPATCH_CHUNKS,
+    MAX_DISPATCH_CHUNKS_PER_WINDOW, MAX_DISPATCH_NOTES,
 };
 pub use executive::{ExecutivePartition, ExecutivePartitionStats};
 pub use frame::{run_frame, Frame, FrameEnv, Interrupted, Point, Side};
