@@ -33,6 +33,7 @@ use crate::stn;
 use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod expand;
+mod load_check;
 mod novelty;
 mod path;
 mod replay;
@@ -64,6 +65,16 @@ pub const MAX_NODE_CONSTRAINT_BYTES: usize = 2048;
 /// in 8 MiB); none keeping one cost driverlog 2 20 % more guest instructions (77.5 M instead
 /// of 64.3 M: every expansion replayed its whole path).
 const STATE_EVERY: u32 = 8;
+/// Nodes of the loaded path whose place is marked, so that loading another node's path
+/// goes back to where the two paths part and applies the other's nodes after it, instead of
+/// loading it from the root (a path deeper than this is loaded from the root when it must be
+/// cut back below its end). `load_path` was two fifths of a driverlog expansion natively:
+/// the search moves between paths of about 66 nodes that differ in about 3 at their ends.
+const MARKED_DEPTH: usize = 512;
+/// Entries of the undo logs of the loaded path's last writers and of its earliest times (a
+/// path whose logs run out is loaded from the root when it must be cut back).
+const WRITER_UNDO: usize = 2048;
+const EST_UNDO: usize = 256;
 /// Words of a node record before its constraint bytes: parent, snap, h and byte count, state
 /// hash, next node of its duplicate bucket.
 const NODE_HEADER: usize = 5;
@@ -349,6 +360,17 @@ pub struct Planner<'t, 'm> {
     loaded_node: u32,
     /// The running actions' start steps on the loaded path, parallel to its running list.
     running_start: [u32; MAX_RUNNING],
+    /// What loading another node's path keeps of the loaded one ([`path`]'s
+    /// `load_path`): per node of the loaded path (the first [`MARKED_DEPTH`]), four words: the
+    /// steps, the constraints, the `last_writer` undo entries and the earliest-time undo
+    /// entries there were after it; the undo entries (id or step, value before, two words
+    /// each); whether every node after the first marked one logged its undo entries.
+    path_marks: &'m mut [u32],
+    writer_undo: &'m mut [u32],
+    est_undo: &'m mut [u32],
+    writer_undo_len: usize,
+    est_undo_len: usize,
+    truncatable: bool,
     /// The parent's and the child's states, and a temporary for the successor checks.
     parent_state: &'m mut [u32],
     child_state: &'m mut [u32],
@@ -438,6 +460,9 @@ impl<'t, 'm> Planner<'t, 'm> {
         let est_parent = take(steps)?;
         let est_child = take(steps)?;
         let path_constraints = take(3 * max_constraints)?;
+        let path_marks = take(4 * MARKED_DEPTH.min(steps))?;
+        let writer_undo = take(2 * WRITER_UNDO)?;
+        let est_undo = take(2 * EST_UNDO)?;
         let parent_state = take(sw)?;
         let child_state = take(sw)?;
         let probe_state = take(sw)?;
@@ -468,6 +493,12 @@ impl<'t, 'm> Planner<'t, 'm> {
             loaded_depth: 0,
             loaded_node: NONE,
             running_start: [0; MAX_RUNNING],
+            path_marks,
+            writer_undo,
+            est_undo,
+            writer_undo_len: 0,
+            est_undo_len: 0,
+            truncatable: false,
             parent_state,
             child_state,
             probe_state,
