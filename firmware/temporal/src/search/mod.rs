@@ -65,16 +65,17 @@ pub const MAX_NODE_CONSTRAINT_BYTES: usize = 2048;
 /// in 8 MiB); none keeping one cost driverlog 2 20 % more guest instructions (77.5 M instead
 /// of 64.3 M: every expansion replayed its whole path).
 const STATE_EVERY: u32 = 8;
-/// Nodes of the loaded path whose place is marked, so that loading another node's path
-/// goes back to where the two paths part and applies the other's nodes after it, instead of
-/// loading it from the root (a path deeper than this is loaded from the root when it must be
-/// cut back below its end). `load_path` was two fifths of a driverlog expansion natively:
-/// the search moves between paths of about 66 nodes that differ in about 3 at their ends.
+/// Nodes of the loaded path whose place is marked, at most, so that loading another node's
+/// path goes back to where the two paths part and applies the other's nodes after it, instead
+/// of loading it from the root (a path deeper than that is loaded from the root when it must
+/// be cut back below its end). `load_path` was two fifths of a driverlog expansion natively:
+/// the search moves between paths of about 66 nodes that differ in about 3 at their ends. Fewer
+/// in a small arena (one node per [`ARENA_WORDS_PER_MARK`] words), never more than the plan's
+/// steps. The undo logs of the loaded path's last writers and of its earliest times hold four
+/// and a half entries per marked node (a path whose logs run out is loaded from the root when
+/// it must be cut back): 13 words per marked node in all, 26 KiB in the target's 8 MiB arena.
 const MARKED_DEPTH: usize = 512;
-/// Entries of the undo logs of the loaded path's last writers and of its earliest times (a
-/// path whose logs run out is loaded from the root when it must be cut back).
-const WRITER_UNDO: usize = 2048;
-const EST_UNDO: usize = 256;
+const ARENA_WORDS_PER_MARK: usize = 4096;
 /// Words of a node record before its constraint bytes: parent, snap, h and byte count, state
 /// hash, next node of its duplicate bucket.
 const NODE_HEADER: usize = 5;
@@ -460,9 +461,12 @@ impl<'t, 'm> Planner<'t, 'm> {
         let est_parent = take(steps)?;
         let est_child = take(steps)?;
         let path_constraints = take(3 * max_constraints)?;
-        let path_marks = take(4 * MARKED_DEPTH.min(steps))?;
-        let writer_undo = take(2 * WRITER_UNDO)?;
-        let est_undo = take(2 * EST_UNDO)?;
+        let marked = MARKED_DEPTH
+            .min(steps)
+            .min(arena_words / ARENA_WORDS_PER_MARK);
+        let path_marks = take(4 * marked)?;
+        let writer_undo = take(2 * 4 * marked)?;
+        let est_undo = take(2 * (marked / 2))?;
         let parent_state = take(sw)?;
         let child_state = take(sw)?;
         let probe_state = take(sw)?;

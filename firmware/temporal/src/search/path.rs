@@ -106,7 +106,7 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// and earliest times its later nodes changed, from their undo logs) and `node`'s
     /// nodes after that are applied to it one by one ([`Self::extend_path`]); a node whose
     /// path meets the loaded one more than a few nodes up, or a loaded path that cannot be
-    /// cut back (deeper than [`MARKED_DEPTH`] or its logs full), is loaded from the root the
+    /// cut back (deeper than its marks, [`MARKED_DEPTH`], or its logs full), is loaded from the root the
     /// same way. Either way the path, its constraints and its times are those of a load from
     /// the root: the earliest times are the least schedule, which does not depend on the
     /// order it is worked out in.
@@ -135,7 +135,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         let cut = match keep {
             Some(d) if d == self.loaded_depth => Some(d),
-            Some(d) if self.truncatable && d <= MARKED_DEPTH.min(self.path_nodes.len()) => Some(d),
+            Some(d) if self.truncatable && d <= self.path_marks.len() / 4 => Some(d),
             _ => None,
         };
         let from = if let Some(d) = cut {
@@ -289,7 +289,7 @@ impl<'t, 'm> Planner<'t, 'm> {
                 for s in 1..=old_steps {
                     let before = self.est_child[s];
                     if before != self.est_parent[s] {
-                        if self.est_undo_len < EST_UNDO {
+                        if 2 * self.est_undo_len < self.est_undo.len() {
                             let e = self.est_undo_len;
                             self.est_undo[2 * e] = s as u32;
                             self.est_undo[2 * e + 1] = before;
@@ -304,7 +304,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.loaded_steps = steps;
         self.loaded_constraints = constraints;
         self.loaded_depth = d + 1;
-        if d < MARKED_DEPTH.min(self.path_nodes.len()) {
+        if d < self.path_marks.len() / 4 {
             self.path_marks[4 * d..4 * d + 4].copy_from_slice(&[
                 steps as u32,
                 constraints as u32,
@@ -347,7 +347,7 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// `last_writer[id] = step`, logging the value before for a cut back (see
     /// [`Self::load_path`]; a full log makes the path load from the root next time).
     fn write_id(&mut self, id: usize, step: usize) {
-        if self.writer_undo_len < WRITER_UNDO {
+        if 2 * self.writer_undo_len < self.writer_undo.len() {
             let e = self.writer_undo_len;
             self.writer_undo[2 * e] = id as u32;
             self.writer_undo[2 * e + 1] = self.last_writer[id];
@@ -549,15 +549,14 @@ pub(crate) fn for_each_write(task: &Task<'_>, a: usize, end: bool, f: &mut dyn F
 /// Whether the start or end of `a` reads `id`; an end's invariants count for deletes only
 /// (and numeric invariants always).
 pub(crate) fn snap_reads(task: &Task<'_>, a: u32, end: bool, id: usize, for_delete: bool) -> bool {
-    let act = task.action(a as usize);
     let facts = task.fact_count();
     if id < facts {
+        // The record's first three lists only (start conditions, invariants, end conditions).
+        let [pre_start, inv, pre_end] = task.leading_facts::<3>(a as usize);
         if end {
-            act.facts(FactList::PreEnd).contains(id)
-                || (for_delete && act.facts(FactList::Invariant).contains(id))
+            pre_end.contains(id) || (for_delete && inv.contains(id))
         } else {
-            act.facts(FactList::PreStart).contains(id)
-                || act.facts(FactList::Invariant).contains(id)
+            pre_start.contains(id) || inv.contains(id)
         }
     } else {
         let mut found = false;
