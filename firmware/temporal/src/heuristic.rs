@@ -53,7 +53,8 @@ pub struct Relaxation<'m> {
     pub cost: &'m mut [u32],
     pub supporter: &'m mut [u32],
     /// Per relaxed action r, four words side by side (one index for all): `waiting[4r]` its
-    /// preconditions not yet reached and `waiting[4r + 1]` the sum of their costs, valid if
+    /// preconditions not yet reached (for a pair, [`PAIR`] over its two facts xored, never
+    /// changed) and `waiting[4r + 1]` the sum of their costs, valid if
     /// `waiting[4r + 2]` is this evaluation's `epoch` (else they are `waiting[4r + 3]` and
     /// zero: nothing reached yet), and `waiting[4r + 3]`, for a counted relaxed action, how
     /// many of its relaxed preconditions are facts false in `last_state` ([`NOT_COUNTED`]
@@ -128,6 +129,12 @@ pub struct Relaxation<'m> {
     /// This evaluation's number: counters stamped with another are void (see `waiting`).
     pub epoch: u32,
 }
+
+/// Set in `Relaxation::waiting[4r]` of a counted relaxed action with exactly two relaxed
+/// preconditions (a pair), over the two facts' ids xored: a pair is not counted, it fires
+/// when the later of its two facts is reached (see [`Propagation::reach`]; driverlog's
+/// load, unload, drive and disembark starts, most of its counting).
+pub const PAIR: u32 = 1 << 31;
 
 /// `Relaxation::waiting[4r + 3]` of a relaxed action that is not counted (never zero, never reached by
 /// the updates).
@@ -333,6 +340,27 @@ impl Propagation<'_> {
         for &r in &self.pre_index[split..hi] {
             let i = (r & !GROUP) as usize;
             let [waiting, sum, epoch, left] = self.counts[i];
+            if waiting & PAIR != 0 {
+                // Two preconditions, f and g: no count. The pair fires once, when the later of
+                // the two (by cost, then by id) is reached; the other's cost is final then
+                // (every relaxed action costs at least one, so facts of cost c have theirs
+                // before the first of them is taken), and a g of cost zero holds in the state
+                // (or is an action running in it, reached first).
+                let g = ((waiting & !PAIR) as usize) ^ f;
+                let cg = self.cost[g];
+                if cg < c || (cg == c && g < f) {
+                    let sum = c.saturating_add(cg);
+                    if r & GROUP != 0 {
+                        self.fire_group(i, sum, q);
+                    } else {
+                        if sum == 0 {
+                            self.ready[i / 32] |= 1 << (i % 32);
+                        }
+                        self.fire(i, sum, q);
+                    }
+                }
+                continue;
+            }
             let (waiting, sum) = if epoch == self.epoch {
                 (waiting, sum)
             } else {
@@ -741,7 +769,11 @@ impl<'m> Relaxation<'m> {
             } else {
                 self.pre_count[r]
             };
-            self.waiting[4 * r..4 * r + 4].copy_from_slice(&[0, 0, 0, left]);
+            let pair = match self.preconditions(r) {
+                &[f, g] if left != NOT_COUNTED => PAIR | (f ^ g),
+                _ => 0,
+            };
+            self.waiting[4 * r..4 * r + 4].copy_from_slice(&[pair, 0, 0, left]);
         }
     }
 

@@ -111,6 +111,74 @@ pub fn earliest_with(
     Ok(())
 }
 
+/// The least schedule of a network extended by new steps and constraints, worked out from the
+/// network's before, without a pass over its old constraints where the new ones move no old
+/// step (the search's usual case: a plan grows by a step ordered after earlier ones).
+///
+/// `est[..=old_steps]` must hold the least schedule of the old network: steps up to
+/// `old_steps` and constraints `0..first`, which name only those steps. Steps `old_steps +
+/// 1..=steps` and constraints `first..count` are new. The new steps start at their windows'
+/// lo and the new constraints are relaxed once, in their order (the search appends them by
+/// their later step, each after the steps it names first). Returns true if that settled the
+/// schedule: every new constraint holds, every new step is within its window, and no old step
+/// had to move; `est[..=steps]` is then the least schedule ([`earliest_with`]'s, whose every
+/// raise is forced as this one's is) and the old steps' times are as they came in. Returns
+/// false otherwise, with the old steps' times untouched and the new steps' lower bounds of
+/// their earliest times: [`earliest_with`] over every constraint then decides (from `est` as
+/// it is left, a warm start).
+pub fn earliest_extend(
+    old_steps: usize,
+    steps: usize,
+    first: usize,
+    count: usize,
+    constraint: &dyn Fn(usize) -> Constraint,
+    window: &dyn Fn(usize) -> (u32, u32),
+    est: &mut [u32],
+) -> bool {
+    let Some(est) = est.get_mut(..=steps) else {
+        return false;
+    };
+    if old_steps >= steps {
+        return false;
+    }
+    for (k, e) in est.iter_mut().enumerate().skip(old_steps + 1) {
+        *e = window(k).0;
+    }
+    // Relax the new constraints' lower bounds once, in order, raising only new steps.
+    for i in first..count {
+        let c = constraint(i);
+        let (b, a) = (c.before as usize, c.after as usize);
+        let (Some(&tb), Some(&ta)) = (est.get(b), est.get(a)) else {
+            return false;
+        };
+        let need_a = tb.saturating_add(c.lb);
+        if ta < need_a {
+            if a <= old_steps {
+                return false;
+            }
+            if let Some(x) = est.get_mut(a) {
+                *x = need_a;
+            }
+        }
+    }
+    // Every new constraint must hold as the times are now (a later raise may have broken an
+    // earlier one's lower bound, or an upper bound pushes a step back).
+    for i in first..count {
+        let c = constraint(i);
+        let (b, a) = (c.before as usize, c.after as usize);
+        let (Some(&tb), Some(&ta)) = (est.get(b), est.get(a)) else {
+            return false;
+        };
+        if ta < tb.saturating_add(c.lb) || (c.ub != UNBOUNDED && tb < ta.saturating_sub(c.ub)) {
+            return false;
+        }
+    }
+    est.iter()
+        .enumerate()
+        .skip(old_steps + 1)
+        .all(|(k, &e)| e <= window(k).1 && e != UNBOUNDED)
+}
+
 /// The greatest schedule with every step at or before `horizon` (and its window's hi), into
 /// `lst[..=steps]`. Call it on a consistent network whose earliest schedule ends by `horizon`.
 pub fn latest(

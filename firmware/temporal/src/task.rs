@@ -567,6 +567,31 @@ impl<'a> Task<'a> {
         let at = read_u32(self.bytes, self.layout.offsets_at + 4 * a) as usize;
         read_action(self.bytes, at)
     }
+    /// The first `N` fact lists of action `a`'s record, in [`FactList`]'s order (`N` of 2:
+    /// its start's conditions and its invariants; 3: and its end's conditions), without
+    /// decoding the rest: what the search asks of every step since a fact's last writer when it
+    /// orders a write after the fact's readers.
+    pub fn leading_facts<const N: usize>(&self, a: usize) -> [Facts<'a>; N] {
+        let at = read_u32(self.bytes, self.layout.offsets_at + 4 * a) as usize;
+        let mut rest = self
+            .bytes
+            .get(at..)
+            .and_then(|r| r.get(24..))
+            .unwrap_or(&[]);
+        let mut lists = [Facts { list: &[] }; N];
+        for slot in lists.iter_mut() {
+            let Some((count, tail)) = rest.split_first_chunk::<2>() else {
+                break;
+            };
+            let n = u16::from_le_bytes(*count) as usize;
+            let (list, tail) = tail.split_at_checked(2 * n).unwrap_or((&[], &[]));
+            *slot = Facts {
+                list: list.as_chunks::<2>().0,
+            };
+            rest = tail;
+        }
+        lists
+    }
     /// Action `a`'s duration bounds (lb, ub) and its start and end windows, read from its
     /// record's header without decoding its lists (the search's path and STN read these for
     /// every step of every path it loads).

@@ -185,3 +185,71 @@ fn a_warm_start_from_a_prefix_gives_the_same_times() {
         }
     }
 }
+
+#[test]
+fn an_extension_worked_out_from_the_old_times_matches_floyd_warshall() {
+    // The search extends a path's network by a step's constraints, from the path's times.
+    let mut rng = Rng(0x5eed_0004);
+    let (mut settled, mut not_settled) = (0, 0);
+    for round in 0..20_000 {
+        let (steps, mut cons, windows) = random_network(&mut rng);
+        if steps < 2 {
+            continue;
+        }
+        let old_steps = 1 + rng.below(steps as u64 - 1) as usize;
+        // The old network's constraints name only its steps; the new ones come after them,
+        // half the time in the order the search appends them (by their later step).
+        let (mut old, mut new): (Vec<_>, Vec<_>) = cons
+            .drain(..)
+            .partition(|c| usize::from(c.before) <= old_steps && usize::from(c.after) <= old_steps);
+        if round % 2 == 0 {
+            new.sort_by_key(|c| c.after);
+        }
+        let first = old.len();
+        old.extend(new);
+        let cons = old;
+        let mut est = vec![0u32; steps + 1];
+        if stn::earliest(old_steps, &cons[..first], &|k| windows[k], &mut est).is_err() {
+            continue;
+        }
+        let before = est.clone();
+        let get = |i: usize| cons[i];
+        let ok = stn::earliest_extend(
+            old_steps,
+            steps,
+            first,
+            cons.len(),
+            &get,
+            &|k| windows[k],
+            &mut est,
+        );
+        // The old steps' times are never moved by it.
+        assert_eq!(est[..=old_steps], before[..=old_steps], "{cons:?}");
+        let fw = floyd_warshall(steps + 1, &cons, &windows, None);
+        if ok {
+            let d = fw.unwrap_or_else(|| panic!("settled an inconsistent network {cons:?}"));
+            for k in 0..=steps {
+                assert_eq!(
+                    i64::from(est[k]),
+                    -d[k][0],
+                    "step {k} of {cons:?} {windows:?}"
+                );
+            }
+            settled += 1;
+        } else {
+            // From what it left, the whole check decides as from nothing.
+            let warm = stn::earliest(steps, &cons, &|k| windows[k], &mut est);
+            assert_eq!(warm.is_ok(), fw.is_some(), "{cons:?} {windows:?}");
+            if let Some(d) = fw {
+                for k in 0..=steps {
+                    assert_eq!(i64::from(est[k]), -d[k][0], "step {k} of {cons:?}");
+                }
+            }
+            not_settled += 1;
+        }
+    }
+    assert!(
+        settled > 1000 && not_settled > 1000,
+        "{settled} settled, {not_settled} not"
+    );
+}

@@ -329,12 +329,10 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
             r?;
         }
-        // STN check, warm-started from the parent's earliest times.
+        // STN check, from the parent's earliest times: the new constraints alone where they
+        // move no step of the parent's ([`stn::earliest_extend`]), else every constraint.
         let last = steps + new_steps;
         self.est_child[..=steps].copy_from_slice(&self.est_parent[..=steps]);
-        self.est_child[steps + 1..=last]
-            .iter_mut()
-            .for_each(|x| *x = 0);
         let base = 3 * self.loaded_constraints;
         if base + 3 * n > self.path_constraints.len() {
             return Err(Region::PlanLength);
@@ -346,13 +344,16 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         let wins = &self.path_window;
         let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
-        let consistent = earliest_words(
+        let words = &self.path_constraints[..base + 3 * n];
+        let consistent = stn::earliest_extend(
+            steps,
             last,
-            &self.path_constraints[..base + 3 * n],
+            base / 3,
+            base / 3 + n,
+            &|i| unpack(words, i),
             &window,
             self.est_child,
-        )
-        .is_ok();
+        ) || earliest_words(last, words, &window, self.est_child).is_ok();
         if !consistent {
             self.stats.inconsistent += 1;
             return Ok(());

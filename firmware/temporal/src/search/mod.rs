@@ -33,6 +33,7 @@ use crate::stn;
 use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod expand;
+mod load_check;
 mod novelty;
 mod path;
 mod replay;
@@ -64,6 +65,17 @@ pub const MAX_NODE_CONSTRAINT_BYTES: usize = 2048;
 /// in 8 MiB); none keeping one cost driverlog 2 20 % more guest instructions (77.5 M instead
 /// of 64.3 M: every expansion replayed its whole path).
 const STATE_EVERY: u32 = 8;
+/// Nodes of the loaded path whose place is marked, at most, so that loading another node's
+/// path goes back to where the two paths part and applies the other's nodes after it, instead
+/// of loading it from the root (a path deeper than that is loaded from the root when it must
+/// be cut back below its end). `load_path` was two fifths of a driverlog expansion natively:
+/// the search moves between paths of about 66 nodes that differ in about 3 at their ends. Fewer
+/// in a small arena (one node per [`ARENA_WORDS_PER_MARK`] words), never more than the plan's
+/// steps. The undo logs of the loaded path's last writers and of its earliest times hold four
+/// and a half entries per marked node (a path whose logs run out is loaded from the root when
+/// it must be cut back): 13 words per marked node in all, 26 KiB in the target's 8 MiB arena.
+const MARKED_DEPTH: usize = 512;
+const ARENA_WORDS_PER_MARK: usize = 4096;
 /// Words of a node record before its constraint bytes: parent, snap, h and byte count, state
 /// hash, next node of its duplicate bucket.
 const NODE_HEADER: usize = 5;
@@ -349,6 +361,17 @@ pub struct Planner<'t, 'm> {
     loaded_node: u32,
     /// The running actions' start steps on the loaded path, parallel to its running list.
     running_start: [u32; MAX_RUNNING],
+    /// What loading another node's path keeps of the loaded one ([`path`]'s
+    /// `load_path`): per node of the loaded path (the first [`MARKED_DEPTH`]), four words: the
+    /// steps, the constraints, the `last_writer` undo entries and the earliest-time undo
+    /// entries there were after it; the undo entries (id or step, value before, two words
+    /// each); whether every node after the first marked one logged its undo entries.
+    path_marks: &'m mut [u32],
+    writer_undo: &'m mut [u32],
+    est_undo: &'m mut [u32],
+    writer_undo_len: usize,
+    est_undo_len: usize,
+    truncatable: bool,
     /// The parent's and the child's states, and a temporary for the successor checks.
     parent_state: &'m mut [u32],
     child_state: &'m mut [u32],
@@ -438,6 +461,12 @@ impl<'t, 'm> Planner<'t, 'm> {
         let est_parent = take(steps)?;
         let est_child = take(steps)?;
         let path_constraints = take(3 * max_constraints)?;
+        let marked = MARKED_DEPTH
+            .min(steps)
+            .min(arena_words / ARENA_WORDS_PER_MARK);
+        let path_marks = take(4 * marked)?;
+        let writer_undo = take(2 * 4 * marked)?;
+        let est_undo = take(2 * (marked / 2))?;
         let parent_state = take(sw)?;
         let child_state = take(sw)?;
         let probe_state = take(sw)?;
@@ -468,6 +497,12 @@ impl<'t, 'm> Planner<'t, 'm> {
             loaded_depth: 0,
             loaded_node: NONE,
             running_start: [0; MAX_RUNNING],
+            path_marks,
+            writer_undo,
+            est_undo,
+            writer_undo_len: 0,
+            est_undo_len: 0,
+            truncatable: false,
             parent_state,
             child_state,
             probe_state,

@@ -101,74 +101,85 @@ impl<'t, 'm> Planner<'t, 'm> {
 
     /// Make `node` the loaded path: its steps, decoded constraints, earliest times, last
     /// writers and its running actions' start steps. False if the plan is too long.
+    ///
+    /// The loaded path is cut back to where `node`'s path leaves it (undoing the last writers
+    /// and earliest times its later nodes changed, from their undo logs) and `node`'s
+    /// nodes after that are applied to it one by one ([`Self::extend_path`]); a node whose
+    /// path meets the loaded one more than a few nodes up, or a loaded path that cannot be
+    /// cut back (deeper than its marks, [`MARKED_DEPTH`], or its logs full), is loaded from the root the
+    /// same way. Either way the path, its constraints and its times are those of a load from
+    /// the root: the earliest times are the least schedule, which does not depend on the
+    /// order it is worked out in.
     pub(super) fn load_path(&mut self, node: u32) -> Result<(), Region> {
         if self.loaded_node == node {
             return Ok(());
         }
+        let previous = self.loaded_node;
         self.loaded_node = NONE;
-        let mut depth = 0usize;
-        let mut n = node;
-        while n != NONE {
-            if depth >= self.path_nodes.len() {
+        // The nodes of `node`'s path below the loaded path, deepest first, and how many nodes
+        // of the loaded path it keeps.
+        let mut above = [NONE; 32];
+        let mut k = 0usize;
+        let mut keep = None;
+        if previous != NONE {
+            let mut m = node;
+            while m != NONE && k < above.len() {
+                if let Ok(i) = self.path_nodes[..self.loaded_depth].binary_search(&m) {
+                    keep = Some(i + 1);
+                    break;
+                }
+                above[k] = m;
+                k += 1;
+                m = self.node_parent(m);
+            }
+        }
+        let cut = match keep {
+            Some(d) if d == self.loaded_depth => Some(d),
+            Some(d) if self.truncatable && d <= self.path_marks.len() / 4 => Some(d),
+            _ => None,
+        };
+        let from = if let Some(d) = cut {
+            if d + k > self.path_nodes.len() {
                 return Err(Region::PlanLength);
             }
-            self.path_nodes[depth] = n;
-            depth += 1;
-            n = self.node_parent(n);
-        }
-        self.path_nodes[..depth].reverse();
-        self.loaded_depth = depth;
-        let eps = self.task.epsilon();
-        let ids = self.last_writer.len();
-        self.last_writer[..ids].iter_mut().for_each(|x| *x = 0);
-        let mut steps = 0usize;
-        let mut constraints = 0usize;
-        let mut bytes = [0u8; MAX_NODE_CONSTRAINT_BYTES];
-        for d in 0..depth {
-            let n = self.path_nodes[d];
-            let snap = self.node_snap(n);
-            if snap != NONE {
-                let a = snap >> 2;
-                let kinds: &[u32] = match snap & 3 {
-                    START => &[0],
-                    END => &[1],
-                    _ => &[0, 1],
-                };
-                for &k in kinds {
-                    steps += 1;
-                    if steps + 2 >= self.path_snap.len() {
-                        return Err(Region::PlanLength);
-                    }
-                    self.set_step(steps, a << 1 | k);
-                    self.record_writes(steps, a as usize, k == 1);
-                }
+            self.cut_path(d);
+            for j in 0..k {
+                self.path_nodes[d + j] = above[k - 1 - j];
             }
-            let (_, len) = self.node_constraint_bytes(n);
-            for (i, b) in bytes[..len].iter_mut().enumerate() {
-                *b = self.constraint_byte(n, i);
-            }
-            let mut at = 0;
-            while at < len {
-                let Ok(c) = constraints::decode(&bytes[..len], eps, &mut at) else {
-                    break;
-                };
-                if 3 * (constraints + 1) > self.path_constraints.len() {
+            d
+        } else {
+            let mut depth = 0usize;
+            let mut n = node;
+            while n != NONE {
+                if depth >= self.path_nodes.len() {
                     return Err(Region::PlanLength);
                 }
-                self.path_constraints[3 * constraints] =
-                    u32::from(c.before) | u32::from(c.after) << 16;
-                self.path_constraints[3 * constraints + 1] = c.lb;
-                self.path_constraints[3 * constraints + 2] = c.ub;
-                constraints += 1;
+                self.path_nodes[depth] = n;
+                depth += 1;
+                n = self.node_parent(n);
             }
+            self.path_nodes[..depth].reverse();
+            k = depth;
+            let ids = self.last_writer.len();
+            self.last_writer[..ids].iter_mut().for_each(|x| *x = 0);
+            self.loaded_depth = 0;
+            self.loaded_steps = 0;
+            self.loaded_constraints = 0;
+            self.writer_undo_len = 0;
+            self.est_undo_len = 0;
+            self.truncatable = true;
+            self.est_parent[0] = 0;
+            0
+        };
+        for d in from..from + k {
+            self.extend_path(d)?;
         }
-        self.loaded_steps = steps;
-        self.loaded_constraints = constraints;
         // The node's state.
         let ps = core::mem::take(&mut self.parent_state);
         self.rebuild_state(node, ps);
         self.parent_state = ps;
         // Start steps of the running actions: the last start of each.
+        let steps = self.loaded_steps;
         let at = self.running_at();
         let running_n = self.parent_state[at] as usize;
         for i in 0..running_n {
@@ -179,18 +190,128 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
             self.running_start[i] = s as u32;
         }
-        // Earliest times of the path (consistent: it was checked when the node was stored).
-        self.est_parent[..=steps].iter_mut().for_each(|x| *x = 0);
-        let wins = &self.path_window;
-        let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
-        earliest_words(
-            steps,
-            &self.path_constraints[..3 * constraints],
-            &window,
-            self.est_parent,
-        )
-        .map_err(|_| Region::PlanLength)?;
         self.loaded_node = node;
+        Ok(())
+    }
+
+    /// Cut the loaded path back to its first `depth` nodes (`depth` at least 1, and at most
+    /// the loaded depth; below it only if the path is truncatable and `depth` is marked): the
+    /// last writers and earliest times the later nodes changed are undone.
+    fn cut_path(&mut self, depth: usize) {
+        if depth == self.loaded_depth {
+            return;
+        }
+        let m = 4 * (depth - 1);
+        let (steps, constraints, writers, ests) = (
+            self.path_marks[m] as usize,
+            self.path_marks[m + 1] as usize,
+            self.path_marks[m + 2] as usize,
+            self.path_marks[m + 3] as usize,
+        );
+        for e in (writers..self.writer_undo_len).rev() {
+            self.last_writer[self.writer_undo[2 * e] as usize] = self.writer_undo[2 * e + 1];
+        }
+        for e in (ests..self.est_undo_len).rev() {
+            self.est_parent[self.est_undo[2 * e] as usize] = self.est_undo[2 * e + 1];
+        }
+        self.writer_undo_len = writers;
+        self.est_undo_len = ests;
+        self.loaded_steps = steps;
+        self.loaded_constraints = constraints;
+        self.loaded_depth = depth;
+    }
+
+    /// Apply node `path_nodes[d]` (a child of the loaded path's last node, `d` its depth) to
+    /// the loaded path: its steps and their last writes, its decoded constraints, and the
+    /// earliest times of the path it ends ([`stn::earliest_extend`]: the steps before keep
+    /// theirs unless its constraints move them), logging what a cut back would undo.
+    fn extend_path(&mut self, d: usize) -> Result<(), Region> {
+        let n = self.path_nodes[d];
+        let old_steps = self.loaded_steps;
+        let first = self.loaded_constraints;
+        let eps = self.task.epsilon();
+        let mut steps = old_steps;
+        let snap = self.node_snap(n);
+        if snap != NONE {
+            let a = snap >> 2;
+            let kinds: &[u32] = match snap & 3 {
+                START => &[0],
+                END => &[1],
+                _ => &[0, 1],
+            };
+            for &k in kinds {
+                steps += 1;
+                if steps + 2 >= self.path_snap.len() {
+                    return Err(Region::PlanLength);
+                }
+                self.set_step(steps, a << 1 | k);
+                self.record_writes(steps, a as usize, k == 1);
+            }
+        }
+        let mut constraints = first;
+        let (_, len) = self.node_constraint_bytes(n);
+        let mut bytes = [0u8; MAX_NODE_CONSTRAINT_BYTES];
+        for (i, b) in bytes[..len].iter_mut().enumerate() {
+            *b = self.constraint_byte(n, i);
+        }
+        let mut at = 0;
+        while at < len {
+            let Ok(c) = constraints::decode(&bytes[..len], eps, &mut at) else {
+                break;
+            };
+            if 3 * (constraints + 1) > self.path_constraints.len() {
+                return Err(Region::PlanLength);
+            }
+            self.path_constraints[3 * constraints] = u32::from(c.before) | u32::from(c.after) << 16;
+            self.path_constraints[3 * constraints + 1] = c.lb;
+            self.path_constraints[3 * constraints + 2] = c.ub;
+            constraints += 1;
+        }
+        // Earliest times of the path (consistent: it was checked when the node was stored).
+        if steps > old_steps || constraints > first {
+            let wins = &self.path_window;
+            let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
+            let words = &self.path_constraints[..3 * constraints];
+            let settled = stn::earliest_extend(
+                old_steps,
+                steps,
+                first,
+                constraints,
+                &|i| unpack(words, i),
+                &window,
+                self.est_parent,
+            );
+            if !settled {
+                // Old steps may move: keep their times to log the ones that do.
+                self.est_child[..=old_steps].copy_from_slice(&self.est_parent[..=old_steps]);
+                earliest_words(steps, words, &window, self.est_parent)
+                    .map_err(|_| Region::PlanLength)?;
+                for s in 1..=old_steps {
+                    let before = self.est_child[s];
+                    if before != self.est_parent[s] {
+                        if 2 * self.est_undo_len < self.est_undo.len() {
+                            let e = self.est_undo_len;
+                            self.est_undo[2 * e] = s as u32;
+                            self.est_undo[2 * e + 1] = before;
+                            self.est_undo_len += 1;
+                        } else {
+                            self.truncatable = false;
+                        }
+                    }
+                }
+            }
+        }
+        self.loaded_steps = steps;
+        self.loaded_constraints = constraints;
+        self.loaded_depth = d + 1;
+        if d < self.path_marks.len() / 4 {
+            self.path_marks[4 * d..4 * d + 4].copy_from_slice(&[
+                steps as u32,
+                constraints as u32,
+                self.writer_undo_len as u32,
+                self.est_undo_len as u32,
+            ]);
+        }
         Ok(())
     }
 
@@ -216,11 +337,25 @@ impl<'t, 'm> Planner<'t, 'm> {
             )
         };
         for f in act.facts(add).iter().chain(act.facts(del).iter()) {
-            self.last_writer[f] = step as u32;
+            self.write_id(f, step);
         }
         for e in act.numeric(effs) {
-            self.last_writer[facts + e.target] = step as u32;
+            self.write_id(facts + e.target, step);
         }
+    }
+
+    /// `last_writer[id] = step`, logging the value before for a cut back (see
+    /// [`Self::load_path`]; a full log makes the path load from the root next time).
+    fn write_id(&mut self, id: usize, step: usize) {
+        if 2 * self.writer_undo_len < self.writer_undo.len() {
+            let e = self.writer_undo_len;
+            self.writer_undo[2 * e] = id as u32;
+            self.writer_undo[2 * e + 1] = self.last_writer[id];
+            self.writer_undo_len += 1;
+        } else {
+            self.truncatable = false;
+        }
+        self.last_writer[id] = step as u32;
     }
 
     /// Whether step `s` of the loaded path reads id `id` (a fact, or `facts + variable`).
@@ -414,15 +549,14 @@ pub(crate) fn for_each_write(task: &Task<'_>, a: usize, end: bool, f: &mut dyn F
 /// Whether the start or end of `a` reads `id`; an end's invariants count for deletes only
 /// (and numeric invariants always).
 pub(crate) fn snap_reads(task: &Task<'_>, a: u32, end: bool, id: usize, for_delete: bool) -> bool {
-    let act = task.action(a as usize);
     let facts = task.fact_count();
     if id < facts {
+        // The record's first three lists only (start conditions, invariants, end conditions).
+        let [pre_start, inv, pre_end] = task.leading_facts::<3>(a as usize);
         if end {
-            act.facts(FactList::PreEnd).contains(id)
-                || (for_delete && act.facts(FactList::Invariant).contains(id))
+            pre_end.contains(id) || (for_delete && inv.contains(id))
         } else {
-            act.facts(FactList::PreStart).contains(id)
-                || act.facts(FactList::Invariant).contains(id)
+            pre_start.contains(id) || inv.contains(id)
         }
     } else {
         let mut found = false;

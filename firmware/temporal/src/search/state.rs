@@ -262,7 +262,9 @@ impl<'t, 'm> Planner<'t, 'm> {
             state[at] += 1;
             // The new action's own invariants must hold once it has started.
             if !inv.iter().all(|f| Self::fact(state, f))
-                || !self.numeric_ok(state, NumericList::CondInvariant, a)
+                || !act
+                    .numeric(NumericList::CondInvariant)
+                    .all(|c| c.holds(&|v| self.value(state, v)))
             {
                 return false;
             }
