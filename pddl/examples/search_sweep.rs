@@ -65,6 +65,13 @@ fn main() {
             {
                 planner.set_novelty_phases(mask);
             }
+            // LOOKAHEAD_PHASES: which searches look ahead along the relaxed plan (bit p: search p).
+            if let Some(mask) = std::env::var("LOOKAHEAD_PHASES")
+                .ok()
+                .and_then(|s| s.parse().ok())
+            {
+                planner.set_lookahead_phases(mask);
+            }
             let status = loop {
                 let s = planner.step(256);
                 if s != temporal::Status::Searching || planner.stats().expanded >= cap {
@@ -77,10 +84,11 @@ fn main() {
             let work = stats.evaluated * actions;
             total_work += work;
             println!(
-                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} plan {len} work {:.1}M peak {} KiB {:.2} s",
+                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} plan {len} work {:.1}M peak {} KiB {:.2} s",
                 stats.expanded,
                 stats.evaluated,
                 stats.restarts,
+                stats.lookahead_steps,
                 work as f64 / 1e6,
                 stats.peak_words * 4 / 1024,
                 started.elapsed().as_secs_f64()

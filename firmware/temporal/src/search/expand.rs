@@ -409,7 +409,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.status = Status::Solved;
             return Ok(());
         }
-        self.push_successors(node, h)
+        self.push_successors(node, h)?;
+        self.lookahead(node)
     }
 
     /// Whether the child state (in `child_state`, reached by an end or a compressed action from

@@ -33,6 +33,7 @@ use crate::stn;
 use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod expand;
+mod lookahead;
 mod novelty;
 mod path;
 mod replay;
@@ -40,6 +41,7 @@ pub(crate) use path::{for_each_read, for_each_write, snap_reads};
 mod setup;
 mod state;
 
+pub use lookahead::{LOOKAHEAD_MAX_STEPS, LOOKAHEAD_PHASES};
 pub use novelty::{NoveltyTable, NOVELTY_PARTITIONS};
 use setup::SetUp;
 pub use setup::BUCKET_WORDS_PER_PIECE;
@@ -219,6 +221,8 @@ pub struct Stats {
     pub shed: u64,
     /// The best h seen (in the search under way: a restart begins again).
     pub best_h: u32,
+    /// Snaps applied by lookaheads along relaxed plans ([`LOOKAHEAD_PHASES`]; not expansions).
+    pub lookahead_steps: u64,
     /// Times the search restarted from the root with its second configuration (see
     /// [`RESTART_AFTER`]).
     pub restarts: u64,
@@ -383,6 +387,13 @@ pub struct Planner<'t, 'm> {
     /// Words at the end of the node store that hold the novelty table while a novelty search
     /// runs (0 otherwise): the nodes end before them.
     novelty_words: usize,
+    /// [`LOOKAHEAD_PHASES`] unless set otherwise ([`Planner::set_lookahead_phases`]), and the
+    /// relaxed plan's snaps a lookahead has still to apply (bit per relaxed action).
+    lookahead_phases: u8,
+    lookahead_todo: &'m mut [u32],
+    /// Whether an action of the task has a window (set up with the compression marks): no
+    /// lookahead then ([`Planner::windows_in`]).
+    task_has_windows: bool,
     goal_node: u32,
     status: Status,
     stats: Stats,
@@ -441,6 +452,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         let parent_state = take(sw)?;
         let child_state = take(sw)?;
         let probe_state = take(sw)?;
+        let lookahead_todo = take((2 * actions).div_ceil(32))?;
         let fixed = used;
         let remaining = rest.len();
         let bucket_count = (remaining / 64).clamp(1024, 1 << 16).next_power_of_two();
@@ -497,6 +509,9 @@ impl<'t, 'm> Planner<'t, 'm> {
             turn: false,
             novelty_phases: NOVELTY_PHASES,
             novelty_words: 0,
+            lookahead_phases: LOOKAHEAD_PHASES,
+            lookahead_todo,
+            task_has_windows: false,
             goal_node: NONE,
             status: Status::Searching,
             stats: Stats {
@@ -540,6 +555,11 @@ impl<'t, 'm> Planner<'t, 'm> {
     pub fn set_novelty_phases(&mut self, mask: u8) {
         self.novelty_phases = mask;
         self.set_novelty_table();
+    }
+    /// Look ahead along the relaxed plan in the searches of `mask` (bit p: search p) instead
+    /// of [`LOOKAHEAD_PHASES`] (for measuring placements).
+    pub fn set_lookahead_phases(&mut self, mask: u8) {
+        self.lookahead_phases = mask;
     }
     /// Whether the end of `action` may be applied straight after its start without losing plans.
     pub fn compression_safe(&self, action: usize) -> bool {
