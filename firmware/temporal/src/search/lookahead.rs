@@ -28,9 +28,12 @@ pub const LOOKAHEAD_MAX_STEPS: u32 = 256;
 pub const LOOKAHEAD_PHASES: u8 = 1;
 
 impl<'t, 'm> Planner<'t, 'm> {
-    /// Look ahead from `node`, just evaluated (its state in `child_state`, its relaxed plan in
-    /// the heuristic's marks) and its successors pushed: apply its relaxed plan's snaps while
-    /// they apply, store each as a node, evaluate the last state and push its successors.
+    /// Begin a lookahead from `node`, just evaluated (its relaxed plan in the heuristic's
+    /// marks) and its successors pushed: [`Self::lookahead_step`] applies its relaxed plan's
+    /// snaps while they apply, one a call, storing each as a node, then evaluates the last
+    /// state and pushes its successors. One snap a call, so that no unit of the search's work
+    /// ([`Self::step`]'s budget) is much more than an expansion: on the target the search
+    /// stops before a unit that would overrun the window's share.
     pub(super) fn lookahead(&mut self, node: u32) -> Result<(), Region> {
         if self.lookahead_phases & 1 << self.phase == 0
             || self.task_has_windows
@@ -40,36 +43,53 @@ impl<'t, 'm> Planner<'t, 'm> {
         }
         let words = self.lookahead_todo.len().min(self.relax.marked.len());
         self.lookahead_todo[..words].copy_from_slice(&self.relax.marked[..words]);
-        let mut at = node;
-        let mut steps = 0u32;
-        while steps < LOOKAHEAD_MAX_STEPS {
-            self.load_path(at)?;
-            let Some((r, snap)) = self.lookahead_pick() else {
-                break;
-            };
-            self.lookahead_todo[r / 32] &= !(1 << (r % 32));
-            let Some(next) = self.advance(at, snap)? else {
-                continue;
-            };
-            at = next;
-            steps += 1;
-            if snap & 3 == START {
-                // Its end comes later in the lookahead (the relaxed plan counts it without
-                // marking it when only the start is in the plan).
-                let e = r + 1;
-                self.lookahead_todo[e / 32] |= 1 << (e % 32);
-            }
-            if self.is_goal(self.child_state) {
-                self.goal_node = at;
-                self.status = Status::Solved;
+        self.lookahead_node = node;
+        self.lookahead_origin = node;
+        self.lookahead_count = 0;
+        Ok(())
+    }
+
+    /// Whether a lookahead is under way ([`Self::step`] goes on with it before anything else).
+    pub(super) fn looking_ahead(&self) -> bool {
+        self.lookahead_node != NONE
+    }
+
+    /// One unit of the lookahead under way: apply its next snap, or, when none applies (or
+    /// after [`LOOKAHEAD_MAX_STEPS`]), end it: evaluate its last state and push its successors.
+    pub(super) fn lookahead_step(&mut self) -> Result<(), Region> {
+        let at = self.lookahead_node;
+        self.load_path(at)?;
+        if self.lookahead_count < LOOKAHEAD_MAX_STEPS {
+            if let Some((r, snap)) = self.lookahead_pick() {
+                self.lookahead_todo[r / 32] &= !(1 << (r % 32));
+                let Some(next) = self.advance(at, snap)? else {
+                    return Ok(());
+                };
+                self.lookahead_node = next;
+                self.lookahead_count += 1;
+                self.stats.lookahead_steps += 1;
+                if snap & 3 == START {
+                    // Its end comes later in the lookahead (the relaxed plan counts it without
+                    // marking it when only the start is in the plan).
+                    let e = r + 1;
+                    self.lookahead_todo[e / 32] |= 1 << (e % 32);
+                }
+                if self.is_goal(self.child_state) {
+                    self.lookahead_node = NONE;
+                    self.goal_node = next;
+                    self.status = Status::Solved;
+                }
                 return Ok(());
             }
         }
-        self.stats.lookahead_steps += u64::from(steps);
-        if at == node {
+        self.lookahead_node = NONE;
+        if at == self.lookahead_origin {
             return Ok(());
         }
-        // `child_state` is the last node's state (stored by `advance`).
+        // The last node's state (the loaded path's end; `child_state` may hold a snap tried
+        // and refused since).
+        let sw = self.child_state.len();
+        self.child_state[..sw].copy_from_slice(&self.parent_state[..sw]);
         let task = self.task;
         let h = {
             let cs = &*self.child_state;

@@ -391,6 +391,11 @@ pub struct Planner<'t, 'm> {
     /// relaxed plan's snaps a lookahead has still to apply (bit per relaxed action).
     lookahead_phases: u8,
     lookahead_todo: &'m mut [u32],
+    /// The lookahead under way: its last node ([`NONE`]: none under way), the node it started
+    /// from, and the snaps it applied.
+    lookahead_node: u32,
+    lookahead_origin: u32,
+    lookahead_count: u32,
     /// Whether an action of the task has a window (set up with the compression marks): no
     /// lookahead then ([`Planner::windows_in`]).
     task_has_windows: bool,
@@ -511,6 +516,9 @@ impl<'t, 'm> Planner<'t, 'm> {
             novelty_words: 0,
             lookahead_phases: LOOKAHEAD_PHASES,
             lookahead_todo,
+            lookahead_node: NONE,
+            lookahead_origin: NONE,
+            lookahead_count: 0,
             task_has_windows: false,
             goal_node: NONE,
             status: Status::Searching,
