@@ -72,6 +72,12 @@ fn main() {
             {
                 planner.set_lookahead_phases(mask);
             }
+            if let Some(n) = std::env::var("LOOKAHEAD_AFTER")
+                .ok()
+                .and_then(|s| s.parse().ok())
+            {
+                planner.set_lookahead_after(n);
+            }
             let status = loop {
                 let s = planner.step(256);
                 if s != temporal::Status::Searching || planner.stats().expanded >= cap {
@@ -80,11 +86,11 @@ fn main() {
             };
             let stats = planner.stats();
             let mut out = vec![temporal::PlannedAction::default(); 1024];
-            let len = planner.plan(&mut out).map(|(n, _)| n).unwrap_or(0);
+            let (len, makespan) = planner.plan(&mut out).unwrap_or((0, 0));
             let work = stats.evaluated * actions;
             total_work += work;
             println!(
-                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} plan {len} work {:.1}M peak {} KiB {:.2} s",
+                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} plan {len} makespan {makespan} work {:.1}M peak {} KiB {:.2} s",
                 stats.expanded,
                 stats.evaluated,
                 stats.restarts,

@@ -112,3 +112,32 @@ fn a_task_with_windows_is_searched_without_the_lookahead() {
         .validate(&steps)
         .expect("valid");
 }
+
+/// Every satellite, rovers and driverlog instance 1-15 and satellite 20 of
+/// `../shared/benchmarks`, planned with the lookahead (the default) in the target's arena:
+/// solved, and each plan accepted by the validator. Long in a debug build: `cargo test --release
+/// -p pddl --test lookahead -- --ignored`.
+#[test]
+#[ignore]
+fn benchmark_plans_with_the_lookahead_are_valid() {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/benchmarks/pddl");
+    for domain in ["satellite", "rovers", "driverlog"] {
+        let dir = format!("{root}/{domain}-time-simple-automatic");
+        let d = std::fs::read_to_string(format!("{dir}/domain.pddl")).expect("domain");
+        for instance in (1..=15).chain((domain == "satellite").then_some(20)) {
+            let p = std::fs::read_to_string(format!("{dir}/instances/instance-{instance}.pddl"))
+                .expect("problem");
+            let (status, stats, steps) = plan(&d, &p, None, 100_000);
+            assert_eq!(status, Status::Solved, "{domain} {instance}: {stats:?}");
+            Validator::new(&d, &p, 0.01)
+                .validate(&steps)
+                .unwrap_or_else(|e| panic!("{domain} {instance}: {e}"));
+            println!(
+                "{domain} {instance}: {} evaluations, {} lookahead steps, {} actions",
+                stats.evaluated,
+                stats.lookahead_steps,
+                steps.len()
+            );
+        }
+    }
+}

@@ -24,6 +24,9 @@ use super::*;
 /// Most snaps one lookahead applies.
 pub const LOOKAHEAD_MAX_STEPS: u32 = 256;
 
+/// Expansions without a new best h before the search looks ahead (0: from every state).
+pub const LOOKAHEAD_AFTER: u64 = 0;
+
 /// The searches of the portfolio (bit p: search p) that look ahead ([`Planner::lookahead`]).
 pub const LOOKAHEAD_PHASES: u8 = 1;
 
@@ -36,6 +39,7 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// stops before a unit that would overrun the window's share.
     pub(super) fn lookahead(&mut self, node: u32) -> Result<(), Region> {
         if self.lookahead_phases & 1 << self.phase == 0
+            || self.stats.expanded - self.last_progress < self.lookahead_after
             || self.task_has_windows
             || self.status != Status::Searching
         {

@@ -41,7 +41,7 @@ pub(crate) use path::{for_each_read, for_each_write, snap_reads};
 mod setup;
 mod state;
 
-pub use lookahead::{LOOKAHEAD_MAX_STEPS, LOOKAHEAD_PHASES};
+pub use lookahead::{LOOKAHEAD_AFTER, LOOKAHEAD_MAX_STEPS, LOOKAHEAD_PHASES};
 pub use novelty::{NoveltyTable, NOVELTY_PARTITIONS};
 use setup::SetUp;
 pub use setup::BUCKET_WORDS_PER_PIECE;
@@ -390,6 +390,8 @@ pub struct Planner<'t, 'm> {
     /// [`LOOKAHEAD_PHASES`] unless set otherwise ([`Planner::set_lookahead_phases`]), and the
     /// relaxed plan's snaps a lookahead has still to apply (bit per relaxed action).
     lookahead_phases: u8,
+    /// [`LOOKAHEAD_AFTER`] unless set otherwise ([`Planner::set_lookahead_after`]).
+    lookahead_after: u64,
     lookahead_todo: &'m mut [u32],
     /// The lookahead under way: its last node ([`NONE`]: none under way), the node it started
     /// from, and the snaps it applied.
@@ -515,6 +517,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             novelty_phases: NOVELTY_PHASES,
             novelty_words: 0,
             lookahead_phases: LOOKAHEAD_PHASES,
+            lookahead_after: LOOKAHEAD_AFTER,
             lookahead_todo,
             lookahead_node: NONE,
             lookahead_origin: NONE,
@@ -568,6 +571,11 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// of [`LOOKAHEAD_PHASES`] (for measuring placements).
     pub fn set_lookahead_phases(&mut self, mask: u8) {
         self.lookahead_phases = mask;
+    }
+    /// Look ahead only after `expansions` without a new best h instead of [`LOOKAHEAD_AFTER`]
+    /// (for measuring placements).
+    pub fn set_lookahead_after(&mut self, expansions: u64) {
+        self.lookahead_after = expansions;
     }
     /// Whether the end of `action` may be applied straight after its start without losing plans.
     pub fn compression_safe(&self, action: usize) -> bool {
