@@ -90,11 +90,13 @@ fn main() {
             let work = stats.evaluated * actions;
             total_work += work;
             println!(
-                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} plan {len} makespan {makespan} work {:.1}M peak {} KiB {:.2} s",
+                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} plan {len} makespan {makespan} inconsistent {} duplicates {} work {:.1}M peak {} KiB {:.2} s",
                 stats.expanded,
                 stats.evaluated,
                 stats.restarts,
                 stats.lookahead_steps,
+                stats.inconsistent,
+                stats.duplicates,
                 work as f64 / 1e6,
                 stats.peak_words * 4 / 1024,
                 started.elapsed().as_secs_f64()
