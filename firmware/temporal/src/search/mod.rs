@@ -15,6 +15,9 @@
 //! The first search of a small portfolio orders the preferred successors of equal h by how
 //! much of the relaxed plan they undo (the other list keeps the order generated), and gives way after [`ORDERED_RESTART_AFTER`] expansions without
 //! progress to the searches before it ([`RESTART_AFTER`]).
+//! Each state the first search evaluates also begins a lookahead along its relaxed plan
+//! ([`LOOKAHEAD_PHASES`], YAHSP-style: `lookahead.rs`), which adds the state the relaxed plan's
+//! applicable snaps lead to, evaluated once.
 //!
 //! A ground action runs at most once at a time (no self-overlap): its start is applicable
 //! only while it is not running.
