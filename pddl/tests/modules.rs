@@ -61,13 +61,9 @@ fn registry(w2: (f64, f64)) -> ModuleRegistry {
 /// the direct traverse gives 6.01): a greedy search keeps the first plan it reaches.
 fn plan_with(modules: &ModuleRegistry) -> (Vec<common::Step>, f64) {
     let compiled = compile(modules).expect("compiles");
-    let planned = common::plan_with(
-        &compiled,
-        PlannerConfig::default(),
-        1 << 20,
-        10_000,
-        |p| p.set_lookahead_phases(0),
-    );
+    let planned = common::plan_with(&compiled, PlannerConfig::default(), 1 << 20, 10_000, |p| {
+        p.set_lookahead_phases(0)
+    });
     assert_eq!(planned.status, temporal::Status::Solved);
     (planned.plan, planned.makespan)
 }

@@ -61,6 +61,16 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// One unit of the lookahead under way: apply its next snap, or, when none applies (or
     /// after [`LOOKAHEAD_MAX_STEPS`]), end it: evaluate its last state and push its successors.
     pub(super) fn lookahead_step(&mut self) -> Result<(), Region> {
+        let r = self.lookahead_unit();
+        if r.is_err() {
+            // A path too long (or the store full) ends the lookahead; the search goes on as
+            // [`Self::step`] says.
+            self.lookahead_node = NONE;
+        }
+        r
+    }
+
+    fn lookahead_unit(&mut self) -> Result<(), Region> {
         let at = self.lookahead_node;
         self.load_path(at)?;
         if self.lookahead_count < LOOKAHEAD_MAX_STEPS {
