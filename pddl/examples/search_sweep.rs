@@ -65,6 +65,19 @@ fn main() {
             {
                 planner.set_novelty_phases(mask);
             }
+            // LOOKAHEAD_PHASES: which searches look ahead along the relaxed plan (bit p: search p).
+            if let Some(mask) = std::env::var("LOOKAHEAD_PHASES")
+                .ok()
+                .and_then(|s| s.parse().ok())
+            {
+                planner.set_lookahead_phases(mask);
+            }
+            if let Some(n) = std::env::var("LOOKAHEAD_AFTER")
+                .ok()
+                .and_then(|s| s.parse().ok())
+            {
+                planner.set_lookahead_after(n);
+            }
             let status = loop {
                 let s = planner.step(256);
                 if s != temporal::Status::Searching || planner.stats().expanded >= cap {
@@ -73,14 +86,17 @@ fn main() {
             };
             let stats = planner.stats();
             let mut out = vec![temporal::PlannedAction::default(); 1024];
-            let len = planner.plan(&mut out).map(|(n, _)| n).unwrap_or(0);
+            let (len, makespan) = planner.plan(&mut out).unwrap_or((0, 0));
             let work = stats.evaluated * actions;
             total_work += work;
             println!(
-                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} plan {len} work {:.1}M peak {} KiB {:.2} s",
+                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} plan {len} makespan {makespan} inconsistent {} duplicates {} work {:.1}M peak {} KiB {:.2} s",
                 stats.expanded,
                 stats.evaluated,
                 stats.restarts,
+                stats.lookahead_steps,
+                stats.inconsistent,
+                stats.duplicates,
                 work as f64 / 1e6,
                 stats.peak_words * 4 / 1024,
                 started.elapsed().as_secs_f64()

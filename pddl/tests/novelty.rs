@@ -32,6 +32,10 @@ fn plan_in(
     let mut arena = vec![0u32; 2 << 20];
     let mut planner =
         temporal::Planner::new_deferred(task, &mut arena, PlannerConfig::default()).expect("fits");
+    // The novelty searches run after the first search stalls; the lookahead along the relaxed
+    // plan (in the first search) solves these instances before (driverlog 12 in 494
+    // evaluations, 13 in 399), so it is off here, where the searches after it are tested.
+    planner.set_lookahead_phases(0);
     if let Some(mask) = novelty_phases {
         planner.set_novelty_phases(mask);
     }

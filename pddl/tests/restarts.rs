@@ -25,11 +25,26 @@ fn run(
     config: PlannerConfig,
     restart_after: Option<u64>,
 ) -> (temporal::Status, temporal::Stats, Vec<common::Step>) {
+    run_with(config, restart_after, Some(0))
+}
+
+/// [`run`] with the lookahead along the relaxed plan in the searches of `lookahead` (None: the
+/// default). The portfolio's tests search without it: with it, the first search fills this
+/// small arena (the scratch for 2,048 steps leaves a few thousand words of nodes) with the
+/// lookaheads' nodes and gives way to the second search, which finds the plan.
+fn run_with(
+    config: PlannerConfig,
+    restart_after: Option<u64>,
+    lookahead: Option<u8>,
+) -> (temporal::Status, temporal::Stats, Vec<common::Step>) {
     let compiled = common::compile(DOMAIN, PROBLEM).expect("compiles");
     let task = temporal::Task::parse(&compiled.task).expect("valid");
     let tpu = f64::from(task.ticks_per_unit());
     let mut arena = vec![0u32; 1 << 16];
     let mut planner = temporal::Planner::new(task, &mut arena, config).expect("fits");
+    if let Some(mask) = lookahead {
+        planner.set_lookahead_phases(mask);
+    }
     if let Some(n) = restart_after {
         planner.set_restart_after(n);
     }
@@ -59,7 +74,12 @@ fn a_second_search_that_prunes_too_much_hands_over_to_a_third_that_finds_the_pla
     // Without restarts the default finds a plan, in its first search.
     let (first, stats, plan) = run(PlannerConfig::default(), None);
     assert_eq!(first, temporal::Status::Solved);
-    assert_eq!(stats.restarts, 0);
+    assert_eq!(stats.restarts, 0, "{stats:?}");
+    validator.validate(&plan).expect("valid");
+    // With the lookahead (the default), a valid plan too, from the second search.
+    let (status, stats, plan) = run_with(PlannerConfig::default(), None, None);
+    assert_eq!(status, temporal::Status::Solved, "{stats:?}");
+    assert!(stats.lookahead_steps > 0, "{stats:?}");
     validator.validate(&plan).expect("valid");
     // Restarting at once: the third search (every repeat pruned) empties its open lists, so
     // does the novelty search that prunes as much (`temporal::search::NOVELTY_LAST`), and the

@@ -604,11 +604,23 @@ pub fn plan(
     arena_words: usize,
     max_expansions: u64,
 ) -> Planned {
+    plan_with(compiled, config, arena_words, max_expansions, |_| {})
+}
+
+/// [`plan`] with the planner set up by `set` first (e.g. the lookahead's searches).
+pub fn plan_with(
+    compiled: &pddl::Compiled,
+    config: temporal::PlannerConfig,
+    arena_words: usize,
+    max_expansions: u64,
+    set: impl FnOnce(&mut temporal::Planner<'_, '_>),
+) -> Planned {
     let task = temporal::Task::parse(&compiled.task).expect("the front end writes a valid task");
     let tpu = f64::from(task.ticks_per_unit());
     let mut arena = vec![0u32; arena_words];
     let mut planner =
         temporal::Planner::new(task, &mut arena, config).expect("arena holds the tables");
+    set(&mut planner);
     let status = loop {
         let s = planner.step(64);
         if s != temporal::Status::Searching || planner.stats().expanded >= max_expansions {

@@ -172,6 +172,12 @@ impl<'t, 'm> Planner<'t, 'm> {
             if self.status != Status::Searching {
                 break;
             }
+            // A lookahead under way goes on first, a snap a unit of the budget.
+            if self.looking_ahead() {
+                let r = self.lookahead_step();
+                self.unit_ended(r);
+                continue;
+            }
             let stalled = self.stats.expanded - self.last_progress;
             if self.phase == 0 && stalled > self.ordered_restart_after {
                 self.restart(1);
@@ -203,19 +209,25 @@ impl<'t, 'm> Planner<'t, 'm> {
                 };
                 break;
             };
-            match self.expand(parent, snap) {
-                Ok(()) => {}
-                // A path too long to extend is a branch dropped, not the search's end.
-                Err(Region::PlanLength) => self.stats.too_long += 1,
-                Err(_) if self.pruning_more() => self.restart(self.after_pruning_more()),
-                // The ordered search gives way to the searches as before.
-                Err(_) if self.phase == 0 => self.restart(1),
-                Err(r) => self.status = Status::OutOfMemory(r),
-            }
+            let r = self.expand(parent, snap);
+            self.unit_ended(r);
         }
         let s = self.stats();
         self.stats.peak_words = s.peak_words;
         self.status
+    }
+
+    /// What an expansion's (or a lookahead step's) error does to the search.
+    fn unit_ended(&mut self, r: Result<(), Region>) {
+        match r {
+            Ok(()) => {}
+            // A path too long to extend is a branch dropped, not the search's end.
+            Err(Region::PlanLength) => self.stats.too_long += 1,
+            Err(_) if self.pruning_more() => self.restart(self.after_pruning_more()),
+            // The ordered search gives way to the searches as before.
+            Err(_) if self.phase == 0 => self.restart(1),
+            Err(r) => self.status = Status::OutOfMemory(r),
+        }
     }
 
     /// Whether the search under way prunes more repeated states than the configuration asks
@@ -253,6 +265,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             (_, asked) => asked,
         };
         self.shed_base = self.stats.shed;
+        self.lookahead_node = NONE;
         self.boost = 0;
         self.turn = false;
         self.nodes_used = 0;
@@ -410,7 +423,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.status = Status::Solved;
             return Ok(());
         }
-        self.push_successors(node, h)
+        self.push_successors(node, h)?;
+        self.lookahead(node)
     }
 
     /// Whether the child state (in `child_state`, reached by an end or a compressed action from

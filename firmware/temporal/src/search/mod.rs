@@ -15,6 +15,9 @@
 //! The first search of a small portfolio orders the preferred successors of equal h by how
 //! much of the relaxed plan they undo (the other list keeps the order generated), and gives way after [`ORDERED_RESTART_AFTER`] expansions without
 //! progress to the searches before it ([`RESTART_AFTER`]).
+//! Each state the first search evaluates also begins a lookahead along its relaxed plan
+//! ([`LOOKAHEAD_PHASES`], YAHSP-style: `lookahead.rs`), which adds the state the relaxed plan's
+//! applicable snaps lead to, evaluated once.
 //!
 //! A ground action runs at most once at a time (no self-overlap): its start is applicable
 //! only while it is not running.
@@ -34,6 +37,7 @@ use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod expand;
 mod load_check;
+mod lookahead;
 mod novelty;
 mod path;
 mod replay;
@@ -41,6 +45,7 @@ pub(crate) use path::{for_each_read, for_each_write, snap_reads};
 mod setup;
 mod state;
 
+pub use lookahead::{LOOKAHEAD_AFTER, LOOKAHEAD_MAX_STEPS, LOOKAHEAD_PHASES};
 pub use novelty::{NoveltyTable, NOVELTY_PARTITIONS};
 use setup::SetUp;
 pub use setup::BUCKET_WORDS_PER_PIECE;
@@ -231,6 +236,8 @@ pub struct Stats {
     pub shed: u64,
     /// The best h seen (in the search under way: a restart begins again).
     pub best_h: u32,
+    /// Snaps applied by lookaheads along relaxed plans ([`LOOKAHEAD_PHASES`]; not expansions).
+    pub lookahead_steps: u64,
     /// Times the search restarted from the root with its second configuration (see
     /// [`RESTART_AFTER`]).
     pub restarts: u64,
@@ -406,6 +413,20 @@ pub struct Planner<'t, 'm> {
     /// Words at the end of the node store that hold the novelty table while a novelty search
     /// runs (0 otherwise): the nodes end before them.
     novelty_words: usize,
+    /// [`LOOKAHEAD_PHASES`] unless set otherwise ([`Planner::set_lookahead_phases`]), and the
+    /// relaxed plan's snaps a lookahead has still to apply (bit per relaxed action).
+    lookahead_phases: u8,
+    /// [`LOOKAHEAD_AFTER`] unless set otherwise ([`Planner::set_lookahead_after`]).
+    lookahead_after: u64,
+    lookahead_todo: &'m mut [u32],
+    /// The lookahead under way: its last node ([`NONE`]: none under way), the node it started
+    /// from, and the snaps it applied.
+    lookahead_node: u32,
+    lookahead_origin: u32,
+    lookahead_count: u32,
+    /// Whether an action of the task has a window (set up with the compression marks): no
+    /// lookahead then ([`Planner::windows_in`]).
+    task_has_windows: bool,
     goal_node: u32,
     status: Status,
     stats: Stats,
@@ -470,6 +491,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         let parent_state = take(sw)?;
         let child_state = take(sw)?;
         let probe_state = take(sw)?;
+        let lookahead_todo = take((2 * actions).div_ceil(32))?;
         let fixed = used;
         let remaining = rest.len();
         let bucket_count = (remaining / 64).clamp(1024, 1 << 16).next_power_of_two();
@@ -532,6 +554,13 @@ impl<'t, 'm> Planner<'t, 'm> {
             turn: false,
             novelty_phases: NOVELTY_PHASES,
             novelty_words: 0,
+            lookahead_phases: LOOKAHEAD_PHASES,
+            lookahead_after: LOOKAHEAD_AFTER,
+            lookahead_todo,
+            lookahead_node: NONE,
+            lookahead_origin: NONE,
+            lookahead_count: 0,
+            task_has_windows: false,
             goal_node: NONE,
             status: Status::Searching,
             stats: Stats {
@@ -575,6 +604,16 @@ impl<'t, 'm> Planner<'t, 'm> {
     pub fn set_novelty_phases(&mut self, mask: u8) {
         self.novelty_phases = mask;
         self.set_novelty_table();
+    }
+    /// Look ahead along the relaxed plan in the searches of `mask` (bit p: search p) instead
+    /// of [`LOOKAHEAD_PHASES`] (for measuring placements).
+    pub fn set_lookahead_phases(&mut self, mask: u8) {
+        self.lookahead_phases = mask;
+    }
+    /// Look ahead only after `expansions` without a new best h instead of [`LOOKAHEAD_AFTER`]
+    /// (for measuring placements).
+    pub fn set_lookahead_after(&mut self, expansions: u64) {
+        self.lookahead_after = expansions;
     }
     /// Whether the end of `action` may be applied straight after its start without losing plans.
     pub fn compression_safe(&self, action: usize) -> bool {

@@ -225,7 +225,7 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// the loaded path: its steps and their last writes, its decoded constraints, and the
     /// earliest times of the path it ends ([`stn::earliest_extend`]: the steps before keep
     /// theirs unless its constraints move them), logging what a cut back would undo.
-    fn extend_path(&mut self, d: usize) -> Result<(), Region> {
+    pub(super) fn extend_path(&mut self, d: usize) -> Result<(), Region> {
         let n = self.path_nodes[d];
         let old_steps = self.loaded_steps;
         let first = self.loaded_constraints;

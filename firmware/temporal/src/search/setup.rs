@@ -81,6 +81,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
             SetUp::Compression => {
                 self.mark_compression_safe();
+                self.task_has_windows = Self::windows_in(&self.task);
                 self.set_up = SetUp::Root;
             }
             SetUp::Root => {
