@@ -29,6 +29,13 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.commit_phases & 1 << self.phase != 0
     }
 
+    /// Whether the search under way has committed to a prefix: its root is node 0 (the store
+    /// starts with it at every restart and keeps it first at a commit) and it committed to
+    /// another. Its open lists emptying then proves nothing (the prefix may be what is wrong).
+    pub(super) fn has_committed(&self) -> bool {
+        self.committed_node != 0 && self.committed_node != NONE
+    }
+
     /// Times a search committed to its best node and went on from it ([`super::commit`]).
     pub fn commits(&self) -> u64 {
         self.commits

@@ -201,12 +201,14 @@ impl<'t, 'm> Planner<'t, 'm> {
             let Some((_, parent, snap)) = entry else {
                 // The second search prunes more than asked: its end proves nothing, and the
                 // third (as asked) decides.
-                if self.pruning_more() {
+                // So does a search that committed to a prefix ([`super::commit`]): the
+                // search after it decides (the fourth, as configured, never restarts itself).
+                if self.pruning_more() || (self.has_committed() && self.phase != 3) {
                     self.restart(self.after_pruning_more());
                     continue;
                 }
-                // With entries shed, an empty open list proves nothing.
-                self.status = if self.stats.shed > self.shed_base {
+                // With entries shed, or after a commit, an empty open list proves nothing.
+                self.status = if self.stats.shed > self.shed_base || self.has_committed() {
                     Status::OutOfMemory(Region::RegularOpen)
                 } else {
                     Status::Unsolvable
