@@ -97,7 +97,7 @@ fn committing_when_the_store_is_full_solves_what_ran_out_of_memory() {
 /// pddl --test commit -- --ignored`.
 #[test]
 #[ignore]
-fn driverlog_16_to_20_are_solved_with_commits_and_their_plans_are_valid() {
+fn driverlog_16_18_19_and_20_are_solved_with_commits_and_their_plans_are_valid() {
     let dir = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/../../shared/benchmarks/pddl/driverlog-time-simple-automatic"
