@@ -95,6 +95,9 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// and given those nodes again. Returns `node`'s new id; None if the path is longer than
     /// the path scratch.
     pub(super) fn keep_only_path(&mut self, node: u32) -> Option<u32> {
+        // The path scratch is overwritten here: no path is loaded after this, whatever the
+        // outcome.
+        self.loaded_node = NONE;
         let mut depth = 0usize;
         let mut n = node;
         while n != NONE {
