@@ -3,7 +3,7 @@
 //! target's cost (evaluations x ground actions, which the heuristic's work follows). For
 //! comparing search changes quickly; `scripts/bench-planners.py` is the benchmark.
 //!
-//!     [ARENA_KIB=N] [NOVELTY_PHASES=MASK] cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
+//!     [ARENA_KIB=N] [NOVELTY_PHASES=MASK] [COMMIT=MASK,AFTER,THIRD] [TRACE=1] cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
 use std::time::Instant;
 
 fn main() {
@@ -78,8 +78,31 @@ fn main() {
             {
                 planner.set_lookahead_after(n);
             }
+            // COMMIT=MASK,AFTER,THIRD: which searches commit to their best node, after how many
+            // expansions without progress, and the third search's stall limit.
+            if let Ok(k) = std::env::var("COMMIT") {
+                let k: Vec<&str> = k.split(',').collect();
+                let num = |i: usize| k.get(i).and_then(|s| s.parse().ok()).unwrap_or(u64::MAX);
+                planner.set_commit(num(0) as u8, num(1), num(2));
+            }
+            let trace = std::env::var("TRACE").is_ok();
+            let mut last = (u32::MAX, u64::MAX, u64::MAX);
             let status = loop {
                 let s = planner.step(256);
+                let st = planner.stats();
+                let now = (st.best_h, st.restarts, planner.commits());
+                if trace && now != last {
+                    last = now;
+                    eprintln!(
+                        "  expanded {} evaluated {} restarts {} commits {} best h {} {:.1} s",
+                        st.expanded,
+                        st.evaluated,
+                        now.1,
+                        now.2,
+                        now.0,
+                        started.elapsed().as_secs_f64()
+                    );
+                }
                 if s != temporal::Status::Searching || planner.stats().expanded >= cap {
                     break s;
                 }
@@ -90,11 +113,12 @@ fn main() {
             let work = stats.evaluated * actions;
             total_work += work;
             println!(
-                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} plan {len} makespan {makespan} inconsistent {} duplicates {} work {:.1}M peak {} KiB {:.2} s",
+                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} commits {} plan {len} makespan {makespan} inconsistent {} duplicates {} work {:.1}M peak {} KiB {:.2} s",
                 stats.expanded,
                 stats.evaluated,
                 stats.restarts,
                 stats.lookahead_steps,
+                planner.commits(),
                 stats.inconsistent,
                 stats.duplicates,
                 work as f64 / 1e6,

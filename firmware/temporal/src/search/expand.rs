@@ -28,6 +28,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.status = Status::OutOfMemory(Region::Nodes);
             return None;
         };
+        self.best_node = root;
+        self.committed_node = root;
         if self.is_goal(self.child_state) {
             self.goal_node = root;
             self.status = Status::Solved;
@@ -183,6 +185,14 @@ impl<'t, 'm> Planner<'t, 'm> {
                 self.restart(1);
                 continue;
             }
+            // A committing search that stalls goes on from its latest node of the lowest h.
+            if stalled > self.commit_after && self.commits_here() && self.commit_to_best() {
+                continue;
+            }
+            if self.phase == 2 && stalled > self.third_gives_way_after && self.pruning_more() {
+                self.restart(self.after_pruning_more());
+                continue;
+            }
             if self.phase == 1 && stalled > self.restart_after {
                 self.restart(2);
                 continue;
@@ -197,12 +207,14 @@ impl<'t, 'm> Planner<'t, 'm> {
             let Some((_, parent, snap)) = entry else {
                 // The second search prunes more than asked: its end proves nothing, and the
                 // third (as asked) decides.
-                if self.pruning_more() {
+                // So does a search that committed to a prefix ([`super::commit`]): the
+                // search after it decides (the fourth, as configured, never restarts itself).
+                if self.pruning_more() || (self.has_committed() && self.phase != 3) {
                     self.restart(self.after_pruning_more());
                     continue;
                 }
-                // With entries shed, an empty open list proves nothing.
-                self.status = if self.stats.shed > self.shed_base {
+                // With entries shed, or after a commit, an empty open list proves nothing.
+                self.status = if self.stats.shed > self.shed_base || self.has_committed() {
                     Status::OutOfMemory(Region::RegularOpen)
                 } else {
                     Status::Unsolvable
@@ -223,6 +235,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             Ok(()) => {}
             // A path too long to extend is a branch dropped, not the search's end.
             Err(Region::PlanLength) => self.stats.too_long += 1,
+            // A committing search whose store is full goes on from its best node.
+            Err(Region::Nodes) if self.commits_here() && self.commit_to_best() => {}
             Err(_) if self.pruning_more() => self.restart(self.after_pruning_more()),
             // The ordered search gives way to the searches as before.
             Err(_) if self.phase == 0 => self.restart(1),
@@ -418,6 +432,9 @@ impl<'t, 'm> Planner<'t, 'm> {
         let node = self
             .store_node(parent, snap, h, at, hash)
             .ok_or(Region::Nodes)?;
+        if h <= self.stats.best_h {
+            self.best_node = node;
+        }
         if self.is_goal(self.child_state) {
             self.goal_node = node;
             self.status = Status::Solved;

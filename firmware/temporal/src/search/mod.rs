@@ -35,6 +35,7 @@ use crate::heuristic::{self, carve, Relaxation, RelaxedCost, DEAD_END};
 use crate::stn;
 use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
+mod commit;
 mod expand;
 mod load_check;
 mod lookahead;
@@ -130,6 +131,25 @@ pub const NOVELTY_PHASES: u8 = 1 << 1 | 1 << NOVELTY_LAST;
 /// (which prunes every repeated state) ends without a plan, a novelty search that prunes as
 /// much, before the fourth (as configured).
 pub const NOVELTY_LAST: u8 = 4;
+
+/// The searches of the portfolio (bit p: search p, as [`NOVELTY_PHASES`]) that, after
+/// [`COMMIT_AFTER`] expansions without a new best h or when the node store is full, go on from
+/// their latest node of the lowest h with the path to it committed ([`commit`]): the last
+/// resort, chosen by measurement (the README's "Committing to the best node").
+pub const COMMIT_PHASES: u8 = 1 << NOVELTY_LAST;
+
+/// Expansions without a new best h after which a search of [`COMMIT_PHASES`] commits to its
+/// latest node of the lowest h ([`commit`]).
+pub const COMMIT_AFTER: u64 = 5000;
+
+/// Expansions without a new best h after which the third search (every repeated state
+/// pruned) gives way to the last resort ([`NOVELTY_LAST`]), as it does when its open lists
+/// empty or its store fills: as many as the second search's ([`RESTART_AFTER`]). Driverlog
+/// 18's third search stalled 116,000 expansions at h 16 before its plan; the last resort,
+/// committing, takes driverlog 16 to 20 to their plans in fewer evaluations (limits of 5,000,
+/// 10,000 and 30,000 measured 1 to 40 % dearer; satellite 20's third search, which solves it,
+/// stalls at most about 2,300 expansions: the README's "Committing to the best node").
+pub const THIRD_GIVES_WAY_AFTER: u64 = RESTART_AFTER;
 
 /// How the planner searches.
 #[derive(Clone, Copy, Debug)]
@@ -427,6 +447,16 @@ pub struct Planner<'t, 'm> {
     /// Whether an action of the task has a window (set up with the compression marks): no
     /// lookahead then ([`Planner::windows_in`]).
     task_has_windows: bool,
+    /// [`COMMIT_PHASES`], [`COMMIT_AFTER`] and [`THIRD_GIVES_WAY_AFTER`] unless set
+    /// otherwise ([`Planner::set_commit`]).
+    commit_phases: u8,
+    commit_after: u64,
+    third_gives_way_after: u64,
+    /// The node of the lowest h made last in the search under way, the node it last committed
+    /// to (the root at first), and how many commits all searches made ([`commit`]).
+    best_node: u32,
+    committed_node: u32,
+    commits: u64,
     goal_node: u32,
     status: Status,
     stats: Stats,
@@ -561,6 +591,12 @@ impl<'t, 'm> Planner<'t, 'm> {
             lookahead_origin: NONE,
             lookahead_count: 0,
             task_has_windows: false,
+            commit_phases: COMMIT_PHASES,
+            commit_after: COMMIT_AFTER,
+            third_gives_way_after: THIRD_GIVES_WAY_AFTER,
+            best_node: NONE,
+            committed_node: NONE,
+            commits: 0,
             goal_node: NONE,
             status: Status::Searching,
             stats: Stats {
