@@ -4,80 +4,8 @@
 //! at every poll, replans included (actions that end early, late, or past every window).
 mod common;
 
-use common::Rng;
-use temporal::constraints::Constraint;
-use temporal::task::UNBOUNDED;
-use temporal::{Decision, Dispatcher, PlanNetwork, PlanStep};
-
-/// A random plan of `actions` actions (each a start and an end step, in the order the steps
-/// are added), durations with or without an upper bound, orderings from earlier steps to later
-/// ones (some with an upper bound: a deadline relative to another step), timed windows on some
-/// starts.
-fn random_network(rng: &mut Rng) -> (PlanNetwork, u32) {
-    let actions = 1 + rng.below(14) as usize;
-    let mut net = PlanNetwork::new();
-    let mut starts = Vec::new();
-    for a in 0..actions {
-        let lo = if rng.chance(25) {
-            rng.below(60) as u32
-        } else {
-            0
-        };
-        let hi = if rng.chance(20) {
-            lo + 20 + rng.below(200) as u32
-        } else {
-            UNBOUNDED
-        };
-        let s = net
-            .add_step(PlanStep {
-                action: a as u16,
-                end: false,
-                window: (lo, hi),
-            })
-            .unwrap();
-        let e = net
-            .add_step(PlanStep {
-                action: a as u16,
-                end: true,
-                window: (0, UNBOUNDED),
-            })
-            .unwrap();
-        let d = 1 + rng.below(30) as u32;
-        let ub = if rng.chance(50) {
-            d + rng.below(10) as u32
-        } else {
-            UNBOUNDED
-        };
-        net.add_constraint(Constraint {
-            before: s as u16,
-            after: e as u16,
-            lb: d,
-            ub,
-        })
-        .unwrap();
-        starts.push((s, e));
-    }
-    let steps = net.step_count();
-    for _ in 0..rng.below(3 * actions as u64 + 1) {
-        let a = 2 + rng.below(steps as u64 - 1) as usize;
-        let b = 1 + rng.below(a as u64 - 1) as usize;
-        let lb = rng.below(8) as u32;
-        let ub = if rng.chance(15) {
-            lb + rng.below(80) as u32
-        } else {
-            UNBOUNDED
-        };
-        let _ = net.add_constraint(Constraint {
-            before: b as u16,
-            after: a as u16,
-            lb,
-            ub,
-        });
-    }
-    let makespan = 50 + rng.below(400) as u32;
-    net.makespan = makespan;
-    (net, makespan + rng.below(40) as u32)
-}
+use common::{random_network, Rng};
+use temporal::{Decision, Dispatcher};
 
 /// Runs both dispatchers side by side over one random execution; returns how many polls agreed
 /// and how many of them were replans.
