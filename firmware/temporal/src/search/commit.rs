@@ -74,18 +74,10 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.set_novelty_table();
         // The successors come from the actions the heuristic found ready in the node's state:
         // evaluate it again.
-        let task = self.task;
         let cs = core::mem::take(&mut self.child_state);
         self.rebuild_state(node, cs);
         self.child_state = cs;
-        let h = {
-            let cs = &*self.child_state;
-            let at = self.running_at();
-            let rn = cs[at] as usize;
-            self.stats.evaluated += 1;
-            self.relax
-                .evaluate(&task, &cs[..self.fact_words], &cs[at + 1..at + 1 + rn])
-        };
+        let h = self.evaluate_child();
         self.push_successors(node, h).is_ok()
     }
 

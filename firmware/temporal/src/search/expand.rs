@@ -230,6 +230,18 @@ impl<'t, 'm> Planner<'t, 'm> {
     }
 
     /// What an expansion's (or a lookahead step's) error does to the search.
+    /// The heuristic of the state in `child_state` (its facts and running actions), counted as
+    /// an evaluation.
+    pub(super) fn evaluate_child(&mut self) -> u32 {
+        let task = self.task;
+        let cs = &*self.child_state;
+        let at = self.running_at();
+        let rn = cs[at] as usize;
+        self.stats.evaluated += 1;
+        self.relax
+            .evaluate(&task, &cs[..self.fact_words], &cs[at + 1..at + 1 + rn])
+    }
+
     fn unit_ended(&mut self, r: Result<(), Region>) {
         match r {
             Ok(()) => {}
@@ -406,14 +418,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             return Ok(());
         }
         // Heuristic.
-        let h = {
-            let cs = &*self.child_state;
-            let at = self.running_at();
-            let rn = cs[at] as usize;
-            self.stats.evaluated += 1;
-            self.relax
-                .evaluate(&task, &cs[..self.fact_words], &cs[at + 1..at + 1 + rn])
-        };
+        let h = self.evaluate_child();
         if h == DEAD_END {
             self.stats.dead_ends += 1;
             return Ok(());

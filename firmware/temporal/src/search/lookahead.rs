@@ -104,15 +104,7 @@ impl<'t, 'm> Planner<'t, 'm> {
         // and refused since).
         let sw = self.child_state.len();
         self.child_state[..sw].copy_from_slice(&self.parent_state[..sw]);
-        let task = self.task;
-        let h = {
-            let cs = &*self.child_state;
-            let at = self.running_at();
-            let rn = cs[at] as usize;
-            self.stats.evaluated += 1;
-            self.relax
-                .evaluate(&task, &cs[..self.fact_words], &cs[at + 1..at + 1 + rn])
-        };
+        let h = self.evaluate_child();
         if h == DEAD_END {
             self.stats.dead_ends += 1;
             return Ok(());
