@@ -88,6 +88,18 @@ impl<T: Clone, const N: usize> Outbox<T, N> {
         true
     }
 
+    /// Keeps `message` if that leaves at least `free` places for what must still go (a
+    /// frame's own message, a window's status); else refuses it, counted in `refused` as a
+    /// full log's refusal is.
+    pub fn push_leaving(&mut self, free: usize, message: T) -> bool {
+        if self.room() > free {
+            self.push(message)
+        } else {
+            self.refused = self.refused.saturating_add(1);
+            false
+        }
+    }
+
     /// Room for this many more messages.
     pub fn room(&self) -> usize {
         N - self.log.len()

@@ -53,20 +53,6 @@ pub struct ExecutivePartition {
     frame_unsent: bool,
 }
 
-/// Puts `message` in `outbox` if that leaves the last place free, for the frame's message
-/// (without it the planner never answers the frame, see [`ExecutivePartition::first_window`]);
-/// else refuses it, counted in the outbox's `refused`.
-fn push_keeping_frame(
-    outbox: &mut Outbox<PlannerInput, MAX_TO_PLANNER_IN_FLIGHT>,
-    message: PlannerInput,
-) {
-    if outbox.room() > 1 {
-        outbox.push(message);
-    } else {
-        outbox.refused = outbox.refused.saturating_add(1);
-    }
-}
-
 /// Counts of what the executive partition dropped or refused.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ExecutivePartitionStats {
@@ -143,7 +129,8 @@ impl ExecutivePartition {
     /// checkpointed channel. Refused with its reason, nothing changed.
     pub fn dispatch_executed(&mut self, step: u16, at: u32) -> Result<(), ExecutedRefusal> {
         let note = self.dispatch.executed(step, at)?;
-        push_keeping_frame(&mut self.to_planner, PlannerInput::Dispatch(note));
+        self.to_planner
+            .push_leaving(1, PlannerInput::Dispatch(note));
         Ok(())
     }
 
@@ -299,7 +286,7 @@ impl ExecutivePartition {
                 ..
             } = self;
             control.after_load(network, &mut |m| {
-                push_keeping_frame(to_planner, PlannerInput::Core(m));
+                to_planner.push_leaving(1, PlannerInput::Core(m));
             });
             return;
         }
@@ -322,7 +309,7 @@ impl ExecutivePartition {
             ..
         } = self;
         let params_changed = control.on_state_update(network, key, value, at, &mut |m| {
-            push_keeping_frame(to_planner, PlannerInput::Core(m));
+            to_planner.push_leaving(1, PlannerInput::Core(m));
         });
         if params_changed {
             // The image streamed to a planner that starts over must hold the new values.
@@ -396,7 +383,8 @@ impl ExecutivePartition {
             ExecutiveInput::Status(status) => self.status = Some(status),
             ExecutiveInput::DispatchChunk { horizon, chunk } => {
                 if let Some(note) = self.dispatch.take(&chunk, horizon) {
-                    push_keeping_frame(&mut self.to_planner, PlannerInput::Dispatch(note));
+                    self.to_planner
+                        .push_leaving(1, PlannerInput::Dispatch(note));
                 }
             }
         }
@@ -409,7 +397,7 @@ impl ExecutivePartition {
             ..
         } = self;
         control.accept(commit, &mut |m| {
-            push_keeping_frame(to_planner, PlannerInput::Core(m));
+            to_planner.push_leaving(1, PlannerInput::Core(m));
         });
     }
 
@@ -431,7 +419,7 @@ impl ExecutivePartition {
         } = self;
         let mut to_planner = |m| {
             if !transferring {
-                push_keeping_frame(to_planner, PlannerInput::Core(m));
+                to_planner.push_leaving(1, PlannerInput::Core(m));
             }
         };
         if let Some(seq) = self.restored.take() {
@@ -479,7 +467,7 @@ impl ExecutivePartition {
             {
                 *replan_now = true;
             }
-            push_keeping_frame(to_planner, PlannerInput::Core(m));
+            to_planner.push_leaving(1, PlannerInput::Core(m));
         });
     }
 

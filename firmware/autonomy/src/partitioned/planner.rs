@@ -61,11 +61,8 @@ impl Outputs for Forward<'_> {
         // The last place is the window's status's: without it the executive would wait for an
         // answer that never comes. Telemetry that finds no other room is refused and counted
         // (`Outbox::refused`, which the planner partition's application reports).
-        if self.outbox.room() > 1 {
-            self.outbox.push(ExecutiveInput::Telemetry(event));
-        } else {
-            self.outbox.refused = self.outbox.refused.saturating_add(1);
-        }
+        self.outbox
+            .push_leaving(1, ExecutiveInput::Telemetry(event));
     }
 }
 
