@@ -8,17 +8,7 @@
 set -eu
 root=$(cd "$(dirname "$0")/.." && pwd)
 scenario=${1:-scenarios/flyby-early-reset.toml}
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-mkfifo "$work/trace"
-cat > "$work/qemu" <<WRAP
-#!/bin/sh
-exec ${HIL_QEMU:-qemu-system-ppc} "\$@" -d exec,nochain,in_asm -D "$work/trace"
-WRAP
-chmod +x "$work/qemu"
-elf="$root/target/firmware/powerpc-unknown-linux-gnu/release/rad750-firmware"
-cd "$root"
-cargo build --release --quiet -p host-harness --bin hil
+. "$root/scripts/qemu_trace.sh"
 python3 "$root/scripts/recovery_profile.py" "$work/trace" "$elf" "${2:-2}" "${3:-2000000}" ${4:-} > "$work/split" &
 reader=$!
 HIL_QEMU="$work/qemu" ./target/release/hil run "$scenario" | grep -E "warm reset at|ticks by part" || true

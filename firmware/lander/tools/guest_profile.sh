@@ -8,17 +8,7 @@
 set -eu
 root=$(cd "$(dirname "$0")/../../.." && pwd)
 scenario=${1:-scenarios/lander/rsm-1.toml}
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-mkfifo "$work/trace"
-cat > "$work/qemu" <<WRAP
-#!/bin/sh
-exec ${HIL_QEMU:-qemu-system-ppc} "\$@" -d exec,nochain,in_asm -D "$work/trace"
-WRAP
-chmod +x "$work/qemu"
-elf="$root/target/firmware/powerpc-unknown-linux-gnu/release/rad750-firmware"
-cd "$root"
-cargo build --release --quiet -p host-harness --bin hil
+. "$root/scripts/qemu_trace.sh"
 python3 "$root/firmware/lander/tools/guest_profile.py" "$work/trace" "$elf" ${GUEST_PROFILE_DETAIL:-} > "$work/split" &
 reader=$!
 HIL_QEMU="$work/qemu" ./target/release/hil lander run "$scenario" --emulated | grep -E "plan at step 0|emulated:" || true

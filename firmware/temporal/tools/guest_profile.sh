@@ -11,17 +11,7 @@ set -eu
 root=$(cd "$(dirname "$0")/../../.." && pwd)
 domain=$1
 problem=$2
-work=$(mktemp -d)
-trap 'rm -rf "$work"' EXIT
-mkfifo "$work/trace"
-cat > "$work/qemu" <<WRAP
-#!/bin/sh
-exec ${HIL_QEMU:-qemu-system-ppc} "\$@" -d exec,nochain,in_asm -D "$work/trace"
-WRAP
-chmod +x "$work/qemu"
-elf="$root/target/firmware/powerpc-unknown-linux-gnu/release/rad750-firmware"
-cd "$root"
-cargo build --release --quiet -p host-harness --bin hil
+. "$root/scripts/qemu_trace.sh"
 python3 "$root/firmware/temporal/tools/guest_profile.py" "$work/trace" "$elf" ${3:-} > "$work/split" &
 reader=$!
 HIL_QEMU="$work/qemu" ./target/release/hil plan "$domain" "$problem" --emulated --max-frames 12000 | grep -E "guest instructions|evaluat|makespan" || true
