@@ -123,30 +123,56 @@ def makespan_of(plan):
     return end
 
 
+def run_lpg_binary(binary, domain, problem, limit, tmp):
+    """One LPG-td run on these files in `tmp`: (exit status from os.wait4, wall seconds, peak RSS
+    in KiB, the .SOL file's path or None)."""
+    t0 = time.monotonic()
+    proc = subprocess.Popen(
+        [binary, "-o", domain, "-f", problem, "-n", "1", "-cputime", str(int(limit)), "-out", os.path.join(tmp, "plan")],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        cwd=tmp,
+    )
+    _, status, usage = os.wait4(proc.pid, 0)
+    elapsed = time.monotonic() - t0
+    sols = sorted(f for f in os.listdir(tmp) if f.endswith(".SOL"))
+    return status, elapsed, usage.ru_maxrss, os.path.join(tmp, sols[0]) if sols else None
+
+
 def worker_lpg(domain, problem, limit):
     """LPG-td straight from the up-lpg wheel's binary on the original files: up-lpg 0.1.3 cannot
     parse this binary's temporal plans (`[2.0000])` ends each line), so the wrapper reports an
-    error on every instance. The peak RSS is the binary's own (os.wait4)."""
+    error on every instance. The peak RSS is the binary's own (os.wait4).
+
+    If the binary dies by a signal on the original files (it does on every crew planning
+    instance: a segmentation fault, on the domain's `- objects` supertype), it is run again on
+    the files unified-planning's PDDL writer makes of the same problem, as up-lpg itself would
+    give it; the result says so (`input: "written"`), and its time and memory are that second
+    run's alone. The plan is validated against the problem read from the original files."""
     import up_lpg
-    from unified_planning.io import PDDLReader
+    from unified_planning.io import PDDLReader, PDDLWriter
 
     binary = os.path.join(os.path.dirname(up_lpg.__file__), "lpg")
     pb = load_problem(domain, problem)
     with tempfile.TemporaryDirectory() as tmp:
-        t0 = time.monotonic()
-        proc = subprocess.Popen(
-            [binary, "-o", domain, "-f", problem, "-n", "1", "-cputime", str(int(limit)), "-out", os.path.join(tmp, "plan")],
-            stdout=subprocess.DEVNULL,
-            stderr=subprocess.DEVNULL,
-            cwd=tmp,
-        )
-        _, status, usage = os.wait4(proc.pid, 0)
-        elapsed = time.monotonic() - t0
-        sols = [f for f in os.listdir(tmp) if f.endswith(".SOL")]
-        out = {"status": "SOLVED" if sols else "NO_PLAN", "time_s": elapsed, "solved": bool(sols), "binary_rss_kib": usage.ru_maxrss}
-        if sols:
+        status, elapsed, rss, sol = run_lpg_binary(binary, domain, problem, limit, tmp)
+        source = "original"
+        if os.WIFSIGNALED(status):
+            written = os.path.join(tmp, "written")
+            os.mkdir(written)
+            writer = PDDLWriter(pb)
+            writer.write_domain(os.path.join(written, "domain.pddl"))
+            writer.write_problem(os.path.join(written, "problem.pddl"))
+            status, elapsed, rss, sol = run_lpg_binary(
+                binary, os.path.join(written, "domain.pddl"), os.path.join(written, "problem.pddl"), limit, written
+            )
+            source = "written"
+        out = {"status": "SOLVED" if sol else "NO_PLAN", "time_s": elapsed, "solved": bool(sol), "binary_rss_kib": rss, "input": source}
+        if os.WIFSIGNALED(status) and not sol:
+            out["status"] = f"crashed (signal {os.WTERMSIG(status)})"
+        if sol:
             steps = []
-            with open(os.path.join(tmp, sols[0])) as f:
+            with open(sol) as f:
                 for line in f:
                     m = re.match(r"^\s*([\d.]+):\s*\(([^)]*)\)\s*\[([\d.]+)\]", line)
                     if m:
@@ -330,6 +356,11 @@ def cell_emulated(e):
     return f"{g:,}{goal} / {e['peak_arena_bytes'] / 1024:,.0f} KiB{same}"
 
 
+def valid_plan(r):
+    """A result with a plan the validator accepted."""
+    return bool(r and r.get("solved") and r.get("valid"))
+
+
 def cell_peer(r):
     if r is None:
         return "not run"
@@ -337,7 +368,8 @@ def cell_peer(r):
         o = r.get("outcome", "?")
         return "- (" + ("timeout" if o in ("killed", "TIMEOUT") else one_line(o).lower()) + ")"
     v = "" if r.get("valid") else " INVALID"
-    return f"{r['makespan']:.2f} / {r['time_s']:.2f} s / {(r.get('rss_kib') or 0) / 1024:.0f} MB{v}"
+    w = " (written files)" if r.get("input") == "written" else ""
+    return f"{r['makespan']:.2f} / {r['time_s']:.2f} s / {(r.get('rss_kib') or 0) / 1024:.0f} MB{v}{w}"
 
 
 def ratio(row, peers):
@@ -424,16 +456,18 @@ def main():
             if a.json:
                 with open(a.json, "w") as f:
                     json.dump(results, f, indent=1)
-    lines += ["", "| solved (of instances run) | ours, native |" + (" ours, emulated within 500 M |" if a.firmware else "")
+    # A plan the validator refuses is not counted as solved (it is listed below the table).
+    lines += ["", "| solved with a valid plan (of instances run) | ours, native |" + (" ours, emulated within 500 M |" if a.firmware else "")
               + "".join(f" {p} |" for p in peers), "|---|---:|" + ("---:|" if a.firmware else "") + "---:|" * len(peers)]
     for dom in a.domains.split(","):
         rows = [r for r in results if r["domain"] == dom]
-        s = f"| {dom} ({len(rows)}) | {sum(1 for r in rows if r['ours'].get('solved'))} |"
+        s = f"| {dom} ({len(rows)}) | {sum(1 for r in rows if valid_plan(r['ours']))} |"
         if a.firmware:
-            s += f" {sum(1 for r in rows if r['emulated'].get('within_goal'))} |"
+            # Within the goal with the native plan, which the validator accepted.
+            s += f" {sum(1 for r in rows if r['emulated'].get('within_goal') and r['emulated'].get('same_plan') and valid_plan(r['ours']))} |"
         for p in peers:
             ran = sum(1 for r in rows if r[p] is not None)
-            s += f" {sum(1 for r in rows if r[p] and r[p].get('solved'))} (of {ran} run) |"
+            s += f" {sum(1 for r in rows if valid_plan(r[p]))} (of {ran} run) |"
         lines.append(s)
     invalid = [f"{r['domain']} {r['instance']} {k}" for r in results for k in ["ours"] + peers
                if r.get(k) and r[k].get("solved") and not r[k].get("valid")]
