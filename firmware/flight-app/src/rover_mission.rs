@@ -49,8 +49,12 @@ pub const MAX_ROVER_FACT_WORDS: usize = 128;
 pub const MAX_ROVER_NUMERICS: usize = 64;
 /// Words of `network_from_plan`'s scratch: one per fact and numeric variable.
 const SCRATCH_WORDS: usize = MAX_ROVER_FACT_WORDS * 32 + MAX_ROVER_NUMERICS;
+/// Words of a readiness mask ([`RoverMission::ready_mask`]): a bit per step of a network.
+pub const READY_MASK_WORDS: usize = (MAX_DISPATCH_STEPS + 1).div_ceil(32);
+/// Which start steps of the flown network are ready in the state now.
+pub type ReadyMask = [u32; READY_MASK_WORDS];
 /// A start ready more than this before its lb was held to it (ticks: one second).
-const HELD_MS: u32 = 1000;
+pub const HELD_MS: u32 = 1000;
 /// "No step" in a report's action field.
 pub const NO_ACTION: u16 = u16::MAX;
 
@@ -516,6 +520,60 @@ impl RoverMission {
         }
         out(RoverReport::EndTaken { action });
         RoverNext::Answered
+    }
+
+    /// The plan being flown, as the executive needs it to dispatch it (see [`crate::rover_exec`]):
+    /// its generation, its epoch (mission time of its time 0) and the dispatcher holding its
+    /// network (the windows as planned, the completions of carried actions executed at 0).
+    /// None while no plan is flown (before the first, while planning, stopped).
+    pub fn flying_plan(&self) -> Option<(u32, u32, &Dispatcher)> {
+        (self.phase == FLYING && self.has_plan).then_some((
+            self.plan_gen,
+            self.epoch,
+            &self.dispatcher,
+        ))
+    }
+
+    /// The mission's task's action count (the actions after it in a replan task are the
+    /// completions of carried actions).
+    pub fn base_actions(&self, task_buffer: &[u8]) -> Option<u16> {
+        u16::try_from(self.task(task_buffer)?.action_count()).ok()
+    }
+
+    /// The actions running on the rover with their end steps in the current network (0: none),
+    /// in the mission's order.
+    pub fn running_ends(&self) -> impl Iterator<Item = (u16, u16)> + '_ {
+        self.running
+            .iter()
+            .take(self.running_len)
+            .map(|r| (r.action, r.end_step))
+    }
+
+    /// The readiness of the flown network's start steps in the state now (the facts and
+    /// numeric values only this partition keeps): bit `k` is set when step `k` starts an
+    /// action [`Self::poll`] takes as ready (a completion of a carried action, or one whose
+    /// at-start conditions hold). The state changes only by the happenings the mission
+    /// applies (a start, an end, a pause), so a mask made after each of them answers every
+    /// poll until the next as `poll`'s own readiness does. None while no plan is flown.
+    pub fn ready_mask(&self, task_buffer: &[u8]) -> Option<ReadyMask> {
+        let (_, _, d) = self.flying_plan()?;
+        let task = self.task(task_buffer)?;
+        let base_actions = task.action_count();
+        let mut mask = [0u32; READY_MASK_WORDS];
+        let net = d.network();
+        for k in 1..=net.step_count() {
+            let Some(s) = net.step(k) else { continue };
+            if s.end {
+                continue;
+            }
+            let a = usize::from(s.action);
+            if a >= base_actions || replan::start_holds(&task, a, &self.facts, &self.values) {
+                if let Some(w) = mask.get_mut(k / 32) {
+                    *w |= 1 << (k % 32);
+                }
+            }
+        }
+        Some(mask)
     }
 
     /// The time is `now`: decide.

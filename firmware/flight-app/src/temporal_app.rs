@@ -500,6 +500,15 @@ impl<'a> TemporalApp<'a> {
         self.rover_event = Some(event);
     }
 
+    /// The rover mission and the task buffer it reads (None: no mission memory, or the
+    /// storage is not given): what the executive's side of the decisions needs of it
+    /// ([`crate::rover_exec`]: the plan flown, the readiness mask).
+    pub fn rover_view<R>(&self, f: impl FnOnce(&RoverMission, &[u8]) -> R) -> Option<R> {
+        let m = self.rover.as_deref()?;
+        let storage = self.storage.as_ref()?;
+        Some(f(m, &*storage.task))
+    }
+
     /// A window's work of the rover mission: an attempt's end, or the event waiting. True if
     /// there was some.
     fn rover_window(

@@ -37,6 +37,9 @@ pub struct Backend {
     pub resumes: Vec<Resume>,
     /// The target's health-monitor events, each with the event in whose answer it came.
     pub health_during: Vec<String>,
+    /// Natively: the executive partition's side of the dispatch decisions, run beside the
+    /// mission and set against it poll for poll (None: not run).
+    pub exec_shadow: Option<Box<super::exec_shadow::ExecShadow>>,
 }
 
 /// A reset of the planner partition injected in the answer to an event: event `event`
@@ -99,6 +102,7 @@ impl Backend {
             reset_at: None,
             resumes: Vec::new(),
             health_during: Vec::new(),
+            exec_shadow: None,
         }
     }
 
@@ -234,6 +238,9 @@ impl Backend {
         let during = self.log.len();
         let health = self.health_events().len();
         let reset = self.reset_at.filter(|r| r.event == during);
+        if let (Some(shadow), Place::Native(n)) = (self.exec_shadow.as_mut(), &self.place) {
+            shadow.before(&n.app, &event);
+        }
         let answer = match self.answer(job, event, reset)? {
             Some(answer) => answer,
             None => {
@@ -246,6 +253,9 @@ impl Backend {
             self.health_during.push(format!(
                 "{h} in the answer to event {during} ({event:?}): {last:?}"
             ));
+        }
+        if let (Some(shadow), Place::Native(n)) = (self.exec_shadow.as_mut(), &self.place) {
+            shadow.after(&n.app, &event, &answer);
         }
         self.log.push((event, answer.clone()));
         Ok(answer)

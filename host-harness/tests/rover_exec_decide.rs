@@ -1,0 +1,66 @@
+//! The rover's dispatch decisions taken by the executive partition's side (issue 13 item 3,
+//! step 1's decisions; `flight_app::rover_exec`), natively beside the mission: each network
+//! the mission flies goes to an executive partition in chunks through the checkpointed channel,
+//! and at every poll the executive's decider, with its poll divided in calls of 256 work units
+//! and the readiness mask the mission made after the last happening it applied, decides as the
+//! mission does (start, wait, replan, finished: the same step, window, kind and wake), on the
+//! three shipped scenarios and sahara-day's seeds 2 to 7. The run's decisions and their hash are
+//! unchanged.
+use hil::rover::exec_shadow::{ExecShadow, ShadowStats};
+use hil::rover::{run_file, Backend};
+
+fn shadowed(scenario: &str, seed: Option<u64>) -> (String, ShadowStats) {
+    let path = hil::repo_root().join(format!("scenarios/rover/{scenario}.toml"));
+    let mut backend = Backend::native();
+    backend.exec_shadow = Some(Box::new(ExecShadow::new()));
+    let (run, verdicts) = run_file(&path, seed, &mut backend).expect("runs");
+    let shadow = backend.exec_shadow.take().unwrap();
+    assert!(
+        shadow.differences.is_empty(),
+        "{scenario} seed {seed:?}: {:#?}",
+        shadow.differences
+    );
+    let s = shadow.stats;
+    println!("{scenario} seed {seed:?}: {s:?}");
+    assert_eq!(s.agreed, s.polls, "{s:?}");
+    assert!(s.polls > 0 && s.starts > 0 && s.waits > 0, "{s:?}");
+    assert_eq!(s.too_large, 0);
+    if seed.is_none() {
+        assert!(verdicts.iter().all(|v| v.ok), "{verdicts:?}");
+    }
+    (run.decisions_sha256, s)
+}
+
+#[test]
+fn sahara_day_decided_in_the_executive_as_in_the_mission() {
+    let (hash, s) = shadowed("sahara-day", None);
+    assert_eq!(hash, "23b00d4803be8c09");
+    // Its overrun replan is one the executive decided (a step past its ub).
+    assert!(s.replans >= 1, "{s:?}");
+    // Every network went over the channel.
+    assert!(s.networks >= 4 && s.chunks >= s.networks, "{s:?}");
+    // The executive's starts and ends came back to the planner as `Executed` notes.
+    assert!(s.executed_notes >= s.starts, "{s:?}");
+    // The mask mattered: some polls had a step the mission's state did not let start.
+    assert!(s.polls_with_unready > 0, "{s:?}");
+}
+
+#[test]
+fn field_trial_decided_in_the_executive_as_in_the_mission() {
+    let (hash, _) = shadowed("field-trial", None);
+    assert_eq!(hash, "529b646a3f3b62be");
+}
+
+#[test]
+fn long_day_decided_in_the_executive_as_in_the_mission_with_divided_polls() {
+    let (hash, s) = shadowed("long-day", None);
+    assert_eq!(hash, "becb4a452dc8b9f2");
+    assert!(s.most_calls > 1, "polls divided: {s:?}");
+}
+
+#[test]
+fn sahara_day_other_seeds_decided_in_the_executive_as_in_the_mission() {
+    for seed in 2..=7 {
+        shadowed("sahara-day", Some(seed));
+    }
+}
