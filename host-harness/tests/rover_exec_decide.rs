@@ -10,9 +10,21 @@ use hil::rover::exec_shadow::{ExecShadow, ShadowStats};
 use hil::rover::{run_file, Backend};
 
 fn shadowed(scenario: &str, seed: Option<u64>) -> (String, ShadowStats) {
+    run(scenario, seed, false)
+}
+
+/// The executive decides: its answers are the transcript's, the mission applies its starts
+/// and replans when it asks.
+fn decided(scenario: &str, seed: Option<u64>) -> (String, ShadowStats) {
+    run(scenario, seed, true)
+}
+
+fn run(scenario: &str, seed: Option<u64>, decides: bool) -> (String, ShadowStats) {
     let path = hil::repo_root().join(format!("scenarios/rover/{scenario}.toml"));
     let mut backend = Backend::native();
-    backend.exec_shadow = Some(Box::new(ExecShadow::new()));
+    let mut shadow = ExecShadow::new();
+    shadow.decides = decides;
+    backend.exec_shadow = Some(Box::new(shadow));
     let (run, verdicts) = run_file(&path, seed, &mut backend).expect("runs");
     let shadow = backend.exec_shadow.take().unwrap();
     assert!(
@@ -21,7 +33,7 @@ fn shadowed(scenario: &str, seed: Option<u64>) -> (String, ShadowStats) {
         shadow.differences
     );
     let s = shadow.stats;
-    println!("{scenario} seed {seed:?}: {s:?}");
+    println!("{scenario} seed {seed:?} (the executive decides: {decides}): {s:?}");
     assert_eq!(s.agreed, s.polls, "{s:?}");
     assert!(s.polls > 0 && s.starts > 0 && s.waits > 0, "{s:?}");
     assert_eq!(s.too_large, 0);
@@ -62,5 +74,43 @@ fn long_day_decided_in_the_executive_as_in_the_mission_with_divided_polls() {
 fn sahara_day_other_seeds_decided_in_the_executive_as_in_the_mission() {
     for seed in 2..=7 {
         shadowed("sahara-day", Some(seed));
+    }
+}
+
+/// The mission's own decisions, without the executive (the reference the hashes pin).
+fn mission_only(scenario: &str, seed: Option<u64>) -> String {
+    let path = hil::repo_root().join(format!("scenarios/rover/{scenario}.toml"));
+    run_file(&path, seed, &mut Backend::native())
+        .expect("runs")
+        .0
+        .decisions_sha256
+}
+
+#[test]
+fn the_executive_takes_the_decisions_and_they_hash_the_same() {
+    for (scenario, hash) in [
+        ("sahara-day", "23b00d4803be8c09"),
+        ("field-trial", "529b646a3f3b62be"),
+        ("long-day", "becb4a452dc8b9f2"),
+    ] {
+        let (h, s) = decided(scenario, None);
+        assert_eq!(h, hash, "{scenario}: {s:?}");
+        // Every start came from the executive; the mission applied each (its Executed
+        // notes: a start and an end a step).
+        assert!(s.starts > 0 && s.executed_notes >= s.starts, "{s:?}");
+        if scenario != "long-day" {
+            assert!(
+                s.replans >= 1,
+                "{scenario}: an overrun replan asked by the executive"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_executive_takes_sahara_days_decisions_with_other_seeds_as_the_mission() {
+    for seed in 2..=7 {
+        let (h, _) = decided("sahara-day", Some(seed));
+        assert_eq!(h, mission_only("sahara-day", Some(seed)), "seed {seed}");
     }
 }

@@ -576,6 +576,86 @@ impl RoverMission {
         Some(mask)
     }
 
+    /// The executive started step `step` of the flown network at mission time `at` (its
+    /// `Dispatch`, taken there with this mission's readiness mask, see [`crate::rover_exec`]):
+    /// the start's effects applied to the state now, the action running, the step executed in
+    /// this mission's copy of the network, as [`Self::poll`] does for a start it decides. No
+    /// report unless refused (the executive reported the start).
+    pub fn started(
+        &mut self,
+        ctx: &mut RoverCtx<'_>,
+        step: u16,
+        at: u32,
+        out: &mut dyn FnMut(RoverReport),
+    ) -> RoverNext {
+        if self.phase != FLYING || !self.has_plan {
+            return Self::refuse(out, RoverRefusal::NoMission);
+        }
+        if !self.in_order(at, out) {
+            return RoverNext::Answered;
+        }
+        let Some(task) = self.task(ctx.task_buffer) else {
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        let k = usize::from(step);
+        let Some(s) = self.dispatcher.network().step(k).filter(|s| !s.end) else {
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        if self.running_len >= MAX_ROVER_ACTIVE {
+            return Self::refuse(out, RoverRefusal::Capacity);
+        }
+        if self
+            .dispatcher
+            .executed(k, at.saturating_sub(self.epoch))
+            .is_err()
+        {
+            return Self::refuse(out, RoverRefusal::BadTask);
+        }
+        if replan::apply(
+            &task,
+            usize::from(s.action),
+            false,
+            &mut self.facts,
+            &mut self.values,
+        )
+        .is_err()
+        {
+            return Self::refuse(out, RoverRefusal::BadTask);
+        }
+        self.last_ms = at;
+        let end_step = self.dispatcher.network().end_of(k).unwrap_or(0);
+        let estimate = task.action(usize::from(s.action)).duration_lb;
+        if let Some(r) = self.running.get_mut(self.running_len) {
+            *r = Running {
+                action: s.action,
+                started: at,
+                ends: at.saturating_add(estimate),
+                end_step: u16::try_from(end_step).unwrap_or(0),
+            };
+        }
+        self.running_len += 1;
+        RoverNext::Answered
+    }
+
+    /// The executive found the flown plan no longer fits at `at` (its `Replan` decision, for
+    /// `why`): replan as [`Self::poll`] does when it decides so.
+    pub fn replan_requested(
+        &mut self,
+        ctx: &mut RoverCtx<'_>,
+        at: u32,
+        why: RoverReplanWhy,
+        out: &mut dyn FnMut(RoverReport),
+    ) -> RoverNext {
+        if self.phase != FLYING || !self.has_plan {
+            return Self::refuse(out, RoverRefusal::NoMission);
+        }
+        if !self.in_order(at, out) {
+            return RoverNext::Answered;
+        }
+        self.last_ms = at;
+        self.replan(ctx, at, why, out)
+    }
+
     /// The time is `now`: decide.
     pub fn poll(
         &mut self,

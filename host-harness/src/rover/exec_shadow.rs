@@ -47,6 +47,9 @@ pub struct ExecShadow {
     /// The executive's answer to the poll in flight.
     pending: Option<ExecAnswer>,
     pub stats: ShadowStats,
+    /// The executive decides (its answers are the host's; the mission applies its starts and
+    /// replans on its request), else it only runs beside the mission and is compared.
+    pub decides: bool,
     /// Polls whose answers differ: (mission time, the executive's, the mission's).
     pub differences: Vec<String>,
 }
@@ -66,6 +69,7 @@ impl ExecShadow {
             plan: 0,
             pending: None,
             stats: ShadowStats::default(),
+            decides: false,
             differences: Vec::new(),
         }
     }
@@ -96,36 +100,7 @@ impl ExecShadow {
     pub fn before(&mut self, app: &TemporalApp<'_>, event: &RoverEvent) {
         self.pending = None;
         match *event {
-            RoverEvent::Poll { now_ms } if self.decider.has_plan() => {
-                let Some(mask) = app.rover_view(|m, task| m.ready_mask(task)).flatten() else {
-                    self.differences
-                        .push(format!("at {now_ms}: no readiness mask from the mission"));
-                    return;
-                };
-                self.decider.set_ready(&self.executive, &mask);
-                let unready = self
-                    .executive
-                    .dispatch()
-                    .loaded()
-                    .map(|(_, d)| {
-                        let net = d.network();
-                        (1..=net.step_count()).any(|k| {
-                            net.step(k).is_some_and(|s| {
-                                !s.end
-                                    && d.executed_at(k).is_none()
-                                    && !self.decider.is_ready(s.action)
-                            })
-                        })
-                    })
-                    .unwrap_or(false);
-                if unready {
-                    self.stats.polls_with_unready += 1;
-                }
-                let answer = self.decider.poll(&mut self.executive, now_ms);
-                self.stats.most_units = self.stats.most_units.max(self.decider.last_units);
-                self.stats.most_calls = self.stats.most_calls.max(self.decider.last_calls);
-                self.pending = Some(answer);
-            }
+            RoverEvent::Poll { now_ms } => self.pending = self.decide(app, now_ms),
             RoverEvent::Ended { action, at_ms } => {
                 if let Err(r) = self.decider.ended(&mut self.executive, action, at_ms) {
                     self.differences
@@ -135,6 +110,63 @@ impl ExecShadow {
             _ => {}
         }
         self.exchange();
+    }
+
+    /// The executive's answer to a poll at `now_ms`, with the mission's readiness mask now
+    /// (None: the executive holds no plan, the mission answers).
+    pub fn decide(&mut self, app: &TemporalApp<'_>, now_ms: u32) -> Option<ExecAnswer> {
+        if !self.decider.has_plan() {
+            return None;
+        }
+        let Some(mask) = app.rover_view(|m, task| m.ready_mask(task)).flatten() else {
+            self.differences
+                .push(format!("at {now_ms}: no readiness mask from the mission"));
+            return None;
+        };
+        self.decider.set_ready(&self.executive, &mask);
+        let unready = self
+            .executive
+            .dispatch()
+            .loaded()
+            .map(|(_, d)| {
+                let net = d.network();
+                (1..=net.step_count()).any(|k| {
+                    net.step(k).is_some_and(|s| {
+                        !s.end && d.executed_at(k).is_none() && !self.decider.is_ready(s.action)
+                    })
+                })
+            })
+            .unwrap_or(false);
+        if unready {
+            self.stats.polls_with_unready += 1;
+        }
+        let answer = self.decider.poll(&mut self.executive, now_ms);
+        self.stats.most_units = self.stats.most_units.max(self.decider.last_units);
+        self.stats.most_calls = self.stats.most_calls.max(self.decider.last_calls);
+        if self.decides {
+            self.stats.polls += 1;
+            self.stats.agreed += 1;
+            match answer {
+                ExecAnswer::Report(RoverReport::Dispatch { .. }) => self.stats.starts += 1,
+                ExecAnswer::Report(RoverReport::Wait { .. }) => self.stats.waits += 1,
+                ExecAnswer::Replan { .. } => self.stats.replans += 1,
+                _ => {}
+            }
+        }
+        self.exchange();
+        Some(answer)
+    }
+
+    /// Before the mission takes `event`, when the executive decides: an `Ended` to the
+    /// executive too (the mission applies it, the executive marks its end step).
+    pub fn ended(&mut self, event: &RoverEvent) {
+        if let RoverEvent::Ended { action, at_ms } = *event {
+            if let Err(r) = self.decider.ended(&mut self.executive, action, at_ms) {
+                self.differences
+                    .push(format!("at {at_ms}: the end of {action} refused: {r:?}"));
+            }
+            self.exchange();
+        }
     }
 
     /// After the mission's answer to `event`: the answers compared, a new plan sent.

@@ -238,8 +238,17 @@ impl Backend {
         let during = self.log.len();
         let health = self.health_events().len();
         let reset = self.reset_at.filter(|r| r.event == during);
-        if let (Some(shadow), Place::Native(n)) = (self.exec_shadow.as_mut(), &self.place) {
-            shadow.before(&n.app, &event);
+        if let (Some(shadow), Place::Native(n)) = (self.exec_shadow.as_mut(), &mut self.place) {
+            if shadow.decides {
+                if let Some(answer) = n.executive_answer(shadow, &event)? {
+                    shadow.after(&n.app, &event, &answer);
+                    self.log.push((event, answer.clone()));
+                    return Ok(answer);
+                }
+                shadow.ended(&event);
+            } else {
+                shadow.before(&n.app, &event);
+            }
         }
         let answer = match self.answer(job, event, reset)? {
             Some(answer) => answer,
@@ -470,6 +479,44 @@ impl NativeOnboard {
             windows += 1;
         }
         Err("the mission did not answer in a million windows".into())
+    }
+
+    /// A poll's answer from the executive's side (None: it holds no plan, the mission
+    /// answers): its start applied by the mission, its replan made by the mission.
+    fn executive_answer(
+        &mut self,
+        shadow: &mut super::exec_shadow::ExecShadow,
+        event: &RoverEvent,
+    ) -> Result<Option<Vec<RoverReport>>, String> {
+        use flight_app::rover_exec::ExecAnswer;
+        use flight_app::FromExecutive;
+        let RoverEvent::Poll { now_ms } = *event else {
+            return Ok(None);
+        };
+        let Some(answer) = shadow.decide(&self.app, now_ms) else {
+            return Ok(None);
+        };
+        self.give_storage();
+        match answer {
+            ExecAnswer::Report(r @ RoverReport::Dispatch { step, at_ms, .. }) => {
+                self.app
+                    .rover_from_executive(FromExecutive::Started { step, at_ms });
+                let mut out = Vec::new();
+                self.app
+                    .report(usize::MAX, &mut |m: TargetToHost| out.push(m));
+                if let Some(m) = out.first() {
+                    return Err(format!("the mission did not take the start {r:?}: {m:?}"));
+                }
+                Ok(Some(vec![r]))
+            }
+            ExecAnswer::Report(r) => Ok(Some(vec![r])),
+            ExecAnswer::Refused(reason) => Ok(Some(vec![RoverReport::Refused { reason }])),
+            ExecAnswer::Replan { at_ms, why } => {
+                self.app
+                    .rover_from_executive(FromExecutive::Replan { at_ms, why });
+                self.exchange(&[]).map(Some)
+            }
+        }
     }
 
     fn start(&mut self, task: &[u8], start: RoverEvent) -> Result<(u16, Vec<RoverReport>), String> {
