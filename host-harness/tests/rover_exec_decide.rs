@@ -20,10 +20,22 @@ fn decided(scenario: &str, seed: Option<u64>) -> (String, ShadowStats) {
 }
 
 fn run(scenario: &str, seed: Option<u64>, decides: bool) -> (String, ShadowStats) {
+    run_with(scenario, seed, decides, None).0
+}
+
+/// [`run`], the executive partition and its decider restored from their checkpoints after
+/// every `restore_every` polls; the restores done and the largest decider record.
+fn run_with(
+    scenario: &str,
+    seed: Option<u64>,
+    decides: bool,
+    restore_every: Option<usize>,
+) -> ((String, ShadowStats), (usize, usize)) {
     let path = hil::repo_root().join(format!("scenarios/rover/{scenario}.toml"));
     let mut backend = Backend::native();
     let mut shadow = ExecShadow::new();
     shadow.decides = decides;
+    shadow.restore_every = restore_every;
     backend.exec_shadow = Some(Box::new(shadow));
     let (run, verdicts) = run_file(&path, seed, &mut backend).expect("runs");
     let shadow = backend.exec_shadow.take().unwrap();
@@ -40,7 +52,8 @@ fn run(scenario: &str, seed: Option<u64>, decides: bool) -> (String, ShadowStats
     if seed.is_none() {
         assert!(verdicts.iter().all(|v| v.ok), "{verdicts:?}");
     }
-    (run.decisions_sha256, s)
+    let restores = (shadow.restores, shadow.most_record_bytes);
+    ((run.decisions_sha256, s), restores)
 }
 
 #[test]
@@ -112,5 +125,26 @@ fn the_executive_takes_sahara_days_decisions_with_other_seeds_as_the_mission() {
     for seed in 2..=7 {
         let (h, _) = decided("sahara-day", Some(seed));
         assert_eq!(h, mission_only("sahara-day", Some(seed)), "seed {seed}");
+    }
+}
+
+#[test]
+fn the_executive_restored_between_polls_takes_the_same_decisions() {
+    for (scenario, hash, every) in [
+        ("sahara-day", "23b00d4803be8c09", 2),
+        ("field-trial", "529b646a3f3b62be", 3),
+        ("long-day", "becb4a452dc8b9f2", 5),
+    ] {
+        let ((h, s), (restores, record)) = run_with(scenario, None, true, Some(every));
+        println!("{scenario}: {restores} restores of the executive, its decider's record at most {record} bytes");
+        assert_eq!(h, hash, "{scenario}: {s:?}");
+        // Every poll still decided by the executive (none fell back to the mission).
+        let (_, unrestored) = decided(scenario, None);
+        assert_eq!(s, unrestored, "{scenario}");
+        assert!(
+            restores >= s.polls / every - 1 && restores > 3,
+            "{restores}"
+        );
+        assert!(record <= flight_app::rover_exec::RECORD_MAX_BYTES);
     }
 }

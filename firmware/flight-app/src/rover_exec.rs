@@ -311,6 +311,111 @@ impl RoverDecider {
         }
     }
 
+    /// Writes the decider's state into `buf` (for the executive's checkpoint beside its
+    /// dispatch part, which holds the network and its executed steps): `[format, fields,
+    /// the planned windows of the network's steps, CRC-32]`, at most [`RECORD_MAX_BYTES`].
+    /// The readiness list is not kept: the planner sends its mask before the next poll. A
+    /// poll in progress is not kept either: it begins again. None if `buf` is too small.
+    pub fn encode(&self, steps: usize, buf: &mut [u8]) -> Option<usize> {
+        let steps = steps.min(MAX_DISPATCH_STEPS);
+        let mut w = Writer { buf, at: 0 };
+        w.put(&[
+            RECORD_FORMAT,
+            u8::from(self.has_plan),
+            u8::from(self.waited),
+            u8::from(self.held),
+        ])?;
+        for v in [
+            self.plan,
+            self.epoch,
+            self.wait_until,
+            self.wait_at,
+            self.held_until,
+            self.held_from,
+            self.last_ms,
+        ] {
+            w.put(&v.to_le_bytes())?;
+        }
+        w.put(&[u8::try_from(self.running_len).ok()?])?;
+        for &(a, e) in self.running.get(..self.running_len)? {
+            w.put(&a.to_le_bytes())?;
+            w.put(&e.to_le_bytes())?;
+        }
+        w.put(&(steps as u16).to_le_bytes())?;
+        for &(lb, ub) in self.planned.get(..=steps)? {
+            w.put(&lb.to_le_bytes())?;
+            w.put(&ub.to_le_bytes())?;
+        }
+        let len = w.at;
+        let crc = crate::rover_mission::checkpoint::crc32(w.buf.get(..len)?);
+        w.put(&crc.to_le_bytes())?;
+        Some(w.at)
+    }
+
+    /// Takes the state [`Self::encode`] wrote (after a reset of the executive partition); a
+    /// damaged record is refused with its reason and changes nothing.
+    pub fn decode(&mut self, bytes: &[u8]) -> Result<usize, RecordError> {
+        let mut r = Reader { bytes, at: 0 };
+        let head = r.take(4)?;
+        if head.first() != Some(&RECORD_FORMAT) {
+            return Err(RecordError::Version);
+        }
+        let flag = |i: usize| head.get(i).is_some_and(|&b| b != 0);
+        let mut v = [0u32; 7];
+        for x in v.iter_mut() {
+            *x = r.u32()?;
+        }
+        let running_len = usize::from(*r.take(1)?.first().ok_or(RecordError::BadLength)?);
+        if running_len > MAX_ROVER_ACTIVE {
+            return Err(RecordError::OutOfRange);
+        }
+        let mut running = [(0u16, 0u16); MAX_ROVER_ACTIVE];
+        for slot in running.iter_mut().take(running_len) {
+            *slot = (r.u16()?, r.u16()?);
+        }
+        let steps = usize::from(r.u16()?);
+        if steps > MAX_DISPATCH_STEPS {
+            return Err(RecordError::OutOfRange);
+        }
+        let planned_at = r.at;
+        r.take((steps + 1) * 8)?;
+        let len = r.at;
+        let crc = r.u32()?;
+        if crate::rover_mission::checkpoint::crc32(bytes.get(..len).unwrap_or_default()) != crc {
+            return Err(RecordError::BadCrc);
+        }
+        let mut p = Reader {
+            bytes,
+            at: planned_at,
+        };
+        for k in 0..=MAX_DISPATCH_STEPS {
+            let w = if k <= steps {
+                (p.u32()?, p.u32()?)
+            } else {
+                (0, 0)
+            };
+            if let Some(slot) = self.planned.get_mut(k) {
+                *slot = w;
+            }
+        }
+        self.has_plan = flag(1);
+        self.waited = flag(2);
+        self.held = flag(3);
+        let [plan, epoch, wait_until, wait_at, held_until, held_from, last_ms] = v;
+        self.plan = plan;
+        self.epoch = epoch;
+        self.wait_until = wait_until;
+        self.wait_at = wait_at;
+        self.held_until = held_until;
+        self.held_from = held_from;
+        self.last_ms = last_ms;
+        self.running = running;
+        self.running_len = running_len;
+        self.ready_len = 0;
+        self.polling = None;
+        Ok(r.at)
+    }
+
     /// The decision as the mission's `poll` reports it.
     fn decided(
         &mut self,
@@ -423,5 +528,61 @@ impl RoverDecider {
             }
             Decision::Finished => ExecAnswer::Report(RoverReport::Finished),
         }
+    }
+}
+
+/// The format of [`RoverDecider::encode`]'s record.
+pub const RECORD_FORMAT: u8 = 1;
+/// The largest record: the fields, every running action, every step's planned window, the CRC.
+pub const RECORD_MAX_BYTES: usize =
+    4 + 7 * 4 + 1 + MAX_ROVER_ACTIVE * 4 + 2 + (MAX_DISPATCH_STEPS + 1) * 8 + 4;
+
+/// Why a decider's record was refused.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RecordError {
+    Version,
+    BadLength,
+    BadCrc,
+    OutOfRange,
+}
+
+struct Writer<'b> {
+    buf: &'b mut [u8],
+    at: usize,
+}
+
+impl Writer<'_> {
+    fn put(&mut self, bytes: &[u8]) -> Option<()> {
+        let end = self.at.checked_add(bytes.len())?;
+        self.buf.get_mut(self.at..end)?.copy_from_slice(bytes);
+        self.at = end;
+        Some(())
+    }
+}
+
+struct Reader<'b> {
+    bytes: &'b [u8],
+    at: usize,
+}
+
+impl<'b> Reader<'b> {
+    fn take(&mut self, n: usize) -> Result<&'b [u8], RecordError> {
+        let end = self.at.checked_add(n).ok_or(RecordError::BadLength)?;
+        let b = self.bytes.get(self.at..end).ok_or(RecordError::BadLength)?;
+        self.at = end;
+        Ok(b)
+    }
+    fn u16(&mut self) -> Result<u16, RecordError> {
+        let b = self.take(2)?;
+        Ok(u16::from_le_bytes([
+            b.first().copied().unwrap_or(0),
+            b.get(1).copied().unwrap_or(0),
+        ]))
+    }
+    fn u32(&mut self) -> Result<u32, RecordError> {
+        let b = self.take(4)?;
+        let mut a = [0u8; 4];
+        a.copy_from_slice(b);
+        Ok(u32::from_le_bytes(a))
     }
 }

@@ -11,7 +11,9 @@ use autonomy::partitioned::{
     DispatchNote, DispatchSender, ExecutivePartition, PlannerPartition,
     MAX_CHECKPOINTED_DISPATCH_CHUNKS,
 };
-use flight_app::rover_exec::{ExecAnswer, RoverDecider, RoverPlanNote};
+use flight_app::rover_exec::{
+    ExecAnswer, RecordError, RoverDecider, RoverPlanNote, RECORD_MAX_BYTES,
+};
 use flight_app::rover_mission::{ReadyMask, MAX_ROVER_ACTIVE, READY_MASK_WORDS};
 use fsw_bridge::temporal::{RoverRefusal, RoverReplanWhy, RoverReport, RoverStartKind};
 use temporal::constraints::Constraint;
@@ -360,4 +362,75 @@ fn a_network_over_the_executives_chunks_is_not_taken_as_the_plan() {
         Err(RoverRefusal::BadTask)
     );
     assert!(!d.has_plan());
+}
+
+#[test]
+fn the_deciders_record_restores_it_and_a_damaged_one_is_refused() {
+    let net = small();
+    let (mut executive, _planner) = loaded(&net);
+    let mut d = Box::new(RoverDecider::new());
+    d.plan_loaded(&mut executive, &note(1, &[(7, 6)])).unwrap();
+    d.set_ready(&executive, &mask(&[1]));
+    assert_eq!(started(d.poll(&mut executive, EPOCH)).1, A);
+    d.set_ready(&executive, &mask(&[]));
+    let wait = d.poll(&mut executive, EPOCH + 5);
+    let mut buf = vec![0u8; RECORD_MAX_BYTES];
+    let n = d.encode(net.step_count(), &mut buf).unwrap();
+    assert!(
+        d.encode(net.step_count(), &mut buf[..n - 1]).is_none(),
+        "too small"
+    );
+    let record = buf[..n].to_vec();
+    // Restored: the same answers as the one that wrote it (with the mask sent again).
+    let mut back = Box::new(RoverDecider::new());
+    assert_eq!(back.decode(&record), Ok(n));
+    assert!(back.has_plan());
+    let mut twin = executive.clone();
+    back.set_ready(&twin, &mask(&[3]));
+    d.set_ready(&executive, &mask(&[3]));
+    assert_eq!(
+        back.poll(&mut twin, EPOCH + 5),
+        d.poll(&mut executive, EPOCH + 5)
+    );
+    assert!(matches!(wait, ExecAnswer::Report(RoverReport::Wait { .. })));
+    assert_eq!(
+        back.ended(&mut twin, A, EPOCH + 100),
+        d.ended(&mut executive, A, EPOCH + 100)
+    );
+    // Damaged: every byte flipped in turn is refused, and leaves the decider as it was.
+    for i in 0..n {
+        let mut bad = record.clone();
+        bad[i] ^= 0x5a;
+        let mut fresh = Box::new(RoverDecider::new());
+        let r = fresh.decode(&bad);
+        assert!(
+            matches!(
+                r,
+                Err(RecordError::BadCrc
+                    | RecordError::Version
+                    | RecordError::BadLength
+                    | RecordError::OutOfRange)
+            ),
+            "byte {i}: {r:?}"
+        );
+        assert!(!fresh.has_plan(), "byte {i}: nothing taken");
+    }
+    assert_eq!(back.decode(&record[..n - 1]), Err(RecordError::BadLength));
+    let mut other = record.clone();
+    other[0] = 9;
+    assert_eq!(back.decode(&other), Err(RecordError::Version));
+    // Random bytes never panic.
+    let mut x = 0x9e37_79b9_7f4a_7c15u64;
+    let mut fresh = Box::new(RoverDecider::new());
+    for len in 0..600 {
+        let bytes: Vec<u8> = (0..len)
+            .map(|_| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                x as u8
+            })
+            .collect();
+        let _ = fresh.decode(&bytes);
+    }
 }

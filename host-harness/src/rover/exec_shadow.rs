@@ -50,6 +50,14 @@ pub struct ExecShadow {
     /// The executive decides (its answers are the host's; the mission applies its starts and
     /// replans on its request), else it only runs beside the mission and is compared.
     pub decides: bool,
+    /// Restore the executive partition (its checkpoint: the channel, the dispatch part) and
+    /// its decider (its record) into new ones after every this many of its polls, as a reset
+    /// of the executive partition between two events does (None: never).
+    pub restore_every: Option<usize>,
+    /// Restores done, and the largest decider record written.
+    pub restores: usize,
+    polls_decided: usize,
+    pub most_record_bytes: usize,
     /// Polls whose answers differ: (mission time, the executive's, the mission's).
     pub differences: Vec<String>,
 }
@@ -70,6 +78,10 @@ impl ExecShadow {
             pending: None,
             stats: ShadowStats::default(),
             decides: false,
+            restore_every: None,
+            restores: 0,
+            polls_decided: 0,
+            most_record_bytes: 0,
             differences: Vec::new(),
         }
     }
@@ -154,7 +166,51 @@ impl ExecShadow {
             }
         }
         self.exchange();
+        self.polls_decided += 1;
+        if self
+            .restore_every
+            .is_some_and(|n| n > 0 && self.polls_decided.is_multiple_of(n))
+        {
+            self.restore();
+        }
         Some(answer)
+    }
+
+    /// The executive partition and its decider taken up from their checkpoints in new ones.
+    fn restore(&mut self) {
+        let mut buf = vec![0u8; 512 * 1024];
+        let Some(n) = self.executive.encode_state(&mut buf) else {
+            self.differences
+                .push("the executive's checkpoint does not encode".into());
+            return;
+        };
+        let mut executive = Box::new(ExecutivePartition::new());
+        if executive.decode_state(&buf[..n]).is_none() {
+            self.differences
+                .push("the executive's checkpoint does not restore".into());
+            return;
+        }
+        let steps = self
+            .executive
+            .dispatch()
+            .loaded()
+            .map_or(0, |(_, d)| d.network().step_count());
+        let mut record = vec![0u8; flight_app::rover_exec::RECORD_MAX_BYTES];
+        let Some(len) = self.decider.encode(steps, &mut record) else {
+            self.differences
+                .push("the decider's record does not encode".into());
+            return;
+        };
+        self.most_record_bytes = self.most_record_bytes.max(len);
+        let mut decider = Box::new(RoverDecider::new());
+        if let Err(e) = decider.decode(&record[..len]) {
+            self.differences
+                .push(format!("the decider's record refused: {e:?}"));
+            return;
+        }
+        self.executive = executive;
+        self.decider = decider;
+        self.restores += 1;
     }
 
     /// Before the mission takes `event`, when the executive decides: an `Ended` to the
