@@ -148,3 +148,64 @@ fn the_executive_restored_between_polls_takes_the_same_decisions() {
         assert!(record <= flight_app::rover_exec::RECORD_MAX_BYTES);
     }
 }
+
+/// A reset of the planner partition while the executive decides: natively the mission is
+/// taken up again from its checkpoint and sent again its inputs since (the host's events it
+/// answers, and the starts and replans the executive told it), each answered as before; the
+/// executive, not reset, goes on deciding every poll, and the run makes the same decisions.
+#[test]
+fn a_reset_of_the_planner_while_the_executive_decides_resumes_with_the_same_decisions() {
+    use hil::rover::ResetAt;
+    for (name, hash) in [
+        ("sahara-day", "23b00d4803be8c09"),
+        ("field-trial", "529b646a3f3b62be"),
+    ] {
+        let ((_, plain), _) = run_with(name, None, true, None);
+        let path = hil::repo_root().join(format!("scenarios/rover/{name}.toml"));
+        let (mut landed, mut replayed, mut late) = (0, 0, 0);
+        // field-trial's searches are long (2,500 expansions): fewer points there.
+        let stride = if name == "sahara-day" { 1 } else { 3 };
+        for input in (0..60).step_by(stride) {
+            for after in [0u32, 1, 2] {
+                let mut backend = Backend::native();
+                let mut shadow = ExecShadow::new();
+                shadow.decides = true;
+                backend.exec_shadow = Some(Box::new(shadow));
+                backend.reset_at(ResetAt {
+                    event: input,
+                    after,
+                    planner_ticks: 0,
+                    damage: None,
+                });
+                let (run, verdicts) = run_file(&path, None, &mut backend).unwrap_or_else(|e| {
+                    panic!("{name}, reset in input {input} after {after}: {e}")
+                });
+                assert!(
+                    verdicts.iter().all(|v| v.ok),
+                    "{name} {input} {after}: {verdicts:?}"
+                );
+                assert_eq!(
+                    run.decisions_sha256, hash,
+                    "{name}: reset in input {input} after {after}"
+                );
+                let shadow = backend.exec_shadow.take().unwrap();
+                assert!(shadow.differences.is_empty(), "{:?}", shadow.differences);
+                assert_eq!(
+                    shadow.stats.polls, plain.polls,
+                    "{name} {input} {after}: every poll the executive's"
+                );
+                if let Some(r) = run.resumes.first() {
+                    landed += 1;
+                    replayed += r.replayed;
+                    late += usize::from(after >= 2);
+                }
+            }
+        }
+        eprintln!(
+            "{name}: {landed} resets landed, {late} late in a replan, {replayed} inputs sent again"
+        );
+        // Some resets land late in a replan's answer (sahara-day, where every input is tried).
+        assert!(landed > 20 && replayed > 10, "{name}: {landed} {replayed}");
+        assert!(name != "sahara-day" || late >= 1, "{name}: {late}");
+    }
+}

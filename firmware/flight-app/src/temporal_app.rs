@@ -513,8 +513,9 @@ impl<'a> TemporalApp<'a> {
     /// a start it took (the mission applies it) or a replan it asks for (the mission replans;
     /// the attempts then run in the next windows as an event's). Its reports (a refusal, or
     /// the replan's) come out as the events'. False if no mission is flying or the storage is
-    /// not given. Natively only for now (the partitions' messages carrying these are step 1's
-    /// routing, not yet done): the mission's checkpoint is not written for them.
+    /// not given. Each is one of the mission's inputs as an event is (checkpointed before it,
+    /// counted). Natively only for now (the partitions' messages carrying these are step 1's
+    /// routing, not yet done).
     pub fn rover_from_executive(&mut self, what: FromExecutive) -> bool {
         let (Some(m), Some(storage)) = (self.rover.as_deref_mut(), self.storage.as_mut()) else {
             return false;
@@ -533,6 +534,12 @@ impl<'a> TemporalApp<'a> {
             until: None,
             hard_until: None,
         };
+        // An input of the mission as an event is: the state before it checkpointed, counted
+        // (a reset after it is taken up from there and the inputs since sent again).
+        if let Some(cp) = self.rover_checkpoint.as_deref_mut() {
+            rover_checkpoint::save(m, cp);
+        }
+        m.took_event();
         let next = match what {
             FromExecutive::Started { step, at_ms } => m.started(&mut ctx, step, at_ms, &mut out),
             FromExecutive::Replan { at_ms, why } => {
