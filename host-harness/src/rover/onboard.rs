@@ -210,7 +210,7 @@ impl Backend {
                         .ok_or("a reset landed that was not armed")?,
                 ),
                 (Input::Exec(what), Place::Native(n)) => {
-                    (format!("{what:?}"), n.from_executive(what)?)
+                    (format!("{what:?}"), n.tell_mission(what)?)
                 }
                 (Input::Exec(_), Place::Emulated(_)) => {
                     return Err("the executive decides natively only".into())
@@ -527,7 +527,7 @@ impl NativeOnboard {
         Ok(Some(match answer {
             ExecAnswer::Report(r @ RoverReport::Dispatch { step, at_ms, .. }) => {
                 let what = FromExecutive::Started { step, at_ms };
-                let said = self.from_executive(what)?;
+                let said = self.tell_mission(what)?;
                 if let Some(m) = said.first() {
                     return Err(format!("the mission did not take the start {r:?}: {m:?}"));
                 }
@@ -537,7 +537,7 @@ impl NativeOnboard {
             ExecAnswer::Refused(reason) => (vec![RoverReport::Refused { reason }], None),
             ExecAnswer::Replan { at_ms, why } => {
                 let what = FromExecutive::Replan { at_ms, why };
-                let said = self.from_executive(what)?;
+                let said = self.tell_mission(what)?;
                 (said.clone(), Some((what, said)))
             }
         }))
@@ -545,7 +545,7 @@ impl NativeOnboard {
 
     /// What the executive tells the mission, and the mission's reports (none for a start it
     /// takes; a replan's, through its attempts' windows).
-    fn from_executive(
+    fn tell_mission(
         &mut self,
         what: flight_app::FromExecutive,
     ) -> Result<Vec<RoverReport>, String> {
