@@ -209,3 +209,39 @@ fn a_reset_of_the_planner_while_the_executive_decides_resumes_with_the_same_deci
         assert!(name != "sahara-day" || late >= 1, "{name}: {late}");
     }
 }
+
+/// A network over the executive's chunks is not sent: the mission dispatches it itself (its
+/// own poll answers the host) until a plan the executive can take. No shipped scenario's
+/// network reaches the 112 chunks (long-day's is 65), so the limit is lowered here: long-day's
+/// only network over 64 chunks, and sahara-day's networks over 7 (its first plan's is 8).
+#[test]
+fn a_network_over_the_executives_chunks_is_dispatched_by_the_mission() {
+    for (name, hash, max, least_sent) in [
+        ("long-day", "becb4a452dc8b9f2", 64, 0),
+        ("sahara-day", "23b00d4803be8c09", 7, 1),
+    ] {
+        let path = hil::repo_root().join(format!("scenarios/rover/{name}.toml"));
+        let mut backend = Backend::native();
+        let mut shadow = ExecShadow::new();
+        shadow.decides = true;
+        shadow.max_chunks = Some(max);
+        backend.exec_shadow = Some(Box::new(shadow));
+        let (run, verdicts) = run_file(&path, None, &mut backend).expect("runs");
+        assert!(verdicts.iter().all(|v| v.ok), "{verdicts:?}");
+        assert_eq!(run.decisions_sha256, hash, "{name}");
+        let shadow = backend.exec_shadow.take().unwrap();
+        assert!(shadow.differences.is_empty(), "{:?}", shadow.differences);
+        let s = shadow.stats;
+        println!("{name}, at most {max} chunks: {s:?}");
+        assert!(s.too_large >= 1, "{s:?}");
+        assert!(s.networks >= least_sent, "{s:?}");
+        // The executive decided only the polls of the plans it took.
+        let (_, all) = decided(name, None);
+        assert!(s.polls < all.polls, "{s:?}");
+        if least_sent == 0 {
+            assert_eq!(s.polls, 0, "{s:?}");
+        } else {
+            assert!(s.polls > 0, "{s:?}");
+        }
+    }
+}

@@ -54,6 +54,10 @@ pub struct ExecShadow {
     /// its decider (its record) into new ones after every this many of its polls, as a reset
     /// of the executive partition between two events does (None: never).
     pub restore_every: Option<usize>,
+    /// Tests: networks over this many chunks are taken as over the executive's
+    /// (`MAX_CHECKPOINTED_DISPATCH_CHUNKS`, 112, which no shipped scenario's network reaches),
+    /// so the mission's own dispatch of such a network runs (None: the executive's limit).
+    pub max_chunks: Option<usize>,
     /// Restores done, and the largest decider record written.
     pub restores: usize,
     polls_decided: usize,
@@ -79,6 +83,7 @@ impl ExecShadow {
             stats: ShadowStats::default(),
             decides: false,
             restore_every: None,
+            max_chunks: None,
             restores: 0,
             polls_decided: 0,
             most_record_bytes: 0,
@@ -114,7 +119,14 @@ impl ExecShadow {
         match *event {
             RoverEvent::Poll { now_ms } => self.pending = self.decide(app, now_ms),
             RoverEvent::Ended { action, at_ms } => {
-                if let Err(r) = self.decider.ended(&mut self.executive, action, at_ms) {
+                // Without a plan of its own (the mission dispatches one too large to send, or
+                // replans) an end of an action the mission started is the mission's alone.
+                let held = self.decider.has_plan();
+                if let Err(r) = self
+                    .decider
+                    .ended(&mut self.executive, action, at_ms)
+                    .or_else(|r| if held { Err(r) } else { Ok(()) })
+                {
                     self.differences
                         .push(format!("at {at_ms}: the end of {action} refused: {r:?}"));
                 }
@@ -217,7 +229,14 @@ impl ExecShadow {
     /// executive too (the mission applies it, the executive marks its end step).
     pub fn ended(&mut self, event: &RoverEvent) {
         if let RoverEvent::Ended { action, at_ms } = *event {
-            if let Err(r) = self.decider.ended(&mut self.executive, action, at_ms) {
+            // Without a plan of its own (the mission dispatches one too large to send, or
+            // replans) an end of an action the mission started is the mission's alone.
+            let held = self.decider.has_plan();
+            if let Err(r) = self
+                .decider
+                .ended(&mut self.executive, action, at_ms)
+                .or_else(|r| if held { Err(r) } else { Ok(()) })
+            {
                 self.differences
                     .push(format!("at {at_ms}: the end of {action} refused: {r:?}"));
             }
@@ -292,8 +311,7 @@ impl ExecShadow {
                 .push("a new plan the mission does not show".to_string());
             return;
         };
-        self.send_network(&net, horizon);
-        if DispatchSender::check(&net).is_err() {
+        if !self.send_network(&net, horizon) {
             return;
         }
         let note = RoverPlanNote {
@@ -310,11 +328,16 @@ impl ExecShadow {
         self.exchange();
     }
 
-    fn send_network(&mut self, net: &PlanNetwork, horizon: u32) {
-        if DispatchSender::check(net).is_err() {
+    /// Sends `net`; false if it is not sent (over the executive's chunks: the mission
+    /// dispatches it itself, its own poll answering the host).
+    fn send_network(&mut self, net: &PlanNetwork, horizon: u32) -> bool {
+        let lowered = self
+            .max_chunks
+            .is_some_and(|m| temporal::dispatch_wire::chunks(net) > m);
+        if DispatchSender::check(net).is_err() || lowered {
             self.stats.too_large += 1;
             self.decider.plan_dropped();
-            return;
+            return false;
         }
         self.plan = self.plan.wrapping_add(1);
         let mut sender = DispatchSender::new(self.plan, horizon);
@@ -324,5 +347,6 @@ impl ExecShadow {
         }
         self.exchange();
         self.stats.networks += 1;
+        true
     }
 }
