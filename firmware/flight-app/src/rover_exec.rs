@@ -69,6 +69,9 @@ pub struct RoverDecider {
     /// The actions ready now, sorted (from the last readiness mask).
     ready: [u16; MAX_DISPATCH_STEPS],
     ready_len: usize,
+    /// The steps the planner's mission had executed when it made the mask (None: no mask
+    /// since the plan was loaded or the decider restored).
+    ready_stamp: Option<u16>,
     running: [(u16, u16); MAX_ROVER_ACTIVE],
     running_len: usize,
     waited: bool,
@@ -100,6 +103,7 @@ impl RoverDecider {
             planned: [(0, 0); MAX_DISPATCH_STEPS + 1],
             ready: [0; MAX_DISPATCH_STEPS],
             ready_len: 0,
+            ready_stamp: None,
             running: [(0, 0); MAX_ROVER_ACTIVE],
             running_len: 0,
             waited: false,
@@ -164,6 +168,7 @@ impl RoverDecider {
         self.held = false;
         self.polling = None;
         self.ready_len = 0;
+        self.ready_stamp = None;
         Ok(())
     }
 
@@ -176,9 +181,14 @@ impl RoverDecider {
         self.polling = None;
     }
 
-    /// The readiness mask the planner made after the last happening it applied.
-    pub fn set_ready(&mut self, exec: &ExecutivePartition, mask: &ReadyMask) {
+    /// The readiness mask the planner made after the last happening it applied, when its
+    /// mission had executed `stamp` steps of the flown network
+    /// (`RoverMission::executed_steps`). The lockstep: [`Self::poll_begin`] refuses to poll
+    /// (`Busy`) until the mask's stamp is the count of steps this executive has executed, so a
+    /// poll never uses readiness from before a happening the planner has not applied yet.
+    pub fn set_ready(&mut self, exec: &ExecutivePartition, mask: &ReadyMask, stamp: u16) {
         self.ready_len = 0;
+        self.ready_stamp = Some(stamp);
         let Some((_, d)) = exec.dispatch().loaded() else {
             return;
         };
@@ -264,6 +274,10 @@ impl RoverDecider {
         let Some(d) = exec.dispatcher_mut() else {
             return Err(RoverRefusal::NoMission);
         };
+        if self.ready_stamp != Some(executed_steps(d)) {
+            // The planner's mask after the last happening has not come back yet.
+            return Err(RoverRefusal::Busy);
+        }
         self.last_ms = now;
         if self.waited {
             self.waited = false;
@@ -412,6 +426,7 @@ impl RoverDecider {
         self.running = running;
         self.running_len = running_len;
         self.ready_len = 0;
+        self.ready_stamp = None;
         self.polling = None;
         Ok(r.at)
     }
@@ -585,4 +600,13 @@ impl<'b> Reader<'b> {
         a.copy_from_slice(b);
         Ok(u32::from_le_bytes(a))
     }
+}
+
+/// Steps of `d`'s network executed (the epoch not counted): what a readiness mask is stamped
+/// with.
+pub fn executed_steps(d: &temporal::Dispatcher) -> u16 {
+    let n = (1..=d.network().step_count())
+        .filter(|&k| d.executed_at(k).is_some())
+        .count();
+    u16::try_from(n).unwrap_or(u16::MAX)
 }

@@ -549,6 +549,13 @@ impl RoverMission {
             .map(|r| (r.action, r.end_step))
     }
 
+    /// Steps of the flown network this mission has executed (the readiness mask's stamp,
+    /// see [`crate::rover_exec::RoverDecider::set_ready`]). None while no plan is flown.
+    pub fn executed_steps(&self) -> Option<u16> {
+        let (_, _, d) = self.flying_plan()?;
+        Some(crate::rover_exec::executed_steps(d))
+    }
+
     /// The readiness of the flown network's start steps in the state now (the facts and
     /// numeric values only this partition keeps): bit `k` is set when step `k` starts an
     /// action [`Self::poll`] takes as ready (a completion of a carried action, or one whose

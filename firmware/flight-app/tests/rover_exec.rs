@@ -12,7 +12,7 @@ use autonomy::partitioned::{
     MAX_CHECKPOINTED_DISPATCH_CHUNKS,
 };
 use flight_app::rover_exec::{
-    ExecAnswer, RecordError, RoverDecider, RoverPlanNote, RECORD_MAX_BYTES,
+    executed_steps, ExecAnswer, RecordError, RoverDecider, RoverPlanNote, RECORD_MAX_BYTES,
 };
 use flight_app::rover_mission::{ReadyMask, MAX_ROVER_ACTIVE, READY_MASK_WORDS};
 use fsw_bridge::temporal::{RoverRefusal, RoverReplanWhy, RoverReport, RoverStartKind};
@@ -91,6 +91,13 @@ fn mask(steps: &[usize]) -> ReadyMask {
     m
 }
 
+/// The planner's mask naming `steps`, stamped with the steps executed so far (a mask made
+/// after the last happening).
+fn ready(d: &mut RoverDecider, executive: &ExecutivePartition, steps: &[usize]) {
+    let stamp = executed_steps(executive.dispatch().loaded().unwrap().1);
+    d.set_ready(executive, &mask(steps), stamp);
+}
+
 fn note(plan: u32, running: &[(u16, u16)]) -> RoverPlanNote {
     let mut r = [(0, 0); MAX_ROVER_ACTIVE];
     r[..running.len()].copy_from_slice(running);
@@ -150,14 +157,14 @@ fn a_step_the_mask_does_not_name_ready_is_not_started() {
     );
 
     // Only B ready: B starts, not A (both could by their windows).
-    d.set_ready(&executive, &mask(&[3, 5]));
+    ready(&mut d, &executive, &[3, 5]);
     assert!(d.is_ready(B) && !d.is_ready(A));
     assert_eq!(
         started(d.poll(&mut executive, EPOCH)),
         (3, B, RoverStartKind::AtLb)
     );
     // A still not ready at 10 ms: a wait, not a start.
-    d.set_ready(&executive, &mask(&[]));
+    ready(&mut d, &executive, &[]);
     let wait = d.poll(&mut executive, EPOCH + 10);
     assert!(
         matches!(wait, ExecAnswer::Report(RoverReport::Wait { .. })),
@@ -172,7 +179,7 @@ fn a_step_the_mask_does_not_name_ready_is_not_started() {
         .is_none());
     // The mask names A (an end the planner applied made its conditions hold): it starts, 10 ms
     // after its lb.
-    d.set_ready(&executive, &mask(&[1]));
+    ready(&mut d, &executive, &[1]);
     assert_eq!(
         started(d.poll(&mut executive, EPOCH + 10)),
         (1, A, RoverStartKind::Late { by_ms: 10 })
@@ -218,6 +225,7 @@ fn a_step_the_mask_does_not_name_ready_is_not_started() {
             }
         ]
     );
+    ready(&mut d, &executive, &[]);
     assert_eq!(
         d.poll(&mut executive, EPOCH + 110),
         ExecAnswer::Report(RoverReport::Finished)
@@ -230,10 +238,10 @@ fn a_step_never_ready_past_its_ub_asks_for_a_replan() {
     let (mut executive, _planner) = loaded(&net);
     let mut d = Box::new(RoverDecider::new());
     d.plan_loaded(&mut executive, &note(1, &[(7, 6)])).unwrap();
-    d.set_ready(&executive, &mask(&[1]));
+    ready(&mut d, &executive, &[1]);
     assert_eq!(started(d.poll(&mut executive, EPOCH)).1, A);
     // B never ready: waits until just past its ub (400), then a replan naming it.
-    d.set_ready(&executive, &mask(&[]));
+    ready(&mut d, &executive, &[]);
     match d.poll(&mut executive, EPOCH + 5) {
         ExecAnswer::Report(RoverReport::Wait { wake_ms, .. }) => {
             assert_eq!(wake_ms, Some(EPOCH + 401))
@@ -295,7 +303,7 @@ fn bad_events_are_refused_and_change_nothing() {
         Err(RoverRefusal::BadTask)
     );
     d.plan_loaded(&mut executive, &note(1, &[])).unwrap();
-    d.set_ready(&executive, &mask(&[1, 3]));
+    ready(&mut d, &executive, &[1, 3]);
     assert_eq!(started(d.poll(&mut executive, EPOCH + 20)).1, A);
     // An end of an action not started, an end before the last event, a poll before it.
     assert_eq!(
@@ -315,6 +323,7 @@ fn bad_events_are_refused_and_change_nothing() {
         })
     );
     // Nothing changed: B starts next, A's end is taken.
+    ready(&mut d, &executive, &[3]);
     assert_eq!(started(d.poll(&mut executive, EPOCH + 20)).1, B);
     d.ended(&mut executive, A, EPOCH + 120).unwrap();
     assert_eq!(
@@ -370,9 +379,9 @@ fn the_deciders_record_restores_it_and_a_damaged_one_is_refused() {
     let (mut executive, _planner) = loaded(&net);
     let mut d = Box::new(RoverDecider::new());
     d.plan_loaded(&mut executive, &note(1, &[(7, 6)])).unwrap();
-    d.set_ready(&executive, &mask(&[1]));
+    ready(&mut d, &executive, &[1]);
     assert_eq!(started(d.poll(&mut executive, EPOCH)).1, A);
-    d.set_ready(&executive, &mask(&[]));
+    ready(&mut d, &executive, &[]);
     let wait = d.poll(&mut executive, EPOCH + 5);
     let mut buf = vec![0u8; RECORD_MAX_BYTES];
     let n = d.encode(net.step_count(), &mut buf).unwrap();
@@ -386,8 +395,8 @@ fn the_deciders_record_restores_it_and_a_damaged_one_is_refused() {
     assert_eq!(back.decode(&record), Ok(n));
     assert!(back.has_plan());
     let mut twin = executive.clone();
-    back.set_ready(&twin, &mask(&[3]));
-    d.set_ready(&executive, &mask(&[3]));
+    ready(&mut back, &twin, &[3]);
+    ready(&mut d, &executive, &[3]);
     assert_eq!(
         back.poll(&mut twin, EPOCH + 5),
         d.poll(&mut executive, EPOCH + 5)
@@ -433,4 +442,52 @@ fn the_deciders_record_restores_it_and_a_damaged_one_is_refused() {
             .collect();
         let _ = fresh.decode(&bytes);
     }
+}
+
+#[test]
+fn a_mask_from_before_the_last_happening_is_not_polled_with() {
+    let net = small();
+    let (mut executive, _planner) = loaded(&net);
+    let mut d = Box::new(RoverDecider::new());
+    d.plan_loaded(&mut executive, &note(1, &[(7, 6)])).unwrap();
+    // No mask since the plan was loaded: busy.
+    assert_eq!(
+        d.poll(&mut executive, EPOCH),
+        ExecAnswer::Refused(RoverRefusal::Busy)
+    );
+    // The mask after the completion's start (1 step executed).
+    d.set_ready(&executive, &mask(&[1, 3]), 1);
+    assert_eq!(started(d.poll(&mut executive, EPOCH)).1, A);
+    // A start the planner has not applied yet: its old mask (stamp 1) is not used, nothing
+    // changes, and the poll goes on once the mask after the start (stamp 2) comes.
+    assert_eq!(
+        d.poll(&mut executive, EPOCH + 1),
+        ExecAnswer::Refused(RoverRefusal::Busy)
+    );
+    d.set_ready(&executive, &mask(&[1, 3]), 1);
+    assert_eq!(
+        d.poll(&mut executive, EPOCH + 1),
+        ExecAnswer::Refused(RoverRefusal::Busy)
+    );
+    assert!(executive
+        .dispatch()
+        .loaded()
+        .unwrap()
+        .1
+        .executed_at(3)
+        .is_none());
+    d.set_ready(&executive, &mask(&[3]), 2);
+    assert_eq!(started(d.poll(&mut executive, EPOCH + 1)).1, B);
+    // An end the executive took: busy until the mask after it.
+    d.ended(&mut executive, 7, EPOCH + 20).unwrap();
+    d.set_ready(&executive, &mask(&[]), 3);
+    assert_eq!(
+        d.poll(&mut executive, EPOCH + 20),
+        ExecAnswer::Refused(RoverRefusal::Busy)
+    );
+    d.set_ready(&executive, &mask(&[]), 4);
+    assert!(matches!(
+        d.poll(&mut executive, EPOCH + 20),
+        ExecAnswer::Report(RoverReport::Wait { .. })
+    ));
 }

@@ -142,12 +142,15 @@ impl ExecShadow {
         if !self.decider.has_plan() {
             return None;
         }
-        let Some(mask) = app.rover_view(|m, task| m.ready_mask(task)).flatten() else {
+        let got = app
+            .rover_view(|m, task| Some((m.ready_mask(task)?, m.executed_steps()?)))
+            .flatten();
+        let Some((mask, stamp)) = got else {
             self.differences
                 .push(format!("at {now_ms}: no readiness mask from the mission"));
             return None;
         };
-        self.decider.set_ready(&self.executive, &mask);
+        self.decider.set_ready(&self.executive, &mask, stamp);
         let unready = self
             .executive
             .dispatch()
