@@ -150,6 +150,7 @@ mod memories;
 pub mod persistence;
 mod planner_app;
 mod plugin;
+pub mod rover_exec;
 pub mod rover_mission;
 mod temporal_app;
 #[cfg(test)]

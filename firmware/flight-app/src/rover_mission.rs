@@ -49,8 +49,12 @@ pub const MAX_ROVER_FACT_WORDS: usize = 128;
 pub const MAX_ROVER_NUMERICS: usize = 64;
 /// Words of `network_from_plan`'s scratch: one per fact and numeric variable.
 const SCRATCH_WORDS: usize = MAX_ROVER_FACT_WORDS * 32 + MAX_ROVER_NUMERICS;
+/// Words of a readiness mask ([`RoverMission::ready_mask`]): a bit per step of a network.
+pub const READY_MASK_WORDS: usize = (MAX_DISPATCH_STEPS + 1).div_ceil(32);
+/// Which start steps of the flown network are ready in the state now.
+pub type ReadyMask = [u32; READY_MASK_WORDS];
 /// A start ready more than this before its lb was held to it (ticks: one second).
-const HELD_MS: u32 = 1000;
+pub const HELD_MS: u32 = 1000;
 /// "No step" in a report's action field.
 pub const NO_ACTION: u16 = u16::MAX;
 
@@ -516,6 +520,147 @@ impl RoverMission {
         }
         out(RoverReport::EndTaken { action });
         RoverNext::Answered
+    }
+
+    /// The plan being flown, as the executive needs it to dispatch it (see [`crate::rover_exec`]):
+    /// its generation, its epoch (mission time of its time 0) and the dispatcher holding its
+    /// network (the windows as planned, the completions of carried actions executed at 0).
+    /// None while no plan is flown (before the first, while planning, stopped).
+    pub fn flying_plan(&self) -> Option<(u32, u32, &Dispatcher)> {
+        (self.phase == FLYING && self.has_plan).then_some((
+            self.plan_gen,
+            self.epoch,
+            &self.dispatcher,
+        ))
+    }
+
+    /// The mission's task's action count (the actions after it in a replan task are the
+    /// completions of carried actions).
+    pub fn base_actions(&self, task_buffer: &[u8]) -> Option<u16> {
+        u16::try_from(self.task(task_buffer)?.action_count()).ok()
+    }
+
+    /// The actions running on the rover with their end steps in the current network (0: none),
+    /// in the mission's order.
+    pub fn running_ends(&self) -> impl Iterator<Item = (u16, u16)> + '_ {
+        self.running
+            .iter()
+            .take(self.running_len)
+            .map(|r| (r.action, r.end_step))
+    }
+
+    /// Steps of the flown network this mission has executed (the readiness mask's stamp,
+    /// see [`crate::rover_exec::RoverDecider::set_ready`]). None while no plan is flown.
+    pub fn executed_steps(&self) -> Option<u16> {
+        let (_, _, d) = self.flying_plan()?;
+        Some(crate::rover_exec::executed_steps(d))
+    }
+
+    /// The readiness of the flown network's start steps in the state now (the facts and
+    /// numeric values only this partition keeps): bit `k` is set when step `k` starts an
+    /// action [`Self::poll`] takes as ready (a completion of a carried action, or one whose
+    /// at-start conditions hold). The state changes only by the happenings the mission
+    /// applies (a start, an end, a pause), so a mask made after each of them answers every
+    /// poll until the next as `poll`'s own readiness does. None while no plan is flown.
+    pub fn ready_mask(&self, task_buffer: &[u8]) -> Option<ReadyMask> {
+        let (_, _, d) = self.flying_plan()?;
+        let task = self.task(task_buffer)?;
+        let base_actions = task.action_count();
+        let mut mask = [0u32; READY_MASK_WORDS];
+        let net = d.network();
+        for k in 1..=net.step_count() {
+            let Some(s) = net.step(k) else { continue };
+            if s.end {
+                continue;
+            }
+            let a = usize::from(s.action);
+            if a >= base_actions || replan::start_holds(&task, a, &self.facts, &self.values) {
+                if let Some(w) = mask.get_mut(k / 32) {
+                    *w |= 1 << (k % 32);
+                }
+            }
+        }
+        Some(mask)
+    }
+
+    /// The executive started step `step` of the flown network at mission time `at` (its
+    /// `Dispatch`, taken there with this mission's readiness mask, see [`crate::rover_exec`]):
+    /// the start's effects applied to the state now, the action running, the step executed in
+    /// this mission's copy of the network, as [`Self::poll`] does for a start it decides. No
+    /// report unless refused (the executive reported the start).
+    pub fn started(
+        &mut self,
+        ctx: &mut RoverCtx<'_>,
+        step: u16,
+        at: u32,
+        out: &mut dyn FnMut(RoverReport),
+    ) -> RoverNext {
+        if self.phase != FLYING || !self.has_plan {
+            return Self::refuse(out, RoverRefusal::NoMission);
+        }
+        if !self.in_order(at, out) {
+            return RoverNext::Answered;
+        }
+        let Some(task) = self.task(ctx.task_buffer) else {
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        let k = usize::from(step);
+        let Some(s) = self.dispatcher.network().step(k).filter(|s| !s.end) else {
+            return Self::refuse(out, RoverRefusal::BadTask);
+        };
+        if self.running_len >= MAX_ROVER_ACTIVE {
+            return Self::refuse(out, RoverRefusal::Capacity);
+        }
+        if self
+            .dispatcher
+            .executed(k, at.saturating_sub(self.epoch))
+            .is_err()
+        {
+            return Self::refuse(out, RoverRefusal::BadTask);
+        }
+        if replan::apply(
+            &task,
+            usize::from(s.action),
+            false,
+            &mut self.facts,
+            &mut self.values,
+        )
+        .is_err()
+        {
+            return Self::refuse(out, RoverRefusal::BadTask);
+        }
+        self.last_ms = at;
+        let end_step = self.dispatcher.network().end_of(k).unwrap_or(0);
+        let estimate = task.action(usize::from(s.action)).duration_lb;
+        if let Some(r) = self.running.get_mut(self.running_len) {
+            *r = Running {
+                action: s.action,
+                started: at,
+                ends: at.saturating_add(estimate),
+                end_step: u16::try_from(end_step).unwrap_or(0),
+            };
+        }
+        self.running_len += 1;
+        RoverNext::Answered
+    }
+
+    /// The executive found the flown plan no longer fits at `at` (its `Replan` decision, for
+    /// `why`): replan as [`Self::poll`] does when it decides so.
+    pub fn replan_requested(
+        &mut self,
+        ctx: &mut RoverCtx<'_>,
+        at: u32,
+        why: RoverReplanWhy,
+        out: &mut dyn FnMut(RoverReport),
+    ) -> RoverNext {
+        if self.phase != FLYING || !self.has_plan {
+            return Self::refuse(out, RoverRefusal::NoMission);
+        }
+        if !self.in_order(at, out) {
+            return RoverNext::Answered;
+        }
+        self.last_ms = at;
+        self.replan(ctx, at, why, out)
     }
 
     /// The time is `now`: decide.

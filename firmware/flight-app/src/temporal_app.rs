@@ -500,6 +500,74 @@ impl<'a> TemporalApp<'a> {
         self.rover_event = Some(event);
     }
 
+    /// The rover mission and the task buffer it reads (None: no mission memory, or the
+    /// storage is not given): what the executive's side of the decisions needs of it
+    /// ([`crate::rover_exec`]: the plan flown, the readiness mask).
+    pub fn rover_view<R>(&self, f: impl FnOnce(&RoverMission, &[u8]) -> R) -> Option<R> {
+        let m = self.rover.as_deref()?;
+        let storage = self.storage.as_ref()?;
+        Some(f(m, &*storage.task))
+    }
+
+    /// What the executive's side of the decisions ([`crate::rover_exec`]) tells the mission:
+    /// a start it took (the mission applies it) or a replan it asks for (the mission replans;
+    /// the attempts then run in the next windows as an event's). Its reports (a refusal, or
+    /// the replan's) come out as the events'. False if no mission is flying or the storage is
+    /// not given. Each is one of the mission's inputs as an event is (checkpointed before it,
+    /// counted). Natively only for now (the partitions' messages carrying these are step 1's
+    /// routing, not yet done).
+    pub fn rover_from_executive(&mut self, what: FromExecutive) -> bool {
+        let (Some(m), Some(storage)) = (self.rover.as_deref_mut(), self.storage.as_mut()) else {
+            return false;
+        };
+        let reports = &mut self.rover_reports;
+        let lost = &mut self.rover_reports_lost;
+        let mut out = |r: RoverReport| {
+            if reports.push_back(r).is_err() {
+                *lost = lost.saturating_add(1);
+            }
+        };
+        let mut clock = crate::NoClock;
+        let mut ctx = RoverCtx {
+            task_buffer: &mut *storage.task,
+            clock: &mut clock,
+            until: None,
+            hard_until: None,
+        };
+        // An input of the mission as an event is: the state before it checkpointed, counted
+        // (a reset after it is taken up from there and the inputs since sent again).
+        if let Some(cp) = self.rover_checkpoint.as_deref_mut() {
+            rover_checkpoint::save(m, cp);
+        }
+        m.took_event();
+        let next = match what {
+            FromExecutive::Started { step, at_ms } => m.started(&mut ctx, step, at_ms, &mut out),
+            FromExecutive::Replan { at_ms, why } => {
+                m.replan_requested(&mut ctx, at_ms, why, &mut out)
+            }
+        };
+        if let RoverNext::Plan {
+            len,
+            max_expansions,
+        } = next
+        {
+            let config = TemporalConfig {
+                duration_costs: true,
+                max_expansions,
+                ..TemporalConfig::DEFAULT
+            };
+            let id = m.job().unwrap_or(0);
+            self.job = Some(Job {
+                task_at: ROVER_REPLAN_AT as u32,
+                task_len: sat(len as u64),
+                phase: Phase::Planning,
+                ..Job::new(id, sat(len as u64), 0, config)
+            });
+            self.rover_attempt = true;
+        }
+        true
+    }
+
     /// A window's work of the rover mission: an attempt's end, or the event waiting. True if
     /// there was some.
     fn rover_window(
@@ -1371,4 +1439,17 @@ fn decode_record(words: &[u32; TEMPORAL_RESUME_RECORD_WORDS]) -> Option<Job> {
         ticks_per_unit: words[7],
         ..Job::new(id, len, words[4], config)
     })
+}
+
+/// What the executive's side of the rover's decisions tells the mission
+/// ([`TemporalApp::rover_from_executive`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FromExecutive {
+    /// Step `step` of the flown network started at `at_ms`.
+    Started { step: u16, at_ms: u32 },
+    /// The flown plan no longer fits at `at_ms`, for `why`.
+    Replan {
+        at_ms: u32,
+        why: fsw_bridge::temporal::RoverReplanWhy,
+    },
 }

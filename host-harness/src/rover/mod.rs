@@ -41,6 +41,7 @@ use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use temporal::Task;
 
+pub mod exec_shadow;
 mod onboard;
 mod sim;
 

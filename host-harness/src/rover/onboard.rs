@@ -31,12 +31,23 @@ pub enum Place {
 /// planner partition) and the resets injected ([`ResetAt`]).
 pub struct Backend {
     pub place: Place,
-    log: Vec<(RoverEvent, Vec<RoverReport>)>,
+    log: Vec<(Input, Vec<RoverReport>)>,
     reset_at: Option<ResetAt>,
     /// The resets that landed and how the mission took up again.
     pub resumes: Vec<Resume>,
     /// The target's health-monitor events, each with the event in whose answer it came.
     pub health_during: Vec<String>,
+    /// Natively: the executive partition's side of the dispatch decisions, run beside the
+    /// mission and set against it poll for poll (None: not run).
+    pub exec_shadow: Option<Box<super::exec_shadow::ExecShadow>>,
+}
+
+/// One input of the mission: a host event, or (when the executive decides) what the executive
+/// told it (a start it took, a replan it asks for).
+#[derive(Clone, Copy, Debug)]
+enum Input {
+    Event(RoverEvent),
+    Exec(flight_app::FromExecutive),
 }
 
 /// A reset of the planner partition injected in the answer to an event: event `event`
@@ -99,6 +110,7 @@ impl Backend {
             reset_at: None,
             resumes: Vec::new(),
             health_during: Vec::new(),
+            exec_shadow: None,
         }
     }
 
@@ -190,10 +202,20 @@ impl Backend {
             ));
         }
         for i in from..during {
-            let (ev, before) = self.log[i].clone();
-            let again = self
-                .answer(job, ev, None)?
-                .ok_or("a reset landed that was not armed")?;
+            let (input, before) = self.log[i].clone();
+            let (ev, again) = match (input, &mut self.place) {
+                (Input::Event(ev), _) => (
+                    format!("{ev:?}"),
+                    self.answer(job, ev, None)?
+                        .ok_or("a reset landed that was not armed")?,
+                ),
+                (Input::Exec(what), Place::Native(n)) => {
+                    (format!("{what:?}"), n.tell_mission(what)?)
+                }
+                (Input::Exec(_), Place::Emulated(_)) => {
+                    return Err("the executive decides natively only".into())
+                }
+            };
             let same = |v: &[RoverReport]| v.iter().map(decision_of).collect::<Vec<_>>();
             if same(&again) != same(&before) {
                 return Err(format!(
@@ -234,6 +256,20 @@ impl Backend {
         let during = self.log.len();
         let health = self.health_events().len();
         let reset = self.reset_at.filter(|r| r.event == during);
+        if let (Some(shadow), Place::Native(n)) = (self.exec_shadow.as_mut(), &mut self.place) {
+            if shadow.decides {
+                if let Some((answer, input)) = n.executive_answer(shadow, &event)? {
+                    shadow.after(&n.app, &event, &answer);
+                    if let Some((what, reports)) = input {
+                        self.log.push((Input::Exec(what), reports));
+                    }
+                    return Ok(answer);
+                }
+                shadow.ended(&event);
+            } else {
+                shadow.before(&n.app, &event);
+            }
+        }
         let answer = match self.answer(job, event, reset)? {
             Some(answer) => answer,
             None => {
@@ -247,7 +283,10 @@ impl Backend {
                 "{h} in the answer to event {during} ({event:?}): {last:?}"
             ));
         }
-        self.log.push((event, answer.clone()));
+        if let (Some(shadow), Place::Native(n)) = (self.exec_shadow.as_mut(), &self.place) {
+            shadow.after(&n.app, &event, &answer);
+        }
+        self.log.push((Input::Event(event), answer.clone()));
         Ok(answer)
     }
 
@@ -460,6 +499,77 @@ impl NativeOnboard {
             windows += 1;
         }
         Err("the mission did not answer in a million windows".into())
+    }
+
+    /// A poll's answer from the executive's side (None: it holds no plan, the mission
+    /// answers), and what it told the mission with the mission's reports (its start applied,
+    /// its replan made: the mission's inputs).
+    #[allow(clippy::type_complexity)]
+    fn executive_answer(
+        &mut self,
+        shadow: &mut super::exec_shadow::ExecShadow,
+        event: &RoverEvent,
+    ) -> Result<
+        Option<(
+            Vec<RoverReport>,
+            Option<(flight_app::FromExecutive, Vec<RoverReport>)>,
+        )>,
+        String,
+    > {
+        use flight_app::rover_exec::ExecAnswer;
+        use flight_app::FromExecutive;
+        let RoverEvent::Poll { now_ms } = *event else {
+            return Ok(None);
+        };
+        let Some(answer) = shadow.decide(&self.app, now_ms) else {
+            return Ok(None);
+        };
+        Ok(Some(match answer {
+            ExecAnswer::Report(r @ RoverReport::Dispatch { step, at_ms, .. }) => {
+                let what = FromExecutive::Started { step, at_ms };
+                let said = self.tell_mission(what)?;
+                if let Some(m) = said.first() {
+                    return Err(format!("the mission did not take the start {r:?}: {m:?}"));
+                }
+                (vec![r], Some((what, said)))
+            }
+            ExecAnswer::Report(r) => (vec![r], None),
+            ExecAnswer::Refused(reason) => (vec![RoverReport::Refused { reason }], None),
+            ExecAnswer::Replan { at_ms, why } => {
+                let what = FromExecutive::Replan { at_ms, why };
+                let said = self.tell_mission(what)?;
+                (said.clone(), Some((what, said)))
+            }
+        }))
+    }
+
+    /// What the executive tells the mission, and the mission's reports (none for a start it
+    /// takes; a replan's, through its attempts' windows).
+    fn tell_mission(
+        &mut self,
+        what: flight_app::FromExecutive,
+    ) -> Result<Vec<RoverReport>, String> {
+        self.give_storage();
+        if !self.app.rover_from_executive(what) {
+            return Err(format!("no mission to take {what:?}"));
+        }
+        match what {
+            flight_app::FromExecutive::Started { .. } => {
+                let mut out = Vec::new();
+                self.app
+                    .report(usize::MAX, &mut |m: TargetToHost| out.push(m));
+                Ok(out
+                    .into_iter()
+                    .filter_map(|m| match m {
+                        TargetToHost::Temporal(TemporalReport::Rover { report, .. }) => {
+                            Some(report)
+                        }
+                        _ => None,
+                    })
+                    .collect())
+            }
+            flight_app::FromExecutive::Replan { .. } => self.exchange(&[]),
+        }
     }
 
     fn start(&mut self, task: &[u8], start: RoverEvent) -> Result<(u16, Vec<RoverReport>), String> {
