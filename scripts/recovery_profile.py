@@ -13,54 +13,35 @@ usage: recovery_profile.py FIFO ELF [RESET_NUMBER [LIMIT [RUNS_FILE]]]
 import collections
 import os
 import re
-import subprocess
 import sys
+
+from qemu_blocks import BlockLog, symbolize
 
 fifo, elf = sys.argv[1], sys.argv[2]
 reset_number = int(sys.argv[3]) if len(sys.argv) > 3 else 2
 limit = int(sys.argv[4]) if len(sys.argv) > 4 else 2_000_000
 RESET_VECTOR = 0xFFF00100
 
-size = {}
+blocks = BlockLog(fifo)
 order = []  # block start pcs after the reset, in execution order
-current = None
 resets = 0
 taken = 0
-with open(fifo, "rb", buffering=1 << 20) as log:
-    for line in log:
-        if line.startswith(b"Trace"):
-            fields = line[line.index(b"[") + 1 : line.index(b"]")].split(b"/")
-            pc = int(fields[1], 16)
-            if pc == RESET_VECTOR:
-                resets += 1
-            if resets >= reset_number and taken < limit:
-                order.append(pc)
-                taken += size.get(pc, 1)
-        elif line.startswith(b"IN:"):
-            current = None
-        elif line.startswith(b"0x"):
-            pc = int(line.split(b":")[0], 16)
-            if current is None:
-                current = pc
-                size[current] = 0
-            size[current] += 1
+for pc in blocks:
+    if pc == RESET_VECTOR:
+        resets += 1
+    if resets >= reset_number and taken < limit:
+        order.append(pc)
+        taken += blocks.instructions(pc)
 
 pcs = sorted(set(order))
 if os.environ.get("RECOVERY_PCS"):
     # Every executed block (start and instruction count): which code the recovery runs.
     with open(os.environ["RECOVERY_PCS"], "w") as out:
         for pc in pcs:
-            out.write(f"{pc:08x} {size.get(pc, 1)}\n")
-frames = subprocess.run(
-    ["llvm-symbolizer", "--obj=" + elf, "--inlining=true", "--functions=linkage", "--demangle"],
-    input="\n".join(hex(pc) for pc in pcs),
-    capture_output=True,
-    text=True,
-    check=True,
-).stdout.strip().split("\n\n")
+            out.write(f"{pc:08x} {blocks.instructions(pc)}\n")
+frames = symbolize(elf, pcs)
 name = {}
-for pc, block in zip(pcs, frames):
-    lines = block.split("\n")
+for pc, lines in zip(pcs, frames):
     # The outermost frame is the function the block's code lies in.
     name[pc] = re.sub(r"::h[0-9a-f]{16}", "", lines[-2]) if len(lines) >= 2 else "?"
 
@@ -89,7 +70,7 @@ family = "reset stub"
 for pc in order:
     fn = name[pc]
     family = family_of(fn, family)
-    n = size.get(pc, 1)
+    n = blocks.instructions(pc)
     per[(family, fn)] += n
     if runs and runs[-1][0] == family and runs[-1][1] == fn:
         runs[-1][2] += n

@@ -13,37 +13,19 @@ inlined frame in firmware/lander/src: file:line and function, and the library fu
 there, if any), to find what to change inside a component.
 """
 import collections
+import os
 import re
-import subprocess
 import sys
 
-fifo, elf = sys.argv[1], sys.argv[2]
-execs = collections.Counter()
-size = {}
-current = None
-with open(fifo, "rb", buffering=1 << 20) as log:
-    for line in log:
-        if line.startswith(b"Trace"):
-            fields = line[line.index(b"[") + 1 : line.index(b"]")].split(b"/")
-            execs[int(fields[1], 16)] += 1
-        elif line.startswith(b"IN:"):
-            current = None
-        elif line.startswith(b"0x"):
-            pc = int(line.split(b":")[0], 16)
-            if current is None:
-                current = pc
-                size[current] = 0
-            size[current] += 1
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "scripts"))
+from qemu_blocks import BlockLog, symbolize  # noqa: E402
 
+fifo, elf = sys.argv[1], sys.argv[2]
+blocks = BlockLog(fifo)
+execs = collections.Counter(blocks)
 pcs = sorted(execs)
-weight = {pc: execs[pc] * size.get(pc, 1) for pc in pcs}
-frames = subprocess.run(
-    ["llvm-symbolizer", "--obj=" + elf, "--inlining=true", "--functions=linkage", "--demangle"],
-    input="\n".join(hex(pc) for pc in pcs),
-    capture_output=True,
-    text=True,
-    check=True,
-).stdout.strip().split("\n\n")
+weight = {pc: execs[pc] * blocks.instructions(pc) for pc in pcs}
+frames = symbolize(elf, pcs)
 
 GROUPS = [
     (("placement.rs", "htn.rs"), "placement (timeline: candidates, overlaps, holds, energy, Earth)"),
@@ -73,8 +55,7 @@ def group(functions, locations):
 
 split = collections.Counter()
 detail = collections.Counter()
-for pc, block in zip(pcs, frames):
-    lines = block.split("\n")
+for pc, lines in zip(pcs, frames):
     name = group(lines[0::2], lines[1::2])
     if name:
         split[name] += weight[pc]
