@@ -17,7 +17,9 @@
 //! progress to the searches before it ([`RESTART_AFTER`]).
 //! Each state the first search evaluates also begins a lookahead along its relaxed plan
 //! ([`LOOKAHEAD_PHASES`], YAHSP-style: `lookahead.rs`), which adds the state the relaxed plan's
-//! applicable snaps lead to, evaluated once.
+//! applicable snaps lead to, evaluated once. After [`FIRST_COMMIT_AFTER`] expansions without
+//! progress it commits to its best node and goes on from there (`climb.rs`), and gives way
+//! only when that makes no progress either.
 //!
 //! A ground action runs at most once at a time (no self-overlap): its start is applicable
 //! only while it is not running.
