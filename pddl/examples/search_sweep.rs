@@ -3,7 +3,7 @@
 //! target's cost (evaluations x ground actions, which the heuristic's work follows). For
 //! comparing search changes quickly; `scripts/bench-planners.py` is the benchmark.
 //!
-//!     [ARENA_KIB=N] [NOVELTY_PHASES=MASK] [COMMIT=MASK,AFTER,THIRD] [TRACE=1] cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
+//!     [ARENA_KIB=N] [NOVELTY_PHASES=MASK] [COMMIT=MASK,AFTER,THIRD] [FIRST_COMMIT=N] [FIRST_GIVES_WAY=N] [TRACE=1] cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
 use std::time::Instant;
 
 fn main() {
@@ -84,6 +84,22 @@ fn main() {
                 let k: Vec<&str> = k.split(',').collect();
                 let num = |i: usize| k.get(i).and_then(|s| s.parse().ok()).unwrap_or(u64::MAX);
                 planner.set_commit(num(0) as u8, num(1), num(2));
+            }
+            // FIRST_COMMIT=N: the first search commits to its best node after N expansions
+            // without a new best h.
+            if let Some(n) = std::env::var("FIRST_COMMIT")
+                .ok()
+                .and_then(|s| s.parse().ok())
+            {
+                planner.set_first_commit_after(n);
+            }
+            // FIRST_GIVES_WAY=N: the first search gives way after N expansions without a new
+            // best h (instead of 500).
+            if let Some(n) = std::env::var("FIRST_GIVES_WAY")
+                .ok()
+                .and_then(|s| s.parse().ok())
+            {
+                planner.set_first_gives_way_after(n);
             }
             let trace = std::env::var("TRACE").is_ok();
             let mut last = (u32::MAX, u64::MAX, u64::MAX);

@@ -27,6 +27,9 @@ fn plan_in(d: &str, p: &str, kib: usize, commit_phases: Option<u8>, expansions: 
     let mut planner =
         temporal::Planner::new_deferred(task, &mut arena, PlannerConfig::default()).expect("fits");
     if let Some(mask) = commit_phases {
+        // Only the searches of `mask` commit: not the first search by its own limit
+        // (`temporal::search::FIRST_COMMIT_AFTER`).
+        planner.set_first_commit_after(u64::MAX);
         planner.set_commit(
             mask,
             temporal::search::COMMIT_AFTER,

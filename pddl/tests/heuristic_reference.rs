@@ -228,7 +228,11 @@ fn plans_with_the_cheaper_evaluation_are_valid_and_searched_as_before() {
             temporal::PlannerConfig::default(),
             2 << 20,
             50_000,
-            |p| p.set_lookahead_phases(0),
+            |p| {
+                p.set_lookahead_phases(0);
+                // Nor the first search's commits (since too).
+                p.set_first_commit_after(u64::MAX);
+            },
         );
         assert_eq!(
             planned.status,

@@ -44,6 +44,10 @@ fn run_with(
     let mut planner = temporal::Planner::new(task, &mut arena, config).expect("fits");
     if let Some(mask) = lookahead {
         planner.set_lookahead_phases(mask);
+        // The portfolio as it was measured here: the first search gives way, never commits
+        // (`temporal::search::FIRST_COMMIT_AFTER`: after a commit its empty open list proves
+        // nothing, and the second search, which sheds in this small arena, decides).
+        planner.set_first_commit_after(u64::MAX);
     }
     if let Some(n) = restart_after {
         planner.set_restart_after(n);

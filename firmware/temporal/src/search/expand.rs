@@ -181,6 +181,9 @@ impl<'t, 'm> Planner<'t, 'm> {
                 continue;
             }
             let stalled = self.stats.expanded - self.last_progress;
+            if self.first_search_commits(stalled) {
+                continue;
+            }
             if self.phase == 0 && stalled > self.ordered_restart_after {
                 self.restart(1);
                 continue;
@@ -209,6 +212,10 @@ impl<'t, 'm> Planner<'t, 'm> {
                 // third (as asked) decides.
                 // So does a search that committed to a prefix ([`super::commit`]): the
                 // search after it decides (the fourth, as configured, never restarts itself).
+                if self.phase == 0 && self.has_committed() {
+                    self.restart(1);
+                    continue;
+                }
                 if self.pruning_more() || (self.has_committed() && self.phase != 3) {
                     self.restart(self.after_pruning_more());
                     continue;

@@ -17,7 +17,9 @@
 //! progress to the searches before it ([`RESTART_AFTER`]).
 //! Each state the first search evaluates also begins a lookahead along its relaxed plan
 //! ([`LOOKAHEAD_PHASES`], YAHSP-style: `lookahead.rs`), which adds the state the relaxed plan's
-//! applicable snaps lead to, evaluated once.
+//! applicable snaps lead to, evaluated once. After [`FIRST_COMMIT_AFTER`] expansions without
+//! progress it commits to its best node and goes on from there (`climb.rs`), and gives way
+//! only when that makes no progress either.
 //!
 //! A ground action runs at most once at a time (no self-overlap): its start is applicable
 //! only while it is not running.
@@ -35,6 +37,7 @@ use crate::heuristic::{self, carve, Relaxation, RelaxedCost, DEAD_END};
 use crate::stn;
 use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
+mod climb;
 mod commit;
 mod expand;
 mod load_check;
@@ -46,6 +49,7 @@ pub(crate) use path::{for_each_read, for_each_write, snap_reads};
 mod setup;
 mod state;
 
+pub use climb::FIRST_COMMIT_AFTER;
 pub use lookahead::{LOOKAHEAD_AFTER, LOOKAHEAD_MAX_STEPS, LOOKAHEAD_PHASES};
 pub use novelty::{NoveltyTable, NOVELTY_PARTITIONS};
 use setup::SetUp;
@@ -452,6 +456,8 @@ pub struct Planner<'t, 'm> {
     commit_phases: u8,
     commit_after: u64,
     third_gives_way_after: u64,
+    /// [`FIRST_COMMIT_AFTER`] unless set otherwise ([`Planner::set_first_commit_after`]).
+    first_commit_after: u64,
     /// The node of the lowest h made last in the search under way, the node it last committed
     /// to (the root at first), and how many commits all searches made ([`commit`]).
     best_node: u32,
@@ -594,6 +600,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             commit_phases: COMMIT_PHASES,
             commit_after: COMMIT_AFTER,
             third_gives_way_after: THIRD_GIVES_WAY_AFTER,
+            first_commit_after: FIRST_COMMIT_AFTER,
             best_node: NONE,
             committed_node: NONE,
             commits: 0,
