@@ -250,3 +250,104 @@ fn plans_with_the_cheaper_evaluation_are_valid_and_searched_as_before() {
         );
     }
 }
+
+/// An evaluation voids only the costs an evaluation can have set (the facts', and the
+/// running-action facts of the actions running in the state before and of the starts whose
+/// end does not follow), not one per ground action: after any sequence of evaluations, every
+/// cost (facts and running-action facts) is the one a fresh set of tables gives the same
+/// state, and so are h, the ready set and the relaxed plan. Fails if the running actions of
+/// the state before are not voided (their cost zero stays) or if the starts whose end does
+/// not follow are not.
+fn costs_as_fresh(
+    domain: &str,
+    instance: u32,
+    costs: RelaxedCost,
+    states: usize,
+) -> (usize, usize) {
+    let (d, p) = files(domain, instance);
+    let compiled = common::compile(&d, &p).expect("compiles");
+    let task = Task::parse(&compiled.task).expect("valid");
+    let relaxed = 2 * task.action_count();
+    let all = task.fact_count() + task.action_count();
+    let mut arena_kept = vec![0u32; ARENA_WORDS];
+    let (mut rest, mut used) = (&mut arena_kept[..], 0);
+    let mut kept = Relaxation::new(&task, &mut rest, &mut used, costs, 0).expect("fits");
+    let mut arena_fresh = vec![0u32; ARENA_WORDS];
+    let mut rng = Rng(0x51ed_270b_a3c4_91f7 ^ u64::from(instance) << 8);
+    let mut walk = Walk::initial(&task);
+    // States with running actions, and running-action facts the propagation reached at a
+    // nonzero cost (a start whose end does not follow).
+    let (mut with_running, mut reached_running) = (0, 0);
+    for i in 0..states {
+        let h = kept.evaluate(&task, &walk.facts, &walk.running);
+        let (mut rest, mut used) = (&mut arena_fresh[..], 0);
+        let mut fresh = Relaxation::new(&task, &mut rest, &mut used, costs, 0).expect("fits");
+        let h_fresh = fresh.evaluate(&task, &walk.facts, &walk.running);
+        assert_eq!(h, h_fresh, "{domain} {instance} {costs:?}: h of state {i}");
+        for f in 0..all {
+            assert_eq!(
+                kept.cost[f], fresh.cost[f],
+                "{domain} {instance} {costs:?}: cost of relaxed fact {f} in state {i}"
+            );
+        }
+        for r in 0..relaxed {
+            assert_eq!(
+                kept.is_ready(r),
+                fresh.is_ready(r),
+                "ready {r} in state {i}"
+            );
+            assert_eq!(
+                kept.in_relaxed_plan(r),
+                fresh.in_relaxed_plan(r),
+                "relaxed plan {r} in state {i}"
+            );
+        }
+        if !walk.running.is_empty() {
+            with_running += 1;
+        }
+        reached_running += (task.fact_count()..all)
+            .filter(|&f| kept.cost[f] != 0 && kept.cost[f] != u32::MAX)
+            .count()
+            .min(1);
+        let candidates: Vec<usize> = (0..relaxed)
+            .filter(|&r| kept.is_ready(r) && (r % 2 == 1) == walk.running.contains(&(r as u32 / 2)))
+            .collect();
+        if rng.chance(6) || candidates.is_empty() {
+            walk = if rng.chance(50) {
+                Walk::random(&task, &mut rng)
+            } else {
+                Walk::initial(&task)
+            };
+        } else {
+            let r = candidates[rng.below(candidates.len() as u64) as usize];
+            if walk.running.len() < 64 || r % 2 == 1 {
+                walk.apply(&task, r);
+            }
+        }
+    }
+    (with_running, reached_running)
+}
+
+#[test]
+fn an_evaluation_leaves_the_costs_a_fresh_one_does() {
+    let mut with_running = 0;
+    let mut reached_running = 0;
+    for (domain, instance, costs, states) in [
+        ("driverlog", 3, RelaxedCost::Unit, 200),
+        ("driverlog", 14, RelaxedCost::Duration, 80),
+        ("satellite", 3, RelaxedCost::Unit, 200),
+        ("rovers", 6, RelaxedCost::Unit, 120),
+        ("crew", 2, RelaxedCost::Unit, 150),
+        ("pipesworld", 2, RelaxedCost::Duration, 150),
+    ] {
+        let (w, r) = costs_as_fresh(domain, instance, costs, states);
+        with_running += w;
+        reached_running += r;
+    }
+    // Both kinds of running-action costs were there to be voided.
+    assert!(with_running > 0, "no state with running actions");
+    assert!(
+        reached_running > 0,
+        "no running-action fact reached through the queue"
+    );
+}
