@@ -126,12 +126,6 @@ pub struct Relaxation<'m> {
     pub zero_left: &'m mut [u32],
     /// The facts of the state last evaluated (bitset; all false before the first).
     pub last_state: &'m mut [u32],
-    /// The actions running in the state last evaluated: their number, then the actions
-    /// ([`RUNNING_KEPT`] at most; [`COSTS_UNKNOWN`] for the number if there were more, or
-    /// before the first evaluation). With the actions whose end does not follow their start,
-    /// theirs are the only running-action facts an evaluation gives a cost (see
-    /// [`Propagation::fire`]), so only those costs are made void again, not one per action.
-    pub last_running: &'m mut [u32],
     /// This evaluation's number: counters stamped with another are void (see `waiting`).
     pub epoch: u32,
 }
@@ -149,13 +143,6 @@ pub const NOT_COUNTED: u32 = 1 << 30;
 /// Set on a `pre_index` entry that is a group of starts (see [`Relaxation::group_info`]):
 /// the rest is the group's first start, whose counter the group uses.
 pub const GROUP: u32 = 1 << 31;
-
-/// Running actions of the state last evaluated that [`Relaxation::last_running`] keeps.
-pub const RUNNING_KEPT: usize = 64;
-
-/// [`Relaxation::last_running`]'s number when the costs left by the last evaluation are not
-/// known to be only those it keeps: the next evaluation voids every cost.
-pub const COSTS_UNKNOWN: u32 = u32::MAX;
 
 /// Costs with a bucket of their own in the heuristic's queue (larger ones go to a heap).
 pub const BUCKETS: usize = 1024;
@@ -599,11 +586,9 @@ impl<'m> Relaxation<'m> {
             plan_need: take(all)?,
             zero_left: take(relaxed.div_ceil(32))?,
             last_state: take(facts.div_ceil(32))?,
-            last_running: take(RUNNING_KEPT + 1)?,
             epoch: 1,
         };
         relax.buckets.iter_mut().for_each(|b| *b = u32::MAX);
-        relax.last_running[0] = COSTS_UNKNOWN;
         relax.marked.iter_mut().for_each(|x| *x = 0);
         relax.plan_need.iter_mut().for_each(|x| *x = 0);
         Some(relax)
@@ -776,8 +761,6 @@ impl<'m> Relaxation<'m> {
         }
         // Every fact false in the (empty) state last evaluated.
         self.last_state.iter_mut().for_each(|x| *x = 0);
-        // `cost` was the fill's cursor.
-        self.last_running[0] = COSTS_UNKNOWN;
         self.zero_left.iter_mut().for_each(|x| *x = 0);
         self.epoch = 1;
         for r in 0..2 * task.action_count() {
@@ -833,44 +816,6 @@ impl<'m> Relaxation<'m> {
             at += 1;
         }
         at
-    }
-
-    /// Every cost unreached again before an evaluation, and the state's running actions kept
-    /// in `last_running` for the next. The running-action facts the last evaluation reached
-    /// are those of the actions running in its state (cost zero) and of starts whose end does
-    /// not follow (through the queue, see [`Propagation::fire`]); the others were never
-    /// written (a start whose end follows fires its end instead of reaching the fact), so only
-    /// the facts' costs and those are voided, not one per ground action (driverlog 17: 6,170
-    /// running-action facts, nearly all of them of actions whose end follows).
-    fn void_costs(&mut self, task: &Task<'_>, running: &[u32]) {
-        let facts = task.fact_count();
-        let all = facts + task.action_count();
-        let kept = self.last_running[0];
-        if kept == COSTS_UNKNOWN {
-            self.cost[..all].iter_mut().for_each(|x| *x = u32::MAX);
-        } else {
-            self.cost[..facts].iter_mut().for_each(|x| *x = u32::MAX);
-            for &a in &self.last_running[1..1 + kept as usize] {
-                self.cost[facts + a as usize] = u32::MAX;
-            }
-            for (w, &bits) in self.end_follows.iter().enumerate() {
-                let mut rest = !bits;
-                if 32 * (w + 1) > task.action_count() {
-                    rest &= (1u32 << (task.action_count() % 32)) - 1;
-                }
-                while rest != 0 {
-                    let a = 32 * w + rest.trailing_zeros() as usize;
-                    rest &= rest - 1;
-                    self.cost[facts + a] = u32::MAX;
-                }
-            }
-        }
-        if running.len() <= RUNNING_KEPT {
-            self.last_running[0] = running.len() as u32;
-            self.last_running[1..1 + running.len()].copy_from_slice(running);
-        } else {
-            self.last_running[0] = COSTS_UNKNOWN;
-        }
     }
 
     /// Whether relaxed action `r` is the first start of a group (see [`GROUP`]).
@@ -957,9 +902,10 @@ impl<'m> Relaxation<'m> {
     /// equals (the same in every evaluation order).
     pub fn evaluate(&mut self, task: &Task<'_>, fact_bits: &[u32], running: &[u32]) -> u32 {
         let facts = task.fact_count();
+        let all = facts + task.action_count();
         let relaxed = 2 * task.action_count();
         self.count_plan_needs(false);
-        self.void_costs(task, running);
+        self.cost[..all].iter_mut().for_each(|x| *x = u32::MAX);
         // `supporter` is not cleared: it is read only for facts of nonzero finite cost, and
         // those got theirs in this evaluation (when their cost was set).
         // The counted relaxed actions' preconditions false in this state, from the last
