@@ -274,15 +274,22 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.path_constraints[base + 3 * i + 1] = c.lb;
             self.path_constraints[base + 3 * i + 2] = c.ub;
         }
+        // The STN from the parent's earliest times, as [`Self::expand`] checks it: the new
+        // constraints alone where they move no step of the parent's, else every constraint
+        // (every lookahead step ran the passes over every constraint: a tenth of driverlog
+        // 17's search natively).
         let wins = &self.path_window;
         let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
-        let consistent = earliest_words(
+        let words = &self.path_constraints[..base + 3 * n];
+        let consistent = stn::earliest_extend(
+            steps,
             last,
-            &self.path_constraints[..base + 3 * n],
+            base / 3,
+            base / 3 + n,
+            &|i| unpack(words, i),
             &window,
             self.est_child,
-        )
-        .is_ok();
+        ) || earliest_words(last, words, &window, self.est_child).is_ok();
         if !consistent {
             self.stats.inconsistent += 1;
             return Ok(None);
