@@ -17,6 +17,18 @@ fn plan(
     lookahead: Option<u8>,
     evaluations: u64,
 ) -> (Status, temporal::Stats, Vec<common::Step>) {
+    plan_with(d, p, lookahead, None, evaluations)
+}
+
+/// As [`plan`], the first search's commits after `first_commit_after` stalled expansions
+/// (None: the default, `temporal::search::FIRST_COMMIT_AFTER`).
+fn plan_with(
+    d: &str,
+    p: &str,
+    lookahead: Option<u8>,
+    first_commit_after: Option<u64>,
+    evaluations: u64,
+) -> (Status, temporal::Stats, Vec<common::Step>) {
     let compiled = common::compile(d, p).expect("compiles");
     let task = temporal::Task::parse(&compiled.task).expect("valid");
     let tpu = f64::from(task.ticks_per_unit());
@@ -25,6 +37,9 @@ fn plan(
         temporal::Planner::new_deferred(task, &mut arena, PlannerConfig::default()).expect("fits");
     if let Some(mask) = lookahead {
         planner.set_lookahead_phases(mask);
+    }
+    if let Some(n) = first_commit_after {
+        planner.set_first_commit_after(n);
     }
     let status = loop {
         let s = planner.step(1);
@@ -134,7 +149,9 @@ fn the_lookahead_s_stn_from_the_parent_s_times_searches_as_before() {
     ] {
         let p =
             std::fs::read_to_string(format!("{dir}/instance-{instance}.pddl")).expect("problem");
-        let (status, stats, steps) = plan(&d, &p, None, 100_000);
+        // Without the first search's commits (merged after this was measured), so the
+        // search pinned is the one the change was measured on.
+        let (status, stats, steps) = plan_with(&d, &p, None, Some(u64::MAX), 100_000);
         assert_eq!(status, Status::Solved, "driverlog {instance}: {stats:?}");
         assert_eq!(
             (stats.evaluated, stats.expanded, stats.lookahead_steps),
