@@ -268,6 +268,7 @@ pub fn planner_config(config: &TemporalConfig, plan_capacity: usize) -> temporal
             temporal::heuristic::RelaxedCost::Unit
         },
         dropped_goals: config.dropped_goals,
+        eliminate: true,
     }
 }
 
