@@ -157,3 +157,135 @@ fn elimination_in_units_of_any_budget_reaches_the_same_plan() {
         assert!((f64::from(m) / tpu - reference.makespan).abs() < 1e-9);
     }
 }
+
+/// Step a planner for `compiled` `units` units of the budget (one a call), or until the status
+/// is no longer Searching; the units run.
+fn run_units(planner: &mut temporal::Planner<'_, '_>, units: u64) -> u64 {
+    let mut ran = 0;
+    while ran < units && planner.status() == temporal::Status::Searching {
+        planner.step(1);
+        ran += 1;
+    }
+    ran
+}
+
+fn plan_now(
+    planner: &mut temporal::Planner<'_, '_>,
+    compiled: &pddl::Compiled,
+    tpu: f64,
+) -> Option<(Vec<Step>, f64)> {
+    let mut out = vec![temporal::PlannedAction::default(); 512];
+    let (n, m) = planner.plan(&mut out)?;
+    Some((
+        common::steps_of(compiled, &out[..n], tpu),
+        f64::from(m) / tpu,
+    ))
+}
+
+/// Anytime: a caller that stops at any unit boundary of the elimination gets a valid plan
+/// (the search's as soon as the search ends, then the best so far: only removals of it, no
+/// longer), and asking for it there does not change where the elimination ends (the same
+/// plan and makespan as without stopping).
+fn stop_at_every_unit(domain: &str, instance: u32) {
+    let (d, p) = files(domain, instance);
+    let compiled = common::compile(&d, &p).expect("compiles");
+    let validator = Validator::new(&d, &p, EPSILON);
+    let found = planned(&compiled, false);
+    let reference = planned(&compiled, true);
+    let tag = format!("{domain} {instance}");
+    let task = temporal::Task::parse(&compiled.task).expect("valid");
+    let tpu = f64::from(task.ticks_per_unit());
+    // The units of the whole run, and the first unit after which there is a plan.
+    let mut arena = vec![0u32; ARENA_WORDS];
+    let mut planner =
+        temporal::Planner::new(task, &mut arena, PlannerConfig::default()).expect("fits");
+    let mut first = None;
+    let mut total = 0u64;
+    while planner.status() == temporal::Status::Searching {
+        planner.step(1);
+        total += 1;
+        if first.is_none() && planner.has_plan() {
+            first = Some(total);
+            // The search's plan, at once, while the elimination has not begun.
+            assert!(planner.improving(), "{tag}: the elimination follows");
+            let (plan, makespan) = plan_now(&mut planner, &compiled, tpu).expect("a plan");
+            assert_eq!(plan, found.plan, "{tag}: the first plan is the search's");
+            assert!((makespan - found.makespan).abs() < 1e-9, "{tag}");
+        }
+    }
+    let first = first.expect("solved");
+    assert!(
+        total > first + 2,
+        "{tag}: the elimination takes units ({first}, {total})"
+    );
+    let names_found = names(&found.plan);
+    for k in first..total {
+        let task = temporal::Task::parse(&compiled.task).expect("valid");
+        let mut arena = vec![0u32; ARENA_WORDS];
+        let mut planner =
+            temporal::Planner::new(task, &mut arena, PlannerConfig::default()).expect("fits");
+        assert_eq!(run_units(&mut planner, k), k, "{tag}");
+        assert!(planner.has_plan(), "{tag} unit {k}");
+        assert_eq!(
+            planner.status(),
+            temporal::Status::Searching,
+            "{tag} unit {k}: still improving"
+        );
+        let (plan, makespan) = plan_now(&mut planner, &compiled, tpu).expect("a plan");
+        validator
+            .validate(&plan)
+            .unwrap_or_else(|why| panic!("{tag}: plan after {k} units invalid: {why}"));
+        assert!(sub_multiset(&names(&plan), &names_found), "{tag} unit {k}");
+        assert!(makespan <= found.makespan + 1e-9, "{tag} unit {k}");
+        assert!(plan.len() >= reference.plan.len(), "{tag} unit {k}");
+        // Asked for mid-pass, the plan does not change where the elimination ends.
+        while planner.step(1) == temporal::Status::Searching {}
+        let (end, end_makespan) = plan_now(&mut planner, &compiled, tpu).expect("a plan");
+        assert_eq!(end, reference.plan, "{tag} unit {k}: the same end");
+        assert!(
+            (end_makespan - reference.makespan).abs() < 1e-9,
+            "{tag} unit {k}"
+        );
+    }
+}
+
+#[test]
+fn stopping_at_every_unit_of_the_elimination_leaves_a_valid_plan() {
+    stop_at_every_unit("satellite", 2);
+    stop_at_every_unit("driverlog", 1);
+    stop_at_every_unit("rovers", 3);
+}
+
+/// No unit of the elimination applies or rebuilds more than `ELIM_SNAPS_PER_UNIT` snaps: a
+/// long plan's rebuild is divided (rovers 20: about 200 snaps, some 13 units a rebuild).
+#[test]
+fn a_long_plans_elimination_takes_many_units() {
+    let (d, p) = files("driverlog", 2);
+    let compiled = common::compile(&d, &p).expect("compiles");
+    let task = temporal::Task::parse(&compiled.task).expect("valid");
+    let mut arena = vec![0u32; ARENA_WORDS];
+    let mut planner =
+        temporal::Planner::new(task, &mut arena, PlannerConfig::default()).expect("fits");
+    let mut units = 0u64;
+    while planner.status() == temporal::Status::Searching {
+        let improving = planner.improving();
+        planner.step(1);
+        units += u64::from(improving);
+    }
+    let stats = planner.stats();
+    let found = stats.eliminated
+        + planner
+            .plan(&mut [temporal::PlannedAction::default(); 256])
+            .expect("plan")
+            .0 as u64;
+    // Every kept removal rebuilds the plan's snaps (about twice its actions) in units of at
+    // most ELIM_SNAPS_PER_UNIT, and a schedule unit.
+    let snaps = 2 * (found - stats.eliminated);
+    let per_rebuild = snaps.div_ceil(temporal::search::ELIM_SNAPS_PER_UNIT as u64) + 1;
+    assert!(stats.eliminated >= 5, "{stats:?}");
+    assert!(
+        units >= stats.elimination_checks + per_rebuild,
+        "{units} units, {} checks, {per_rebuild} a rebuild",
+        stats.elimination_checks
+    );
+}

@@ -37,6 +37,7 @@ use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod commit;
 mod eliminate;
+pub use eliminate::ELIM_SNAPS_PER_UNIT;
 mod expand;
 mod load_check;
 mod lookahead;
@@ -467,15 +468,8 @@ pub struct Planner<'t, 'm> {
     committed_node: u32,
     commits: u64,
     goal_node: u32,
-    /// The elimination after the search (`eliminate.rs`): where it stands, the plan's snaps
-    /// in scratch, the next one to try and the plan's makespan.
-    elim_phase: u8,
-    elim_entries: usize,
-    elim_next: usize,
-    elim_makespan: u32,
-    elim_found_makespan: u32,
-    elim_pass_base: u64,
-    elim_prefix: usize,
+    /// The elimination after the search (`eliminate.rs`).
+    elim: eliminate::Elimination,
     status: Status,
     stats: Stats,
     fact_words: usize,
@@ -616,13 +610,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             committed_node: NONE,
             commits: 0,
             goal_node: NONE,
-            elim_phase: eliminate::ELIM_NONE,
-            elim_entries: 0,
-            elim_next: 0,
-            elim_makespan: 0,
-            elim_found_makespan: 0,
-            elim_pass_base: 0,
-            elim_prefix: 0,
+            elim: eliminate::Elimination::new(),
             status: Status::Searching,
             stats: Stats {
                 arena_words: arena_words as u64,
