@@ -40,10 +40,19 @@ const CHUNKS_PER_BATCH: usize = 32;
 /// What the emulated target adds to a plan report.
 #[derive(Clone, Debug, Default, serde::Serialize, PartialEq)]
 pub struct EmulatedCosts {
-    /// The planner partition's CPU spent setting up and searching, timebase ticks.
+    /// The planner partition's CPU spent setting up and searching until the search's plan,
+    /// timebase ticks (before the action elimination that improves it).
     pub planning_ticks: u64,
-    /// The same in guest instructions (ticks x 15.06, `-icount shift=2`).
+    /// The same in guest instructions (ticks x 15.06, `-icount shift=2`): "instructions to a
+    /// plan", the measure of issue 13's goal and of `budgets.toml`'s `plan:` sources.
     pub guest_instructions: u64,
+    /// The action elimination after the search (`temporal`'s eliminate.rs): its CPU in
+    /// ticks and guest instructions, the instructions to the improved plan (search and
+    /// elimination), and its costliest unit (timebase ticks).
+    pub elimination_ticks: u64,
+    pub elimination_instructions: u64,
+    pub improved_plan_instructions: u64,
+    pub worst_elimination_ticks: u32,
     /// Planner windows in which the search ran.
     pub planner_windows: u32,
     /// The costliest expansion, timebase ticks (a planner window is 33,200; its planning
@@ -642,6 +651,11 @@ impl EmulatedPlanner {
             windows,
             worst_expansion_ticks,
             worst_set_up_ticks,
+            first_plan_ticks,
+            first_plan_steps,
+            first_makespan,
+            elimination_checks,
+            worst_elimination_ticks,
             ..
         }) = got.done
         else {
@@ -658,7 +672,11 @@ impl EmulatedPlanner {
         };
         if report.solved {
             report.makespan = Some(f64::from(makespan) / tpu);
+            report.first_plan_makespan = Some(f64::from(first_makespan) / tpu);
+            report.first_plan_actions = first_plan_steps.into();
+            report.eliminated = u64::from(first_plan_steps).saturating_sub(got.steps.len() as u64);
         }
+        report.elimination_checks = elimination_checks.into();
         for s in &got.steps {
             if let TemporalReport::Step {
                 action,
@@ -710,8 +728,15 @@ impl EmulatedPlanner {
         report.arena_bytes = arena_bytes.into();
         report.target = "emulated".into();
         report.emulated = Some(EmulatedCosts {
-            planning_ticks,
-            guest_instructions: (planning_ticks as f64 * INSTRUCTIONS_PER_TICK).round() as u64,
+            planning_ticks: first_plan_ticks,
+            guest_instructions: (first_plan_ticks as f64 * INSTRUCTIONS_PER_TICK).round() as u64,
+            elimination_ticks: planning_ticks.saturating_sub(first_plan_ticks),
+            elimination_instructions: (planning_ticks.saturating_sub(first_plan_ticks) as f64
+                * INSTRUCTIONS_PER_TICK)
+                .round() as u64,
+            improved_plan_instructions: (planning_ticks as f64 * INSTRUCTIONS_PER_TICK).round()
+                as u64,
+            worst_elimination_ticks,
             planner_windows: windows,
             worst_expansion_ticks,
             worst_set_up_ticks,

@@ -158,10 +158,19 @@ struct Job {
     stalled: bool,
     /// The CPU of the costliest piece of the search's set-up so far, timebase ticks.
     most_set_up_ticks: u64,
+    /// CPU spent until the search's plan was found (before the elimination that improves it,
+    /// `temporal::Planner::improving`), and the costliest unit of that elimination.
+    first_plan_ticks: Option<u64>,
+    most_elim_ticks: u64,
+    /// The costliest expansion until the search's plan (the elimination's units after it are
+    /// in `most_step_ticks`, which paces the windows, and `most_elim_ticks`).
+    most_search_ticks: u64,
     outcome: Option<TemporalOutcome>,
     /// Actions of the plan (in `TemporalApp::plan`) and its makespan.
     plan_len: usize,
     makespan: u32,
+    /// The search's plan's makespan (before the elimination; the plan's without one).
+    first_makespan: u32,
     stats: temporal::Stats,
 }
 
@@ -181,9 +190,13 @@ impl Job {
             most_step_ticks: 0,
             stalled: false,
             most_set_up_ticks: 0,
+            first_plan_ticks: None,
+            most_elim_ticks: 0,
+            most_search_ticks: 0,
             outcome: None,
             plan_len: 0,
             makespan: 0,
+            first_makespan: 0,
             stats: temporal::Stats::default(),
         }
     }
@@ -1002,6 +1015,9 @@ impl<'a> TemporalApp<'a> {
         let extracting = job.outcome.is_some();
         let mut outcome = job.outcome;
         let mut most = job.most_step_ticks;
+        let mut first_plan = job.first_plan_ticks;
+        let mut most_elim = job.most_elim_ticks;
+        let mut most_search = job.most_search_ticks;
         let mut ran = u32::from(extracting);
         // Setting the search up (the layout, the duplicate table, the relaxation's indexes,
         // the compression marks, the root) comes in pieces, in windows of their own: the whole
@@ -1049,9 +1065,19 @@ impl<'a> TemporalApp<'a> {
                 }
                 ran += 1;
                 ran_none = false;
+                let improving = planner.improving();
                 let status = planner.step(EXPANSIONS_PER_CHECK);
                 let after = clock.ticks();
                 most = most.max(after.wrapping_sub(now));
+                if improving {
+                    most_elim = most_elim.max(after.wrapping_sub(now));
+                }
+                if first_plan.is_none() {
+                    most_search = most;
+                    if planner.has_plan() {
+                        first_plan = Some(job.spent_ticks.wrapping_add(after.wrapping_sub(t0)));
+                    }
+                }
                 now = after;
                 outcome = match status {
                     Status::Searching => None,
@@ -1061,7 +1087,7 @@ impl<'a> TemporalApp<'a> {
                 };
                 let limit = job.config.max_expansions;
                 if outcome.is_none() && limit > 0 && planner.stats().expanded >= u64::from(limit) {
-                    outcome = Some(TemporalOutcome::ExpansionLimit);
+                    outcome = Some(solved_if_plan(planner, TemporalOutcome::ExpansionLimit));
                 }
                 if outcome.is_some() {
                     break;
@@ -1075,11 +1101,20 @@ impl<'a> TemporalApp<'a> {
         job.spent_ticks = job.spent_ticks.wrapping_add(spent);
         job.most_step_ticks = most;
         job.most_set_up_ticks = most_set_up;
+        job.first_plan_ticks = first_plan;
+        job.most_elim_ticks = most_elim;
+        job.most_search_ticks = most_search;
         job.stalled = ran_none && ran == 0;
         job.windows = job.windows.saturating_add(1);
         if outcome.is_none() && job.config.max_windows > 0 && job.windows >= job.config.max_windows
         {
-            outcome = Some(TemporalOutcome::WindowLimit);
+            outcome = Some(
+                self.planner
+                    .as_ref()
+                    .map_or(TemporalOutcome::WindowLimit, |p| {
+                        solved_if_plan(p, TemporalOutcome::WindowLimit)
+                    }),
+            );
         }
         let Some(outcome) = outcome else {
             return;
@@ -1106,6 +1141,8 @@ impl<'a> TemporalApp<'a> {
                     Some((n, makespan)) => {
                         job.plan_len = n;
                         job.makespan = makespan;
+                        job.first_makespan =
+                            planner.makespan_before_elimination().unwrap_or(makespan);
                     }
                     // Longer than the plan buffer (cannot happen with `max_steps` held to
                     // it): reported as a plan too long.
@@ -1269,12 +1306,32 @@ impl PlannerPlugin for TemporalApp<'_> {
                 arena_bytes: self.arena_bytes,
                 planning_ticks: job.spent_ticks,
                 windows: job.windows,
-                worst_expansion_ticks: sat(job.most_step_ticks),
+                worst_expansion_ticks: sat(job.most_search_ticks),
                 worst_set_up_ticks: sat(job.most_set_up_ticks),
+                first_plan_ticks: job.first_plan_ticks.unwrap_or(job.spent_ticks),
+                first_plan_steps: if solved {
+                    (job.plan_len as u64 + job.stats.eliminated).min(u64::from(u16::MAX)) as u16
+                } else {
+                    0
+                },
+                first_makespan: if solved { job.first_makespan } else { 0 },
+                elimination_checks: sat(job.stats.elimination_checks),
+                worst_elimination_ticks: sat(job.most_elim_ticks),
             }));
             self.finished = self.finished.saturating_add(1);
             self.end_job();
         }
+    }
+}
+
+/// A limit reached while the elimination after the search improves the plan found: the job
+/// is solved with the best plan so far (`temporal::Planner::plan` gives it); `limit` before
+/// the search found one.
+fn solved_if_plan(planner: &Planner<'_, '_>, limit: TemporalOutcome) -> TemporalOutcome {
+    if planner.has_plan() {
+        TemporalOutcome::Solved
+    } else {
+        limit
     }
 }
 

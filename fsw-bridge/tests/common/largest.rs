@@ -317,6 +317,11 @@ pub fn largest_temporal_report(i: usize) -> TemporalReport {
             windows: m,
             worst_expansion_ticks: m,
             worst_set_up_ticks: m,
+            first_plan_ticks: u64::MAX,
+            first_plan_steps: u16::MAX,
+            first_makespan: m,
+            elimination_checks: m,
+            worst_elimination_ticks: m,
         },
         5 => TemporalReport::Resumed {
             job,

@@ -434,6 +434,11 @@ pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
                         windows,
                         worst_expansion_ticks: worst,
                         worst_set_up_ticks: worst,
+                        first_plan_ticks: planning_ticks / 2,
+                        first_plan_steps: steps,
+                        first_makespan: makespan,
+                        elimination_checks: peak,
+                        worst_elimination_ticks: worst,
                     }
                 }
             ),
