@@ -1058,14 +1058,22 @@ impl<'a> TemporalApp<'a> {
                 // Stop before an expansion that would end past the share, going by the
                 // costliest one so far; the first of a window may use the rest of the window,
                 // and runs whatever it costs after a window that ran none (progress).
+                // The elimination after the search goes by its own costliest unit once it has
+                // one (its units are cheaper than the search's costliest expansion, which
+                // would leave them one a window).
+                let improving = planner.improving();
+                let pace = if improving && most_elim > 0 {
+                    most_elim
+                } else {
+                    most
+                };
                 if let Some(u) = until {
-                    if !piece_fits(now, most, ran == 0, job.stalled, u, hard_until) {
+                    if !piece_fits(now, pace, ran == 0, job.stalled, u, hard_until) {
                         break;
                     }
                 }
                 ran += 1;
                 ran_none = false;
-                let improving = planner.improving();
                 let status = planner.step(EXPANSIONS_PER_CHECK);
                 let after = clock.ticks();
                 most = most.max(after.wrapping_sub(now));

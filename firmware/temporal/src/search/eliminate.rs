@@ -22,10 +22,10 @@
 //! earliest times.
 //!
 //! Units: a try is divided so that no unit is dearer than an expansion: the prefix state
-//! kept, the run of the plan and the rebuild of the constraints each take at most
-//! [`ELIM_SNAPS_PER_UNIT`] snaps a unit (the rebuild of a long plan scans earlier steps for
-//! each write, about 2 to 4 M guest instructions on rovers 20 whole), and the schedule (the
-//! STN's earliest times) is a unit of its own. When the last pass removes nothing, the plan
+//! kept and the run of the plan take at most [`ELIM_SNAPS_PER_UNIT`] snaps a unit, the
+//! rebuild of the constraints a quarter of that ([`ELIM_REBUILD_WEIGHT`]: a long plan's
+//! rebuild scans earlier steps for each write, about 2 to 4 M guest instructions on rovers 20
+//! whole), and the schedule (the STN's earliest times) is a unit of its own. When the last pass removes nothing, the plan
 //! with the removals kept is rebuilt the same way (unless the last kept removal's rebuild is
 //! still loaded), so that [`Planner::plan`] then only reads it.
 //!
@@ -41,11 +41,14 @@
 //! during a try's rebuild loads another path: that try starts again at the next unit.
 use super::*;
 
-/// Snaps a unit of the elimination applies or rebuilds at most. A snap applied costs about
-/// 3,700 guest instructions, a rebuilt one more on a long plan (its writes scan the steps
-/// since the last writer): 16 keep a unit well under an expansion on the benchmarks (measured
-/// on the target in the README).
+/// Snaps a unit of the elimination applies at most (the prefix state and the try's run). A
+/// snap applied costs about 3,700 guest instructions: 16 keep a unit well under an expansion
+/// on the benchmarks (measured on the target in the README).
 pub const ELIM_SNAPS_PER_UNIT: usize = 16;
+/// A snap rebuilt counts as this many applied: its writes scan the steps since the last
+/// writer, dearer on a long plan (16 rebuilt in a unit cost driverlog 14 about 17,000 ticks
+/// on the target, as much as its costliest expansion), so a unit rebuilds 4.
+pub const ELIM_REBUILD_WEIGHT: usize = 4;
 
 /// Where the elimination stands.
 const ELIM_NONE: u8 = 0;
@@ -342,11 +345,11 @@ impl<'t, 'm> Planner<'t, 'm> {
     fn build_some(&mut self, left: &mut usize) -> bool {
         let final_build = self.elim.sub == FINAL_BUILD;
         let entries = self.elim.entries;
-        let to = entries.min(self.elim.at + *left);
+        let to = entries.min(self.elim.at + *left / ELIM_REBUILD_WEIGHT);
         let from = self.elim.at;
         let mut steps = self.elim.steps;
         let built = self.rebuild_range(from, to, &mut steps);
-        *left -= to - from;
+        *left = left.saturating_sub((to - from) * ELIM_REBUILD_WEIGHT);
         self.elim.at = to;
         self.elim.steps = steps;
         if !built {
@@ -361,7 +364,15 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
             return false;
         }
-        if to < entries {
+        if to < entries || *left < ELIM_REBUILD_WEIGHT {
+            // The rest (or the schedule) in the next unit.
+            if to >= entries {
+                self.elim.sub = if final_build {
+                    FINAL_SCHEDULE
+                } else {
+                    TRY_SCHEDULE
+                };
+            }
             return false;
         }
         self.elim.sub = if final_build {

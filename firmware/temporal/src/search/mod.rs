@@ -37,7 +37,7 @@ use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod commit;
 mod eliminate;
-pub use eliminate::ELIM_SNAPS_PER_UNIT;
+pub use eliminate::{ELIM_REBUILD_WEIGHT, ELIM_SNAPS_PER_UNIT};
 mod expand;
 mod load_check;
 mod lookahead;
