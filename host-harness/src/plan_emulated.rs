@@ -131,6 +131,7 @@ struct Collected {
     refused: Option<String>,
     steps: Vec<TemporalReport>,
     stats: Option<TemporalReport>,
+    improved: Option<TemporalReport>,
     done: Option<TemporalReport>,
     health: Vec<String>,
 }
@@ -160,6 +161,7 @@ impl Collected {
                 }
                 TemporalReport::Step { .. } => self.steps.push(r.clone()),
                 TemporalReport::Stats { .. } => self.stats = Some(r.clone()),
+                TemporalReport::Improved { .. } => self.improved = Some(r.clone()),
                 TemporalReport::Done { .. } => self.done = Some(r.clone()),
                 // The rover mission's reports are taken by `rover_frames` from `all`.
                 TemporalReport::Rover { .. } => {}
@@ -168,6 +170,7 @@ impl Collected {
                     self.resumed = Some(*verify_ticks);
                     self.steps.clear();
                     self.stats = None;
+                    self.improved = None;
                     self.done = None;
                 }
             },
@@ -651,15 +654,34 @@ impl EmulatedPlanner {
             windows,
             worst_expansion_ticks,
             worst_set_up_ticks,
+            ..
+        }) = got.done
+        else {
+            return Err(EmulatedError::NoAnswer(frames));
+        };
+        // Without an elimination report (a firmware before it), all of it the search's.
+        let (
             first_plan_ticks,
             first_plan_steps,
             first_makespan,
             elimination_checks,
             worst_elimination_ticks,
-            ..
-        }) = got.done
-        else {
-            return Err(EmulatedError::NoAnswer(frames));
+        ) = match got.improved {
+            Some(TemporalReport::Improved {
+                first_plan_ticks,
+                first_plan_steps,
+                first_makespan,
+                elimination_checks,
+                worst_elimination_ticks,
+                ..
+            }) => (
+                first_plan_ticks,
+                first_plan_steps,
+                first_makespan,
+                elimination_checks,
+                worst_elimination_ticks,
+            ),
+            _ => (planning_ticks, got.steps.len() as u16, makespan, 0, 0),
         };
         let tpu = f64::from(ticks_per_unit.max(1));
         report.solved = outcome == TemporalOutcome::Solved;

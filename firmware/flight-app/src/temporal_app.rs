@@ -132,7 +132,13 @@ enum Phase {
     /// Accepted: searching in granted windows (the search is set up in the first).
     Planning,
     /// The search ended: reporting the plan's action `next`, then the statistics, then Done.
-    Reporting { next: usize, stats_sent: bool },
+    Reporting {
+        next: usize,
+        stats_sent: bool,
+        /// The `Improved` report (the search's plan and the elimination) went after the
+        /// statistics.
+        improved_sent: bool,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -1141,6 +1147,7 @@ impl<'a> TemporalApp<'a> {
         job.phase = Phase::Reporting {
             next: 0,
             stats_sent: false,
+            improved_sent: false,
         };
         if let Some(planner) = self.planner.as_mut() {
             job.stats = planner.stats();
@@ -1263,6 +1270,7 @@ impl PlannerPlugin for TemporalApp<'_> {
         let Phase::Reporting {
             mut next,
             mut stats_sent,
+            mut improved_sent,
         } = job.phase
         else {
             return;
@@ -1301,8 +1309,29 @@ impl PlannerPlugin for TemporalApp<'_> {
             stats_sent = true;
             room -= 1;
         }
-        job.phase = Phase::Reporting { next, stats_sent };
-        if room > 0 && stats_sent {
+        if room > 0 && stats_sent && !improved_sent {
+            let solved = job.outcome == Some(TemporalOutcome::Solved);
+            downlink.send(TargetToHost::Temporal(TemporalReport::Improved {
+                job: job.id,
+                first_plan_ticks: job.first_plan_ticks.unwrap_or(job.spent_ticks),
+                first_plan_steps: if solved {
+                    (job.plan_len as u64 + job.stats.eliminated).min(u64::from(u16::MAX)) as u16
+                } else {
+                    0
+                },
+                first_makespan: if solved { job.first_makespan } else { 0 },
+                elimination_checks: sat(job.stats.elimination_checks),
+                worst_elimination_ticks: sat(job.most_elim_ticks),
+            }));
+            improved_sent = true;
+            room -= 1;
+        }
+        job.phase = Phase::Reporting {
+            next,
+            stats_sent,
+            improved_sent,
+        };
+        if room > 0 && improved_sent {
             let solved = job.outcome == Some(TemporalOutcome::Solved);
             downlink.send(TargetToHost::Temporal(TemporalReport::Done {
                 job: job.id,
@@ -1316,15 +1345,6 @@ impl PlannerPlugin for TemporalApp<'_> {
                 windows: job.windows,
                 worst_expansion_ticks: sat(job.most_search_ticks),
                 worst_set_up_ticks: sat(job.most_set_up_ticks),
-                first_plan_ticks: job.first_plan_ticks.unwrap_or(job.spent_ticks),
-                first_plan_steps: if solved {
-                    (job.plan_len as u64 + job.stats.eliminated).min(u64::from(u16::MAX)) as u16
-                } else {
-                    0
-                },
-                first_makespan: if solved { job.first_makespan } else { 0 },
-                elimination_checks: sat(job.stats.elimination_checks),
-                worst_elimination_ticks: sat(job.most_elim_ticks),
             }));
             self.finished = self.finished.saturating_add(1);
             self.end_job();
