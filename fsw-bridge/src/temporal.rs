@@ -208,6 +208,23 @@ pub enum TemporalReport {
     /// What the onboard rover mission decided (job `job` is the mission's task; see
     /// [`RoverReport`]). Appended.
     Rover { job: u16, report: RoverReport },
+    /// The search's plan and the action elimination that improved it
+    /// (`temporal::Planner::improving`), after `Stats` and before `Done` (a report of its
+    /// own: `Done` has no room left in the planner's outbound port). Appended.
+    Improved {
+        job: u16,
+        /// Of `Done`'s `planning_ticks`, those until the search found its plan (all of them
+        /// without an elimination after it): "instructions to a plan"; the rest is the
+        /// elimination's.
+        first_plan_ticks: u64,
+        /// The search's plan's actions and makespan (task ticks), before the elimination
+        /// (`Done`'s `steps` and `makespan` without one; 0 without a plan).
+        first_plan_steps: u16,
+        first_makespan: u32,
+        /// Removals the elimination tried, and its costliest unit's CPU (timebase ticks).
+        elimination_checks: u32,
+        worst_elimination_ticks: u32,
+    },
 }
 
 impl TemporalReport {
@@ -220,7 +237,8 @@ impl TemporalReport {
             | TemporalReport::Stats { job, .. }
             | TemporalReport::Done { job, .. }
             | TemporalReport::Resumed { job, .. }
-            | TemporalReport::Rover { job, .. } => job,
+            | TemporalReport::Rover { job, .. }
+            | TemporalReport::Improved { job, .. } => job,
         }
     }
 }

@@ -11,7 +11,9 @@
 //! - `elf:<section-prefix>[+<prefix>...]`: bytes of the firmware ELF's sections whose names
 //!   start with the prefixes (static memory);
 //! - `plan:<domain.pddl>:<problem.pddl>`: the guest instructions the temporal planner takes on
-//!   that task in the emulated target's planner partition (`hil plan --emulated`);
+//!   that task in the emulated target's planner partition (`hil plan --emulated`), to the
+//!   search's plan; `plan-elimination:<domain.pddl>:<problem.pddl>`: those the action
+//!   elimination after the search takes to improve that plan, apart;
 //! - `rover:<scenario>:<metric>`: a rover mission flown by the emulated target (`hil rover run
 //!   --emulated`), one of its onboard costs in guest instructions ([`crate::rover::OnboardCosts`]:
 //!   `max_poll_instructions`, `max_build_instructions`, `max_network_instructions`).
@@ -90,6 +92,12 @@ pub enum Source {
         domain: String,
         problem: String,
     },
+    /// The guest instructions of the action elimination after the search on that task
+    /// (`hil plan --emulated --json`'s `elimination_instructions`).
+    PlanElimination {
+        domain: String,
+        problem: String,
+    },
     /// A lander mission with its executor on the emulated target
     /// ([`crate::lander_emulated::lander_metrics`]).
     Lander {
@@ -135,6 +143,14 @@ impl Source {
                 if !domain.is_empty() && !problem.is_empty() =>
             {
                 Ok(Source::Plan {
+                    domain: domain.into(),
+                    problem: problem.into(),
+                })
+            }
+            (Some("plan-elimination"), Some(domain), Some(problem))
+                if !domain.is_empty() && !problem.is_empty() =>
+            {
+                Ok(Source::PlanElimination {
                     domain: domain.into(),
                     problem: problem.into(),
                 })
@@ -474,6 +490,13 @@ mod tests {
         );
         assert!(Source::parse("plan:d/domain.pddl").is_err());
         assert_eq!(
+            Source::parse("plan-elimination:d/domain.pddl:d/instance-2.pddl").unwrap(),
+            Source::PlanElimination {
+                domain: "d/domain.pddl".into(),
+                problem: "d/instance-2.pddl".into()
+            }
+        );
+        assert_eq!(
             Source::parse("rover:scenarios/rover/sahara-day.toml:max_build_instructions").unwrap(),
             Source::Rover {
                 scenario: "scenarios/rover/sahara-day.toml".into(),
@@ -684,18 +707,29 @@ pub fn measure(
             }
         }
     }
+    // One run a task for both its measures (to the search's plan, and the elimination's).
+    let mut plans: BTreeMap<(String, String), Result<(u64, u64), String>> = BTreeMap::new();
     for b in budgets {
-        if let Source::Plan { domain, problem } = &b.source {
-            progress(&format!(
-                "measuring: hil plan --emulated {domain} {problem}"
-            ));
-            match plan_instructions(domain, problem, firmware) {
-                Ok(v) => {
-                    measured.insert(b.source.clone(), v);
-                }
-                Err(e) => {
-                    missing.insert(b.source.clone(), e);
-                }
+        let (domain, problem, elimination) = match &b.source {
+            Source::Plan { domain, problem } => (domain, problem, false),
+            Source::PlanElimination { domain, problem } => (domain, problem, true),
+            _ => continue,
+        };
+        let got = plans
+            .entry((domain.clone(), problem.clone()))
+            .or_insert_with(|| {
+                progress(&format!(
+                    "measuring: hil plan --emulated {domain} {problem}"
+                ));
+                plan_instructions(domain, problem, firmware)
+            })
+            .clone();
+        match got {
+            Ok((search, elim)) => {
+                measured.insert(b.source.clone(), if elimination { elim } else { search });
+            }
+            Err(e) => {
+                missing.insert(b.source.clone(), e);
             }
         }
     }
@@ -761,13 +795,14 @@ fn run_mission_metrics(
 }
 
 /// The guest instructions the emulated target's planner partition takes to plan `problem`
-/// (paths relative to the repository) with `hil plan`'s default search; an unsolved task is
-/// an error (its cost is not representative).
+/// (paths relative to the repository) with `hil plan`'s default search, to the search's plan
+/// and for the action elimination after it; an unsolved task is an error (its cost is not
+/// representative).
 fn plan_instructions(
     domain: &str,
     problem: &str,
     firmware: &crate::firmware::FirmwareImage,
-) -> Result<u64, String> {
+) -> Result<(u64, u64), String> {
     let root = crate::repo_root();
     let options = crate::plan::PlanOptions::default();
     let (_, _, compiled, _) = crate::plan::compile_files(
@@ -786,7 +821,7 @@ fn plan_instructions(
     }
     report
         .emulated
-        .map(|e| e.guest_instructions)
+        .map(|e| (e.guest_instructions, e.elimination_instructions))
         .ok_or_else(|| "no guest costs in the report".into())
 }
 

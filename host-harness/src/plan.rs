@@ -58,6 +58,13 @@ pub struct PlanReport {
     pub solved: bool,
     pub makespan: Option<f64>,
     pub plan: Vec<PlanStep>,
+    /// The search's plan before the elimination after it improved it (`temporal`'s
+    /// eliminate.rs): its actions and makespan (`plan`'s without an elimination), and the
+    /// actions removed and removals tried.
+    pub first_plan_actions: usize,
+    pub first_plan_makespan: Option<f64>,
+    pub eliminated: u64,
+    pub elimination_checks: u64,
     pub facts: usize,
     pub numeric_variables: usize,
     pub actions: usize,
@@ -101,6 +108,10 @@ pub fn empty_report(compiled: &pddl::Compiled) -> PlanReport {
         solved: false,
         makespan: None,
         plan: Vec::new(),
+        first_plan_actions: 0,
+        first_plan_makespan: None,
+        eliminated: 0,
+        elimination_checks: 0,
         facts,
         numeric_variables,
         actions,
@@ -218,6 +229,14 @@ pub fn plan_compiled(
     report.shed = stats.shed;
     report.best_h = stats.best_h;
     report.peak_arena_bytes = stats.peak_words * 4;
+    // A limit reached while the elimination improves the plan found: the best plan so far.
+    let status = if planner.has_plan() {
+        temporal::Status::Solved
+    } else {
+        status
+    };
+    report.eliminated = stats.eliminated;
+    report.elimination_checks = stats.elimination_checks;
     report.outcome = match status {
         temporal::Status::Solved => "solved".into(),
         temporal::Status::Unsolvable => "unsolvable".into(),
@@ -237,6 +256,9 @@ pub fn plan_compiled(
             .ok_or("the planner reported a plan but could not write it")?;
         report.solved = true;
         report.makespan = Some(f64::from(makespan) / tpu);
+        report.first_plan_actions = n + stats.eliminated as usize;
+        report.first_plan_makespan =
+            Some(f64::from(planner.makespan_before_elimination().unwrap_or(makespan)) / tpu);
         report.plan = out[..n]
             .iter()
             .map(|s| PlanStep {
@@ -277,6 +299,12 @@ pub fn summary(report: &PlanReport) -> String {
         )),
         None => s.push_str(&format!("  no plan   {}\n", report.outcome)),
     }
+    if let (Some(m), true) = (report.first_plan_makespan, report.elimination_checks > 0) {
+        s.push_str(&format!(
+            "            the search's plan {} actions, makespan {m:.3}; action elimination after it removed {} ({} removals tried)\n",
+            report.first_plan_actions, report.eliminated, report.elimination_checks
+        ));
+    }
     for step in &report.plan {
         s.push_str(&format!(
             "    {:>10.3}: {} [{:.3}]   start window [{:.3}, {:.3}]\n",
@@ -295,9 +323,15 @@ pub fn summary(report: &PlanReport) -> String {
     ));
     if let Some(e) = &report.emulated {
         s.push_str(&format!(
-            "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) planning, in {} planner windows (costliest expansion {} ticks, costliest set-up piece {} ticks); {} frames granted ({} ms of mission time)\n",
+            "  target    emulated RAD750, planner partition: {} guest instructions ({} timebase ticks) to the search's plan, in {} planner windows (costliest expansion {} ticks, costliest set-up piece {} ticks); {} frames granted ({} ms of mission time)\n",
             e.guest_instructions, e.planning_ticks, e.planner_windows, e.worst_expansion_ticks, e.worst_set_up_ticks, e.frames, e.frames as u64 * crate::plan_emulated::FRAME_US / 1000
         ));
+        if e.elimination_instructions > 0 {
+            s.push_str(&format!(
+                "            action elimination after it: {} guest instructions ({} ticks, costliest unit {} ticks); the improved plan at {} guest instructions\n",
+                e.elimination_instructions, e.elimination_ticks, e.worst_elimination_ticks, e.improved_plan_instructions
+            ));
+        }
         s.push_str(&format!(
             "            receiving and checking the task: {} guest instructions ({} ticks), authentication {} of them ({} ticks)\n",
             e.receive_instructions, e.receive_ticks, e.auth_instructions, e.auth_ticks

@@ -40,10 +40,19 @@ const CHUNKS_PER_BATCH: usize = 32;
 /// What the emulated target adds to a plan report.
 #[derive(Clone, Debug, Default, serde::Serialize, PartialEq)]
 pub struct EmulatedCosts {
-    /// The planner partition's CPU spent setting up and searching, timebase ticks.
+    /// The planner partition's CPU spent setting up and searching until the search's plan,
+    /// timebase ticks (before the action elimination that improves it).
     pub planning_ticks: u64,
-    /// The same in guest instructions (ticks x 15.06, `-icount shift=2`).
+    /// The same in guest instructions (ticks x 15.06, `-icount shift=2`): "instructions to a
+    /// plan", the measure of issue 13's goal and of `budgets.toml`'s `plan:` sources.
     pub guest_instructions: u64,
+    /// The action elimination after the search (`temporal`'s eliminate.rs): its CPU in
+    /// ticks and guest instructions, the instructions to the improved plan (search and
+    /// elimination), and its costliest unit (timebase ticks).
+    pub elimination_ticks: u64,
+    pub elimination_instructions: u64,
+    pub improved_plan_instructions: u64,
+    pub worst_elimination_ticks: u32,
     /// Planner windows in which the search ran.
     pub planner_windows: u32,
     /// The costliest expansion, timebase ticks (a planner window is 33,200; its planning
@@ -122,6 +131,7 @@ struct Collected {
     refused: Option<String>,
     steps: Vec<TemporalReport>,
     stats: Option<TemporalReport>,
+    improved: Option<TemporalReport>,
     done: Option<TemporalReport>,
     health: Vec<String>,
 }
@@ -151,6 +161,7 @@ impl Collected {
                 }
                 TemporalReport::Step { .. } => self.steps.push(r.clone()),
                 TemporalReport::Stats { .. } => self.stats = Some(r.clone()),
+                TemporalReport::Improved { .. } => self.improved = Some(r.clone()),
                 TemporalReport::Done { .. } => self.done = Some(r.clone()),
                 // The rover mission's reports are taken by `rover_frames` from `all`.
                 TemporalReport::Rover { .. } => {}
@@ -159,6 +170,7 @@ impl Collected {
                     self.resumed = Some(*verify_ticks);
                     self.steps.clear();
                     self.stats = None;
+                    self.improved = None;
                     self.done = None;
                 }
             },
@@ -647,6 +659,30 @@ impl EmulatedPlanner {
         else {
             return Err(EmulatedError::NoAnswer(frames));
         };
+        // Without an elimination report (a firmware before it), all of it the search's.
+        let (
+            first_plan_ticks,
+            first_plan_steps,
+            first_makespan,
+            elimination_checks,
+            worst_elimination_ticks,
+        ) = match got.improved {
+            Some(TemporalReport::Improved {
+                first_plan_ticks,
+                first_plan_steps,
+                first_makespan,
+                elimination_checks,
+                worst_elimination_ticks,
+                ..
+            }) => (
+                first_plan_ticks,
+                first_plan_steps,
+                first_makespan,
+                elimination_checks,
+                worst_elimination_ticks,
+            ),
+            _ => (planning_ticks, got.steps.len() as u16, makespan, 0, 0),
+        };
         let tpu = f64::from(ticks_per_unit.max(1));
         report.solved = outcome == TemporalOutcome::Solved;
         report.outcome = match outcome {
@@ -658,7 +694,11 @@ impl EmulatedPlanner {
         };
         if report.solved {
             report.makespan = Some(f64::from(makespan) / tpu);
+            report.first_plan_makespan = Some(f64::from(first_makespan) / tpu);
+            report.first_plan_actions = first_plan_steps.into();
+            report.eliminated = u64::from(first_plan_steps).saturating_sub(got.steps.len() as u64);
         }
+        report.elimination_checks = elimination_checks.into();
         for s in &got.steps {
             if let TemporalReport::Step {
                 action,
@@ -710,8 +750,15 @@ impl EmulatedPlanner {
         report.arena_bytes = arena_bytes.into();
         report.target = "emulated".into();
         report.emulated = Some(EmulatedCosts {
-            planning_ticks,
-            guest_instructions: (planning_ticks as f64 * INSTRUCTIONS_PER_TICK).round() as u64,
+            planning_ticks: first_plan_ticks,
+            guest_instructions: (first_plan_ticks as f64 * INSTRUCTIONS_PER_TICK).round() as u64,
+            elimination_ticks: planning_ticks.saturating_sub(first_plan_ticks),
+            elimination_instructions: (planning_ticks.saturating_sub(first_plan_ticks) as f64
+                * INSTRUCTIONS_PER_TICK)
+                .round() as u64,
+            improved_plan_instructions: (planning_ticks as f64 * INSTRUCTIONS_PER_TICK).round()
+                as u64,
+            worst_elimination_ticks,
             planner_windows: windows,
             worst_expansion_ticks,
             worst_set_up_ticks,

@@ -126,15 +126,19 @@ fn main() {
             let stats = planner.stats();
             let mut out = vec![temporal::PlannedAction::default(); 1024];
             let (len, makespan) = planner.plan(&mut out).unwrap_or((0, 0));
+            // The search's plan before the elimination (`temporal`'s eliminate.rs).
+            let found_len = len as u64 + stats.eliminated;
+            let found_makespan = planner.makespan_before_elimination().unwrap_or(makespan);
             let work = stats.evaluated * actions;
             total_work += work;
             println!(
-                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} commits {} plan {len} makespan {makespan} inconsistent {} duplicates {} work {:.1}M peak {} KiB {:.2} s",
+                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} commits {} plan {found_len} makespan {found_makespan} eliminated to {len} makespan {makespan} checks {} inconsistent {} duplicates {} work {:.1}M peak {} KiB {:.2} s",
                 stats.expanded,
                 stats.evaluated,
                 stats.restarts,
                 stats.lookahead_steps,
                 planner.commits(),
+                stats.elimination_checks,
                 stats.inconsistent,
                 stats.duplicates,
                 work as f64 / 1e6,

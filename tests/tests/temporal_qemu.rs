@@ -91,12 +91,45 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
             "{tag}: the same search"
         );
         assert_eq!(emulated.peak_arena_bytes, native.peak_arena_bytes, "{tag}");
+        // The search's plan before the elimination, and the elimination's tries, as natively.
+        assert_eq!(
+            (
+                emulated.first_plan_actions,
+                emulated.first_plan_makespan,
+                emulated.eliminated,
+                emulated.elimination_checks
+            ),
+            (
+                native.first_plan_actions,
+                native.first_plan_makespan,
+                native.eliminated,
+                native.elimination_checks
+            ),
+            "{tag}: the same elimination"
+        );
         let validator = pddl_common::Validator::new(&d, &p, EPSILON);
         if let Err(why) = validator.validate(&steps(&emulated)) {
             panic!("{tag}: the emulated plan is invalid: {why}");
         }
         let costs = emulated.emulated.clone().expect("guest costs");
         assert!(costs.planning_ticks > 0 && costs.guest_instructions > costs.planning_ticks);
+        // The elimination's cost apart from the instructions to the search's plan, its units
+        // each within the planning share of a window (24,900 ticks) and no dearer than an
+        // expansion.
+        assert!(native.elimination_checks > 0, "{tag}");
+        assert!(costs.elimination_ticks > 0, "{tag}");
+        assert_eq!(
+            costs.improved_plan_instructions,
+            ((costs.planning_ticks + costs.elimination_ticks) as f64
+                * hil::plan_emulated::INSTRUCTIONS_PER_TICK)
+                .round() as u64,
+            "{tag}"
+        );
+        assert!(
+            costs.worst_elimination_ticks > 0
+                && costs.worst_elimination_ticks <= costs.worst_expansion_ticks,
+            "{tag}: {costs:?}"
+        );
         assert!(costs.planner_windows >= 1 && costs.frames >= costs.planner_windows);
         assert!(costs.receive_ticks > costs.auth_ticks && costs.auth_ticks > 0);
         println!(
@@ -108,10 +141,13 @@ fn emulated_plans_are_the_native_plans_and_valid_and_bad_tasks_are_refused() {
             compiled.task.len()
         );
         println!(
-            "{tag}: makespan {:?}, {} expanded, {} guest instructions, {} planner windows, {} frames, peak arena {} bytes, costliest expansion {} ticks, costliest set-up piece {} ticks, health events so far {:?}",
+            "{tag}: makespan {:?} (search's {:?}), {} expanded, {} guest instructions (+{} elimination, costliest unit {} ticks), {} planner windows, {} frames, peak arena {} bytes, costliest expansion {} ticks, costliest set-up piece {} ticks, health events so far {:?}",
             emulated.makespan,
+            emulated.first_plan_makespan,
             emulated.expanded,
             costs.guest_instructions,
+            costs.elimination_instructions,
+            costs.worst_elimination_ticks,
             costs.planner_windows,
             costs.frames,
             emulated.peak_arena_bytes,
@@ -351,5 +387,58 @@ fn the_largest_instances_set_up_logs_no_overrun() {
         target.health_events.is_empty(),
         "{:?}",
         target.health_events
+    );
+}
+
+/// A job whose windows run out while the elimination after the search improves the plan is
+/// solved with the best plan so far: valid, only removals of the search's plan, its makespan
+/// no longer; the instructions to the search's plan are those of the job that ran to the end
+/// (to a few ticks).
+#[test]
+fn a_window_limit_during_the_elimination_reports_the_best_plan_so_far() {
+    let _one = hil_tests::exclusive_qemu();
+    let mut target = EmulatedPlanner::boot(firmware()).unwrap_or_else(|e| panic!("{e}"));
+    let options = options();
+    let (d, p) = files("satellite", 2);
+    let compiled = pddl_common::compile(&d, &p).unwrap();
+    let validator = pddl_common::Validator::new(&d, &p, EPSILON);
+    let whole = target.plan(&compiled, &options, MAX_FRAMES).unwrap();
+    let costs = whole.emulated.clone().expect("guest costs");
+    assert!(whole.eliminated > 0 && costs.elimination_ticks > 0);
+    let names = |r: &PlanReport| {
+        let mut v: Vec<String> = r.plan.iter().map(|s| s.action.clone()).collect();
+        v.sort();
+        v
+    };
+    let whole_names = names(&whole);
+    // The last window of the job is the elimination's: one window fewer ends it mid-pass.
+    let mut config = hil::plan_emulated::wire_config(&options).unwrap();
+    config.max_windows = costs.planner_windows - 1;
+    let job = target.new_job();
+    let msgs = target.signed_job_messages(job, &compiled.task, config);
+    let cut = target
+        .plan_job(job, msgs, &compiled, MAX_FRAMES, None)
+        .unwrap();
+    assert!(cut.solved, "{}", cut.outcome);
+    let cut_costs = cut.emulated.clone().expect("guest costs");
+    // The same search to the same plan: its ticks the same but for the clock's reading at a
+    // window's edge (measured: 1 tick apart, the job beginning in another frame's phase).
+    assert!(
+        cut_costs.planning_ticks.abs_diff(costs.planning_ticks) <= 10,
+        "{} against {}",
+        cut_costs.planning_ticks,
+        costs.planning_ticks
+    );
+    assert!(cut_costs.elimination_ticks < costs.elimination_ticks);
+    assert_eq!(cut.first_plan_actions, whole.first_plan_actions);
+    assert!(cut.plan.len() >= whole.plan.len() && cut.plan.len() <= whole.first_plan_actions);
+    assert!(cut.makespan.unwrap() <= whole.first_plan_makespan.unwrap() + 1e-9);
+    if let Err(why) = validator.validate(&steps(&cut)) {
+        panic!("the plan so far is invalid: {why}");
+    }
+    let cut_names = names(&cut);
+    assert!(
+        whole_names.iter().all(|n| cut_names.contains(n)),
+        "the plan so far keeps the final plan's actions"
     );
 }

@@ -132,7 +132,13 @@ enum Phase {
     /// Accepted: searching in granted windows (the search is set up in the first).
     Planning,
     /// The search ended: reporting the plan's action `next`, then the statistics, then Done.
-    Reporting { next: usize, stats_sent: bool },
+    Reporting {
+        next: usize,
+        stats_sent: bool,
+        /// The `Improved` report (the search's plan and the elimination) went after the
+        /// statistics.
+        improved_sent: bool,
+    },
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -158,10 +164,19 @@ struct Job {
     stalled: bool,
     /// The CPU of the costliest piece of the search's set-up so far, timebase ticks.
     most_set_up_ticks: u64,
+    /// CPU spent until the search's plan was found (before the elimination that improves it,
+    /// `temporal::Planner::improving`), and the costliest unit of that elimination.
+    first_plan_ticks: Option<u64>,
+    most_elim_ticks: u64,
+    /// The costliest expansion until the search's plan (the elimination's units after it are
+    /// in `most_step_ticks`, which paces the windows, and `most_elim_ticks`).
+    most_search_ticks: u64,
     outcome: Option<TemporalOutcome>,
     /// Actions of the plan (in `TemporalApp::plan`) and its makespan.
     plan_len: usize,
     makespan: u32,
+    /// The search's plan's makespan (before the elimination; the plan's without one).
+    first_makespan: u32,
     stats: temporal::Stats,
 }
 
@@ -181,9 +196,13 @@ impl Job {
             most_step_ticks: 0,
             stalled: false,
             most_set_up_ticks: 0,
+            first_plan_ticks: None,
+            most_elim_ticks: 0,
+            most_search_ticks: 0,
             outcome: None,
             plan_len: 0,
             makespan: 0,
+            first_makespan: 0,
             stats: temporal::Stats::default(),
         }
     }
@@ -268,6 +287,7 @@ pub fn planner_config(config: &TemporalConfig, plan_capacity: usize) -> temporal
             temporal::heuristic::RelaxedCost::Unit
         },
         dropped_goals: config.dropped_goals,
+        eliminate: true,
     }
 }
 
@@ -1069,6 +1089,9 @@ impl<'a> TemporalApp<'a> {
         let extracting = job.outcome.is_some();
         let mut outcome = job.outcome;
         let mut most = job.most_step_ticks;
+        let mut first_plan = job.first_plan_ticks;
+        let mut most_elim = job.most_elim_ticks;
+        let mut most_search = job.most_search_ticks;
         let mut ran = u32::from(extracting);
         // Setting the search up (the layout, the duplicate table, the relaxation's indexes,
         // the compression marks, the root) comes in pieces, in windows of their own: the whole
@@ -1109,8 +1132,17 @@ impl<'a> TemporalApp<'a> {
                 // Stop before an expansion that would end past the share, going by the
                 // costliest one so far; the first of a window may use the rest of the window,
                 // and runs whatever it costs after a window that ran none (progress).
+                // The elimination after the search goes by its own costliest unit once it has
+                // one (its units are cheaper than the search's costliest expansion, which
+                // would leave them one a window).
+                let improving = planner.improving();
+                let pace = if improving && most_elim > 0 {
+                    most_elim
+                } else {
+                    most
+                };
                 if let Some(u) = until {
-                    if !piece_fits(now, most, ran == 0, job.stalled, u, hard_until) {
+                    if !piece_fits(now, pace, ran == 0, job.stalled, u, hard_until) {
                         break;
                     }
                 }
@@ -1119,6 +1151,15 @@ impl<'a> TemporalApp<'a> {
                 let status = planner.step(EXPANSIONS_PER_CHECK);
                 let after = clock.ticks();
                 most = most.max(after.wrapping_sub(now));
+                if improving {
+                    most_elim = most_elim.max(after.wrapping_sub(now));
+                }
+                if first_plan.is_none() {
+                    most_search = most;
+                    if planner.has_plan() {
+                        first_plan = Some(job.spent_ticks.wrapping_add(after.wrapping_sub(t0)));
+                    }
+                }
                 now = after;
                 outcome = match status {
                     Status::Searching => None,
@@ -1128,7 +1169,7 @@ impl<'a> TemporalApp<'a> {
                 };
                 let limit = job.config.max_expansions;
                 if outcome.is_none() && limit > 0 && planner.stats().expanded >= u64::from(limit) {
-                    outcome = Some(TemporalOutcome::ExpansionLimit);
+                    outcome = Some(solved_if_plan(planner, TemporalOutcome::ExpansionLimit));
                 }
                 if outcome.is_some() {
                     break;
@@ -1142,11 +1183,20 @@ impl<'a> TemporalApp<'a> {
         job.spent_ticks = job.spent_ticks.wrapping_add(spent);
         job.most_step_ticks = most;
         job.most_set_up_ticks = most_set_up;
+        job.first_plan_ticks = first_plan;
+        job.most_elim_ticks = most_elim;
+        job.most_search_ticks = most_search;
         job.stalled = ran_none && ran == 0;
         job.windows = job.windows.saturating_add(1);
         if outcome.is_none() && job.config.max_windows > 0 && job.windows >= job.config.max_windows
         {
-            outcome = Some(TemporalOutcome::WindowLimit);
+            outcome = Some(
+                self.planner
+                    .as_ref()
+                    .map_or(TemporalOutcome::WindowLimit, |p| {
+                        solved_if_plan(p, TemporalOutcome::WindowLimit)
+                    }),
+            );
         }
         let Some(outcome) = outcome else {
             return;
@@ -1165,6 +1215,7 @@ impl<'a> TemporalApp<'a> {
         job.phase = Phase::Reporting {
             next: 0,
             stats_sent: false,
+            improved_sent: false,
         };
         if let Some(planner) = self.planner.as_mut() {
             job.stats = planner.stats();
@@ -1173,6 +1224,8 @@ impl<'a> TemporalApp<'a> {
                     Some((n, makespan)) => {
                         job.plan_len = n;
                         job.makespan = makespan;
+                        job.first_makespan =
+                            planner.makespan_before_elimination().unwrap_or(makespan);
                     }
                     // Longer than the plan buffer (cannot happen with `max_steps` held to
                     // it): reported as a plan too long.
@@ -1285,6 +1338,7 @@ impl PlannerPlugin for TemporalApp<'_> {
         let Phase::Reporting {
             mut next,
             mut stats_sent,
+            mut improved_sent,
         } = job.phase
         else {
             return;
@@ -1323,8 +1377,29 @@ impl PlannerPlugin for TemporalApp<'_> {
             stats_sent = true;
             room -= 1;
         }
-        job.phase = Phase::Reporting { next, stats_sent };
-        if room > 0 && stats_sent {
+        if room > 0 && stats_sent && !improved_sent {
+            let solved = job.outcome == Some(TemporalOutcome::Solved);
+            downlink.send(TargetToHost::Temporal(TemporalReport::Improved {
+                job: job.id,
+                first_plan_ticks: job.first_plan_ticks.unwrap_or(job.spent_ticks),
+                first_plan_steps: if solved {
+                    (job.plan_len as u64 + job.stats.eliminated).min(u64::from(u16::MAX)) as u16
+                } else {
+                    0
+                },
+                first_makespan: if solved { job.first_makespan } else { 0 },
+                elimination_checks: sat(job.stats.elimination_checks),
+                worst_elimination_ticks: sat(job.most_elim_ticks),
+            }));
+            improved_sent = true;
+            room -= 1;
+        }
+        job.phase = Phase::Reporting {
+            next,
+            stats_sent,
+            improved_sent,
+        };
+        if room > 0 && improved_sent {
             let solved = job.outcome == Some(TemporalOutcome::Solved);
             downlink.send(TargetToHost::Temporal(TemporalReport::Done {
                 job: job.id,
@@ -1336,12 +1411,23 @@ impl PlannerPlugin for TemporalApp<'_> {
                 arena_bytes: self.arena_bytes,
                 planning_ticks: job.spent_ticks,
                 windows: job.windows,
-                worst_expansion_ticks: sat(job.most_step_ticks),
+                worst_expansion_ticks: sat(job.most_search_ticks),
                 worst_set_up_ticks: sat(job.most_set_up_ticks),
             }));
             self.finished = self.finished.saturating_add(1);
             self.end_job();
         }
+    }
+}
+
+/// A limit reached while the elimination after the search improves the plan found: the job
+/// is solved with the best plan so far (`temporal::Planner::plan` gives it); `limit` before
+/// the search found one.
+fn solved_if_plan(planner: &Planner<'_, '_>, limit: TemporalOutcome) -> TemporalOutcome {
+    if planner.has_plan() {
+        TemporalOutcome::Solved
+    } else {
+        limit
     }
 }
 

@@ -260,7 +260,7 @@ pub fn largest_temporal_config() -> TemporalConfig {
 }
 
 /// Kinds of temporal report.
-pub const TEMPORAL_REPORT_KINDS: usize = 7;
+pub const TEMPORAL_REPORT_KINDS: usize = 8;
 
 /// The largest temporal report of kind `i` (Accepted, Refused, Step, Stats, Done).
 pub fn largest_temporal_report(i: usize) -> TemporalReport {
@@ -336,6 +336,14 @@ pub fn largest_temporal_report(i: usize) -> TemporalReport {
                 build_ticks: m,
                 planning_ticks: u64::MAX,
             },
+        },
+        7 => TemporalReport::Improved {
+            job,
+            first_plan_ticks: u64::MAX,
+            first_plan_steps: u16::MAX,
+            first_makespan: m,
+            elimination_checks: m,
+            worst_elimination_ticks: m,
         },
         _ => panic!("TemporalReport has no kind {i}"),
     }

@@ -394,6 +394,18 @@ pub fn temporal_report() -> impl Strategy<Value = TargetToHost> {
                 start_ub,
             }
         ),
+        (u16s(), u64s(), u16s(), [u32s(), u32s(), u32s()]).prop_map(
+            |(job, first_plan_ticks, first_plan_steps, [first_makespan, checks, worst])| {
+                TemporalReport::Improved {
+                    job,
+                    first_plan_ticks,
+                    first_plan_steps,
+                    first_makespan,
+                    elimination_checks: checks,
+                    worst_elimination_ticks: worst,
+                }
+            }
+        ),
         (u16s(), proptest::array::uniform10(u32s())).prop_map(|(job, v)| TemporalReport::Stats {
             job,
             expanded: v[0],

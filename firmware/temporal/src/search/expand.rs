@@ -174,6 +174,11 @@ impl<'t, 'm> Planner<'t, 'm> {
             if self.status != Status::Searching {
                 break;
             }
+            // The elimination after the search, a removal tried a unit (`eliminate.rs`).
+            if self.eliminating() {
+                self.eliminate_step();
+                continue;
+            }
             // A lookahead under way goes on first, a snap a unit of the budget.
             if self.looking_ahead() {
                 let r = self.lookahead_step();
@@ -448,8 +453,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.best_node = node;
         }
         if self.is_goal(self.child_state) {
-            self.goal_node = node;
-            self.status = Status::Solved;
+            self.plan_found(node);
             return Ok(());
         }
         self.push_successors(node, h)?;

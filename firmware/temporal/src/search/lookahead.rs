@@ -89,9 +89,7 @@ impl<'t, 'm> Planner<'t, 'm> {
                     self.lookahead_todo[e / 32] |= 1 << (e % 32);
                 }
                 if self.is_goal(self.child_state) {
-                    self.lookahead_node = NONE;
-                    self.goal_node = next;
-                    self.status = Status::Solved;
+                    self.plan_found(next);
                 }
                 return Ok(());
             }

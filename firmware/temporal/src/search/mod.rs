@@ -39,6 +39,8 @@ use crate::task::{FactList, NumericList, Task, UNBOUNDED};
 
 mod climb;
 mod commit;
+mod eliminate;
+pub use eliminate::{ELIM_REBUILD_WEIGHT, ELIM_SNAPS_PER_UNIT};
 mod expand;
 mod load_check;
 mod lookahead;
@@ -176,6 +178,9 @@ pub struct PlannerConfig {
     /// be dropped; numeric goal conditions always stay). An opportunistic goal that makes
     /// planning fail is dropped this way and planning tried again ([`crate::opportunistic`]).
     pub dropped_goals: u64,
+    /// Remove the actions the plan found does not need before reporting it (greedy action
+    /// elimination, `eliminate.rs`), in units of [`Planner::step`]'s budget.
+    pub eliminate: bool,
 }
 
 impl Default for PlannerConfig {
@@ -188,6 +193,7 @@ impl Default for PlannerConfig {
             shed_when_full: true,
             relaxed_cost: RelaxedCost::Unit,
             dropped_goals: 0,
+            eliminate: true,
         }
     }
 }
@@ -265,6 +271,10 @@ pub struct Stats {
     /// Times the search restarted from the root with its second configuration (see
     /// [`RESTART_AFTER`]).
     pub restarts: u64,
+    /// Actions the elimination after the search removed from the plan found (`eliminate.rs`).
+    pub eliminated: u64,
+    /// Removals the elimination tried, one unit of [`Planner::step`]'s budget each.
+    pub elimination_checks: u64,
     /// Arena words in use at most: tables, scratch, nodes, buckets and open lists.
     pub peak_words: u64,
     /// Arena words handed in.
@@ -464,6 +474,8 @@ pub struct Planner<'t, 'm> {
     committed_node: u32,
     commits: u64,
     goal_node: u32,
+    /// The elimination after the search (`eliminate.rs`).
+    elim: eliminate::Elimination,
     status: Status,
     stats: Stats,
     fact_words: usize,
@@ -605,6 +617,7 @@ impl<'t, 'm> Planner<'t, 'm> {
             committed_node: NONE,
             commits: 0,
             goal_node: NONE,
+            elim: eliminate::Elimination::new(),
             status: Status::Searching,
             stats: Stats {
                 arena_words: arena_words as u64,
@@ -677,12 +690,9 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// constraints the search recreated between them (orderings, durations) and the
     /// makespan, for flexible dispatch ([`crate::dispatch::Dispatcher`]).
     pub fn plan_network(&mut self, net: &mut PlanNetwork) -> Result<(), NetworkError> {
-        if self.goal_node == NONE {
+        if !self.load_plan() {
             return Err(NetworkError::NoPlan);
         }
-        self.loaded_node = NONE;
-        self.load_path(self.goal_node)
-            .map_err(|_| NetworkError::NoPlan)?;
         let steps = self.loaded_steps;
         net.clear();
         net.makespan = self.est_parent[..=steps].iter().copied().max().unwrap_or(0);
@@ -703,11 +713,9 @@ impl<'t, 'm> Planner<'t, 'm> {
     /// The plan found (after [`Status::Solved`]): actions in order of their starts, written to
     /// `out`; returns how many, or None if there is no plan or `out` is too short.
     pub fn plan(&mut self, out: &mut [PlannedAction]) -> Option<(usize, u32)> {
-        if self.goal_node == NONE {
+        if !self.load_plan() {
             return None;
         }
-        self.loaded_node = NONE;
-        self.load_path(self.goal_node).ok()?;
         let steps = self.loaded_steps;
         let makespan = self.est_parent[..=steps].iter().copied().max().unwrap_or(0);
         let wins = &self.path_window;

@@ -173,6 +173,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             node += NODE_HEADER + bytes.div_ceil(4) + state_len;
         }
         self.loaded_node = NONE;
+        // An elimination under way keeps a state in `probe_state`: worked out again.
+        self.elimination_scratch_lost();
         Ok(count)
     }
 }
