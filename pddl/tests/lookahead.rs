@@ -17,24 +17,24 @@ fn plan(
     lookahead: Option<u8>,
     evaluations: u64,
 ) -> (Status, temporal::Stats, Vec<common::Step>) {
-    plan_with(d, p, lookahead, None, evaluations)
+    plan_with(d, p, lookahead, None, PlannerConfig::default(), evaluations)
 }
 
 /// As [`plan`], the first search's commits after `first_commit_after` stalled expansions
-/// (None: the default, `temporal::search::FIRST_COMMIT_AFTER`).
+/// (None: the default, `temporal::search::FIRST_COMMIT_AFTER`), with `config`.
 fn plan_with(
     d: &str,
     p: &str,
     lookahead: Option<u8>,
     first_commit_after: Option<u64>,
+    config: PlannerConfig,
     evaluations: u64,
 ) -> (Status, temporal::Stats, Vec<common::Step>) {
     let compiled = common::compile(d, p).expect("compiles");
     let task = temporal::Task::parse(&compiled.task).expect("valid");
     let tpu = f64::from(task.ticks_per_unit());
     let mut arena = vec![0u32; 2 << 20];
-    let mut planner =
-        temporal::Planner::new_deferred(task, &mut arena, PlannerConfig::default()).expect("fits");
+    let mut planner = temporal::Planner::new_deferred(task, &mut arena, config).expect("fits");
     if let Some(mask) = lookahead {
         planner.set_lookahead_phases(mask);
     }
@@ -149,9 +149,14 @@ fn the_lookahead_s_stn_from_the_parent_s_times_searches_as_before() {
     ] {
         let p =
             std::fs::read_to_string(format!("{dir}/instance-{instance}.pddl")).expect("problem");
-        // Without the first search's commits (merged after this was measured), so the
-        // search pinned is the one the change was measured on.
-        let (status, stats, steps) = plan_with(&d, &p, None, Some(u64::MAX), 100_000);
+        // Without the first search's commits and the action elimination after the search
+        // (both merged after this was measured), so the search and plan pinned are the ones
+        // the change was measured on.
+        let search_alone = PlannerConfig {
+            eliminate: false,
+            ..PlannerConfig::default()
+        };
+        let (status, stats, steps) = plan_with(&d, &p, None, Some(u64::MAX), search_alone, 100_000);
         assert_eq!(status, Status::Solved, "driverlog {instance}: {stats:?}");
         assert_eq!(
             (stats.evaluated, stats.expanded, stats.lookahead_steps),
