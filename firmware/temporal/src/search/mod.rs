@@ -42,12 +42,14 @@ mod lookahead;
 mod novelty;
 mod path;
 mod replay;
+mod running_ends;
 pub(crate) use path::{for_each_read, for_each_write, snap_reads};
 mod setup;
 mod state;
 
 pub use lookahead::{LOOKAHEAD_AFTER, LOOKAHEAD_MAX_STEPS, LOOKAHEAD_PHASES};
 pub use novelty::{NoveltyTable, NOVELTY_PARTITIONS};
+pub use running_ends::CHECK_RUNNING_ENDS;
 use setup::SetUp;
 pub use setup::BUCKET_WORDS_PER_PIECE;
 
@@ -458,6 +460,10 @@ pub struct Planner<'t, 'm> {
     committed_node: u32,
     commits: u64,
     goal_node: u32,
+    /// [`CHECK_RUNNING_ENDS`] unless set otherwise, and the successors it dropped
+    /// ([`running_ends`]).
+    check_running_ends: bool,
+    late_ends: u64,
     status: Status,
     stats: Stats,
     fact_words: usize,
@@ -598,6 +604,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             committed_node: NONE,
             commits: 0,
             goal_node: NONE,
+            check_running_ends: CHECK_RUNNING_ENDS,
+            late_ends: 0,
             status: Status::Searching,
             stats: Stats {
                 arena_words: arena_words as u64,
