@@ -3,7 +3,7 @@
 //! target's cost (evaluations x ground actions, which the heuristic's work follows). For
 //! comparing search changes quickly; `scripts/bench-planners.py` is the benchmark.
 //!
-//!     [ARENA_KIB=N] [NOVELTY_PHASES=MASK] [COMMIT=MASK,AFTER,THIRD] [TRACE=1] cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
+//!     [ARENA_KIB=N] [END_CHECK=0|1|2] [NOVELTY_PHASES=MASK] [COMMIT=MASK,AFTER,THIRD] [TRACE=1] cargo run --release -p pddl --example search_sweep -- [BENCH_DIR] [DOMAINS] [FIRST-LAST] [MAX_EXPANSIONS]
 use std::time::Instant;
 
 fn main() {
@@ -85,12 +85,19 @@ fn main() {
                 let num = |i: usize| k.get(i).and_then(|s| s.parse().ok()).unwrap_or(u64::MAX);
                 planner.set_commit(num(0) as u8, num(1), num(2));
             }
-            // END_CHECK=0|1: drop successors whose running actions can no longer end in time.
-            if let Some(on) = std::env::var("END_CHECK")
+            // END_CHECK=0|1|2: drop successors whose running actions can no longer end in time
+            // in no task, in tasks without windows (the default), in every task.
+            if let Some(k) = std::env::var("END_CHECK")
                 .ok()
                 .and_then(|s| s.parse::<u8>().ok())
             {
-                planner.set_check_running_ends(on != 0);
+                use temporal::search::RunningEnds;
+                let which = [
+                    RunningEnds::Off,
+                    RunningEnds::WithoutWindows,
+                    RunningEnds::Always,
+                ];
+                planner.set_check_running_ends(which[usize::from(k.min(2))]);
             }
             let trace = std::env::var("TRACE").is_ok();
             let mut last = (u32::MAX, u64::MAX, u64::MAX);

@@ -378,8 +378,12 @@ fn pruning_every_repeated_state_loses_a_plan_the_default_finds() {
             |p| p.set_check_running_ends(check),
         )
     };
-    assert_eq!(prune_all(false).status, temporal::Status::Unsolvable);
-    let checked = prune_all(true);
+    use temporal::search::RunningEnds;
+    assert_eq!(
+        prune_all(RunningEnds::Off).status,
+        temporal::Status::Unsolvable
+    );
+    let checked = prune_all(RunningEnds::WithoutWindows);
     assert_eq!(checked.status, temporal::Status::Solved);
     validator.validate(&checked.plan).expect("valid");
 }

@@ -49,7 +49,7 @@ mod state;
 
 pub use lookahead::{LOOKAHEAD_AFTER, LOOKAHEAD_MAX_STEPS, LOOKAHEAD_PHASES};
 pub use novelty::{NoveltyTable, NOVELTY_PARTITIONS};
-pub use running_ends::CHECK_RUNNING_ENDS;
+pub use running_ends::{RunningEnds, CHECK_RUNNING_ENDS};
 use setup::SetUp;
 pub use setup::BUCKET_WORDS_PER_PIECE;
 
@@ -462,7 +462,7 @@ pub struct Planner<'t, 'm> {
     goal_node: u32,
     /// [`CHECK_RUNNING_ENDS`] unless set otherwise, and the successors it dropped
     /// ([`running_ends`]).
-    check_running_ends: bool,
+    check_running_ends: RunningEnds,
     late_ends: u64,
     status: Status,
     stats: Stats,
