@@ -127,18 +127,18 @@ fn main() {
             let work = stats.evaluated * actions;
             total_work += work;
             println!(
-                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} commits {} plan {len} makespan {makespan} inconsistent {} late ends {} duplicates {} work {:.1}M peak {} KiB {:.2} s",
+                "{dom} {i}: {status:?} actions {actions} expanded {} evaluated {} restarts {} lookahead {} commits {} plan {len} makespan {makespan} inconsistent {} duplicates {} work {:.1}M peak {} KiB {:.2} s late ends {}",
                 stats.expanded,
                 stats.evaluated,
                 stats.restarts,
                 stats.lookahead_steps,
                 planner.commits(),
                 stats.inconsistent,
-                planner.late_ends(),
                 stats.duplicates,
                 work as f64 / 1e6,
                 stats.peak_words * 4 / 1024,
-                started.elapsed().as_secs_f64()
+                started.elapsed().as_secs_f64(),
+                planner.late_ends()
             );
         }
     }
