@@ -429,6 +429,10 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.stats.duplicates += 1;
             return Ok(());
         }
+        // A running action that can no longer end in time ([`super::running_ends`]).
+        if !self.running_ends_schedulable(snap, &running[..running_n], last, base / 3 + n) {
+            return Ok(());
+        }
         // Heuristic.
         let h = self.evaluate_child();
         if h == DEAD_END {

@@ -47,6 +47,7 @@ mod lookahead;
 mod novelty;
 mod path;
 mod replay;
+mod running_ends;
 pub(crate) use path::{for_each_read, for_each_write, snap_reads};
 mod setup;
 mod state;
@@ -54,6 +55,7 @@ mod state;
 pub use climb::FIRST_COMMIT_AFTER;
 pub use lookahead::{LOOKAHEAD_AFTER, LOOKAHEAD_MAX_STEPS, LOOKAHEAD_PHASES};
 pub use novelty::{NoveltyTable, NOVELTY_PARTITIONS};
+pub use running_ends::{RunningEnds, CHECK_RUNNING_ENDS};
 use setup::SetUp;
 pub use setup::BUCKET_WORDS_PER_PIECE;
 
@@ -476,6 +478,10 @@ pub struct Planner<'t, 'm> {
     goal_node: u32,
     /// The elimination after the search (`eliminate.rs`).
     elim: eliminate::Elimination,
+    /// [`CHECK_RUNNING_ENDS`] unless set otherwise, and the successors it dropped
+    /// ([`running_ends`]).
+    check_running_ends: RunningEnds,
+    late_ends: u64,
     status: Status,
     stats: Stats,
     fact_words: usize,
@@ -618,6 +624,8 @@ impl<'t, 'm> Planner<'t, 'm> {
             commits: 0,
             goal_node: NONE,
             elim: eliminate::Elimination::new(),
+            check_running_ends: CHECK_RUNNING_ENDS,
+            late_ends: 0,
             status: Status::Searching,
             stats: Stats {
                 arena_words: arena_words as u64,
