@@ -42,6 +42,11 @@ fn run_with(
     let tpu = f64::from(task.ticks_per_unit());
     let mut arena = vec![0u32; 1 << 16];
     let mut planner = temporal::Planner::new(task, &mut arena, config).expect("fits");
+    // The portfolio as it was measured here: without the check that drops successors whose
+    // running actions can no longer end (`temporal::search::CHECK_RUNNING_ENDS`, on for tasks
+    // without windows such as this one), which drops this task's dead state before the
+    // pruning of every repeat can lose the plan (see compression_brute_force.rs).
+    planner.set_check_running_ends(temporal::search::RunningEnds::Off);
     if let Some(mask) = lookahead {
         planner.set_lookahead_phases(mask);
         // The portfolio as it was measured here: the first search gives way, never commits
