@@ -117,9 +117,6 @@ impl<'t, 'm> Planner<'t, 'm> {
             self.boost += self.boost_amount;
             self.last_progress = self.stats.expanded;
         }
-        if h <= self.stats.best_h {
-            self.best_node = at;
-        }
         self.push_successors(at, h)
     }
 
