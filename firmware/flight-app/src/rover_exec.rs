@@ -24,11 +24,11 @@
 #![deny(clippy::indexing_slicing)]
 
 use autonomy::partitioned::ExecutivePartition;
-use fsw_bridge::temporal::{RoverRefusal, RoverReplanWhy, RoverReport, RoverStartKind};
+use fsw_bridge::temporal::{RoverRefusal, RoverReplanWhy, RoverReport};
 use temporal::dispatch::{Decision, MAX_DISPATCH_STEPS};
 use temporal::task::UNBOUNDED;
 
-use crate::rover_mission::{ReadyMask, HELD_MS, MAX_ROVER_ACTIVE, NO_ACTION};
+use crate::rover_mission::{start_kind, ReadyMask, MAX_ROVER_ACTIVE, NO_ACTION};
 
 /// Work units of one call of the divided poll (a unit is a constraint or a step looked at).
 pub const ROVER_SLICE_UNITS: u32 = 256;
@@ -457,22 +457,9 @@ impl RoverDecider {
                     .loaded()
                     .and_then(|(_, d)| d.network().end_of(step))
                     .unwrap_or(0);
-                let waited = if self.held && self.held_until == now {
-                    self.held_until.saturating_sub(self.held_from)
-                } else {
-                    0
-                };
-                let kind = if rel < lb {
-                    RoverStartKind::Early { by_ms: lb - rel }
-                } else if rel == lb {
-                    if waited > HELD_MS {
-                        RoverStartKind::HeldToLb { waited_ms: waited }
-                    } else {
-                        RoverStartKind::AtLb
-                    }
-                } else {
-                    RoverStartKind::Late { by_ms: rel - lb }
-                };
+                let held = (self.held && self.held_until == now)
+                    .then_some((self.held_from, self.held_until));
+                let kind = start_kind(rel, lb, held);
                 if let Some(r) = self.running.get_mut(self.running_len) {
                     *r = (action, u16::try_from(end_step).unwrap_or(0));
                 }

@@ -55,6 +55,26 @@ pub const READY_MASK_WORDS: usize = (MAX_DISPATCH_STEPS + 1).div_ceil(32);
 pub type ReadyMask = [u32; READY_MASK_WORDS];
 /// A start ready more than this before its lb was held to it (ticks: one second).
 pub const HELD_MS: u32 = 1000;
+
+/// How a start at mission-relative time `rel` (ms) stands to its planned window's lower bound
+/// `lb` (issue 13 item 3): early (the network allowed it before lb), at lb, held to lb (the
+/// start was ready `waited_ms` before lb and waited longer than [`HELD_MS`]: `held` is the
+/// hold's (from, until) when it ended at this start), or late within (lb, ub]. One rule for the
+/// mission's own dispatcher and the executive's decider ([`crate::rover_exec`]).
+pub(crate) fn start_kind(rel: u32, lb: u32, held: Option<(u32, u32)>) -> RoverStartKind {
+    let waited = held.map_or(0, |(from, until)| until.saturating_sub(from));
+    if rel < lb {
+        RoverStartKind::Early { by_ms: lb - rel }
+    } else if rel == lb {
+        if waited > HELD_MS {
+            RoverStartKind::HeldToLb { waited_ms: waited }
+        } else {
+            RoverStartKind::AtLb
+        }
+    } else {
+        RoverStartKind::Late { by_ms: rel - lb }
+    }
+}
 /// "No step" in a report's action field.
 pub const NO_ACTION: u16 = u16::MAX;
 
@@ -713,22 +733,9 @@ impl RoverMission {
                     return Self::refuse(out, RoverRefusal::Capacity);
                 }
                 let end_step = self.dispatcher.network().end_of(step).unwrap_or(0);
-                let waited = if self.held && self.held_until == now {
-                    self.held_until.saturating_sub(self.held_from)
-                } else {
-                    0
-                };
-                let kind = if rel < lb {
-                    RoverStartKind::Early { by_ms: lb - rel }
-                } else if rel == lb {
-                    if waited > HELD_MS {
-                        RoverStartKind::HeldToLb { waited_ms: waited }
-                    } else {
-                        RoverStartKind::AtLb
-                    }
-                } else {
-                    RoverStartKind::Late { by_ms: rel - lb }
-                };
+                let held = (self.held && self.held_until == now)
+                    .then_some((self.held_from, self.held_until));
+                let kind = start_kind(rel, lb, held);
                 if replan::apply(
                     &task,
                     usize::from(action),
