@@ -241,6 +241,45 @@ impl<'t, 'm> Planner<'t, 'm> {
         self.status
     }
 
+    /// The child's least schedule in `est_child` (steps `steps + 1..=last` new): the parent's
+    /// earliest times, then the child's new constraints `cons`, written after the loaded path's
+    /// constraints, relaxed from them alone where they move no step of the parent's
+    /// ([`stn::earliest_extend`]), else every constraint's passes. Whether it is consistent;
+    /// None if the path's constraint scratch has no room for `cons`. For [`Self::expand`]'s
+    /// successors and the lookahead's steps alike.
+    pub(super) fn child_schedule(
+        &mut self,
+        steps: usize,
+        last: usize,
+        cons: &[Constraint],
+    ) -> Option<bool> {
+        let n = cons.len();
+        self.est_child[..=steps].copy_from_slice(&self.est_parent[..=steps]);
+        let base = 3 * self.loaded_constraints;
+        if base + 3 * n > self.path_constraints.len() {
+            return None;
+        }
+        for (i, c) in cons.iter().enumerate() {
+            self.path_constraints[base + 3 * i] = u32::from(c.before) | u32::from(c.after) << 16;
+            self.path_constraints[base + 3 * i + 1] = c.lb;
+            self.path_constraints[base + 3 * i + 2] = c.ub;
+        }
+        let wins = &self.path_window;
+        let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
+        let words = &self.path_constraints[..base + 3 * n];
+        Some(
+            stn::earliest_extend(
+                steps,
+                last,
+                base / 3,
+                base / 3 + n,
+                &|i| unpack(words, i),
+                &window,
+                self.est_child,
+            ) || earliest_words(last, words, &window, self.est_child).is_ok(),
+        )
+    }
+
     /// What an expansion's (or a lookahead step's) error does to the search.
     /// The heuristic of the state in `child_state` (its facts and running actions), counted as
     /// an evaluation.
@@ -383,31 +422,14 @@ impl<'t, 'm> Planner<'t, 'm> {
         // STN check, from the parent's earliest times: the new constraints alone where they
         // move no step of the parent's ([`stn::earliest_extend`]), else every constraint.
         let last = steps + new_steps;
-        self.est_child[..=steps].copy_from_slice(&self.est_parent[..=steps]);
         let base = 3 * self.loaded_constraints;
-        if base + 3 * n > self.path_constraints.len() {
-            return Err(Region::PlanLength);
-        }
-        for (i, c) in cons[..n].iter().enumerate() {
-            self.path_constraints[base + 3 * i] = u32::from(c.before) | u32::from(c.after) << 16;
-            self.path_constraints[base + 3 * i + 1] = c.lb;
-            self.path_constraints[base + 3 * i + 2] = c.ub;
-        }
-        let wins = &self.path_window;
-        let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
-        let words = &self.path_constraints[..base + 3 * n];
-        let consistent = stn::earliest_extend(
-            steps,
-            last,
-            base / 3,
-            base / 3 + n,
-            &|i| unpack(words, i),
-            &window,
-            self.est_child,
-        ) || earliest_words(last, words, &window, self.est_child).is_ok();
-        if !consistent {
-            self.stats.inconsistent += 1;
-            return Ok(());
+        match self.child_schedule(steps, last, &cons[..n]) {
+            None => return Err(Region::PlanLength),
+            Some(false) => {
+                self.stats.inconsistent += 1;
+                return Ok(());
+            }
+            Some(true) => {}
         }
         // Duplicates.
         let hash = self.state_hash(self.child_state);

@@ -256,38 +256,16 @@ impl<'t, 'm> Planner<'t, 'm> {
             }
         }
         let last = steps + new_steps;
-        self.est_child[..=steps].copy_from_slice(&self.est_parent[..=steps]);
-        self.est_child[steps + 1..=last]
-            .iter_mut()
-            .for_each(|x| *x = 0);
-        let base = 3 * self.loaded_constraints;
-        if base + 3 * n > self.path_constraints.len() {
-            return Ok(None);
-        }
-        for (i, c) in cons[..n].iter().enumerate() {
-            self.path_constraints[base + 3 * i] = u32::from(c.before) | u32::from(c.after) << 16;
-            self.path_constraints[base + 3 * i + 1] = c.lb;
-            self.path_constraints[base + 3 * i + 2] = c.ub;
-        }
-        // The STN from the parent's earliest times, as [`Self::expand`] checks it: the new
-        // constraints alone where they move no step of the parent's, else every constraint
-        // (every lookahead step ran the passes over every constraint: a tenth of driverlog
-        // 17's search natively).
-        let wins = &self.path_window;
-        let window = |k: usize| (wins[2 * k], wins[2 * k + 1]);
-        let words = &self.path_constraints[..base + 3 * n];
-        let consistent = stn::earliest_extend(
-            steps,
-            last,
-            base / 3,
-            base / 3 + n,
-            &|i| unpack(words, i),
-            &window,
-            self.est_child,
-        ) || earliest_words(last, words, &window, self.est_child).is_ok();
-        if !consistent {
-            self.stats.inconsistent += 1;
-            return Ok(None);
+        // The STN from the parent's earliest times, as [`Self::expand`] checks it (every
+        // lookahead step ran the passes over every constraint before: a tenth of driverlog 17's
+        // search natively).
+        match self.child_schedule(steps, last, &cons[..n]) {
+            None => return Ok(None),
+            Some(false) => {
+                self.stats.inconsistent += 1;
+                return Ok(None);
+            }
+            Some(true) => {}
         }
         let hash = self.state_hash(self.child_state);
         let quiescent = self.child_state[self.running_at()] == 0;
